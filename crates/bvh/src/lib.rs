@@ -1,0 +1,1 @@
+//! BVH (placeholder, filled by issue #3).

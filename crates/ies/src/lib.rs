@@ -1,0 +1,1 @@
+//! IES photometry (placeholder, filled by issue #2).

@@ -1,0 +1,2 @@
+//! `cargo xtask` — luxbake's project commands.
+fn main() {}
