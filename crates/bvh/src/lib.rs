@@ -1,1 +1,144 @@
-//! BVH (placeholder, filled by issue #3).
+//! # luxbake-bvh
+//!
+//! A bounding volume hierarchy over triangles for stackless GPU ray tracing in WebGL2 fragment
+//! shaders, after Roth & Cords §3.2 (Figures 8–10):
+//!
+//! 1. [`Bvh::build`] builds the one canonical binary BVH: top-down, binned surface area heuristic
+//!    (Goldsmith & Salmon cost, [`BuildOptions`]). Nodes are stored in depth-first pre-order
+//!    (left child = parent + 1), leaves hold contiguous ranges of a triangle permutation.
+//! 2. [`Bvh::threaded_links`] derives the stackless link orders from it: the TBVH
+//!    (Simonsen, Thrane, Ørbæk 2005; canonical child order, paper Figure 8) and the six MTBVH
+//!    orders (Hachisuka 2015; one per dominant ray direction, near child first).
+//! 3. [`encode`] packs everything into RGBA32F texel arrays ([`EncodedScene`]) laid out as
+//!    documented in [`layout`]; the shader constants are generated from that module.
+//! 4. [`EncodedScene::closest_hit`] / [`EncodedScene::any_hit`] walk the *encoded texels* on the
+//!    CPU, written to mirror the GLSL ES 3.00 shader line for line. They are the oracle for every
+//!    shader: a shader bug can be reproduced here.
+//!
+//! ## Conventions
+//! - Positions are `[f32; 3]` in any consistent unit (the bake uses metres); a triangle is three
+//!   vertices `[[f32; 3]; 3]`. No handedness or winding is assumed: both faces are hit.
+//! - Triangle indices returned by the traversal ([`Hit::triangle`]) are in the **encoded order**
+//!   (the leaf order of the BVH); [`EncodedScene::triangle_order`] maps them back to input indices.
+//! - A hit counts when its distance `t` lies in the open interval `(t_min, t_max)`, measured in
+//!   units of the ray direction's length (the direction need not be normalised).
+//! - Integers stored in `f32` texels (triangle indices, object ids) are exact only up to
+//!   2^24 ([`layout::MAX_EXACT_INTEGER`]); [`encode`] checks this and fails with a clear error.
+//!
+//! ## Watertightness
+//! The ray/triangle test is the watertight test of Woop, Benthin & Wald (2013) without the
+//! double-precision fallback (GLSL ES has no doubles). Its edge functions are computed in the
+//! same antisymmetric form for every edge, so a shared edge evaluates to exactly opposite values
+//! in its two triangles and zero counts as inside: no ray slips between two triangles that share
+//! an edge or a vertex. On the GPU this holds as long as the compiler does not contract the
+//! edge-function products into fused multiply-adds differently for the two triangles.
+
+#![warn(missing_docs)]
+
+mod build;
+mod encode;
+pub mod layout;
+mod links;
+mod traverse;
+
+pub use build::{BuildOptions, Bvh, Node, NodeKind, sah_cost};
+pub use encode::{EncodeOptions, EncodedNode, EncodedScene, TextureSize, encode, texture_size};
+pub use links::{ChildOrder, Link};
+pub use traverse::{Hit, LinkTexture, Ray, Traversal, WatertightRay, dominant_direction};
+
+/// Per-triangle shading data carried into the triangle data textures.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub struct TriangleAttributes {
+    /// Shading normal at each vertex (not necessarily normalised; stored as given).
+    pub normals: [[f32; 3]; 3],
+    /// Light-map UV at each vertex.
+    pub uvs: [[f32; 2]; 3],
+    /// Object id (index of the object's light map). At most [`layout::MAX_EXACT_INTEGER`].
+    pub object: u32,
+}
+
+/// Everything that can go wrong building or encoding a BVH.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum BvhError {
+    /// A vertex coordinate is NaN or infinite.
+    #[error("triangle {triangle}: vertex {vertex} has a non-finite coordinate {position:?}")]
+    NonFiniteVertex {
+        /// Input index of the offending triangle.
+        triangle: usize,
+        /// Vertex 0, 1 or 2.
+        vertex: usize,
+        /// The vertex as given.
+        position: [f32; 3],
+    },
+    /// A normal or UV is NaN or infinite.
+    #[error("triangle {triangle}: non-finite normal or light-map UV")]
+    NonFiniteAttribute {
+        /// Input index of the offending triangle.
+        triangle: usize,
+    },
+    /// An option is out of its valid range.
+    #[error("invalid option `{name}`: {reason}")]
+    InvalidOption {
+        /// Name of the option field.
+        name: &'static str,
+        /// What is allowed.
+        reason: &'static str,
+    },
+    /// The attribute slice does not have one entry per triangle.
+    #[error("{attributes} triangle attributes given for {triangles} triangles")]
+    AttributeCountMismatch {
+        /// Number of triangles.
+        triangles: usize,
+        /// Number of attribute entries.
+        attributes: usize,
+    },
+    /// The triangles passed to [`encode`] are not the ones the BVH was built from.
+    #[error("the BVH was built over {bvh} triangles, but {given} were given")]
+    TriangleCountMismatch {
+        /// Triangle count of the BVH.
+        bvh: usize,
+        /// Triangle count given to `encode`.
+        given: usize,
+    },
+    /// A triangle given to [`encode`] lies outside the leaf box that should contain it.
+    #[error(
+        "triangle {triangle} lies outside its BVH leaf: the BVH was built from other triangles"
+    )]
+    TriangleOutsideLeaf {
+        /// Input index of the offending triangle.
+        triangle: usize,
+    },
+    /// More triangles than integers that `f32` texels represent exactly.
+    #[error(
+        "{count} triangles exceed the limit of {max} (indices are stored exactly in f32 only up to 2^24)"
+    )]
+    TooManyTriangles {
+        /// Number of triangles.
+        count: usize,
+        /// The limit.
+        max: usize,
+    },
+    /// An object id exceeds the exact-integer range of `f32`.
+    #[error(
+        "triangle {triangle}: object id {object} exceeds {max} (ids are stored exactly in f32 only up to 2^24)"
+    )]
+    ObjectIdTooLarge {
+        /// Input index of the offending triangle.
+        triangle: usize,
+        /// The object id.
+        object: u32,
+        /// The limit.
+        max: u32,
+    },
+    /// The data does not fit in square-limited textures of the given maximum size.
+    #[error("{what}: {count} texels per layer do not fit in a {max_size}×{max_size} texture")]
+    TextureTooSmall {
+        /// Which texture ("nodes" or "triangles").
+        what: &'static str,
+        /// Texels needed per layer.
+        count: usize,
+        /// The maximum texture width and height.
+        max_size: u32,
+    },
+}

@@ -1,0 +1,401 @@
+//! CPU traversal of the encoded texels, written as the GLSL ES 3.00 shader is.
+//!
+//! ## Mapping to GLSL
+//! | Rust here | GLSL ES 3.00 |
+//! |---|---|
+//! | `texel_fetch(&scene.bounds, scene.node_size, node, L)` | `texelFetch(uBounds, ivec3(node, L), 0)` |
+//! | `[f32; 3]`, `[f32; 4]`, `[i32; 2]` | `vec3`, `vec4`, `ivec2` |
+//! | `v[k]` with `k: usize` from the ray setup | `v[k]` (dynamic vector index, allowed in ES 3.00) |
+//! | `x as i32` | `int(x)` |
+//! | `min`/`max`/`abs` helpers | `min`/`max`/`abs` |
+//! | `while node[0] >= 0 && steps < node_count` | `for (int s = 0; s < uNodeCount && node.x >= 0; ++s)` |
+//!
+//! There is no recursion, no stack and no `f64`: the state is the current node coordinate,
+//! the closest distance so far and the closest triangle. The step bound `node_count` is never
+//! reached by a valid encoding (each node is visited at most once per ray) and only guards
+//! against corrupt data; the triangle range is clamped to `triangle_count` for the same reason.
+//!
+//! ```glsl
+//! // one traversal (closest hit; any hit returns at the first accepted triangle)
+//! int layer = luxDominantDirection(dir);            // MTBVH; TBVH reads uTbvhLinks layer 0
+//! LuxRay r = luxRaySetup(org, dir);                 // watertight shear + slab inverse
+//! ivec2 node = ivec2(LUX_ROOT_X, LUX_ROOT_Y);
+//! float closest = tMax; int best = -1; vec2 bary = vec2(0.0);
+//! for (int s = 0; s < uNodeCount && node.x >= 0; ++s) {
+//!     vec4 lo = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MIN_LAYER), 0);
+//!     vec4 hi = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MAX_LAYER), 0);
+//!     vec4 link = texelFetch(uLinks, ivec3(node, layer), 0);
+//!     if (luxSlab(r, lo.xyz, hi.xyz, tMin, closest)) {
+//!         int end = min(int(hi.w), uTriangleCount);
+//!         for (int t = int(lo.w); t < end; ++t) { /* luxTriangle(r, t, tMin, closest) ... */ }
+//!         node = ivec2(link.xy);
+//!     } else {
+//!         node = ivec2(link.zw);
+//!     }
+//! }
+//! ```
+
+use crate::encode::{EncodedScene, texel_fetch};
+use crate::layout;
+
+/// A ray `origin + t·dir`. `dir` must be finite and non-zero; it need not be normalised
+/// (distances `t` are then in units of its length).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Origin.
+    pub origin: [f32; 3],
+    /// Direction.
+    pub dir: [f32; 3],
+}
+
+/// A ray/triangle hit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the ray, in units of the direction's length; in `(t_min, t_max)`.
+    pub t: f32,
+    /// Triangle index in the **encoded** order (see [`EncodedScene::triangle_order`]).
+    pub triangle: u32,
+    /// Barycentric weight of vertex 1.
+    pub u: f32,
+    /// Barycentric weight of vertex 2 (vertex 0 has `1 − u − v`).
+    pub v: f32,
+}
+
+/// Which acceleration structure the traversal walks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Traversal {
+    /// MTBVH: the link layer of the ray's dominant direction ([`dominant_direction`]).
+    Mtbvh,
+    /// TBVH: the single canonical link order (`tbvh_links`).
+    Tbvh,
+    /// No BVH: every triangle is tested (the paper's "no BVH" column).
+    BruteForce,
+}
+
+/// A link texture to walk explicitly, for testing every MTBVH order with every ray.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LinkTexture {
+    /// The TBVH links.
+    Tbvh,
+    /// MTBVH link layer 0..6, regardless of the ray direction.
+    Mtbvh(u32),
+}
+
+/// The MTBVH direction (link layer) of a ray direction: `2·axis + (negative ? 1 : 0)` for the
+/// axis of largest magnitude (ties prefer x, then y), i.e. +x 0, −x 1, +y 2, −y 3, +z 4, −z 5.
+///
+/// GLSL: `vec3 a = abs(d); int k = (a.x >= a.y && a.x >= a.z) ? 0 : (a.y >= a.z ? 1 : 2);
+/// return 2 * k + (d[k] < 0.0 ? 1 : 0);`
+pub fn dominant_direction(dir: [f32; 3]) -> u32 {
+    let k = dominant_axis(dir);
+    2 * k as u32 + u32::from(dir[k] < 0.0)
+}
+
+fn dominant_axis(d: [f32; 3]) -> usize {
+    let a = [d[0].abs(), d[1].abs(), d[2].abs()];
+    if a[0] >= a[1] && a[0] >= a[2] {
+        0
+    } else if a[1] >= a[2] {
+        1
+    } else {
+        2
+    }
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+/// GLSL `mix(b, a, c)` for a scalar bool: `c ? a : b`.
+fn select(c: bool, a: f32, b: f32) -> f32 {
+    if c { a } else { b }
+}
+
+/// Per-ray setup shared by the slab and triangle tests (computed once per ray, as in the
+/// shader): the watertight test's axis permutation and shear (Woop, Benthin & Wald 2013) and
+/// the slab test's safe inverse direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WatertightRay {
+    origin: [f32; 3],
+    /// Permuted axes: `kz` = dominant axis, `kx`, `ky` the others (swapped if `dir[kz] < 0`,
+    /// preserving the winding).
+    kx: usize,
+    ky: usize,
+    kz: usize,
+    sx: f32,
+    sy: f32,
+    sz: f32,
+    /// `1 / dir` per axis, with 1 in place of near-zero components.
+    inv: [f32; 3],
+    /// Whether the axis is (numerically) parallel: `|dir| < PARALLEL_EPSILON`.
+    parallel: [bool; 3],
+}
+
+impl WatertightRay {
+    /// Sets up `ray`. Returns `None` if its direction is zero or it has a non-finite component.
+    pub fn new(ray: &Ray) -> Option<WatertightRay> {
+        let d = ray.dir;
+        let finite = d.iter().chain(&ray.origin).all(|c| c.is_finite());
+        let kz = dominant_axis(d);
+        if !finite || d[kz] == 0.0 {
+            return None;
+        }
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if d[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let parallel = d.map(|c| c.abs() < layout::PARALLEL_EPSILON);
+        let inv = [0, 1, 2].map(|a| 1.0 / select(parallel[a], 1.0, d[a]));
+        Some(WatertightRay {
+            origin: ray.origin,
+            kx,
+            ky,
+            kz,
+            sx: d[kx] / d[kz],
+            sy: d[ky] / d[kz],
+            sz: 1.0 / d[kz],
+            inv,
+            parallel,
+        })
+    }
+
+    /// Slab test: does the ray, restricted to `[t_min, t_max]`, touch the box?
+    ///
+    /// Parallel axes (zero, ±0 or subnormal direction components) are decided by whether the
+    /// origin lies in the slab, so no `0·∞` or infinite inverse arises and both signs of zero
+    /// behave alike. The exit distance gets a relative slack of
+    /// [`layout::BOX_EXIT_SLACK`] so rounding never rejects a box the ray touches (boxes may be
+    /// accepted slightly too often, never too rarely).
+    pub fn hits_box(&self, min: [f32; 3], max: [f32; 3], t_min: f32, t_max: f32) -> bool {
+        let mut t_near = t_min;
+        let mut t_far = t_max;
+        let mut box_far = layout::BIG;
+        for a in 0..3 {
+            let t0 = (min[a] - self.origin[a]) * self.inv[a];
+            let t1 = (max[a] - self.origin[a]) * self.inv[a];
+            let inside = min[a] <= self.origin[a] && self.origin[a] <= max[a];
+            let lo = select(
+                self.parallel[a],
+                select(inside, -layout::BIG, layout::BIG),
+                t0.min(t1),
+            );
+            let hi = select(
+                self.parallel[a],
+                select(inside, layout::BIG, -layout::BIG),
+                t0.max(t1),
+            );
+            t_near = t_near.max(lo);
+            box_far = box_far.min(hi);
+        }
+        box_far += box_far.abs() * layout::BOX_EXIT_SLACK;
+        t_far = t_far.min(box_far);
+        t_near <= t_far
+    }
+
+    /// Watertight ray/triangle test. Returns `(t, u, v)` with `t` in the open interval
+    /// `(t_min, t_max)` and `u`, `v` the barycentric weights of `p1`, `p2`. Both faces count;
+    /// zero-area triangles and rays in the triangle's plane never hit.
+    pub fn hits_triangle(
+        &self,
+        p0: [f32; 3],
+        p1: [f32; 3],
+        p2: [f32; 3],
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(f32, f32, f32)> {
+        let (kx, ky, kz) = (self.kx, self.ky, self.kz);
+        let a = sub(p0, self.origin);
+        let b = sub(p1, self.origin);
+        let c = sub(p2, self.origin);
+        let ax = a[kx] - self.sx * a[kz];
+        let ay = a[ky] - self.sy * a[kz];
+        let bx = b[kx] - self.sx * b[kz];
+        let by = b[ky] - self.sy * b[kz];
+        let cx = c[kx] - self.sx * c[kz];
+        let cy = c[ky] - self.sy * c[kz];
+        // Edge functions, all in the antisymmetric form e(P, Q) = P.x·Q.y − P.y·Q.x.
+        let u = cx * by - cy * bx;
+        let v = ax * cy - ay * cx;
+        let w = bx * ay - by * ax;
+        if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + v + w;
+        if det == 0.0 {
+            return None;
+        }
+        let az = self.sz * a[kz];
+        let bz = self.sz * b[kz];
+        let cz = self.sz * c[kz];
+        let t = (u * az + v * bz + w * cz) / det;
+        if !(t > t_min && t < t_max) {
+            return None;
+        }
+        Some((t, v / det, w / det))
+    }
+}
+
+impl EncodedScene {
+    /// The closest hit with `t` in `(t_min, t_max)` (`t_max` may be `f32::INFINITY`), or
+    /// `None`. Exact ties in `t` keep the triangle found first. Rays with a zero or non-finite
+    /// direction never hit.
+    pub fn closest_hit(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        traversal: Traversal,
+    ) -> Option<Hit> {
+        self.trace(ray, t_min, t_max, traversal, false)
+    }
+
+    /// Whether any triangle is hit with `t` in `(t_min, t_max)`: the shadow-ray query (returns
+    /// at the first hit found).
+    pub fn any_hit(&self, ray: &Ray, t_min: f32, t_max: f32, traversal: Traversal) -> bool {
+        self.trace(ray, t_min, t_max, traversal, true).is_some()
+    }
+
+    /// [`EncodedScene::closest_hit`] walking a given link texture whatever the ray direction
+    /// (any MTBVH layer gives a correct, if slower, traversal for every ray).
+    pub fn closest_hit_with(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        links: LinkTexture,
+    ) -> Option<Hit> {
+        let setup = WatertightRay::new(ray)?;
+        self.walk(&setup, t_min, t_max, links, false)
+    }
+
+    /// [`EncodedScene::any_hit`] walking a given link texture whatever the ray direction.
+    pub fn any_hit_with(&self, ray: &Ray, t_min: f32, t_max: f32, links: LinkTexture) -> bool {
+        WatertightRay::new(ray)
+            .and_then(|setup| self.walk(&setup, t_min, t_max, links, true))
+            .is_some()
+    }
+
+    fn trace(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        traversal: Traversal,
+        any: bool,
+    ) -> Option<Hit> {
+        let setup = WatertightRay::new(ray)?;
+        match traversal {
+            Traversal::Mtbvh => self.walk(
+                &setup,
+                t_min,
+                t_max,
+                LinkTexture::Mtbvh(dominant_direction(ray.dir)),
+                any,
+            ),
+            Traversal::Tbvh => self.walk(&setup, t_min, t_max, LinkTexture::Tbvh, any),
+            Traversal::BruteForce => self.brute_force(&setup, t_min, t_max, any),
+        }
+    }
+
+    /// Tests encoded triangle `t` (three `texelFetch`es, then the watertight test).
+    fn triangle_test(
+        &self,
+        r: &WatertightRay,
+        t: i32,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(f32, f32, f32)> {
+        let c = [
+            t % self.tri_size[0].max(1) as i32,
+            t / self.tri_size[0].max(1) as i32,
+        ];
+        let p0 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P0_LAYER);
+        let p1 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P1_LAYER);
+        let p2 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P2_LAYER);
+        r.hits_triangle(
+            [p0[0], p0[1], p0[2]],
+            [p1[0], p1[1], p1[2]],
+            [p2[0], p2[1], p2[2]],
+            t_min,
+            t_max,
+        )
+    }
+
+    /// The stackless threaded walk (mirrors the GLSL loop in the module docs).
+    fn walk(
+        &self,
+        r: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+        links: LinkTexture,
+        any: bool,
+    ) -> Option<Hit> {
+        let (link_tex, layer) = match links {
+            LinkTexture::Tbvh => (&self.tbvh_links, 0),
+            LinkTexture::Mtbvh(d) => (&self.links, d),
+        };
+        let triangle_count = i32::try_from(self.triangle_count).unwrap_or(i32::MAX);
+        let node_count = i32::try_from(self.node_count).unwrap_or(i32::MAX);
+        let mut node = [layout::ROOT_X, layout::ROOT_Y];
+        let mut closest = t_max;
+        let mut best: i32 = -1;
+        let mut bary = [0.0f32; 2];
+        let mut steps = 0;
+        while steps < node_count && node[0] >= 0 {
+            steps += 1;
+            let lo = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MIN_LAYER);
+            let hi = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MAX_LAYER);
+            let link = texel_fetch(link_tex, self.node_size, node, layer);
+            if r.hits_box([lo[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]], t_min, closest) {
+                let end = (hi[3] as i32).min(triangle_count);
+                let mut t = lo[3] as i32;
+                while t < end {
+                    if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
+                        closest = d;
+                        best = t;
+                        bary = [u, v];
+                        if any {
+                            return hit(best, closest, bary);
+                        }
+                    }
+                    t += 1;
+                }
+                node = [link[0] as i32, link[1] as i32];
+            } else {
+                node = [link[2] as i32, link[3] as i32];
+            }
+        }
+        hit(best, closest, bary)
+    }
+
+    /// Tests every triangle in encoded order (the "no BVH" path).
+    fn brute_force(&self, r: &WatertightRay, t_min: f32, t_max: f32, any: bool) -> Option<Hit> {
+        let triangle_count = i32::try_from(self.triangle_count).unwrap_or(i32::MAX);
+        let mut closest = t_max;
+        let mut best: i32 = -1;
+        let mut bary = [0.0f32; 2];
+        let mut t = 0;
+        while t < triangle_count {
+            if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
+                closest = d;
+                best = t;
+                bary = [u, v];
+                if any {
+                    return hit(best, closest, bary);
+                }
+            }
+            t += 1;
+        }
+        hit(best, closest, bary)
+    }
+}
+
+fn hit(best: i32, t: f32, bary: [f32; 2]) -> Option<Hit> {
+    u32::try_from(best).ok().map(|triangle| Hit {
+        t,
+        triangle,
+        u: bary[0],
+        v: bary[1],
+    })
+}
