@@ -1,0 +1,141 @@
+//! [`GpuTable`]: the distribution resampled on a regular (γ, C) grid for shaders.
+
+use crate::Photometry;
+use crate::sphere::Axis;
+use std::f64::consts::{PI, TAU};
+
+/// The intensity distribution resampled on a regular grid over (γ, C) of the photometric frame,
+/// for upload as a one-channel float texture.
+///
+/// # Parametrisation (fixed; shaders rely on it)
+/// * `height` rows over γ, the angle from nadir (−Z): row `j` ↔ γ = π·j/(height−1). Row 0 is
+///   nadir, the last row zenith.
+/// * `width` columns over C (from +X toward +Y): column `i` ↔ C = 2π·i/width; C wraps at 2π.
+/// * `values[j * width + i]`, row-major, row 0 first; candela with every multiplier applied
+///   (as [`Photometry::intensity`]).
+///
+/// # Sampling ([`GpuTable::sample`], mirror it line for line in GLSL/WGSL)
+/// ```text
+/// len = length(d);               if !(len > 0) return 0
+/// γ  = acos(clamp(-d.z / len, -1, 1))
+/// C  = atan2(d.y, d.x);          if C < 0 { C += 2π }
+/// fy = γ / π · (height − 1);     fx = C / (2π) · width
+/// x0 = floor(fx), tx = fx − x0;  i0 = x0 mod width, i1 = (i0 + 1) mod width     (wrap in x)
+/// y0 = clamp(floor(fy), 0, height − 1), ty = clamp(fy − y0, 0, 1), y1 = min(y0 + 1, height − 1)
+/// value = mix(mix(v[y0][i0], v[y0][i1], tx), mix(v[y1][i0], v[y1][i1], tx), ty)
+/// ```
+///
+/// # Resolution
+/// For types C and A (whose grids are already γ/C grids) the table step is the largest angle
+/// that divides every file angle (and 180° resp. 360°), so every file node is a table node and
+/// bilinear sampling of the table reproduces [`Photometry::intensity`] up to f32 rounding —
+/// except within one table cell of an edge where the data stops (e.g. just above 90° for a
+/// 0–90° file whose 90° value is not 0), where the table ramps to zero over that cell. When
+/// that step would exceed 1025 rows or 2048 columns, the table falls back to 0.25° (721 × 1440).
+/// Type B data lives on a grid about another axis and is resampled at 0.5° (361 × 720).
+/// The tests check `sample` against `intensity` over many directions for every sample file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuTable {
+    /// Number of columns (C samples).
+    pub width: u32,
+    /// Number of rows (γ samples), at least 2.
+    pub height: u32,
+    /// `width × height` values in candela, row-major, row 0 (nadir) first.
+    pub values: Vec<f32>,
+}
+
+const MAX_ROWS: u32 = 1025;
+const MAX_COLS: u32 = 2048;
+
+/// Angle in millidegrees, when it is a whole number of them.
+fn millideg(a: f64) -> Option<u64> {
+    let m = (a * 1000.0).rem_euclid(360_000.0);
+    let r = m.round();
+    ((m - r).abs() < 1e-3).then_some(r as u64)
+}
+
+fn gcd(a: u64, b: u64) -> u64 {
+    if b == 0 { a } else { gcd(b, a % b) }
+}
+
+/// The largest step in millidegrees dividing `span` and every angle, if all are whole
+/// millidegrees.
+fn common_step(angles: &[f64], span: u64) -> Option<u64> {
+    angles
+        .iter()
+        .try_fold(span, |g, &a| millideg(a).map(|m| gcd(g, m)))
+        .filter(|&g| g > 0)
+}
+
+impl GpuTable {
+    pub(crate) fn from_photometry(p: &Photometry) -> GpuTable {
+        let s = p.sphere();
+        let (height, width) = match s.axis {
+            Axis::Z => {
+                let rows = common_step(&s.theta_deg, 180_000)
+                    .map(|g| 180_000 / g + 1)
+                    .filter(|&r| r <= u64::from(MAX_ROWS))
+                    .map_or(721, |r| r as u32);
+                let cols = common_step(&s.phi_deg, 360_000)
+                    .map(|g| 360_000 / g)
+                    .filter(|&c| c <= u64::from(MAX_COLS))
+                    .map_or(1440, |c| c as u32);
+                (rows.max(2), cols.max(1))
+            }
+            Axis::Y => (361, 720),
+        };
+        let mut values = Vec::with_capacity(height as usize * width as usize);
+        for j in 0..height {
+            let gamma = PI * f64::from(j) / f64::from(height - 1);
+            for i in 0..width {
+                let c = TAU * f64::from(i) / f64::from(width);
+                let v = match s.axis {
+                    Axis::Z => s.eval(gamma, c) * p.tilt0,
+                    Axis::Y => p.intensity(crate::sphere::direction(Axis::Z, gamma, c)),
+                };
+                values.push(v as f32);
+            }
+        }
+        GpuTable {
+            width,
+            height,
+            values,
+        }
+    }
+
+    fn at(&self, row: u32, col: u32) -> f32 {
+        self.values
+            .get(row as usize * self.width as usize + col as usize)
+            .copied()
+            .unwrap_or(0.0)
+    }
+
+    /// Bilinear sample in candela toward `dir` (photometric frame, any length), in f32 exactly
+    /// as documented on [`GpuTable`]. The zero vector, non-finite input or an empty table give 0.
+    pub fn sample(&self, dir: [f32; 3]) -> f32 {
+        use std::f32::consts::{PI, TAU};
+        let [x, y, z] = dir;
+        let len = (x * x + y * y + z * z).sqrt();
+        if !(len > 0.0 && len.is_finite()) || self.width == 0 || self.height < 2 {
+            return 0.0;
+        }
+        let gamma = (-z / len).clamp(-1.0, 1.0).acos();
+        let mut c = y.atan2(x);
+        if c < 0.0 {
+            c += TAU;
+        }
+        let fy = gamma / PI * (self.height - 1) as f32;
+        let fx = c / TAU * self.width as f32;
+        let x0 = fx.floor();
+        let tx = fx - x0;
+        let i0 = (x0 as i64).rem_euclid(i64::from(self.width)) as u32;
+        let i1 = (i0 + 1) % self.width;
+        let y0f = fy.floor().clamp(0.0, (self.height - 1) as f32);
+        let ty = (fy - y0f).clamp(0.0, 1.0);
+        let y0 = y0f as u32;
+        let y1 = (y0 + 1).min(self.height - 1);
+        let a = self.at(y0, i0) + (self.at(y0, i1) - self.at(y0, i0)) * tx;
+        let b = self.at(y1, i0) + (self.at(y1, i1) - self.at(y1, i0)) * tx;
+        a + (b - a) * ty
+    }
+}
