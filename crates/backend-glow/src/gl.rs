@@ -5,6 +5,7 @@ use std::collections::HashMap;
 
 use glow::HasContext;
 
+use crate::context::webgl2;
 use crate::error::{GlowError, Result, gl_error_name};
 
 /// Returns the first pending GL error as [`GlowError::Gl`].
@@ -147,6 +148,46 @@ impl Program {
         self.uniforms.get(name)
     }
 
+    /// Binds the program and its sampler uniforms: texture unit `i` gets `samplers[i]`.
+    /// Asserts WebGL2's guarantee of [`webgl2::TEXTURE_UNITS`] units per pass.
+    pub(crate) fn use_with(
+        &self,
+        gl: &glow::Context,
+        pass: &str,
+        samplers: &[(&str, &TextureArray)],
+    ) -> Result<()> {
+        if samplers.len() > webgl2::TEXTURE_UNITS as usize {
+            return Err(GlowError::Limit {
+                what: "texture units per pass (WebGL2 guarantees 16)",
+                requested: samplers.len() as u64,
+                allowed: webgl2::TEXTURE_UNITS.into(),
+            });
+        }
+        // SAFETY: binding our program and existing textures to units below the limit.
+        unsafe {
+            gl.use_program(Some(self.raw));
+            for (unit, (name, tex)) in samplers.iter().enumerate() {
+                gl.active_texture(glow::TEXTURE0 + unit as u32);
+                gl.bind_texture(glow::TEXTURE_2D_ARRAY, Some(tex.raw));
+                gl.uniform_1_i32(self.uniform(name), unit as i32);
+            }
+            gl.active_texture(glow::TEXTURE0);
+        }
+        check(gl, pass, "binding the program and its textures")
+    }
+
+    /// Sets an `int` uniform of the bound program (ignored if the compiler removed it).
+    pub(crate) fn set_i32(&self, gl: &glow::Context, name: &str, v: i32) {
+        // SAFETY: setting a uniform of the bound program; a missing location is a no-op.
+        unsafe { gl.uniform_1_i32(self.uniform(name), v) };
+    }
+
+    /// Sets a `float` uniform of the bound program.
+    pub(crate) fn set_f32(&self, gl: &glow::Context, name: &str, v: f32) {
+        // SAFETY: as set_i32.
+        unsafe { gl.uniform_1_f32(self.uniform(name), v) };
+    }
+
     /// Deletes the program.
     pub(crate) fn delete(&self, gl: &glow::Context) {
         // SAFETY: the program belongs to this context and is not used again.
@@ -227,25 +268,32 @@ impl TextureArray {
         Ok(())
     }
 
-    /// Uploads one whole layer: `width * height * 4` floats, row 0 first.
+    /// Uploads whole layers from `first_layer` on: a multiple of `width * height * 4` floats,
+    /// layer after layer, row 0 first.
     pub(crate) fn upload(
         &self,
         gl: &glow::Context,
         label: &str,
-        layer: u32,
+        first_layer: u32,
         texels: &[f32],
     ) -> Result<()> {
-        self.check_layer(layer)?;
-        let expected = self.width as usize * self.height as usize * 4;
-        if texels.len() != expected {
+        let per_layer = self.width as usize * self.height as usize * 4;
+        let count = texels.len() / per_layer;
+        let fits = u32::try_from(count)
+            .ok()
+            .and_then(|c| c.checked_add(first_layer))
+            .is_some_and(|end| end <= self.layers);
+        if !texels.len().is_multiple_of(per_layer) || count == 0 || !fits {
             return Err(GlowError::InvalidInput(format!(
-                "upload to `{label}` layer {layer}: {} floats, expected {expected}",
-                texels.len()
+                "upload to `{label}` from layer {first_layer}: {} floats is not 1..={} layers of \
+                 {per_layer}",
+                texels.len(),
+                self.layers.saturating_sub(first_layer)
             )));
         }
         let bytes: Vec<u8> = texels.iter().flat_map(|v| v.to_ne_bytes()).collect();
-        // SAFETY: the byte slice holds exactly one layer (checked above); unpack alignment 4
-        // matches f32 rows.
+        // SAFETY: the byte slice holds exactly `count` layers that fit the texture (checked
+        // above); unpack alignment 4 matches f32 rows.
         unsafe {
             gl.bind_texture(glow::TEXTURE_2D_ARRAY, Some(self.raw));
             gl.pixel_store_i32(glow::UNPACK_ALIGNMENT, 4);
@@ -254,17 +302,17 @@ impl TextureArray {
                 0,
                 0,
                 0,
-                to_i32(layer, "layer")?,
+                to_i32(first_layer, "layer")?,
                 to_i32(self.width, "width")?,
                 to_i32(self.height, "height")?,
-                1,
+                to_i32(count as u32, "layers")?,
                 glow::RGBA,
                 glow::FLOAT,
                 glow::PixelUnpackData::Slice(Some(&bytes)),
             );
             gl.bind_texture(glow::TEXTURE_2D_ARRAY, None);
         }
-        check(gl, label, "uploading a texture layer")
+        check(gl, label, "uploading texture layers")
     }
 
     /// Deletes the texture.
