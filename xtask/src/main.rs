@@ -1,2 +1,35 @@
-//! `cargo xtask` — luxbake's project commands.
-fn main() {}
+//! `cargo xtask` — luxbake's project commands. Each command lives in its own module; this file
+//! only parses the command line and dispatches.
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+mod ies;
+
+/// luxbake project commands.
+#[derive(Parser)]
+#[command(name = "cargo xtask", about = "luxbake project commands")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Inspect a photometric file (IES LM-63 or EULUMDAT): header, symmetry, lumens, peak.
+    Ies(ies::Args),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Ies(args) => ies::run(&args),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}
