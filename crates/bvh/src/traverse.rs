@@ -164,12 +164,10 @@ impl WatertightRay {
     ///
     /// Parallel axes (zero, ±0 or subnormal direction components) are decided by whether the
     /// origin lies in the slab, so no `0·∞` or infinite inverse arises and both signs of zero
-    /// behave alike. The exit distance gets a relative slack of
-    /// [`layout::BOX_EXIT_SLACK`] so rounding never rejects a box the ray touches (boxes may be
-    /// accepted slightly too often, never too rarely).
+    /// behave alike. Entry and exit get a relative slack of [`layout::BOX_SLACK`] so rounding
+    /// does not reject a box the ray touches (boxes may be accepted slightly too often).
     pub fn hits_box(&self, min: [f32; 3], max: [f32; 3], t_min: f32, t_max: f32) -> bool {
-        let mut t_near = t_min;
-        let mut t_far = t_max;
+        let mut box_near = -layout::BIG;
         let mut box_far = layout::BIG;
         for a in 0..3 {
             let t0 = (min[a] - self.origin[a]) * self.inv[a];
@@ -185,11 +183,11 @@ impl WatertightRay {
                 select(inside, layout::BIG, -layout::BIG),
                 t0.max(t1),
             );
-            t_near = t_near.max(lo);
+            box_near = box_near.max(lo);
             box_far = box_far.min(hi);
         }
-        box_far += box_far.abs() * layout::BOX_EXIT_SLACK;
-        t_far = t_far.min(box_far);
+        let t_near = t_min.max(box_near - box_near.abs() * layout::BOX_SLACK);
+        let t_far = t_max.min(box_far + box_far.abs() * layout::BOX_SLACK);
         t_near <= t_far
     }
 

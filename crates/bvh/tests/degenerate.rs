@@ -1,0 +1,485 @@
+//! Degenerate input, invalid input and the capacity limits of the encoding.
+
+mod common;
+
+use common::{Rng, attributes, build_and_encode, check_agreement};
+use luxbake_bvh::{
+    BuildOptions, Bvh, BvhError, EncodeOptions, NodeKind, Ray, Traversal, TriangleAttributes,
+    encode, layout,
+};
+
+const ALL: [Traversal; 3] = [Traversal::Mtbvh, Traversal::Tbvh, Traversal::BruteForce];
+
+fn ray(origin: [f32; 3], dir: [f32; 3]) -> Ray {
+    Ray { origin, dir }
+}
+
+#[test]
+fn zero_triangles() {
+    let bvh = Bvh::build(&[], &BuildOptions::default()).expect("build");
+    assert_eq!(bvh.nodes().len(), 1);
+    assert!(matches!(
+        bvh.nodes()[0].kind,
+        NodeKind::Leaf { first: 0, count: 0 }
+    ));
+    assert_eq!(bvh.sah_cost(), 0.0);
+    let scene = encode(&bvh, &[], &[], &EncodeOptions::default()).expect("encode");
+    assert_eq!(
+        (scene.node_size, scene.tri_size, scene.triangle_count),
+        ([1, 1], [1, 1], 0)
+    );
+    let mut rng = Rng::new(1);
+    for _ in 0..100 {
+        let r = ray(rng.point(-1.0, 1.0), rng.direction());
+        for t in ALL {
+            assert_eq!(scene.closest_hit(&r, 0.0, f32::INFINITY, t), None);
+            assert!(!scene.any_hit(&r, 0.0, f32::INFINITY, t));
+        }
+    }
+}
+
+#[test]
+fn one_triangle() {
+    let tris = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let scene = build_and_encode(&tris);
+    assert_eq!(scene.node_count, 1);
+    for t in ALL {
+        let hit = scene
+            .closest_hit(
+                &ray([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]),
+                0.0,
+                f32::INFINITY,
+                t,
+            )
+            .expect("hit");
+        assert_eq!((hit.t, hit.triangle, hit.u, hit.v), (1.0, 0, 0.25, 0.25));
+        // Back face, and a direction that is not normalised: t in units of its length.
+        let hit = scene
+            .closest_hit(
+                &ray([0.5, 0.25, -2.0], [0.0, -0.0, 4.0]),
+                0.0,
+                f32::INFINITY,
+                t,
+            )
+            .expect("hit");
+        assert_eq!((hit.t, hit.u, hit.v), (0.5, 0.5, 0.25));
+        assert!(
+            scene
+                .closest_hit(
+                    &ray([0.75, 0.75, 1.0], [0.0, 0.0, -1.0]),
+                    0.0,
+                    f32::INFINITY,
+                    t
+                )
+                .is_none()
+        );
+        // t range is the open interval (t_min, t_max).
+        let r = ray([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]);
+        assert!(scene.any_hit(&r, 0.0, 1.5, t));
+        assert!(!scene.any_hit(&r, 0.0, 1.0, t));
+        assert!(!scene.any_hit(&r, 1.0, 2.0, t));
+        assert!(!scene.any_hit(&r, 1.5, f32::INFINITY, t));
+        // Zero and non-finite directions never hit.
+        assert!(!scene.any_hit(
+            &ray([0.25, 0.25, 1.0], [0.0, -0.0, 0.0]),
+            0.0,
+            f32::INFINITY,
+            t
+        ));
+        assert!(!scene.any_hit(
+            &ray([0.25, 0.25, 1.0], [0.0, f32::NAN, -1.0]),
+            0.0,
+            f32::INFINITY,
+            t
+        ));
+        // Edge-on rays (in the triangle's plane) never hit.
+        assert!(!scene.any_hit(
+            &ray([-1.0, 0.25, 0.0], [1.0, 0.0, 0.0]),
+            0.0,
+            f32::INFINITY,
+            t
+        ));
+    }
+}
+
+#[test]
+fn zero_area_triangles_build_and_are_never_hit() {
+    let mut rng = Rng::new(2);
+    let mut tris = Vec::new();
+    for _ in 0..300 {
+        let a = rng.point(0.0, 1.0);
+        let b = rng.point(0.0, 1.0);
+        tris.push([a, a, a]);
+        tris.push([a, b, b]);
+        tris.push([
+            a,
+            b,
+            [
+                (a[0] + b[0]) * 0.5,
+                (a[1] + b[1]) * 0.5,
+                (a[2] + b[2]) * 0.5,
+            ],
+        ]);
+    }
+    let scene = build_and_encode(&tris);
+    for _ in 0..500 {
+        let r = ray(rng.point(-0.5, 1.5), rng.direction());
+        for t in ALL {
+            assert!(!scene.any_hit(&r, 0.0, f32::INFINITY, t));
+        }
+    }
+}
+
+#[test]
+fn duplicates_and_all_in_one_point() {
+    let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    let options = BuildOptions::default();
+    let dup = vec![tri; 1000];
+    let bvh = Bvh::build(&dup, &options).expect("build");
+    for n in bvh.nodes() {
+        if let NodeKind::Leaf { count, .. } = n.kind {
+            assert!(count >= 1 && count <= options.max_leaf_size);
+        }
+    }
+    assert!(bvh.depth() <= 12, "depth {}", bvh.depth());
+    let scene = build_and_encode(&dup);
+    let r = ray([0.2, 0.2, 1.0], [0.0, 0.0, -1.0]);
+    for t in ALL {
+        let hit = scene.closest_hit(&r, 0.0, f32::INFINITY, t).expect("hit");
+        assert_eq!(hit.t, 1.0);
+    }
+    check_agreement(&scene, &r, 0.0, f32::INFINITY).expect("agreement");
+
+    let point = vec![[[0.5f32; 3]; 3]; 777];
+    let bvh = Bvh::build(&point, &options).expect("build");
+    assert!(bvh.depth() <= 12, "depth {}", bvh.depth());
+    let scene = build_and_encode(&point);
+    for t in ALL {
+        assert!(!scene.any_hit(&ray([0.0; 3], [1.0, 1.0, 1.0]), 0.0, f32::INFINITY, t));
+    }
+}
+
+#[test]
+fn all_coplanar() {
+    let mut rng = Rng::new(4);
+    let tris: Vec<common::Tri> = (0..500)
+        .map(|_| {
+            let c = rng.point(0.0, 1.0);
+            let mut v = || {
+                let o = rng.point(-0.05, 0.05);
+                [c[0] + o[0], c[1] + o[1], 0.25]
+            };
+            [v(), v(), v()]
+        })
+        .collect();
+    let scene = build_and_encode(&tris);
+    let mut hits = 0;
+    for _ in 0..2000 {
+        let mut d = rng.direction();
+        if rng.below(2) == 0 {
+            d = [
+                d[0] * 0.01,
+                d[1] * 0.01,
+                if d[2] == 0.0 { 1.0 } else { d[2] },
+            ];
+        }
+        let r = ray(
+            [
+                rng.range(0.0, 1.0),
+                rng.range(0.0, 1.0),
+                rng.range(-1.0, 1.0),
+            ],
+            d,
+        );
+        hits += usize::from(
+            check_agreement(&scene, &r, 0.0, f32::INFINITY)
+                .expect("agreement")
+                .is_some(),
+        );
+    }
+    assert!(hits > 200, "{hits}");
+}
+
+#[test]
+fn non_finite_vertices_are_rejected_with_the_triangle() {
+    let good = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+    for bad in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+        let mut tris = vec![good; 5];
+        tris[3][2][1] = bad;
+        match Bvh::build(&tris, &BuildOptions::default()) {
+            Err(BvhError::NonFiniteVertex {
+                triangle: 3,
+                vertex: 2,
+                ..
+            }) => {}
+            other => panic!("{other:?}"),
+        }
+        let msg = Bvh::build(&tris, &BuildOptions::default())
+            .expect_err("error")
+            .to_string();
+        assert!(msg.contains("triangle 3"), "{msg}");
+    }
+}
+
+#[test]
+fn invalid_options_are_rejected() {
+    let tris = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let d = BuildOptions::default();
+    for (o, name) in [
+        (
+            BuildOptions {
+                max_leaf_size: 0,
+                ..d.clone()
+            },
+            "max_leaf_size",
+        ),
+        (
+            BuildOptions {
+                bins: 1,
+                ..d.clone()
+            },
+            "bins",
+        ),
+        (
+            BuildOptions {
+                bins: 257,
+                ..d.clone()
+            },
+            "bins",
+        ),
+        (
+            BuildOptions {
+                traversal_cost: f32::NAN,
+                ..d.clone()
+            },
+            "traversal_cost",
+        ),
+        (
+            BuildOptions {
+                traversal_cost: -1.0,
+                ..d.clone()
+            },
+            "traversal_cost",
+        ),
+        (
+            BuildOptions {
+                intersection_cost: 0.0,
+                ..d.clone()
+            },
+            "intersection_cost",
+        ),
+    ] {
+        match Bvh::build(&tris, &o) {
+            Err(BvhError::InvalidOption { name: n, .. }) => assert_eq!(n, name),
+            other => panic!("{other:?}"),
+        }
+    }
+    let bvh = Bvh::build(&tris, &d).expect("build");
+    let err = encode(
+        &bvh,
+        &tris,
+        &attributes(&tris, 1),
+        &EncodeOptions {
+            max_texture_size: 0,
+        },
+    );
+    assert!(matches!(
+        err,
+        Err(BvhError::InvalidOption {
+            name: "max_texture_size",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn mismatched_inputs_are_rejected() {
+    let mut rng = Rng::new(6);
+    let tris = common::random_scene(&mut rng, 50);
+    let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("build");
+    let attrs = attributes(&tris, 1);
+    let o = EncodeOptions::default();
+    assert!(matches!(
+        encode(&bvh, &tris[..49], &attrs[..49], &o),
+        Err(BvhError::TriangleCountMismatch { bvh: 50, given: 49 })
+    ));
+    assert!(matches!(
+        encode(&bvh, &tris, &attrs[..10], &o),
+        Err(BvhError::AttributeCountMismatch {
+            triangles: 50,
+            attributes: 10
+        })
+    ));
+    let mut moved = tris.clone();
+    moved[17][1][0] += 10.0;
+    assert!(matches!(
+        encode(&bvh, &moved, &attrs, &o),
+        Err(BvhError::TriangleOutsideLeaf { triangle: 17 })
+    ));
+    let mut nan = tris.clone();
+    nan[8][0][2] = f32::NAN;
+    assert!(matches!(
+        encode(&bvh, &nan, &attrs, &o),
+        Err(BvhError::NonFiniteVertex {
+            triangle: 8,
+            vertex: 0,
+            ..
+        })
+    ));
+    let mut bad_attrs = attrs.clone();
+    bad_attrs[9].uvs[2][1] = f32::INFINITY;
+    assert!(matches!(
+        encode(&bvh, &tris, &bad_attrs, &o),
+        Err(BvhError::NonFiniteAttribute { triangle: 9 })
+    ));
+}
+
+#[test]
+fn object_id_boundary_is_two_to_the_24() {
+    let tris = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+    let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("build");
+    let attrs = |object| {
+        [TriangleAttributes {
+            object,
+            ..TriangleAttributes::default()
+        }]
+    };
+    let max = layout::MAX_EXACT_INTEGER;
+    let scene = encode(&bvh, &tris, &attrs(max), &EncodeOptions::default()).expect("encode");
+    assert_eq!(scene.triangle_attributes(0).object, max);
+    let scene = encode(&bvh, &tris, &attrs(max - 1), &EncodeOptions::default()).expect("encode");
+    assert_eq!(scene.triangle_attributes(0).object, max - 1);
+    assert_eq!(
+        encode(&bvh, &tris, &attrs(max + 1), &EncodeOptions::default()),
+        Err(BvhError::ObjectIdTooLarge {
+            triangle: 0,
+            object: max + 1,
+            max
+        })
+    );
+}
+
+/// Node and triangle textures at their capacity boundary: a scene fits exactly, and one more
+/// texel than the largest allowed texture is a clear error.
+#[test]
+fn texture_capacity_boundary() {
+    // 16 triangles, one per leaf: 31 nodes. max 6 → 36 node texels, 36 triangle texels.
+    let tris: Vec<common::Tri> = (0..16)
+        .map(|i| {
+            let x = i as f32 * 2.0;
+            [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 1.0, 0.0]]
+        })
+        .collect();
+    let bvh = Bvh::build(
+        &tris,
+        &BuildOptions {
+            max_leaf_size: 1,
+            ..BuildOptions::default()
+        },
+    )
+    .expect("build");
+    assert_eq!(bvh.nodes().len(), 31);
+    let attrs = attributes(&tris, 1);
+    let scene = encode(
+        &bvh,
+        &tris,
+        &attrs,
+        &EncodeOptions {
+            max_texture_size: 6,
+        },
+    )
+    .expect("fits");
+    assert_eq!(scene.node_size, [6, 6]);
+    assert_eq!(scene.tri_size, [4, 4]);
+    let r = ray([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]);
+    check_agreement(&scene, &r, 0.0, f32::INFINITY)
+        .expect("agreement")
+        .expect("hit");
+    // 31 nodes need 6×6 at least: 5×5 = 25 is too small.
+    match encode(
+        &bvh,
+        &tris,
+        &attrs,
+        &EncodeOptions {
+            max_texture_size: 5,
+        },
+    ) {
+        Err(BvhError::TextureTooSmall {
+            what: "nodes",
+            count: 31,
+            max_size: 5,
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+    // 16 triangles exactly fill a 4 × 4 triangle texture (checked above); 17 do not.
+    let mut tris17 = tris.clone();
+    tris17.push([[40.0, 0.0, 0.0], [41.0, 0.0, 0.0], [40.0, 1.0, 0.0]]);
+    let bvh = Bvh::build(
+        &tris17,
+        &BuildOptions {
+            max_leaf_size: 32,
+            traversal_cost: 1e6,
+            ..BuildOptions::default()
+        },
+    )
+    .expect("build");
+    assert_eq!(bvh.nodes().len(), 1);
+    match encode(
+        &bvh,
+        &tris17,
+        &attributes(&tris17, 1),
+        &EncodeOptions {
+            max_texture_size: 4,
+        },
+    ) {
+        Err(BvhError::TextureTooSmall {
+            what: "triangles",
+            count: 17,
+            max_size: 4,
+        }) => {}
+        other => panic!("{other:?}"),
+    }
+}
+
+/// Slab test with ±0 direction components: rays in a box face plane, on its edges, and
+/// parallel to an axis at the slab boundary.
+#[test]
+fn slab_test_handles_signed_zero_directions() {
+    use luxbake_bvh::WatertightRay;
+    let (min, max) = ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]);
+    for zero in [0.0f32, -0.0] {
+        for (origin, dir, expect) in [
+            ([0.5, 0.5, -1.0], [zero, zero, 1.0], true),
+            ([0.0, 0.5, -1.0], [zero, zero, 1.0], true), // on the x = min face
+            ([1.0, 1.0, -1.0], [zero, zero, 1.0], true), // along an edge
+            ([1.0, 0.5, -1.0], [zero, zero, 1.0], true), // on the x = max face
+            ([1.0001, 0.5, -1.0], [zero, zero, 1.0], false),
+            ([-0.0001, 0.5, -1.0], [zero, zero, 1.0], false),
+            ([0.5, 0.5, 2.0], [zero, zero, -1.0], true),
+            ([0.5, 0.5, 2.0], [zero, zero, 1.0], false), // pointing away
+            ([0.5, 0.5, 0.5], [zero, 1.0, zero], true),  // inside
+            ([0.5, 0.5, 0.5], [1e-40, 1.0, -1e-40], true), // subnormal components
+            ([2.0, 0.5, 0.5], [1e-40, 1.0, zero], false),
+        ] {
+            let w = WatertightRay::new(&Ray { origin, dir }).expect("valid ray");
+            assert_eq!(
+                w.hits_box(min, max, 0.0, f32::INFINITY),
+                expect,
+                "{origin:?} {dir:?}"
+            );
+            assert_eq!(
+                w.hits_box(min, max, 1e-3, 1e30),
+                expect,
+                "{origin:?} {dir:?}"
+            );
+        }
+    }
+    // A flat (zero-thickness) box hit face-on and edge-on.
+    let w = WatertightRay::new(&Ray {
+        origin: [0.5, 0.5, -1.0],
+        dir: [0.0, -0.0, 1.0],
+    })
+    .expect("ray");
+    assert!(w.hits_box([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0, f32::INFINITY));
+    assert!(!w.hits_box([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0, 0.5));
+}
