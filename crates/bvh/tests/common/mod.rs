@@ -306,7 +306,10 @@ pub fn models_dir() -> Option<PathBuf> {
 /// World-space triangles of every mesh instance of the default scene of a `.glb` file.
 pub fn load_glb(path: &std::path::Path) -> Result<Vec<Tri>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let gltf = gltf::Gltf::from_slice(&bytes).map_err(|e| format!("{}: {e}", path.display()))?;
+    // Without validation: the models require material extensions (KHR_texture_transform)
+    // that do not matter for geometry.
+    let gltf = gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
     let blob = gltf.blob.as_deref().ok_or("no binary chunk")?;
     let scene = gltf
         .default_scene()
@@ -454,4 +457,135 @@ pub fn check_agreement(
         }
     }
     Ok(reference)
+}
+
+/// obvhs's own triangles for the same input.
+pub fn obvhs_triangles(tris: &[Tri]) -> Vec<obvhs::triangle::Triangle> {
+    tris.iter()
+        .map(|t| obvhs::triangle::Triangle {
+            v0: glam::Vec3A::from_array(t[0]),
+            v1: glam::Vec3A::from_array(t[1]),
+            v2: glam::Vec3A::from_array(t[2]),
+        })
+        .collect()
+}
+
+/// obvhs parameters comparable with ours: no spatial splits (every triangle in exactly one
+/// leaf), at most `max_leaf` triangles per leaf, collapse cost ratio 1 (our default costs).
+pub fn obvhs_params(slow: bool, max_leaf: u32) -> obvhs::BvhBuildParams {
+    let mut p = if slow {
+        obvhs::BvhBuildParams::very_slow_build()
+    } else {
+        obvhs::BvhBuildParams::medium_build()
+    };
+    p.pre_split = false;
+    p.max_prims_per_leaf = max_leaf;
+    p.collapse_traversal_cost = 1.0;
+    p
+}
+
+pub fn obvhs_build(
+    tris: &[obvhs::triangle::Triangle],
+    params: obvhs::BvhBuildParams,
+) -> obvhs::bvh2::Bvh2 {
+    obvhs::bvh2::builder::build_bvh2_from_tris(tris, params, &mut std::time::Duration::default())
+}
+
+/// SAH cost of an obvhs tree with our formula and constants (walked from the root).
+pub fn obvhs_sah(bvh: &obvhs::bvh2::Bvh2, traversal_cost: f32, intersection_cost: f32) -> f32 {
+    let mut order = Vec::with_capacity(bvh.nodes.len());
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let n = &bvh.nodes[i];
+        let leaf = n.prim_count > 0;
+        order.push((
+            n.aabb().min.to_array(),
+            n.aabb().max.to_array(),
+            leaf.then_some(n.prim_count),
+        ));
+        if !leaf {
+            stack.push(n.first_index as usize + 1);
+            stack.push(n.first_index as usize);
+        }
+    }
+    luxbake_bvh::sah_cost(order, traversal_cost, intersection_cost)
+}
+
+/// obvhs closest hit (its own stack traversal and Möller–Trumbore test): `(t, input index)`.
+pub fn obvhs_closest(
+    bvh: &obvhs::bvh2::Bvh2,
+    tris: &[obvhs::triangle::Triangle],
+    ray: &luxbake_bvh::Ray,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(f32, u32)> {
+    let r = obvhs::ray::Ray::new(
+        glam::Vec3A::from_array(ray.origin),
+        glam::Vec3A::from_array(ray.dir),
+        t_min,
+        t_max,
+    );
+    let mut hit = obvhs::ray::RayHit::none();
+    bvh.ray_traverse(r, &mut hit, |r, id| {
+        tris[bvh.primitive_indices[id] as usize].intersect(r)
+    })
+    .then(|| (hit.t, bvh.primitive_indices[hit.primitive_id as usize]))
+}
+
+/// obvhs any hit.
+pub fn obvhs_any(
+    bvh: &obvhs::bvh2::Bvh2,
+    tris: &[obvhs::triangle::Triangle],
+    ray: &luxbake_bvh::Ray,
+    t_min: f32,
+    t_max: f32,
+) -> bool {
+    let r = obvhs::ray::Ray::new(
+        glam::Vec3A::from_array(ray.origin),
+        glam::Vec3A::from_array(ray.dir),
+        t_min,
+        t_max,
+    );
+    !bvh.ray_traverse_miss(r, |r, id| {
+        tris[bvh.primitive_indices[id] as usize].intersect(r)
+    })
+}
+
+/// Rays for a model: half from random points around its bounds towards random points on
+/// random triangles, half from random points inside the bounds in random directions.
+pub fn model_rays(tris: &[Tri], count: usize, seed: u64) -> Vec<luxbake_bvh::Ray> {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in tris.iter().flatten() {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let mut rng = Rng::new(seed);
+    (0..count)
+        .map(|i| {
+            let pick = |rng: &mut Rng, grow: f32| -> [f32; 3] {
+                std::array::from_fn(|a| {
+                    let e = hi[a] - lo[a];
+                    rng.range(lo[a] - grow * e, hi[a] + grow * e)
+                })
+            };
+            if i % 2 == 0 && !tris.is_empty() {
+                let origin = pick(&mut rng, 0.5);
+                let t = tris[rng.below(tris.len() as u64) as usize];
+                let (a, b) = (rng.f32() * 0.5, rng.f32() * 0.5);
+                let target: [f32; 3] = std::array::from_fn(|k| {
+                    t[0][k] + a * (t[1][k] - t[0][k]) + b * (t[2][k] - t[0][k])
+                });
+                let dir = std::array::from_fn(|k| target[k] - origin[k]);
+                luxbake_bvh::Ray { origin, dir }
+            } else {
+                luxbake_bvh::Ray {
+                    origin: pick(&mut rng, 0.0),
+                    dir: rng.direction(),
+                }
+            }
+        })
+        .collect()
 }
