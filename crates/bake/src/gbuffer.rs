@@ -1,0 +1,357 @@
+//! The G-buffer: per light-map texel, the world position, normal and albedo of the surface
+//! point it samples, made by rasterising every receiver's triangles in light-map UV space.
+//!
+//! # Decision: the G-buffer is computed on the CPU, for every backend
+//! [`rasterize`] runs here, once, and every backend uploads its result. Hardware
+//! rasterisation differs between drivers in exactly the places that matter (coverage of
+//! texels on chart edges, conservative-raster support, f32 interpolation), and WebGL2 has no
+//! conservative rasterisation at all; one CPU rasteriser keeps the backends' inputs
+//! bit-identical, so backend differences are differences of the light passes only. It costs
+//! tens of milliseconds for the built-in scenes (parallel over objects with rayon).
+//!
+//! # Layout of the data
+//! Three RGBA32F texture arrays of `layers` layers of `layer_size[0] × layer_size[1]`
+//! texels, row 0 first, 4 floats per texel: the float index of texel `(x, y)` of layer `l` is
+//! `((l · height + y) · width + x) · 4` ([`GBuffer::index`]).
+//! - `position`: world xyz in metres, w = 1 for a valid texel, 0 for an empty one.
+//! - `normal`: world unit normal xyz (the interpolated vertex normal; the triangle's geometric
+//!   normal where that cannot be normalised), w = object index as f32.
+//! - `albedo`: linear RGB in [0, 1] (factor × vertex colour × texture), w = coverage: the
+//!   fraction of the texel's area inside the object's charts, estimated with 4×4 samples
+//!   (for diagnostics; a valid texel may have coverage 0 when a chart only grazes it).
+//!
+//! Empty texels are all zeros.
+//!
+//! # Conservative coverage
+//! Every texel that a triangle's UV footprint overlaps with positive area gets valid data,
+//! not only the texels whose centre lies inside a triangle, so the light passes sample the
+//! texels on chart edges that bilinear look-ups and the blur read. A texel takes its sample
+//! from the triangle nearest its centre among the triangles overlapping it (distance 0 when
+//! the centre is inside): the point of that triangle closest to the texel centre (clamped
+//! barycentrics), nudged 0.1 % of the way toward the triangle's centroid so it lies strictly
+//! inside the surface rather than on an edge that another surface shares. So an edge texel
+//! samples the surface at the chart's border, never empty space.
+//!
+//! Triangles with zero (or non-finite) UV area cover no texel and are skipped; triangles with
+//! zero world area still give finite positions (their interpolated normal, else their first
+//! vertex normal; a texel with no usable normal stays empty). Indices out of range and
+//! non-finite data are skipped, never a panic.
+
+use rayon::prelude::*;
+
+use crate::layout::{Layout, Region};
+use crate::scene::{Object, Scene, cross, normalize, sub3, tri_indices};
+
+/// Fraction of the way toward the centroid that a clamped edge sample is moved.
+pub const EDGE_NUDGE: f64 = 1e-3;
+
+/// Per-texel world position, normal, albedo and validity of every light map (see the module
+/// docs for the exact layout).
+#[derive(Debug, Clone, PartialEq)]
+pub struct GBuffer {
+    /// Width and height of every layer, texels.
+    pub layer_size: [u32; 2],
+    /// Number of layers.
+    pub layers: u32,
+    /// World xyz, w = 1 for a valid texel, 0 for empty.
+    pub position: Vec<f32>,
+    /// World unit normal xyz, w = object index as f32.
+    pub normal: Vec<f32>,
+    /// Linear rgb in [0, 1], w = coverage (fraction of the texel inside the charts).
+    pub albedo: Vec<f32>,
+}
+
+impl GBuffer {
+    /// Float index of the first component of texel `(x, y)` of `layer`. The caller keeps the
+    /// coordinates in range.
+    pub fn index(&self, layer: u32, x: u32, y: u32) -> usize {
+        let (w, h) = (self.layer_size[0] as usize, self.layer_size[1] as usize);
+        ((layer as usize * h + y as usize) * w + x as usize) * 4
+    }
+
+    /// Floats in one layer of one of the three arrays.
+    pub fn layer_len(&self) -> usize {
+        self.layer_size[0] as usize * self.layer_size[1] as usize * 4
+    }
+
+    /// Whether texel `(x, y)` of `layer` samples a surface; `false` out of range.
+    pub fn is_valid(&self, layer: u32, x: u32, y: u32) -> bool {
+        if layer >= self.layers || x >= self.layer_size[0] || y >= self.layer_size[1] {
+            return false;
+        }
+        self.position
+            .get(self.index(layer, x, y) + 3)
+            .is_some_and(|&w| w == 1.0)
+    }
+
+    /// Number of valid texels.
+    pub fn valid_texels(&self) -> u64 {
+        self.position
+            .chunks_exact(4)
+            .filter(|t| t[3] == 1.0)
+            .count() as u64
+    }
+}
+
+/// One texel's data: position, normal, albedo (RGBA each).
+type Texel = [[f32; 4]; 3];
+
+/// Rasterises every receiver of `scene` into its region of `layout` (which must have been
+/// made for this scene: one region entry per object).
+pub fn rasterize(scene: &Scene, layout: &Layout) -> GBuffer {
+    let (w, h) = (layout.layer_size[0] as usize, layout.layer_size[1] as usize);
+    let len = layout.layers as usize * w * h * 4;
+    let mut g = GBuffer {
+        layer_size: layout.layer_size,
+        layers: layout.layers,
+        position: vec![0.0; len],
+        normal: vec![0.0; len],
+        albedo: vec![0.0; len],
+    };
+    let jobs: Vec<(usize, &Object, Region)> = scene
+        .objects
+        .iter()
+        .enumerate()
+        .filter_map(|(i, o)| layout.regions.get(i).copied().flatten().map(|r| (i, o, r)))
+        .collect();
+    let maps: Vec<(Region, Vec<Option<Texel>>)> = jobs
+        .par_iter()
+        .map(|&(i, o, r)| (r, rasterize_object(o, i as u32, r.size)))
+        .collect();
+    for (r, texels) in maps {
+        for (k, t) in texels.iter().enumerate() {
+            let Some(t) = t else { continue };
+            let (x, y) = (k % r.size[0] as usize, k / r.size[0] as usize);
+            let (gx, gy) = (r.offset[0] as usize + x, r.offset[1] as usize + y);
+            if r.layer >= layout.layers || gx >= w || gy >= h {
+                continue;
+            }
+            let base = ((r.layer as usize * h + gy) * w + gx) * 4;
+            g.position[base..base + 4].copy_from_slice(&t[0]);
+            g.normal[base..base + 4].copy_from_slice(&t[1]);
+            g.albedo[base..base + 4].copy_from_slice(&t[2]);
+        }
+    }
+    g
+}
+
+#[derive(Clone, Copy)]
+struct Best {
+    dist: f64,
+    tri: u32,
+    bary: [f64; 3],
+}
+
+/// Rasterises one object into a `size` map (row-major, region-local texels).
+pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Option<Texel>> {
+    let (w, h) = (size[0] as usize, size[1] as usize);
+    let mut best: Vec<Option<Best>> = vec![None; w * h];
+    let mut mask = vec![0u16; w * h];
+    let m = &o.mesh;
+    let scale = [f64::from(size[0]), f64::from(size[1])];
+    for (ti, tri) in m.indices.iter().enumerate() {
+        let Some(idx) = tri_indices(tri, m) else {
+            continue;
+        };
+        let p = idx.map(|i| {
+            let uv = m.lightmap_uvs[i];
+            [f64::from(uv[0]) * scale[0], f64::from(uv[1]) * scale[1]]
+        });
+        let area2 = cross2(sub2(p[1], p[0]), sub2(p[2], p[0]));
+        if !(area2.is_finite() && area2.abs() > 1e-12) {
+            continue;
+        }
+        let lo = [
+            p[0][0].min(p[1][0]).min(p[2][0]),
+            p[0][1].min(p[1][1]).min(p[2][1]),
+        ];
+        let hi = [
+            p[0][0].max(p[1][0]).max(p[2][0]),
+            p[0][1].max(p[1][1]).max(p[2][1]),
+        ];
+        let x0 = lo[0].floor().clamp(0.0, w as f64) as usize;
+        let x1 = hi[0].ceil().clamp(0.0, w as f64) as usize;
+        let y0 = lo[1].floor().clamp(0.0, h as f64) as usize;
+        let y1 = hi[1].ceil().clamp(0.0, h as f64) as usize;
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let cell = [x as f64, y as f64];
+                if !overlaps(&p, cell) {
+                    continue;
+                }
+                let k = y * w + x;
+                let centre = [cell[0] + 0.5, cell[1] + 0.5];
+                let (dist, bary) = closest(&p, area2, centre);
+                if best[k].is_none_or(|b| dist < b.dist) {
+                    best[k] = Some(Best {
+                        dist,
+                        tri: ti as u32,
+                        bary,
+                    });
+                }
+                mask[k] |= coverage_mask(&p, area2, cell);
+            }
+        }
+    }
+    best.iter()
+        .zip(&mask)
+        .map(|(b, &mk)| {
+            let b = (*b)?;
+            texel(o, index, b, mk)
+        })
+        .collect()
+}
+
+/// The G-buffer entry for the sample `b` of object `o`.
+fn texel(o: &Object, index: u32, b: Best, mask: u16) -> Option<Texel> {
+    let m = &o.mesh;
+    let idx = tri_indices(m.indices.get(b.tri as usize)?, m)?;
+    let bary = if b.dist > 0.0 {
+        b.bary.map(|l| l * (1.0 - EDGE_NUDGE) + EDGE_NUDGE / 3.0)
+    } else {
+        b.bary
+    };
+    let interp3 = |v: [[f64; 3]; 3]| -> [f64; 3] {
+        std::array::from_fn(|k| bary[0] * v[0][k] + bary[1] * v[1][k] + bary[2] * v[2][k])
+    };
+    let wp = idx.map(|i| o.transform.point_f64(m.positions[i].map(f64::from)));
+    let pos = interp3(wp);
+    if !pos.iter().all(|c| c.is_finite()) {
+        return None;
+    }
+    let wn = idx.map(|i| {
+        o.transform
+            .normal_f64(m.normals[i].map(f64::from))
+            .unwrap_or([0.0; 3])
+    });
+    let n = normalize(interp3(wn))
+        .or_else(|| normalize(cross(sub3(wp[1], wp[0]), sub3(wp[2], wp[0]))))
+        .or_else(|| wn.iter().find_map(|&v| normalize(v)))?;
+    let mut albedo = o.albedo.factor.map(f64::from);
+    if let Some(colors) = &m.colors
+        && let Some(c) = idx
+            .iter()
+            .map(|&i| colors.get(i))
+            .collect::<Option<Vec<_>>>()
+    {
+        let c = interp3([c[0], c[1], c[2]].map(|v| v.map(f64::from)));
+        albedo = std::array::from_fn(|k| albedo[k] * c[k]);
+    }
+    if let (Some(tex), Some(uvs)) = (&o.albedo.texture, &m.material_uvs)
+        && let Some(t) = idx.iter().map(|&i| uvs.get(i)).collect::<Option<Vec<_>>>()
+    {
+        let uv: [f64; 2] = std::array::from_fn(|k| {
+            bary[0] * f64::from(t[0][k])
+                + bary[1] * f64::from(t[1][k])
+                + bary[2] * f64::from(t[2][k])
+        });
+        let s = tex.sample(uv.map(|c| c as f32));
+        albedo = std::array::from_fn(|k| albedo[k] * f64::from(s[k]));
+    }
+    let albedo = albedo.map(|a| if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 } as f32);
+    let coverage = mask.count_ones() as f32 / 16.0;
+    Some([
+        [pos[0] as f32, pos[1] as f32, pos[2] as f32, 1.0],
+        [n[0] as f32, n[1] as f32, n[2] as f32, index as f32],
+        [albedo[0], albedo[1], albedo[2], coverage],
+    ])
+}
+
+fn sub2(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
+    [a[0] - b[0], a[1] - b[1]]
+}
+
+fn cross2(a: [f64; 2], b: [f64; 2]) -> f64 {
+    a[0] * b[1] - a[1] * b[0]
+}
+
+/// Whether the triangle `p` and the unit texel square with top-left corner `cell` overlap
+/// with positive area (separating-axis test; touching along an edge does not count).
+fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
+    const EPS: f64 = 1e-9;
+    for k in 0..2 {
+        let lo = p[0][k].min(p[1][k]).min(p[2][k]);
+        let hi = p[0][k].max(p[1][k]).max(p[2][k]);
+        if hi <= cell[k] + EPS || lo >= cell[k] + 1.0 - EPS {
+            return false;
+        }
+    }
+    let centre = [cell[0] + 0.5, cell[1] + 0.5];
+    for i in 0..3 {
+        let e = sub2(p[(i + 1) % 3], p[i]);
+        let n = [-e[1], e[0]];
+        let len = (n[0] * n[0] + n[1] * n[1]).sqrt();
+        let proj = p.map(|q| n[0] * q[0] + n[1] * q[1]);
+        let (tlo, thi) = (
+            proj[0].min(proj[1]).min(proj[2]),
+            proj[0].max(proj[1]).max(proj[2]),
+        );
+        let c = n[0] * centre[0] + n[1] * centre[1];
+        let r = 0.5 * (n[0].abs() + n[1].abs());
+        if thi <= c - r + EPS * len || tlo >= c + r - EPS * len {
+            return false;
+        }
+    }
+    true
+}
+
+/// Barycentrics of `q` in triangle `p` (twice-signed-area `area2`).
+fn barycentric(p: &[[f64; 2]; 3], area2: f64, q: [f64; 2]) -> [f64; 3] {
+    let l0 = cross2(sub2(p[1], q), sub2(p[2], q)) / area2;
+    let l1 = cross2(sub2(p[2], q), sub2(p[0], q)) / area2;
+    [l0, l1, 1.0 - l0 - l1]
+}
+
+/// Distance (texels) from `q` to triangle `p` and the barycentrics of the closest point.
+fn closest(p: &[[f64; 2]; 3], area2: f64, q: [f64; 2]) -> (f64, [f64; 3]) {
+    let b = barycentric(p, area2, q);
+    if b.iter().all(|&l| l >= 0.0) {
+        return (0.0, b);
+    }
+    let mut best = (f64::INFINITY, [1.0 / 3.0; 3]);
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        let e = sub2(p[j], p[i]);
+        let ee = e[0] * e[0] + e[1] * e[1];
+        let t = if ee > 0.0 {
+            ((q[0] - p[i][0]) * e[0] + (q[1] - p[i][1]) * e[1]) / ee
+        } else {
+            0.0
+        }
+        .clamp(0.0, 1.0);
+        let c = [p[i][0] + t * e[0], p[i][1] + t * e[1]];
+        let d = ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)).sqrt();
+        if d < best.0 {
+            let mut bary = [0.0; 3];
+            bary[i] = 1.0 - t;
+            bary[j] = t;
+            best = (d, bary);
+        }
+    }
+    best
+}
+
+/// 4×4 sample mask of the texel `cell` inside triangle `p`.
+fn coverage_mask(p: &[[f64; 2]; 3], area2: f64, cell: [f64; 2]) -> u16 {
+    let inside = |q: [f64; 2]| barycentric(p, area2, q).iter().all(|&l| l >= 0.0);
+    let corners = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
+    if corners
+        .iter()
+        .all(|c| inside([cell[0] + c[0], cell[1] + c[1]]))
+    {
+        return u16::MAX;
+    }
+    let mut mask = 0u16;
+    for j in 0..4 {
+        for i in 0..4 {
+            let q = [
+                cell[0] + (i as f64 + 0.5) / 4.0,
+                cell[1] + (j as f64 + 0.5) / 4.0,
+            ];
+            if inside(q) {
+                mask |= 1 << (j * 4 + i);
+            }
+        }
+    }
+    mask
+}

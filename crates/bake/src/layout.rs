@@ -1,0 +1,291 @@
+//! Light-map layout: texel density → per-object map size → rectangles in texture-array layers.
+//!
+//! # Map size
+//! An object's light-map UVs span [0, 1]²; the layout measures how many metres of (world,
+//! transformed) surface that square spans along u and along v ([`lightmap_extent`]) and sizes
+//! the map as `ceil(extent · texels_per_metre · texel_scale)` texels per axis (at least 1), so
+//! every receiver is sampled at the same density (times its `texel_scale`) whatever its size.
+//!
+//! # Texture arrays (paper §3.3)
+//! All maps live in one texture array whose layer size is the largest map's width × the
+//! largest map's height. Maps are not rescaled to the layer: each map occupies a
+//! sub-rectangle ([`Region`]) of a layer, and smaller maps share layers — they are packed
+//! with a shelf packer, tallest first, [`REGION_GAP`] texels apart so a blur cannot carry one
+//! object's light into another's map. Non-receivers get no region (`None`). A scene with no
+//! receiver has zero layers.
+
+use crate::scene::{Object, Scene, sub3};
+
+/// Empty texels between two regions of the same layer.
+pub const REGION_GAP: u32 = 4;
+
+/// Errors of [`Layout::new`].
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum LayoutError {
+    /// The texel density is not a finite positive number.
+    #[error("texels_per_metre must be finite and > 0, got {0}")]
+    InvalidDensity(f32),
+    /// An object's texel scale is not a finite positive number.
+    #[error("object `{object}`: texel_scale must be finite and > 0, got {value}")]
+    InvalidTexelScale {
+        /// The object's name.
+        object: String,
+        /// Its texel scale.
+        value: f32,
+    },
+    /// A receiver's light-map UVs cover no area (or its surface has none), so it has no size.
+    #[error("object `{object}`: its light-map UVs or its surface have no area")]
+    NoLightmapArea {
+        /// The object's name.
+        object: String,
+    },
+    /// A map does not fit the backend's maximum texture size.
+    #[error(
+        "object `{object}`: a {}×{} light map exceeds the maximum texture size {max}; lower \
+         texels_per_metre to at most {suggested_density:.1}",
+        size[0], size[1]
+    )]
+    MapTooLarge {
+        /// The object's name.
+        object: String,
+        /// The map size it would need, texels.
+        size: [u64; 2],
+        /// The maximum texture size.
+        max: u32,
+        /// A density at which it would fit.
+        suggested_density: f32,
+    },
+    /// The maps need more layers than the backend allows.
+    #[error("the light maps need {needed} texture-array layers, the backend allows {max}")]
+    TooManyLayers {
+        /// Layers needed.
+        needed: u32,
+        /// Layers allowed.
+        max: u32,
+    },
+}
+
+/// Where one object's light map lives: a texel rectangle in one layer of the texture array.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Region {
+    /// Layer of the texture array.
+    pub layer: u32,
+    /// Top-left texel (x = column, y = row) of the rectangle in its layer.
+    pub offset: [u32; 2],
+    /// Width and height, texels.
+    pub size: [u32; 2],
+}
+
+impl Region {
+    /// Number of texels in the rectangle.
+    pub fn texel_count(&self) -> u64 {
+        u64::from(self.size[0]) * u64::from(self.size[1])
+    }
+
+    /// The texel `(x, y)` (column, row, in its layer) holding light-map UV `uv`, clamped to
+    /// the rectangle; `None` for non-finite UVs.
+    pub fn texel_at(&self, uv: [f32; 2]) -> Option<[u32; 2]> {
+        if !uv.iter().all(|c| c.is_finite()) {
+            return None;
+        }
+        Some(std::array::from_fn(|k| {
+            let t = (f64::from(uv[k]) * f64::from(self.size[k])).floor();
+            let t = t.clamp(0.0, f64::from(self.size[k].saturating_sub(1))) as u32;
+            self.offset[k] + t
+        }))
+    }
+}
+
+/// The light-map layout of a scene.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Layout {
+    /// Width and height of every layer, texels.
+    pub layer_size: [u32; 2],
+    /// Number of layers.
+    pub layers: u32,
+    /// One entry per scene object, in object order; `None` for non-receivers.
+    pub regions: Vec<Option<Region>>,
+}
+
+impl Layout {
+    /// Lays out the receivers of `scene` at `scene.settings.texels_per_metre`, with maps of at
+    /// most `max_texture_size` texels per side in at most `max_layers` layers.
+    pub fn new(
+        scene: &Scene,
+        max_texture_size: u32,
+        max_layers: u32,
+    ) -> Result<Layout, LayoutError> {
+        let density = scene.settings.texels_per_metre;
+        if !(density.is_finite() && density > 0.0) {
+            return Err(LayoutError::InvalidDensity(density));
+        }
+        let mut sizes = Vec::with_capacity(scene.objects.len());
+        for o in &scene.objects {
+            sizes.push(if o.receiver {
+                Some(map_size(o, density, max_texture_size)?)
+            } else {
+                None
+            });
+        }
+        let layer_size = sizes
+            .iter()
+            .flatten()
+            .fold([0u32; 2], |acc, s| [acc[0].max(s[0]), acc[1].max(s[1])]);
+        let mut order: Vec<usize> = (0..sizes.len()).filter(|&i| sizes[i].is_some()).collect();
+        order.sort_by_key(|&i| {
+            let s = sizes[i].unwrap_or([0, 0]);
+            (std::cmp::Reverse(s[1]), std::cmp::Reverse(s[0]), i)
+        });
+        let mut layers: Vec<Vec<Shelf>> = Vec::new();
+        let mut regions = vec![None; sizes.len()];
+        for i in order {
+            let Some(size) = sizes[i] else { continue };
+            let placed = layers
+                .iter_mut()
+                .enumerate()
+                .find_map(|(l, shelves)| place(shelves, size, layer_size).map(|o| (l, o)));
+            let (layer, offset) = match placed {
+                Some(p) => p,
+                None => {
+                    let mut shelves = Vec::new();
+                    let offset = place(&mut shelves, size, layer_size).unwrap_or([0, 0]);
+                    layers.push(shelves);
+                    (layers.len() - 1, offset)
+                }
+            };
+            regions[i] = Some(Region {
+                layer: layer as u32,
+                offset,
+                size,
+            });
+        }
+        let needed = layers.len() as u32;
+        if needed > max_layers {
+            return Err(LayoutError::TooManyLayers {
+                needed,
+                max: max_layers,
+            });
+        }
+        Ok(Layout {
+            layer_size,
+            layers: needed,
+            regions,
+        })
+    }
+
+    /// Light-map texels the passes compute: the sum of the regions' areas (the paper's
+    /// "light-map texels" of Table 1). Texels of a region outside every chart are included;
+    /// [`crate::gbuffer::GBuffer::valid_texels`] counts only those on a surface.
+    pub fn texel_count(&self) -> u64 {
+        self.regions.iter().flatten().map(Region::texel_count).sum()
+    }
+
+    /// Texels allocated in the texture array (`layers × layer width × layer height`).
+    pub fn allocated_texels(&self) -> u64 {
+        u64::from(self.layers) * u64::from(self.layer_size[0]) * u64::from(self.layer_size[1])
+    }
+}
+
+#[derive(Debug)]
+struct Shelf {
+    y: u32,
+    height: u32,
+    next_x: u32,
+}
+
+/// Finds a place for a `size` rectangle among the shelves of one layer, opening a new shelf
+/// below the last one if needed.
+fn place(shelves: &mut Vec<Shelf>, size: [u32; 2], layer: [u32; 2]) -> Option<[u32; 2]> {
+    for s in shelves.iter_mut() {
+        if size[1] <= s.height && s.next_x.saturating_add(size[0]) <= layer[0] {
+            let x = s.next_x;
+            s.next_x = x.saturating_add(size[0]).saturating_add(REGION_GAP);
+            return Some([x, s.y]);
+        }
+    }
+    let y = shelves.last().map_or(0, |s| {
+        s.y.saturating_add(s.height).saturating_add(REGION_GAP)
+    });
+    (size[0] <= layer[0] && y.saturating_add(size[1]) <= layer[1]).then(|| {
+        shelves.push(Shelf {
+            y,
+            height: size[1],
+            next_x: size[0].saturating_add(REGION_GAP),
+        });
+        [0, y]
+    })
+}
+
+/// The light-map size of one object at `texels_per_metre` (times its `texel_scale`).
+pub fn map_size(
+    object: &Object,
+    texels_per_metre: f32,
+    max_texture_size: u32,
+) -> Result<[u32; 2], LayoutError> {
+    let scale = object.texel_scale;
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(LayoutError::InvalidTexelScale {
+            object: object.name.clone(),
+            value: scale,
+        });
+    }
+    let extent = lightmap_extent(object).ok_or_else(|| LayoutError::NoLightmapArea {
+        object: object.name.clone(),
+    })?;
+    let d = f64::from(texels_per_metre) * f64::from(scale);
+    let want = extent.map(|e| (e * d).ceil().max(1.0));
+    let longest = want[0].max(want[1]);
+    if longest > f64::from(max_texture_size) {
+        let suggested = f64::from(max_texture_size) / (extent[0].max(extent[1]) * f64::from(scale));
+        return Err(LayoutError::MapTooLarge {
+            object: object.name.clone(),
+            size: want.map(|w| w.min(u64::MAX as f64) as u64),
+            max: max_texture_size,
+            suggested_density: (suggested * 0.999) as f32,
+        });
+    }
+    Ok(want.map(|w| w as u32))
+}
+
+/// Metres of world surface spanned by the object's light-map square along u and along v:
+/// `sqrt(A_world / A_uv)` split by the area-weighted ratio of the surface's stretch along u
+/// and v (exact for charts laid out at a uniform metric scale, as [`crate::meshes`] does).
+/// `None` when the UVs or the surface have no area, or the data is not finite.
+pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
+    let m = &object.mesh;
+    let (mut area_world, mut area_uv, mut stretch_u, mut stretch_v) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for tri in &m.indices {
+        let Some(idx) = crate::scene::tri_indices(tri, m) else {
+            continue;
+        };
+        let p = idx.map(|i| object.transform.point_f64(m.positions[i].map(f64::from)));
+        let t = idx.map(|i| m.lightmap_uvs[i].map(f64::from));
+        let (e1, e2) = (sub3(p[1], p[0]), sub3(p[2], p[0]));
+        let (d1, d2) = (
+            [t[1][0] - t[0][0], t[1][1] - t[0][1]],
+            [t[2][0] - t[0][0], t[2][1] - t[0][1]],
+        );
+        let det = d1[0] * d2[1] - d1[1] * d2[0];
+        let aw = crate::scene::length(crate::scene::cross(e1, e2)) / 2.0;
+        let auv = det.abs() / 2.0;
+        if !(aw.is_finite() && auv.is_finite()) || auv == 0.0 {
+            continue;
+        }
+        // dP/du and dP/dv of the affine map from UV to the surface.
+        let dpdu: [f64; 3] = std::array::from_fn(|k| (d2[1] * e1[k] - d1[1] * e2[k]) / det);
+        let dpdv: [f64; 3] = std::array::from_fn(|k| (-d2[0] * e1[k] + d1[0] * e2[k]) / det);
+        area_world += aw;
+        area_uv += auv;
+        stretch_u += auv * crate::scene::length(dpdu);
+        stretch_v += auv * crate::scene::length(dpdv);
+    }
+    if !(area_world > 0.0 && area_uv > 0.0 && stretch_u > 0.0 && stretch_v > 0.0) {
+        return None;
+    }
+    let side2 = area_world / area_uv; // extent_u · extent_v
+    let aspect = stretch_u / stretch_v; // extent_u / extent_v
+    let e = [(side2 * aspect).sqrt(), (side2 / aspect).sqrt()];
+    e.iter().all(|x| x.is_finite() && *x > 0.0).then_some(e)
+}

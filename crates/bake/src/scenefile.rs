@@ -1,0 +1,667 @@
+//! The TOML scene-file format.
+//!
+//! A scene file describes objects, lamps and settings so that people and other tools can
+//! write scenes without reading the code. Units are metres, degrees, candela; the world is
+//! right-handed with +Y up (as glTF). Relative paths are relative to the scene file's folder.
+//! Unknown keys and tables are errors, and every error names the key it is about (for
+//! example `object[1].size` or `settings.rays`); type errors carry the line and column.
+//! The full reference with an example is `docs/scene-file.md`; a complete example is
+//! `crates/bake/examples/room.toml`.
+//!
+//! ```toml
+//! [settings]                  # all optional; the CLI flags override them
+//! rays = 256                  # gather rays per texel per bounce, 1..=65536
+//! bounces = 1                 # indirect bounces, 0..=64
+//! blur = 2.0                  # Gaussian sigma in texels (0 < sigma <= 64), or "none"
+//! texels_per_metre = 64.0     # light-map density, 0 < d <= 10000
+//! bvh = "mtbvh"               # "mtbvh", "tbvh" or "none"
+//! seed = 0                    # 0..=4294967295
+//! backend = "cpu"             # "cpu", "glow" or "wgpu"
+//!
+//! [[lamp]]                    # at least one
+//! name = "downlight"          # optional, for reports
+//! ies = "lamp.ies"            # .ies/.ldt path, "isotropic:1000" (candela), or
+//!                             # "builtin:downlight" (the default when omitted)
+//! position = [0.0, 2.25, 0.0] # photometric centre, required
+//! aim = [0.0, -1.0, 0.0]      # photometric nadir (default straight down), non-zero
+//! rotation_deg = 0.0          # turn of the C0 plane about the aim axis
+//! multiplier = 1.0            # >= 0
+//! color = [1.0, 1.0, 1.0]     # linear RGB tint, each >= 0
+//!
+//! [[object]]                  # at least one
+//! name = "room"               # optional (default: the primitive or builtin name, made
+//!                             # unique); letters, digits, '_', '-', '.': it names files
+//! primitive = "room"          # "room", "box", "plane" or "sphere" — or instead:
+//! # builtin = "chair"         # "chair" or "sofa"
+//! size = [4.0, 2.5, 3.0]      # room, box: [x, y, z]; plane: [x, z]; metres, > 0
+//! # radius = 1.5              # sphere only, > 0
+//! # inward = false            # sphere and box only (a room is always inward)
+//! # segments = 32             # sphere only: grid segments per cube-face edge, 1..=256
+//! position = [0.0, 0.0, 0.0]  # room, box, chair, sofa: floor/base centre; plane and
+//!                             # sphere: centre
+//! rotation_deg = [0.0, 0.0, 0.0] # about world X, then Y, then Z
+//! scale = 1.0                 # or [x, y, z]; non-zero
+//! albedo = 0.5                # or [r, g, b], each in [0, 1]
+//! floor_albedo = 0.3          # room only, override `albedo` per part:
+//! walls_albedo = 0.7          #   also accept [r, g, b]
+//! ceiling_albedo = 0.8
+//! receiver = true             # false: casts shadows, gets no light map
+//! texel_scale = 1.0           # multiplier on texels_per_metre for this object, (0, 100]
+//! ```
+//!
+//! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
+//! ([`crate::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives and
+//! [`crate::builtin::FURNITURE_TEXEL_SCALE`] for the built-in furniture.
+
+use std::collections::HashSet;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use luxbake_ies::Photometry;
+use serde::Deserialize;
+use toml::Value;
+
+use crate::builtin;
+use crate::meshes::{self, RoomAlbedo};
+use crate::scene::{Albedo, Lamp, Object, Scene, SceneError, Settings, Transform};
+
+/// Largest scene file read, bytes.
+pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 20;
+/// Largest photometric file read, bytes.
+pub const MAX_PHOTOMETRY_FILE_BYTES: u64 = 16 << 20;
+/// Most objects a scene file may hold.
+pub const MAX_OBJECTS: usize = 10_000;
+/// Most lamps a scene file may hold.
+pub const MAX_LAMPS: usize = 1_000;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    settings: Option<RawSettings>,
+    #[serde(default)]
+    lamp: Vec<RawLamp>,
+    #[serde(default)]
+    object: Vec<RawObject>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawSettings {
+    rays: Option<u32>,
+    bounces: Option<u32>,
+    blur: Option<Value>,
+    texels_per_metre: Option<f64>,
+    bvh: Option<String>,
+    seed: Option<u32>,
+    backend: Option<String>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLamp {
+    name: Option<String>,
+    ies: Option<String>,
+    position: [f64; 3],
+    aim: Option<[f64; 3]>,
+    rotation_deg: Option<f64>,
+    multiplier: Option<f64>,
+    color: Option<[f64; 3]>,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawObject {
+    name: Option<String>,
+    primitive: Option<String>,
+    builtin: Option<String>,
+    size: Option<Vec<f64>>,
+    radius: Option<f64>,
+    inward: Option<bool>,
+    segments: Option<u32>,
+    position: Option<[f64; 3]>,
+    rotation_deg: Option<[f64; 3]>,
+    scale: Option<Value>,
+    albedo: Option<Value>,
+    floor_albedo: Option<Value>,
+    walls_albedo: Option<Value>,
+    ceiling_albedo: Option<Value>,
+    receiver: Option<bool>,
+    texel_scale: Option<f64>,
+}
+
+/// Reads and parses a scene file.
+pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+    let io = |source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let len = std::fs::metadata(path).map_err(io)?.len();
+    if len > MAX_SCENE_FILE_BYTES {
+        return Err(SceneError::Toml {
+            path: Some(path.to_path_buf()),
+            message: format!("{len} bytes; scene files are limited to {MAX_SCENE_FILE_BYTES}"),
+        });
+    }
+    let text = std::fs::read_to_string(path).map_err(io)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    from_str(&text, base, Some(path))
+}
+
+/// Parses scene-file text; relative paths are relative to `base_dir`; `path` names the file
+/// in errors.
+pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scene, SceneError> {
+    let cx = Cx {
+        path: path.map(Path::to_path_buf),
+        base_dir: base_dir.to_path_buf(),
+    };
+    let raw: RawScene = toml::from_str(text).map_err(|e| SceneError::Toml {
+        path: cx.path.clone(),
+        message: e.to_string(),
+    })?;
+    let settings = cx.settings(raw.settings)?;
+    if raw.lamp.is_empty() {
+        return Err(cx.invalid("lamp", "a scene needs at least one [[lamp]]"));
+    }
+    if raw.lamp.len() > MAX_LAMPS {
+        return Err(cx.invalid(
+            "lamp",
+            format!("{} lamps; at most {MAX_LAMPS}", raw.lamp.len()),
+        ));
+    }
+    if raw.object.is_empty() {
+        return Err(cx.invalid("object", "a scene needs at least one [[object]]"));
+    }
+    if raw.object.len() > MAX_OBJECTS {
+        return Err(cx.invalid(
+            "object",
+            format!("{} objects; at most {MAX_OBJECTS}", raw.object.len()),
+        ));
+    }
+    let lamps = raw
+        .lamp
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| cx.lamp(i, l))
+        .collect::<Result<Vec<_>, _>>()?;
+    let mut names = HashSet::new();
+    let mut objects = Vec::new();
+    for (i, o) in raw.object.into_iter().enumerate() {
+        objects.push(cx.object(i, o, &settings, &mut names)?);
+    }
+    Ok(Scene {
+        objects,
+        lamps,
+        settings,
+    })
+}
+
+struct Cx {
+    path: Option<PathBuf>,
+    base_dir: PathBuf,
+}
+
+impl Cx {
+    fn invalid(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
+        SceneError::Invalid {
+            path: self.path.clone(),
+            key: key.into(),
+            message: message.into(),
+        }
+    }
+
+    fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
+        let mut s = Settings::default();
+        let Some(raw) = raw else { return Ok(s) };
+        if let Some(rays) = raw.rays {
+            if !(1..=65_536).contains(&rays) {
+                return Err(self.invalid("settings.rays", format!("{rays}; expected 1..=65536")));
+            }
+            s.rays = rays;
+        }
+        if let Some(b) = raw.bounces {
+            if b > 64 {
+                return Err(self.invalid("settings.bounces", format!("{b}; expected 0..=64")));
+            }
+            s.bounces = b;
+        }
+        if let Some(v) = raw.blur {
+            s.blur = match &v {
+                Value::String(t) if t.eq_ignore_ascii_case("none") => crate::scene::Blur::None,
+                Value::Float(_) | Value::Integer(_) => {
+                    let sigma = number(&v).unwrap_or(f64::NAN);
+                    if !(sigma > 0.0 && sigma <= 64.0) {
+                        return Err(self.invalid(
+                            "settings.blur",
+                            format!(
+                                "{sigma}; expected a sigma in texels, 0 < sigma <= 64, or \"none\""
+                            ),
+                        ));
+                    }
+                    crate::scene::Blur::Sigma(sigma as f32)
+                }
+                other => {
+                    return Err(self.invalid(
+                        "settings.blur",
+                        format!("{other}; expected \"none\" or a sigma in texels"),
+                    ));
+                }
+            };
+        }
+        if let Some(d) = raw.texels_per_metre {
+            if !(d > 0.0 && d <= 10_000.0) {
+                return Err(self.invalid(
+                    "settings.texels_per_metre",
+                    format!("{d}; expected 0 < texels_per_metre <= 10000"),
+                ));
+            }
+            s.texels_per_metre = d as f32;
+        }
+        if let Some(b) = raw.bvh {
+            s.bvh = b
+                .parse()
+                .map_err(|e: String| self.invalid("settings.bvh", e))?;
+        }
+        if let Some(seed) = raw.seed {
+            s.seed = seed;
+        }
+        if let Some(b) = raw.backend {
+            s.backend = b
+                .parse()
+                .map_err(|e: String| self.invalid("settings.backend", e))?;
+        }
+        Ok(s)
+    }
+
+    fn lamp(&self, i: usize, raw: RawLamp) -> Result<Lamp, SceneError> {
+        let key = |k: &str| format!("lamp[{i}].{k}");
+        let ies = raw.ies.as_deref().unwrap_or("builtin:downlight");
+        let photometry = self.photometry(&key("ies"), ies)?;
+        let position = self.finite3(&key("position"), raw.position)?;
+        let mut lamp = Lamp::new(
+            raw.name.unwrap_or_else(|| format!("lamp_{i}")),
+            photometry,
+            position,
+        );
+        if let Some(aim) = raw.aim {
+            let aim = self.finite3(&key("aim"), aim)?;
+            if aim.iter().all(|&c| c == 0.0) {
+                return Err(self.invalid(key("aim"), "the zero vector has no direction"));
+            }
+            lamp.aim = aim;
+        }
+        if let Some(r) = raw.rotation_deg {
+            lamp.rotation_deg = self.finite(&key("rotation_deg"), r)?;
+        }
+        if let Some(m) = raw.multiplier {
+            if !(m >= 0.0 && m.is_finite()) {
+                return Err(self.invalid(
+                    key("multiplier"),
+                    format!("{m}; expected a finite number >= 0"),
+                ));
+            }
+            lamp.multiplier = m as f32;
+        }
+        if let Some(c) = raw.color {
+            if !c.iter().all(|&v| v >= 0.0 && v.is_finite()) {
+                return Err(self.invalid(
+                    key("color"),
+                    format!("{c:?}; expected finite components >= 0"),
+                ));
+            }
+            lamp.color = c.map(|v| v as f32);
+        }
+        Ok(lamp)
+    }
+
+    fn photometry(&self, key: &str, ies: &str) -> Result<Arc<Photometry>, SceneError> {
+        if let Some(cd) = ies.strip_prefix("isotropic:") {
+            let cd: f64 = cd.trim().parse().map_err(|_| {
+                self.invalid(
+                    key,
+                    format!("`{ies}`: expected \"isotropic:<candela>\", e.g. \"isotropic:1000\""),
+                )
+            })?;
+            if !(cd >= 0.0 && cd.is_finite()) {
+                return Err(self.invalid(
+                    key,
+                    format!("`{ies}`: the intensity must be finite and >= 0"),
+                ));
+            }
+            return Ok(Arc::new(Photometry::isotropic(cd)));
+        }
+        if let Some(name) = ies.strip_prefix("builtin:") {
+            return match name {
+                "downlight" => builtin::default_photometry(),
+                _ => Err(self.invalid(
+                    key,
+                    format!("`{ies}`: the only built-in lamp is \"builtin:downlight\""),
+                )),
+            };
+        }
+        let file = self.base_dir.join(ies);
+        let len = std::fs::metadata(&file)
+            .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?
+            .len();
+        if len > MAX_PHOTOMETRY_FILE_BYTES {
+            return Err(self.invalid(
+                key,
+                format!(
+                    "`{}` has {len} bytes; at most {MAX_PHOTOMETRY_FILE_BYTES}",
+                    file.display()
+                ),
+            ));
+        }
+        let bytes = std::fs::read(&file)
+            .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?;
+        Photometry::parse(&bytes)
+            .map(Arc::new)
+            .map_err(|e| SceneError::Photometry {
+                key: key.to_string(),
+                file,
+                source: Box::new(e),
+            })
+    }
+
+    fn object(
+        &self,
+        i: usize,
+        raw: RawObject,
+        settings: &Settings,
+        names: &mut HashSet<String>,
+    ) -> Result<Object, SceneError> {
+        let key = |k: &str| format!("object[{i}].{k}");
+        let kind = match (&raw.primitive, &raw.builtin) {
+            (Some(p), None) => match p.as_str() {
+                "room" | "box" | "plane" | "sphere" => p.clone(),
+                _ => {
+                    return Err(self.invalid(
+                        key("primitive"),
+                        format!("`{p}`; expected \"room\", \"box\", \"plane\" or \"sphere\""),
+                    ));
+                }
+            },
+            (None, Some(b)) => match b.as_str() {
+                "chair" | "sofa" => b.clone(),
+                _ => {
+                    return Err(self.invalid(
+                        key("builtin"),
+                        format!("`{b}`; expected \"chair\" or \"sofa\" (file meshes come later)"),
+                    ));
+                }
+            },
+            (Some(_), Some(_)) => {
+                return Err(self.invalid(
+                    key("builtin"),
+                    "give either `primitive` or `builtin`, not both",
+                ));
+            }
+            (None, None) => {
+                return Err(self.invalid(
+                    format!("object[{i}]"),
+                    "missing `primitive` (\"room\", \"box\", \"plane\", \"sphere\") or `builtin` (\"chair\", \"sofa\")",
+                ));
+            }
+        };
+        // Keys that only some kinds accept.
+        let only = |present: bool, k: &str, kinds: &[&str], what: &str| {
+            if present && !kinds.contains(&kind.as_str()) {
+                Err(self.invalid(
+                    key(k),
+                    format!("a {kind} has no {what} (only {})", kinds.join(", ")),
+                ))
+            } else {
+                Ok(())
+            }
+        };
+        only(
+            raw.size.is_some(),
+            "size",
+            &["room", "box", "plane"],
+            "`size`",
+        )?;
+        only(raw.radius.is_some(), "radius", &["sphere"], "`radius`")?;
+        only(
+            raw.inward.is_some(),
+            "inward",
+            &["sphere", "box"],
+            "`inward`",
+        )?;
+        only(
+            raw.segments.is_some(),
+            "segments",
+            &["sphere"],
+            "`segments`",
+        )?;
+        for (present, k) in [
+            (raw.floor_albedo.is_some(), "floor_albedo"),
+            (raw.walls_albedo.is_some(), "walls_albedo"),
+            (raw.ceiling_albedo.is_some(), "ceiling_albedo"),
+        ] {
+            only(present, k, &["room"], &format!("`{k}`"))?;
+        }
+
+        let furniture = matches!(kind.as_str(), "chair" | "sofa");
+        let texel_scale = match raw.texel_scale {
+            Some(t) if t > 0.0 && t <= 100.0 => t as f32,
+            Some(t) => {
+                return Err(self.invalid(
+                    key("texel_scale"),
+                    format!("{t}; expected 0 < texel_scale <= 100"),
+                ));
+            }
+            None if furniture => builtin::FURNITURE_TEXEL_SCALE,
+            None => 1.0,
+        };
+        let padding = builtin::padding_m(settings.texels_per_metre, texel_scale);
+        let albedo = raw
+            .albedo
+            .as_ref()
+            .map(|v| self.rgb(&key("albedo"), v))
+            .transpose()?;
+        let default_albedo = match kind.as_str() {
+            "chair" => builtin::CHAIR_ALBEDO,
+            "sofa" => builtin::SOFA_ALBEDO,
+            _ => [0.5; 3],
+        };
+        let mut factor = albedo.unwrap_or(default_albedo);
+        let size3 = |n: usize| -> Result<Vec<f32>, SceneError> {
+            let Some(s) = &raw.size else {
+                return Err(self.invalid(
+                    key("size"),
+                    format!("a {kind} needs `size` ({n} numbers, metres)"),
+                ));
+            };
+            if s.len() != n || !s.iter().all(|&v| v > 0.0 && v.is_finite()) {
+                return Err(self.invalid(
+                    key("size"),
+                    format!("{s:?}; expected {n} finite numbers > 0 (metres)"),
+                ));
+            }
+            Ok(s.iter().map(|&v| v as f32).collect())
+        };
+        let mesh = match kind.as_str() {
+            "room" => {
+                let s = size3(3)?;
+                let base = albedo.map_or(builtin::ROOM_ALBEDO, RoomAlbedo::uniform);
+                let part = |v: &Option<Value>, k: &str, d: [f32; 3]| match v {
+                    Some(v) => self.rgb(&key(k), v),
+                    None => Ok(d),
+                };
+                let parts = RoomAlbedo {
+                    floor: part(&raw.floor_albedo, "floor_albedo", base.floor)?,
+                    walls: part(&raw.walls_albedo, "walls_albedo", base.walls)?,
+                    ceiling: part(&raw.ceiling_albedo, "ceiling_albedo", base.ceiling)?,
+                };
+                factor = [1.0; 3];
+                meshes::room([s[0], s[1], s[2]], parts, padding)
+            }
+            "box" => {
+                let s = size3(3)?;
+                meshes::cuboid([s[0], s[1], s[2]], raw.inward.unwrap_or(false), padding)
+            }
+            "plane" => {
+                let s = size3(2)?;
+                meshes::plane([s[0], s[1]], padding)
+            }
+            "sphere" => {
+                let r = match raw.radius {
+                    Some(r) if r > 0.0 && r.is_finite() => r as f32,
+                    Some(r) => {
+                        return Err(self.invalid(
+                            key("radius"),
+                            format!("{r}; expected a finite number > 0 (metres)"),
+                        ));
+                    }
+                    None => {
+                        return Err(self.invalid(key("radius"), "a sphere needs `radius` (metres)"));
+                    }
+                };
+                let segments = match raw.segments {
+                    Some(n) if (1..=256).contains(&n) => n,
+                    Some(n) => {
+                        return Err(self.invalid(key("segments"), format!("{n}; expected 1..=256")));
+                    }
+                    None => meshes::SPHERE_SEGMENTS,
+                };
+                meshes::sphere(r, segments, raw.inward.unwrap_or(false), padding)
+            }
+            "chair" => meshes::chair(padding),
+            _ => meshes::sofa(padding),
+        };
+
+        let position = match raw.position {
+            Some(p) => self.finite3(&key("position"), p)?,
+            None => [0.0; 3],
+        };
+        let rotation = match raw.rotation_deg {
+            Some(r) => self.finite3(&key("rotation_deg"), r)?,
+            None => [0.0; 3],
+        };
+        let scale = match &raw.scale {
+            None => [1.0; 3],
+            Some(v) => {
+                let s = match v {
+                    Value::Array(_) => self.vec3(&key("scale"), v)?,
+                    _ => {
+                        [number(v).ok_or_else(|| {
+                            self.invalid(
+                                key("scale"),
+                                format!("{v}; expected a number or [x, y, z]"),
+                            )
+                        })?; 3]
+                    }
+                };
+                if !s
+                    .iter()
+                    .all(|&c| c.is_finite() && c != 0.0 && c.abs() <= 1e6)
+                {
+                    return Err(self.invalid(
+                        key("scale"),
+                        format!("{s:?}; expected finite, non-zero factors"),
+                    ));
+                }
+                s.map(|c| c as f32)
+            }
+        };
+        let name = match raw.name {
+            Some(n) => {
+                let ok = !n.is_empty()
+                    && n.len() <= 100
+                    && !n.starts_with('.')
+                    && n.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.'));
+                if !ok {
+                    return Err(self.invalid(
+                        key("name"),
+                        format!("`{n}`: use 1 to 100 letters, digits, '_', '-', '.' (not first): it names output files"),
+                    ));
+                }
+                if names.contains(&n) {
+                    return Err(self.invalid(
+                        key("name"),
+                        format!("`{n}` is already the name of another object"),
+                    ));
+                }
+                n
+            }
+            None => {
+                let mut n = kind.clone();
+                let mut k = 2;
+                while names.contains(&n) {
+                    n = format!("{kind}_{k}");
+                    k += 1;
+                }
+                n
+            }
+        };
+        names.insert(name.clone());
+        Ok(Object {
+            name,
+            mesh,
+            transform: Transform::from_trs(position, rotation, scale),
+            albedo: Albedo {
+                factor,
+                texture: None,
+            },
+            receiver: raw.receiver.unwrap_or(true),
+            texel_scale,
+        })
+    }
+
+    fn finite(&self, key: &str, v: f64) -> Result<f32, SceneError> {
+        if v.is_finite() && v.abs() <= 1e9 {
+            Ok(v as f32)
+        } else {
+            Err(self.invalid(key, format!("{v}; expected a finite number")))
+        }
+    }
+
+    fn finite3(&self, key: &str, v: [f64; 3]) -> Result<[f32; 3], SceneError> {
+        if v.iter().all(|c| c.is_finite() && c.abs() <= 1e9) {
+            Ok(v.map(|c| c as f32))
+        } else {
+            Err(self.invalid(key, format!("{v:?}; expected three finite numbers")))
+        }
+    }
+
+    fn vec3(&self, key: &str, v: &Value) -> Result<[f64; 3], SceneError> {
+        let bad = || self.invalid(key, format!("{v}; expected an array of three numbers"));
+        let Value::Array(a) = v else {
+            return Err(bad());
+        };
+        if a.len() != 3 {
+            return Err(bad());
+        }
+        let n: Vec<f64> = a
+            .iter()
+            .map(number)
+            .collect::<Option<_>>()
+            .ok_or_else(bad)?;
+        Ok([n[0], n[1], n[2]])
+    }
+
+    /// An albedo: a number or [r, g, b], each in [0, 1].
+    fn rgb(&self, key: &str, v: &Value) -> Result<[f32; 3], SceneError> {
+        let c = match v {
+            Value::Array(_) => self.vec3(key, v)?,
+            _ => {
+                [number(v).ok_or_else(|| {
+                    self.invalid(key, format!("{v}; expected a number or [r, g, b]"))
+                })?; 3]
+            }
+        };
+        if c.iter().all(|&x| (0.0..=1.0).contains(&x)) {
+            Ok(c.map(|x| x as f32))
+        } else {
+            Err(self.invalid(key, format!("{v}; albedo components must lie in [0, 1]")))
+        }
+    }
+}
+
+fn number(v: &Value) -> Option<f64> {
+    match v {
+        Value::Float(f) => Some(*f),
+        Value::Integer(i) => Some(*i as f64),
+        _ => None,
+    }
+}
