@@ -328,8 +328,15 @@ impl EncodedScene {
             None => texel_fetch(&self.tbvh_links, self.node_size, c, 0),
             Some(d) => texel_fetch(&self.links, self.node_size, c, d),
         };
+        // Saturating casts and checked arithmetic: corrupt texels decode to `None`, never panic.
         let decode = |x: f32, y: f32| {
-            (x >= 0.0 && y >= 0.0).then(|| (y as u32) * self.node_size[0] + x as u32)
+            if x >= 0.0 && y >= 0.0 {
+                (y as u32)
+                    .checked_mul(self.node_size[0])
+                    .and_then(|v| v.checked_add(x as u32))
+            } else {
+                None
+            }
         };
         Link {
             hit: decode(texel[0], texel[1]),

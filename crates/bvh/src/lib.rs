@@ -32,6 +32,52 @@
 //! in its two triangles and zero counts as inside: no ray slips between two triangles that share
 //! an edge or a vertex. On the GPU this holds as long as the compiler does not contract the
 //! edge-function products into fused multiply-adds differently for the two triangles.
+//!
+//! ## Traversal and its GLSL ES 3.00 mirror
+//! | Rust here | GLSL ES 3.00 |
+//! |---|---|
+//! | `texel_fetch(&scene.bounds, scene.node_size, node, L)` (private helper) | `texelFetch(uBounds, ivec3(node, L), 0)` |
+//! | `[f32; 3]`, `[f32; 4]`, `[i32; 2]` | `vec3`, `vec4`, `ivec2` |
+//! | `v[k]` with `k: usize` from the ray setup | `v[k]` (dynamic vector index, allowed in ES 3.00) |
+//! | `x as i32` | `int(x)` |
+//! | `min`/`max`/`abs` helpers | `min`/`max`/`abs` |
+//! | `while steps < node_count && node[0] >= 0` | `for (int s = 0; s < uNodeCount && node.x >= 0; ++s)` |
+//!
+//! There is no recursion, no stack and no `f64`: the state is the current node coordinate,
+//! the closest distance so far and the closest triangle. The step bound `node_count` is never
+//! reached by a valid encoding (each node is visited at most once per ray) and only guards
+//! against corrupt data; the triangle range is clamped to `0 .. triangle_count` for the same
+//! reason (so even corrupt textures cannot make a shader loop for long).
+//!
+//! ```glsl
+//! // one traversal (closest hit; any hit returns at the first accepted triangle)
+//! int layer = luxDominantDirection(dir);            // MTBVH; TBVH reads uTbvhLinks layer 0
+//! LuxRay r = luxRaySetup(org, dir);                 // watertight shear + slab inverse
+//! ivec2 node = ivec2(LUX_ROOT_X, LUX_ROOT_Y);
+//! float closest = tMax; int best = -1; vec2 bary = vec2(0.0);
+//! for (int s = 0; s < uNodeCount && node.x >= 0; ++s) {
+//!     vec4 lo = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MIN_LAYER), 0);
+//!     vec4 hi = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MAX_LAYER), 0);
+//!     vec4 link = texelFetch(uLinks, ivec3(node, layer), 0);
+//!     if (luxSlab(r, lo.xyz, hi.xyz, tMin, closest)) {
+//!         int end = min(int(hi.w), uTriangleCount);
+//!         for (int t = max(int(lo.w), 0); t < end; ++t) { /* luxTriangle(r, t, tMin, closest) */ }
+//!         node = ivec2(link.xy);
+//!     } else {
+//!         node = ivec2(link.zw);
+//!     }
+//! }
+//! ```
+//!
+//! The slab test ([`WatertightRay::hits_box`]) treats direction components with magnitude
+//! below [`layout::PARALLEL_EPSILON`] (±0, subnormals) as parallel, deciding that axis by
+//! whether the origin lies in the slab, so no infinite inverse or `0·∞ = NaN` ever arises (GLSL
+//! `min`/`max` are undefined for NaN); it widens the box interval by [`layout::BOX_SLACK`]
+//! relative on both ends. The triangle test is [`WatertightRay::hits_triangle`].
+//!
+//! `t_min`/`t_max`: a hit counts iff `t_min < t < t_max` (open interval; `t_max` may be
+//! `f32::INFINITY`). Shadow rays use `t_max` = distance to the lamp (in direction lengths:
+//! 1 for `dir = lamp − origin`) and a small `t_min` against self-intersection.
 
 #![warn(missing_docs)]
 

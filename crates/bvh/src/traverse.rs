@@ -1,39 +1,6 @@
 //! CPU traversal of the encoded texels, written as the GLSL ES 3.00 shader is.
 //!
-//! ## Mapping to GLSL
-//! | Rust here | GLSL ES 3.00 |
-//! |---|---|
-//! | `texel_fetch(&scene.bounds, scene.node_size, node, L)` | `texelFetch(uBounds, ivec3(node, L), 0)` |
-//! | `[f32; 3]`, `[f32; 4]`, `[i32; 2]` | `vec3`, `vec4`, `ivec2` |
-//! | `v[k]` with `k: usize` from the ray setup | `v[k]` (dynamic vector index, allowed in ES 3.00) |
-//! | `x as i32` | `int(x)` |
-//! | `min`/`max`/`abs` helpers | `min`/`max`/`abs` |
-//! | `while node[0] >= 0 && steps < node_count` | `for (int s = 0; s < uNodeCount && node.x >= 0; ++s)` |
-//!
-//! There is no recursion, no stack and no `f64`: the state is the current node coordinate,
-//! the closest distance so far and the closest triangle. The step bound `node_count` is never
-//! reached by a valid encoding (each node is visited at most once per ray) and only guards
-//! against corrupt data; the triangle range is clamped to `triangle_count` for the same reason.
-//!
-//! ```glsl
-//! // one traversal (closest hit; any hit returns at the first accepted triangle)
-//! int layer = luxDominantDirection(dir);            // MTBVH; TBVH reads uTbvhLinks layer 0
-//! LuxRay r = luxRaySetup(org, dir);                 // watertight shear + slab inverse
-//! ivec2 node = ivec2(LUX_ROOT_X, LUX_ROOT_Y);
-//! float closest = tMax; int best = -1; vec2 bary = vec2(0.0);
-//! for (int s = 0; s < uNodeCount && node.x >= 0; ++s) {
-//!     vec4 lo = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MIN_LAYER), 0);
-//!     vec4 hi = texelFetch(uBounds, ivec3(node, LUX_BOUNDS_MAX_LAYER), 0);
-//!     vec4 link = texelFetch(uLinks, ivec3(node, layer), 0);
-//!     if (luxSlab(r, lo.xyz, hi.xyz, tMin, closest)) {
-//!         int end = min(int(hi.w), uTriangleCount);
-//!         for (int t = int(lo.w); t < end; ++t) { /* luxTriangle(r, t, tMin, closest) ... */ }
-//!         node = ivec2(link.xy);
-//!     } else {
-//!         node = ivec2(link.zw);
-//!     }
-//! }
-//! ```
+//! The GLSL mapping is in the crate documentation.
 
 use crate::encode::{EncodedScene, texel_fetch};
 use crate::layout;
@@ -304,10 +271,8 @@ impl EncodedScene {
         t_min: f32,
         t_max: f32,
     ) -> Option<(f32, f32, f32)> {
-        let c = [
-            t % self.tri_size[0].max(1) as i32,
-            t / self.tri_size[0].max(1) as i32,
-        ];
+        let w = i32::try_from(self.tri_size[0]).unwrap_or(i32::MAX).max(1);
+        let c = [t % w, t / w];
         let p0 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P0_LAYER);
         let p1 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P1_LAYER);
         let p2 = texel_fetch(&self.triangles, self.tri_size, c, layout::TRI_P2_LAYER);
@@ -347,7 +312,7 @@ impl EncodedScene {
             let link = texel_fetch(link_tex, self.node_size, node, layer);
             if r.hits_box([lo[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]], t_min, closest) {
                 let end = (hi[3] as i32).min(triangle_count);
-                let mut t = lo[3] as i32;
+                let mut t = (lo[3] as i32).max(0);
                 while t < end {
                     if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
                         closest = d;

@@ -483,3 +483,63 @@ fn slab_test_handles_signed_zero_directions() {
     assert!(w.hits_box([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0, f32::INFINITY));
     assert!(!w.hits_box([0.0, 0.0, 0.0], [1.0, 1.0, 0.0], 0.0, 0.5));
 }
+
+/// Corrupt texel data (NaN, huge, negative, out-of-range links and ranges, wrong sizes) never
+/// panics and always terminates: reads outside the textures give zeros, the walk is bounded by
+/// `node_count` steps and triangle ranges are clamped.
+#[test]
+fn corrupt_encodings_do_not_panic() {
+    let mut rng = Rng::new(8);
+    let tris = common::random_scene(&mut rng, 60);
+    let clean = build_and_encode(&tris);
+    let garbage = [
+        f32::NAN,
+        f32::INFINITY,
+        -1e30,
+        1e30,
+        -1.0,
+        -0.0,
+        3.0,
+        1e9,
+        0.5,
+        -2.5e9,
+    ];
+    for case in 0..200 {
+        let mut s = clean.clone();
+        for _ in 0..20 {
+            let g = garbage[rng.below(garbage.len() as u64) as usize];
+            let field = match rng.below(4) {
+                0 => &mut s.links,
+                1 => &mut s.tbvh_links,
+                2 => &mut s.bounds,
+                _ => &mut s.triangles,
+            };
+            if !field.is_empty() {
+                let i = rng.below(field.len() as u64) as usize;
+                field[i] = g;
+            }
+        }
+        match case % 5 {
+            0 => s.node_size = [u32::MAX, 1],
+            1 => s.tri_size = [0, 0],
+            2 => s.links.truncate(s.links.len() / 3),
+            3 => s.node_count = 1 << 20,
+            _ => {}
+        }
+        let r = Ray {
+            origin: rng.point(-0.5, 1.5),
+            dir: rng.direction(),
+        };
+        for t in ALL {
+            let hit = s.closest_hit(&r, 0.0, f32::INFINITY, t);
+            assert!(hit.is_none_or(|h| h.triangle < s.triangle_count));
+            s.any_hit(&r, 0.0, f32::INFINITY, t);
+        }
+        for i in 0..s.node_count.min(100) {
+            s.node(i);
+            s.link(i, Some(rng.below(8) as u32));
+            s.link(i, None);
+        }
+        s.triangle_attributes(rng.below(100) as u32);
+    }
+}

@@ -1,0 +1,181 @@
+//! Build time per triangle and CPU rays/s (closest hit and any hit) for TBVH, MTBVH and brute
+//! force over the encoded texels, and obvhs's own builder and traversal on the same rays, on
+//! a procedural room with 10 box chairs (2376 triangles), GlamVelvetSofa and SheenChair.
+//!
+//! `cargo bench -p luxbake-bvh` (the two models are skipped with a message when `../shared`
+//! is absent).
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, Traversal, encode};
+
+struct Scene {
+    name: &'static str,
+    tris: Vec<common::Tri>,
+}
+
+fn scenes() -> Vec<Scene> {
+    let mut scenes = vec![Scene {
+        name: "room_10_chairs",
+        tris: common::room_with_chairs(),
+    }];
+    for name in ["GlamVelvetSofa", "SheenChair"] {
+        if let Some(tris) = common::load_model(name) {
+            scenes.push(Scene { name, tris });
+        }
+    }
+    scenes
+}
+
+/// Bake-like rays: gather rays from points on random triangles into random directions
+/// (closest hit, t in (1e-4, ∞)) and shadow rays from the same points to a lamp above the
+/// scene's centre (any hit, t in (1e-4, 1)).
+fn bake_rays(tris: &[common::Tri], count: usize) -> (Vec<Ray>, Vec<Ray>) {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in tris.iter().flatten() {
+        for a in 0..3 {
+            lo[a] = lo[a].min(p[a]);
+            hi[a] = hi[a].max(p[a]);
+        }
+    }
+    let lamp = [
+        0.5 * (lo[0] + hi[0]),
+        hi[1] - 0.05 * (hi[1] - lo[1]),
+        0.5 * (lo[2] + hi[2]),
+    ];
+    let mut rng = common::Rng::new(99);
+    let mut gather = Vec::with_capacity(count);
+    let mut shadow = Vec::with_capacity(count);
+    for _ in 0..count {
+        let t = tris[rng.below(tris.len() as u64) as usize];
+        let (mut a, mut b) = (rng.f32(), rng.f32());
+        if a + b > 1.0 {
+            (a, b) = (1.0 - a, 1.0 - b);
+        }
+        let origin: [f32; 3] =
+            std::array::from_fn(|k| t[0][k] + a * (t[1][k] - t[0][k]) + b * (t[2][k] - t[0][k]));
+        gather.push(Ray {
+            origin,
+            dir: rng.direction(),
+        });
+        shadow.push(Ray {
+            origin,
+            dir: std::array::from_fn(|k| lamp[k] - origin[k]),
+        });
+    }
+    (gather, shadow)
+}
+
+fn bench(c: &mut Criterion) {
+    let options = BuildOptions::default();
+    for scene in scenes() {
+        let tris = &scene.tris;
+        let bvh = Bvh::build(tris, &options).expect("build");
+        let encoded = encode(
+            &bvh,
+            tris,
+            &common::attributes(tris, 11),
+            &EncodeOptions::default(),
+        )
+        .expect("encode");
+        let otris = common::obvhs_triangles(tris);
+        let obvh = common::obvhs_build(&otris, common::obvhs_params(false, options.max_leaf_size));
+        println!(
+            "{}: {} triangles, {} nodes; SAH cost (C_t = C_i = 1) ours {:.2}, obvhs medium {:.2}",
+            scene.name,
+            tris.len(),
+            bvh.nodes().len(),
+            bvh.sah_cost(),
+            common::obvhs_sah(&obvh, 1.0, 1.0)
+        );
+
+        let mut group = c.benchmark_group(format!("build/{}", scene.name));
+        group
+            .sample_size(10)
+            .measurement_time(Duration::from_secs(3));
+        group.throughput(Throughput::Elements(tris.len() as u64));
+        group.bench_function("luxbake_binned_sah", |b| {
+            b.iter(|| Bvh::build(black_box(tris), &options).expect("build"))
+        });
+        group.bench_function("luxbake_build_and_encode", |b| {
+            let attrs = common::attributes(tris, 11);
+            b.iter(|| {
+                let bvh = Bvh::build(black_box(tris), &options).expect("build");
+                encode(&bvh, tris, &attrs, &EncodeOptions::default()).expect("encode")
+            })
+        });
+        group.bench_function("obvhs_medium", |b| {
+            let params = common::obvhs_params(false, options.max_leaf_size);
+            b.iter(|| common::obvhs_build(black_box(&otris), params))
+        });
+        group.finish();
+
+        let (gather, shadow) = bake_rays(tris, 4096);
+        for (query, rays) in [("closest_hit", &gather), ("any_hit", &shadow)] {
+            let mut group = c.benchmark_group(format!("{query}/{}", scene.name));
+            group
+                .sample_size(10)
+                .measurement_time(Duration::from_secs(3));
+            let t_max = if query == "any_hit" {
+                1.0
+            } else {
+                f32::INFINITY
+            };
+            for (label, traversal) in [
+                ("mtbvh", Traversal::Mtbvh),
+                ("tbvh", Traversal::Tbvh),
+                ("brute_force", Traversal::BruteForce),
+            ] {
+                // Brute force on 40k triangles is slow: fewer rays, same rays/s figure.
+                let n = if traversal == Traversal::BruteForce {
+                    128
+                } else {
+                    rays.len()
+                };
+                let rays = &rays[..n];
+                group.throughput(Throughput::Elements(n as u64));
+                group.bench_with_input(BenchmarkId::new(label, n), rays, |b, rays| {
+                    b.iter(|| {
+                        let mut hits = 0u32;
+                        for r in rays {
+                            if query == "any_hit" {
+                                hits += u32::from(encoded.any_hit(r, 1e-4, t_max, traversal));
+                            } else {
+                                hits += u32::from(
+                                    encoded.closest_hit(r, 1e-4, t_max, traversal).is_some(),
+                                );
+                            }
+                        }
+                        hits
+                    })
+                });
+            }
+            group.throughput(Throughput::Elements(rays.len() as u64));
+            group.bench_with_input(BenchmarkId::new("obvhs", rays.len()), rays, |b, rays| {
+                b.iter(|| {
+                    let mut hits = 0u32;
+                    for r in rays.iter() {
+                        if query == "any_hit" {
+                            hits += u32::from(common::obvhs_any(&obvh, &otris, r, 1e-4, t_max));
+                        } else {
+                            hits += u32::from(
+                                common::obvhs_closest(&obvh, &otris, r, 1e-4, t_max).is_some(),
+                            );
+                        }
+                    }
+                    hits
+                })
+            });
+            group.finish();
+        }
+    }
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);
