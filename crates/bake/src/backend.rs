@@ -1,0 +1,149 @@
+//! The interface every executor of a [`BakeGraph`](crate::graph::BakeGraph) implements.
+//!
+//! A backend owns textures (RGBA32F texture arrays, [`TexDesc`]) and the static scene data a
+//! shader needs ([`SceneData`], uploaded once per bake), runs one [`PassDesc`] at a time and reads
+//! texture layers back. The [`bake`](crate::bake()) driver is generic over it (static dispatch);
+//! an enum of backends exists only at the edges (CLI, tests).
+//!
+//! The shape follows what a WebGL2 fragment-shader implementation needs: a pass is one draw per
+//! layer (or per tile of a layer) into the written texture's layer, reading the textures listed
+//! in [`PassDesc::reads`], the scene data textures and uniforms; no pass reads a texture it writes.
+//! The pass semantics — what each [`PassKind`](crate::graph::PassKind) computes, bit for bit where
+//! it can be — are defined by the CPU reference backend ([`crate::cpu`]).
+
+use luxbake_bvh::EncodedScene;
+use luxbake_ies::GpuTable;
+
+use crate::graph::{PassDesc, TexDesc};
+use crate::layout::Region;
+
+/// What a backend can do; the driver checks the layout and graph against it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Limits {
+    /// Largest texture width and height, texels.
+    pub max_texture_size: u32,
+    /// Most layers of one texture array.
+    pub max_array_layers: u32,
+    /// Most textures one pass may sample (WebGL2 guarantees 16).
+    pub max_texture_units: u32,
+}
+
+impl Limits {
+    /// The minimums WebGL2 guarantees: 2048² textures, 256 array layers, 16 texture units.
+    pub const WEBGL2: Limits = Limits {
+        max_texture_size: 2048,
+        max_array_layers: 256,
+        max_texture_units: 16,
+    };
+}
+
+/// One lamp as the direct pass sees it (a uniform block entry in a shader).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LampParams {
+    /// Photometric centre, world metres.
+    pub position: [f32; 3],
+    /// Rows of the rotation from a world direction to the lamp's photometric frame
+    /// (`Lamp::world_to_photometric_matrix`): `photometric = M · world`.
+    pub world_to_photometric: [[f32; 3]; 3],
+    /// Per-channel factor on the table's candela: `multiplier × colour`.
+    pub scale: [f32; 3],
+    /// Index of the lamp's table in [`SceneData::ies_tables`].
+    pub table: u32,
+}
+
+/// The static scene data of a bake, uploaded once before the first pass.
+#[derive(Debug, Clone, Copy)]
+pub struct SceneData<'a> {
+    /// The encoded BVH and triangle data textures (object id = index into `regions`).
+    pub bvh: &'a EncodedScene,
+    /// The lamps (all of them; a direct pass lists the ones it evaluates).
+    pub lamps: &'a [LampParams],
+    /// One resampled intensity table per lamp, candela, sampled with [`GpuTable::sample`].
+    pub ies_tables: &'a [GpuTable],
+    /// Per object: its light-map region, `None` for non-receivers (which reflect nothing).
+    pub regions: &'a [Option<Region>],
+    /// Layer size of every light-map texture array, texels.
+    pub layer_size: [u32; 2],
+    /// Layers of every light-map texture array.
+    pub layers: u32,
+    /// Ray-origin offset along the surface normal, world units: the scene's largest absolute
+    /// coordinate × 2^-16 (see [`ray_epsilon`]).
+    pub ray_epsilon: f32,
+}
+
+/// The ray-origin offset for a scene whose largest absolute coordinate is `max_abs_coord`:
+/// `max_abs_coord × 2^-16` (about 256 ulps of the largest coordinate), at least
+/// `f32::MIN_POSITIVE`. Scale-invariant: a scene in millimetres or kilometres gets the same
+/// relative offset. The passes additionally cap it at a quarter of the distance to the lamp.
+pub fn ray_epsilon(max_abs_coord: f32) -> f32 {
+    let e = max_abs_coord.abs() * (1.0 / 65_536.0);
+    if e.is_finite() && e > f32::MIN_POSITIVE {
+        e
+    } else if e.is_finite() {
+        f32::MIN_POSITIVE
+    } else {
+        f32::MAX * (1.0 / 65_536.0)
+    }
+}
+
+/// An executor of the pass graph.
+///
+/// Textures are created from [`TexDesc`]s, filled by [`upload`](Self::upload) (the G-buffer) or
+/// by passes, and read back layer by layer. Texel data is RGBA32F, row 0 first, `4 × width ×
+/// height` floats per layer.
+pub trait GpuBackend {
+    /// A texture array handle.
+    type Texture;
+    /// The uploaded static scene data.
+    type Scene;
+    /// The backend's error.
+    type Error: std::error::Error + Send + Sync + 'static;
+
+    /// Short name for reports ("cpu", "glow", "wgpu").
+    fn name(&self) -> &'static str;
+
+    /// What this backend supports.
+    fn limits(&self) -> Limits;
+
+    /// Creates a zero-filled texture array.
+    fn create_texture(&mut self, desc: &TexDesc) -> Result<Self::Texture, Self::Error>;
+
+    /// Replaces one layer of `texture` with `texels` (`4 × width × height` floats).
+    fn upload(
+        &mut self,
+        texture: &Self::Texture,
+        layer: u32,
+        texels: &[f32],
+    ) -> Result<(), Self::Error>;
+
+    /// Uploads the static scene data.
+    fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<Self::Scene, Self::Error>;
+
+    /// Runs one pass. `reads` and `writes` are the handles of `pass.reads` and `pass.writes`, in
+    /// the same order. `progress` is called with the finished fraction (0–1) as tiles complete.
+    fn run_pass(
+        &mut self,
+        pass: &PassDesc,
+        reads: &[&Self::Texture],
+        writes: &[&Self::Texture],
+        scene: &Self::Scene,
+        progress: &mut dyn FnMut(f32),
+    ) -> Result<(), Self::Error>;
+
+    /// Reads one layer back (`4 × width × height` floats, row 0 first).
+    fn read_back(&mut self, texture: &Self::Texture, layer: u32) -> Result<Vec<f32>, Self::Error>;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn epsilon_scales_with_the_scene_and_stays_finite() {
+        assert_eq!(ray_epsilon(4.0), 4.0 / 65_536.0);
+        assert_eq!(ray_epsilon(4.0e3), 1000.0 * ray_epsilon(4.0));
+        assert!(ray_epsilon(0.0) > 0.0);
+        assert!(ray_epsilon(f32::INFINITY).is_finite());
+        assert!(ray_epsilon(f32::NAN).is_finite());
+    }
+}

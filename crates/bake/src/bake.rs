@@ -1,0 +1,692 @@
+//! The bake driver: layout → G-buffer → BVH build and encode → pass graph → run on a backend.
+//!
+//! # Modelling only what the scene requires
+//! - **Lamps**: before the direct pass, every lamp is evaluated (without shadow rays) at every
+//!   valid texel on the CPU: a lamp that faces no texel with a non-zero intensity (it is behind
+//!   every receiving surface, turned away, or has a zero multiplier, colour or table) is left out
+//!   of the direct pass. A lamp that reaches some receivers but not others is reported per
+//!   object.
+//! - **Bounces**: after bounce `k` the driver reads back the indirect map and computes the
+//!   energy it added, `(ΣE_ind,k − ΣE_ind,k−1) / (ΣE_direct + ΣE_ind,k)` over valid texels
+//!   (texels have equal area at a uniform density). Under [`BOUNCE_ENERGY_THRESHOLD`] the
+//!   remaining bounces are skipped: each further bounce adds at most about as much again times
+//!   the albedo.
+//! - **Non-receivers** get no light map (the layout gives them no region); they still cast
+//!   shadows and reflect nothing.
+//! - **Brute force**: with at most [`BRUTE_FORCE_MAX_TRIANGLES`] triangles a ray tests every
+//!   triangle, which costs no more than walking a BVH's boxes; the traversal switches to
+//!   [`BvhMode::None`].
+//!
+//! Everything left out is listed in [`BakeReport::skipped`].
+
+use std::fmt;
+use std::time::Instant;
+
+use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
+use luxbake_ies::GpuTable;
+
+use crate::backend::{GpuBackend, LampParams, SceneData, ray_epsilon};
+use crate::gbuffer::{GBuffer, rasterize};
+use crate::graph::{BakeGraph, GraphConfig, PassKind, TexId};
+use crate::layout::{Layout, LayoutError, Region};
+use crate::map::MapImage;
+use crate::scene::{Blur, BvhMode, Scene, Settings};
+
+/// Bounces stop once one adds less than this fraction of the total illuminance.
+pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
+
+/// Scenes with at most this many triangles are traced by brute force.
+pub const BRUTE_FORCE_MAX_TRIANGLES: usize = 8;
+
+/// Everything that can stop a bake.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BakeError<E: std::error::Error + 'static> {
+    /// A setting is out of range.
+    #[error("invalid setting `{name}`: {reason}")]
+    InvalidSetting {
+        /// Setting name (as in the scene file's `[settings]`).
+        name: &'static str,
+        /// What is allowed.
+        reason: String,
+    },
+    /// The light maps do not fit the backend's textures.
+    #[error("light-map layout: {0}")]
+    Layout(#[from] LayoutError),
+    /// The BVH could not be built or encoded.
+    #[error("BVH: {0}")]
+    Bvh(#[from] BvhError),
+    /// The backend failed.
+    #[error("{backend} backend: {source}")]
+    Backend {
+        /// Backend name.
+        backend: &'static str,
+        /// Its error.
+        #[source]
+        source: E,
+    },
+}
+
+/// Progress events of a bake, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress<'a> {
+    /// A set-up step starts ("layout", "rasterise", "bvh", "upload", "read back").
+    Setup(&'a str),
+    /// Pass `index` of `count` starts.
+    PassStart {
+        /// Index in the graph.
+        index: usize,
+        /// Number of passes in the graph.
+        count: usize,
+        /// Pass label.
+        label: &'static str,
+        /// Bounce (0 = direct part).
+        bounce: u32,
+    },
+    /// Fraction (0–1) of the running pass done.
+    PassProgress {
+        /// Index in the graph.
+        index: usize,
+        /// Fraction done.
+        fraction: f32,
+    },
+    /// Pass `index` finished after `seconds`.
+    PassDone {
+        /// Index in the graph.
+        index: usize,
+        /// Wall time, seconds.
+        seconds: f64,
+    },
+}
+
+/// Wall time of one executed pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassTiming {
+    /// Pass label.
+    pub label: &'static str,
+    /// Pass kind.
+    pub kind: PassKind,
+    /// Bounce (0 = direct part).
+    pub bounce: u32,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// Something the bake left out because the scene does not need it.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Skipped {
+    /// A lamp lights no texel (behind or turned away from every receiver, or dark).
+    Lamp {
+        /// Lamp index.
+        lamp: usize,
+        /// Lamp name.
+        name: String,
+    },
+    /// A lamp that is used lights no texel of this receiver.
+    LampObject {
+        /// Lamp index.
+        lamp: usize,
+        /// Object index.
+        object: usize,
+        /// Object name.
+        name: String,
+    },
+    /// An object receives no light map.
+    NonReceiver {
+        /// Object index.
+        object: usize,
+        /// Object name.
+        name: String,
+    },
+    /// Bounces `from ..= to` were not run: bounce `from − 1` added only `added` of the light.
+    Bounces {
+        /// First bounce skipped.
+        from: u32,
+        /// Last bounce skipped.
+        to: u32,
+        /// Relative energy the last bounce run added.
+        added: f32,
+    },
+    /// Brute-force traversal replaced the requested BVH.
+    Bvh {
+        /// The requested traversal.
+        requested: BvhMode,
+        /// Triangles in the scene.
+        triangles: usize,
+    },
+}
+
+impl fmt::Display for Skipped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Skipped::Lamp { lamp, name } => {
+                write!(f, "lamp {lamp} `{name}`: lights no texel, left out")
+            }
+            Skipped::LampObject { lamp, name, .. } => {
+                write!(f, "lamp {lamp}: lights no texel of `{name}`")
+            }
+            Skipped::NonReceiver { name, .. } => write!(f, "`{name}`: non-receiver, no map"),
+            Skipped::Bounces { from, to, added } => write!(
+                f,
+                "bounces {from}..={to}: bounce {} added only {:.3} % of the light",
+                from - 1,
+                added * 100.0
+            ),
+            Skipped::Bvh {
+                requested,
+                triangles,
+            } => write!(
+                f,
+                "BVH `{}`: {triangles} triangles, brute force is cheaper",
+                requested.name()
+            ),
+        }
+    }
+}
+
+/// Statistics and timings of a bake.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BakeReport {
+    /// Backend name.
+    pub backend: &'static str,
+    /// Valid (sampled) light-map texels.
+    pub texels: u64,
+    /// Texels of the receivers' regions (valid or not).
+    pub region_texels: u64,
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Shadow rays cast (one per valid texel facing a used lamp with non-zero intensity).
+    pub shadow_rays: u64,
+    /// Gather rays cast (valid texels × rays × bounces run).
+    pub gather_rays: u64,
+    /// Traversal used.
+    pub bvh: BvhMode,
+    /// Bounces run.
+    pub bounces_run: u32,
+    /// Set-up steps and their wall time, seconds.
+    pub setup: Vec<(&'static str, f64)>,
+    /// Every executed pass.
+    pub passes: Vec<PassTiming>,
+    /// What was left out.
+    pub skipped: Vec<Skipped>,
+    /// Whole bake, seconds.
+    pub total_seconds: f64,
+}
+
+/// One object's maps, cropped to its region: the eight stages of the paper's Figure 5.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectMaps {
+    /// Object index.
+    pub object: usize,
+    /// Object name.
+    pub name: String,
+    /// Its region in the texture arrays.
+    pub region: Region,
+    /// Stages (1)–(8) ([`crate::graph::Figure5::NAMES`]); 5–8 are `None` without bounces.
+    pub stages: [Option<MapImage>; 8],
+}
+
+static EMPTY: MapImage = MapImage {
+    width: 0,
+    height: 0,
+    texels: Vec::new(),
+};
+
+impl ObjectMaps {
+    fn stage(&self, i: usize) -> &MapImage {
+        self.stages
+            .get(i)
+            .and_then(Option::as_ref)
+            .unwrap_or(&EMPTY)
+    }
+
+    /// Final illuminance, lux, before albedo: blurred combined (7), or blurred direct (3)
+    /// without bounces.
+    pub fn illuminance(&self) -> &MapImage {
+        if self.stages[6].is_some() {
+            self.stage(6)
+        } else {
+            self.stage(2)
+        }
+    }
+
+    /// Final exitance, lm/m², after albedo: (8), or (4) without bounces.
+    pub fn exitance(&self) -> &MapImage {
+        if self.stages[7].is_some() {
+            self.stage(7)
+        } else {
+            self.stage(3)
+        }
+    }
+
+    /// Blurred direct illuminance (3), lux. `illuminance − direct` is the indirect part,
+    /// blurred the same way (the blur is linear).
+    pub fn direct(&self) -> &MapImage {
+        self.stage(2)
+    }
+
+    /// Unblurred direct illuminance (2), lux.
+    pub fn direct_unblurred(&self) -> &MapImage {
+        self.stage(1)
+    }
+
+    /// Indirect illuminance of the last bounce (5), unblurred, if any.
+    pub fn indirect(&self) -> Option<&MapImage> {
+        self.stages[4].as_ref()
+    }
+}
+
+/// The result of a bake.
+#[derive(Debug, Clone)]
+pub struct BakeOutput {
+    /// The settings baked with.
+    pub settings: Settings,
+    /// The light-map layout.
+    pub layout: Layout,
+    /// The executed graph.
+    pub graph: BakeGraph,
+    /// Per receiver, its maps.
+    pub maps: Vec<ObjectMaps>,
+    /// Lamps used by the direct pass.
+    pub lamps_used: Vec<usize>,
+    /// Statistics and timings.
+    pub report: BakeReport,
+}
+
+fn check_settings<E: std::error::Error>(s: &Settings) -> Result<(), BakeError<E>> {
+    if !(s.texels_per_metre.is_finite() && s.texels_per_metre > 0.0) {
+        return Err(BakeError::InvalidSetting {
+            name: "texels_per_metre",
+            reason: format!("must be finite and > 0, got {}", s.texels_per_metre),
+        });
+    }
+    if let Blur::Sigma(sigma) = s.blur
+        && !(sigma.is_finite() && sigma >= 0.0)
+    {
+        return Err(BakeError::InvalidSetting {
+            name: "blur",
+            reason: format!("sigma must be finite and ≥ 0, got {sigma}"),
+        });
+    }
+    if s.bounces > 0 && s.rays == 0 {
+        return Err(BakeError::InvalidSetting {
+            name: "rays",
+            reason: "must be ≥ 1 when bounces > 0".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Per lamp and object, how many valid texels the lamp lights (no shadows), and the total.
+fn lamp_reach(
+    gbuffer: &GBuffer,
+    lamps: &[LampParams],
+    tables: &[GpuTable],
+    objects: usize,
+) -> Vec<Vec<u64>> {
+    let mut reach = vec![vec![0u64; objects]; lamps.len()];
+    for (pos, nrm) in gbuffer
+        .position
+        .chunks_exact(4)
+        .zip(gbuffer.normal.chunks_exact(4))
+    {
+        if pos[3] <= 0.5 {
+            continue;
+        }
+        let object = nrm[3] as usize;
+        let n = [nrm[0], nrm[1], nrm[2]];
+        for (l, lamp) in lamps.iter().enumerate() {
+            if lamp.scale.iter().all(|&c| c.is_nan() || c <= 0.0) {
+                continue;
+            }
+            let to = [0, 1, 2].map(|c| lamp.position[c] - pos[c]);
+            let cos = n[0] * to[0] + n[1] * to[1] + n[2] * to[2];
+            if cos.is_nan() || cos <= 0.0 {
+                continue;
+            }
+            let m = &lamp.world_to_photometric;
+            let d = [0, 1, 2].map(|r| -(m[r][0] * to[0] + m[r][1] * to[1] + m[r][2] * to[2]));
+            let lit = tables
+                .get(lamp.table as usize)
+                .is_some_and(|tab| tab.sample(d) > 0.0);
+            if lit && let Some(slot) = reach[l].get_mut(object) {
+                *slot += 1;
+            }
+        }
+    }
+    reach
+}
+
+/// Sum of RGB over valid texels of `layers` (read-back layers), f64.
+fn energy(layers: &[Vec<f32>]) -> f64 {
+    layers
+        .iter()
+        .flat_map(|l| l.chunks_exact(4))
+        .filter(|t| t[3] > 0.5)
+        .map(|t| f64::from(t[0]) + f64::from(t[1]) + f64::from(t[2]))
+        .sum()
+}
+
+/// Bakes `scene` with `settings` on `backend` (see the module docs). `settings` replaces
+/// `scene.settings` (texel density, rays, bounces, blur, traversal, seed).
+pub fn bake<B: GpuBackend>(
+    backend: &mut B,
+    scene: &Scene,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&Progress<'_>),
+) -> Result<BakeOutput, BakeError<B::Error>> {
+    let start = Instant::now();
+    check_settings(settings)?;
+    let name = backend.name();
+    let be = |source| BakeError::Backend {
+        backend: name,
+        source,
+    };
+    let local;
+    let scene = if &scene.settings == settings {
+        scene
+    } else {
+        local = Scene {
+            settings: settings.clone(),
+            ..scene.clone()
+        };
+        &local
+    };
+    let mut setup = Vec::new();
+    let mut skipped = Vec::new();
+    let limits = backend.limits();
+
+    progress(&Progress::Setup("layout"));
+    let t = Instant::now();
+    let layout = Layout::new(scene, limits.max_texture_size, limits.max_array_layers)?;
+    setup.push(("layout", t.elapsed().as_secs_f64()));
+    for (i, o) in scene.objects.iter().enumerate() {
+        if layout.regions.get(i).is_none_or(Option::is_none) {
+            skipped.push(Skipped::NonReceiver {
+                object: i,
+                name: o.name.clone(),
+            });
+        }
+    }
+
+    progress(&Progress::Setup("rasterise"));
+    let t = Instant::now();
+    let gbuffer = rasterize(scene, &layout);
+    setup.push(("rasterise", t.elapsed().as_secs_f64()));
+
+    progress(&Progress::Setup("bvh"));
+    let t = Instant::now();
+    let (triangles, attributes) = scene.world_triangles();
+    let bvh = Bvh::build(&triangles, &BuildOptions::default())?;
+    let encoded = encode(
+        &bvh,
+        &triangles,
+        &attributes,
+        &EncodeOptions {
+            max_texture_size: limits.max_texture_size,
+        },
+    )?;
+    setup.push(("bvh", t.elapsed().as_secs_f64()));
+    let mut bvh_mode = settings.bvh;
+    if triangles.len() <= BRUTE_FORCE_MAX_TRIANGLES && bvh_mode != BvhMode::None {
+        skipped.push(Skipped::Bvh {
+            requested: bvh_mode,
+            triangles: triangles.len(),
+        });
+        bvh_mode = BvhMode::None;
+    }
+
+    // Lamps, their tables, and which of them reach anything.
+    let tables: Vec<GpuTable> = scene
+        .lamps
+        .iter()
+        .map(|l| l.photometry.gpu_table())
+        .collect();
+    let lamps: Vec<LampParams> = scene
+        .lamps
+        .iter()
+        .enumerate()
+        .map(|(i, l)| LampParams {
+            position: l.position,
+            world_to_photometric: l.world_to_photometric_matrix(),
+            scale: l.color.map(|c| c * l.multiplier),
+            table: i as u32,
+        })
+        .collect();
+    let reach = lamp_reach(&gbuffer, &lamps, &tables, scene.objects.len());
+    let mut lamps_used = Vec::new();
+    let mut shadow_rays = 0u64;
+    for (l, per_object) in reach.iter().enumerate() {
+        let total: u64 = per_object.iter().sum();
+        if total == 0 {
+            skipped.push(Skipped::Lamp {
+                lamp: l,
+                name: scene.lamps[l].name.clone(),
+            });
+            continue;
+        }
+        lamps_used.push(l);
+        shadow_rays += total;
+        for (o, &count) in per_object.iter().enumerate() {
+            if count == 0 && layout.regions.get(o).is_some_and(Option::is_some) {
+                skipped.push(Skipped::LampObject {
+                    lamp: l,
+                    object: o,
+                    name: scene.objects[o].name.clone(),
+                });
+            }
+        }
+    }
+
+    // Ray offset from the scene's largest coordinate.
+    let max_abs = triangles
+        .iter()
+        .flat_map(|t| t.iter())
+        .chain(scene.lamps.iter().map(|l| &l.position))
+        .flat_map(|p| p.iter())
+        .fold(
+            0.0f32,
+            |m, &c| if c.is_finite() { m.max(c.abs()) } else { m },
+        );
+
+    let graph = BakeGraph::build(&GraphConfig {
+        layer_size: layout.layer_size,
+        layers: layout.layers,
+        lamps: lamps_used.iter().map(|&l| l as u32).collect(),
+        rays: settings.rays,
+        bounces: settings.bounces,
+        blur: settings.blur,
+        seed: settings.seed,
+        bvh: bvh_mode,
+    });
+
+    progress(&Progress::Setup("upload"));
+    let t = Instant::now();
+    let textures = graph
+        .textures
+        .iter()
+        .map(|d| backend.create_texture(d))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(be)?;
+    let gpu_scene = backend
+        .upload_scene(&SceneData {
+            bvh: &encoded,
+            lamps: &lamps,
+            ies_tables: &tables,
+            regions: &layout.regions,
+            layer_size: layout.layer_size,
+            layers: layout.layers,
+            ray_epsilon: ray_epsilon(max_abs),
+        })
+        .map_err(be)?;
+    setup.push(("upload", t.elapsed().as_secs_f64()));
+
+    let layer_floats = 4 * layout.layer_size[0] as usize * layout.layer_size[1] as usize;
+    let valid_texels = gbuffer
+        .position
+        .chunks_exact(4)
+        .filter(|p| p[3] > 0.5)
+        .count() as u64;
+    let read_all = |backend: &mut B, tex: TexId| -> Result<Vec<Vec<f32>>, B::Error> {
+        (0..layout.layers)
+            .map(|l| backend.read_back(&textures[tex.index()], l))
+            .collect()
+    };
+
+    let mut passes = Vec::new();
+    let mut bounces_run = 0;
+    let mut direct_energy = 0.0f64;
+    let mut previous_indirect = 0.0f64;
+    let count = graph.passes.len();
+    let mut index = 0;
+    while index < count {
+        let pass = &graph.passes[index];
+        progress(&Progress::PassStart {
+            index,
+            count,
+            label: pass.label,
+            bounce: pass.params.bounce,
+        });
+        let t = Instant::now();
+        if pass.kind == PassKind::GBuffer {
+            let sources = [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo];
+            for (w, src) in pass.writes.iter().zip(sources) {
+                for l in 0..layout.layers as usize {
+                    let slice = src
+                        .get(l * layer_floats..(l + 1) * layer_floats)
+                        .unwrap_or(&[]);
+                    backend
+                        .upload(&textures[w.index()], l as u32, slice)
+                        .map_err(be)?;
+                }
+            }
+            progress(&Progress::PassProgress {
+                index,
+                fraction: 1.0,
+            });
+        } else {
+            let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
+            let writes: Vec<&B::Texture> =
+                pass.writes.iter().map(|w| &textures[w.index()]).collect();
+            backend
+                .run_pass(pass, &reads, &writes, &gpu_scene, &mut |fraction| {
+                    progress(&Progress::PassProgress { index, fraction })
+                })
+                .map_err(be)?;
+        }
+        let seconds = t.elapsed().as_secs_f64();
+        progress(&Progress::PassDone { index, seconds });
+        passes.push(PassTiming {
+            label: pass.label,
+            kind: pass.kind,
+            bounce: pass.params.bounce,
+            seconds,
+        });
+        index += 1;
+        if pass.kind == PassKind::Direct && settings.bounces > 0 {
+            direct_energy = energy(&read_all(backend, graph.direct).map_err(be)?);
+        }
+        // End of a bounce: measure what it added and stop when it is negligible.
+        if let Some(k) = graph
+            .bounce_passes
+            .iter()
+            .position(|&(_, end)| end == index)
+        {
+            let k = k as u32 + 1;
+            bounces_run = k;
+            let indirect_tex = graph.figure5.stages[4].unwrap_or(graph.direct);
+            let e = energy(&read_all(backend, indirect_tex).map_err(be)?);
+            let total = direct_energy + e;
+            let added = if total > 0.0 {
+                ((e - previous_indirect) / total) as f32
+            } else {
+                0.0
+            };
+            previous_indirect = e;
+            if k < settings.bounces && added.abs() < BOUNCE_ENERGY_THRESHOLD {
+                skipped.push(Skipped::Bounces {
+                    from: k + 1,
+                    to: settings.bounces,
+                    added,
+                });
+                break;
+            }
+        }
+    }
+
+    progress(&Progress::Setup("read back"));
+    let t = Instant::now();
+    let mut stage_layers: Vec<Option<Vec<Vec<f32>>>> = Vec::with_capacity(8);
+    for s in graph.figure5.stages {
+        stage_layers.push(match s {
+            Some(tex) => Some(read_all(backend, tex).map_err(be)?),
+            None => None,
+        });
+    }
+    let mut maps = Vec::new();
+    for (o, region) in layout.regions.iter().enumerate() {
+        let Some(region) = region else { continue };
+        let stages: [Option<MapImage>; 8] = std::array::from_fn(|i| {
+            stage_layers[i]
+                .as_ref()
+                .map(|layers| crop(layers, layout.layer_size, region))
+        });
+        maps.push(ObjectMaps {
+            object: o,
+            name: scene
+                .objects
+                .get(o)
+                .map(|ob| ob.name.clone())
+                .unwrap_or_default(),
+            region: *region,
+            stages,
+        });
+    }
+    setup.push(("read back", t.elapsed().as_secs_f64()));
+
+    let report = BakeReport {
+        backend: name,
+        texels: valid_texels,
+        region_texels: layout.texel_count(),
+        triangles: triangles.len(),
+        shadow_rays,
+        gather_rays: valid_texels * u64::from(settings.rays) * u64::from(bounces_run),
+        bvh: bvh_mode,
+        bounces_run,
+        setup,
+        passes,
+        skipped,
+        total_seconds: start.elapsed().as_secs_f64(),
+    };
+    Ok(BakeOutput {
+        settings: settings.clone(),
+        layout,
+        graph,
+        maps,
+        lamps_used,
+        report,
+    })
+}
+
+/// Copies `region` out of read-back layers.
+fn crop(layers: &[Vec<f32>], layer_size: [u32; 2], region: &Region) -> MapImage {
+    let mut m = MapImage::zeros(region.size[0], region.size[1]);
+    let Some(layer) = layers.get(region.layer as usize) else {
+        return m;
+    };
+    let w = region.size[0] as usize;
+    for y in 0..region.size[1] as usize {
+        let src = 4
+            * ((region.offset[1] as usize + y) * layer_size[0] as usize
+                + region.offset[0] as usize);
+        let dst = 4 * y * w;
+        if let (Some(s), Some(d)) = (
+            layer.get(src..src + 4 * w),
+            m.texels.get_mut(dst..dst + 4 * w),
+        ) {
+            d.copy_from_slice(s);
+        }
+    }
+    m
+}

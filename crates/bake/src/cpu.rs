@@ -1,0 +1,764 @@
+//! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
+//! through [`EncodedScene`]'s CPU traversal of the *encoded textures* — the same data the
+//! shaders read. Everything is `f32` and written as a fragment shader would be, one texel at a
+//! time, so that it is the oracle every GPU backend is diffed against.
+//!
+//! # Pass semantics (what every backend must compute)
+//! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
+//! object index) and the pass's inputs `a`, `b` (in [`PassDesc::reads`] order):
+//!
+//! - **Direct**: for each listed lamp with position `L`, `to = L − p`, `d² = |to|²`,
+//!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.
+//!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
+//!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o = p + n̂·ε` with
+//!   `ε = min(SceneData::ray_epsilon, d/4)`, direction `L − o` (unnormalised), any hit with
+//!   `t ∈ (0, 1 − ε/|L − o|)`: occluded lamps contribute 0. Else `E += I·cos θ / max(d², ε²)`.
+//!   Output `(E, 1)`; invalid texels `(0, 0, 0, 0)`.
+//! - **Copy**: `a`.
+//! - **Blur** (axis, σ): radius `R = min(⌈3σ⌉, 64)` texels along the axis; taps `k ∈ [−R, R]`
+//!   inside the layer whose `a.w > ½` (valid), whose object index equals the centre's and whose
+//!   normal is within 25° of the centre's (`n̂ₖ·n̂ ≥ 0.9063`), weighted `exp(−k²/(2σ²))`,
+//!   normalised by the sum of the used weights. So the empty texels between charts never bleed
+//!   in (the paper's black seams) and neither do charts facing elsewhere (floor into wall).
+//!   Output `(Σ, 1)`; invalid centres `(0, 0, 0, 0)`.
+//! - **AlbedoMul**: `(a.rgb × b.rgb, a.w)` — b is the G-buffer albedo.
+//! - **Combine**: `(a.rgb + b.rgb, a.w)`.
+//! - **Gather** (bounce k): N = `rays` directions, cosine-weighted about n̂: with
+//!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)`, `r = √u₀`, `φ = 2π·u₁`, local
+//!   `(r cos φ, r sin φ, √(1 − u₀))` in the orthonormal basis of Duff et al. (2017) built from
+//!   n̂. Closest hit from `p + n̂·ε` (t ∈ (0, ∞)). A hit counts when the hit object has a
+//!   region and the ray meets the front of the surface (interpolated shading normal `n_h`,
+//!   `n_h·dir < 0`); then it adds the reflected map `a` looked up at the hit's light-map UV in
+//!   the hit object's region by [`map::sample_masked`](crate::map::sample_masked). Back faces,
+//!   misses and non-receivers add 0. Output `(Σ / N, 1)`. Since `E = π·mean(L)` over a
+//!   cosine-weighted hemisphere and a Lambertian surface's radiance is `L = M/π`, the mean
+//!   exitance is the indirect illuminance.
+//!
+//! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
+//! NaN or infinity ever reaches a map.
+
+use std::f32::consts::PI;
+
+use luxbake_bvh::{EncodedScene, Ray, Traversal};
+use luxbake_ies::GpuTable;
+use rayon::prelude::*;
+
+use crate::backend::{GpuBackend, LampParams, Limits, SceneData};
+use crate::graph::{Axis, PassDesc, PassKind, TexDesc};
+use crate::layout::Region;
+use crate::map::sample_masked;
+use crate::rng;
+use crate::scene::BvhMode;
+
+/// Errors of the CPU backend (all are misuse of the [`GpuBackend`] contract).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CpuError {
+    /// A texture handle that this backend did not create.
+    #[error("unknown texture {0}")]
+    UnknownTexture(usize),
+    /// An upload with the wrong number of floats.
+    #[error("upload of {got} floats into a layer of {expected}")]
+    WrongSize {
+        /// Floats per layer.
+        expected: usize,
+        /// Floats given.
+        got: usize,
+    },
+    /// A layer index beyond the texture's layers.
+    #[error("layer {layer} of a texture with {layers} layers")]
+    LayerOutOfRange {
+        /// The layer asked for.
+        layer: u32,
+        /// Layers of the texture.
+        layers: u32,
+    },
+    /// A pass was given the wrong number of textures or textures of different sizes.
+    #[error("pass `{pass}`: {reason}")]
+    BadBindings {
+        /// The pass label.
+        pass: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A lamp refers to a table that was not uploaded.
+    #[error("lamp {lamp} refers to intensity table {table}, but {tables} were uploaded")]
+    MissingTable {
+        /// Lamp index.
+        lamp: usize,
+        /// Table index.
+        table: u32,
+        /// Number of tables.
+        tables: usize,
+    },
+    /// A texture too large to address.
+    #[error("texture {size:?} × {layers} layers is too large")]
+    TooLarge {
+        /// Layer size.
+        size: [u32; 2],
+        /// Layers.
+        layers: u32,
+    },
+}
+
+/// Handle of a CPU texture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CpuTexture(usize);
+
+/// The uploaded scene of the CPU backend (owned copies, as a GPU upload would make).
+#[derive(Debug, Clone)]
+pub struct CpuScene {
+    bvh: EncodedScene,
+    lamps: Vec<LampParams>,
+    tables: Vec<GpuTable>,
+    regions: Vec<Option<Region>>,
+    layer_size: [u32; 2],
+    ray_epsilon: f32,
+}
+
+/// The CPU reference backend.
+#[derive(Debug, Default)]
+pub struct CpuBackend {
+    textures: Vec<(TexDesc, Vec<f32>)>,
+}
+
+/// Rows per tile: progress is reported after each tile.
+const TILE_ROWS: u32 = 32;
+/// Largest blur radius, texels (a shader's loop bound).
+pub const MAX_BLUR_RADIUS: i32 = 64;
+/// Blur taps whose normal deviates more than this cosine (25°) from the centre's are skipped.
+pub const BLUR_NORMAL_COS: f32 = 0.906_307_8;
+
+impl CpuBackend {
+    /// A backend with no textures.
+    pub fn new() -> CpuBackend {
+        CpuBackend::default()
+    }
+
+    fn get(&self, t: &CpuTexture) -> Result<&(TexDesc, Vec<f32>), CpuError> {
+        self.textures.get(t.0).ok_or(CpuError::UnknownTexture(t.0))
+    }
+}
+
+/// Maps NaN to 0 and clamps to `[0, f32::MAX]`.
+#[inline]
+pub fn guard(v: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.clamp(0.0, f32::MAX)
+    }
+}
+
+#[inline]
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline]
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+#[inline]
+fn mad(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
+    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
+}
+
+/// `v / |v|`, or `None` for a zero or non-finite vector.
+#[inline]
+fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
+    let l = dot(v, v).sqrt();
+    (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
+}
+
+/// `M · v` for a matrix given by rows.
+#[inline]
+fn mat_vec(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
+    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
+}
+
+/// Orthonormal basis `(t, b)` around unit `n` (Duff et al. 2017, "Building an Orthonormal
+/// Basis, Revisited").
+#[inline]
+pub fn basis(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
+    let sign = 1.0f32.copysign(n[2]);
+    let a = -1.0 / (sign + n[2]);
+    let b = n[0] * n[1] * a;
+    (
+        [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]],
+        [b, sign + n[1] * n[1] * a, -n[1]],
+    )
+}
+
+/// The cosine-weighted direction of gather sample `(u0, u1)` about unit `n`.
+#[inline]
+pub fn cosine_direction(n: [f32; 3], u: [f32; 2]) -> [f32; 3] {
+    let (t, b) = basis(n);
+    let r = u[0].sqrt();
+    let phi = 2.0 * PI * u[1];
+    let (x, y) = (r * phi.cos(), r * phi.sin());
+    let z = (1.0 - u[0]).max(0.0).sqrt();
+    [
+        t[0] * x + b[0] * y + n[0] * z,
+        t[1] * x + b[1] * y + n[1] * z,
+        t[2] * x + b[2] * y + n[2] * z,
+    ]
+}
+
+fn traversal(mode: BvhMode) -> Traversal {
+    match mode {
+        BvhMode::Mtbvh => Traversal::Mtbvh,
+        BvhMode::Tbvh => Traversal::Tbvh,
+        BvhMode::None => Traversal::BruteForce,
+    }
+}
+
+/// Read access to one RGBA32F texture array.
+#[derive(Clone, Copy)]
+struct View<'a> {
+    data: &'a [f32],
+    size: [u32; 2],
+    layers: u32,
+}
+
+impl View<'_> {
+    #[inline]
+    fn fetch(&self, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        if x >= self.size[0] || y >= self.size[1] || layer >= self.layers {
+            return [0.0; 4];
+        }
+        let i = 4
+            * ((layer as usize * self.size[1] as usize + y as usize) * self.size[0] as usize
+                + x as usize);
+        match self.data.get(i..i + 4) {
+            Some(t) => [t[0], t[1], t[2], t[3]],
+            None => [0.0; 4],
+        }
+    }
+}
+
+fn xyz(t: [f32; 4]) -> [f32; 3] {
+    [t[0], t[1], t[2]]
+}
+
+/// The direct illuminance at one texel (see the module docs).
+fn direct_texel(
+    scene: &CpuScene,
+    lamps: &[u32],
+    trav: Traversal,
+    pos: [f32; 4],
+    nrm: [f32; 4],
+) -> [f32; 4] {
+    if pos[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let p = xyz(pos);
+    let Some(n) = normalize(xyz(nrm)) else {
+        return [0.0, 0.0, 0.0, 1.0];
+    };
+    let mut e = [0.0f32; 3];
+    for &li in lamps {
+        let Some(lamp) = scene.lamps.get(li as usize) else {
+            continue;
+        };
+        let Some(table) = scene.tables.get(lamp.table as usize) else {
+            continue;
+        };
+        let to = sub(lamp.position, p);
+        let d2 = dot(to, to);
+        let d = d2.sqrt();
+        if !(d > 0.0 && d.is_finite()) {
+            continue;
+        }
+        let w = [to[0] / d, to[1] / d, to[2] / d];
+        let cos = dot(n, w);
+        if cos.is_nan() || cos <= 0.0 {
+            continue;
+        }
+        let intensity = table.sample(mat_vec(&lamp.world_to_photometric, [-w[0], -w[1], -w[2]]));
+        if intensity.is_nan() || intensity <= 0.0 {
+            continue;
+        }
+        let eps = scene.ray_epsilon.min(0.25 * d);
+        let o = mad(p, n, eps);
+        let dir = sub(lamp.position, o);
+        let len = dot(dir, dir).sqrt();
+        let t_max = 1.0 - eps / len;
+        if len > 0.0 && t_max > 0.0 && scene.bvh.any_hit(&Ray { origin: o, dir }, 0.0, t_max, trav)
+        {
+            continue;
+        }
+        let k = intensity * cos / d2.max(eps * eps);
+        for (ec, sc) in e.iter_mut().zip(lamp.scale) {
+            *ec += k * sc;
+        }
+    }
+    [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
+}
+
+/// The gathered indirect illuminance at one texel (see the module docs).
+#[allow(clippy::too_many_arguments)]
+fn gather_texel(
+    scene: &CpuScene,
+    reflected: View<'_>,
+    trav: Traversal,
+    params: (u32, u32, u32),
+    texel: u32,
+    pos: [f32; 4],
+    nrm: [f32; 4],
+) -> [f32; 4] {
+    let (rays, bounce, seed) = params;
+    if pos[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let Some(n) = normalize(xyz(nrm)) else {
+        return [0.0, 0.0, 0.0, 1.0];
+    };
+    if rays == 0 {
+        return [0.0, 0.0, 0.0, 1.0];
+    }
+    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    let mut sum = [0.0f32; 3];
+    for s in 0..rays {
+        let dir = cosine_direction(n, rng::uniform2(texel, s, bounce, seed));
+        let Some(hit) = scene
+            .bvh
+            .closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav)
+        else {
+            continue;
+        };
+        let attr = scene.bvh.triangle_attributes(hit.triangle);
+        let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
+            continue;
+        };
+        let w0 = 1.0 - hit.u - hit.v;
+        let nh = [0, 1, 2].map(|c| {
+            w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]
+        });
+        let facing = dot(nh, dir);
+        if facing.is_nan() || facing >= 0.0 {
+            continue;
+        }
+        let uv =
+            [0, 1].map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
+        let m = sample_masked(
+            |x, y| reflected.fetch(region.layer, x, y),
+            region.offset,
+            region.size,
+            uv,
+        );
+        for c in 0..3 {
+            sum[c] += m[c];
+        }
+    }
+    let inv = 1.0 / rays as f32;
+    [
+        guard(sum[0] * inv),
+        guard(sum[1] * inv),
+        guard(sum[2] * inv),
+        1.0,
+    ]
+}
+
+/// One axis of the masked Gaussian at one texel (see the module docs).
+fn blur_texel(
+    src: View<'_>,
+    nrm: View<'_>,
+    axis: Axis,
+    sigma: f32,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let centre = src.fetch(layer, x, y);
+    if centre[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let nc = nrm.fetch(layer, x, y);
+    let object = nc[3];
+    let Some(n0) = normalize(xyz(nc)) else {
+        return centre;
+    };
+    let radius = ((3.0 * sigma).ceil() as i32).clamp(0, MAX_BLUR_RADIUS);
+    let inv = -0.5 / (sigma * sigma);
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for k in -radius..=radius {
+        let (tx, ty) = match axis {
+            Axis::U => (x as i64 + i64::from(k), i64::from(y)),
+            Axis::V => (i64::from(x), y as i64 + i64::from(k)),
+        };
+        if tx < 0 || ty < 0 || tx >= i64::from(src.size[0]) || ty >= i64::from(src.size[1]) {
+            continue;
+        }
+        let (tx, ty) = (tx as u32, ty as u32);
+        let t = src.fetch(layer, tx, ty);
+        if t[3] <= 0.5 {
+            continue;
+        }
+        let nt = nrm.fetch(layer, tx, ty);
+        if nt[3] != object {
+            continue;
+        }
+        match normalize(xyz(nt)) {
+            Some(n1) if dot(n0, n1) >= BLUR_NORMAL_COS => {}
+            _ => continue,
+        }
+        let w = ((k * k) as f32 * inv).exp();
+        for c in 0..3 {
+            sum[c] += w * t[c];
+        }
+        wsum += w;
+    }
+    if wsum > 0.0 {
+        [
+            guard(sum[0] / wsum),
+            guard(sum[1] / wsum),
+            guard(sum[2] / wsum),
+            1.0,
+        ]
+    } else {
+        centre
+    }
+}
+
+impl GpuBackend for CpuBackend {
+    type Texture = CpuTexture;
+    type Scene = CpuScene;
+    type Error = CpuError;
+
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn limits(&self) -> Limits {
+        Limits {
+            max_texture_size: 16_384,
+            max_array_layers: 2048,
+            max_texture_units: 16,
+        }
+    }
+
+    fn create_texture(&mut self, desc: &TexDesc) -> Result<CpuTexture, CpuError> {
+        let n = (desc.size[0] as usize)
+            .checked_mul(desc.size[1] as usize)
+            .and_then(|n| n.checked_mul(desc.layers as usize))
+            .and_then(|n| n.checked_mul(4))
+            .filter(|&n| n <= isize::MAX as usize / 4)
+            .ok_or(CpuError::TooLarge {
+                size: desc.size,
+                layers: desc.layers,
+            })?;
+        self.textures.push((desc.clone(), vec![0.0; n]));
+        Ok(CpuTexture(self.textures.len() - 1))
+    }
+
+    fn upload(&mut self, texture: &CpuTexture, layer: u32, texels: &[f32]) -> Result<(), CpuError> {
+        let (desc, data) = self
+            .textures
+            .get_mut(texture.0)
+            .ok_or(CpuError::UnknownTexture(texture.0))?;
+        if layer >= desc.layers {
+            return Err(CpuError::LayerOutOfRange {
+                layer,
+                layers: desc.layers,
+            });
+        }
+        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
+        if texels.len() != per_layer {
+            return Err(CpuError::WrongSize {
+                expected: per_layer,
+                got: texels.len(),
+            });
+        }
+        let start = layer as usize * per_layer;
+        data[start..start + per_layer].copy_from_slice(texels);
+        Ok(())
+    }
+
+    fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<CpuScene, CpuError> {
+        for (i, l) in scene.lamps.iter().enumerate() {
+            if l.table as usize >= scene.ies_tables.len() {
+                return Err(CpuError::MissingTable {
+                    lamp: i,
+                    table: l.table,
+                    tables: scene.ies_tables.len(),
+                });
+            }
+        }
+        Ok(CpuScene {
+            bvh: scene.bvh.clone(),
+            lamps: scene.lamps.to_vec(),
+            tables: scene.ies_tables.to_vec(),
+            regions: scene.regions.to_vec(),
+            layer_size: scene.layer_size,
+            ray_epsilon: scene.ray_epsilon,
+        })
+    }
+
+    fn run_pass(
+        &mut self,
+        pass: &PassDesc,
+        reads: &[&CpuTexture],
+        writes: &[&CpuTexture],
+        scene: &CpuScene,
+        progress: &mut dyn FnMut(f32),
+    ) -> Result<(), CpuError> {
+        let bad = |reason: String| CpuError::BadBindings {
+            pass: pass.label,
+            reason,
+        };
+        let expected_reads = match pass.kind {
+            PassKind::GBuffer => 0,
+            PassKind::Copy => 1,
+            PassKind::Direct | PassKind::Blur { .. } | PassKind::AlbedoMul | PassKind::Combine => 2,
+            PassKind::Gather { .. } => 3,
+        };
+        if pass.kind == PassKind::GBuffer {
+            // The G-buffer textures are filled by `upload`; nothing to compute.
+            progress(1.0);
+            return Ok(());
+        }
+        if reads.len() != expected_reads || writes.len() != 1 {
+            return Err(bad(format!(
+                "expected {expected_reads} reads and 1 write, got {} and {}",
+                reads.len(),
+                writes.len()
+            )));
+        }
+        let out_index = writes[0].0;
+        let (desc, mut out) = {
+            let (d, data) = self
+                .textures
+                .get_mut(out_index)
+                .ok_or(CpuError::UnknownTexture(out_index))?;
+            (d.clone(), std::mem::take(data))
+        };
+        let result = (|| {
+            let mut views = Vec::with_capacity(reads.len());
+            for r in reads {
+                if r.0 == out_index {
+                    return Err(bad("reads the texture it writes".into()));
+                }
+                let (d, data) = self.get(r)?;
+                if d.size != desc.size || d.layers != desc.layers {
+                    return Err(bad(format!("texture {} differs in size", d.label)));
+                }
+                views.push(View {
+                    data,
+                    size: d.size,
+                    layers: d.layers,
+                });
+            }
+            if desc.size != scene.layer_size {
+                return Err(bad(
+                    "texture size differs from the scene's layer size".into()
+                ));
+            }
+            run_kernel(pass, &views, &desc, &mut out, scene, progress);
+            Ok(())
+        })();
+        if let Some((_, data)) = self.textures.get_mut(out_index) {
+            *data = out;
+        }
+        result
+    }
+
+    fn read_back(&mut self, texture: &CpuTexture, layer: u32) -> Result<Vec<f32>, CpuError> {
+        let (desc, data) = self.get(texture)?;
+        if layer >= desc.layers {
+            return Err(CpuError::LayerOutOfRange {
+                layer,
+                layers: desc.layers,
+            });
+        }
+        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
+        let start = layer as usize * per_layer;
+        Ok(data[start..start + per_layer].to_vec())
+    }
+}
+
+/// Runs one pass over every texel of every layer, tile by tile (rows in parallel).
+fn run_kernel(
+    pass: &PassDesc,
+    views: &[View<'_>],
+    desc: &TexDesc,
+    out: &mut [f32],
+    scene: &CpuScene,
+    progress: &mut dyn FnMut(f32),
+) {
+    let [w, h] = desc.size;
+    let row_floats = 4 * w as usize;
+    if row_floats == 0 || h == 0 {
+        progress(1.0);
+        return;
+    }
+    let trav = traversal(pass.params.bvh);
+    let tiles_per_layer = h.div_ceil(TILE_ROWS);
+    let total_tiles = (tiles_per_layer * desc.layers).max(1);
+    let mut done = 0;
+    for layer in 0..desc.layers {
+        for tile in 0..tiles_per_layer {
+            let y0 = tile * TILE_ROWS;
+            let y1 = (y0 + TILE_ROWS).min(h);
+            let start = (layer as usize * h as usize + y0 as usize) * row_floats;
+            let end = (layer as usize * h as usize + y1 as usize) * row_floats;
+            out[start..end]
+                .par_chunks_mut(row_floats)
+                .enumerate()
+                .for_each(|(r, row)| {
+                    let y = y0 + r as u32;
+                    for x in 0..w {
+                        let v = texel(pass, views, scene, trav, layer, x, y);
+                        row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
+                    }
+                });
+            done += 1;
+            progress(done as f32 / total_tiles as f32);
+        }
+    }
+}
+
+/// One texel of one pass.
+#[inline]
+fn texel(
+    pass: &PassDesc,
+    v: &[View<'_>],
+    scene: &CpuScene,
+    trav: Traversal,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    match pass.kind {
+        PassKind::GBuffer => [0.0; 4],
+        PassKind::Direct => direct_texel(
+            scene,
+            &pass.params.lamps,
+            trav,
+            v[0].fetch(layer, x, y),
+            v[1].fetch(layer, x, y),
+        ),
+        PassKind::Copy => v[0].fetch(layer, x, y),
+        PassKind::Blur { axis, sigma } => blur_texel(v[0], v[1], axis, sigma, layer, x, y),
+        PassKind::AlbedoMul => {
+            let a = v[0].fetch(layer, x, y);
+            let b = v[1].fetch(layer, x, y);
+            [
+                guard(a[0] * b[0]),
+                guard(a[1] * b[1]),
+                guard(a[2] * b[2]),
+                a[3],
+            ]
+        }
+        PassKind::Combine => {
+            let a = v[0].fetch(layer, x, y);
+            let b = v[1].fetch(layer, x, y);
+            [
+                guard(a[0] + b[0]),
+                guard(a[1] + b[1]),
+                guard(a[2] + b[2]),
+                a[3],
+            ]
+        }
+        PassKind::Gather { bounce } => gather_texel(
+            scene,
+            v[2],
+            trav,
+            (pass.params.rays, bounce, pass.params.seed),
+            rng::texel_index(scene.layer_size, layer, x, y),
+            v[0].fetch(layer, x, y),
+            v[1].fetch(layer, x, y),
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn basis_is_orthonormal_for_any_normal() {
+        for n in [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.577_350_3, -0.577_350_3, 0.577_350_3],
+            [0.0, 1e-8, -1.0],
+        ] {
+            let (t, b) = basis(n);
+            for (a, c) in [(t, b), (t, n), (b, n)] {
+                assert!(dot(a, c).abs() < 1e-6, "{n:?}");
+            }
+            for a in [t, b] {
+                assert!((dot(a, a) - 1.0).abs() < 1e-6, "{n:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn cosine_directions_lie_in_the_hemisphere_with_mean_cosine_two_thirds() {
+        let n = normalize([0.3, -0.8, 0.2]).expect("unit");
+        let mut mean_cos = 0.0f64;
+        let count = 20_000;
+        for s in 0..count {
+            let d = cosine_direction(n, rng::uniform2(17, s, 1, 3));
+            let c = dot(d, n);
+            assert!(c >= 0.0, "sample {s}");
+            assert!((dot(d, d) - 1.0).abs() < 1e-5);
+            mean_cos += f64::from(c);
+        }
+        // E[cos θ] under p(ω) = cos θ / π is 2/3.
+        let m = mean_cos / f64::from(count);
+        assert!((m - 2.0 / 3.0).abs() < 0.01, "{m}");
+    }
+
+    #[test]
+    fn guard_maps_nan_and_inf() {
+        assert_eq!(guard(f32::NAN), 0.0);
+        assert_eq!(guard(f32::INFINITY), f32::MAX);
+        assert_eq!(guard(-1.0), 0.0);
+        assert_eq!(guard(2.5), 2.5);
+    }
+
+    #[test]
+    fn blur_keeps_empty_texels_and_other_objects_out() {
+        // One row: [obj0 1.0] [obj0 3.0] [empty] [obj1 100.0]
+        let size = [4, 1];
+        let src = [
+            1.0, 1.0, 1.0, 1.0, 3.0, 3.0, 3.0, 1.0, 0.0, 0.0, 0.0, 0.0, 100.0, 100.0, 100.0, 1.0,
+        ];
+        let nrm = [
+            0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0,
+        ];
+        let s = View {
+            data: &src,
+            size,
+            layers: 1,
+        };
+        let n = View {
+            data: &nrm,
+            size,
+            layers: 1,
+        };
+        let a = blur_texel(s, n, Axis::U, 1.0, 0, 0, 0);
+        let b = blur_texel(s, n, Axis::U, 1.0, 0, 1, 0);
+        let w = (-0.5f32).exp();
+        let expected_a = (1.0 + 3.0 * w) / (1.0 + w);
+        assert!((a[0] - expected_a).abs() < 1e-6, "{a:?}");
+        let expected_b = (3.0 + 1.0 * w) / (1.0 + w);
+        assert!((b[0] - expected_b).abs() < 1e-6, "{b:?}");
+        assert_eq!(blur_texel(s, n, Axis::U, 1.0, 0, 2, 0), [0.0; 4]);
+        assert_eq!(
+            blur_texel(s, n, Axis::U, 5.0, 0, 3, 0),
+            [100.0, 100.0, 100.0, 1.0]
+        );
+        // A vertical pass over a one-row image sees only the centre.
+        assert_eq!(
+            blur_texel(s, n, Axis::V, 3.0, 0, 1, 0),
+            [3.0, 3.0, 3.0, 1.0]
+        );
+    }
+}

@@ -1,0 +1,685 @@
+//! The bake as a pass graph: plain data, no GPU types.
+//!
+//! A [`BakeGraph`] lists the textures of a bake ([`TexDesc`]: every one an RGBA32F texture array
+//! of the layout's layer size and layer count) and the passes that read and write them
+//! ([`PassDesc`]), in execution order. Backends execute the passes one by one in that order; they
+//! never decide the order. The graph is built by small functions, one per stage of the paper's
+//! Figure 4, each declaring what it reads and writes and returning the texture it produced.
+//!
+//! # Stages (the paper's Figure 5 numbering)
+//! ```text
+//! GBuffer                      → position, normal, albedo(1)        (uploaded from the rasteriser)
+//! Direct     position, normal  → direct(2)
+//! Copy       direct            → direct_blurred                     (the paper's "copy for later")
+//! Blur U/V   direct_blurred    → blur_tmp → direct_blurred(3)       (only when blur ≠ none)
+//! AlbedoMul  direct_blurred(3) → reflected_direct(4)
+//! per bounce k = 1 ..= bounces:
+//!   Gather k  reflected(4 if k = 1, else 8) → indirect(5)
+//!   Combine   direct(2) + indirect(5)       → combined(6)
+//!   Copy, Blur U/V combined                 → combined_blurred(7)
+//!   AlbedoMul combined_blurred(7)           → reflected_combined(8)
+//! ```
+//! This is the Jacobi iteration `ind_k = gather(ρ · blur(direct + ind_{k−1}))`, `ind_0 = 0`,
+//! whose fixed point is the inter-reflection series `Σ ρ^i` of a closed diffuse enclosure.
+//! Bounces re-use the same five textures (5–8 and the blur scratch): a gather reads the
+//! reflected map of the previous bounce (8) and writes the indirect map (5), which only the
+//! combine of the same bounce reads, so no pass ever reads the texture it writes.
+//!
+//! Every light-map texture carries the texel mask in its alpha channel (1 = a valid texel of a
+//! receiver's chart, 0 = empty), which the blur and the gather's bilinear look-up use.
+//!
+//! # Read/write conventions of each pass (fixed: backends rely on them)
+//! | kind | reads | writes |
+//! |---|---|---|
+//! | `GBuffer` | — | position, normal, albedo |
+//! | `Direct` | position, normal | direct |
+//! | `Copy` | src | dst |
+//! | `Blur` | src, normal | dst |
+//! | `AlbedoMul` | src, albedo | dst |
+//! | `Gather` | position, normal, reflected | indirect |
+//! | `Combine` | direct, indirect | combined |
+
+use crate::scene::{Blur, BvhMode};
+
+/// Index of a texture in [`BakeGraph::textures`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct TexId(pub u32);
+
+impl TexId {
+    /// The index into [`BakeGraph::textures`].
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Texel format of a graph texture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum TexFormat {
+    /// Four 32-bit floats per texel (WebGL2 `RGBA32F` with `EXT_color_buffer_float`).
+    Rgba32F,
+}
+
+/// Description of one texture array of the graph.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct TexDesc {
+    /// Short name (for debugging, read-back and file names).
+    pub label: &'static str,
+    /// Layer size in texels, `[width, height]`.
+    pub size: [u32; 2],
+    /// Number of array layers.
+    pub layers: u32,
+    /// Texel format.
+    pub format: TexFormat,
+}
+
+/// Axis of one separable blur pass.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Axis {
+    /// Along texel rows (x, light-map u).
+    U,
+    /// Along texel columns (y, light-map v).
+    V,
+}
+
+/// What a pass computes (see the module docs for its reads and writes).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PassKind {
+    /// The G-buffer: world position (w = 1 valid), normal (w = object index) and albedo
+    /// (w = coverage) per texel, rasterised on the CPU and uploaded.
+    GBuffer,
+    /// Direct illuminance from the lamps in [`PassParams::lamps`], with shadow rays.
+    Direct,
+    /// Texel-for-texel copy.
+    Copy,
+    /// One axis of the separable Gaussian, over valid texels of the same object only.
+    Blur {
+        /// Axis of this pass.
+        axis: Axis,
+        /// Standard deviation, texels.
+        sigma: f32,
+    },
+    /// `dst.rgb = src.rgb × albedo.rgb`: illuminance to exitance.
+    AlbedoMul,
+    /// Indirect illuminance: mean reflected exitance over cosine-weighted hemisphere rays.
+    Gather {
+        /// Bounce number, 1-based (also the `pass` input of the RNG hash).
+        bounce: u32,
+    },
+    /// `dst = direct + indirect`.
+    Combine,
+}
+
+/// Uniform parameters of a pass (what a shader gets as uniforms).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassParams {
+    /// The bounce this pass belongs to: 0 for the direct part, `k` for bounce `k`.
+    pub bounce: u32,
+    /// `Direct`: indices (into the uploaded lamp table) of the lamps to evaluate.
+    pub lamps: Vec<u32>,
+    /// `Gather`: rays per texel.
+    pub rays: u32,
+    /// `Gather`: seed of the RNG hash.
+    pub seed: u32,
+    /// `Direct` and `Gather`: the traversal to use.
+    pub bvh: BvhMode,
+}
+
+/// One pass: its kind, the textures it reads and writes (in the order of the module docs'
+/// table) and its parameters.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassDesc {
+    /// What the pass computes.
+    pub kind: PassKind,
+    /// Short name for progress reports and timings.
+    pub label: &'static str,
+    /// Textures read, in the kind's documented order.
+    pub reads: Vec<TexId>,
+    /// Textures written, in the kind's documented order.
+    pub writes: Vec<TexId>,
+    /// Uniform parameters.
+    pub params: PassParams,
+}
+
+/// The G-buffer textures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GBufferTex {
+    /// World position, w = 1 on valid texels.
+    pub position: TexId,
+    /// World normal, w = object index.
+    pub normal: TexId,
+    /// Albedo, w = coverage.
+    pub albedo: TexId,
+}
+
+/// The textures of the paper's Figure 5, numbered as there; `None` where the graph has no
+/// such stage (5–8 without bounces).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Figure5 {
+    /// (1) … (8) in order: albedo, direct, blurred direct, reflected direct, indirect,
+    /// combined, blurred combined, reflected combined.
+    pub stages: [Option<TexId>; 8],
+}
+
+impl Figure5 {
+    /// Names of the eight stages, as in the paper's caption.
+    pub const NAMES: [&'static str; 8] = [
+        "albedo",
+        "direct",
+        "blurred direct",
+        "reflected direct",
+        "indirect",
+        "combined",
+        "blurred combined",
+        "reflected combined",
+    ];
+}
+
+/// What the graph should compute.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GraphConfig {
+    /// Layer size of every texture array, texels.
+    pub layer_size: [u32; 2],
+    /// Layers of every texture array.
+    pub layers: u32,
+    /// Lamps the direct pass evaluates (indices into the uploaded lamp table).
+    pub lamps: Vec<u32>,
+    /// Gather rays per texel.
+    pub rays: u32,
+    /// Indirect bounces (0 = direct light only).
+    pub bounces: u32,
+    /// Blur of the direct and combined maps.
+    pub blur: Blur,
+    /// RNG seed.
+    pub seed: u32,
+    /// Traversal for the ray-casting passes.
+    pub bvh: BvhMode,
+}
+
+/// The bake's textures and passes, in execution order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BakeGraph {
+    /// Every texture array, indexed by [`TexId`].
+    pub textures: Vec<TexDesc>,
+    /// Passes in execution order.
+    pub passes: Vec<PassDesc>,
+    /// The G-buffer textures.
+    pub gbuffer: GBufferTex,
+    /// The Figure 5 stages.
+    pub figure5: Figure5,
+    /// The unblurred direct illuminance (2).
+    pub direct: TexId,
+    /// The final illuminance, lux, before albedo: blurred combined (7), or blurred direct (3)
+    /// without bounces.
+    pub illuminance: TexId,
+    /// The final exitance, lm/m², after albedo: (8), or (4) without bounces.
+    pub exitance: TexId,
+    /// The blurred direct illuminance (3): `illuminance − this` is the (blurred) indirect part.
+    pub direct_blurred: TexId,
+    /// `(first, end)` pass index range of each bounce `k` (entry `k − 1`).
+    pub bounce_passes: Vec<(usize, usize)>,
+}
+
+/// Builds a [`BakeGraph`]: textures are added on demand, passes appended in order.
+#[derive(Debug)]
+struct Builder {
+    layer_size: [u32; 2],
+    layers: u32,
+    textures: Vec<TexDesc>,
+    passes: Vec<PassDesc>,
+    bvh: BvhMode,
+}
+
+impl Builder {
+    fn texture(&mut self, label: &'static str) -> TexId {
+        let id = TexId(self.textures.len() as u32);
+        self.textures.push(TexDesc {
+            label,
+            size: self.layer_size,
+            layers: self.layers,
+            format: TexFormat::Rgba32F,
+        });
+        id
+    }
+
+    fn pass(
+        &mut self,
+        kind: PassKind,
+        label: &'static str,
+        reads: Vec<TexId>,
+        writes: Vec<TexId>,
+        bounce: u32,
+    ) -> &mut PassDesc {
+        self.passes.push(PassDesc {
+            kind,
+            label,
+            reads,
+            writes,
+            params: PassParams {
+                bounce,
+                lamps: Vec::new(),
+                rays: 0,
+                seed: 0,
+                bvh: self.bvh,
+            },
+        });
+        let last = self.passes.len() - 1;
+        &mut self.passes[last]
+    }
+}
+
+/// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output.
+fn gbuffer_stage(b: &mut Builder) -> GBufferTex {
+    let g = GBufferTex {
+        position: b.texture("gbuffer_position"),
+        normal: b.texture("gbuffer_normal"),
+        albedo: b.texture("gbuffer_albedo"),
+    };
+    b.pass(
+        PassKind::GBuffer,
+        "gbuffer",
+        Vec::new(),
+        vec![g.position, g.normal, g.albedo],
+        0,
+    );
+    g
+}
+
+/// Stage (2): direct illuminance from `lamps`.
+fn direct_stage(b: &mut Builder, g: GBufferTex, lamps: &[u32]) -> TexId {
+    let direct = b.texture("direct");
+    b.pass(
+        PassKind::Direct,
+        "direct",
+        vec![g.position, g.normal],
+        vec![direct],
+        0,
+    )
+    .params
+    .lamps = lamps.to_vec();
+    direct
+}
+
+/// Copy `src` into `dst`, then blur `dst` in place through `tmp` (U then V): stages (3), (7).
+#[allow(clippy::too_many_arguments)]
+fn blur_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    src: TexId,
+    dst: TexId,
+    tmp: Option<TexId>,
+    blur: Blur,
+    bounce: u32,
+    labels: [&'static str; 3],
+) {
+    b.pass(PassKind::Copy, labels[0], vec![src], vec![dst], bounce);
+    if let (Blur::Sigma(sigma), Some(tmp)) = (blur, tmp) {
+        for (axis, from, to, label) in [
+            (Axis::U, dst, tmp, labels[1]),
+            (Axis::V, tmp, dst, labels[2]),
+        ] {
+            b.pass(
+                PassKind::Blur { axis, sigma },
+                label,
+                vec![from, g.normal],
+                vec![to],
+                bounce,
+            );
+        }
+    }
+}
+
+/// × albedo: stages (4), (8).
+fn albedo_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    src: TexId,
+    dst: TexId,
+    bounce: u32,
+    label: &'static str,
+) {
+    b.pass(
+        PassKind::AlbedoMul,
+        label,
+        vec![src, g.albedo],
+        vec![dst],
+        bounce,
+    );
+}
+
+/// Stage (5): one bounce of indirect light gathered from `reflected`.
+fn gather_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    reflected: TexId,
+    indirect: TexId,
+    bounce: u32,
+    rays: u32,
+    seed: u32,
+) {
+    let p = b.pass(
+        PassKind::Gather { bounce },
+        "gather",
+        vec![g.position, g.normal, reflected],
+        vec![indirect],
+        bounce,
+    );
+    p.params.rays = rays;
+    p.params.seed = seed;
+}
+
+/// Stage (6): direct + indirect.
+fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexId, bounce: u32) {
+    b.pass(
+        PassKind::Combine,
+        "combine",
+        vec![direct, indirect],
+        vec![combined],
+        bounce,
+    );
+}
+
+impl BakeGraph {
+    /// Builds the graph of the paper's pipeline for `config` (see the module docs).
+    pub fn build(config: &GraphConfig) -> BakeGraph {
+        let mut b = Builder {
+            layer_size: config.layer_size,
+            layers: config.layers,
+            textures: Vec::new(),
+            passes: Vec::new(),
+            bvh: config.bvh,
+        };
+        let g = gbuffer_stage(&mut b);
+        let direct = direct_stage(&mut b, g, &config.lamps);
+        let direct_blurred = b.texture("direct_blurred");
+        let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
+        // The blur scratch texture exists only when a blur runs.
+        let tmp = blurs.then(|| b.texture("blur_tmp"));
+        blur_stage(
+            &mut b,
+            g,
+            direct,
+            direct_blurred,
+            tmp,
+            config.blur,
+            0,
+            ["copy_direct", "blur_direct_u", "blur_direct_v"],
+        );
+        let reflected_direct = b.texture("reflected_direct");
+        albedo_stage(
+            &mut b,
+            g,
+            direct_blurred,
+            reflected_direct,
+            0,
+            "albedo_direct",
+        );
+
+        let mut figure5 = Figure5 {
+            stages: [
+                Some(g.albedo),
+                Some(direct),
+                Some(direct_blurred),
+                Some(reflected_direct),
+                None,
+                None,
+                None,
+                None,
+            ],
+        };
+        let mut illuminance = direct_blurred;
+        let mut exitance = reflected_direct;
+        let mut bounce_passes = Vec::new();
+        if config.bounces > 0 {
+            let indirect = b.texture("indirect");
+            let combined = b.texture("combined");
+            let combined_blurred = b.texture("combined_blurred");
+            let reflected_combined = b.texture("reflected_combined");
+            for k in 1..=config.bounces {
+                let first = b.passes.len();
+                let reflected = if k == 1 {
+                    reflected_direct
+                } else {
+                    reflected_combined
+                };
+                gather_stage(&mut b, g, reflected, indirect, k, config.rays, config.seed);
+                combine_stage(&mut b, direct, indirect, combined, k);
+                blur_stage(
+                    &mut b,
+                    g,
+                    combined,
+                    combined_blurred,
+                    tmp,
+                    config.blur,
+                    k,
+                    ["copy_combined", "blur_combined_u", "blur_combined_v"],
+                );
+                albedo_stage(
+                    &mut b,
+                    g,
+                    combined_blurred,
+                    reflected_combined,
+                    k,
+                    "albedo_combined",
+                );
+                bounce_passes.push((first, b.passes.len()));
+            }
+            figure5.stages[4] = Some(indirect);
+            figure5.stages[5] = Some(combined);
+            figure5.stages[6] = Some(combined_blurred);
+            figure5.stages[7] = Some(reflected_combined);
+            illuminance = combined_blurred;
+            exitance = reflected_combined;
+        }
+        BakeGraph {
+            textures: b.textures,
+            passes: b.passes,
+            gbuffer: g,
+            figure5,
+            direct,
+            illuminance,
+            exitance,
+            direct_blurred,
+            bounce_passes,
+        }
+    }
+
+    /// The description of texture `id`, if it belongs to this graph.
+    pub fn texture(&self, id: TexId) -> Option<&TexDesc> {
+        self.textures.get(id.index())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn config(bounces: u32, blur: Blur) -> GraphConfig {
+        GraphConfig {
+            layer_size: [64, 32],
+            layers: 2,
+            lamps: vec![0, 2],
+            rays: 16,
+            bounces,
+            blur,
+            seed: 9,
+            bvh: BvhMode::Mtbvh,
+        }
+    }
+
+    fn kinds(g: &BakeGraph) -> Vec<&'static str> {
+        g.passes.iter().map(|p| p.label).collect()
+    }
+
+    #[test]
+    fn paper_order_one_bounce_with_blur() {
+        let g = BakeGraph::build(&config(1, Blur::Sigma(1.5)));
+        assert_eq!(
+            kinds(&g),
+            [
+                "gbuffer",
+                "direct",
+                "copy_direct",
+                "blur_direct_u",
+                "blur_direct_v",
+                "albedo_direct",
+                "gather",
+                "combine",
+                "copy_combined",
+                "blur_combined_u",
+                "blur_combined_v",
+                "albedo_combined",
+            ]
+        );
+        assert_eq!(g.bounce_passes, vec![(6, 12)]);
+        // Every texture has the layout's size and is RGBA32F.
+        for t in &g.textures {
+            assert_eq!(t.size, [64, 32]);
+            assert_eq!(t.layers, 2);
+            assert_eq!(t.format, TexFormat::Rgba32F);
+        }
+        let f = g
+            .figure5
+            .stages
+            .map(|s| s.expect("all eight stages with a bounce"));
+        let labels: Vec<_> = f.iter().map(|&t| g.texture(t).map(|d| d.label)).collect();
+        assert_eq!(
+            labels,
+            [
+                Some("gbuffer_albedo"),
+                Some("direct"),
+                Some("direct_blurred"),
+                Some("reflected_direct"),
+                Some("indirect"),
+                Some("combined"),
+                Some("combined_blurred"),
+                Some("reflected_combined"),
+            ]
+        );
+        assert_eq!(g.illuminance, f[6]);
+        assert_eq!(g.exitance, f[7]);
+        assert_eq!(g.direct, f[1]);
+        assert_eq!(g.direct_blurred, f[2]);
+    }
+
+    #[test]
+    fn reads_and_writes_follow_the_documented_conventions() {
+        let g = BakeGraph::build(&config(1, Blur::Sigma(2.0)));
+        let gb = g.gbuffer;
+        let f = g.figure5.stages.map(|s| s.expect("stage"));
+        let tmp = g
+            .textures
+            .iter()
+            .position(|t| t.label == "blur_tmp")
+            .map(|i| TexId(i as u32))
+            .expect("blur scratch");
+        let rw: Vec<(Vec<TexId>, Vec<TexId>)> = g
+            .passes
+            .iter()
+            .map(|p| (p.reads.clone(), p.writes.clone()))
+            .collect();
+        assert_eq!(rw[0], (vec![], vec![gb.position, gb.normal, gb.albedo]));
+        assert_eq!(rw[1], (vec![gb.position, gb.normal], vec![f[1]]));
+        assert_eq!(rw[2], (vec![f[1]], vec![f[2]]));
+        assert_eq!(rw[3], (vec![f[2], gb.normal], vec![tmp]));
+        assert_eq!(rw[4], (vec![tmp, gb.normal], vec![f[2]]));
+        assert_eq!(rw[5], (vec![f[2], gb.albedo], vec![f[3]]));
+        assert_eq!(rw[6], (vec![gb.position, gb.normal, f[3]], vec![f[4]]));
+        assert_eq!(rw[7], (vec![f[1], f[4]], vec![f[5]]));
+        assert_eq!(rw[8], (vec![f[5]], vec![f[6]]));
+        assert_eq!(rw[9], (vec![f[6], gb.normal], vec![tmp]));
+        assert_eq!(rw[10], (vec![tmp, gb.normal], vec![f[6]]));
+        assert_eq!(rw[11], (vec![f[6], gb.albedo], vec![f[7]]));
+        // Parameters: the direct pass carries the lamp list, the gather its rays and seed.
+        assert_eq!(g.passes[1].params.lamps, vec![0, 2]);
+        assert_eq!(g.passes[6].kind, PassKind::Gather { bounce: 1 });
+        assert_eq!((g.passes[6].params.rays, g.passes[6].params.seed), (16, 9));
+        assert!(g.passes.iter().all(|p| p.params.bvh == BvhMode::Mtbvh));
+    }
+
+    #[test]
+    fn no_pass_reads_what_it_writes_and_everything_read_was_written_before() {
+        for bounces in 0..4 {
+            for blur in [Blur::None, Blur::Sigma(1.0)] {
+                let g = BakeGraph::build(&config(bounces, blur));
+                let mut written = vec![false; g.textures.len()];
+                for p in &g.passes {
+                    for r in &p.reads {
+                        assert!(!p.writes.contains(r), "{} reads its target", p.label);
+                        assert!(written[r.index()], "{} reads unwritten {:?}", p.label, r);
+                    }
+                    for w in &p.writes {
+                        written[w.index()] = true;
+                    }
+                }
+                // Every texture of the graph is used.
+                assert!(
+                    written.iter().all(|&w| w),
+                    "unused texture at {bounces} {blur:?}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn bounces_reuse_textures_and_chain_through_the_reflected_map() {
+        let g = BakeGraph::build(&config(3, Blur::None));
+        assert_eq!(g.bounce_passes.len(), 3);
+        let f = g.figure5.stages.map(|s| s.expect("stage"));
+        let gathers: Vec<&PassDesc> = g
+            .passes
+            .iter()
+            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+            .collect();
+        assert_eq!(gathers.len(), 3);
+        // Bounce 1 gathers the reflected direct map, later bounces the reflected combined one;
+        // all write the same indirect texture.
+        assert_eq!(gathers[0].reads[2], f[3]);
+        assert_eq!(gathers[1].reads[2], f[7]);
+        assert_eq!(gathers[2].reads[2], f[7]);
+        for (k, p) in gathers.iter().enumerate() {
+            assert_eq!(
+                p.kind,
+                PassKind::Gather {
+                    bounce: k as u32 + 1
+                }
+            );
+            assert_eq!(p.params.bounce, k as u32 + 1);
+            assert_eq!(p.writes, vec![f[4]]);
+        }
+        // Without blur: no blur pass and no scratch texture; same texture count for any k ≥ 1.
+        assert!(
+            g.passes
+                .iter()
+                .all(|p| !matches!(p.kind, PassKind::Blur { .. }))
+        );
+        let one = BakeGraph::build(&config(1, Blur::None));
+        assert_eq!(one.textures.len(), g.textures.len());
+        assert_eq!(one.passes.len() + 2 * 4, g.passes.len());
+        // Each bounce range is gather, combine, copy, albedo.
+        for &(a, e) in &g.bounce_passes {
+            let labels: Vec<_> = g.passes[a..e].iter().map(|p| p.label).collect();
+            assert_eq!(
+                labels,
+                ["gather", "combine", "copy_combined", "albedo_combined"]
+            );
+        }
+    }
+
+    #[test]
+    fn direct_only_graph_ends_at_stage_four() {
+        let g = BakeGraph::build(&config(0, Blur::None));
+        assert_eq!(
+            kinds(&g),
+            ["gbuffer", "direct", "copy_direct", "albedo_direct"]
+        );
+        assert_eq!(g.figure5.stages[4..], [None; 4]);
+        assert_eq!(Some(g.illuminance), g.figure5.stages[2]);
+        assert_eq!(Some(g.exitance), g.figure5.stages[3]);
+        assert!(g.bounce_passes.is_empty());
+        // Zero or non-finite sigma means no blur.
+        for s in [0.0, f32::NAN, f32::INFINITY] {
+            let g = BakeGraph::build(&config(0, Blur::Sigma(s)));
+            assert_eq!(g.passes.len(), 4);
+        }
+    }
+}

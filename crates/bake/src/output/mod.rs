@@ -1,0 +1,374 @@
+//! Files of a bake: per object linear EXRs in lux, a tone-mapped PNG, a false-colour
+//! illuminance PNG with a lux scale bar, the 8-stage strip of the paper's Figure 5, and a JSON
+//! manifest.
+//!
+//! # Files, per receiving object `<name>` (characters other than `A–Z a–z 0–9 _ -` become `_`)
+//! | file | content |
+//! |---|---|
+//! | `<name>_illuminance.exr` | final illuminance E, lux, before albedo (RGB; A = texel mask) |
+//! | `<name>_exitance.exr` | final exitance M = ρ·E, lm/m² (RGB; A = mask) |
+//! | `<name>_direct.exr` | direct illuminance, lux, blurred as E is (indirect = E − direct) |
+//! | `<name>.png` | exitance, tone-mapped ([`picture`] docs) |
+//! | `<name>_false_color.png` | illuminance in false colour with a lux scale bar |
+//! | `<name>_stages.png` | the eight stages of Figure 5 side by side |
+//!
+//! EXRs are single-part, scan-line, ZIP-compressed, 32-bit float RGBA, the object's region
+//! only (its light-map UV square), row 0 at the top (light-map v = 0).
+//!
+//! # Manifest (`manifest.json`)
+//! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
+//! `settings` (rays, bounces, blur, texels_per_metre, bvh, seed), `layout` (`layer_size`,
+//! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela,
+//! used), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
+//! `size`, `resolution`, plus `transform` {`linear` (columns), `translation`} for all),
+//! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run),
+//! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
+
+pub mod picture;
+
+use std::io::Cursor;
+use std::path::{Path, PathBuf};
+
+use serde_json::{Value, json};
+
+use crate::bake::{BakeOutput, ObjectMaps};
+use crate::map::MapImage;
+use crate::scene::{Blur, Scene};
+use picture::{Picture, albedo_picture, exposure, false_color, false_color_range, strip, tone_map};
+
+/// Errors writing or reading bake files.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum OutputError {
+    /// A file or folder could not be written or read.
+    #[error("`{path}`: {source}")]
+    Io {
+        /// The path.
+        path: PathBuf,
+        /// The I/O error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// EXR encoding or decoding failed.
+    #[error("EXR `{path}`: {message}")]
+    Exr {
+        /// The path (empty for in-memory encoding).
+        path: PathBuf,
+        /// The codec's message.
+        message: String,
+    },
+    /// PNG encoding failed.
+    #[error("PNG `{path}`: {message}")]
+    Png {
+        /// The path.
+        path: PathBuf,
+        /// The codec's message.
+        message: String,
+    },
+    /// The manifest could not be read.
+    #[error("manifest `{path}`: {message}")]
+    Manifest {
+        /// The path.
+        path: PathBuf,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn io(path: &Path) -> impl FnOnce(std::io::Error) -> OutputError + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+/// Encodes a map as a 32-bit float RGBA EXR (ZIP, scan lines). Deterministic: the same map
+/// gives the same bytes.
+pub fn encode_exr(map: &MapImage) -> Result<Vec<u8>, OutputError> {
+    use exr::prelude::*;
+    let channels = SpecificChannels::rgba(|Vec2(x, y)| {
+        let t = map.texel(x as u32, y as u32);
+        (t[0], t[1], t[2], t[3])
+    });
+    let image = Image::from_encoded_channels(
+        (map.width.max(1) as usize, map.height.max(1) as usize),
+        Encoding::SMALL_LOSSLESS,
+        channels,
+    );
+    let mut bytes = Vec::new();
+    image
+        .write()
+        .non_parallel()
+        .to_buffered(Cursor::new(&mut bytes))
+        .map_err(|e| OutputError::Exr {
+            path: PathBuf::new(),
+            message: e.to_string(),
+        })?;
+    Ok(bytes)
+}
+
+/// Reads an RGBA (or RGB, alpha = 1) float EXR written by [`encode_exr`] or any other tool.
+pub fn read_exr(path: &Path) -> Result<MapImage, OutputError> {
+    use exr::prelude::*;
+    let err = |e: exr::error::Error| OutputError::Exr {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let image = read_first_rgba_layer_from_file(
+        path,
+        |resolution, _| MapImage::zeros(resolution.width() as u32, resolution.height() as u32),
+        |m: &mut MapImage, position, (r, g, b, a): (f32, f32, f32, f32)| {
+            let i = 4 * (position.y() * m.width as usize + position.x());
+            if let Some(t) = m.texels.get_mut(i..i + 4) {
+                t.copy_from_slice(&[r, g, b, a]);
+            }
+        },
+    )
+    .map_err(err)?;
+    Ok(image.layer_data.channel_data.pixels)
+}
+
+/// Encodes an 8-bit RGB PNG.
+pub fn encode_png(p: &Picture) -> Result<Vec<u8>, OutputError> {
+    let mut bytes = Vec::new();
+    let err = |e: png::EncodingError| OutputError::Png {
+        path: PathBuf::new(),
+        message: e.to_string(),
+    };
+    {
+        let mut enc = png::Encoder::new(&mut bytes, p.width.max(1), p.height.max(1));
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut w = enc.write_header().map_err(err)?;
+        if p.width == 0 || p.height == 0 {
+            w.write_image_data(&[0, 0, 0]).map_err(err)?;
+        } else {
+            w.write_image_data(&p.rgb).map_err(err)?;
+        }
+        w.finish().map_err(err)?;
+    }
+    Ok(bytes)
+}
+
+/// A file-name-safe version of an object name.
+pub fn file_stem(name: &str) -> String {
+    let s: String = name
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '_' || c == '-' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    if s.is_empty() { "object".into() } else { s }
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    std::fs::write(path, bytes).map_err(io(path))
+}
+
+/// The file names of one object's outputs.
+fn object_files(stem: &str) -> [(&'static str, String); 6] {
+    [
+        ("illuminance", format!("{stem}_illuminance.exr")),
+        ("exitance", format!("{stem}_exitance.exr")),
+        ("direct", format!("{stem}_direct.exr")),
+        ("png", format!("{stem}.png")),
+        ("false_color", format!("{stem}_false_color.png")),
+        ("stages", format!("{stem}_stages.png")),
+    ]
+}
+
+fn blur_json(b: Blur) -> Value {
+    match b {
+        Blur::None => json!("none"),
+        Blur::Sigma(s) => json!(s),
+    }
+}
+
+/// Writes every file of a bake into `dir` (created if missing) and returns the manifest,
+/// which is also written as `manifest.json`. `source` names where the scene came from
+/// (`builtin:<name>` or the scene file's path), for `cargo xtask measure`.
+pub fn write_bake(
+    dir: &Path,
+    scene: &Scene,
+    output: &BakeOutput,
+    source: &str,
+) -> Result<Value, OutputError> {
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
+    let exp = exposure(output.maps.iter().map(ObjectMaps::exitance));
+    let (lo, hi) = false_color_range(output.maps.iter().map(ObjectMaps::illuminance));
+    let mut stems = std::collections::HashSet::new();
+    let mut objects = Vec::new();
+    for (i, o) in scene.objects.iter().enumerate() {
+        let t = o.transform;
+        let mut entry = json!({
+            "name": o.name,
+            "index": i,
+            "receiver": o.receiver,
+            "transform": {"linear": t.linear, "translation": t.translation},
+        });
+        if let Some(maps) = output.maps.iter().find(|m| m.object == i) {
+            let mut stem = file_stem(&o.name);
+            if !stems.insert(stem.clone()) {
+                stem = format!("{stem}_{i}");
+                stems.insert(stem.clone());
+            }
+            let files = object_files(&stem);
+            write_object(dir, maps, &files, exp, (lo, hi))?;
+            let r = maps.region;
+            entry["files"] = Value::Object(
+                files
+                    .iter()
+                    .map(|(k, f)| ((*k).to_string(), json!(f)))
+                    .collect(),
+            );
+            entry["layer"] = json!(r.layer);
+            entry["offset"] = json!(r.offset);
+            entry["size"] = json!(r.size);
+            entry["resolution"] = json!(r.size);
+        }
+        objects.push(entry);
+    }
+    let s = &output.settings;
+    let rep = &output.report;
+    let lamps: Vec<Value> = scene
+        .lamps
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let (max_cd, _) = l.photometry.max_intensity();
+            json!({
+                "name": l.name,
+                "position": l.position,
+                "aim": l.aim,
+                "rotation_deg": l.rotation_deg,
+                "multiplier": l.multiplier,
+                "color": l.color,
+                "max_candela": max_cd,
+                "used": output.lamps_used.contains(&i),
+            })
+        })
+        .collect();
+    let manifest = json!({
+        "format": "luxbake-bake",
+        "version": 1,
+        "scene": {"source": source},
+        "units": {"length": "m", "illuminance": "lux", "exitance": "lm/m^2"},
+        "backend": rep.backend,
+        "settings": {
+            "rays": s.rays,
+            "bounces": s.bounces,
+            "blur": blur_json(s.blur),
+            "texels_per_metre": s.texels_per_metre,
+            "bvh": s.bvh.name(),
+            "seed": s.seed,
+        },
+        "layout": {"layer_size": output.layout.layer_size, "layers": output.layout.layers},
+        "lamps": lamps,
+        "objects": objects,
+        "stats": {
+            "texels": rep.texels,
+            "region_texels": rep.region_texels,
+            "triangles": rep.triangles,
+            "shadow_rays": rep.shadow_rays,
+            "gather_rays": rep.gather_rays,
+            "bvh": rep.bvh.name(),
+            "bounces_run": rep.bounces_run,
+        },
+        "timings": {
+            "setup": rep.setup.iter().map(|(k, t)| json!({"label": k, "seconds": t})).collect::<Vec<_>>(),
+            "passes": rep.passes.iter().map(|p| json!({"label": p.label, "bounce": p.bounce, "seconds": p.seconds})).collect::<Vec<_>>(),
+            "total_seconds": rep.total_seconds,
+        },
+        "skipped": rep.skipped.iter().map(ToString::to_string).collect::<Vec<_>>(),
+        "false_color_lux": [lo, hi],
+        "exposure": exp,
+    });
+    let path = dir.join("manifest.json");
+    let text = serde_json::to_string_pretty(&manifest).map_err(|e| OutputError::Manifest {
+        path: path.clone(),
+        message: e.to_string(),
+    })?;
+    write(&path, text.as_bytes())?;
+    Ok(manifest)
+}
+
+fn write_object(
+    dir: &Path,
+    maps: &ObjectMaps,
+    files: &[(&'static str, String); 6],
+    exp: f32,
+    (lo, hi): (f32, f32),
+) -> Result<(), OutputError> {
+    let with_path = |p: PathBuf| {
+        move |e: OutputError| match e {
+            OutputError::Exr { message, .. } => OutputError::Exr { path: p, message },
+            OutputError::Png { message, .. } => OutputError::Png { path: p, message },
+            other => other,
+        }
+    };
+    let exrs = [maps.illuminance(), maps.exitance(), maps.direct()];
+    for (map, (_, name)) in exrs.iter().zip(files.iter()) {
+        let path = dir.join(name);
+        let bytes = encode_exr(map).map_err(with_path(path.clone()))?;
+        write(&path, &bytes)?;
+    }
+    let (w, h) = (maps.region.size[0], maps.region.size[1]);
+    let stages: [Option<Picture>; 8] = std::array::from_fn(|i| {
+        maps.stages[i].as_ref().map(|m| {
+            if i == 0 {
+                albedo_picture(m)
+            } else {
+                tone_map(m, exp)
+            }
+        })
+    });
+    let pictures = [
+        tone_map(maps.exitance(), exp),
+        false_color(maps.illuminance(), lo, hi),
+        strip(&stages, w, h),
+    ];
+    for (pic, (_, name)) in pictures.iter().zip(files[3..].iter()) {
+        let path = dir.join(name);
+        let bytes = encode_png(pic).map_err(with_path(path.clone()))?;
+        write(&path, &bytes)?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exr_round_trip_is_exact_and_deterministic() {
+        let mut m = MapImage::zeros(5, 3);
+        for (i, v) in m.texels.iter_mut().enumerate() {
+            *v = i as f32 * 0.37 + 1e-3;
+        }
+        let a = encode_exr(&m).expect("encode");
+        let b = encode_exr(&m).expect("encode");
+        assert_eq!(a, b);
+        let dir = std::env::temp_dir().join(format!("luxbake-exr-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp");
+        let path = dir.join("m.exr");
+        std::fs::write(&path, &a).expect("write");
+        let back = read_exr(&path).expect("read");
+        assert_eq!(back, m);
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn png_encodes_and_names_are_safe() {
+        let p = Picture::filled(3, 2, [1, 2, 3]);
+        let bytes = encode_png(&p).expect("png");
+        assert_eq!(&bytes[1..4], b"PNG");
+        assert!(encode_png(&Picture::filled(0, 0, [0; 3])).is_ok());
+        assert_eq!(file_stem("chair 01/seat"), "chair_01_seat");
+        assert_eq!(file_stem(""), "object");
+        assert_eq!(file_stem("Wand-Nord_2"), "Wand-Nord_2");
+    }
+}
