@@ -89,8 +89,9 @@ mod tests {
         assert_eq!(hash(123_456, 7, 1, 42), 0x3b13_06c1);
         assert_eq!(hash(u32::MAX, u32::MAX, u32::MAX, u32::MAX), 0x122e_9e70);
         let [u0, u1] = uniform2(1, 2, 3, 4);
-        assert_eq!(u0, 0.679_342_746_734_619_1);
-        assert_eq!(u1, 0.478_028_893_470_764_16);
+        assert_eq!(u0, 0x00ad_e968 as f32 / 16_777_216.0);
+        assert_eq!(u1, 0x007a_601a as f32 / 16_777_216.0);
+        assert!((u0 - 0.679_342_7).abs() < 1e-7 && (u1 - 0.478_028_9).abs() < 1e-7);
     }
 
     #[test]
