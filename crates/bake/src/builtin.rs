@@ -13,9 +13,10 @@
 //! The furnished scenes are the paper's test cases (Table 1, Figure 11): the room has 12
 //! triangles, a chair 240 and the sofa 2,024, so the scenes have exactly the paper's 252,
 //! 732, 1,212, 2,412 and 2,036 triangles. The paper gave each chair a 256² map, the sofa 512²
-//! and the room six 256² maps; here the density is uniform per object, furniture at
-//! [`FURNITURE_TEXEL_SCALE`] × the scene density, which lands the texel counts near Table 1
-//! at the default 64 texels per metre (see the tests of this module for the exact numbers).
+//! and the room six 256² maps; here the density is uniform per object, the chairs at
+//! [`CHAIR_TEXEL_SCALE`] and the sofa at [`SOFA_TEXEL_SCALE`] × the scene density, which
+//! lands the texel counts near Table 1 at the default 64 texels per metre (see the tests of
+//! this module for the exact numbers).
 //!
 //! The lamp of the furnished scenes is [`default_photometry`], a recessed downlight authored
 //! for this project as an LM-63-2002 file (`crates/bake/lamps/luxbake_downlight.ies`,
@@ -40,7 +41,7 @@ pub const NAMES: &[&str] = &[
 ];
 
 /// Room size of the furnished scenes: x, height, z in metres (floor centred on the origin).
-pub const ROOM_SIZE: [f32; 3] = [5.2, 2.6, 4.0];
+pub const ROOM_SIZE: [f32; 3] = [5.0, 2.6, 4.0];
 /// Room albedos of the furnished scenes (linear RGB): oak floor, off-white walls, white ceiling.
 pub const ROOM_ALBEDO: RoomAlbedo = RoomAlbedo {
     floor: [0.42, 0.30, 0.20],
@@ -51,8 +52,10 @@ pub const ROOM_ALBEDO: RoomAlbedo = RoomAlbedo {
 pub const CHAIR_ALBEDO: [f32; 3] = [0.55, 0.38, 0.22];
 /// Sofa albedo (linear RGB, blue fabric).
 pub const SOFA_ALBEDO: [f32; 3] = [0.20, 0.28, 0.50];
-/// Texel-density multiplier of the built-in furniture (chairs and sofa).
-pub const FURNITURE_TEXEL_SCALE: f32 = 2.5;
+/// Texel-density multiplier of the built-in chair: its map is close to the paper's 256².
+pub const CHAIR_TEXEL_SCALE: f32 = 2.8;
+/// Texel-density multiplier of the built-in sofa: its map is close to the paper's 512².
+pub const SOFA_TEXEL_SCALE: f32 = 1.9;
 /// Chart padding of the procedural meshes, texels at the object's density.
 pub const CHART_PADDING_TEXELS: f32 = 4.0;
 /// Distance of the downlight's photometric centre below the ceiling, metres.
@@ -169,11 +172,10 @@ fn placed(placement: [f32; 3]) -> Transform {
 /// Builds the built-in scene `name` with `settings`.
 pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
     let ceiling_lamp = [0.0, ROOM_SIZE[1] - LAMP_BELOW_CEILING, 0.0];
-    let furniture_padding = padding_m(settings.texels_per_metre, FURNITURE_TEXEL_SCALE);
     let (objects, lamps) = match name {
         "chairs_01" | "chairs_03" | "chairs_05" | "chairs_10" => {
             let count: usize = name[7..].parse().unwrap_or(1);
-            let chair = meshes::chair(furniture_padding);
+            let chair = meshes::chair(padding_m(settings.texels_per_metre, CHAIR_TEXEL_SCALE));
             let mut objects = vec![room(&settings)];
             for (i, p) in CHAIR_PLACEMENTS.iter().take(count).enumerate() {
                 let mut o = object(
@@ -182,7 +184,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
                     placed(*p),
                     CHAIR_ALBEDO,
                 );
-                o.texel_scale = FURNITURE_TEXEL_SCALE;
+                o.texel_scale = CHAIR_TEXEL_SCALE;
                 objects.push(o);
             }
             (objects, vec![default_lamp(ceiling_lamp)?])
@@ -190,11 +192,11 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
         "sofa_01" => {
             let mut sofa = object(
                 "sofa",
-                meshes::sofa(furniture_padding),
+                meshes::sofa(padding_m(settings.texels_per_metre, SOFA_TEXEL_SCALE)),
                 placed(SOFA_PLACEMENT),
                 SOFA_ALBEDO,
             );
-            sofa.texel_scale = FURNITURE_TEXEL_SCALE;
+            sofa.texel_scale = SOFA_TEXEL_SCALE;
             (
                 vec![room(&settings), sofa],
                 vec![default_lamp(ceiling_lamp)?],

@@ -267,7 +267,7 @@ fn cross2(a: [f64; 2], b: [f64; 2]) -> f64 {
 
 /// Whether the triangle `p` and the unit texel square with top-left corner `cell` overlap
 /// with positive area (separating-axis test; touching along an edge does not count).
-fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
+pub(crate) fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
     const EPS: f64 = 1e-9;
     for k in 0..2 {
         let lo = p[0][k].min(p[1][k]).min(p[2][k]);

@@ -53,7 +53,10 @@ struct Builder {
     tris: Vec<[u32; 3]>,
     /// Start vertex of each chart (charts are contiguous vertex ranges).
     chart_starts: Vec<usize>,
+    /// Colour of the vertices emitted next (`None`: white).
     color: Option<[f32; 3]>,
+    /// Whether any vertex got a colour (then the mesh carries vertex colours).
+    colored: bool,
 }
 
 impl Builder {
@@ -62,6 +65,7 @@ impl Builder {
     }
 
     fn vertex(&mut self, p: [f64; 3], n: [f64; 3], chart_xy: [f64; 2]) -> u32 {
+        self.colored |= self.color.is_some();
         self.verts.push(Vertex {
             p,
             n,
@@ -157,8 +161,8 @@ impl Builder {
             }
         }
         let colors = self
-            .color
-            .map(|_| self.verts.iter().map(|v| v.color).collect());
+            .colored
+            .then(|| self.verts.iter().map(|v| v.color).collect());
         Mesh {
             positions: self.verts.iter().map(|v| v.p.map(|c| c as f32)).collect(),
             normals: self.verts.iter().map(|v| v.n.map(|c| c as f32)).collect(),
@@ -656,4 +660,340 @@ pub fn sofa(padding: f32) -> Mesh {
         );
     }
     b.finish(f64::from(padding))
+}
+
+#[cfg(test)]
+mod tests {
+    use std::collections::HashMap;
+
+    use super::*;
+    use crate::layout::map_size;
+    use crate::scene::{Albedo, Object, Transform};
+
+    const D: f32 = 64.0;
+    const PAD: f32 = 4.0 / D;
+
+    fn all_meshes() -> Vec<(&'static str, Mesh, bool)> {
+        // (name, mesh, inward)
+        vec![
+            (
+                "room",
+                room([5.0, 2.6, 4.0], RoomAlbedo::uniform([0.5; 3]), PAD),
+                true,
+            ),
+            ("box", cuboid([1.0, 0.5, 2.0], false, PAD), false),
+            ("inward box", cuboid([1.0, 0.5, 2.0], true, PAD), true),
+            ("sphere", sphere(1.0, 8, false, PAD), false),
+            ("inward sphere", sphere(1.0, 8, true, PAD), true),
+            ("chair", chair(4.0 / (D * 2.8)), false),
+            ("sofa", sofa(4.0 / (D * 1.9)), false),
+        ]
+    }
+
+    fn object(mesh: Mesh) -> Object {
+        Object {
+            name: "t".into(),
+            mesh,
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(0.5),
+            receiver: true,
+            texel_scale: 1.0,
+        }
+    }
+
+    fn signed_volume(m: &Mesh) -> f64 {
+        m.indices
+            .iter()
+            .map(|t| {
+                let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
+                dot(a, cross(b, c)) / 6.0
+            })
+            .sum()
+    }
+
+    #[test]
+    fn triangle_counts() {
+        assert_eq!(
+            room([5.0, 2.6, 4.0], RoomAlbedo::uniform([0.5; 3]), PAD).triangle_count(),
+            12
+        );
+        assert_eq!(cuboid([1.0; 3], false, PAD).triangle_count(), 12);
+        assert_eq!(plane([2.0, 1.0], PAD).triangle_count(), 2);
+        assert_eq!(sphere(1.0, 8, true, PAD).triangle_count(), 6 * 2 * 64);
+        assert_eq!(
+            sphere(1.0, SPHERE_SEGMENTS, true, PAD).triangle_count(),
+            12_288
+        );
+        assert_eq!(chair(PAD).triangle_count(), CHAIR_TRIANGLES);
+        assert_eq!(sofa(PAD).triangle_count(), SOFA_TRIANGLES);
+        assert_eq!(CHAIR_TRIANGLES, 240);
+        assert_eq!(SOFA_TRIANGLES, 2024);
+    }
+
+    #[test]
+    fn meshes_are_valid_and_uvs_in_unit_square() {
+        for (name, m, _) in all_meshes() {
+            m.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+            for uv in &m.lightmap_uvs {
+                assert!(
+                    uv.iter().all(|c| (0.0..=1.0).contains(c)),
+                    "{name}: uv {uv:?}"
+                );
+            }
+            for n in &m.normals {
+                let l = n.iter().map(|c| c * c).sum::<f32>().sqrt();
+                assert!((l - 1.0).abs() < 1e-5, "{name}: normal {n:?}");
+            }
+        }
+    }
+
+    /// Every directed edge (by exact position) has a reversed twin: closed, consistently
+    /// oriented, and seams match bit for bit.
+    #[test]
+    fn closed_meshes_are_watertight() {
+        for (name, m, _) in all_meshes() {
+            let mut edges: HashMap<([u32; 3], [u32; 3]), i32> = HashMap::new();
+            let key = |i: u32| m.positions[i as usize].map(f32::to_bits);
+            for t in &m.indices {
+                for k in 0..3 {
+                    let (a, b) = (key(t[k]), key(t[(k + 1) % 3]));
+                    *edges.entry((a, b)).or_default() += 1;
+                    *edges.entry((b, a)).or_default() -= 1;
+                }
+            }
+            let open = edges.values().filter(|&&v| v != 0).count();
+            assert_eq!(open, 0, "{name}: {open} unmatched directed edges");
+        }
+    }
+
+    #[test]
+    fn orientation_and_volume() {
+        for (name, m, inward) in all_meshes() {
+            let v = signed_volume(&m);
+            assert_eq!(v < 0.0, inward, "{name}: signed volume {v}");
+            // Vertex normals agree with the winding.
+            for t in &m.indices {
+                let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
+                let g = normalize(cross(sub(b, a), sub(c, a))).expect("non-degenerate");
+                for &i in t {
+                    let n = m.normals[i as usize].map(f64::from);
+                    assert!(
+                        dot(g, n) > 0.7,
+                        "{name}: normal {n:?} against winding {g:?}"
+                    );
+                }
+            }
+        }
+        let room_v = signed_volume(&room([5.0, 2.6, 4.0], RoomAlbedo::uniform([0.5; 3]), PAD));
+        assert!((room_v + 5.0 * 2.6 * 4.0).abs() < 1e-3, "{room_v}");
+        let box_v = signed_volume(&cuboid([1.0, 0.5, 2.0], false, PAD));
+        assert!((box_v - 1.0).abs() < 1e-6, "{box_v}");
+        let s = signed_volume(&sphere(1.0, SPHERE_SEGMENTS, false, PAD));
+        let exact = 4.0 / 3.0 * std::f64::consts::PI;
+        assert!((s / exact - 1.0).abs() < 0.005, "{s} vs {exact}");
+    }
+
+    #[test]
+    fn sphere_vertices_on_sphere_and_facets_close() {
+        let m = sphere(2.0, SPHERE_SEGMENTS, true, PAD);
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let r = p.iter().map(|c| c * c).sum::<f32>().sqrt();
+            assert!((r - 2.0).abs() < 1e-5, "{r}");
+            // Inward: the normal points to the centre.
+            let d: f32 = p.iter().zip(n).map(|(a, b)| a * b).sum();
+            assert!(d < -1.99, "{d}");
+        }
+        // Facet centroids within 0.2 % of the radius: the closed-sphere test stays exact.
+        for t in &m.indices {
+            let c: [f64; 3] = std::array::from_fn(|k| {
+                t.iter()
+                    .map(|&i| f64::from(m.positions[i as usize][k]))
+                    .sum::<f64>()
+                    / 3.0
+            });
+            let r = dot(c, c).sqrt();
+            assert!(r > 2.0 * 0.998, "{r}");
+        }
+    }
+
+    #[test]
+    fn room_parts_have_their_albedo() {
+        let a = RoomAlbedo {
+            floor: [0.1; 3],
+            walls: [0.2; 3],
+            ceiling: [0.3; 3],
+        };
+        let m = room([4.0, 2.5, 3.0], a, PAD);
+        let colors = m.colors.as_ref().expect("room has vertex colours");
+        for t in &m.indices {
+            let ys = t.map(|i| m.positions[i as usize][1]);
+            let c = colors[t[0] as usize];
+            if ys.iter().all(|&y| y == 0.0) {
+                assert_eq!(c, a.floor);
+            } else if ys.iter().all(|&y| y == 2.5) {
+                assert_eq!(c, a.ceiling);
+            } else {
+                assert_eq!(c, a.walls);
+            }
+        }
+    }
+
+    /// Conservatively rasterises every triangle at the map size the layout would give at
+    /// density `D`, labelling texels with the triangle's chart (charts found by shared UV
+    /// points). No texel may belong to two charts, and no two charts may touch, even
+    /// diagonally: the padding leaves empty texels between them.
+    #[test]
+    fn charts_do_not_overlap_and_are_padded() {
+        for (name, m, _) in all_meshes() {
+            let scale = match name {
+                "chair" => 2.8,
+                "sofa" => 1.9,
+                _ => 1.0,
+            };
+            let mut o = object(m.clone());
+            o.texel_scale = scale;
+            let size = map_size(&o, D, 8192).expect("size");
+            let chart = charts(&m);
+            let (w, h) = (size[0] as usize, size[1] as usize);
+            let mut label = vec![u32::MAX; w * h];
+            for (ti, t) in m.indices.iter().enumerate() {
+                let p = t.map(|i| {
+                    let uv = m.lightmap_uvs[i as usize];
+                    [f64::from(uv[0]) * w as f64, f64::from(uv[1]) * h as f64]
+                });
+                for y in 0..h {
+                    for x in 0..w {
+                        if crate::gbuffer::overlaps(&p, [x as f64, y as f64]) {
+                            let l = &mut label[y * w + x];
+                            assert!(
+                                *l == u32::MAX || *l == chart[ti],
+                                "{name}: texel ({x}, {y}) in charts {} and {}",
+                                *l,
+                                chart[ti]
+                            );
+                            *l = chart[ti];
+                        }
+                    }
+                }
+            }
+            for y in 0..h {
+                for x in 0..w {
+                    let l = label[y * w + x];
+                    if l == u32::MAX {
+                        continue;
+                    }
+                    for (dx, dy) in [(1, 0), (0, 1), (1, 1), (-1, 1)] {
+                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                            continue;
+                        }
+                        let n = label[ny as usize * w + nx as usize];
+                        assert!(
+                            n == u32::MAX || n == l,
+                            "{name}: charts {l} and {n} touch at ({x}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// Within the charts, no two triangles overlap: every point of a fine sample grid lies
+    /// strictly inside at most one triangle.
+    #[test]
+    fn triangles_do_not_overlap_in_uv() {
+        for (name, m, _) in all_meshes() {
+            let n = 512usize;
+            let mut hits = vec![0u8; n * n];
+            for t in &m.indices {
+                let p = t.map(|i| m.lightmap_uvs[i as usize].map(|c| f64::from(c) * n as f64));
+                let area2 = (p[1][0] - p[0][0]) * (p[2][1] - p[0][1])
+                    - (p[1][1] - p[0][1]) * (p[2][0] - p[0][0]);
+                let lo = [0, 1].map(|k| {
+                    p.iter()
+                        .map(|q| q[k])
+                        .fold(f64::INFINITY, f64::min)
+                        .floor()
+                        .max(0.0) as usize
+                });
+                let hi = [0, 1]
+                    .map(|k| (p.iter().map(|q| q[k]).fold(0.0, f64::max).ceil() as usize).min(n));
+                for y in lo[1]..hi[1] {
+                    for x in lo[0]..hi[0] {
+                        let q = [x as f64 + 0.5, y as f64 + 0.5];
+                        let e = |a: [f64; 2], b: [f64; 2]| {
+                            ((b[0] - a[0]) * (q[1] - a[1]) - (b[1] - a[1]) * (q[0] - a[0])) / area2
+                        };
+                        let l = [e(p[1], p[2]), e(p[2], p[0]), e(p[0], p[1])];
+                        if l.iter().all(|&v| v > 1e-9) {
+                            hits[y * n + x] += 1;
+                        }
+                    }
+                }
+            }
+            let worst = hits.iter().max().copied().unwrap_or(0);
+            assert!(
+                worst <= 1,
+                "{name}: a UV point lies inside {worst} triangles"
+            );
+        }
+    }
+
+    /// Boxes are charted at exactly uniform metric scale; the sphere and the rounded parts
+    /// of the sofa within modest distortion.
+    #[test]
+    fn charts_have_uniform_texel_density() {
+        for (name, m, _) in all_meshes() {
+            let o = object(m.clone());
+            let e = crate::layout::lightmap_extent(&o).expect("extent");
+            let tol = match name {
+                "sphere" | "inward sphere" => 0.35,
+                "sofa" => 0.6,
+                _ => 1e-3,
+            };
+            for t in &m.indices {
+                let p = t.map(|i| m.positions[i as usize].map(f64::from));
+                let uv = t.map(|i| m.lightmap_uvs[i as usize].map(f64::from));
+                let (e1, e2) = (sub(p[1], p[0]), sub(p[2], p[0]));
+                let (d1, d2) = (
+                    [uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]],
+                    [uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]],
+                );
+                let det = d1[0] * d2[1] - d1[1] * d2[0];
+                let dpdu: [f64; 3] = std::array::from_fn(|k| (d2[1] * e1[k] - d1[1] * e2[k]) / det);
+                let dpdv: [f64; 3] =
+                    std::array::from_fn(|k| (-d2[0] * e1[k] + d1[0] * e2[k]) / det);
+                let su = dot(dpdu, dpdu).sqrt() / e[0];
+                let sv = dot(dpdv, dpdv).sqrt() / e[1];
+                assert!(
+                    (su - 1.0).abs() < tol && (sv - 1.0).abs() < tol,
+                    "{name}: stretch {su} {sv}"
+                );
+            }
+        }
+    }
+
+    /// Chart id per triangle: triangles sharing a light-map UV point are in the same chart.
+    fn charts(m: &Mesh) -> Vec<u32> {
+        let mut parent: Vec<usize> = (0..m.indices.len()).collect();
+        fn find(p: &mut [usize], mut i: usize) -> usize {
+            while p[i] != i {
+                p[i] = p[p[i]];
+                i = p[i];
+            }
+            i
+        }
+        let mut first: HashMap<[u32; 2], usize> = HashMap::new();
+        for (ti, t) in m.indices.iter().enumerate() {
+            for &i in t {
+                let k = m.lightmap_uvs[i as usize].map(f32::to_bits);
+                let other = *first.entry(k).or_insert(ti);
+                let (a, b) = (find(&mut parent, ti), find(&mut parent, other));
+                parent[a] = b;
+            }
+        }
+        (0..m.indices.len())
+            .map(|i| find(&mut parent, i) as u32)
+            .collect()
+    }
 }

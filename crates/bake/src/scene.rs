@@ -345,8 +345,8 @@ pub struct Object {
     pub receiver: bool,
     /// Multiplier on [`Settings::texels_per_metre`] for this object's light map (default 1;
     /// Unity calls it "scale in lightmap"). Density stays uniform over the object's surface.
-    /// The built-in furniture uses [`crate::builtin::FURNITURE_TEXEL_SCALE`] to reproduce the
-    /// paper's per-object map budgets.
+    /// The built-in chair and sofa use [`crate::builtin::CHAIR_TEXEL_SCALE`] and
+    /// [`crate::builtin::SOFA_TEXEL_SCALE`] to reproduce the paper's per-object map budgets.
     pub texel_scale: f32,
 }
 
@@ -735,4 +735,268 @@ pub(crate) fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 
 pub(crate) fn length(v: [f64; 3]) -> f64 {
     dot(v, v).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn close(a: [f32; 3], b: [f32; 3]) -> bool {
+        a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)
+    }
+
+    fn lamp(aim: [f32; 3], rotation_deg: f32) -> Lamp {
+        let mut l = Lamp::new("t", Arc::new(Photometry::isotropic(1.0)), [0.0; 3]);
+        l.aim = aim;
+        l.rotation_deg = rotation_deg;
+        l
+    }
+
+    #[test]
+    fn transform_trs_with_explicit_vectors() {
+        let t = Transform::IDENTITY;
+        assert_eq!(t.point([1.0, 2.0, 3.0]), [1.0, 2.0, 3.0]);
+        // +90° about Y (right-handed) takes +X to −Z and +Z to +X.
+        let ry = Transform::from_trs([0.0; 3], [0.0, 90.0, 0.0], [1.0; 3]);
+        assert!(close(ry.point([1.0, 0.0, 0.0]), [0.0, 0.0, -1.0]));
+        assert!(close(ry.point([0.0, 0.0, 1.0]), [1.0, 0.0, 0.0]));
+        // +90° about X takes +Y to +Z; about Z takes +X to +Y.
+        let rx = Transform::from_trs([0.0; 3], [90.0, 0.0, 0.0], [1.0; 3]);
+        assert!(close(rx.point([0.0, 1.0, 0.0]), [0.0, 0.0, 1.0]));
+        let rz = Transform::from_trs([0.0; 3], [0.0, 0.0, 90.0], [1.0; 3]);
+        assert!(close(rz.point([1.0, 0.0, 0.0]), [0.0, 1.0, 0.0]));
+        // Order: X first, then Y: +Y → (X) +Z → (Y) +X.
+        let rxy = Transform::from_trs([0.0; 3], [90.0, 90.0, 0.0], [1.0; 3]);
+        assert!(close(rxy.point([0.0, 1.0, 0.0]), [1.0, 0.0, 0.0]));
+        // Scale first, then rotate, then translate.
+        let t = Transform::from_trs([1.0, 2.0, 3.0], [0.0, 90.0, 0.0], [2.0, 1.0, 1.0]);
+        assert!(close(t.point([1.0, 0.0, 0.0]), [1.0, 2.0, 1.0]));
+        assert!((t.determinant() - 2.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn normals_use_the_inverse_transpose() {
+        // A plane x + y = c squashed along x by 2: its normal turns toward +y.
+        let t = Transform::from_trs([5.0, 0.0, 0.0], [0.0; 3], [2.0, 1.0, 1.0]);
+        let s = 0.5f32.sqrt();
+        let n = t.normal([s, s, 0.0]);
+        let l = (0.25f32 + 1.0).sqrt();
+        assert!(close(n, [0.5 / l, 1.0 / l, 0.0]), "{n:?}");
+        // Perpendicular to a transformed tangent.
+        let tangent = t.point([1.0, -1.0, 0.0]);
+        let origin = t.point([0.0; 3]);
+        let d: f32 = (0..3).map(|k| (tangent[k] - origin[k]) * n[k]).sum();
+        assert!(d.abs() < 1e-6);
+        // A mirror keeps the normal on the surface's side.
+        let m = Transform::from_trs([0.0; 3], [0.0; 3], [-1.0, 1.0, 1.0]);
+        assert!(close(m.normal([1.0, 0.0, 0.0]), [-1.0, 0.0, 0.0]));
+        // Rotations rotate normals.
+        let r = Transform::from_trs([0.0; 3], [0.0, 90.0, 0.0], [3.0; 3]);
+        assert!(close(r.normal([1.0, 0.0, 0.0]), [0.0, 0.0, -1.0]));
+        // Singular transforms return the input, never NaN.
+        let z = Transform::from_trs([0.0; 3], [0.0; 3], [0.0, 1.0, 1.0]);
+        assert_eq!(z.normal([0.0, 1.0, 0.0]), [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn default_lamp_frame() {
+        let l = lamp([0.0, -1.0, 0.0], 0.0);
+        assert!(
+            close(l.to_photometric([0.0, -1.0, 0.0]), [0.0, 0.0, -1.0]),
+            "−Y is the nadir"
+        );
+        assert!(
+            close(l.to_photometric([1.0, 0.0, 0.0]), [1.0, 0.0, 0.0]),
+            "+X is C0"
+        );
+        assert!(
+            close(l.to_photometric([0.0, 0.0, -1.0]), [0.0, 1.0, 0.0]),
+            "−Z is C90"
+        );
+        assert!(
+            close(l.to_photometric([0.0, 2.0, 0.0]), [0.0, 0.0, 2.0]),
+            "length kept"
+        );
+        let m = l.world_to_photometric_matrix();
+        assert_eq!(m, [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]]);
+    }
+
+    #[test]
+    fn rotation_turns_c0_toward_c90() {
+        let l = lamp([0.0, -1.0, 0.0], 90.0);
+        assert!(
+            close(l.to_photometric([0.0, 0.0, -1.0]), [1.0, 0.0, 0.0]),
+            "C0 now at −Z"
+        );
+        assert!(
+            close(l.to_photometric([-1.0, 0.0, 0.0]), [0.0, 1.0, 0.0]),
+            "C90 now at −X"
+        );
+        assert!(
+            close(l.to_photometric([0.0, -1.0, 0.0]), [0.0, 0.0, -1.0]),
+            "nadir unchanged"
+        );
+        let l = lamp([0.0, -1.0, 0.0], 180.0);
+        assert!(close(l.to_photometric([-1.0, 0.0, 0.0]), [1.0, 0.0, 0.0]));
+    }
+
+    #[test]
+    fn aim_turns_the_frame() {
+        // Aimed along +X (a wall washer): smallest rotation from −Y, about +Z.
+        let l = lamp([2.0, 0.0, 0.0], 0.0);
+        assert!(
+            close(l.to_photometric([1.0, 0.0, 0.0]), [0.0, 0.0, -1.0]),
+            "+X is the nadir"
+        );
+        assert!(
+            close(l.to_photometric([0.0, 1.0, 0.0]), [1.0, 0.0, 0.0]),
+            "+Y is C0"
+        );
+        assert!(
+            close(l.to_photometric([0.0, 0.0, -1.0]), [0.0, 1.0, 0.0]),
+            "−Z stays C90"
+        );
+        // Then rotation turns about the new axis: C0 moves to where C90 was.
+        let l = lamp([1.0, 0.0, 0.0], 90.0);
+        assert!(close(l.to_photometric([0.0, 0.0, -1.0]), [1.0, 0.0, 0.0]));
+        assert!(close(l.to_photometric([1.0, 0.0, 0.0]), [0.0, 0.0, -1.0]));
+        // Straight up: 180° about +X.
+        let l = lamp([0.0, 1.0, 0.0], 0.0);
+        assert!(close(l.to_photometric([0.0, 1.0, 0.0]), [0.0, 0.0, -1.0]));
+        assert!(close(l.to_photometric([1.0, 0.0, 0.0]), [1.0, 0.0, 0.0]));
+        assert!(close(l.to_photometric([0.0, 0.0, 1.0]), [0.0, 1.0, 0.0]));
+        // Aimed along −Z: C0 stays +X.
+        let l = lamp([0.0, 0.0, -1.0], 0.0);
+        assert!(close(l.to_photometric([0.0, 0.0, -1.0]), [0.0, 0.0, -1.0]));
+        assert!(close(l.to_photometric([1.0, 0.0, 0.0]), [1.0, 0.0, 0.0]));
+        // Degenerate aims fall back to the default frame.
+        for aim in [[0.0; 3], [f32::NAN, 0.0, 0.0]] {
+            let l = lamp(aim, 0.0);
+            assert!(close(l.to_photometric([0.0, -1.0, 0.0]), [0.0, 0.0, -1.0]));
+        }
+    }
+
+    #[test]
+    fn frames_are_rotations_for_any_aim() {
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64) as f32 * 2.0 - 1.0
+        };
+        for _ in 0..500 {
+            let aim = [next(), next(), next()];
+            let l = lamp(aim, next() * 360.0);
+            let m = l.frame_f64();
+            for r in 0..3 {
+                for c in 0..3 {
+                    let d = dot(m[r], m[c]);
+                    let want = if r == c { 1.0 } else { 0.0 };
+                    assert!((d - want).abs() < 1e-9, "aim {aim:?}: rows {r} {c}: {d}");
+                }
+            }
+            assert!(
+                (dot(cross(m[0], m[1]), m[2]) - 1.0).abs() < 1e-9,
+                "right-handed"
+            );
+            let a = normalize(aim.map(f64::from)).unwrap_or([0.0, -1.0, 0.0]);
+            let p = l.to_photometric(a.map(|c| c as f32));
+            assert!(
+                close(p, [0.0, 0.0, -1.0]),
+                "aim {aim:?} is the nadir: {p:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn settings_defaults_and_names() {
+        let s = Settings::default();
+        assert_eq!((s.rays, s.bounces, s.seed), (256, 1, 0));
+        assert_eq!(s.blur, Blur::Sigma(2.0));
+        assert_eq!(s.texels_per_metre, 64.0);
+        assert_eq!((s.bvh, s.backend), (BvhMode::Mtbvh, BackendKind::Cpu));
+        assert_eq!("none".parse::<Blur>(), Ok(Blur::None));
+        assert_eq!("1.5".parse::<Blur>(), Ok(Blur::Sigma(1.5)));
+        assert!("-1".parse::<Blur>().is_err() && "x".parse::<Blur>().is_err());
+        assert!("inf".parse::<Blur>().is_err());
+        for b in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
+            assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
+        }
+        for b in [BackendKind::Cpu, BackendKind::Glow, BackendKind::Wgpu] {
+            assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
+        }
+        assert!("vulkan".parse::<BackendKind>().is_err() && "bvh".parse::<BvhMode>().is_err());
+    }
+
+    #[test]
+    fn mesh_validation_names_the_problem() {
+        let good = Mesh {
+            positions: vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]],
+            normals: vec![[0.0, 1.0, 0.0]; 3],
+            lightmap_uvs: vec![[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            indices: vec![[0, 1, 2]],
+            ..Mesh::default()
+        };
+        assert_eq!(good.validate(), Ok(()));
+        let mut m = good.clone();
+        m.indices.push([0, 1, 3]);
+        assert!(m.validate().unwrap_err().contains("triangle 1"));
+        let mut m = good.clone();
+        m.normals.pop();
+        assert!(m.validate().unwrap_err().contains("normals"));
+        let mut m = good.clone();
+        m.positions[1][2] = f32::NAN;
+        assert!(m.validate().unwrap_err().contains("position 1"));
+        let mut m = good.clone();
+        m.colors = Some(vec![[1.0; 3]]);
+        assert!(m.validate().unwrap_err().contains("colours"));
+    }
+
+    #[test]
+    fn albedo_texture_samples_bilinearly_with_repeat() {
+        let t = AlbedoTexture {
+            width: 2,
+            height: 1,
+            texels: vec![[0.0; 3], [1.0; 3]],
+        };
+        assert_eq!(t.sample([0.25, 0.5]), [0.0; 3]);
+        assert_eq!(t.sample([0.75, 0.5]), [1.0; 3]);
+        assert_eq!(t.sample([0.5, 0.5]), [0.5; 3]);
+        assert_eq!(t.sample([1.0, 0.5]), [0.5; 3], "wraps");
+        assert_eq!(t.sample([f32::NAN, 0.0]), [1.0; 3]);
+        let bad = AlbedoTexture {
+            width: 3,
+            height: 3,
+            texels: vec![],
+        };
+        assert_eq!(bad.sample([0.5, 0.5]), [1.0; 3]);
+    }
+
+    #[test]
+    fn world_triangles_carry_world_data() {
+        let s = Scene::builtin("chairs_03").expect("builtin");
+        let (tris, attrs) = s.world_triangles();
+        assert_eq!(tris.len(), 12 + 3 * 240);
+        assert_eq!(attrs.len(), tris.len());
+        assert!(attrs[..12].iter().all(|a| a.object == 0));
+        assert!(attrs[12..252].iter().all(|a| a.object == 1));
+        assert!(attrs[732 - 1].object == 3);
+        for (t, a) in tris.iter().zip(&attrs) {
+            assert!(t.iter().flatten().all(|c| c.is_finite()));
+            for n in a.normals {
+                let l = n.iter().map(|c| c * c).sum::<f32>().sqrt();
+                assert!((l - 1.0).abs() < 1e-5);
+            }
+            assert!(a.uvs.iter().flatten().all(|c| (0.0..=1.0).contains(c)));
+        }
+        // The chairs are moved by their transforms: the first chair triangle matches.
+        let chair = &s.objects[1];
+        let i = chair.mesh.indices[0][0] as usize;
+        assert_eq!(tris[12][0], chair.transform.point(chair.mesh.positions[i]));
+        assert!(s.validate().is_ok());
+        let mut dup = s.clone();
+        dup.objects[2].name = "chair_01".into();
+        assert!(matches!(dup.validate(), Err(SceneError::DuplicateName(n)) if n == "chair_01"));
+    }
 }

@@ -50,8 +50,9 @@
 //! ```
 //!
 //! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
-//! ([`crate::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives and
-//! [`crate::builtin::FURNITURE_TEXEL_SCALE`] for the built-in furniture.
+//! ([`crate::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
+//! [`crate::builtin::CHAIR_TEXEL_SCALE`] and [`crate::builtin::SOFA_TEXEL_SCALE`] for the
+//! built-in furniture (as in the built-in scenes).
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -440,7 +441,6 @@ impl Cx {
             only(present, k, &["room"], &format!("`{k}`"))?;
         }
 
-        let furniture = matches!(kind.as_str(), "chair" | "sofa");
         let texel_scale = match raw.texel_scale {
             Some(t) if t > 0.0 && t <= 100.0 => t as f32,
             Some(t) => {
@@ -449,8 +449,11 @@ impl Cx {
                     format!("{t}; expected 0 < texel_scale <= 100"),
                 ));
             }
-            None if furniture => builtin::FURNITURE_TEXEL_SCALE,
-            None => 1.0,
+            None => match kind.as_str() {
+                "chair" => builtin::CHAIR_TEXEL_SCALE,
+                "sofa" => builtin::SOFA_TEXEL_SCALE,
+                _ => 1.0,
+            },
         };
         let padding = builtin::padding_m(settings.texels_per_metre, texel_scale);
         let albedo = raw
