@@ -54,6 +54,7 @@ pub mod layout;
 pub mod map;
 pub mod meshes;
 pub mod output;
+pub mod probe;
 pub mod rng;
 pub mod scene;
 pub mod scenefile;

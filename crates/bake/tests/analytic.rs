@@ -1,0 +1,561 @@
+//! Closed-form checks of the CPU reference backend (issue #4, tests 1–4): blur off wherever a
+//! closed form is compared. Each test prints the errors it measured (`--nocapture`).
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use luxbake::bake::{BakeOutput, ObjectMaps, bake};
+use luxbake::cpu::CpuBackend;
+use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::map::MapImage;
+use luxbake::meshes;
+use luxbake::probe::locate;
+use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
+use luxbake_ies::Photometry;
+
+fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
+    Settings {
+        rays,
+        bounces,
+        blur: Blur::None,
+        texels_per_metre,
+        ..Settings::default()
+    }
+}
+
+fn run(scene: &Scene) -> BakeOutput {
+    let mut backend = CpuBackend::new();
+    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
+}
+
+fn gbuffer(scene: &Scene, out: &BakeOutput) -> GBuffer {
+    rasterize(scene, &out.layout)
+}
+
+/// Every valid texel of object `o`: (world position, RGBA of `map`).
+fn texels<'a>(
+    g: &'a GBuffer,
+    maps: &'a ObjectMaps,
+    map: &'a MapImage,
+) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
+    let r = maps.region;
+    (0..r.size[1]).flat_map(move |y| {
+        (0..r.size[0]).filter_map(move |x| {
+            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
+            let p = &g.position[i..i + 4];
+            (p[3] > 0.5).then(|| {
+                (
+                    [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
+                    map.texel(x, y),
+                )
+            })
+        })
+    })
+}
+
+fn assert_finite(out: &BakeOutput) {
+    for m in &out.maps {
+        for (s, stage) in m.stages.iter().enumerate() {
+            if let Some(stage) = stage {
+                for v in &stage.texels {
+                    assert!(
+                        v.is_finite() && *v >= 0.0,
+                        "{} stage {}: {v}",
+                        m.name,
+                        s + 1
+                    );
+                }
+            }
+        }
+    }
+}
+
+fn shared(path: &str) -> Option<PathBuf> {
+    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared")
+        .join(path);
+    if p.exists() {
+        Some(p)
+    } else {
+        println!("skipped: {} not found", p.display());
+        None
+    }
+}
+
+/// Relative error statistics.
+#[derive(Default, Debug)]
+struct Err {
+    max: f64,
+    sum: f64,
+    n: usize,
+}
+
+impl Err {
+    fn add(&mut self, got: f64, want: f64) {
+        let e = (got - want).abs() / want.abs();
+        self.max = self.max.max(e);
+        self.sum += e;
+        self.n += 1;
+    }
+    fn mean(&self) -> f64 {
+        self.sum / self.n.max(1) as f64
+    }
+}
+
+const I0: f64 = 1000.0;
+
+fn floor_scene(density: f32, lamp: Lamp) -> Scene {
+    let mut s = Scene::builtin_with_settings("floor", settings(density, 0, 1)).expect("floor");
+    s.lamps = vec![lamp];
+    s
+}
+
+fn isotropic(cd: f64, position: [f32; 3]) -> Lamp {
+    Lamp::new("iso", Arc::new(Photometry::isotropic(cd)), position)
+}
+
+// Test 1a: E(r) = I·h / (h² + r²)^{3/2} on the floor, at every texel and at 20 points.
+#[test]
+fn floor_inverse_square_cosine() {
+    let h = 2.0f64;
+    let scene = floor_scene(8.0, isotropic(I0, [0.0, h as f32, 0.0]));
+    let out = run(&scene);
+    assert_finite(&out);
+    let g = gbuffer(&scene, &out);
+    let maps = &out.maps[0];
+    let closed = |p: [f64; 3]| {
+        let r2 = p[0] * p[0] + p[2] * p[2];
+        let dy = h - p[1];
+        I0 * dy / (dy * dy + r2).powf(1.5)
+    };
+    let mut all = Err::default();
+    for (p, t) in texels(&g, maps, maps.illuminance()) {
+        all.add(f64::from(t[0]), closed(p));
+    }
+    // 20 calculation points along a spiral, read back bilinearly like `xtask measure`.
+    let mut points = Err::default();
+    for k in 0..20 {
+        let r = 0.45 * k as f64;
+        let a = 0.7 * k as f64;
+        let p = [r * a.cos(), 0.0, r * a.sin()];
+        let sp = locate(&scene, p, 1e-3).expect("point on the floor");
+        let e = maps.illuminance().sample(sp.uv)[0];
+        points.add(f64::from(e), closed(p));
+    }
+    println!(
+        "floor isotropic: {} texels max {:.2e} mean {:.2e}; 20 points (bilinear) max {:.2e}",
+        all.n,
+        all.max,
+        all.mean(),
+        points.max
+    );
+    assert!(all.n > 10_000);
+    assert!(all.max < 0.005, "{all:?}");
+    assert!(points.max < 0.005, "{points:?}");
+}
+
+fn asym_lamp(position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
+    let path = shared("photometry/synthetic_asym_typeC.ies")?;
+    let bytes = std::fs::read(path).expect("read");
+    let mut l = Lamp::new(
+        "asym",
+        Arc::new(Photometry::parse(&bytes).expect("parse")),
+        position,
+    );
+    l.rotation_deg = rotation_deg;
+    Some(l)
+}
+
+/// Expected E for a lamp: intensity from the exact photometric query (f64), cosine, 1/d².
+fn expected(lamp: &Lamp, frame: &[[f64; 3]; 3], p: [f64; 3]) -> f64 {
+    let lp = lamp.position.map(f64::from);
+    let d = [p[0] - lp[0], p[1] - lp[1], p[2] - lp[2]];
+    let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    let dir = frame.map(|row| row[0] * d[0] + row[1] * d[1] + row[2] * d[2]);
+    let i = lamp.photometry.intensity(dir);
+    i * (-d[1]) / d2.powf(1.5)
+}
+
+// Test 1b: a type C IES lamp; test 1c: the same lamp turned 90° turns the pattern.
+#[test]
+fn floor_type_c_lamp_and_turned_lamp() {
+    let h = 2.0f32;
+    let Some(lamp) = asym_lamp([0.0, h, 0.0], 0.0) else {
+        return;
+    };
+    let Some(turned) = asym_lamp([0.0, h, 0.0], 90.0) else {
+        return;
+    };
+    let peak = lamp.photometry.max_intensity().0;
+    let frame = lamp.frame_f64();
+    for (name, l, expect_frame) in [
+        ("type C", lamp.clone(), None),
+        ("turned 90°", turned, Some(frame)),
+    ] {
+        let scene = floor_scene(8.0, l.clone());
+        let out = run(&scene);
+        assert_finite(&out);
+        let g = gbuffer(&scene, &out);
+        let maps = &out.maps[0];
+        let mut err = Err::default();
+        let mut moved = 0usize;
+        for (p, t) in texels(&g, maps, maps.illuminance()) {
+            let want = match expect_frame {
+                // Unturned: the lamp's own frame.
+                None => expected(&l, &l.frame_f64(), p),
+                // Turned 90° (C0 from +X to −Z, counter-clockwise seen from above): the value
+                // at p is the unturned lamp's at p rotated back by −90° about +Y.
+                Some(f) => {
+                    let back = [-p[2], p[1], p[0]];
+                    let e = expected(&lamp, &f, back);
+                    if (e - expected(&lamp, &f, p)).abs() > 0.05 * e.abs() {
+                        moved += 1;
+                    }
+                    e
+                }
+            };
+            // Compare where the intensity is well inside the measured data (at least 5 % of
+            // the peak): at the edge of the data the table ramps over one cell.
+            let i_here =
+                want * (p[0] * p[0] + p[2] * p[2] + f64::from(h * h)).powf(1.5) / f64::from(h);
+            if i_here > 0.05 * peak {
+                err.add(f64::from(t[0]), want);
+            }
+        }
+        println!(
+            "floor {name}: {} texels compared, max {:.2e} mean {:.2e}",
+            err.n,
+            err.max,
+            err.mean()
+        );
+        assert!(err.n > 1000, "{name}: {err:?}");
+        assert!(err.max < 0.005, "{name}: {err:?}");
+        if expect_frame.is_some() {
+            assert!(
+                moved > 100,
+                "the turned pattern must differ from the unturned one"
+            );
+        }
+    }
+}
+
+fn fine_sphere_scene(radius: f32, albedo: f32, bounces: u32) -> Scene {
+    let density = 12.0 / radius;
+    let mesh = meshes::sphere(radius, 128, true, 4.0 / density);
+    Scene {
+        objects: vec![Object {
+            name: "sphere".into(),
+            mesh,
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(albedo),
+            receiver: true,
+            texel_scale: 1.0,
+        }],
+        lamps: vec![isotropic(I0, [0.0; 3])],
+        settings: settings(density, bounces, 16),
+    }
+}
+
+// Test 2: closed sphere, E = (I/R²)·Σ_{i=0..k} ρ^i within 1 % for k = 0..3.
+#[test]
+fn closed_sphere_interreflection_series() {
+    let (r, rho) = (1.0f64, 0.5f64);
+    for k in 0..=3u32 {
+        let scene = fine_sphere_scene(r as f32, rho as f32, k);
+        let out = run(&scene);
+        assert_finite(&out);
+        assert_eq!(out.report.bounces_run, k);
+        let g = gbuffer(&scene, &out);
+        let maps = &out.maps[0];
+        let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
+        let mut err = Err::default();
+        for (_, t) in texels(&g, maps, maps.illuminance()) {
+            err.add(f64::from(t[0]), want);
+        }
+        println!(
+            "sphere k={k}: {} texels, E want {want:.3} lux, max err {:.2e} mean {:.2e}",
+            err.n,
+            err.max,
+            err.mean()
+        );
+        assert!(err.n > 1000);
+        assert!(err.max < 0.01, "k={k}: {err:?}");
+    }
+}
+
+fn room_scene(albedo_factor: Option<f32>, multiplier: f32) -> Scene {
+    let mut s = Scene::builtin_with_settings(
+        "chairs_01",
+        Settings {
+            rays: 8,
+            bounces: 1,
+            blur: Blur::Sigma(1.5),
+            texels_per_metre: 6.0,
+            ..Settings::default()
+        },
+    )
+    .expect("chairs_01");
+    if let Some(a) = albedo_factor {
+        for o in &mut s.objects {
+            o.albedo.factor = [a; 3];
+        }
+    }
+    for l in &mut s.lamps {
+        l.multiplier = multiplier;
+    }
+    s
+}
+
+// Test 3a: albedo 0 → no indirect light at all.
+#[test]
+fn zero_albedo_gives_no_indirect() {
+    let scene = room_scene(Some(0.0), 1.0);
+    let out = run(&scene);
+    assert_finite(&out);
+    let mut lit = 0;
+    for m in &out.maps {
+        let ind = m.indirect().expect("one bounce");
+        assert!(
+            ind.texels.chunks_exact(4).all(|t| t[..3] == [0.0; 3]),
+            "{}",
+            m.name
+        );
+        // Final illuminance = blurred direct exactly.
+        assert_eq!(m.illuminance(), m.direct());
+        lit += m.direct().valid_rgb().filter(|c| c[0] > 0.0).count();
+    }
+    assert!(lit > 1000, "the lamp lights the room");
+}
+
+// Test 3b: doubling the lamp multiplier doubles every texel of every stage.
+#[test]
+fn doubling_the_multiplier_doubles_every_texel() {
+    let a = run(&room_scene(None, 1.0));
+    let b = run(&room_scene(None, 2.0));
+    let mut worst = 0.0f64;
+    let mut compared = 0usize;
+    for (ma, mb) in a.maps.iter().zip(&b.maps) {
+        for s in 1..8 {
+            let (Some(sa), Some(sb)) = (&ma.stages[s], &mb.stages[s]) else {
+                continue;
+            };
+            for (x, y) in sa.texels.chunks_exact(4).zip(sb.texels.chunks_exact(4)) {
+                for c in 0..3 {
+                    let want = 2.0 * f64::from(x[c]);
+                    let got = f64::from(y[c]);
+                    if want > 0.0 {
+                        worst = worst.max((got - want).abs() / want);
+                        compared += 1;
+                    } else {
+                        assert_eq!(got, 0.0);
+                    }
+                }
+            }
+        }
+    }
+    println!("multiplier ×2: {compared} values, max relative deviation {worst:.2e}");
+    assert!(compared > 10_000);
+    assert!(worst < 1e-6, "{worst}");
+}
+
+/// A room with an isotropic lamp 1 mm in front of the +X wall, half-way up.
+fn lamp_at_wall_scene() -> Scene {
+    let size = [4.0f32, 2.5, 3.0];
+    let density = 10.0;
+    let mesh = meshes::room(size, meshes::RoomAlbedo::uniform([0.5; 3]), 4.0 / density);
+    Scene {
+        objects: vec![Object {
+            name: "room".into(),
+            mesh,
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(1.0),
+            receiver: true,
+            texel_scale: 1.0,
+        }],
+        lamps: vec![isotropic(I0, [size[0] / 2.0 - 1e-3, 1.25, 0.3])],
+        settings: settings(density, 1, 16),
+    }
+}
+
+// Test 4a: a lamp 1 mm from a wall: the wall it almost touches follows the closed form.
+#[test]
+fn lamp_one_millimetre_from_a_wall() {
+    let scene = lamp_at_wall_scene();
+    let out = run(&scene);
+    assert_finite(&out);
+    let g = gbuffer(&scene, &out);
+    let maps = &out.maps[0];
+    let l = scene.lamps[0].position.map(f64::from);
+    let mut err = Err::default();
+    let mut brightest = 0.0f64;
+    for (p, t) in texels(&g, maps, maps.direct_unblurred()) {
+        // Texels of the +X wall (x = 2): cosine = 1 mm / d.
+        if (p[0] - 2.0).abs() < 1e-4 {
+            let d = [p[0] - l[0], p[1] - l[1], p[2] - l[2]];
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let want = I0 * (p[0] - l[0]) / d2.powf(1.5);
+            err.add(f64::from(t[0]), want);
+            brightest = brightest.max(f64::from(t[0]));
+        }
+    }
+    println!(
+        "lamp 1 mm from wall: {} wall texels, max err {:.2e} mean {:.2e}, brightest {brightest:.3e} lux",
+        err.n,
+        err.max,
+        err.mean()
+    );
+    assert!(err.n > 500);
+    assert!(err.max < 0.005, "{err:?}");
+}
+
+// Test 4b: the whole scene scaled by 10⁻³ and 10³: illuminance scales as 1/s².
+#[test]
+fn scaled_scenes_scale_as_inverse_square() {
+    let h = 2.0f32;
+    let base = floor_scene(4.0, isotropic(I0, [0.0, h, 0.0]));
+    let reference = run(&base);
+    let reference_maps = &reference.maps[0];
+    for s in [1e-3f32, 1e3] {
+        let mut scene = base.clone();
+        scene.objects[0].transform = Transform::from_trs([0.0; 3], [0.0; 3], [s; 3]);
+        scene.lamps[0].position = [0.0, h * s, 0.0];
+        scene.settings.texels_per_metre = 4.0 / s;
+        let out = run(&scene);
+        assert_finite(&out);
+        let m = &out.maps[0];
+        assert_eq!(m.region.size, reference_maps.region.size, "same texel grid");
+        let mut err = Err::default();
+        let scale = f64::from(s) * f64::from(s);
+        for (a, b) in reference_maps
+            .illuminance()
+            .texels
+            .chunks_exact(4)
+            .zip(m.illuminance().texels.chunks_exact(4))
+        {
+            if a[3] > 0.5 {
+                err.add(f64::from(b[0]) * scale, f64::from(a[0]));
+            }
+        }
+        println!(
+            "scale {s:e}: {} texels, E·s² vs unscaled max {:.2e} mean {:.2e}",
+            err.n,
+            err.max,
+            err.mean()
+        );
+        assert!(err.n > 1000);
+        assert!(err.max < 1e-3, "scale {s}: {err:?}");
+    }
+}
+
+// Test 4c: grazing incidence: a lamp 1 cm above a 20 m floor; and 10⁶ cd.
+#[test]
+fn grazing_incidence_and_a_million_candela() {
+    for (h, cd) in [(0.01f64, I0), (2.0, 1e6)] {
+        let scene = floor_scene(8.0, isotropic(cd, [0.0, h as f32, 0.0]));
+        let out = run(&scene);
+        assert_finite(&out);
+        let g = gbuffer(&scene, &out);
+        let maps = &out.maps[0];
+        let mut err = Err::default();
+        let mut min_cos = 1.0f64;
+        for (p, t) in texels(&g, maps, maps.illuminance()) {
+            let r2 = p[0] * p[0] + p[2] * p[2];
+            let dy = h - p[1];
+            let want = cd * dy / (dy * dy + r2).powf(1.5);
+            if r2 > 0.25 {
+                err.add(f64::from(t[0]), want);
+                min_cos = min_cos.min(dy / (dy * dy + r2).sqrt());
+            }
+        }
+        println!(
+            "floor h={h} m, {cd:e} cd: {} texels, max err {:.2e} mean {:.2e}, grazing cos down to {min_cos:.1e}",
+            err.n,
+            err.max,
+            err.mean()
+        );
+        assert!(err.max < 0.005, "h={h}: {err:?}");
+    }
+}
+
+// Test 4d: degenerate and sliver triangles, and texels on silhouette edges: no NaN or Inf
+// anywhere, partially covered edge texels still follow the closed form.
+#[test]
+fn degenerate_slivers_and_silhouette_edges() {
+    let h = 2.0f64;
+    let mut scene = floor_scene(8.0, isotropic(I0, [0.0, h as f32, 0.0]));
+    // An extra receiver: a zero-area triangle, a 1 µm-wide sliver 1 m long standing on the
+    // floor, and a normal triangle, with light-map UVs to match.
+    let mesh = Mesh {
+        positions: vec![
+            [1.0, 0.5, 1.0],
+            [1.0, 0.5, 1.0],
+            [1.0, 0.5, 1.0],
+            [2.0, 0.0, 2.0],
+            [2.000_001, 0.0, 2.0],
+            [2.0, 1.0, 2.0],
+            [3.0, 0.0, 3.0],
+            [3.5, 0.0, 3.0],
+            [3.0, 0.5, 3.0],
+        ],
+        normals: vec![
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ],
+        lightmap_uvs: vec![
+            [0.1, 0.1],
+            [0.1, 0.1],
+            [0.1, 0.1],
+            [0.2, 0.9],
+            [0.200_001, 0.9],
+            [0.2, 0.1],
+            [0.4, 0.9],
+            [0.9, 0.9],
+            [0.4, 0.4],
+        ],
+        material_uvs: None,
+        colors: None,
+        indices: vec![[0, 1, 2], [3, 4, 5], [6, 7, 8]],
+    };
+    scene.objects.push(Object {
+        name: "slivers".into(),
+        mesh,
+        transform: Transform::IDENTITY,
+        albedo: Albedo::grey(0.5),
+        receiver: true,
+        texel_scale: 1.0,
+    });
+    scene.settings.bounces = 1;
+    scene.settings.rays = 8;
+    let out = run(&scene);
+    assert_finite(&out);
+    // Silhouette texels of the floor: partially covered (coverage < 1) yet exact.
+    let g = gbuffer(&scene, &out);
+    let floor = &out.maps[0];
+    let r = floor.region;
+    let mut edge = Err::default();
+    for y in 0..r.size[1] {
+        for x in 0..r.size[0] {
+            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
+            let (p, coverage) = (&g.position[i..i + 4], g.albedo[i + 3]);
+            if p[3] > 0.5 && coverage < 0.999 {
+                let p = [p[0], p[1], p[2]].map(f64::from);
+                let r2 = p[0] * p[0] + p[2] * p[2];
+                let want = I0 * (h - p[1]) / ((h - p[1]).powi(2) + r2).powf(1.5);
+                edge.add(f64::from(floor.direct_unblurred().texel(x, y)[0]), want);
+            }
+        }
+    }
+    println!(
+        "silhouette texels of the floor: {} (coverage < 1), max err {:.2e}",
+        edge.n, edge.max
+    );
+    assert!(edge.n > 0, "the floor has partially covered edge texels");
+    assert!(edge.max < 0.005, "{edge:?}");
+}
