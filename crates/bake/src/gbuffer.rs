@@ -355,3 +355,349 @@ fn coverage_mask(p: &[[f64; 2]; 3], area2: f64, cell: [f64; 2]) -> u16 {
     }
     mask
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::meshes;
+    use crate::scene::{Albedo, Mesh, Settings, Transform, dot};
+
+    fn raster(scene: &Scene) -> (Layout, GBuffer) {
+        let l = Layout::new(scene, 8192, 256).expect("layout");
+        let g = rasterize(scene, &l);
+        (l, g)
+    }
+
+    /// Distance from `q` to triangle `t` (3D, brute force, for tests).
+    fn point_triangle_distance(q: [f64; 3], t: [[f64; 3]; 3]) -> f64 {
+        let (e0, e1) = (sub3(t[1], t[0]), sub3(t[2], t[0]));
+        let n = cross(e0, e1);
+        let nn = dot(n, n);
+        if nn > 0.0 {
+            let d = sub3(q, t[0]);
+            let s = dot(d, n) / nn;
+            let proj = [q[0] - s * n[0], q[1] - s * n[1], q[2] - s * n[2]];
+            let inside = (0..3).all(|i| {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                dot(cross(sub3(b, a), sub3(proj, a)), n) >= 0.0
+            });
+            if inside {
+                return (s * s * nn).sqrt();
+            }
+        }
+        (0..3)
+            .map(|i| {
+                let (a, b) = (t[i], t[(i + 1) % 3]);
+                let ab = sub3(b, a);
+                let l = dot(ab, ab);
+                let s = if l > 0.0 {
+                    (dot(sub3(q, a), ab) / l).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let c = [a[0] + s * ab[0], a[1] + s * ab[1], a[2] + s * ab[2]];
+                let d = sub3(q, c);
+                dot(d, d).sqrt()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    fn world_tris(o: &Object) -> Vec<[[f64; 3]; 3]> {
+        o.mesh
+            .indices
+            .iter()
+            .map(|t| {
+                t.map(|i| {
+                    o.transform
+                        .point_f64(o.mesh.positions[i as usize].map(f64::from))
+                })
+            })
+            .collect()
+    }
+
+    /// Checks the invariants of every texel and returns the number of valid ones checked
+    /// against their surface (every `stride`-th).
+    fn check(scene: &Scene, l: &Layout, g: &GBuffer, stride: usize) -> usize {
+        assert!(
+            g.position
+                .iter()
+                .chain(&g.normal)
+                .chain(&g.albedo)
+                .all(|v| v.is_finite())
+        );
+        let tris: Vec<_> = scene.objects.iter().map(world_tris).collect();
+        let mut checked = 0;
+        for (k, t) in g.position.chunks_exact(4).enumerate() {
+            let (n, a) = (&g.normal[k * 4..k * 4 + 4], &g.albedo[k * 4..k * 4 + 4]);
+            if t[3] == 0.0 {
+                assert!(
+                    t.iter().chain(n).chain(a).all(|&v| v == 0.0),
+                    "empty texel {k} not zero"
+                );
+                continue;
+            }
+            assert_eq!(t[3], 1.0);
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            assert!((len - 1.0).abs() < 1e-5, "texel {k}: normal length {len}");
+            let obj = n[3] as usize;
+            assert_eq!(n[3], obj as f32);
+            assert!(
+                a.iter().all(|v| (0.0..=1.0).contains(v)),
+                "texel {k}: albedo {a:?}"
+            );
+            // The texel lies in its object's region.
+            let layer_len = (g.layer_size[0] * g.layer_size[1]) as usize;
+            let (layer, rest) = (k / layer_len, k % layer_len);
+            let (x, y) = (
+                (rest % g.layer_size[0] as usize) as u32,
+                (rest / g.layer_size[0] as usize) as u32,
+            );
+            let r = l.regions[obj].expect("valid texel of a receiver");
+            assert_eq!(r.layer as usize, layer);
+            assert!(x >= r.offset[0] && x < r.offset[0] + r.size[0]);
+            assert!(y >= r.offset[1] && y < r.offset[1] + r.size[1]);
+            if k % stride == 0 {
+                let q = [t[0], t[1], t[2]].map(f64::from);
+                let d = tris[obj]
+                    .iter()
+                    .map(|&tri| point_triangle_distance(q, tri))
+                    .fold(f64::INFINITY, f64::min);
+                assert!(
+                    d < 2e-5,
+                    "texel {k} of object {obj} is {d} m off its surface"
+                );
+                checked += 1;
+            }
+        }
+        checked
+    }
+
+    #[test]
+    fn valid_texels_lie_on_their_surfaces() {
+        let s = Scene::builtin("chairs_03").expect("builtin");
+        let (l, g) = raster(&s);
+        let checked = check(&s, &l, &g, 1);
+        assert!(
+            checked as u64 == g.valid_texels() && checked > 400_000,
+            "{checked}"
+        );
+        let s = Scene::builtin("sofa_01").expect("builtin");
+        let (l, g) = raster(&s);
+        assert!(check(&s, &l, &g, 37) > 10_000);
+    }
+
+    #[test]
+    fn sphere_texels_lie_on_the_sphere_and_face_inward() {
+        let s = Scene::builtin("sphere").expect("builtin");
+        let (l, g) = raster(&s);
+        assert!(check(&s, &l, &g, 97) > 300);
+        let r = f64::from(crate::builtin::SPHERE_RADIUS);
+        for (p, n) in g.position.chunks_exact(4).zip(g.normal.chunks_exact(4)) {
+            if p[3] == 1.0 {
+                let q = [p[0], p[1], p[2]].map(f64::from);
+                let d = dot(q, q).sqrt();
+                assert!(d <= r * (1.0 + 1e-6) && d > r * 0.998, "{d}");
+                let c = dot(q, [n[0], n[1], n[2]].map(f64::from)) / d;
+                assert!(c < -0.999, "normal not toward the centre: {c}");
+            }
+        }
+    }
+
+    /// Every texel that contains a point of a triangle is valid (conservative coverage),
+    /// including texels whose centre lies outside every triangle.
+    #[test]
+    fn coverage_is_conservative() {
+        let s = Scene::builtin("chairs_01").expect("builtin");
+        let (l, g) = raster(&s);
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut centre_outside = 0;
+        for (oi, o) in s.objects.iter().enumerate() {
+            let r = l.regions[oi].expect("receiver");
+            for t in &o.mesh.indices {
+                let uv = t.map(|i| o.mesh.lightmap_uvs[i as usize].map(f64::from));
+                for _ in 0..64 {
+                    let (mut a, mut b) = (rnd(), rnd());
+                    if a + b > 1.0 {
+                        (a, b) = (1.0 - a, 1.0 - b);
+                    }
+                    let q: [f64; 2] = std::array::from_fn(|k| {
+                        uv[0][k] + a * (uv[1][k] - uv[0][k]) + b * (uv[2][k] - uv[0][k])
+                    });
+                    let x = (q[0] * f64::from(r.size[0])).floor() as u32 + r.offset[0];
+                    let y = (q[1] * f64::from(r.size[1])).floor() as u32 + r.offset[1];
+                    assert!(
+                        g.is_valid(r.layer, x, y),
+                        "{}: texel ({x}, {y}) holds surface but is empty",
+                        o.name
+                    );
+                }
+            }
+        }
+        for (k, a) in g.albedo.chunks_exact(4).enumerate() {
+            if g.position[k * 4 + 3] == 1.0 && a[3] < 0.5 {
+                centre_outside += 1;
+            }
+        }
+        assert!(
+            centre_outside > 1000,
+            "edge texels are sampled: {centre_outside}"
+        );
+    }
+
+    /// Edge texels whose centre is outside the chart take the nearest surface point: inside
+    /// the plane's bounds, never in empty space.
+    #[test]
+    fn edge_texels_sample_the_surface_border() {
+        let plane = Object {
+            name: "p".into(),
+            mesh: meshes::plane([1.0, 1.0], 0.13),
+            transform: Transform::from_trs([0.0, 1.0, 0.0], [0.0; 3], [1.0; 3]),
+            albedo: Albedo::grey(0.5),
+            receiver: true,
+            texel_scale: 1.0,
+        };
+        let s = Scene {
+            objects: vec![plane],
+            lamps: Vec::new(),
+            settings: Settings {
+                texels_per_metre: 10.3,
+                ..Settings::default()
+            },
+        };
+        let (_, g) = raster(&s);
+        let (mut valid, mut full) = (0, 0);
+        for (p, a) in g.position.chunks_exact(4).zip(g.albedo.chunks_exact(4)) {
+            if p[3] == 1.0 {
+                valid += 1;
+                full += usize::from(a[3] == 1.0);
+                assert!(p[0].abs() < 0.5 && p[2].abs() < 0.5 && p[1] == 1.0, "{p:?}");
+                assert!(p[0].abs() > 0.0 || p[2].abs() > 0.0);
+            }
+        }
+        // 1 m at 10.3 texels/m crosses 11 or 12 texel columns; fully covered ones are fewer.
+        assert!(
+            valid >= 11 * 11 && full < valid,
+            "{valid} valid, {full} fully covered"
+        );
+    }
+
+    #[test]
+    fn degenerate_triangles_give_no_nan() {
+        let mut mesh = Mesh {
+            positions: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0],
+                [2.0, 0.0, 2.0],
+                [2.0, 0.0, 2.0],
+                [2.0, 0.0, 2.0],
+                [0.0, 0.0, 0.0],
+                [1e-9, 0.0, 1.0],
+                [f32::NAN, 0.0, 0.0],
+            ],
+            normals: vec![[0.0, 1.0, 0.0]; 9],
+            lightmap_uvs: vec![
+                [0.1, 0.1],
+                [0.4, 0.1],
+                [0.1, 0.4],
+                [0.5, 0.5],
+                [0.9, 0.5],
+                [0.5, 0.9],
+                [0.6, 0.1],
+                [0.6, 0.1],
+                [0.95, 0.05],
+            ],
+            indices: vec![
+                [0, 1, 2],  // fine
+                [3, 4, 5],  // zero world area
+                [6, 7, 0],  // sliver in world, zero-ish UV area
+                [0, 1, 6],  // sliver in UV
+                [6, 7, 1],  // thin in UV
+                [8, 1, 2],  // NaN position
+                [0, 1, 99], // out of range
+            ],
+            ..Mesh::default()
+        };
+        // Zero-area triangle with two zero normals: the third one still gives a direction.
+        mesh.normals[4] = [0.0; 3];
+        mesh.normals[5] = [0.0; 3];
+        let o = Object {
+            name: "bad".into(),
+            mesh,
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(0.5),
+            receiver: true,
+            texel_scale: 1.0,
+        };
+        let s = Scene {
+            objects: vec![o],
+            lamps: Vec::new(),
+            settings: Settings::default(),
+        };
+        let l = Layout {
+            layer_size: [64, 64],
+            layers: 1,
+            regions: vec![Some(Region {
+                layer: 0,
+                offset: [0, 0],
+                size: [64, 64],
+            })],
+        };
+        let g = rasterize(&s, &l);
+        assert!(
+            g.position
+                .iter()
+                .chain(&g.normal)
+                .chain(&g.albedo)
+                .all(|v| v.is_finite())
+        );
+        assert!(g.valid_texels() > 100);
+        for n in g.normal.chunks_exact(4) {
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            assert!(len == 0.0 || (len - 1.0).abs() < 1e-5);
+        }
+        // The zero-area triangle's texels sit at its one point.
+        let centre = g.index(0, 44, 44);
+        assert_eq!(&g.position[centre..centre + 4], &[2.0, 0.0, 2.0, 1.0]);
+        let (tris, _) = s.world_triangles();
+        assert_eq!(
+            tris.len(),
+            5,
+            "NaN and out-of-range triangles are left out of the BVH soup"
+        );
+    }
+
+    #[test]
+    fn albedo_non_receivers_and_determinism() {
+        let mut s = Scene::builtin("chairs_01").expect("builtin");
+        s.objects[1].receiver = false;
+        let (l, g) = raster(&s);
+        assert!(l.regions[1].is_none());
+        let mut floor = 0;
+        for (k, n) in g.normal.chunks_exact(4).enumerate() {
+            if g.position[k * 4 + 3] == 1.0 {
+                assert_eq!(n[3], 0.0, "only the room has texels");
+                if n[1] > 0.99 {
+                    floor += 1;
+                    let a = &g.albedo[k * 4..k * 4 + 3];
+                    assert_eq!(a, crate::builtin::ROOM_ALBEDO.floor);
+                }
+            }
+        }
+        assert!(floor > 70_000);
+        assert_eq!(rasterize(&s, &l), g, "deterministic");
+        let none = Scene {
+            objects: Vec::new(),
+            ..s
+        };
+        let (l, g) = raster(&none);
+        assert_eq!((l.layers, g.position.len(), g.valid_texels()), (0, 0, 0));
+        assert!(!g.is_valid(0, 0, 0));
+    }
+}

@@ -234,7 +234,8 @@ pub fn map_size(
         object: object.name.clone(),
     })?;
     let d = f64::from(texels_per_metre) * f64::from(scale);
-    let want = extent.map(|e| (e * d).ceil().max(1.0));
+    // 1e-4 texel of slack so f32 noise in the UVs does not add a whole row or column.
+    let want = extent.map(|e| (e * d - 1e-4).ceil().max(1.0));
     let longest = want[0].max(want[1]);
     if longest > f64::from(max_texture_size) {
         let suggested = f64::from(max_texture_size) / (extent[0].max(extent[1]) * f64::from(scale));
@@ -288,4 +289,208 @@ pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
     let aspect = stretch_u / stretch_v; // extent_u / extent_v
     let e = [(side2 * aspect).sqrt(), (side2 / aspect).sqrt()];
     e.iter().all(|x| x.is_finite() && *x > 0.0).then_some(e)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::meshes;
+    use crate::scene::{Albedo, Settings, Transform};
+
+    fn plane_object(name: &str, size: [f32; 2], padding: f32) -> Object {
+        Object {
+            name: name.into(),
+            mesh: meshes::plane(size, padding),
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(0.5),
+            receiver: true,
+            texel_scale: 1.0,
+        }
+    }
+
+    fn scene(objects: Vec<Object>, density: f32) -> Scene {
+        Scene {
+            objects,
+            lamps: Vec::new(),
+            settings: Settings {
+                texels_per_metre: density,
+                ..Settings::default()
+            },
+        }
+    }
+
+    #[test]
+    fn density_gives_map_size() {
+        // A 2 m × 1 m plane with 1/16 m padding: the UV square spans 2.0625 m × 1.0625 m.
+        let pad = 1.0 / 16.0;
+        let o = plane_object("p", [2.0, 1.0], pad);
+        let e = lightmap_extent(&o).expect("extent");
+        assert!(
+            (e[0] - 2.0625).abs() < 1e-5 && (e[1] - 1.0625).abs() < 1e-5,
+            "{e:?}"
+        );
+        assert_eq!(map_size(&o, 64.0, 4096).expect("size"), [132, 68]);
+        assert_eq!(map_size(&o, 10.0, 4096).expect("size"), [21, 11]);
+        // texel_scale and the object's transform scale the map.
+        let mut big = o.clone();
+        big.texel_scale = 2.0;
+        assert_eq!(map_size(&big, 64.0, 4096).expect("size"), [264, 136]);
+        let mut scaled = o.clone();
+        scaled.transform = Transform::from_trs([3.0, 0.0, 0.0], [0.0, 90.0, 0.0], [2.0, 1.0, 2.0]);
+        assert_eq!(map_size(&scaled, 64.0, 4096).expect("size"), [264, 136]);
+        let mut stretched = o;
+        stretched.transform = Transform::from_trs([0.0; 3], [0.0; 3], [1.0, 1.0, 3.0]);
+        assert_eq!(map_size(&stretched, 64.0, 4096).expect("size"), [132, 204]);
+    }
+
+    #[test]
+    fn regions_are_disjoint_sub_rectangles() {
+        let objects = vec![
+            plane_object("a", [4.0, 3.0], 0.05),
+            plane_object("b", [1.0, 1.0], 0.05),
+            plane_object("c", [2.0, 1.0], 0.05),
+            plane_object("d", [1.0, 2.0], 0.05),
+            plane_object("e", [0.5, 0.5], 0.05),
+        ];
+        let mut objects = objects;
+        objects.push(Object {
+            receiver: false,
+            ..plane_object("occluder", [1.0, 1.0], 0.05)
+        });
+        let s = scene(objects, 50.0);
+        let l = Layout::new(&s, 4096, 16).expect("layout");
+        assert_eq!(l.regions.len(), 6);
+        assert!(l.regions[5].is_none(), "non-receivers get no map");
+        let sizes: Vec<[u32; 2]> = s.objects[..5]
+            .iter()
+            .map(|o| map_size(o, 50.0, 4096).expect("size"))
+            .collect();
+        assert_eq!(l.layer_size, [sizes[0][0], sizes[0][1]]);
+        let regions: Vec<Region> = l.regions.iter().flatten().copied().collect();
+        for (r, s) in regions.iter().zip(&sizes) {
+            assert_eq!(r.size, *s);
+            assert!(r.layer < l.layers);
+            assert!(r.offset[0] + r.size[0] <= l.layer_size[0]);
+            assert!(r.offset[1] + r.size[1] <= l.layer_size[1]);
+        }
+        for (i, a) in regions.iter().enumerate() {
+            for b in &regions[i + 1..] {
+                if a.layer != b.layer {
+                    continue;
+                }
+                let apart = (0..2).any(|k| {
+                    a.offset[k] + a.size[k] + REGION_GAP <= b.offset[k]
+                        || b.offset[k] + b.size[k] + REGION_GAP <= a.offset[k]
+                });
+                assert!(apart, "{a:?} and {b:?} overlap or are closer than the gap");
+            }
+        }
+        assert_eq!(
+            l.texel_count(),
+            sizes.iter().map(|s| u64::from(s[0] * s[1])).sum::<u64>()
+        );
+        assert!(l.allocated_texels() >= l.texel_count());
+        // The four small maps share the second layer.
+        assert_eq!(l.layers, 2);
+    }
+
+    #[test]
+    fn limits_are_reported() {
+        let s = scene(vec![plane_object("wide", [10.0, 1.0], 0.0)], 100.0);
+        match Layout::new(&s, 512, 4) {
+            Err(LayoutError::MapTooLarge {
+                object,
+                size,
+                max,
+                suggested_density,
+            }) => {
+                assert_eq!((object.as_str(), size, max), ("wide", [1000, 100], 512));
+                let mut fixed = s.clone();
+                fixed.settings.texels_per_metre = suggested_density;
+                assert!(
+                    Layout::new(&fixed, 512, 4).is_ok(),
+                    "the suggested density fits"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
+        let many = scene(
+            (0..5)
+                .map(|i| plane_object(&format!("p{i}"), [1.0, 1.0], 0.0))
+                .collect(),
+            64.0,
+        );
+        assert!(matches!(
+            Layout::new(&many, 64, 3),
+            Err(LayoutError::TooManyLayers { needed: 5, max: 3 })
+        ));
+        for d in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(matches!(Layout::new(&many, 4096, 16), Ok(_)));
+            let mut bad = many.clone();
+            bad.settings.texels_per_metre = d;
+            assert!(matches!(
+                Layout::new(&bad, 4096, 16),
+                Err(LayoutError::InvalidDensity(_))
+            ));
+        }
+        let mut bad = many.clone();
+        bad.objects[1].texel_scale = 0.0;
+        assert!(matches!(
+            Layout::new(&bad, 4096, 16),
+            Err(LayoutError::InvalidTexelScale { .. })
+        ));
+        let mut flat = many;
+        flat.objects[0]
+            .mesh
+            .lightmap_uvs
+            .iter_mut()
+            .for_each(|uv| *uv = [0.5, 0.5]);
+        assert!(matches!(
+            Layout::new(&flat, 4096, 16),
+            Err(LayoutError::NoLightmapArea { object }) if object == "p0"
+        ));
+        let none = scene(Vec::new(), 64.0);
+        let l = Layout::new(&none, 4096, 16).expect("empty");
+        assert_eq!((l.layers, l.texel_count()), (0, 0));
+    }
+
+    #[test]
+    fn texel_at_follows_the_uv_convention() {
+        let r = Region {
+            layer: 1,
+            offset: [10, 20],
+            size: [100, 50],
+        };
+        assert_eq!(r.texel_at([0.0, 0.0]), Some([10, 20]));
+        assert_eq!(r.texel_at([0.999, 0.999]), Some([109, 69]));
+        assert_eq!(r.texel_at([1.0, 1.0]), Some([109, 69]), "clamped");
+        assert_eq!(r.texel_at([0.5, 0.01]), Some([60, 20]));
+        assert_eq!(r.texel_at([f32::NAN, 0.0]), None);
+    }
+
+    /// The built-in scenes at the default density, against the paper's Table 1.
+    #[test]
+    fn builtin_texel_counts_near_table_1() {
+        let table = [
+            ("chairs_01", 459_000, 252),
+            ("chairs_03", 590_000, 732),
+            ("chairs_05", 721_000, 1212),
+            ("chairs_10", 1_049_000, 2412),
+            ("sofa_01", 655_000, 2036),
+        ];
+        for (name, texels, triangles) in table {
+            let s = Scene::builtin(name).expect("builtin");
+            let l = Layout::new(&s, 4096, 64).expect("layout");
+            let n = l.texel_count();
+            println!(
+                "{name}: {n} texels (paper {texels}), {} triangles, {} layers of {:?}",
+                s.triangle_count(),
+                l.layers,
+                l.layer_size
+            );
+            assert_eq!(s.triangle_count(), triangles, "{name}");
+            let rel = n as f64 / texels as f64 - 1.0;
+            assert!(rel.abs() < 0.05, "{name}: {n} texels vs {texels}");
+        }
+    }
 }
