@@ -69,10 +69,9 @@ bool luxRaySetup(vec3 origin, vec3 dir, out LuxRay r) {
     return true;
 }
 
-// WatertightRay::hits_box: slab test on [tMin, tMax] with the exit slack.
+// WatertightRay::hits_box: slab test on [tMin, tMax], entry and exit widened by LUX_BOX_SLACK.
 bool luxHitsBox(LuxRay r, vec3 bmin, vec3 bmax, float tMin, float tMax) {
-    float tNear = tMin;
-    float tFar = tMax;
+    float boxNear = -LUX_BIG;
     float boxFar = LUX_BIG;
     for (int a = 0; a < 3; ++a) {
         float t0 = (bmin[a] - r.origin[a]) * r.inv[a];
@@ -80,11 +79,11 @@ bool luxHitsBox(LuxRay r, vec3 bmin, vec3 bmax, float tMin, float tMax) {
         bool inside = bmin[a] <= r.origin[a] && r.origin[a] <= bmax[a];
         float lo = r.parallel[a] ? (inside ? -LUX_BIG : LUX_BIG) : min(t0, t1);
         float hi = r.parallel[a] ? (inside ? LUX_BIG : -LUX_BIG) : max(t0, t1);
-        tNear = max(tNear, lo);
+        boxNear = max(boxNear, lo);
         boxFar = min(boxFar, hi);
     }
-    boxFar += abs(boxFar) * LUX_BOX_EXIT_SLACK;
-    tFar = min(tFar, boxFar);
+    float tNear = max(tMin, boxNear - abs(boxNear) * LUX_BOX_SLACK);
+    float tFar = min(tMax, boxFar + abs(boxFar) * LUX_BOX_SLACK);
     return tNear <= tFar;
 }
 

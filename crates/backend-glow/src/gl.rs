@@ -182,6 +182,18 @@ impl Program {
         unsafe { gl.uniform_1_i32(self.uniform(name), v) };
     }
 
+    /// Sets a `uint` uniform of the bound program.
+    pub(crate) fn set_u32(&self, gl: &glow::Context, name: &str, v: u32) {
+        // SAFETY: as set_i32.
+        unsafe { gl.uniform_1_u32(self.uniform(name), v) };
+    }
+
+    /// Sets an `ivec2` uniform of the bound program.
+    pub(crate) fn set_ivec2(&self, gl: &glow::Context, name: &str, v: [i32; 2]) {
+        // SAFETY: as set_i32.
+        unsafe { gl.uniform_2_i32(self.uniform(name), v[0], v[1]) };
+    }
+
     /// Sets a `float` uniform of the bound program.
     pub(crate) fn set_f32(&self, gl: &glow::Context, name: &str, v: f32) {
         // SAFETY: as set_i32.

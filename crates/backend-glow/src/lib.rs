@@ -6,20 +6,11 @@
 mod backend;
 mod context;
 mod error;
-#[cfg_attr(
-    not(test),
-    expect(dead_code, reason = "programs are used by the passes (next commits)")
-)]
 mod gl;
-#[cfg_attr(
-    not(test),
-    expect(dead_code, reason = "used by the passes (next commits)")
-)]
 mod scene;
-#[expect(dead_code, reason = "used by the passes (next commits)")]
 mod shaders;
 
-pub use backend::{GlowBackend, GlowTexture};
+pub use backend::{DEFAULT_TILE_WORK, GlowBackend, GlowScene, GlowTexture};
 pub use context::{Capabilities, GlContext, webgl2};
 pub use error::{GlowError, Result};
 

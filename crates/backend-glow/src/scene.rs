@@ -1,10 +1,196 @@
-//! The static scene data on the GPU: the paper's BVH and geometry data textures.
+//! The static scene data on the GPU: the paper's BVH and geometry data textures, the lamps'
+//! intensity tables and the light-map regions, all RGBA32F texture arrays read with
+//! `texelFetch`.
 
+use luxbake::backend::{LampParams, SceneData};
 use luxbake_bvh::{EncodedScene, layout};
+use luxbake_ies::GpuTable;
 
+use crate::context::Capabilities;
 use crate::error::{GlowError, Result};
 use crate::gl::{Program, TextureArray};
 use crate::shaders::Traversal;
+
+/// Rows of the per-pass lamp texture (see `direct.frag.glsl`).
+const LAMP_ROWS: u32 = 6;
+
+/// Everything `upload_scene` put on the GPU.
+#[derive(Debug)]
+pub(crate) struct GpuScene {
+    pub(crate) bvh: BvhTextures,
+    /// One layer per intensity table, four table columns per texel (see `ies.glsl`).
+    pub(crate) ies: TextureArray,
+    /// One column per object id: (layer, offset.x, offset.y, receiver), (width, height, 0, 0).
+    pub(crate) regions: TextureArray,
+    lamps: Vec<LampParams>,
+    table_sizes: Vec<[u32; 2]>,
+    pub(crate) layer_size: [u32; 2],
+    pub(crate) ray_epsilon: f32,
+}
+
+fn checked_size(caps: &Capabilities, what: &'static str, v: usize) -> Result<u32> {
+    match u32::try_from(v) {
+        Ok(v) if v <= caps.max_texture_size => Ok(v.max(1)),
+        _ => Err(GlowError::Limit {
+            what,
+            requested: v as u64,
+            allowed: caps.max_texture_size.into(),
+        }),
+    }
+}
+
+/// The IES tables as one texture array (layer = table index).
+pub(crate) fn ies_texture(
+    gl: &glow::Context,
+    caps: &Capabilities,
+    tables: &[GpuTable],
+) -> Result<TextureArray> {
+    let texels_wide = |t: &GpuTable| (t.width as usize).div_ceil(4);
+    let w = checked_size(
+        caps,
+        "IES table width / 4",
+        tables.iter().map(texels_wide).max().unwrap_or(1),
+    )?;
+    let h = checked_size(
+        caps,
+        "IES table height",
+        tables.iter().map(|t| t.height as usize).max().unwrap_or(1),
+    )?;
+    let layers = u32::try_from(tables.len().max(1))
+        .ok()
+        .filter(|&l| l <= caps.max_array_layers)
+        .ok_or(GlowError::Limit {
+            what: "intensity tables (texture array layers)",
+            requested: tables.len() as u64,
+            allowed: caps.max_array_layers.into(),
+        })?;
+    let tex = TextureArray::new(gl, "ies_tables", w, h, layers)?;
+    for (layer, t) in tables.iter().enumerate() {
+        let mut data = vec![0.0f32; w as usize * h as usize * 4];
+        for (row, values) in t
+            .values
+            .chunks(t.width.max(1) as usize)
+            .take(t.height as usize)
+            .enumerate()
+        {
+            let start = row * w as usize * 4;
+            data[start..start + values.len()].copy_from_slice(values);
+        }
+        tex.upload(gl, "ies_tables", layer as u32, &data)?;
+    }
+    Ok(tex)
+}
+
+impl GpuScene {
+    /// Uploads the BVH, the intensity tables and the regions of `scene`.
+    pub(crate) fn upload(
+        gl: &glow::Context,
+        caps: &Capabilities,
+        scene: &SceneData<'_>,
+    ) -> Result<Self> {
+        for (i, l) in scene.lamps.iter().enumerate() {
+            if l.table as usize >= scene.ies_tables.len() {
+                return Err(GlowError::InvalidInput(format!(
+                    "lamp {i} refers to intensity table {}, but {} were uploaded",
+                    l.table,
+                    scene.ies_tables.len()
+                )));
+            }
+        }
+        for (what, v) in [
+            (
+                "BVH node texture size",
+                scene.bvh.node_size[0].max(scene.bvh.node_size[1]),
+            ),
+            (
+                "BVH triangle texture size",
+                scene.bvh.tri_size[0].max(scene.bvh.tri_size[1]),
+            ),
+        ] {
+            checked_size(caps, what, v as usize)?;
+        }
+        let bvh = BvhTextures::upload(gl, scene.bvh)?;
+        let ies = ies_texture(gl, caps, scene.ies_tables)?;
+        let n = checked_size(caps, "objects (region texture width)", scene.regions.len())?;
+        let mut data = vec![0.0f32; n as usize * 2 * 4];
+        for (i, r) in scene.regions.iter().enumerate() {
+            if let Some(r) = r {
+                data[i * 4..i * 4 + 4].copy_from_slice(&[
+                    r.layer as f32,
+                    r.offset[0] as f32,
+                    r.offset[1] as f32,
+                    1.0,
+                ]);
+                let row1 = (n as usize + i) * 4;
+                data[row1..row1 + 2].copy_from_slice(&[r.size[0] as f32, r.size[1] as f32]);
+            }
+        }
+        let regions = TextureArray::new(gl, "regions", n, 2, 1)?;
+        regions.upload(gl, "regions", 0, &data)?;
+        Ok(Self {
+            bvh,
+            ies,
+            regions,
+            lamps: scene.lamps.to_vec(),
+            table_sizes: scene
+                .ies_tables
+                .iter()
+                .map(|t| [t.width, t.height])
+                .collect(),
+            layer_size: scene.layer_size,
+            ray_epsilon: scene.ray_epsilon,
+        })
+    }
+
+    /// Deletes the textures.
+    pub(crate) fn delete(&self, gl: &glow::Context) {
+        self.bvh.delete(gl);
+        self.ies.delete(gl);
+        self.regions.delete(gl);
+    }
+}
+
+/// The lamps of one direct pass as a texture (one column per listed lamp, in order, see
+/// `direct.frag.glsl`) and their count. Listed indices without a lamp are left out, as the CPU
+/// reference skips them.
+pub(crate) fn lamp_texture(
+    gl: &glow::Context,
+    scene: &GpuScene,
+    list: &[u32],
+) -> Result<(TextureArray, i32)> {
+    let lamps: Vec<&LampParams> = list
+        .iter()
+        .filter_map(|&i| scene.lamps.get(i as usize))
+        .collect();
+    let n = lamps.len().max(1);
+    let width = u32::try_from(n).map_err(|_| GlowError::InvalidInput("too many lamps".into()))?;
+    let mut data = vec![0.0f32; n * LAMP_ROWS as usize * 4];
+    for (i, l) in lamps.iter().enumerate() {
+        let size = scene
+            .table_sizes
+            .get(l.table as usize)
+            .copied()
+            .unwrap_or([0, 0]);
+        let m = l.world_to_photometric;
+        let rows = [
+            [l.position[0], l.position[1], l.position[2], l.table as f32],
+            [m[0][0], m[0][1], m[0][2], 0.0],
+            [m[1][0], m[1][1], m[1][2], 0.0],
+            [m[2][0], m[2][1], m[2][2], 0.0],
+            [l.scale[0], l.scale[1], l.scale[2], 0.0],
+            [size[0] as f32, size[1] as f32, 0.0, 0.0],
+        ];
+        for (row, v) in rows.iter().enumerate() {
+            let at = (row * n + i) * 4;
+            data[at..at + 4].copy_from_slice(v);
+        }
+    }
+    let tex = TextureArray::new(gl, "lamps", width, LAMP_ROWS, 1)?;
+    tex.upload(gl, "lamps", 0, &data)?;
+    let count =
+        i32::try_from(lamps.len()).map_err(|_| GlowError::InvalidInput("too many lamps".into()))?;
+    Ok((tex, count))
+}
 
 /// The encoded BVH as RGBA32F texture arrays, exactly the texels of [`EncodedScene`]: node
 /// links (6-layer MTBVH array and 1-layer TBVH array), node bounds (2 layers), triangle data

@@ -3,7 +3,7 @@
 
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, TriangleAttributes, encode};
 
-use super::{BVH, Traversal};
+use super::{BVH, Pass, Traversal};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
 use crate::testutil::{TestRng, context_or_skip, render};
@@ -190,4 +190,154 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
     }
     bvh_tex.delete(gl);
     ray_tex.delete(gl);
+}
+
+const RNG_FS: &str = "uniform uint u_sample;\n\
+    uniform uint u_pass;\n\
+    uniform uint u_seed;\n\
+    uniform int u_layer;\n\
+    out vec4 o;\n\
+    void main() {\n\
+        uvec2 p = uvec2(gl_FragCoord.xy);\n\
+        uint t = luxTexelIndex(uvec2(97u, 61u), uint(u_layer), p.x, p.y);\n\
+        uint h = luxHash(t, u_sample, u_pass, u_seed);\n\
+        o = vec4(float(h & 0xffffu), float(h >> 16u), luxUniform2(t, u_sample, u_pass, u_seed));\n\
+    }\n";
+
+#[test]
+fn rng_is_bit_exact() {
+    let Some(ctx) = context_or_skip("rng_is_bit_exact") else {
+        return;
+    };
+    let size = [97u32, 61];
+    for (sample, pass, seed, layer) in [(0u32, 1u32, 0u32, 0i32), (255, 3, 0xDEAD_BEEF, 5)] {
+        let out = render(
+            &ctx,
+            "debug_rng",
+            Traversal::None,
+            &[super::RNG, RNG_FS],
+            &[],
+            |gl, p| {
+                p.set_u32(gl, "u_sample", sample);
+                p.set_u32(gl, "u_pass", pass);
+                p.set_u32(gl, "u_seed", seed);
+                p.set_i32(gl, "u_layer", layer);
+            },
+            size,
+        );
+        for y in 0..size[1] {
+            for x in 0..size[0] {
+                let t = luxbake::rng::texel_index(size, layer as u32, x, y);
+                let h = luxbake::rng::hash(t, sample, pass, seed);
+                let [u0, u1] = luxbake::rng::uniform2(t, sample, pass, seed);
+                let i = ((y * size[0] + x) * 4) as usize;
+                let expected = [(h & 0xffff) as f32, (h >> 16) as f32, u0, u1];
+                assert_eq!(out[i..i + 4], expected, "texel ({x}, {y}) layer {layer}");
+            }
+        }
+    }
+}
+
+const IES_FS: &str = "uniform highp sampler2DArray u_dirs;\n\
+    uniform int u_table;\n\
+    uniform ivec2 u_size;\n\
+    void main() {\n\
+        vec3 d = texelFetch(u_dirs, luxTexel(), 0).xyz;\n\
+        o_color = vec4(luxIesSample(u_table, u_size, d), 0.0, 0.0, 1.0);\n\
+    }\n";
+
+#[test]
+fn ies_sampling_matches_the_cpu_table() {
+    use luxbake_ies::{GpuTable, Photometry};
+    let Some(ctx) = context_or_skip("ies_sampling_matches_the_cpu_table") else {
+        return;
+    };
+    // The repo's downlight (rotationally symmetric) and a random asymmetric table.
+    let downlight = Photometry::parse(include_bytes!("../../../bake/lamps/luxbake_downlight.ies"))
+        .unwrap()
+        .gpu_table();
+    let mut rng = TestRng(7);
+    let (w, h) = (24u32, 13u32);
+    let random = GpuTable {
+        width: w,
+        height: h,
+        values: (0..w * h).map(|_| rng.range(0.0, 1000.0)).collect(),
+    };
+    let tables = [downlight, random];
+    let size = [64u32, 64];
+    let mut dirs: Vec<[f32; 3]> = vec![
+        [0.0, 0.0, -1.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [1.0, -0.0, 0.0],
+        [1.0, 1e-9, 0.3],
+        [1.0, -1e-9, -0.3],
+        [-1.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [3.0, 4.0, -12.0],
+    ];
+    while dirs.len() < (size[0] * size[1]) as usize {
+        dirs.push([0, 1, 2].map(|_| rng.range(-2.0, 2.0)));
+    }
+    let gl = ctx.gl().unwrap();
+    let dir_tex = TextureArray::new(gl, "dirs", size[0], size[1], 1).unwrap();
+    let data: Vec<f32> = dirs.iter().flat_map(|d| [d[0], d[1], d[2], 0.0]).collect();
+    dir_tex.upload(gl, "dirs", 0, &data).unwrap();
+    let caps = ctx.capabilities();
+    let ies = crate::scene::ies_texture(gl, caps, &tables).unwrap();
+    for (ti, table) in tables.iter().enumerate() {
+        let out = render(
+            &ctx,
+            "debug_ies",
+            Traversal::None,
+            &[super::COMMON, super::IES, IES_FS],
+            &[("u_dirs", &dir_tex), ("u_ies", &ies)],
+            |gl, p| {
+                p.set_i32(gl, "u_table", ti as i32);
+                p.set_ivec2(gl, "u_size", [table.width as i32, table.height as i32]);
+                p.set_i32(gl, "u_layer", 0);
+            },
+            size,
+        );
+        let max = table.values.iter().fold(0.0f32, |m, &v| m.max(v));
+        let mut worst = 0.0f32;
+        for (i, d) in dirs.iter().enumerate() {
+            let cpu = table.sample(*d);
+            let err = (out[i * 4] - cpu).abs() / max;
+            worst = worst.max(err);
+            assert!(
+                err <= 1e-5,
+                "table {ti}, dir {d:?}: gpu {} cpu {cpu}",
+                out[i * 4]
+            );
+        }
+        eprintln!(
+            "table {ti} ({}x{}): worst error {worst:e} of the maximum",
+            table.width, table.height
+        );
+    }
+    ies.delete(gl);
+    dir_tex.delete(gl);
+}
+
+#[test]
+fn every_pass_program_compiles_for_every_traversal() {
+    let Some(ctx) = context_or_skip("every_pass_program_compiles_for_every_traversal") else {
+        return;
+    };
+    let gl = ctx.gl().unwrap();
+    for pass in [
+        Pass::Direct,
+        Pass::Copy,
+        Pass::Blur,
+        Pass::AlbedoMul,
+        Pass::Gather,
+        Pass::Combine,
+    ] {
+        for t in [Traversal::Mtbvh, Traversal::Tbvh, Traversal::None] {
+            let p = crate::gl::Program::new(gl, pass.label(), &super::defines(t), &pass.sources())
+                .unwrap_or_else(|e| panic!("{e}"));
+            p.delete(gl);
+        }
+    }
 }

@@ -1,0 +1,10 @@
+// Pass "combine" (paper Figure 4, box 6): direct + indirect illuminance.
+uniform highp sampler2DArray u_direct;
+uniform highp sampler2DArray u_indirect;
+
+void main() {
+    ivec3 c = luxTexel();
+    vec4 a = texelFetch(u_direct, c, 0);
+    vec4 b = texelFetch(u_indirect, c, 0);
+    o_color = vec4(luxGuard3(a.rgb + b.rgb), a.a);
+}

@@ -1,0 +1,39 @@
+// Shared helpers of every pass, mirroring luxbake::cpu's f32 helpers operation for operation
+// (dot products left to right, division rather than multiplication by a reciprocal).
+
+uniform int u_layer;   // the texture-array layer this draw renders
+out vec4 o_color;
+
+// cpu::dot
+float luxDot(vec3 a, vec3 b) {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+bool luxFinite(float v) {
+    return !isnan(v) && !isinf(v);
+}
+
+// cpu::normalize: false for a zero or non-finite vector.
+bool luxNormalize(vec3 v, out vec3 n) {
+    float l = sqrt(luxDot(v, v));
+    n = v;
+    if (!(l > 0.0 && luxFinite(l))) {
+        return false;
+    }
+    n = vec3(v.x / l, v.y / l, v.z / l);
+    return true;
+}
+
+// cpu::guard: NaN to 0, clamped to [0, FLT_MAX].
+float luxGuard(float v) {
+    return isnan(v) ? 0.0 : clamp(v, 0.0, 3.40282347e38);
+}
+
+vec3 luxGuard3(vec3 v) {
+    return vec3(luxGuard(v.x), luxGuard(v.y), luxGuard(v.z));
+}
+
+// This fragment's texel in the bound layer.
+ivec3 luxTexel() {
+    return ivec3(ivec2(gl_FragCoord.xy), u_layer);
+}

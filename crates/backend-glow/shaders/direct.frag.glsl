@@ -1,0 +1,67 @@
+// Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
+// through the BVH (cpu::direct_texel, operation for operation).
+//
+// u_lamps holds one column per lamp of this pass (in the pass's order), LUX_LAMP_ROWS rows:
+// row 0 (position.xyz, table), rows 1-3 world-to-photometric matrix rows (xyz, 0),
+// row 4 (scale.rgb, 0), row 5 (table width, table height, 0, 0).
+uniform highp sampler2DArray u_position;
+uniform highp sampler2DArray u_normal;
+uniform highp sampler2DArray u_lamps;
+uniform int u_lamp_count;
+uniform float u_ray_epsilon;
+
+vec4 luxLamp(int lamp, int row) {
+    return texelFetch(u_lamps, ivec3(lamp, row, 0), 0);
+}
+
+void main() {
+    ivec3 c = luxTexel();
+    vec4 pos = texelFetch(u_position, c, 0);
+    vec4 nrm = texelFetch(u_normal, c, 0);
+    if (pos.w <= 0.5) {
+        o_color = vec4(0.0);
+        return;
+    }
+    vec3 p = pos.xyz;
+    vec3 n;
+    if (!luxNormalize(nrm.xyz, n)) {
+        o_color = vec4(0.0, 0.0, 0.0, 1.0);
+        return;
+    }
+    vec3 e = vec3(0.0);
+    for (int li = 0; li < u_lamp_count; ++li) {
+        vec4 l0 = luxLamp(li, 0);
+        vec3 lampPos = l0.xyz;
+        int table = int(l0.w);
+        vec3 to = lampPos - p;
+        float d2 = luxDot(to, to);
+        float d = sqrt(d2);
+        if (!(d > 0.0 && luxFinite(d))) {
+            continue;
+        }
+        vec3 w = vec3(to.x / d, to.y / d, to.z / d);
+        float cosTheta = luxDot(n, w);
+        if (!(cosTheta > 0.0)) {
+            continue;
+        }
+        vec3 back = -w;
+        vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
+                                luxDot(luxLamp(li, 3).xyz, back));
+        float intensity = luxIesSample(table, ivec2(luxLamp(li, 5).xy), photometric);
+        if (!(intensity > 0.0)) {
+            continue;
+        }
+        float eps = min(u_ray_epsilon, 0.25 * d);
+        vec3 origin = p + n * eps;
+        vec3 dir = lampPos - origin;
+        float len = sqrt(luxDot(dir, dir));
+        float tMax = 1.0 - eps / len;
+        vec3 hit;
+        if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
+            continue;
+        }
+        float k = intensity * cosTheta / max(d2, eps * eps);
+        e += k * luxLamp(li, 4).rgb;
+    }
+    o_color = vec4(luxGuard3(e), 1.0);
+}

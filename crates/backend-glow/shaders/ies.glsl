@@ -1,0 +1,100 @@
+// Bilinear sampling of a lamp's resampled intensity table, a port of luxbake_ies::GpuTable::sample.
+// Table layer `table` of u_ies holds the table's rows (row j <-> gamma = pi j / (height - 1)
+// from nadir) with four consecutive columns (column i <-> C = 2 pi i / width) per RGBA texel:
+// value (row j, column i) is texel (i / 4, j) component i % 4. Wraps in C, clamps in gamma.
+
+uniform highp sampler2DArray u_ies;
+
+// Driver acos/atan are far from the CPU's libm (llvmpipe: ~2000 and ~170 ulps), which would move
+// the bilinear look-up by up to 1e-4 of a table's range. These f32 versions (Cephes' asinf and
+// atanf minimax polynomials, peak relative error ~2.5e-7) keep the GPU within a few ulps of Rust's
+// f32::acos / f32::atan2.
+const float LUX_PI = 3.14159265358979;
+const float LUX_HALF_PI = 1.57079632679490;
+
+// asin(x) for |x| <= 0.5.
+float luxAsinSmall(float x) {
+    float z = x * x;
+    return ((((4.2163199048e-2 * z + 2.4181311049e-2) * z + 4.5470025998e-2) * z
+        + 7.4953002686e-2) * z + 1.6666752422e-1) * z * x + x;
+}
+
+// acos(x) for x in [-1, 1].
+float luxAcos(float x) {
+    if (x > 0.5) {
+        return 2.0 * luxAsinSmall(sqrt(0.5 * (1.0 - x)));
+    }
+    if (x < -0.5) {
+        return LUX_PI - 2.0 * luxAsinSmall(sqrt(0.5 * (1.0 + x)));
+    }
+    return LUX_HALF_PI - luxAsinSmall(x);
+}
+
+// atan(x) for x in [0, 1].
+float luxAtanUnit(float x) {
+    float y0 = 0.0;
+    float z = x;
+    if (x > 0.4142135623730950) {
+        y0 = 0.25 * LUX_PI;
+        z = (x - 1.0) / (x + 1.0);
+    }
+    float zz = z * z;
+    return y0 + ((((8.05374449538e-2 * zz - 1.38776856032e-1) * zz + 1.99777106478e-1) * zz
+        - 3.33329491539e-1) * zz * z + z);
+}
+
+bool luxSignBit(float v) {
+    return (floatBitsToUint(v) & 0x80000000u) != 0u;
+}
+
+// atan2(y, x) in [-pi, pi] with IEEE signed-zero conventions (atan2(+-0, -0) = +-pi).
+float luxAtan2(float y, float x) {
+    float ax = abs(x);
+    float ay = abs(y);
+    float a;
+    if (ax == 0.0 && ay == 0.0) {
+        a = 0.0;
+    } else if (ax >= ay) {
+        a = luxAtanUnit(ay / ax);
+    } else {
+        a = LUX_HALF_PI - luxAtanUnit(ax / ay);
+    }
+    if (luxSignBit(x)) {
+        a = LUX_PI - a;
+    }
+    return luxSignBit(y) ? -a : a;
+}
+
+float luxIesAt(int table, int row, int col) {
+    return texelFetch(u_ies, ivec3(col >> 2, row, table), 0)[col & 3];
+}
+
+// Candela toward `dir` (photometric frame, any length); size = (width, height) of the table.
+float luxIesSample(int table, ivec2 size, vec3 dir) {
+    const float TAU = 6.28318530717959;
+    float len = sqrt(dir.x * dir.x + dir.y * dir.y + dir.z * dir.z);
+    if (!(len > 0.0 && luxFinite(len)) || size.x == 0 || size.y < 2) {
+        return 0.0;
+    }
+    float gamma = luxAcos(clamp(-dir.z / len, -1.0, 1.0));
+    float c = luxAtan2(dir.y, dir.x);
+    if (c < 0.0) {
+        c += TAU;
+    }
+    float fy = gamma / LUX_PI * float(size.y - 1);
+    float fx = c / TAU * float(size.x);
+    float x0 = floor(fx);
+    float tx = fx - x0;
+    int i0 = int(x0) % size.x;
+    if (i0 < 0) {
+        i0 += size.x;
+    }
+    int i1 = (i0 + 1) % size.x;
+    float y0f = clamp(floor(fy), 0.0, float(size.y - 1));
+    float ty = clamp(fy - y0f, 0.0, 1.0);
+    int y0 = int(y0f);
+    int y1 = min(y0 + 1, size.y - 1);
+    float a = luxIesAt(table, y0, i0) + (luxIesAt(table, y0, i1) - luxIesAt(table, y0, i0)) * tx;
+    float b = luxIesAt(table, y1, i0) + (luxIesAt(table, y1, i1) - luxIesAt(table, y1, i0)) * tx;
+    return a + (b - a) * ty;
+}
