@@ -668,3 +668,503 @@ fn number(v: &Value) -> Option<f64> {
         _ => None,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{BackendKind, Blur, BvhMode};
+
+    const LAMP: &str = "position = [0.0, 2.0, 0.0]\nies = \"isotropic:100\"";
+    const OBJECT: &str = "primitive = \"plane\"\nsize = [1.0, 1.0]";
+
+    fn text(settings: &str, lamp: &str, object: &str) -> String {
+        format!("[settings]\n{settings}\n[[lamp]]\n{lamp}\n[[object]]\n{object}\n")
+    }
+
+    fn parse(t: &str) -> Result<Scene, SceneError> {
+        from_str(t, Path::new(env!("CARGO_MANIFEST_DIR")), None)
+    }
+
+    fn err(t: &str) -> String {
+        match parse(t) {
+            Ok(_) => panic!("accepted:\n{t}"),
+            Err(e) => e.to_string(),
+        }
+    }
+
+    #[test]
+    fn minimal_scene_and_defaults() {
+        let s = parse(&text("", LAMP, OBJECT)).expect("parses");
+        assert_eq!(s.settings, Settings::default());
+        assert_eq!(s.lamps.len(), 1);
+        assert_eq!(s.lamps[0].aim, [0.0, -1.0, 0.0]);
+        assert_eq!((s.lamps[0].rotation_deg, s.lamps[0].multiplier), (0.0, 1.0));
+        let i = s.lamps[0].photometry.intensity([0.3, 0.2, -0.9]);
+        assert!((i - 100.0).abs() < 1e-9, "isotropic:100 gives 100 cd: {i}");
+        let o = &s.objects[0];
+        assert_eq!(
+            (o.name.as_str(), o.receiver, o.texel_scale),
+            ("plane", true, 1.0)
+        );
+        assert_eq!(o.albedo.factor, [0.5; 3]);
+        assert_eq!(o.transform, Transform::IDENTITY);
+        // The default lamp is the embedded downlight.
+        let s = parse(&text("", "position = [0.0, 2.0, 0.0]", OBJECT)).expect("parses");
+        assert!(Arc::ptr_eq(
+            &s.lamps[0].photometry,
+            &builtin::default_photometry().expect("lamp")
+        ));
+    }
+
+    #[test]
+    fn every_key_is_read() {
+        let settings = "rays = 64\nbounces = 3\nblur = \"none\"\ntexels_per_metre = 32\nbvh = \"tbvh\"\nseed = 9\nbackend = \"wgpu\"";
+        let lamp = "name = \"l\"\nies = \"builtin:downlight\"\nposition = [1, 2, 3]\naim = [1.0, 0.0, 0.0]\nrotation_deg = 45\nmultiplier = 2.5\ncolor = [1.0, 0.5, 0.25]";
+        let objects = "name = \"r\"\nprimitive = \"room\"\nsize = [4, 2.5, 3]\nposition = [1, 0, 0]\nalbedo = 0.6\nfloor_albedo = [0.1, 0.2, 0.3]\nwalls_albedo = 0.4\nceiling_albedo = 0.9\nreceiver = false\ntexel_scale = 0.5\n\
+            [[object]]\nprimitive = \"sphere\"\nradius = 0.5\ninward = true\nsegments = 4\nrotation_deg = [0, 90, 0]\nscale = [1, 2, 1]\n\
+            [[object]]\nprimitive = \"box\"\nsize = [1, 1, 1]\ninward = true\nscale = 2\n\
+            [[object]]\nbuiltin = \"chair\"\n[[object]]\nbuiltin = \"chair\"\n[[object]]\nbuiltin = \"sofa\"\nalbedo = [0.1, 0.1, 0.1]";
+        let s = parse(&text(settings, lamp, objects)).expect("parses");
+        let st = &s.settings;
+        assert_eq!((st.rays, st.bounces, st.seed), (64, 3, 9));
+        assert_eq!(
+            (st.blur, st.texels_per_metre, st.bvh, st.backend),
+            (Blur::None, 32.0, BvhMode::Tbvh, BackendKind::Wgpu)
+        );
+        let l = &s.lamps[0];
+        assert_eq!(
+            (l.name.as_str(), l.position, l.aim),
+            ("l", [1.0, 2.0, 3.0], [1.0, 0.0, 0.0])
+        );
+        assert_eq!(
+            (l.rotation_deg, l.multiplier, l.color),
+            (45.0, 2.5, [1.0, 0.5, 0.25])
+        );
+        let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["r", "sphere", "box", "chair", "chair_2", "sofa"]);
+        let room = &s.objects[0];
+        assert_eq!(
+            (room.receiver, room.texel_scale, room.albedo.factor),
+            (false, 0.5, [1.0; 3])
+        );
+        let colors = room.mesh.colors.as_ref().expect("room colours");
+        assert!(
+            colors.contains(&[0.1, 0.2, 0.3])
+                && colors.contains(&[0.4; 3])
+                && colors.contains(&[0.9; 3])
+        );
+        assert!(!colors.contains(&[0.6; 3]), "all three parts overridden");
+        assert_eq!(room.transform.point([0.0; 3]), [1.0, 0.0, 0.0]);
+        let sphere = &s.objects[1];
+        assert_eq!(sphere.mesh.triangle_count(), 6 * 2 * 16);
+        assert!(
+            sphere.mesh.normals[0]
+                .iter()
+                .zip(&sphere.mesh.positions[0])
+                .map(|(n, p)| n * p)
+                .sum::<f32>()
+                < 0.0
+        );
+        let p = sphere.transform.point([1.0, 1.0, 0.0]);
+        assert!(
+            (p[0] - 0.0).abs() < 1e-6 && (p[1] - 2.0).abs() < 1e-6 && (p[2] + 1.0).abs() < 1e-6,
+            "{p:?}"
+        );
+        assert_eq!(
+            s.objects[2].transform.point([1.0, 1.0, 1.0]),
+            [2.0, 2.0, 2.0]
+        );
+        assert_eq!(s.objects[3].texel_scale, builtin::CHAIR_TEXEL_SCALE);
+        assert_eq!(s.objects[3].albedo.factor, builtin::CHAIR_ALBEDO);
+        assert_eq!(s.objects[5].mesh.triangle_count(), meshes::SOFA_TRIANGLES);
+        assert_eq!(s.objects[5].albedo.factor, [0.1; 3]);
+        // Blur as a number; integers where floats are expected.
+        let s = parse(&text("blur = 3", LAMP, OBJECT)).expect("parses");
+        assert_eq!(s.settings.blur, Blur::Sigma(3.0));
+    }
+
+    #[test]
+    fn every_bad_value_names_its_key() {
+        let cases: &[(&str, &str, &str, &str)] = &[
+            // (settings, lamp, object, key the message must contain)
+            ("rays = 0", LAMP, OBJECT, "settings.rays"),
+            ("rays = -1", LAMP, OBJECT, "rays"),
+            ("rays = \"many\"", LAMP, OBJECT, "rays"),
+            ("bounces = 65", LAMP, OBJECT, "settings.bounces"),
+            ("blur = -1.0", LAMP, OBJECT, "settings.blur"),
+            ("blur = \"soft\"", LAMP, OBJECT, "settings.blur"),
+            ("blur = true", LAMP, OBJECT, "settings.blur"),
+            (
+                "texels_per_metre = 0",
+                LAMP,
+                OBJECT,
+                "settings.texels_per_metre",
+            ),
+            (
+                "texels_per_metre = nan",
+                LAMP,
+                OBJECT,
+                "settings.texels_per_metre",
+            ),
+            ("bvh = \"kd\"", LAMP, OBJECT, "settings.bvh"),
+            ("seed = -3", LAMP, OBJECT, "seed"),
+            ("backend = \"vulkan\"", LAMP, OBJECT, "settings.backend"),
+            ("raus = 3", LAMP, OBJECT, "raus"),
+            ("", "ies = \"isotropic:1\"", OBJECT, "position"),
+            ("", "position = [0.0, 1.0]", OBJECT, "position"),
+            ("", "position = [nan, 1.0, 0.0]", OBJECT, "lamp[0].position"),
+            (
+                "",
+                "position = [0, 1, 0]\naim = [0, 0, 0]",
+                OBJECT,
+                "lamp[0].aim",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\naim = [inf, 0, 0]",
+                OBJECT,
+                "lamp[0].aim",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nrotation_deg = \"x\"",
+                OBJECT,
+                "rotation_deg",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nrotation_deg = inf",
+                OBJECT,
+                "lamp[0].rotation_deg",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nmultiplier = -1",
+                OBJECT,
+                "lamp[0].multiplier",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\ncolor = [-1, 0, 0]",
+                OBJECT,
+                "lamp[0].color",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nies = \"isotropic:abc\"",
+                OBJECT,
+                "lamp[0].ies",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nies = \"isotropic:-5\"",
+                OBJECT,
+                "lamp[0].ies",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nies = \"builtin:spot\"",
+                OBJECT,
+                "lamp[0].ies",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nies = \"no/such/file.ies\"",
+                OBJECT,
+                "lamp[0].ies",
+            ),
+            (
+                "",
+                "position = [0, 1, 0]\nies = \"Cargo.toml\"",
+                OBJECT,
+                "lamp[0].ies",
+            ),
+            ("", "position = [0, 1, 0]\nwatts = 3", OBJECT, "watts"),
+            ("", LAMP, "primitive = \"cone\"", "object[0].primitive"),
+            ("", LAMP, "builtin = \"table\"", "object[0].builtin"),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nprimitive = \"box\"",
+                "object[0].builtin",
+            ),
+            ("", LAMP, "name = \"x\"", "object[0]"),
+            ("", LAMP, "primitive = \"plane\"", "object[0].size"),
+            (
+                "",
+                LAMP,
+                "primitive = \"plane\"\nsize = [1.0]",
+                "object[0].size",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"box\"\nsize = [1.0, 1.0]",
+                "object[0].size",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"plane\"\nsize = [1.0, -1.0]",
+                "object[0].size",
+            ),
+            ("", LAMP, "primitive = \"plane\"\nsize = \"big\"", "size"),
+            ("", LAMP, "primitive = \"sphere\"", "object[0].radius"),
+            (
+                "",
+                LAMP,
+                "primitive = \"sphere\"\nradius = 0",
+                "object[0].radius",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"sphere\"\nradius = 1\nsegments = 0",
+                "object[0].segments",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"sphere\"\nradius = 1\nsegments = 257",
+                "object[0].segments",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"sphere\"\nradius = 1\nsize = [1, 1, 1]",
+                "object[0].size",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"plane\"\nsize = [1, 1]\nradius = 1",
+                "object[0].radius",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"plane\"\nsize = [1, 1]\nsegments = 4",
+                "object[0].segments",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"room\"\nsize = [1, 1, 1]\ninward = false",
+                "object[0].inward",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"box\"\nsize = [1, 1, 1]\nfloor_albedo = 0.5",
+                "object[0].floor_albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"sofa\"\nwalls_albedo = 0.5",
+                "object[0].walls_albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"sofa\"\nceiling_albedo = 0.5",
+                "object[0].ceiling_albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"sofa\"\nsize = [1, 1, 1]",
+                "object[0].size",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nalbedo = 1.5",
+                "object[0].albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nalbedo = [1, 1]",
+                "object[0].albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nalbedo = \"red\"",
+                "object[0].albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "primitive = \"room\"\nsize = [1, 1, 1]\nfloor_albedo = -0.1",
+                "object[0].floor_albedo",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nscale = 0",
+                "object[0].scale",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nscale = [1, 0, 1]",
+                "object[0].scale",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nscale = \"big\"",
+                "object[0].scale",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nposition = [1, 2]",
+                "position",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nposition = [1, 2, inf]",
+                "object[0].position",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nrotation_deg = [0, \"x\", 0]",
+                "rotation_deg",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nrotation_deg = [0, nan, 0]",
+                "object[0].rotation_deg",
+            ),
+            ("", LAMP, "builtin = \"chair\"\nreceiver = 3", "receiver"),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\ntexel_scale = 0",
+                "object[0].texel_scale",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\ntexel_scale = 1000",
+                "object[0].texel_scale",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nname = \"../evil\"",
+                "object[0].name",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nname = \"\"",
+                "object[0].name",
+            ),
+            (
+                "",
+                LAMP,
+                "builtin = \"chair\"\nname = \"a\"\n[[object]]\nbuiltin = \"sofa\"\nname = \"a\"",
+                "object[1].name",
+            ),
+            ("", LAMP, "builtin = \"chair\"\ncolour = 1", "colour"),
+        ];
+        for (settings, lamp, object, key) in cases {
+            let t = text(settings, lamp, object);
+            let e = err(&t);
+            assert!(
+                e.contains(key),
+                "error for\n{t}\ndoes not name `{key}`: {e}"
+            );
+        }
+        // Whole-file problems.
+        assert!(err("[camera]\nfov = 60\n").contains("camera"));
+        assert!(err(&format!("[[object]]\n{OBJECT}\n")).contains("`lamp`"));
+        assert!(err(&format!("[[lamp]]\n{LAMP}\n")).contains("`object`"));
+        assert!(err("[[lamp]\n").contains("line 1"));
+    }
+
+    #[test]
+    fn files_and_relative_paths() {
+        let dir = std::env::temp_dir().join(format!("luxbake-scenefile-{}", std::process::id()));
+        std::fs::create_dir_all(dir.join("lamps")).expect("temp dir");
+        std::fs::write(dir.join("lamps/l.ies"), builtin::DEFAULT_LAMP_IES).expect("write lamp");
+        let scene = dir.join("s.toml");
+        std::fs::write(
+            &scene,
+            format!(
+                "[[lamp]]\nies = \"lamps/l.ies\"\nposition = [0, 2, 0]\n[[object]]\n{OBJECT}\n"
+            ),
+        )
+        .expect("write scene");
+        let s = Scene::from_toml_file(&scene).expect("parses");
+        let here = builtin::default_photometry().expect("lamp");
+        let dir_down = [0.0, 0.0, -1.0];
+        assert_eq!(
+            s.lamps[0].photometry.intensity(dir_down),
+            here.intensity(dir_down)
+        );
+        // Errors name the file.
+        std::fs::write(&scene, "[[lamp]]\nposition = [0, 2, 0]\nies = \"lamps/missing.ies\"\n[[object]]\nbuiltin = \"chair\"\n")
+            .expect("write scene");
+        let e = Scene::from_toml_file(&scene)
+            .expect_err("missing lamp")
+            .to_string();
+        assert!(
+            e.contains("s.toml") && e.contains("lamp[0].ies") && e.contains("missing.ies"),
+            "{e}"
+        );
+        let e = Scene::from_toml_file(&dir.join("nope.toml"))
+            .expect_err("missing file")
+            .to_string();
+        assert!(e.contains("nope.toml"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// The example scene of the repository parses, and its relative lamp path resolves.
+    #[test]
+    fn example_scene_parses() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/living_room.toml");
+        let s = Scene::from_toml_file(&path).expect("example scene");
+        assert_eq!(s.lamps.len(), 2);
+        assert_eq!(s.objects.len(), 7);
+        assert!(!s.objects[6].receiver);
+        s.validate().expect("valid");
+        let l = crate::layout::Layout::new(&s, 4096, 64).expect("layout");
+        assert!(l.texel_count() > 100_000);
+    }
+
+    /// A real photometric file from `../shared` (GPL data: read in tests, never vendored).
+    #[test]
+    fn shared_ldt_file_parses_when_present() {
+        let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/photometry");
+        if !shared.join("acrux_452lm.ldt").is_file() {
+            println!("skipped: {} not found", shared.display());
+            return;
+        }
+        let t = format!(
+            "[[lamp]]\nies = \"acrux_452lm.ldt\"\nposition = [0, 2, 0]\n[[object]]\n{OBJECT}\n"
+        );
+        let s = from_str(&t, &shared, None).expect("parses");
+        assert!(s.lamps[0].photometry.intensity([0.0, 0.0, -1.0]) > 0.0);
+    }
+
+    #[test]
+    fn truncated_prefixes_never_panic() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/living_room.toml");
+        let text = std::fs::read_to_string(&path).expect("example");
+        let base = path.parent().expect("dir");
+        for end in (0..text.len())
+            .filter(|&i| text.is_char_boundary(i))
+            .step_by(7)
+        {
+            let _ = from_str(&text[..end], base, None);
+        }
+    }
+}
