@@ -224,6 +224,7 @@ impl Bvh {
 
         let mut order: Vec<u32> = (0..triangles.len() as u32).collect();
         let mut nodes: Vec<Node> = Vec::with_capacity(2 * triangles.len());
+        let mut scratch = Bins::new(options.bins as usize);
         let mut stack = vec![Task {
             start: 0,
             end: triangles.len(),
@@ -245,7 +246,7 @@ impl Bvh {
                 centroids.grow(&prims.centroid[t], &prims.centroid[t]);
             }
             let count = slots.len();
-            let split = find_split(slots, &prims, &bounds, &centroids, options);
+            let split = find_split(slots, &prims, &bounds, &centroids, options, &mut scratch);
             let leaf_cost =
                 f64::from(options.intersection_cost) * count as f64 * bounds.half_area();
             let make_leaf = count <= options.max_leaf_size as usize
@@ -454,56 +455,85 @@ fn bin_scale(centroids: &Aabb, axis: usize, bins: usize) -> Option<f32> {
     (extent > 0.0 && scale.is_finite()).then_some(scale)
 }
 
+/// Scratch space for [`find_split`], allocated once per build.
+struct Bins {
+    boxes: [Vec<Aabb>; 3],
+    counts: [Vec<usize>; 3],
+    right_area: Vec<f64>,
+    right_count: Vec<usize>,
+}
+
+impl Bins {
+    fn new(bins: usize) -> Bins {
+        Bins {
+            boxes: std::array::from_fn(|_| vec![Aabb::EMPTY; bins]),
+            counts: std::array::from_fn(|_| vec![0; bins]),
+            right_area: vec![0.0; bins],
+            right_count: vec![0; bins],
+        }
+    }
+}
+
 /// Best binned-SAH split of `slots` (cost in the same unnormalised units as the leaf cost:
 /// `traversal_cost·A(P) + intersection_cost·(A(L)·n_L + A(R)·n_R)`), or `None` if the
 /// centroids spread along no axis. Ties keep the first candidate (x before y before z, lower
-/// bin first).
+/// bin first). All three axes are binned in one pass over the triangles.
 fn find_split(
     slots: &[u32],
     prims: &Prims,
     bounds: &Aabb,
     centroids: &Aabb,
     options: &BuildOptions,
+    scratch: &mut Bins,
 ) -> Option<Split> {
     let bins = options.bins as usize;
-    let mut best: Option<Split> = None;
-    let mut bin_box = vec![Aabb::EMPTY; bins];
-    let mut bin_count = vec![0usize; bins];
-    let mut right_area = vec![0.0f64; bins];
-    let mut right_count = vec![0usize; bins];
+    let scales = [0, 1, 2].map(|axis| bin_scale(centroids, axis, bins));
+    if scales.iter().all(Option::is_none) {
+        return None;
+    }
     for axis in 0..3 {
-        let Some(scale) = bin_scale(centroids, axis, bins) else {
-            continue;
-        };
-        bin_box.fill(Aabb::EMPTY);
-        bin_count.fill(0);
-        for &t in slots {
-            let t = t as usize;
-            let b = bin_of(prims.centroid[t][axis], centroids.min[axis], scale, bins);
-            bin_box[b].grow(&prims.min[t], &prims.max[t]);
-            bin_count[b] += 1;
+        scratch.boxes[axis].fill(Aabb::EMPTY);
+        scratch.counts[axis].fill(0);
+    }
+    for &t in slots {
+        let t = t as usize;
+        let (lo, hi, c) = (&prims.min[t], &prims.max[t], &prims.centroid[t]);
+        for axis in 0..3 {
+            if let Some(scale) = scales[axis] {
+                let b = bin_of(c[axis], centroids.min[axis], scale, bins);
+                scratch.boxes[axis][b].grow(lo, hi);
+                scratch.counts[axis][b] += 1;
+            }
         }
+    }
+    let mut best: Option<Split> = None;
+    for (axis, scale) in scales.iter().enumerate() {
+        if scale.is_none() {
+            continue;
+        }
+        let (boxes, counts) = (&scratch.boxes[axis], &scratch.counts[axis]);
         // right_*[i]: bins i.. ; the split after bin i has right side i + 1..
         let mut acc = Aabb::EMPTY;
         let mut n = 0;
         for i in (0..bins).rev() {
-            acc = acc.union(&bin_box[i]);
-            n += bin_count[i];
-            right_area[i] = acc.half_area();
-            right_count[i] = n;
+            acc = acc.union(&boxes[i]);
+            n += counts[i];
+            scratch.right_area[i] = acc.half_area();
+            scratch.right_count[i] = n;
         }
         let mut left = Aabb::EMPTY;
         let mut n_left = 0;
         for i in 0..bins - 1 {
-            left = left.union(&bin_box[i]);
-            n_left += bin_count[i];
-            let n_right = right_count[i + 1];
+            left = left.union(&boxes[i]);
+            n_left += counts[i];
+            let n_right = scratch.right_count[i + 1];
             if n_left == 0 || n_right == 0 {
                 continue;
             }
             let cost = f64::from(options.traversal_cost) * bounds.half_area()
                 + f64::from(options.intersection_cost)
-                    * (left.half_area() * n_left as f64 + right_area[i + 1] * n_right as f64);
+                    * (left.half_area() * n_left as f64
+                        + scratch.right_area[i + 1] * n_right as f64);
             if best.as_ref().is_none_or(|b| cost < b.cost) {
                 best = Some(Split { axis, bin: i, cost });
             }
