@@ -142,6 +142,13 @@ struct Best {
     bary: [f64; 3],
 }
 
+/// Per-vertex world data of one object, computed once.
+struct WorldVerts {
+    positions: Vec<[f64; 3]>,
+    /// Unit world normals (zero where the normal cannot be transformed or normalised).
+    normals: Vec<[f64; 3]>,
+}
+
 /// Rasterises one object into a `size` map (row-major, region-local texels).
 pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Option<Texel>> {
     let (w, h) = (size[0] as usize, size[1] as usize);
@@ -149,6 +156,9 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
     let mut mask = vec![0u16; w * h];
     let m = &o.mesh;
     let scale = [f64::from(size[0]), f64::from(size[1])];
+    // Half the diagonal of a texel: a centre at least this far inside every edge means the
+    // whole texel is inside the triangle.
+    const HALF_DIAGONAL: f64 = 0.707_106_8;
     for (ti, tri) in m.indices.iter().enumerate() {
         let Some(idx) = tri_indices(tri, m) else {
             continue;
@@ -161,6 +171,11 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
         if !(area2.is_finite() && area2.abs() > 1e-12) {
             continue;
         }
+        // Height of the triangle over each edge (opposite vertex i), texels.
+        let height: [f64; 3] = std::array::from_fn(|i| {
+            let e = sub2(p[(i + 2) % 3], p[(i + 1) % 3]);
+            area2.abs() / (e[0] * e[0] + e[1] * e[1]).sqrt()
+        });
         let lo = [
             p[0][0].min(p[1][0]).min(p[2][0]),
             p[0][1].min(p[1][1]).min(p[2][1]),
@@ -176,34 +191,49 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
         for y in y0..y1 {
             for x in x0..x1 {
                 let cell = [x as f64, y as f64];
-                if !overlaps(&p, cell) {
-                    continue;
-                }
-                let k = y * w + x;
                 let centre = [cell[0] + 0.5, cell[1] + 0.5];
-                let (dist, bary) = closest(&p, area2, centre);
-                if best[k].is_none_or(|b| dist < b.dist) {
+                let b = barycentric(&p, area2, centre);
+                let k = y * w + x;
+                let (dist, bary, mk) = if (0..3).all(|i| b[i] * height[i] >= HALF_DIAGONAL) {
+                    (0.0, b, u16::MAX)
+                } else {
+                    if !overlaps(&p, cell) {
+                        continue;
+                    }
+                    let (dist, bary) = closest(&p, b, centre);
+                    (dist, bary, coverage_mask(&p, area2, cell))
+                };
+                if best[k].is_none_or(|old| dist < old.dist) {
                     best[k] = Some(Best {
                         dist,
                         tri: ti as u32,
                         bary,
                     });
                 }
-                mask[k] |= coverage_mask(&p, area2, cell);
+                mask[k] |= mk;
             }
         }
     }
+    let verts = WorldVerts {
+        positions: m
+            .positions
+            .iter()
+            .map(|&q| o.transform.point_f64(q.map(f64::from)))
+            .collect(),
+        normals: m
+            .normals
+            .iter()
+            .map(|&n| o.transform.normal_f64(n.map(f64::from)).unwrap_or([0.0; 3]))
+            .collect(),
+    };
     best.iter()
         .zip(&mask)
-        .map(|(b, &mk)| {
-            let b = (*b)?;
-            texel(o, index, b, mk)
-        })
+        .map(|(b, &mk)| texel(o, &verts, index, (*b)?, mk))
         .collect()
 }
 
 /// The G-buffer entry for the sample `b` of object `o`.
-fn texel(o: &Object, index: u32, b: Best, mask: u16) -> Option<Texel> {
+fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Option<Texel> {
     let m = &o.mesh;
     let idx = tri_indices(m.indices.get(b.tri as usize)?, m)?;
     let bary = if b.dist > 0.0 {
@@ -214,36 +244,27 @@ fn texel(o: &Object, index: u32, b: Best, mask: u16) -> Option<Texel> {
     let interp3 = |v: [[f64; 3]; 3]| -> [f64; 3] {
         std::array::from_fn(|k| bary[0] * v[0][k] + bary[1] * v[1][k] + bary[2] * v[2][k])
     };
-    let wp = idx.map(|i| o.transform.point_f64(m.positions[i].map(f64::from)));
+    let wp = idx.map(|i| verts.positions[i]);
     let pos = interp3(wp);
     if !pos.iter().all(|c| c.is_finite()) {
         return None;
     }
-    let wn = idx.map(|i| {
-        o.transform
-            .normal_f64(m.normals[i].map(f64::from))
-            .unwrap_or([0.0; 3])
-    });
+    let wn = idx.map(|i| verts.normals[i]);
     let n = normalize(interp3(wn))
         .or_else(|| normalize(cross(sub3(wp[1], wp[0]), sub3(wp[2], wp[0]))))
         .or_else(|| wn.iter().find_map(|&v| normalize(v)))?;
     let mut albedo = o.albedo.factor.map(f64::from);
     if let Some(colors) = &m.colors
-        && let Some(c) = idx
-            .iter()
-            .map(|&i| colors.get(i))
-            .collect::<Option<Vec<_>>>()
+        && let [Some(c0), Some(c1), Some(c2)] = idx.map(|i| colors.get(i))
     {
-        let c = interp3([c[0], c[1], c[2]].map(|v| v.map(f64::from)));
+        let c = interp3([*c0, *c1, *c2].map(|v| v.map(f64::from)));
         albedo = std::array::from_fn(|k| albedo[k] * c[k]);
     }
     if let (Some(tex), Some(uvs)) = (&o.albedo.texture, &m.material_uvs)
-        && let Some(t) = idx.iter().map(|&i| uvs.get(i)).collect::<Option<Vec<_>>>()
+        && let [Some(t0), Some(t1), Some(t2)] = idx.map(|i| uvs.get(i))
     {
         let uv: [f64; 2] = std::array::from_fn(|k| {
-            bary[0] * f64::from(t[0][k])
-                + bary[1] * f64::from(t[1][k])
-                + bary[2] * f64::from(t[2][k])
+            bary[0] * f64::from(t0[k]) + bary[1] * f64::from(t1[k]) + bary[2] * f64::from(t2[k])
         });
         let s = tex.sample(uv.map(|c| c as f32));
         albedo = std::array::from_fn(|k| albedo[k] * f64::from(s[k]));
@@ -302,9 +323,9 @@ fn barycentric(p: &[[f64; 2]; 3], area2: f64, q: [f64; 2]) -> [f64; 3] {
     [l0, l1, 1.0 - l0 - l1]
 }
 
-/// Distance (texels) from `q` to triangle `p` and the barycentrics of the closest point.
-fn closest(p: &[[f64; 2]; 3], area2: f64, q: [f64; 2]) -> (f64, [f64; 3]) {
-    let b = barycentric(p, area2, q);
+/// Distance (texels) from `q` (barycentrics `b`) to triangle `p` and the barycentrics of
+/// the closest point.
+fn closest(p: &[[f64; 2]; 3], b: [f64; 3], q: [f64; 2]) -> (f64, [f64; 3]) {
     if b.iter().all(|&l| l >= 0.0) {
         return (0.0, b);
     }
