@@ -158,7 +158,7 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
     let scale = [f64::from(size[0]), f64::from(size[1])];
     // Half the diagonal of a texel: a centre at least this far inside every edge means the
     // whole texel is inside the triangle.
-    const HALF_DIAGONAL: f64 = 0.707_106_8;
+    const HALF_DIAGONAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
     for (ti, tri) in m.indices.iter().enumerate() {
         let Some(idx) = tri_indices(tri, m) else {
             continue;
