@@ -247,3 +247,136 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
         settings,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::{Scene, dot};
+
+    /// World bounding box of an object.
+    fn bounds(o: &Object) -> [[f32; 3]; 2] {
+        let mut b = [[f32::INFINITY; 3], [f32::NEG_INFINITY; 3]];
+        for &p in &o.mesh.positions {
+            let w = o.transform.point(p);
+            for k in 0..3 {
+                b[0][k] = b[0][k].min(w[k]);
+                b[1][k] = b[1][k].max(w[k]);
+            }
+        }
+        b
+    }
+
+    #[test]
+    fn every_name_builds() {
+        assert_eq!(Scene::builtin_names(), NAMES);
+        for name in NAMES {
+            let s = Scene::builtin(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+            s.validate().unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(s.lamps.len(), 1, "{name}");
+            assert!(s.objects.iter().all(|o| o.receiver));
+        }
+        match Scene::builtin("chairs_02") {
+            Err(SceneError::UnknownBuiltin { name, known }) => {
+                assert_eq!(name, "chairs_02");
+                assert!(known.contains("chairs_05") && known.contains("sphere"));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+
+    #[test]
+    fn default_lamp_is_a_downlight() {
+        let p = default_photometry().expect("embedded IES file parses");
+        let down = p.intensity([0.0, 0.0, -1.0]);
+        let up = p.intensity([0.0, 0.0, 1.0]);
+        assert!(down > 100.0 && up == 0.0, "down {down} cd, up {up} cd");
+        let l = default_lamp([0.0, 2.0, 0.0]).expect("lamp");
+        assert_eq!(
+            (l.aim, l.rotation_deg, l.multiplier),
+            ([0.0, -1.0, 0.0], 0.0, 1.0)
+        );
+        let iso = isotropic_lamp(250.0, [0.0; 3]);
+        assert_eq!(iso.photometry.intensity([0.6, 0.0, 0.8]), 250.0);
+    }
+
+    #[test]
+    fn furniture_stands_in_the_room_without_overlap() {
+        for name in ["chairs_10", "sofa_01"] {
+            let s = Scene::builtin(name).expect("builtin");
+            let room = bounds(&s.objects[0]);
+            let lamp = s.lamps[0].position;
+            let furniture: Vec<_> = s.objects[1..].iter().map(bounds).collect();
+            for (i, b) in furniture.iter().enumerate() {
+                for k in 0..3 {
+                    assert!(
+                        b[0][k] >= room[0][k] - 1e-6 && b[1][k] <= room[1][k],
+                        "{name}: object {i} leaves the room"
+                    );
+                }
+                assert!(
+                    b[0][1].abs() < 1e-6,
+                    "{name}: object {i} stands on the floor"
+                );
+                assert!(b[1][1] < lamp[1] - 1.0, "{name}: lamp above the furniture");
+                for (j, c) in furniture.iter().enumerate().skip(i + 1) {
+                    let apart = (0..3).any(|k| b[1][k] <= c[0][k] || c[1][k] <= b[0][k]);
+                    assert!(apart, "{name}: objects {i} and {j} overlap");
+                }
+            }
+            assert!(lamp[1] < room[1][1] && lamp[1] > room[1][1] - 0.1);
+        }
+        let s = Scene::builtin("chairs_05").expect("builtin");
+        let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "room", "chair_01", "chair_02", "chair_03", "chair_04", "chair_05"
+            ]
+        );
+    }
+
+    #[test]
+    fn analytic_scenes() {
+        let s = Scene::builtin("floor").expect("floor");
+        let b = bounds(&s.objects[0]);
+        assert_eq!(b, [[-10.0, 0.0, -10.0], [10.0, 0.0, 10.0]]);
+        assert_eq!(s.lamps[0].position, [0.0, FLOOR_LAMP_HEIGHT, 0.0]);
+        assert_eq!(
+            s.lamps[0].photometry.intensity([0.3, 0.4, -0.5]),
+            ISOTROPIC_CANDELA
+        );
+        assert_eq!(s.objects[0].albedo.factor, [ANALYTIC_ALBEDO; 3]);
+        let s = Scene::builtin("sphere").expect("sphere");
+        assert_eq!(s.lamps[0].position, [0.0; 3]);
+        let m = &s.objects[0].mesh;
+        for (p, n) in m.positions.iter().zip(&m.normals) {
+            let (p, n) = (p.map(f64::from), n.map(f64::from));
+            assert!((dot(p, p).sqrt() - f64::from(SPHERE_RADIUS)).abs() < 1e-6);
+            assert!(dot(p, n) < 0.0, "inward");
+        }
+    }
+
+    /// Chart padding follows the density the scene is built for.
+    #[test]
+    fn padding_follows_the_density() {
+        let coarse = Settings {
+            texels_per_metre: 16.0,
+            ..Settings::default()
+        };
+        let s = Scene::builtin_with_settings("chairs_01", coarse).expect("builtin");
+        let d = Scene::builtin("chairs_01").expect("builtin");
+        let l = crate::layout::Layout::new(&s, 4096, 8).expect("layout");
+        let r = l.regions[1].expect("chair");
+        let rd = crate::layout::Layout::new(&d, 4096, 8)
+            .expect("layout")
+            .regions[1]
+            .expect("chair");
+        // A quarter of the density, but padding stays 4 texels: more than a quarter the size.
+        assert!(
+            r.size[0] * 4 > rd.size[0] && r.size[0] * 3 < rd.size[0],
+            "{r:?} vs {rd:?}"
+        );
+        assert_eq!(padding_m(16.0, 2.0), CHART_PADDING_TEXELS / 32.0);
+        assert_eq!(padding_m(0.0, 1.0), 0.0);
+    }
+}

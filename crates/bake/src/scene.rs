@@ -646,6 +646,23 @@ impl Scene {
         Ok(())
     }
 
+    /// The same scene scaled by `factor` about the world origin: object transforms and lamp
+    /// positions are scaled and the texel density divided by `factor`, so every light map
+    /// keeps its size in texels and every texel its place on the surface. Lamp intensities
+    /// are unchanged, so illuminances scale as `1 / factor²`.
+    pub fn scaled(&self, factor: f32) -> Scene {
+        let mut s = self.clone();
+        for o in &mut s.objects {
+            o.transform.linear = o.transform.linear.map(|c| c.map(|v| v * factor));
+            o.transform.translation = o.transform.translation.map(|v| v * factor);
+        }
+        for l in &mut s.lamps {
+            l.position = l.position.map(|v| v * factor);
+        }
+        s.settings.texels_per_metre /= factor;
+        s
+    }
+
     /// Total number of triangles over all objects.
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()
@@ -906,6 +923,25 @@ mod tests {
                 close(p, [0.0, 0.0, -1.0]),
                 "aim {aim:?} is the nadir: {p:?}"
             );
+        }
+    }
+
+    #[test]
+    fn scaling_a_scene_keeps_its_maps() {
+        let s = Scene::builtin("chairs_01").expect("builtin");
+        for f in [1e-3f32, 1e3] {
+            let t = s.scaled(f);
+            let (a, b) = (
+                crate::layout::Layout::new(&s, 4096, 64).expect("layout"),
+                crate::layout::Layout::new(&t, 4096, 64).expect("layout"),
+            );
+            assert_eq!(a, b, "scale {f}");
+            let p = s.objects[1].transform.point([0.1, 0.2, 0.3]);
+            let q = t.objects[1].transform.point([0.1, 0.2, 0.3]);
+            for k in 0..3 {
+                assert!((q[k] - p[k] * f).abs() <= 1e-5 * f.max(1.0), "{p:?} {q:?}");
+            }
+            assert_eq!(t.lamps[0].position, s.lamps[0].position.map(|v| v * f));
         }
     }
 
