@@ -20,7 +20,8 @@
 //!
 //! [[lamp]]                    # at least one
 //! name = "downlight"          # optional, for reports
-//! ies = "lamp.ies"            # .ies/.ldt path, "isotropic:1000" (candela), or
+//! ies = "lamp.ies"            # .ies/.ldt path (a TILT=<file> beside it is read too),
+//!                             # "isotropic:1000" (candela), or
 //!                             # "builtin:downlight" (the default when omitted)
 //! position = [0.0, 2.25, 0.0] # photometric centre, required
 //! aim = [0.0, -1.0, 0.0]      # photometric nadir (default straight down), non-zero
@@ -58,7 +59,7 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use luxbake_ies::Photometry;
+use luxbake_ies::{ParseOptions, Photometry};
 use serde::Deserialize;
 use toml::Value;
 
@@ -354,7 +355,22 @@ impl Cx {
         }
         let bytes = std::fs::read(&file)
             .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?;
-        Photometry::parse(&bytes)
+        // `TILT=<file>` names a file beside the photometric file (a plain file name only).
+        let folder = file.parent().map(Path::to_path_buf).unwrap_or_default();
+        let resolve = |name: &str| -> Option<Vec<u8>> {
+            let name = name.trim();
+            let plain = Path::new(name).file_name().is_some_and(|f| f == name);
+            let tilt = folder.join(name);
+            let small = std::fs::metadata(&tilt).ok()?.len() <= MAX_PHOTOMETRY_FILE_BYTES;
+            (plain && small)
+                .then(|| std::fs::read(&tilt).ok())
+                .flatten()
+        };
+        let options = ParseOptions {
+            tilt_resolver: Some(&resolve),
+            ..ParseOptions::default()
+        };
+        Photometry::parse_with(&bytes, &options)
             .map(Arc::new)
             .map_err(|e| SceneError::Photometry {
                 key: key.to_string(),
@@ -1124,6 +1140,29 @@ mod tests {
             .expect_err("missing file")
             .to_string();
         assert!(e.contains("nope.toml"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn tilt_files_resolve_beside_the_photometric_file() {
+        let dir = std::env::temp_dir().join(format!("luxbake-tilt-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let ies = builtin::DEFAULT_LAMP_IES.replacen("TILT=NONE", "TILT=tilt.dat", 1);
+        assert_ne!(
+            ies,
+            builtin::DEFAULT_LAMP_IES,
+            "the default lamp has a TILT line"
+        );
+        std::fs::write(dir.join("l.ies"), &ies).expect("write lamp");
+        let scene =
+            format!("[[lamp]]\nies = \"l.ies\"\nposition = [0, 2, 0]\n[[object]]\n{OBJECT}\n");
+        let e = from_str(&scene, &dir, None)
+            .expect_err("tilt file missing")
+            .to_string();
+        assert!(e.contains("lamp[0].ies"), "{e}");
+        std::fs::write(dir.join("tilt.dat"), "1\n3\n0 45 90\n1.0 0.9 0.8\n").expect("write tilt");
+        let s = from_str(&scene, &dir, None).expect("tilt file beside the lamp");
+        assert!(s.lamps[0].photometry.intensity([0.0, 0.0, -1.0]) > 0.0);
         std::fs::remove_dir_all(&dir).ok();
     }
 
