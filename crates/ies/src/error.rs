@@ -23,7 +23,7 @@ pub enum IesError {
     /// The file ended where more data was required.
     #[error("line {line}: unexpected end of file, expected {expected}")]
     UnexpectedEof {
-        /// Last line of the file.
+        /// Line of the last value read (or the last line of the file).
         line: usize,
         /// What was still missing.
         expected: String,

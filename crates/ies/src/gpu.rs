@@ -27,11 +27,13 @@ use std::f64::consts::{PI, TAU};
 ///
 /// # Resolution
 /// For types C and A (whose grids are already γ/C grids) the table step is the largest angle
-/// that divides every file angle (and 180° resp. 360°), so every file node is a table node and
-/// bilinear sampling of the table reproduces [`Photometry::intensity`] up to f32 rounding —
-/// except within one table cell of an edge where the data stops (e.g. just above 90° for a
-/// 0–90° file whose 90° value is not 0), where the table ramps to zero over that cell. When
-/// that step would exceed 1025 rows or 2048 columns, the table falls back to 0.25° (721 × 1440).
+/// that divides every file angle (and 180° resp. 360°), split further to at most 0.5° in γ and
+/// 1° in C, so every file node is a table node and bilinear sampling of the table reproduces
+/// [`Photometry::intensity`] up to f32 rounding — except within one table cell of an edge
+/// where the data stops (e.g. just above 90° for a 0–90° file whose 90° value is not 0), where
+/// the table ramps to zero over that thin cell. A rotationally symmetric file gets one column.
+/// When no such step fits in 1025 rows or 2048 columns, the table falls back to 0.25°
+/// (721 × 1440).
 /// Type B data lives on a grid about another axis and is resampled at 0.5° (361 × 720).
 /// The tests check `sample` against `intensity` over many directions for every sample file.
 #[derive(Clone, Debug, PartialEq)]
@@ -58,6 +60,17 @@ fn gcd(a: u64, b: u64) -> u64 {
     if b == 0 { a } else { gcd(b, a % b) }
 }
 
+/// `cells` cells of `step` millidegrees, each split in the fewest equal parts that makes them
+/// at most `target` millidegrees, as a cell count no larger than `max`.
+fn refine(cells: u64, target: u64, step: u64, max: u32) -> Option<u32> {
+    let split = step.div_ceil(target).max(1);
+    let n = cells.checked_mul(split)?;
+    if n <= u64::from(max) {
+        return u32::try_from(n).ok();
+    }
+    (cells <= u64::from(max)).then_some(cells as u32)
+}
+
 /// The largest step in millidegrees dividing `span` and every angle, if all are whole
 /// millidegrees.
 fn common_step(angles: &[f64], span: u64) -> Option<u64> {
@@ -73,14 +86,16 @@ impl GpuTable {
         let (height, width) = match s.axis {
             Axis::Z => {
                 let rows = common_step(&s.theta_deg, 180_000)
-                    .map(|g| 180_000 / g + 1)
-                    .filter(|&r| r <= u64::from(MAX_ROWS))
-                    .map_or(721, |r| r as u32);
-                let cols = common_step(&s.phi_deg, 360_000)
-                    .map(|g| 360_000 / g)
-                    .filter(|&c| c <= u64::from(MAX_COLS))
-                    .map_or(1440, |c| c as u32);
-                (rows.max(2), cols.max(1))
+                    .and_then(|g| refine(180_000 / g, 500, g, MAX_ROWS - 1))
+                    .map_or(721, |r| r + 1);
+                let cols = if s.phi_deg.len() < 2 {
+                    1
+                } else {
+                    common_step(&s.phi_deg, 360_000)
+                        .and_then(|g| refine(360_000 / g, 1000, g, MAX_COLS))
+                        .unwrap_or(1440)
+                };
+                (rows, cols)
             }
             Axis::Y => (361, 720),
         };

@@ -11,7 +11,7 @@ fn version(first: &str) -> Option<Format> {
     if up.starts_with("IESNA91") {
         return Some(Format::Lm63_1991);
     }
-    if !up.starts_with("IES") {
+    if !(up.starts_with("IESNA") || up.starts_with("IES:")) {
         return None;
     }
     let year: Option<u32> = up
@@ -146,11 +146,28 @@ pub(crate) fn parse(lines: &[&str], options: &ParseOptions) -> Result<Photometry
         });
     };
     let (candela_multiplier, _) = t.number("candela multiplier")?;
-    let max_angles = limits.max_angles as i64;
-    let (nv, l_nv) = t.integer("number of vertical angles", 1, max_angles)?;
-    let (nh, l_nh) = t.integer("number of horizontal angles", 1, max_angles)?;
+    let (nv, l_nv) = t.integer("number of vertical angles", 1, i64::from(u32::MAX))?;
+    limits.check(
+        l_nv,
+        "number of vertical angles",
+        nv as usize,
+        limits.max_angles,
+    )?;
+    let (nh, l_nh) = t.integer("number of horizontal angles", 1, i64::from(u32::MAX))?;
+    limits.check(
+        l_nh,
+        "number of horizontal angles",
+        nh as usize,
+        limits.max_angles,
+    )?;
     let (nv, nh) = (nv as usize, nh as usize);
-    limits.check(l_nh, "number of candela values", nv * nh, limits.max_values)?;
+    let n_values = nv.saturating_mul(nh);
+    limits.check(
+        l_nh,
+        "number of candela values",
+        n_values,
+        limits.max_values,
+    )?;
     let (ptype, _) = t.integer("photometric type (1 = C, 2 = B, 3 = A)", 1, 3)?;
     let photometric_type = match ptype {
         1 => PhotometricType::C,
@@ -187,8 +204,7 @@ pub(crate) fn parse(lines: &[&str], options: &ParseOptions) -> Result<Photometry
     };
     let (vertical_angles, l_v) = read_list(nv, "vertical angle")?;
     let (horizontal_angles, l_h) = read_list(nh, "horizontal angle")?;
-    let (candela, l_c) = read_list(nv * nh, "candela value")?;
-    let _ = l_nv;
+    let (candela, l_c) = read_list(n_values, "candela value")?;
     if let Some((tok, line)) = t.next_token() {
         warnings.push(Warning {
             line,
@@ -223,12 +239,14 @@ pub(crate) fn parse(lines: &[&str], options: &ParseOptions) -> Result<Photometry
 /// Reads the tilt block: geometry, pair count, angles, factors.
 fn tilt_block(t: &mut Tokens, limits: &Limits) -> Result<TiltData, IesError> {
     let (geometry, _) = t.integer("lamp-to-luminaire geometry (1, 2 or 3)", 1, 3)?;
-    let (n, _) = t.integer(
-        "number of tilt angle/factor pairs",
-        1,
-        limits.max_tilt_pairs as i64,
-    )?;
+    let (n, line) = t.integer("number of tilt angle/factor pairs", 1, i64::from(u32::MAX))?;
     let n = n as usize;
+    limits.check(
+        line,
+        "number of tilt angle/factor pairs",
+        n,
+        limits.max_tilt_pairs,
+    )?;
     let mut angles = Vec::with_capacity(n);
     for _ in 0..n {
         let (a, line) = t.number("tilt angle")?;

@@ -56,10 +56,25 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     let (company, _) = f.text("company identification")?;
     let (ityp, _) = f.integer("type indicator Ityp", 0, 3)?;
     let (isym, l_isym) = f.integer("symmetry indicator Isym", 0, 4)?;
-    let max = limits.max_angles as i64;
-    let (mc, l_mc) = f.integer("number of C planes Mc", 1, max)?;
+    let (mc, l_mc) = f.integer("number of C planes Mc", 1, i64::from(u32::MAX))?;
+    limits.check(
+        l_mc,
+        "number of C planes Mc",
+        mc as usize,
+        limits.max_angles,
+    )?;
     let (dc, _) = f.number("distance between C planes Dc")?;
-    let (ng, l_ng) = f.integer("number of intensities per C plane Ng", 1, max)?;
+    let (ng, l_ng) = f.integer(
+        "number of intensities per C plane Ng",
+        1,
+        i64::from(u32::MAX),
+    )?;
+    limits.check(
+        l_ng,
+        "number of intensities per C plane Ng",
+        ng as usize,
+        limits.max_angles,
+    )?;
     let (dg, _) = f.number("distance between intensities Dg")?;
     let (mc, ng) = (mc as usize, ng as usize);
     let mut texts = [""; 5];
@@ -90,7 +105,7 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     ]) {
         *slot = f.number(what)?.0;
     }
-    let (n_sets, l_sets) = f.integer("number of lamp sets", 1, i64::MAX)?;
+    let (n_sets, l_sets) = f.integer("number of lamp sets", 1, i64::from(u32::MAX))?;
     limits.check(
         l_sets,
         "number of lamp sets",
@@ -224,9 +239,8 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         4 => expect(near(first, 0.0) && near(last, 90.0), "from C0 to C90")?,
         _ => {}
     }
-    let n_values = count * ng;
+    let n_values = count.saturating_mul(ng);
     limits.check(l_ng, "number of intensities", n_values, limits.max_values)?;
-    let _ = l_mc;
     let mut candela = Vec::with_capacity(n_values);
     let mut l_i = t.line_number();
     for k in 0..n_values {

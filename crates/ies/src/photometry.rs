@@ -92,8 +92,8 @@ impl Photometry {
 
     /// Reads a file with explicit limits and a `TILT=<file>` resolver.
     ///
-    /// A file is LM-63 when its first non-blank line starts with `IES` or when any line starts
-    /// with `TILT`; otherwise it is read as EULUMDAT.
+    /// A file is LM-63 when its first non-blank line starts with `IESNA` or `IES:` or when any
+    /// line starts with `TILT`; otherwise it is read as EULUMDAT.
     pub fn parse_with(bytes: &[u8], options: &ParseOptions) -> Result<Photometry, IesError> {
         let limits = &options.limits;
         if bytes.len() > limits.max_bytes {
@@ -108,10 +108,12 @@ impl Photometry {
         }
         let lines = crate::text::lines(&text);
         let first = lines.iter().map(|l| l.trim()).find(|l| !l.is_empty());
-        let is_ies = first.is_some_and(|l| l.to_ascii_uppercase().starts_with("IES"))
-            || lines
-                .iter()
-                .any(|l| l.trim_start().to_ascii_uppercase().starts_with("TILT"));
+        let is_ies = first.is_some_and(|l| {
+            let up = l.to_ascii_uppercase();
+            up.starts_with("IESNA") || up.starts_with("IES:")
+        }) || lines
+            .iter()
+            .any(|l| l.trim_start().to_ascii_uppercase().starts_with("TILT"));
         if is_ies {
             crate::ies::parse(&lines, options)
         } else {

@@ -44,6 +44,8 @@ pub(crate) struct Tokens<'a> {
     first_line_number: usize,
     /// Whether a comma inside a token is a decimal comma (EULUMDAT) rather than a separator.
     decimal_comma: bool,
+    /// Line number of the last token returned.
+    last_token_line: Option<usize>,
 }
 
 impl<'a> Tokens<'a> {
@@ -55,6 +57,7 @@ impl<'a> Tokens<'a> {
             col: 0,
             first_line_number,
             decimal_comma: false,
+            last_token_line: None,
         }
     }
 
@@ -67,12 +70,10 @@ impl<'a> Tokens<'a> {
         }
     }
 
-    fn is_sep(&self, c: char) -> bool {
-        if self.decimal_comma {
-            c.is_whitespace() || c == ';'
-        } else {
-            c.is_whitespace() || c == ','
-        }
+    /// Separators: ASCII whitespace, and `,` (LM-63) or `;` (EULUMDAT, where `,` is a decimal
+    /// comma). Bytes of non-ASCII characters are never separators.
+    fn is_sep(&self, b: u8) -> bool {
+        b.is_ascii_whitespace() || b == if self.decimal_comma { b';' } else { b',' }
     }
 
     /// Line number of the line the stream is at (the last line when at the end).
@@ -84,20 +85,25 @@ impl<'a> Tokens<'a> {
     pub(crate) fn next_token(&mut self) -> Option<(&'a str, usize)> {
         while self.line < self.lines.len() {
             let l: &'a str = self.lines[self.line];
-            let rest = l.get(self.col..).unwrap_or("");
-            let start = rest.find(|c: char| !self.is_sep(c));
-            match start {
-                None => {
-                    self.line += 1;
-                    self.col = 0;
-                }
-                Some(s) => {
-                    let tail = &rest[s..];
-                    let len = tail.find(|c: char| self.is_sep(c)).unwrap_or(tail.len());
-                    self.col += s + len;
-                    return Some((&tail[..len], self.first_line_number + self.line));
-                }
+            let bytes = l.as_bytes();
+            let mut i = self.col;
+            while i < bytes.len() && self.is_sep(bytes[i]) {
+                i += 1;
             }
+            if i >= bytes.len() {
+                self.line += 1;
+                self.col = 0;
+                continue;
+            }
+            let mut j = i;
+            while j < bytes.len() && !self.is_sep(bytes[j]) {
+                j += 1;
+            }
+            self.col = j;
+            let line = self.first_line_number + self.line;
+            self.last_token_line = Some(line);
+            // Token boundaries are ASCII bytes or the line ends, so they are char boundaries.
+            return l.get(i..j).map(|tok| (tok, line));
         }
         None
     }
@@ -106,7 +112,7 @@ impl<'a> Tokens<'a> {
     pub(crate) fn number(&mut self, expected: &str) -> Result<(f64, usize), IesError> {
         let Some((tok, line)) = self.next_token() else {
             return Err(IesError::UnexpectedEof {
-                line: self.line_number(),
+                line: self.last_token_line.unwrap_or_else(|| self.line_number()),
                 expected: expected.to_owned(),
             });
         };
