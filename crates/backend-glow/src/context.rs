@@ -109,6 +109,18 @@ impl GlContext {
     }
 }
 
+/// Whether RGBA32F textures are colour-renderable: with `EXT_color_buffer_float`, or in core
+/// OpenGL ES 3.2 / desktop OpenGL 3.0 and later. WebGL2 always needs the extension (glow
+/// enables it at context creation when the browser offers it).
+fn float_targets_supported(embedded: bool, version: (u32, u32), has_ext: bool, web: bool) -> bool {
+    let core = if embedded {
+        version >= (3, 2)
+    } else {
+        version.0 >= 3
+    };
+    has_ext || (core && !web)
+}
+
 /// Reads the limits, requires `EXT_color_buffer_float` and WebGL2's minimums.
 fn check_capabilities(gl: &glow::Context) -> Result<Capabilities> {
     // SAFETY: plain queries on a current context.
@@ -122,14 +134,11 @@ fn check_capabilities(gl: &glow::Context) -> Result<Capabilities> {
         )
     };
     let v = gl.version();
-    // Float colour attachments are core from OpenGL ES 3.2 (and desktop GL 3.0) on; GLES 3.0/3.1
-    // and WebGL2 need the extension (on WebGL2 glow enables it at context creation).
-    let core_float_targets = (!v.is_embedded && v.major >= 3) || (v.major, v.minor) >= (3, 2);
-    let has_ext = gl.supported_extensions().contains("EXT_color_buffer_float")
-        || gl
-            .supported_extensions()
-            .contains("GL_EXT_color_buffer_float");
-    if !(has_ext || core_float_targets && !cfg!(target_arch = "wasm32")) {
+    let exts = gl.supported_extensions();
+    let has_ext =
+        exts.contains("EXT_color_buffer_float") || exts.contains("GL_EXT_color_buffer_float");
+    let web = cfg!(target_arch = "wasm32");
+    if !float_targets_supported(v.is_embedded, (v.major, v.minor), has_ext, web) {
         return Err(GlowError::MissingExtension {
             name: "EXT_color_buffer_float",
             renderer,
@@ -158,4 +167,34 @@ fn check_capabilities(gl: &glow::Context) -> Result<Capabilities> {
         max_array_layers,
         texture_units,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::float_targets_supported;
+    use crate::GlowError;
+
+    #[test]
+    fn float_targets_need_the_extension_below_gles_3_2_and_on_the_web() {
+        assert!(!float_targets_supported(true, (3, 0), false, false));
+        assert!(!float_targets_supported(true, (3, 1), false, false));
+        assert!(float_targets_supported(true, (3, 0), true, false));
+        assert!(float_targets_supported(true, (3, 2), false, false));
+        assert!(float_targets_supported(false, (4, 6), false, false));
+        assert!(!float_targets_supported(true, (3, 2), false, true));
+        assert!(float_targets_supported(true, (3, 0), true, true));
+    }
+
+    #[test]
+    fn the_missing_extension_error_names_it() {
+        let e = GlowError::MissingExtension {
+            name: "EXT_color_buffer_float",
+            renderer: "test renderer".into(),
+        };
+        let msg = e.to_string();
+        assert!(
+            msg.contains("EXT_color_buffer_float") && msg.contains("test renderer"),
+            "{msg}"
+        );
+    }
 }

@@ -559,6 +559,34 @@ mod tests {
     }
 
     #[test]
+    fn more_than_sixteen_textures_per_pass_is_an_error() {
+        let Some(ctx) = context_or_skip("more_than_sixteen_textures_per_pass_is_an_error") else {
+            return;
+        };
+        let gl = ctx.gl().unwrap();
+        let tex = TextureArray::new(gl, "t", 1, 1, 1).unwrap();
+        let program = Program::new(gl, "units", "", &[PATTERN_FS]).unwrap();
+        let names: Vec<String> = (0..17).map(|i| format!("u_t{i}")).collect();
+        let samplers: Vec<(&str, &TextureArray)> =
+            names.iter().map(|n| (n.as_str(), &tex)).collect();
+        assert!(program.use_with(gl, "units", &samplers[..16]).is_ok());
+        let err = program.use_with(gl, "units", &samplers).unwrap_err();
+        assert!(
+            matches!(
+                err,
+                GlowError::Limit {
+                    requested: 17,
+                    allowed: 16,
+                    ..
+                }
+            ),
+            "{err}"
+        );
+        program.delete(gl);
+        tex.delete(gl);
+    }
+
+    #[test]
     fn capabilities_meet_webgl2_minimums() {
         let Some(ctx) = context_or_skip("capabilities_meet_webgl2_minimums") else {
             return;

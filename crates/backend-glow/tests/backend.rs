@@ -1,0 +1,139 @@
+//! The glow backend through the `GpuBackend` interface: tiling and progress, zero-filled
+//! textures, upload/read-back round trips, limits and misuse errors.
+
+mod common;
+
+use common::backend_or_skip;
+use luxbake::backend::GpuBackend;
+use luxbake::bake::{Progress, bake};
+use luxbake::graph::{TexDesc, TexFormat};
+use luxbake::scene::{Blur, Scene, Settings};
+use luxbake_backend_glow::{GlowError, webgl2};
+
+fn desc(size: [u32; 2], layers: u32) -> TexDesc {
+    TexDesc {
+        label: "test",
+        size,
+        layers,
+        format: TexFormat::Rgba32F,
+    }
+}
+
+#[test]
+fn tiles_report_progress_and_do_not_change_the_result() {
+    let test = "tiles_report_progress_and_do_not_change_the_result";
+    let (Some(whole), Some(tiled)) = (backend_or_skip(test), backend_or_skip(test)) else {
+        return;
+    };
+    let settings = Settings {
+        rays: 8,
+        bounces: 1,
+        blur: Blur::Sigma(1.5),
+        texels_per_metre: 8.0,
+        ..Settings::default()
+    };
+    let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
+    let mut runs = Vec::new();
+    for (backend, work) in [(whole, u64::MAX), (tiled, 2_000)] {
+        let mut backend = backend.with_tile_work(work);
+        let mut events: Vec<(usize, f32)> = Vec::new();
+        let out = bake(&mut backend, &scene, &settings, &mut |p| {
+            if let Progress::PassProgress { index, fraction } = p {
+                events.push((*index, *fraction));
+            }
+        })
+        .expect("glow bake");
+        runs.push((out, events));
+    }
+    let (whole_out, whole_events) = &runs[0];
+    let (tiled_out, tiled_events) = &runs[1];
+    // Every computed pass ends at 1.0 with fractions increasing; tiny tiles give many reports.
+    for events in [whole_events, tiled_events] {
+        for w in events.windows(2) {
+            if w[0].0 == w[1].0 {
+                assert!(w[1].1 > w[0].1, "{w:?}");
+            }
+        }
+    }
+    let gather = whole_out
+        .graph
+        .passes
+        .iter()
+        .position(|p| p.label == "gather")
+        .expect("a gather pass");
+    let count = |events: &[(usize, f32)]| events.iter().filter(|e| e.0 == gather).count();
+    assert!(
+        count(tiled_events) > 10 * count(whole_events).max(1),
+        "{tiled_events:?}"
+    );
+    assert_eq!(
+        tiled_events
+            .iter()
+            .rev()
+            .find(|e| e.0 == gather)
+            .map(|e| e.1),
+        Some(1.0)
+    );
+    // The RNG is stateless: tiling changes nothing, bit for bit.
+    for (a, b) in whole_out.maps.iter().zip(&tiled_out.maps) {
+        assert_eq!(a.stages, b.stages, "{}", a.name);
+    }
+}
+
+#[test]
+fn textures_start_at_zero_and_round_trip_exactly() {
+    let Some(mut glow) = backend_or_skip("textures_start_at_zero_and_round_trip_exactly") else {
+        return;
+    };
+    let t = glow.create_texture(&desc([13, 7], 3)).expect("texture");
+    for layer in 0..3 {
+        let back = glow.read_back(&t, layer).expect("read back");
+        assert_eq!(back.len(), 13 * 7 * 4);
+        assert!(back.iter().all(|&v| v == 0.0));
+    }
+    let data: Vec<f32> = (0..13 * 7 * 4)
+        .map(|i| f32::from_bits(0x3f80_0000 + i * 7919))
+        .collect();
+    glow.upload(&t, 2, &data).expect("upload");
+    assert_eq!(glow.read_back(&t, 2).expect("read back"), data);
+    assert!(
+        glow.read_back(&t, 1)
+            .expect("read back")
+            .iter()
+            .all(|&v| v == 0.0)
+    );
+}
+
+#[test]
+fn limits_and_misuse_are_errors() {
+    let Some(mut glow) = backend_or_skip("limits_and_misuse_are_errors") else {
+        return;
+    };
+    let limits = glow.limits();
+    assert_eq!(limits.max_array_layers, webgl2::ARRAY_LAYERS);
+    assert_eq!(limits.max_texture_units, webgl2::TEXTURE_UNITS);
+    assert!(limits.max_texture_size >= webgl2::TEXTURE_SIZE);
+    let too_many = glow.create_texture(&desc([4, 4], webgl2::ARRAY_LAYERS + 1));
+    assert!(
+        matches!(too_many, Err(GlowError::Limit { .. })),
+        "{too_many:?}"
+    );
+    let too_wide = glow.create_texture(&desc([limits.max_texture_size + 1, 1], 1));
+    assert!(
+        matches!(too_wide, Err(GlowError::Limit { .. })),
+        "{too_wide:?}"
+    );
+    let t = glow.create_texture(&desc([4, 4], 2)).expect("texture");
+    let short = glow.upload(&t, 0, &[0.0; 3]);
+    assert!(
+        matches!(short, Err(GlowError::InvalidInput(_))),
+        "{short:?}"
+    );
+    let layer = glow.upload(&t, 2, &[0.0; 64]);
+    assert!(
+        matches!(layer, Err(GlowError::InvalidInput(_))),
+        "{layer:?}"
+    );
+    let read = glow.read_back(&t, 5);
+    assert!(matches!(read, Err(GlowError::InvalidInput(_))), "{read:?}");
+}
