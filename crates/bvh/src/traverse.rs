@@ -362,3 +362,70 @@ fn hit(best: i32, t: f32, bary: [f32; 2]) -> Option<Hit> {
         v: bary[1],
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dominant_direction_layers() {
+        assert_eq!(dominant_direction([1.0, 0.0, 0.0]), layout::DIR_POS_X);
+        assert_eq!(dominant_direction([-1.0, 0.5, -0.5]), layout::DIR_NEG_X);
+        assert_eq!(dominant_direction([0.1, 2.0, -0.0]), layout::DIR_POS_Y);
+        assert_eq!(dominant_direction([-0.0, -2.0, 0.0]), layout::DIR_NEG_Y);
+        assert_eq!(dominant_direction([0.0, -0.0, 3.0]), layout::DIR_POS_Z);
+        assert_eq!(dominant_direction([0.2, 0.1, -3.0]), layout::DIR_NEG_Z);
+        // Ties prefer x, then y.
+        assert_eq!(dominant_direction([-1.0, 1.0, 1.0]), layout::DIR_NEG_X);
+        assert_eq!(dominant_direction([0.0, -1.0, 1.0]), layout::DIR_NEG_Y);
+    }
+
+    #[test]
+    fn ray_setup_rejects_degenerate_rays() {
+        let ok = Ray {
+            origin: [0.0; 3],
+            dir: [0.0, -0.0, 1.0],
+        };
+        assert!(WatertightRay::new(&ok).is_some());
+        for (origin, dir) in [
+            ([0.0; 3], [0.0, -0.0, 0.0]),
+            ([0.0; 3], [f32::NAN, 0.0, 1.0]),
+            ([0.0; 3], [f32::INFINITY, 0.0, 1.0]),
+            ([f32::NAN, 0.0, 0.0], [0.0, 0.0, 1.0]),
+        ] {
+            assert!(
+                WatertightRay::new(&Ray { origin, dir }).is_none(),
+                "{origin:?} {dir:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn triangle_test_barycentrics_and_winding() {
+        let r = WatertightRay::new(&Ray {
+            origin: [0.2, 0.3, 5.0],
+            dir: [0.0, 0.0, -2.0],
+        })
+        .expect("ray");
+        let (p0, p1, p2) = ([0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]);
+        let front = r
+            .hits_triangle(p0, p1, p2, 0.0, f32::INFINITY)
+            .expect("hit");
+        let back = r
+            .hits_triangle(p0, p2, p1, 0.0, f32::INFINITY)
+            .expect("hit");
+        assert_eq!(front, (2.0, 0.2, 0.3));
+        assert_eq!(back, (2.0, 0.3, 0.2));
+        // Exactly on the shared edge p1–p2 of two triangles: both accept it.
+        let e = WatertightRay::new(&Ray {
+            origin: [0.5, 0.5, 5.0],
+            dir: [0.0, 0.0, -1.0],
+        })
+        .expect("ray");
+        assert!(e.hits_triangle(p0, p1, p2, 0.0, f32::INFINITY).is_some());
+        assert!(
+            e.hits_triangle(p1, [1.0, 1.0, 1.0], p2, 0.0, f32::INFINITY)
+                .is_some()
+        );
+    }
+}
