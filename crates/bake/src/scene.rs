@@ -90,6 +90,17 @@ pub enum SceneError {
         #[source]
         source: Box<dyn std::error::Error + Send + Sync>,
     },
+    /// A mesh file named by a scene file could not be loaded.
+    #[error("`{key}`: cannot load mesh file `{file}`: {source}")]
+    MeshFile {
+        /// Key path of the `mesh` entry, e.g. `object[3].mesh`.
+        key: String,
+        /// The mesh file.
+        file: PathBuf,
+        /// The loader's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
     /// An object's mesh is malformed (see [`Mesh::validate`]).
     #[error("object `{object}`: invalid mesh: {message}")]
     Mesh {
@@ -624,6 +635,14 @@ impl Scene {
     /// relative to the file's folder.
     pub fn from_toml_file(path: &Path) -> Result<Scene, SceneError> {
         crate::scenefile::from_file(path)
+    }
+
+    /// [`Scene::from_toml_file`], loading file meshes (`mesh = "x.glb"`) with `loader`.
+    pub fn from_toml_file_with(
+        path: &Path,
+        loader: &dyn crate::scenefile::MeshLoader,
+    ) -> Result<Scene, SceneError> {
+        crate::scenefile::from_file_with(path, loader)
     }
 
     /// Parses a TOML scene from text; relative paths inside it are relative to `base_dir`.

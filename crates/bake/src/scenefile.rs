@@ -33,7 +33,9 @@
 //! name = "room"               # optional (default: the primitive or builtin name, made
 //!                             # unique); letters, digits, '_', '-', '.': it names files
 //! primitive = "room"          # "room", "box", "plane" or "sphere" — or instead:
-//! # builtin = "chair"         # "chair" or "sofa"
+//! # builtin = "chair"         # "chair" or "sofa" — or instead:
+//! # mesh = "sofa.glb"         # a file, loaded by a [`MeshLoader`] (luxbake-assets: glTF,
+//!                             # OBJ); one object per part, named name_01, name_02, ...
 //! size = [4.0, 2.5, 3.0]      # room, box: [x, y, z]; plane: [x, z]; metres, > 0
 //! # radius = 1.5              # sphere only, > 0
 //! # inward = false            # sphere and box only (a room is always inward)
@@ -116,6 +118,7 @@ struct RawObject {
     name: Option<String>,
     primitive: Option<String>,
     builtin: Option<String>,
+    mesh: Option<String>,
     size: Option<Vec<f64>>,
     radius: Option<f64>,
     inward: Option<bool>,
@@ -131,8 +134,53 @@ struct RawObject {
     texel_scale: Option<f64>,
 }
 
-/// Reads and parses a scene file.
+/// Loads the file meshes that scene files name with `mesh = "x.glb"`. The core knows no
+/// file formats: a loader is implemented elsewhere (`luxbake-assets` reads glTF and OBJ) and
+/// passed to [`from_file_with`] / [`Scene::from_toml_file_with`](crate::scene::Scene::from_toml_file_with).
+pub trait MeshLoader {
+    /// Loads the file of `request`: one [`MeshPart`] per part (glTF primitive, OBJ material
+    /// group), each in the file's frame (the object's transform is applied by the scene
+    /// file), with valid light-map UVs (generated when the file has none, their chart padding
+    /// sized for `request.texels_per_metre` and `request.blur`).
+    fn load(
+        &self,
+        request: &MeshRequest<'_>,
+    ) -> Result<Vec<MeshPart>, Box<dyn std::error::Error + Send + Sync>>;
+}
+
+/// What a [`MeshLoader`] is asked to load.
+#[derive(Debug, Clone, Copy)]
+pub struct MeshRequest<'a> {
+    /// The file, resolved against the scene file's folder (absolute paths are kept).
+    pub path: &'a Path,
+    /// The object's light-map density: `texels_per_metre × texel_scale`.
+    pub texels_per_metre: f32,
+    /// The bake's blur (chart padding should exceed its reach).
+    pub blur: crate::scene::Blur,
+}
+
+/// One part of a loaded file; it becomes one scene object.
+#[derive(Debug, Clone)]
+pub struct MeshPart {
+    /// The part's name in the file (for reports; object names come from the scene file).
+    pub name: String,
+    /// The geometry, in the file's frame.
+    pub mesh: crate::scene::Mesh,
+    /// Its albedo (an `albedo` key in the scene file replaces the factor, keeps the texture).
+    pub albedo: Albedo,
+}
+
+/// Reads and parses a scene file; `mesh = "..."` objects are an error (no loader).
 pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
+    read_file(path, None)
+}
+
+/// Reads and parses a scene file, loading `mesh = "..."` objects with `loader`.
+pub fn from_file_with(path: &Path, loader: &dyn MeshLoader) -> Result<Scene, SceneError> {
+    read_file(path, Some(loader))
+}
+
+fn read_file(path: &Path, loader: Option<&dyn MeshLoader>) -> Result<Scene, SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -146,15 +194,35 @@ pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
     }
     let text = std::fs::read_to_string(path).map_err(io)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    from_str(&text, base, Some(path))
+    parse(&text, base, Some(path), loader)
 }
 
 /// Parses scene-file text; relative paths are relative to `base_dir`; `path` names the file
-/// in errors.
+/// in errors. `mesh = "..."` objects are an error (no loader).
 pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scene, SceneError> {
+    parse(text, base_dir, path, None)
+}
+
+/// [`from_str`] with a [`MeshLoader`] for `mesh = "..."` objects.
+pub fn from_str_with(
+    text: &str,
+    base_dir: &Path,
+    path: Option<&Path>,
+    loader: &dyn MeshLoader,
+) -> Result<Scene, SceneError> {
+    parse(text, base_dir, path, Some(loader))
+}
+
+fn parse(
+    text: &str,
+    base_dir: &Path,
+    path: Option<&Path>,
+    loader: Option<&dyn MeshLoader>,
+) -> Result<Scene, SceneError> {
     let cx = Cx {
         path: path.map(Path::to_path_buf),
         base_dir: base_dir.to_path_buf(),
+        loader,
     };
     let raw: RawScene = toml::from_str(text).map_err(|e| SceneError::Toml {
         path: cx.path.clone(),
@@ -188,7 +256,13 @@ pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scen
     let mut names = HashSet::new();
     let mut objects = Vec::new();
     for (i, o) in raw.object.into_iter().enumerate() {
-        objects.push(cx.object(i, o, &settings, &mut names)?);
+        objects.extend(cx.object(i, o, &settings, &mut names)?);
+        if objects.len() > MAX_OBJECTS {
+            return Err(cx.invalid(
+                format!("object[{i}]"),
+                format!("the scene now has more than {MAX_OBJECTS} objects"),
+            ));
+        }
     }
     Ok(Scene {
         objects,
@@ -197,12 +271,13 @@ pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scen
     })
 }
 
-struct Cx {
+struct Cx<'a> {
     path: Option<PathBuf>,
     base_dir: PathBuf,
+    loader: Option<&'a dyn MeshLoader>,
 }
 
-impl Cx {
+impl Cx<'_> {
     fn invalid(&self, key: impl Into<String>, message: impl Into<String>) -> SceneError {
         SceneError::Invalid {
             path: self.path.clone(),
@@ -385,9 +460,20 @@ impl Cx {
         raw: RawObject,
         settings: &Settings,
         names: &mut HashSet<String>,
-    ) -> Result<Object, SceneError> {
+    ) -> Result<Vec<Object>, SceneError> {
         let key = |k: &str| format!("object[{i}].{k}");
+        let given = [&raw.primitive, &raw.builtin, &raw.mesh]
+            .iter()
+            .filter(|v| v.is_some())
+            .count();
+        if given > 1 {
+            return Err(self.invalid(
+                format!("object[{i}]"),
+                "give exactly one of `primitive`, `builtin` and `mesh`",
+            ));
+        }
         let kind = match (&raw.primitive, &raw.builtin) {
+            (None, None) if raw.mesh.is_some() => "mesh".to_string(),
             (Some(p), None) => match p.as_str() {
                 "room" | "box" | "plane" | "sphere" => p.clone(),
                 _ => {
@@ -402,20 +488,16 @@ impl Cx {
                 _ => {
                     return Err(self.invalid(
                         key("builtin"),
-                        format!("`{b}`; expected \"chair\" or \"sofa\" (file meshes come later)"),
+                        format!(
+                            "`{b}`; expected \"chair\" or \"sofa\" (files: `mesh = \"x.glb\"`)"
+                        ),
                     ));
                 }
             },
-            (Some(_), Some(_)) => {
-                return Err(self.invalid(
-                    key("builtin"),
-                    "give either `primitive` or `builtin`, not both",
-                ));
-            }
-            (None, None) => {
+            _ => {
                 return Err(self.invalid(
                     format!("object[{i}]"),
-                    "missing `primitive` (\"room\", \"box\", \"plane\", \"sphere\") or `builtin` (\"chair\", \"sofa\")",
+                    "missing `primitive` (\"room\", \"box\", \"plane\", \"sphere\"), `builtin` (\"chair\", \"sofa\") or `mesh` (a file)",
                 ));
             }
         };
@@ -499,7 +581,8 @@ impl Cx {
             Ok(s.iter().map(|&v| v as f32).collect())
         };
         let mesh = match kind.as_str() {
-            "room" => {
+            "mesh" => None,
+            "room" => Some({
                 let s = size3(3)?;
                 let base = albedo.map_or(builtin::ROOM_ALBEDO, RoomAlbedo::uniform);
                 let part = |v: &Option<Value>, k: &str, d: [f32; 3]| match v {
@@ -513,14 +596,18 @@ impl Cx {
                 };
                 factor = [1.0; 3];
                 meshes::room([s[0], s[1], s[2]], parts, padding)
-            }
+            }),
             "box" => {
                 let s = size3(3)?;
-                meshes::cuboid([s[0], s[1], s[2]], raw.inward.unwrap_or(false), padding)
+                Some(meshes::cuboid(
+                    [s[0], s[1], s[2]],
+                    raw.inward.unwrap_or(false),
+                    padding,
+                ))
             }
             "plane" => {
                 let s = size3(2)?;
-                meshes::plane([s[0], s[1]], padding)
+                Some(meshes::plane([s[0], s[1]], padding))
             }
             "sphere" => {
                 let r = match raw.radius {
@@ -542,10 +629,63 @@ impl Cx {
                     }
                     None => meshes::SPHERE_SEGMENTS,
                 };
-                meshes::sphere(r, segments, raw.inward.unwrap_or(false), padding)
+                Some(meshes::sphere(
+                    r,
+                    segments,
+                    raw.inward.unwrap_or(false),
+                    padding,
+                ))
             }
-            "chair" => meshes::chair(padding),
-            _ => meshes::sofa(padding),
+            "chair" => Some(meshes::chair(padding)),
+            _ => Some(meshes::sofa(padding)),
+        };
+        let parts: Vec<(crate::scene::Mesh, Albedo)> = match (mesh, &raw.mesh) {
+            (Some(m), _) => vec![(
+                m,
+                Albedo {
+                    factor,
+                    texture: None,
+                },
+            )],
+            (None, Some(file)) => {
+                let Some(loader) = self.loader else {
+                    return Err(self.invalid(
+                        key("mesh"),
+                        "file meshes need a mesh loader: bake with `cargo xtask bake`, or pass \
+                         luxbake-assets' loader to `Scene::from_toml_file_with`",
+                    ));
+                };
+                let file = self.base_dir.join(file);
+                let request = MeshRequest {
+                    path: &file,
+                    texels_per_metre: settings.texels_per_metre * texel_scale,
+                    blur: settings.blur,
+                };
+                let loaded = loader
+                    .load(&request)
+                    .map_err(|source| SceneError::MeshFile {
+                        key: key("mesh"),
+                        file: file.clone(),
+                        source,
+                    })?;
+                if loaded.is_empty() {
+                    return Err(self.invalid(
+                        key("mesh"),
+                        format!("`{}` holds no triangle mesh", file.display()),
+                    ));
+                }
+                loaded
+                    .into_iter()
+                    .map(|p| {
+                        let mut a = p.albedo;
+                        if let Some(f) = albedo {
+                            a.factor = f;
+                        }
+                        (p.mesh, a)
+                    })
+                    .collect()
+            }
+            (None, None) => Vec::new(),
         };
 
         let position = match raw.position {
@@ -604,27 +744,55 @@ impl Cx {
                 n
             }
             None => {
-                let mut n = kind.clone();
+                let stem = raw
+                    .mesh
+                    .as_deref()
+                    .and_then(|f| Path::new(f).file_stem())
+                    .map(|s| {
+                        s.to_string_lossy()
+                            .chars()
+                            .filter(|c| c.is_ascii_alphanumeric() || matches!(c, '_' | '-'))
+                            .take(60)
+                            .collect::<String>()
+                    })
+                    .filter(|s| !s.is_empty());
+                let base = stem.unwrap_or_else(|| kind.clone());
+                let mut n = base.clone();
                 let mut k = 2;
                 while names.contains(&n) {
-                    n = format!("{kind}_{k}");
+                    n = format!("{base}_{k}");
                     k += 1;
                 }
                 n
             }
         };
-        names.insert(name.clone());
-        Ok(Object {
-            name,
-            mesh,
-            transform: Transform::from_trs(position, rotation, scale),
-            albedo: Albedo {
-                factor,
-                texture: None,
-            },
-            receiver: raw.receiver.unwrap_or(true),
-            texel_scale,
-        })
+        let transform = Transform::from_trs(position, rotation, scale);
+        let receiver = raw.receiver.unwrap_or(true);
+        let count = parts.len();
+        let mut objects = Vec::with_capacity(count);
+        for (k, (mesh, albedo)) in parts.into_iter().enumerate() {
+            // Several parts of one file: name_01, name_02, ...
+            let mut n = if count == 1 {
+                name.clone()
+            } else {
+                format!("{name}_{:02}", k + 1)
+            };
+            let mut extra = 2;
+            while names.contains(&n) {
+                n = format!("{name}_{:02}_{extra}", k + 1);
+                extra += 1;
+            }
+            names.insert(n.clone());
+            objects.push(Object {
+                name: n,
+                mesh,
+                transform,
+                albedo,
+                receiver,
+                texel_scale,
+            });
+        }
+        Ok(objects)
     }
 
     fn finite(&self, key: &str, v: f64) -> Result<f32, SceneError> {
@@ -902,7 +1070,7 @@ mod tests {
                 "",
                 LAMP,
                 "builtin = \"chair\"\nprimitive = \"box\"",
-                "object[0].builtin",
+                "`object[0]`: give exactly one",
             ),
             ("", LAMP, "name = \"x\"", "object[0]"),
             ("", LAMP, "primitive = \"plane\"", "object[0].size"),
@@ -1164,6 +1332,82 @@ mod tests {
         let s = from_str(&scene, &dir, None).expect("tilt file beside the lamp");
         assert!(s.lamps[0].photometry.intensity([0.0, 0.0, -1.0]) > 0.0);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A loader that returns `n` unit-square parts, or fails for files named `bad.*`.
+    struct FakeLoader(usize);
+
+    impl MeshLoader for FakeLoader {
+        fn load(
+            &self,
+            request: &MeshRequest<'_>,
+        ) -> Result<Vec<MeshPart>, Box<dyn std::error::Error + Send + Sync>> {
+            if request.path.file_stem().is_some_and(|s| s == "bad") {
+                return Err("truncated file".into());
+            }
+            assert!(request.path.is_absolute() || request.path.starts_with("/base"));
+            Ok((0..self.0)
+                .map(|k| MeshPart {
+                    name: format!("part{k}"),
+                    mesh: meshes::plane([1.0, 1.0], 4.0 / request.texels_per_metre),
+                    albedo: Albedo::grey(0.25),
+                })
+                .collect())
+        }
+    }
+
+    #[test]
+    fn file_meshes_go_through_the_loader() {
+        let obj = "mesh = \"models/Glam Sofa.glb\"\nposition = [1, 0, 0]\ntexel_scale = 2\nreceiver = false";
+        let t = text("texels_per_metre = 10", LAMP, obj);
+        let base = Path::new("/base");
+        let s = from_str_with(&t, base, None, &FakeLoader(2)).expect("loads");
+        let names: Vec<&str> = s.objects.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["GlamSofa_01", "GlamSofa_02"]);
+        for o in &s.objects {
+            assert_eq!(
+                (o.receiver, o.texel_scale, o.albedo.factor),
+                (false, 2.0, [0.25; 3])
+            );
+            assert_eq!(o.transform.point([0.0; 3]), [1.0, 0.0, 0.0]);
+        }
+        let one = text(
+            "",
+            LAMP,
+            "mesh = \"chair.obj\"\nname = \"seat\"\nalbedo = 0.75",
+        );
+        let s = from_str_with(&one, base, None, &FakeLoader(1)).expect("loads");
+        assert_eq!(
+            (s.objects[0].name.as_str(), s.objects[0].albedo.factor),
+            ("seat", [0.75; 3])
+        );
+        // Errors name the key.
+        let e = from_str(&one, base, None)
+            .expect_err("no loader")
+            .to_string();
+        assert!(e.contains("object[0].mesh") && e.contains("loader"), "{e}");
+        let bad = text("", LAMP, "mesh = \"bad.glb\"");
+        let e = from_str_with(&bad, base, None, &FakeLoader(1))
+            .expect_err("fails")
+            .to_string();
+        assert!(
+            e.contains("object[0].mesh") && e.contains("truncated file"),
+            "{e}"
+        );
+        let e = from_str_with(&one, base, None, &FakeLoader(0))
+            .expect_err("empty")
+            .to_string();
+        assert!(e.contains("object[0].mesh"), "{e}");
+        let both = text("", LAMP, "mesh = \"a.glb\"\nbuiltin = \"chair\"");
+        let e = from_str_with(&both, base, None, &FakeLoader(1))
+            .expect_err("both")
+            .to_string();
+        assert!(e.contains("`object[0]`: give exactly one"), "{e}");
+        let sized = text("", LAMP, "mesh = \"a.glb\"\nsize = [1, 1, 1]");
+        let e = from_str_with(&sized, base, None, &FakeLoader(1))
+            .expect_err("size")
+            .to_string();
+        assert!(e.contains("object[0].size"), "{e}");
     }
 
     /// The example scene of the repository parses, and its relative lamp path resolves.
