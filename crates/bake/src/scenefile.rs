@@ -36,8 +36,8 @@
 //! # builtin = "chair"         # "chair" or "sofa" — or instead:
 //! # mesh = "sofa.glb"         # a file, loaded by a [`MeshLoader`] (luxbake-assets: glTF,
 //!                             # OBJ); one object per part, named name_01, name_02, ...
-//! size = [4.0, 2.5, 3.0]      # room, box: [x, y, z]; plane: [x, z]; metres, > 0
-//! # radius = 1.5              # sphere only, > 0
+//! size = [4.0, 2.5, 3.0]      # room, box: [x, y, z]; plane: [x, z]; metres, (0, 1e6]
+//! # radius = 1.5              # sphere only, (0, 1e6]
 //! # inward = false            # sphere and box only (a room is always inward)
 //! # segments = 32             # sphere only: grid segments per cube-face edge, 1..=256
 //! position = [0.0, 0.0, 0.0]  # room, box, chair, sofa: floor/base centre; plane and
@@ -75,6 +75,8 @@ pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 20;
 pub const MAX_PHOTOMETRY_FILE_BYTES: u64 = 16 << 20;
 /// Most objects a scene file may hold.
 pub const MAX_OBJECTS: usize = 10_000;
+/// Largest size or radius of a primitive, metres.
+pub const MAX_SIZE_M: f64 = 1e6;
 /// Most lamps a scene file may hold.
 pub const MAX_LAMPS: usize = 1_000;
 
@@ -185,14 +187,16 @@ fn read_file(path: &Path, loader: Option<&dyn MeshLoader>) -> Result<Scene, Scen
         path: path.to_path_buf(),
         source,
     };
-    let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > MAX_SCENE_FILE_BYTES {
-        return Err(SceneError::Toml {
+    let bytes = read_limited(path, MAX_SCENE_FILE_BYTES)
+        .map_err(io)?
+        .ok_or_else(|| SceneError::Toml {
             path: Some(path.to_path_buf()),
-            message: format!("{len} bytes; scene files are limited to {MAX_SCENE_FILE_BYTES}"),
-        });
-    }
-    let text = std::fs::read_to_string(path).map_err(io)?;
+            message: format!("longer than {MAX_SCENE_FILE_BYTES} bytes, the limit of scene files"),
+        })?;
+    let text = String::from_utf8(bytes).map_err(|e| SceneError::Toml {
+        path: Some(path.to_path_buf()),
+        message: format!("not UTF-8: {e}"),
+    })?;
     let base = path.parent().unwrap_or(Path::new("."));
     parse(&text, base, Some(path), loader)
 }
@@ -416,30 +420,26 @@ impl Cx<'_> {
             };
         }
         let file = self.base_dir.join(ies);
-        let len = std::fs::metadata(&file)
+        let bytes = read_limited(&file, MAX_PHOTOMETRY_FILE_BYTES)
             .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?
-            .len();
-        if len > MAX_PHOTOMETRY_FILE_BYTES {
-            return Err(self.invalid(
-                key,
-                format!(
-                    "`{}` has {len} bytes; at most {MAX_PHOTOMETRY_FILE_BYTES}",
-                    file.display()
-                ),
-            ));
-        }
-        let bytes = std::fs::read(&file)
-            .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?;
+            .ok_or_else(|| {
+                self.invalid(
+                    key,
+                    format!(
+                        "`{}` is longer than {MAX_PHOTOMETRY_FILE_BYTES} bytes",
+                        file.display()
+                    ),
+                )
+            })?;
         // `TILT=<file>` names a file beside the photometric file (a plain file name only).
         let folder = file.parent().map(Path::to_path_buf).unwrap_or_default();
         let resolve = |name: &str| -> Option<Vec<u8>> {
             let name = name.trim();
             let plain = Path::new(name).file_name().is_some_and(|f| f == name);
-            let tilt = folder.join(name);
-            let small = std::fs::metadata(&tilt).ok()?.len() <= MAX_PHOTOMETRY_FILE_BYTES;
-            (plain && small)
-                .then(|| std::fs::read(&tilt).ok())
-                .flatten()
+            if !plain {
+                return None;
+            }
+            read_limited(&folder.join(name), MAX_PHOTOMETRY_FILE_BYTES).ok()?
         };
         let options = ParseOptions {
             tilt_resolver: Some(&resolve),
@@ -572,10 +572,10 @@ impl Cx<'_> {
                     format!("a {kind} needs `size` ({n} numbers, metres)"),
                 ));
             };
-            if s.len() != n || !s.iter().all(|&v| v > 0.0 && v.is_finite()) {
+            if s.len() != n || !s.iter().all(|&v| v > 0.0 && v <= MAX_SIZE_M) {
                 return Err(self.invalid(
                     key("size"),
-                    format!("{s:?}; expected {n} finite numbers > 0 (metres)"),
+                    format!("{s:?}; expected {n} numbers in (0, 1e6] (metres)"),
                 ));
             }
             Ok(s.iter().map(|&v| v as f32).collect())
@@ -611,11 +611,11 @@ impl Cx<'_> {
             }
             "sphere" => {
                 let r = match raw.radius {
-                    Some(r) if r > 0.0 && r.is_finite() => r as f32,
+                    Some(r) if r > 0.0 && r <= MAX_SIZE_M => r as f32,
                     Some(r) => {
                         return Err(self.invalid(
                             key("radius"),
-                            format!("{r}; expected a finite number > 0 (metres)"),
+                            format!("{r}; expected a number in (0, 1e6] (metres)"),
                         ));
                     }
                     None => {
@@ -843,6 +843,17 @@ impl Cx<'_> {
             Err(self.invalid(key, format!("{v}; albedo components must lie in [0, 1]")))
         }
     }
+}
+
+/// Reads at most `limit` bytes of `path`: `Ok(None)` when the file is longer. Reads through
+/// the handle rather than trusting the file's reported size (devices and pipes report 0).
+fn read_limited(path: &Path, limit: u64) -> std::io::Result<Option<Vec<u8>>> {
+    use std::io::Read;
+    let mut bytes = Vec::new();
+    std::fs::File::open(path)?
+        .take(limit + 1)
+        .read_to_end(&mut bytes)?;
+    Ok((bytes.len() as u64 <= limit).then_some(bytes))
 }
 
 fn number(v: &Value) -> Option<f64> {
@@ -1332,6 +1343,20 @@ mod tests {
         let s = from_str(&scene, &dir, None).expect("tilt file beside the lamp");
         assert!(s.lamps[0].photometry.intensity([0.0, 0.0, -1.0]) > 0.0);
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// Devices report a size of 0: reads stop at the limit anyway.
+    #[cfg(unix)]
+    #[test]
+    fn endless_files_are_cut_at_the_limit() {
+        let t = text("", "position = [0, 1, 0]\nies = \"/dev/zero\"", OBJECT);
+        let e = err(&t);
+        assert!(
+            e.contains("lamp[0].ies") && e.contains("longer than"),
+            "{e}"
+        );
+        let big = text("", LAMP, "primitive = \"box\"\nsize = [1, 1e7, 1]");
+        assert!(err(&big).contains("object[0].size"));
     }
 
     /// A loader that returns `n` unit-square parts, or fails for files named `bad.*`.
