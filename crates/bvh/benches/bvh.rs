@@ -117,6 +117,29 @@ fn bench(c: &mut Criterion) {
         group.finish();
 
         let (gather, shadow) = bake_rays(tris, 4096);
+        for traversal in [Traversal::Mtbvh, Traversal::Tbvh, Traversal::BruteForce] {
+            let per_ray = |rays: &[Ray], t_max: f32, any: bool| {
+                let (mut nodes, mut tests) = (0u64, 0u64);
+                for r in rays {
+                    let s = encoded.traversal_stats(r, 1e-4, t_max, traversal, any);
+                    nodes += u64::from(s.nodes);
+                    tests += u64::from(s.triangle_tests);
+                }
+                let n = rays.len() as f64;
+                (nodes as f64 / n, tests as f64 / n)
+            };
+            let n = if traversal == Traversal::BruteForce {
+                128
+            } else {
+                gather.len()
+            };
+            let (gn, gt) = per_ray(&gather[..n], f32::INFINITY, false);
+            let (sn, st) = per_ray(&shadow[..n], 1.0, true);
+            println!(
+                "{} {traversal:?}: per ray, closest hit {gn:.1} nodes {gt:.1} triangle tests; any hit {sn:.1} nodes {st:.1} tests",
+                scene.name
+            );
+        }
         for (query, rays) in [("closest_hit", &gather), ("any_hit", &shadow)] {
             let mut group = c.benchmark_group(format!("{query}/{}", scene.name));
             group

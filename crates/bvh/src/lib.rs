@@ -90,7 +90,9 @@ mod traverse;
 pub use build::{BuildOptions, Bvh, Node, NodeKind, sah_cost};
 pub use encode::{EncodeOptions, EncodedNode, EncodedScene, TextureSize, encode, texture_size};
 pub use links::{ChildOrder, Link};
-pub use traverse::{Hit, LinkTexture, Ray, Traversal, WatertightRay, dominant_direction};
+pub use traverse::{
+    Hit, LinkTexture, Ray, Traversal, TraversalStats, WatertightRay, dominant_direction,
+};
 
 /// Per-triangle shading data carried into the triangle data textures.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

@@ -28,6 +28,20 @@ pub struct Hit {
     pub v: f32,
 }
 
+/// Work done by one traversal ([`EncodedScene::traversal_stats`]), for profiling and for
+/// comparing link orders.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TraversalStats {
+    /// The hit found (closest, or the first for an any-hit query).
+    pub hit: Option<Hit>,
+    /// Nodes fetched (loop iterations; at most `node_count`).
+    pub nodes: u32,
+    /// Node boxes the ray hit.
+    pub boxes_hit: u32,
+    /// Ray/triangle tests.
+    pub triangle_tests: u32,
+}
+
 /// Which acceleration structure the traversal walks.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Traversal {
@@ -212,13 +226,43 @@ impl EncodedScene {
         t_max: f32,
         traversal: Traversal,
     ) -> Option<Hit> {
-        self.trace(ray, t_min, t_max, traversal, false)
+        self.trace(
+            ray,
+            t_min,
+            t_max,
+            traversal,
+            false,
+            &mut TraversalStats::default(),
+        )
     }
 
     /// Whether any triangle is hit with `t` in `(t_min, t_max)`: the shadow-ray query (returns
     /// at the first hit found).
     pub fn any_hit(&self, ray: &Ray, t_min: f32, t_max: f32, traversal: Traversal) -> bool {
-        self.trace(ray, t_min, t_max, traversal, true).is_some()
+        self.trace(
+            ray,
+            t_min,
+            t_max,
+            traversal,
+            true,
+            &mut TraversalStats::default(),
+        )
+        .is_some()
+    }
+
+    /// The same traversal as [`EncodedScene::closest_hit`] (or [`EncodedScene::any_hit`] with
+    /// `any_hit`), counting the work done.
+    pub fn traversal_stats(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        traversal: Traversal,
+        any_hit: bool,
+    ) -> TraversalStats {
+        let mut stats = TraversalStats::default();
+        stats.hit = self.trace(ray, t_min, t_max, traversal, any_hit, &mut stats);
+        stats
     }
 
     /// [`EncodedScene::closest_hit`] walking a given link texture whatever the ray direction
@@ -231,13 +275,29 @@ impl EncodedScene {
         links: LinkTexture,
     ) -> Option<Hit> {
         let setup = WatertightRay::new(ray)?;
-        self.walk(&setup, t_min, t_max, links, false)
+        self.walk(
+            &setup,
+            t_min,
+            t_max,
+            links,
+            false,
+            &mut TraversalStats::default(),
+        )
     }
 
     /// [`EncodedScene::any_hit`] walking a given link texture whatever the ray direction.
     pub fn any_hit_with(&self, ray: &Ray, t_min: f32, t_max: f32, links: LinkTexture) -> bool {
         WatertightRay::new(ray)
-            .and_then(|setup| self.walk(&setup, t_min, t_max, links, true))
+            .and_then(|setup| {
+                self.walk(
+                    &setup,
+                    t_min,
+                    t_max,
+                    links,
+                    true,
+                    &mut TraversalStats::default(),
+                )
+            })
             .is_some()
     }
 
@@ -248,6 +308,7 @@ impl EncodedScene {
         t_max: f32,
         traversal: Traversal,
         any: bool,
+        stats: &mut TraversalStats,
     ) -> Option<Hit> {
         let setup = WatertightRay::new(ray)?;
         match traversal {
@@ -257,9 +318,10 @@ impl EncodedScene {
                 t_max,
                 LinkTexture::Mtbvh(dominant_direction(ray.dir)),
                 any,
+                stats,
             ),
-            Traversal::Tbvh => self.walk(&setup, t_min, t_max, LinkTexture::Tbvh, any),
-            Traversal::BruteForce => self.brute_force(&setup, t_min, t_max, any),
+            Traversal::Tbvh => self.walk(&setup, t_min, t_max, LinkTexture::Tbvh, any, stats),
+            Traversal::BruteForce => self.brute_force(&setup, t_min, t_max, any, stats),
         }
     }
 
@@ -293,6 +355,7 @@ impl EncodedScene {
         t_max: f32,
         links: LinkTexture,
         any: bool,
+        stats: &mut TraversalStats,
     ) -> Option<Hit> {
         let (link_tex, layer) = match links {
             LinkTexture::Tbvh => (&self.tbvh_links, 0),
@@ -307,13 +370,16 @@ impl EncodedScene {
         let mut steps = 0;
         while steps < node_count && node[0] >= 0 {
             steps += 1;
+            stats.nodes += 1;
             let lo = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MIN_LAYER);
             let hi = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MAX_LAYER);
             let link = texel_fetch(link_tex, self.node_size, node, layer);
             if r.hits_box([lo[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]], t_min, closest) {
+                stats.boxes_hit += 1;
                 let end = (hi[3] as i32).min(triangle_count);
                 let mut t = (lo[3] as i32).max(0);
                 while t < end {
+                    stats.triangle_tests += 1;
                     if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
                         closest = d;
                         best = t;
@@ -333,13 +399,21 @@ impl EncodedScene {
     }
 
     /// Tests every triangle in encoded order (the "no BVH" path).
-    fn brute_force(&self, r: &WatertightRay, t_min: f32, t_max: f32, any: bool) -> Option<Hit> {
+    fn brute_force(
+        &self,
+        r: &WatertightRay,
+        t_min: f32,
+        t_max: f32,
+        any: bool,
+        stats: &mut TraversalStats,
+    ) -> Option<Hit> {
         let triangle_count = i32::try_from(self.triangle_count).unwrap_or(i32::MAX);
         let mut closest = t_max;
         let mut best: i32 = -1;
         let mut bary = [0.0f32; 2];
         let mut t = 0;
         while t < triangle_count {
+            stats.triangle_tests += 1;
             if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
                 closest = d;
                 best = t;

@@ -5,7 +5,7 @@
 mod common;
 
 use common::{check_agreement, load_model, model_rays};
-use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, encode};
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Traversal, encode};
 
 fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
     let Some(tris) = load_model(name) else {
@@ -64,6 +64,23 @@ fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
         "{name}: {hits} of {} rays hit; obvhs agrees on t for {obvhs_hits}",
         rays.len()
     );
+    // Work per ray: every node fetched at most once, every triangle tested at most once.
+    for traversal in [Traversal::Tbvh, Traversal::Mtbvh, Traversal::BruteForce] {
+        let (mut nodes, mut tests) = (0u64, 0u64);
+        for ray in &rays {
+            let s = scene.traversal_stats(ray, 0.0, f32::INFINITY, traversal, false);
+            assert!(s.nodes <= scene.node_count && s.triangle_tests <= scene.triangle_count);
+            assert_eq!(s.hit, scene.closest_hit(ray, 0.0, f32::INFINITY, traversal));
+            nodes += u64::from(s.nodes);
+            tests += u64::from(s.triangle_tests);
+        }
+        let n = rays.len() as f64;
+        println!(
+            "{name}: {traversal:?}: {:.1} nodes, {:.1} triangle tests per closest-hit ray",
+            nodes as f64 / n,
+            tests as f64 / n
+        );
+    }
     assert!(hits > rays.len() / 3, "{name}: only {hits} hits");
     assert!(
         obvhs_hits as f64 >= 0.99 * hits as f64,
