@@ -1,7 +1,8 @@
 //! Creating the GL context: the only place where native and wasm32 differ.
 //!
 //! Native: a headless EGL context on Mesa's surfaceless platform ([`GlContext::headless`]).
-//! wasm32: a WebGL2 context from a canvas ([`GlContext::from_canvas`]). Everything after creation
+//! wasm32: a WebGL2 context from a canvas ([`GlContext::from_canvas`]) or an `OffscreenCanvas`
+//! (`GlContext::from_offscreen_canvas`). Everything after creation
 //! goes through `glow::HasContext`, identical on both.
 
 #[cfg(not(target_arch = "wasm32"))]
@@ -88,6 +89,22 @@ impl GlContext {
     #[cfg(target_arch = "wasm32")]
     pub fn from_canvas(canvas: &web_sys::HtmlCanvasElement) -> Result<Self> {
         let gl = web::from_canvas(canvas)?;
+        let caps = check_capabilities(&gl)?;
+        Ok(Self {
+            gl,
+            caps,
+            _not_send: std::marker::PhantomData,
+        })
+    }
+
+    /// A WebGL2 context from an `OffscreenCanvas`, e.g. in a Web Worker (the viewer bakes there
+    /// so that the page stays interactive).
+    ///
+    /// # Errors
+    /// As [`GlContext::headless`].
+    #[cfg(target_arch = "wasm32")]
+    pub fn from_offscreen_canvas(canvas: &web_sys::OffscreenCanvas) -> Result<Self> {
+        let gl = web::from_offscreen_canvas(canvas)?;
         let caps = check_capabilities(&gl)?;
         Ok(Self {
             gl,
