@@ -4,7 +4,9 @@
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
+mod bake;
 mod ies;
+mod measure;
 
 /// luxbake project commands.
 #[derive(Parser)]
@@ -18,12 +20,18 @@ struct Cli {
 enum Command {
     /// Inspect a photometric file (IES LM-63 or EULUMDAT): header, symmetry, lumens, peak.
     Ies(ies::Args),
+    /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
+    Bake(bake::Args),
+    /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
+    Measure(measure::Args),
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Ies(args) => ies::run(&args),
+        Command::Bake(args) => bake::run(&args),
+        Command::Measure(args) => measure::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

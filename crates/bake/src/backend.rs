@@ -121,6 +121,9 @@ pub trait GpuBackend {
 
     /// Runs one pass. `reads` and `writes` are the handles of `pass.reads` and `pass.writes`, in
     /// the same order. `progress` is called with the finished fraction (0–1) as tiles complete.
+    /// The driver never passes a [`PassKind::GBuffer`](crate::graph::PassKind::GBuffer) pass:
+    /// it fills those textures with [`upload`](Self::upload) (a backend given one anyway may
+    /// treat it as done).
     fn run_pass(
         &mut self,
         pass: &PassDesc,

@@ -1,0 +1,220 @@
+//! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
+//! [--rays N] [--bounces K] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
+//! [--seed S]`: bake a scene's light maps into a folder.
+//!
+//! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`.
+//! Flags override the scene's `[settings]`. A progress bar per pass, then a summary table.
+
+use std::path::PathBuf;
+use std::time::Duration;
+
+use indicatif::{ProgressBar, ProgressStyle};
+use luxbake::bake::{BakeOutput, Progress, bake};
+use luxbake::cpu::CpuBackend;
+use luxbake::output::write_bake;
+use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
+
+/// Arguments of `cargo xtask bake`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// A TOML scene file (see the `luxbake::scenefile` docs).
+    #[arg(conflicts_with = "scene")]
+    scene_file: Option<PathBuf>,
+    /// A built-in scene: chairs_01, chairs_03, chairs_05, chairs_10, sofa_01, floor, sphere.
+    #[arg(long)]
+    scene: Option<String>,
+    /// Output folder.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Backend: cpu, glow or wgpu.
+    #[arg(long)]
+    backend: Option<BackendKind>,
+    /// Gather rays per texel per bounce.
+    #[arg(long)]
+    rays: Option<u32>,
+    /// Indirect bounces (0 = direct light only).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Light-map density, texels per metre.
+    #[arg(long)]
+    texels_per_metre: Option<f32>,
+    /// Blur sigma in texels, or `none`.
+    #[arg(long)]
+    blur: Option<Blur>,
+    /// Ray traversal: mtbvh, tbvh or none (brute force).
+    #[arg(long)]
+    bvh: Option<BvhMode>,
+    /// Seed of the random-number hash.
+    #[arg(long)]
+    seed: Option<u32>,
+}
+
+impl Args {
+    fn apply(&self, s: &mut Settings) {
+        if let Some(v) = self.rays {
+            s.rays = v;
+        }
+        if let Some(v) = self.bounces {
+            s.bounces = v;
+        }
+        if let Some(v) = self.texels_per_metre {
+            s.texels_per_metre = v;
+        }
+        if let Some(v) = self.blur {
+            s.blur = v;
+        }
+        if let Some(v) = self.bvh {
+            s.bvh = v;
+        }
+        if let Some(v) = self.seed {
+            s.seed = v;
+        }
+        if let Some(v) = self.backend {
+            s.backend = v;
+        }
+    }
+}
+
+/// The scene the arguments name, with the flags applied, and its source for the manifest.
+fn load(args: &Args) -> Result<(Scene, String), String> {
+    match &args.scene_file {
+        Some(path) => {
+            let mut scene = Scene::from_toml_file(path).map_err(|e| e.to_string())?;
+            args.apply(&mut scene.settings);
+            let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
+            Ok((scene, abs.display().to_string()))
+        }
+        None => {
+            let name = args.scene.as_deref().unwrap_or("chairs_05");
+            let mut settings = Settings::default();
+            args.apply(&mut settings);
+            let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
+            Ok((scene, format!("builtin:{name}")))
+        }
+    }
+}
+
+/// Runs the bake; the error is a message for stderr.
+pub fn run(args: &Args) -> Result<(), String> {
+    let (scene, source) = load(args)?;
+    let settings = scene.settings.clone();
+    let output = match settings.backend {
+        BackendKind::Cpu => {
+            let mut backend = CpuBackend::new();
+            run_with(&mut backend, &scene, &settings)?
+        }
+        other => {
+            return Err(format!(
+                "backend `{}` is not built yet; use `--backend cpu`",
+                other.name()
+            ));
+        }
+    };
+    write_bake(&args.out, &scene, &output, &source).map_err(|e| e.to_string())?;
+    print_summary(&output, &scene);
+    println!("wrote {}", args.out.join("manifest.json").display());
+    Ok(())
+}
+
+fn run_with<B: luxbake::GpuBackend>(
+    backend: &mut B,
+    scene: &Scene,
+    settings: &Settings,
+) -> Result<BakeOutput, String> {
+    let style = ProgressStyle::with_template(
+        "{prefix:>16} [{bar:40.cyan/blue}] {percent:>3}% {elapsed_precise}",
+    )
+    .map_err(|e| e.to_string())?
+    .progress_chars("=> ");
+    let mut bar: Option<ProgressBar> = None;
+    let mut on_progress = |p: &Progress<'_>| match p {
+        Progress::Setup(step) => eprintln!("{step} …"),
+        Progress::PassStart {
+            index,
+            count,
+            label,
+            bounce,
+        } => {
+            let b = ProgressBar::new(1000).with_style(style.clone());
+            let prefix = if *bounce > 0 {
+                format!("{}/{} {label} #{bounce}", index + 1, count)
+            } else {
+                format!("{}/{} {label}", index + 1, count)
+            };
+            b.set_prefix(prefix);
+            b.enable_steady_tick(Duration::from_millis(200));
+            bar = Some(b);
+        }
+        Progress::PassProgress { fraction, .. } => {
+            if let Some(b) = &bar {
+                b.set_position((fraction.clamp(0.0, 1.0) * 1000.0) as u64);
+            }
+        }
+        Progress::PassDone { .. } => {
+            if let Some(b) = bar.take() {
+                b.finish();
+            }
+        }
+    };
+    bake(backend, scene, settings, &mut on_progress).map_err(|e| e.to_string())
+}
+
+fn print_summary(out: &BakeOutput, scene: &Scene) {
+    let r = &out.report;
+    let s = &out.settings;
+    println!();
+    println!("backend            {}", r.backend);
+    println!(
+        "objects            {} ({} with light maps), lamps {} ({} used)",
+        scene.objects.len(),
+        out.maps.len(),
+        scene.lamps.len(),
+        out.lamps_used.len()
+    );
+    println!(
+        "texels             {} sampled of {} in regions; layout {}×{} × {} layers",
+        r.texels,
+        r.region_texels,
+        out.layout.layer_size[0],
+        out.layout.layer_size[1],
+        out.layout.layers
+    );
+    println!(
+        "triangles          {} (traversal: {})",
+        r.triangles,
+        r.bvh.name()
+    );
+    println!(
+        "rays               {} shadow, {} gather ({} per texel, {} of {} bounces run)",
+        r.shadow_rays, r.gather_rays, s.rays, r.bounces_run, s.bounces
+    );
+    println!();
+    println!("{:<20} {:>6} {:>12}", "pass", "bounce", "time [ms]");
+    for (label, t) in &r.setup {
+        println!("{:<20} {:>6} {:>12.1}", format!("({label})"), "", t * 1e3);
+    }
+    for p in &r.passes {
+        println!("{:<20} {:>6} {:>12.1}", p.label, p.bounce, p.seconds * 1e3);
+    }
+    let pass_total: f64 = r.passes.iter().map(|p| p.seconds).sum();
+    println!(
+        "{:<20} {:>6} {:>12.1}",
+        "passes total",
+        "",
+        pass_total * 1e3
+    );
+    println!(
+        "{:<20} {:>6} {:>12.1}",
+        "bake total",
+        "",
+        r.total_seconds * 1e3
+    );
+    if r.skipped.is_empty() {
+        println!("\nskipped: nothing");
+    } else {
+        println!("\nskipped:");
+        for k in &r.skipped {
+            println!("  - {k}");
+        }
+    }
+}

@@ -1,0 +1,181 @@
+//! `cargo xtask measure DIR --points FILE.csv`: illuminance at calculation points, read back
+//! from a bake's light maps.
+//!
+//! `FILE.csv` has one point per row, `x,y,z` in metres (world), on baked surfaces; blank
+//! lines, `#` comments and a non-numeric header row are skipped. The scene is rebuilt from the
+//! manifest's `scene.source` (with the baked settings), each point is located on the nearest
+//! receiving surface (within `--tolerance`, default 1 cm), and the maps are read bilinearly
+//! at its light-map UV (the masked rule of `luxbake::map`). Printed as CSV:
+//! `x,y,z,direct_lux,indirect_lux,total_lux` — the Rec. 709 luminance of the RGB illuminance
+//! (each channel's value for a white lamp); `indirect = total − direct`, both blurred alike.
+//! A point on no baked surface is an error naming its row.
+
+use std::collections::HashMap;
+use std::collections::hash_map::Entry;
+use std::path::{Path, PathBuf};
+
+use luxbake::map::MapImage;
+use luxbake::output::picture::luminance;
+use luxbake::output::read_exr;
+use luxbake::probe::locate;
+use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use serde_json::Value;
+
+/// Arguments of `cargo xtask measure`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// A folder written by `cargo xtask bake`.
+    dir: PathBuf,
+    /// CSV file of points, one `x,y,z` row each, metres.
+    #[arg(long)]
+    points: PathBuf,
+    /// Largest distance from a point to a baked surface, metres.
+    #[arg(long, default_value_t = 0.01)]
+    tolerance: f64,
+}
+
+/// Parses the points file: `(line number, [x, y, z])` per row.
+pub fn parse_points(text: &str) -> Result<Vec<(usize, [f64; 3])>, String> {
+    let mut points = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let values: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        match values {
+            Ok(v) if v.len() == 3 && v.iter().all(|c| c.is_finite()) => {
+                points.push((line_no, [v[0], v[1], v[2]]));
+            }
+            Ok(v) => {
+                return Err(format!(
+                    "line {line_no}: expected three finite numbers x,y,z, got {} value(s)",
+                    v.len()
+                ));
+            }
+            Err(_) if points.is_empty() && line_no == 1 => {} // header row
+            Err(_) => {
+                return Err(format!(
+                    "line {line_no}: expected three numbers x,y,z, got `{line}`"
+                ));
+            }
+        }
+    }
+    Ok(points)
+}
+
+fn settings_from(manifest: &Value) -> Result<Settings, String> {
+    let s = &manifest["settings"];
+    let mut out = Settings::default();
+    let num = |key: &str| {
+        s[key]
+            .as_f64()
+            .ok_or_else(|| format!("manifest: settings.{key} missing"))
+    };
+    out.rays = num("rays")? as u32;
+    out.bounces = num("bounces")? as u32;
+    out.texels_per_metre = num("texels_per_metre")? as f32;
+    out.seed = num("seed")? as u32;
+    out.blur = match &s["blur"] {
+        Value::String(t) => t.parse::<Blur>()?,
+        v => Blur::Sigma(v.as_f64().unwrap_or(0.0) as f32),
+    };
+    if let Some(b) = s["bvh"].as_str() {
+        out.bvh = b.parse::<BvhMode>()?;
+    }
+    Ok(out)
+}
+
+fn rebuild_scene(manifest: &Value) -> Result<Scene, String> {
+    let source = manifest["scene"]["source"]
+        .as_str()
+        .ok_or("manifest: scene.source missing")?;
+    let settings = settings_from(manifest)?;
+    match source.strip_prefix("builtin:") {
+        Some(name) => Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string()),
+        None => Scene::from_toml_file(Path::new(source))
+            .map_err(|e| format!("rebuilding the baked scene: {e}")),
+    }
+}
+
+/// Runs the measurement; the error is a message for stderr.
+pub fn run(args: &Args) -> Result<(), String> {
+    let manifest_path = args.dir.join("manifest.json");
+    let text = std::fs::read_to_string(&manifest_path)
+        .map_err(|e| format!("cannot read {}: {e}", manifest_path.display()))?;
+    let manifest: Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    let scene = rebuild_scene(&manifest)?;
+    let points_text = std::fs::read_to_string(&args.points)
+        .map_err(|e| format!("cannot read {}: {e}", args.points.display()))?;
+    let points =
+        parse_points(&points_text).map_err(|e| format!("{}: {e}", args.points.display()))?;
+    let objects = manifest["objects"]
+        .as_array()
+        .ok_or("manifest: objects missing")?;
+
+    // Locate every point first, so that a bad row fails before anything is printed.
+    let mut located = Vec::with_capacity(points.len());
+    for &(line, p) in &points {
+        let sp = locate(&scene, p, args.tolerance).ok_or_else(|| {
+            format!(
+                "{} line {line}: point ({}, {}, {}) lies on no baked surface (none within {} m)",
+                args.points.display(),
+                p[0],
+                p[1],
+                p[2],
+                args.tolerance
+            )
+        })?;
+        located.push((p, sp));
+    }
+
+    let mut cache: HashMap<usize, (MapImage, MapImage)> = HashMap::new();
+    println!("x,y,z,direct_lux,indirect_lux,total_lux");
+    for (p, sp) in located {
+        let (direct, total) = match cache.entry(sp.object) {
+            Entry::Occupied(e) => e.into_mut(),
+            Entry::Vacant(v) => {
+                let entry = objects
+                    .iter()
+                    .find(|o| o["index"].as_u64() == Some(sp.object as u64))
+                    .ok_or_else(|| format!("manifest: object {} missing", sp.object))?;
+                let file = |key: &str| -> Result<PathBuf, String> {
+                    entry["files"][key]
+                        .as_str()
+                        .map(|f| args.dir.join(f))
+                        .ok_or_else(|| format!("manifest: object {} has no {key} map", sp.object))
+                };
+                let total = read_exr(&file("illuminance")?).map_err(|e| e.to_string())?;
+                let direct = read_exr(&file("direct")?).map_err(|e| e.to_string())?;
+                v.insert((direct, total))
+            }
+        };
+        let d = f64::from(luminance(direct.sample(sp.uv)));
+        let t = f64::from(luminance(total.sample(sp.uv)));
+        let i = (t - d).max(0.0);
+        println!("{},{},{},{d:.6},{i:.6},{t:.6}", p[0], p[1], p[2]);
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_file_rules() {
+        let p = parse_points("x,y,z\n1,2,3\n\n# note\n 4 , 5.5 , -6\n").expect("parse");
+        assert_eq!(p, vec![(2, [1.0, 2.0, 3.0]), (5, [4.0, 5.5, -6.0])]);
+        assert!(parse_points("1,2\n").unwrap_err().contains("line 1"));
+        assert!(
+            parse_points("1,2,3\nx,y,z\n")
+                .unwrap_err()
+                .contains("line 2")
+        );
+        assert!(parse_points("1,2,nan\n").is_err());
+        assert!(parse_points("").expect("empty").is_empty());
+    }
+}
