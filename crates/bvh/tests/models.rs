@@ -1,4 +1,5 @@
-//! The real models in `../shared/models` (skipped with a message when absent): every
+//! The real models in `../shared/models` (skipped with a message when absent) and the
+//! procedural room with ten chairs: every
 //! traversal agrees with brute force, obvhs's own traversal agrees on the hit distance, and
 //! our SAH cost is compared with obvhs's trees under the same cost constants.
 
@@ -16,17 +17,21 @@ fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
         "{name}: {} triangles",
         tris.len()
     );
+    check_scene(name, &tris);
+}
+
+fn check_scene(name: &str, tris: &[common::Tri]) {
     let options = BuildOptions::default();
-    let bvh = Bvh::build(&tris, &options).expect("build");
+    let bvh = Bvh::build(tris, &options).expect("build");
     let scene = encode(
         &bvh,
-        &tris,
-        &common::attributes(&tris, 3),
+        tris,
+        &common::attributes(tris, 3),
         &EncodeOptions::default(),
     )
     .expect("encode");
 
-    let otris = common::obvhs_triangles(&tris);
+    let otris = common::obvhs_triangles(tris);
     let medium = common::obvhs_build(&otris, common::obvhs_params(false, options.max_leaf_size));
     let slow = common::obvhs_build(&otris, common::obvhs_params(true, options.max_leaf_size));
     let (ours, om, os) = (
@@ -46,7 +51,7 @@ fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
         "{name}: SAH {ours} vs obvhs {om} / {os}"
     );
 
-    let rays = model_rays(&tris, 600, 17);
+    let rays = model_rays(tris, 600, 17);
     let (mut hits, mut obvhs_hits) = (0, 0);
     for (i, ray) in rays.iter().enumerate() {
         let t_max = if i % 3 == 0 { 0.5 } else { f32::INFINITY };
@@ -96,4 +101,12 @@ fn sheen_chair() {
 #[test]
 fn glam_velvet_sofa() {
     check_model("GlamVelvetSofa", 1_000..20_000);
+}
+
+/// The procedural stand-in for the paper's `chairs_10` scene (always available).
+#[test]
+fn room_with_ten_chairs() {
+    let tris = common::room_with_chairs();
+    assert_eq!(tris.len(), 2364);
+    check_scene("room_10_chairs", &tris);
 }
