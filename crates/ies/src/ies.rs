@@ -273,12 +273,12 @@ fn tilt_block(t: &mut Tokens, limits: &Limits) -> Result<TiltData, IesError> {
     let mut factors = Vec::with_capacity(n);
     for _ in 0..n {
         let (f, line) = t.number("tilt multiplying factor")?;
-        if f < 0.0 {
+        if !(0.0..=1000.0).contains(&f) {
             return Err(IesError::OutOfRange {
                 line,
                 what: "tilt multiplying factor".into(),
                 value: f,
-                expected: "≥ 0".into(),
+                expected: "from 0 to 1000".into(),
             });
         }
         factors.push(f);

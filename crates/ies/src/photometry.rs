@@ -7,6 +7,10 @@ use crate::sphere::{self, Axis, Sphere};
 use crate::{GpuTable, IesError, ParseOptions};
 use std::f64::consts::PI;
 
+/// Largest accepted intensity after multipliers, in candela (the brightest searchlights reach
+/// about 1e9 cd); keeps every sum over the sphere finite.
+const MAX_CANDELA: f64 = 1e15;
+
 /// A luminaire's photometry: the header data of its file and the luminous intensity
 /// distribution expanded to the full sphere.
 ///
@@ -192,6 +196,15 @@ impl Photometry {
             } else {
                 1.0
             };
+        let peak = p.candela.iter().fold(0.0f64, |m, &c| m.max(c)) * scale;
+        if !(scale >= 0.0 && peak <= MAX_CANDELA) {
+            return Err(IesError::OutOfRange {
+                line: p.lines[2],
+                what: "peak intensity with all multipliers applied (cd)".into(),
+                value: peak,
+                expected: format!("a value from 0 to {MAX_CANDELA:e} cd"),
+            });
+        }
         let (symmetry, sphere) = expand(&p, scale)?;
         let tilt0 = p.tilt.factor(0.0);
         Ok(Photometry {
