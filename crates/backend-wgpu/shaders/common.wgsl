@@ -1,0 +1,86 @@
+// Shared by every pass: the pass parameters, the output storage texture and f32 helpers that
+// mirror luxbake::cpu operation for operation (dot products left to right, division rather than
+// multiplication by a reciprocal). WGSL has no isnan/isinf: they are bit tests here, which no
+// compiler may fold away.
+
+// One tile of one layer: texels (x0 .. x0 + width, y0 .. y0 + height) of layer `layer`.
+// The remaining fields are per pass kind (see each pass file); unused ones are zero.
+struct LuxParams {
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+    layer: u32,
+    layer_w: u32,
+    layer_h: u32,
+    count: u32,     // direct: lamps of this pass; gather: rays per texel
+    bounce: u32,    // gather: bounce number (RNG pass input)
+    seed: u32,      // gather: RNG seed
+    radius: i32,    // blur: min(ceil(3 sigma), LUX_MAX_BLUR_RADIUS), computed on the CPU
+    step_x: i32,    // blur: (1, 0) for the U axis, (0, 1) for V
+    step_y: i32,
+    inv: f32,       // blur: -1 / (2 sigma^2), computed on the CPU
+    pad0: u32,
+    pad1: u32,
+}
+
+@group(0) @binding(8) var lux_out: texture_storage_2d_array<rgba32float, write>;
+@group(0) @binding(9) var<uniform> lux_params: LuxParams;
+
+const LUX_FLT_MAX: f32 = 3.40282347e38;
+
+// cpu::dot
+fn lux_dot(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+fn lux_is_nan(v: f32) -> bool {
+    return (bitcast<u32>(v) & 0x7fffffffu) > 0x7f800000u;
+}
+
+fn lux_finite(v: f32) -> bool {
+    return (bitcast<u32>(v) & 0x7fffffffu) < 0x7f800000u;
+}
+
+fn lux_finite3(v: vec3<f32>) -> bool {
+    return lux_finite(v.x) && lux_finite(v.y) && lux_finite(v.z);
+}
+
+fn lux_sign_bit(v: f32) -> bool {
+    return (bitcast<u32>(v) & 0x80000000u) != 0u;
+}
+
+// cpu::normalize: false for a zero or non-finite vector (then *n = v).
+fn lux_normalize(v: vec3<f32>, n: ptr<function, vec3<f32>>) -> bool {
+    let l = sqrt(lux_dot(v, v));
+    *n = v;
+    if (!(l > 0.0 && lux_finite(l))) {
+        return false;
+    }
+    *n = vec3<f32>(v.x / l, v.y / l, v.z / l);
+    return true;
+}
+
+// cpu::guard: NaN to 0, clamped to [0, FLT_MAX].
+fn lux_guard(v: f32) -> f32 {
+    if (lux_is_nan(v)) {
+        return 0.0;
+    }
+    return clamp(v, 0.0, LUX_FLT_MAX);
+}
+
+fn lux_guard3(v: vec3<f32>) -> vec3<f32> {
+    return vec3<f32>(lux_guard(v.x), lux_guard(v.y), lux_guard(v.z));
+}
+
+// The texel of invocation `gid` in the bound tile, or x = -1 outside it.
+fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
+    if (gid.x >= lux_params.width || gid.y >= lux_params.height) {
+        return vec2<i32>(-1, -1);
+    }
+    return vec2<i32>(i32(lux_params.x0 + gid.x), i32(lux_params.y0 + gid.y));
+}
+
+fn lux_store(c: vec2<i32>, value: vec4<f32>) {
+    textureStore(lux_out, c, i32(lux_params.layer), value);
+}

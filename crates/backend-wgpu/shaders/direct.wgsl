@@ -1,0 +1,74 @@
+// Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
+// through the BVH (cpu::direct_texel, operation for operation).
+
+// One lamp of this pass, in the pass's order (LampParams): position.xyz; the rows of the
+// world-to-photometric matrix; scale.rgb; (offset of its table in lux_ies, width, height).
+struct LuxLamp {
+    position: vec4<f32>,
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    scale: vec4<f32>,
+    table: vec4<u32>,
+}
+
+@group(0) @binding(0) var lux_position: texture_2d_array<f32>;
+@group(0) @binding(1) var lux_normal: texture_2d_array<f32>;
+@group(0) @binding(10) var<storage, read> lux_lamps: array<LuxLamp>;
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
+        return;
+    }
+    let layer = i32(lux_params.layer);
+    let pos = textureLoad(lux_position, c, layer, 0);
+    let nrm = textureLoad(lux_normal, c, layer, 0);
+    if (pos.w <= 0.5) {
+        lux_store(c, vec4<f32>(0.0));
+        return;
+    }
+    let p = pos.xyz;
+    var n: vec3<f32>;
+    if (!lux_normalize(nrm.xyz, &n)) {
+        lux_store(c, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        return;
+    }
+    var e = vec3<f32>(0.0);
+    let count = min(lux_params.count, arrayLength(&lux_lamps));
+    for (var li = 0u; li < count; li++) {
+        let lamp = lux_lamps[li];
+        let lamp_pos = lamp.position.xyz;
+        let to = lamp_pos - p;
+        let d2 = lux_dot(to, to);
+        let d = sqrt(d2);
+        if (!(d > 0.0 && lux_finite(d))) {
+            continue;
+        }
+        let w = vec3<f32>(to.x / d, to.y / d, to.z / d);
+        let cos_theta = lux_dot(n, w);
+        if (!(cos_theta > 0.0)) {
+            continue;
+        }
+        let back = -w;
+        let photometric = vec3<f32>(lux_dot(lamp.m0.xyz, back), lux_dot(lamp.m1.xyz, back),
+                                    lux_dot(lamp.m2.xyz, back));
+        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), photometric);
+        if (!(intensity > 0.0)) {
+            continue;
+        }
+        let eps = min(lux_scene.ray_epsilon, 0.25 * d);
+        let origin = p + n * eps;
+        let dir = lamp_pos - origin;
+        let len = sqrt(lux_dot(dir, dir));
+        let t_max = 1.0 - eps / len;
+        var hit: vec3<f32>;
+        if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
+            continue;
+        }
+        let k = intensity * cos_theta / max(d2, eps * eps);
+        e += k * lamp.scale.xyz;
+    }
+    lux_store(c, vec4<f32>(lux_guard3(e), 1.0));
+}

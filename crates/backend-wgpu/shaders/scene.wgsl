@@ -1,0 +1,24 @@
+// The static scene data of the ray-casting passes (bind group 1), uploaded once per bake.
+// Bindings 0-2 (the BVH) are declared by bvh_buffers.wgsl or bvh_textures.wgsl.
+
+struct LuxScene {
+    node_w: u32,         // node texture width: node i is texel (i % node_w, i / node_w)
+    node_h: u32,
+    tri_w: u32,          // triangle texture width: triangle t is texel (t % tri_w, t / tri_w)
+    tri_h: u32,
+    node_count: i32,
+    triangle_count: i32,
+    object_count: i32,   // entries of lux_regions / 2
+    pad0: u32,
+    ray_epsilon: f32,    // SceneData::ray_epsilon
+    t_far: f32,          // +infinity (the gather's closest-hit range), set from the CPU
+    pad1: u32,
+    pad2: u32,
+}
+
+// Intensity tables, candela, concatenated: value (row j, column i) of a table at `offset` with
+// `width` columns is lux_ies[offset + j * width + i] (see ies.wgsl).
+@group(1) @binding(3) var<storage, read> lux_ies: array<f32>;
+// Two entries per object id: (layer, offset.x, offset.y, receiver ? 1 : 0), (width, height, 0, 0).
+@group(1) @binding(4) var<storage, read> lux_regions: array<vec4<u32>>;
+@group(1) @binding(5) var<uniform> lux_scene: LuxScene;

@@ -1,0 +1,742 @@
+//! [`WgpuBackend`]: the device, its texture arrays, its pipelines, and the [`GpuBackend`]
+//! implementation that runs each pass of the graph as tiled compute dispatches.
+
+use std::collections::HashMap;
+
+use luxbake::backend::{GpuBackend, Limits, SceneData};
+use luxbake::graph::{Axis, PassDesc, PassKind, TexDesc};
+
+use crate::device::Gpu;
+use crate::error::{Result, WgpuError};
+use crate::scene::{GpuScene, SCENE_UNIFORM_BYTES};
+use crate::shaders::{BvhStorage, Pass, Traversal};
+
+/// Default work per dispatch: texel × ray (or texel × tap) evaluations of one tile, as the glow
+/// backend's draws. About 2^20 keeps a dispatch in the tens of milliseconds on a laptop GPU, far
+/// from any watchdog (a few seconds), and gives a progress report every few hundred
+/// milliseconds on lavapipe.
+pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
+
+/// Compute workgroup edge (`@workgroup_size(8, 8, 1)` in every pass).
+const WORKGROUP: u32 = 8;
+/// Bytes of the `LuxParams` uniform block (`common.wgsl`).
+const PARAMS_BYTES: u64 = 64;
+/// Binding of the output storage texture in group 0.
+const OUT_BINDING: u32 = 8;
+/// Binding of the pass parameters in group 0.
+const PARAMS_BINDING: u32 = 9;
+/// Binding of the direct pass's lamps in group 0.
+const LAMPS_BINDING: u32 = 10;
+
+/// A texture array owned by a [`WgpuBackend`] (a handle; the backend owns the GPU object).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct WgpuTexture(usize);
+
+/// The static scene data of a bake on the GPU (a handle; the buffers belong to the backend).
+#[derive(Debug)]
+pub struct WgpuScene(usize);
+
+/// Options of [`WgpuBackend::with_options`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct WgpuOptions {
+    /// Backends to pick an adapter from; `None` = `WGPU_BACKEND` if set, else every backend
+    /// compiled in (Vulkan in this build).
+    pub backends: Option<wgpu::Backends>,
+    /// Where the BVH lives on the GPU.
+    pub bvh_storage: BvhStorage,
+    /// Work per dispatch (see [`DEFAULT_TILE_WORK`]), at least 1.
+    pub tile_work: u64,
+}
+
+impl Default for WgpuOptions {
+    fn default() -> Self {
+        WgpuOptions {
+            backends: None,
+            bvh_storage: BvhStorage::default(),
+            tile_work: DEFAULT_TILE_WORK,
+        }
+    }
+}
+
+#[derive(Debug)]
+struct Texture {
+    label: String,
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    size: [u32; 2],
+    layers: u32,
+}
+
+/// The wgpu backend: a device, the RGBA32F texture arrays of a bake, the uploaded scene data and
+/// one compute pipeline per pass kind (and traversal), created on first use.
+#[derive(Debug)]
+pub struct WgpuBackend {
+    gpu: Gpu,
+    options: WgpuOptions,
+    textures: Vec<Texture>,
+    scenes: Vec<GpuScene>,
+    pass_layouts: HashMap<Pass, wgpu::BindGroupLayout>,
+    scene_layout: wgpu::BindGroupLayout,
+    pipelines: HashMap<(Pass, Traversal), wgpu::ComputePipeline>,
+    params: wgpu::Buffer,
+}
+
+fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A buffer binding; uniform blocks state their size so wgpu checks it against the shader.
+fn buffer_entry(
+    binding: u32,
+    ty: wgpu::BufferBindingType,
+    size: u64,
+) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty,
+            has_dynamic_offset: false,
+            min_binding_size: std::num::NonZeroU64::new(size),
+        },
+        count: None,
+    }
+}
+
+const STORAGE_RO: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
+
+/// Group 0 of `pass`: its read textures, the output, the parameters (and the lamps).
+fn pass_layout_entries(pass: Pass) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries: Vec<_> = (0..pass.reads() as u32).map(texture_entry).collect();
+    entries.push(wgpu::BindGroupLayoutEntry {
+        binding: OUT_BINDING,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::Rgba32Float,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+        },
+        count: None,
+    });
+    entries.push(buffer_entry(
+        PARAMS_BINDING,
+        wgpu::BufferBindingType::Uniform,
+        PARAMS_BYTES,
+    ));
+    if pass == Pass::Direct {
+        entries.push(buffer_entry(LAMPS_BINDING, STORAGE_RO, 0));
+    }
+    entries
+}
+
+/// Group 1 (the scene) for `storage`.
+fn scene_layout_entries(storage: BvhStorage) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries: Vec<_> = (0..3)
+        .map(|b| match storage {
+            BvhStorage::Buffers => buffer_entry(b, STORAGE_RO, 0),
+            BvhStorage::Textures => texture_entry(b),
+        })
+        .collect();
+    entries.push(buffer_entry(3, STORAGE_RO, 0));
+    entries.push(buffer_entry(4, STORAGE_RO, 0));
+    entries.push(buffer_entry(
+        5,
+        wgpu::BufferBindingType::Uniform,
+        SCENE_UNIFORM_BYTES,
+    ));
+    entries
+}
+
+/// The 16 words of `LuxParams` (`common.wgsl`).
+#[derive(Debug, Clone, Copy, Default)]
+struct Params {
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+    layer: u32,
+    layer_w: u32,
+    layer_h: u32,
+    count: u32,
+    bounce: u32,
+    seed: u32,
+    radius: i32,
+    step: [i32; 2],
+    inv: f32,
+}
+
+impl Params {
+    fn bytes(&self) -> Vec<u8> {
+        let words: [u32; 16] = [
+            self.x0,
+            self.y0,
+            self.width,
+            self.height,
+            self.layer,
+            self.layer_w,
+            self.layer_h,
+            self.count,
+            self.bounce,
+            self.seed,
+            self.radius as u32,
+            self.step[0] as u32,
+            self.step[1] as u32,
+            self.inv.to_bits(),
+            0,
+            0,
+        ];
+        words.iter().flat_map(|w| w.to_le_bytes()).collect()
+    }
+}
+
+impl WgpuBackend {
+    /// A backend on the first adapter `WGPU_BACKEND` selects (every compiled-in backend, i.e.
+    /// Vulkan, when unset), with default options.
+    ///
+    /// # Errors
+    /// [`WgpuError::NoAdapter`] without a driver, [`WgpuError::RequestDevice`] if the adapter
+    /// refuses a device.
+    pub fn new() -> Result<Self> {
+        Self::with_options(WgpuOptions::default())
+    }
+
+    /// A backend with explicit options.
+    ///
+    /// # Errors
+    /// As [`WgpuBackend::new`].
+    pub fn with_options(options: WgpuOptions) -> Result<Self> {
+        let backends = options
+            .backends
+            .or_else(wgpu::Backends::from_env)
+            .unwrap_or(wgpu::Backends::all());
+        let gpu = Gpu::open(backends)?;
+        let mut pass_layouts = HashMap::new();
+        for pass in Pass::ALL {
+            let layout = gpu.scoped("bind group layouts", || {
+                gpu.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(pass.label()),
+                        entries: &pass_layout_entries(pass),
+                    })
+            })?;
+            pass_layouts.insert(pass, layout);
+        }
+        let scene_layout = gpu.scoped("bind group layouts", || {
+            gpu.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("scene"),
+                    entries: &scene_layout_entries(options.bvh_storage),
+                })
+        })?;
+        let params = gpu.scoped("pass parameters", || {
+            gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("pass parameters"),
+                size: PARAMS_BYTES,
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            })
+        })?;
+        Ok(WgpuBackend {
+            gpu,
+            options: WgpuOptions {
+                tile_work: options.tile_work.max(1),
+                ..options
+            },
+            textures: Vec::new(),
+            scenes: Vec::new(),
+            pass_layouts,
+            scene_layout,
+            pipelines: HashMap::new(),
+            params,
+        })
+    }
+
+    /// The adapter in use (name, driver, backend, device type).
+    pub fn adapter_info(&self) -> &wgpu::AdapterInfo {
+        &self.gpu.info
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &WgpuOptions {
+        &self.options
+    }
+
+    fn texture(&self, tex: &WgpuTexture) -> Result<&Texture> {
+        self.textures
+            .get(tex.0)
+            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown texture {tex:?}")))
+    }
+
+    /// Creates (once) the pipeline of `pass` for `traversal`.
+    fn pipeline(&mut self, pass: Pass, traversal: Traversal) -> Result<()> {
+        let key = (pass, traversal);
+        if self.pipelines.contains_key(&key) {
+            return Ok(());
+        }
+        let gpu = &self.gpu;
+        let source = pass.source(traversal, self.options.bvh_storage);
+        let pass_layout = self
+            .pass_layouts
+            .get(&pass)
+            .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
+        let mut groups = vec![Some(pass_layout)];
+        if pass.traces_rays() {
+            groups.push(Some(&self.scene_layout));
+        }
+        let during = format!("compiling the `{}` pipeline", pass.label());
+        let pipeline = gpu.scoped(&during, || {
+            let module = gpu
+                .device
+                .create_shader_module(wgpu::ShaderModuleDescriptor {
+                    label: Some(pass.label()),
+                    source: wgpu::ShaderSource::Wgsl(source.into()),
+                });
+            let layout = gpu
+                .device
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(pass.label()),
+                    bind_group_layouts: &groups,
+                    immediate_size: 0,
+                });
+            gpu.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(pass.label()),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        })?;
+        self.pipelines.insert(key, pipeline);
+        Ok(())
+    }
+}
+
+impl GpuBackend for WgpuBackend {
+    type Texture = WgpuTexture;
+    type Scene = WgpuScene;
+    type Error = WgpuError;
+
+    fn name(&self) -> &'static str {
+        "wgpu"
+    }
+
+    fn limits(&self) -> Limits {
+        let l = &self.gpu.limits;
+        Limits {
+            max_texture_size: l.max_texture_dimension_2d,
+            max_array_layers: l.max_texture_array_layers,
+            max_texture_units: l.max_sampled_textures_per_shader_stage,
+        }
+    }
+
+    fn create_texture(&mut self, desc: &TexDesc) -> Result<WgpuTexture> {
+        let l = &self.gpu.limits;
+        for (what, v, max) in [
+            ("texture width", desc.size[0], l.max_texture_dimension_2d),
+            ("texture height", desc.size[1], l.max_texture_dimension_2d),
+            (
+                "texture array layers",
+                desc.layers,
+                l.max_texture_array_layers,
+            ),
+        ] {
+            if v > max {
+                return Err(WgpuError::Limit {
+                    what,
+                    requested: v.into(),
+                    allowed: max.into(),
+                });
+            }
+        }
+        if desc.size[0] == 0 || desc.size[1] == 0 || desc.layers == 0 {
+            return Err(WgpuError::InvalidInput(format!(
+                "texture `{}` of size {:?} × {} layers is empty",
+                desc.label, desc.size, desc.layers
+            )));
+        }
+        let gpu = &self.gpu;
+        let (texture, view) = gpu.scoped(&format!("creating texture `{}`", desc.label), || {
+            // wgpu zero-initialises new textures, as the contract requires.
+            let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(desc.label),
+                size: wgpu::Extent3d {
+                    width: desc.size[0],
+                    height: desc.size[1],
+                    depth_or_array_layers: desc.layers,
+                },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format: wgpu::TextureFormat::Rgba32Float,
+                usage: wgpu::TextureUsages::TEXTURE_BINDING
+                    | wgpu::TextureUsages::STORAGE_BINDING
+                    | wgpu::TextureUsages::COPY_SRC
+                    | wgpu::TextureUsages::COPY_DST,
+                view_formats: &[],
+            });
+            let view = texture.create_view(&wgpu::TextureViewDescriptor {
+                dimension: Some(wgpu::TextureViewDimension::D2Array),
+                ..Default::default()
+            });
+            (texture, view)
+        })?;
+        self.textures.push(Texture {
+            label: desc.label.to_owned(),
+            texture,
+            view,
+            size: desc.size,
+            layers: desc.layers,
+        });
+        Ok(WgpuTexture(self.textures.len() - 1))
+    }
+
+    fn upload(&mut self, texture: &WgpuTexture, layer: u32, texels: &[f32]) -> Result<()> {
+        let t = self.texture(texture)?;
+        let per_layer = t.size[0] as usize * t.size[1] as usize * 4;
+        if texels.len() != per_layer {
+            return Err(WgpuError::InvalidInput(format!(
+                "upload to `{}` layer {layer}: {} floats, expected {per_layer}",
+                t.label,
+                texels.len()
+            )));
+        }
+        if layer >= t.layers {
+            return Err(WgpuError::InvalidInput(format!(
+                "upload to layer {layer} of `{}` with {} layers",
+                t.label, t.layers
+            )));
+        }
+        let gpu = &self.gpu;
+        gpu.scoped(&format!("uploading `{}`", t.label), || {
+            gpu.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &t.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                &crate::scene::bytes_of(texels),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(16 * t.size[0]),
+                    rows_per_image: Some(t.size[1]),
+                },
+                wgpu::Extent3d {
+                    width: t.size[0],
+                    height: t.size[1],
+                    depth_or_array_layers: 1,
+                },
+            );
+        })
+    }
+
+    fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<WgpuScene> {
+        let s = GpuScene::upload(
+            &self.gpu,
+            &self.scene_layout,
+            self.options.bvh_storage,
+            scene,
+        )?;
+        self.scenes.push(s);
+        Ok(WgpuScene(self.scenes.len() - 1))
+    }
+
+    fn run_pass(
+        &mut self,
+        pass: &PassDesc,
+        reads: &[&WgpuTexture],
+        writes: &[&WgpuTexture],
+        scene: &WgpuScene,
+        progress: &mut dyn FnMut(f32),
+    ) -> Result<()> {
+        let Some(kind) = Pass::of(pass.kind) else {
+            // The G-buffer is uploaded, not computed.
+            progress(1.0);
+            return Ok(());
+        };
+        if reads.len() != kind.reads() || writes.len() != 1 {
+            return Err(WgpuError::InvalidInput(format!(
+                "pass `{}`: expected {} reads and 1 write, got {} and {}",
+                pass.label,
+                kind.reads(),
+                reads.len(),
+                writes.len()
+            )));
+        }
+        if reads.iter().any(|r| r.0 == writes[0].0) {
+            return Err(WgpuError::InvalidInput(format!(
+                "pass `{}` reads the texture it writes",
+                pass.label
+            )));
+        }
+        let traversal = if kind.traces_rays() {
+            Traversal::of(pass.params.bvh)
+        } else {
+            Traversal::None
+        };
+        self.pipeline(kind, traversal)?;
+        let gpu_scene = self
+            .scenes
+            .get(scene.0)
+            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {scene:?}")))?;
+        let out = self.texture(writes[0])?;
+        if out.size != gpu_scene.layer_size {
+            return Err(WgpuError::InvalidInput(format!(
+                "pass `{}`: target size differs from the scene's layer size",
+                pass.label
+            )));
+        }
+        let mut inputs = Vec::with_capacity(reads.len());
+        for r in reads {
+            let t = self.texture(r)?;
+            if (t.size, t.layers) != (out.size, out.layers) {
+                return Err(WgpuError::InvalidInput(format!(
+                    "pass `{}`: input `{}` differs in size from the target",
+                    pass.label, t.label
+                )));
+            }
+            inputs.push(t);
+        }
+        let gpu = &self.gpu;
+        let lamps = match pass.kind {
+            PassKind::Direct => Some(gpu_scene.lamp_buffer(gpu, &pass.params.lamps)?),
+            _ => None,
+        };
+        let mut params = Params {
+            layer_w: out.size[0],
+            layer_h: out.size[1],
+            ..Params::default()
+        };
+        let work = match pass.kind {
+            PassKind::Direct => {
+                let n = lamps.as_ref().map_or(0, |(_, n)| *n);
+                params.count = n;
+                u64::from(n)
+            }
+            PassKind::Gather { bounce } => {
+                params.count = pass.params.rays;
+                params.bounce = bounce;
+                params.seed = pass.params.seed;
+                u64::from(pass.params.rays)
+            }
+            PassKind::Blur { axis, sigma } => {
+                // Exactly cpu::blur_texel's radius and exponent factor.
+                let radius = ((3.0 * sigma).ceil() as i32).clamp(0, luxbake::cpu::MAX_BLUR_RADIUS);
+                params.radius = radius;
+                params.step = match axis {
+                    Axis::U => [1, 0],
+                    Axis::V => [0, 1],
+                };
+                params.inv = -0.5 / (sigma * sigma);
+                u64::from(radius.unsigned_abs()) * 2 + 1
+            }
+            _ => 1,
+        };
+        let pipeline = self
+            .pipelines
+            .get(&(kind, traversal))
+            .ok_or_else(|| WgpuError::InvalidInput("pipeline cache".into()))?;
+        let pass_layout = self
+            .pass_layouts
+            .get(&kind)
+            .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
+        let mut entries: Vec<wgpu::BindGroupEntry<'_>> = inputs
+            .iter()
+            .enumerate()
+            .map(|(i, t)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: wgpu::BindingResource::TextureView(&t.view),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: OUT_BINDING,
+            resource: wgpu::BindingResource::TextureView(&out.view),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: PARAMS_BINDING,
+            resource: self.params.as_entire_binding(),
+        });
+        if let Some((buffer, _)) = &lamps {
+            entries.push(wgpu::BindGroupEntry {
+                binding: LAMPS_BINDING,
+                resource: buffer.as_entire_binding(),
+            });
+        }
+        let during = format!("pass `{}`", pass.label);
+        let group = gpu.scoped(&during, || {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(pass.label),
+                layout: pass_layout,
+                entries: &entries,
+            })
+        })?;
+        let scene_group = match pass.params.bvh {
+            luxbake::scene::BvhMode::Mtbvh => &gpu_scene.mtbvh,
+            _ => &gpu_scene.tbvh,
+        };
+
+        // Row tiles of about tile_work evaluations, one submission each, waited for: honest
+        // progress, no unbounded queue of GPU work and no dispatch long enough for a watchdog.
+        let [w, h] = out.size;
+        let per_row = u64::from(w) * work.max(1);
+        let rows =
+            u32::try_from((self.options.tile_work / per_row).clamp(1, u64::from(h))).unwrap_or(h);
+        let tiles_per_layer = h.div_ceil(rows);
+        let total = (u64::from(tiles_per_layer) * u64::from(out.layers)).max(1);
+        let mut done = 0u64;
+        for layer in 0..out.layers {
+            for tile in 0..tiles_per_layer {
+                let y0 = tile * rows;
+                let tile_rows = rows.min(h - y0);
+                params.layer = layer;
+                params.y0 = y0;
+                params.width = w;
+                params.height = tile_rows;
+                gpu.scoped(&during, || {
+                    gpu.queue.write_buffer(&self.params, 0, &params.bytes());
+                    let mut encoder =
+                        gpu.device
+                            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                                label: Some(pass.label),
+                            });
+                    {
+                        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                            label: Some(pass.label),
+                            timestamp_writes: None,
+                        });
+                        cpass.set_pipeline(pipeline);
+                        cpass.set_bind_group(0, &group, &[]);
+                        if kind.traces_rays() {
+                            cpass.set_bind_group(1, scene_group, &[]);
+                        }
+                        cpass.dispatch_workgroups(
+                            w.div_ceil(WORKGROUP),
+                            tile_rows.div_ceil(WORKGROUP),
+                            1,
+                        );
+                    }
+                    gpu.queue.submit([encoder.finish()]);
+                })?;
+                gpu.wait(&during)?;
+                done += 1;
+                progress(done as f32 / total as f32);
+            }
+        }
+        Ok(())
+    }
+
+    fn read_back(&mut self, texture: &WgpuTexture, layer: u32) -> Result<Vec<f32>> {
+        let t = self.texture(texture)?;
+        if layer >= t.layers {
+            return Err(WgpuError::InvalidInput(format!(
+                "read-back of layer {layer} of `{}` with {} layers",
+                t.label, t.layers
+            )));
+        }
+        let [w, h] = t.size;
+        let row = 16 * w as usize;
+        let padded = row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize)
+            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
+        let gpu = &self.gpu;
+        let during = format!("reading back `{}`", t.label);
+        let buffer = gpu.scoped(&during, || {
+            let buffer = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("read-back"),
+                size: (padded * h as usize) as u64,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            });
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                    label: Some("read-back"),
+                });
+            encoder.copy_texture_to_buffer(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &t.texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                wgpu::TexelCopyBufferInfo {
+                    buffer: &buffer,
+                    layout: wgpu::TexelCopyBufferLayout {
+                        offset: 0,
+                        bytes_per_row: Some(padded as u32),
+                        rows_per_image: Some(h),
+                    },
+                },
+                wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+            );
+            gpu.queue.submit([encoder.finish()]);
+            buffer
+        })?;
+        let status = std::sync::Arc::new(std::sync::Mutex::new(None));
+        let slot = std::sync::Arc::clone(&status);
+        buffer.slice(..).map_async(wgpu::MapMode::Read, move |r| {
+            if let Ok(mut g) = slot.lock() {
+                *g = Some(r);
+            }
+        });
+        gpu.wait(&during)?;
+        let mapped = status.lock().ok().and_then(|mut g| g.take());
+        match mapped {
+            Some(Ok(())) => {}
+            Some(Err(e)) => {
+                return Err(WgpuError::Wait {
+                    during,
+                    reason: e.to_string(),
+                });
+            }
+            None => {
+                return Err(WgpuError::Wait {
+                    during,
+                    reason: "the buffer was not mapped after the queue went idle".into(),
+                });
+            }
+        }
+        let mut out = Vec::with_capacity(4 * w as usize * h as usize);
+        {
+            let data = buffer
+                .slice(..)
+                .get_mapped_range()
+                .map_err(|e| WgpuError::Wait {
+                    during: during.clone(),
+                    reason: e.to_string(),
+                })?;
+            for y in 0..h as usize {
+                let bytes = data.get(y * padded..y * padded + row).unwrap_or(&[]);
+                out.extend(
+                    bytes
+                        .chunks_exact(4)
+                        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
+                );
+            }
+        }
+        buffer.unmap();
+        Ok(out)
+    }
+}

@@ -1,0 +1,62 @@
+//! # luxbake-backend-wgpu
+//!
+//! luxbake's wgpu backend: the paper's pass graph (Figure 4) as WGSL compute shaders, headless,
+//! on any wgpu adapter — Mesa's lavapipe Vulkan driver in CI, a desktop GPU's Vulkan driver
+//! elsewhere. It produces the same light maps as the CPU reference backend
+//! ([`luxbake::cpu`], the oracle) and the glow backend, pass for pass; the workspace's
+//! cross-backend harness (`tests/`) diffs every stage of every backend pair.
+//!
+//! ## Contract
+//! [`WgpuBackend`] implements [`luxbake::GpuBackend`]: RGBA32F texture arrays (texels row 0
+//! first, alpha = texel mask), one compute pipeline per pass kind and traversal, executed in
+//! the graph's order. Each pass computes what `luxbake::cpu` documents, with the same f32
+//! operations in the same order, the same RNG hash (`luxbake::rng`, bit-exact in `rng.wgsl`)
+//! and the same acos/atan2 polynomials as the glow backend (the driver's are far from libm).
+//! Units are those of the core: lux before albedo, lm/m² after.
+//!
+//! ## Shaders
+//! One WGSL file per pass in `shaders/`, side by side, plus library files (`common`, `rng`,
+//! `scene`, `bvh`, `ies`); every module is prefixed with constants generated from
+//! `luxbake_bvh::layout::wgsl_constants()` and `luxbake::cpu`'s blur constants, so they cannot
+//! drift, and every module is validated with naga (the validator wgpu runs) in a unit test.
+//! Passes are compute shaders (8 × 8 workgroups) that read inputs with `textureLoad` and write
+//! one layer of a write-only `rgba32float` storage texture.
+//!
+//! ## BVH in storage buffers (measured choice)
+//! The encoded BVH ([`luxbake_bvh::EncodedScene`]) is uploaded unchanged either as storage
+//! buffers (`array<vec4<f32>>`, index `(layer·h + y)·w + x`) or as the paper's texture arrays
+//! ([`BvhStorage`]). Both are implemented behind the same three fetch functions and give
+//! identical images; on lavapipe the buffers were faster for the ray-casting passes (see the
+//! numbers in `benches/passes.rs`' docs and the project notes), and WebGPU's limits on storage
+//! buffers (8 per stage, 128 MiB per binding by default) are far above what a scene needs, so
+//! buffers are the default.
+//!
+//! ## Long passes, progress, errors
+//! A pass is split into row tiles of about [`DEFAULT_TILE_WORK`] texel × ray evaluations, one
+//! queue submission each, waited for before the next: no dispatch runs long enough for a GPU
+//! watchdog, and `progress` is called after every tile. A missing adapter, a refused device,
+//! a lost device, out-of-memory and validation failures are [`WgpuError`] values with a clear
+//! message (error scopes around every call, a device-lost callback and an uncaptured-error
+//! handler that only record), never panics.
+//!
+//! ## Drivers and environment
+//! - This build compiles wgpu's **Vulkan** backend only (lean: no GL, Metal or DX12 code).
+//!   On Linux without a GPU, install Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`
+//!   (brings `libvulkan1`). `WGPU_BACKEND=vulkan` selects it explicitly; the adapter is
+//!   `llvmpipe (LLVM …)`, device type `Cpu`.
+//! - wgpu's **GL** backend (if a build enables wgpu's `gles` feature) picks desktop GL on Mesa,
+//!   whose llvmpipe does not advertise `GL_ARB_color_buffer_float`, which wgpu requires to
+//!   render to or store into `Rgba32Float`; run with
+//!   `MESA_EXTENSION_OVERRIDE=+GL_ARB_color_buffer_float` there.
+#![warn(missing_docs)]
+
+mod backend;
+mod device;
+mod error;
+mod scene;
+mod shaders;
+
+pub use backend::{DEFAULT_TILE_WORK, WgpuBackend, WgpuOptions, WgpuScene, WgpuTexture};
+pub use error::{Result, WgpuError};
+pub use shaders::BvhStorage;
+pub use wgpu;

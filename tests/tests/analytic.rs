@@ -1,0 +1,166 @@
+//! The core's closed-form checks on every GPU backend (blur off where a closed form is
+//! compared): the floor under an isotropic lamp within 0.5 %, the closed sphere's
+//! inter-reflection series `E = (I/R²)·Σ_{i≤k} ρ^i` within 1 %. Each test prints the errors
+//! it measured. (The CPU backend's own checks live in the core crate.)
+
+use std::sync::Arc;
+
+use luxbake::bake::{BakeOutput, ObjectMaps};
+use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::map::MapImage;
+use luxbake::meshes;
+use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
+use luxbake_ies::Photometry;
+use luxbake_tests::Backend;
+
+const I0: f64 = 1000.0;
+const GPU: [Backend; 2] = [Backend::Glow, Backend::Wgpu];
+
+fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
+    Settings {
+        rays,
+        bounces,
+        blur: Blur::None,
+        texels_per_metre,
+        ..Settings::default()
+    }
+}
+
+/// Every valid texel of one object's map: (world position, RGBA).
+fn texels<'a>(
+    g: &'a GBuffer,
+    maps: &'a ObjectMaps,
+    map: &'a MapImage,
+) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
+    let r = maps.region;
+    (0..r.size[1]).flat_map(move |y| {
+        (0..r.size[0]).filter_map(move |x| {
+            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
+            let p = &g.position[i..i + 4];
+            (p[3] > 0.5).then(|| {
+                let p = [p[0], p[1], p[2]].map(f64::from);
+                (p, map.texel(x, y))
+            })
+        })
+    })
+}
+
+/// Largest and mean relative error.
+#[derive(Debug, Default)]
+struct Err {
+    max: f64,
+    sum: f64,
+    n: usize,
+}
+
+impl Err {
+    fn add(&mut self, got: f64, want: f64) {
+        let e = (got - want).abs() / want.abs();
+        self.max = self.max.max(e);
+        self.sum += e;
+        self.n += 1;
+    }
+
+    fn mean(&self) -> f64 {
+        self.sum / self.n.max(1) as f64
+    }
+}
+
+fn run(backend: Backend, test: &str, scene: &Scene) -> Option<BakeOutput> {
+    let mut b = backend.open(test)?;
+    let out = b
+        .bake(scene, &scene.settings, &mut |_| {})
+        .unwrap_or_else(|e| panic!("{test}: {} bake: {e}", backend.name()));
+    for m in &out.maps {
+        for stage in m.stages.iter().flatten() {
+            assert!(
+                stage.texels.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{}",
+                m.name
+            );
+        }
+    }
+    Some(out)
+}
+
+#[test]
+fn floor_inverse_square_cosine_on_every_gpu_backend() {
+    let h = 2.0f64;
+    let mut scene = Scene::builtin_with_settings("floor", settings(8.0, 0, 1)).expect("floor");
+    scene.lamps = vec![Lamp::new(
+        "iso",
+        Arc::new(Photometry::isotropic(I0)),
+        [0.0, h as f32, 0.0],
+    )];
+    for backend in GPU {
+        let Some(out) = run(backend, "floor_inverse_square_cosine", &scene) else {
+            continue;
+        };
+        let g = rasterize(&scene, &out.layout);
+        let maps = &out.maps[0];
+        let mut err = Err::default();
+        for (p, t) in texels(&g, maps, maps.illuminance()) {
+            let r2 = p[0] * p[0] + p[2] * p[2];
+            let dy = h - p[1];
+            let want = I0 * dy / (dy * dy + r2).powf(1.5);
+            for v in &t[..3] {
+                err.add(f64::from(*v), want);
+            }
+        }
+        println!(
+            "{} floor isotropic: {} texel channels, max rel err {:.2e}, mean {:.2e}",
+            backend.name(),
+            err.n,
+            err.max,
+            err.mean()
+        );
+        assert!(err.n > 10_000, "{}", backend.name());
+        assert!(err.max < 0.005, "{}: {err:?}", backend.name());
+    }
+}
+
+#[test]
+fn closed_sphere_interreflection_series_on_every_gpu_backend() {
+    let (r, rho) = (1.0f64, 0.5f64);
+    for backend in GPU {
+        for k in 0..=3u32 {
+            let density = 12.0 / r as f32;
+            let scene = Scene {
+                objects: vec![Object {
+                    name: "sphere".into(),
+                    mesh: meshes::sphere(r as f32, 128, true, 4.0 / density),
+                    transform: Transform::IDENTITY,
+                    albedo: Albedo::grey(rho as f32),
+                    receiver: true,
+                    texel_scale: 1.0,
+                }],
+                lamps: vec![Lamp::new(
+                    "iso",
+                    Arc::new(Photometry::isotropic(I0)),
+                    [0.0; 3],
+                )],
+                settings: settings(density, k, 16),
+            };
+            let Some(out) = run(backend, "closed_sphere_interreflection_series", &scene) else {
+                break;
+            };
+            assert_eq!(out.report.bounces_run, k);
+            let g = rasterize(&scene, &out.layout);
+            let maps = &out.maps[0];
+            let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
+            let mut err = Err::default();
+            for (_, t) in texels(&g, maps, maps.illuminance()) {
+                err.add(f64::from(t[0]), want);
+            }
+            println!(
+                "{} sphere k={k}: {} texels, E want {want:.3} lux, max rel err {:.2e}, mean {:.2e}",
+                backend.name(),
+                err.n,
+                err.max,
+                err.mean()
+            );
+            assert!(err.n > 1000, "{}", backend.name());
+            assert!(err.max < 0.01, "{} k={k}: {err:?}", backend.name());
+        }
+    }
+}

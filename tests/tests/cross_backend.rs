@@ -1,0 +1,73 @@
+//! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
+//! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere`, with the tolerances of
+//! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
+//! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
+//! fails in CI.
+
+use luxbake::graph::Figure5;
+use luxbake::scene::Scene;
+use luxbake_tests::{Backend, Pair, SCENES, SceneCase, compare, settings};
+
+fn run(case: &SceneCase) {
+    let test = format!("cross_backend::{}", case.scene);
+    let settings = settings();
+    let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
+    let mut outputs = Vec::new();
+    for b in Backend::ALL {
+        if let Some(mut opened) = b.open(&test) {
+            let out = opened
+                .bake(&scene, &settings, &mut |_| {})
+                .unwrap_or_else(|e| panic!("{test}: {} bake failed: {e}", b.name()));
+            outputs.push((b, out));
+        }
+    }
+    let mut failures = Vec::new();
+    let mut compared = 0;
+    for pair in Pair::ALL {
+        let find = |b: Backend| outputs.iter().find(|(k, _)| *k == b).map(|(_, o)| o);
+        let (Some(e), Some(a)) = (find(pair.expected), find(pair.actual)) else {
+            continue;
+        };
+        compared += 1;
+        let (reports, f) = compare(pair, case, e, a);
+        for r in &reports {
+            println!(
+                "{:<13} {:<9} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}  (tol {:.0e} / {:.0e})",
+                pair.name(),
+                case.scene,
+                r.stage + 1,
+                Figure5::NAMES[r.stage],
+                r.stats.texels,
+                r.stats.rel_rmse,
+                r.stats.p99,
+                r.stats.max,
+                r.tolerance.rel_rmse,
+                r.tolerance.p99,
+            );
+        }
+        failures.extend(f);
+    }
+    println!("{test}: {compared} backend pairs compared");
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+#[test]
+fn chairs_01_every_stage_agrees_across_backends() {
+    run(&SCENES[0]);
+}
+
+#[test]
+fn floor_every_stage_agrees_across_backends() {
+    run(&SCENES[1]);
+}
+
+#[test]
+fn sphere_every_stage_agrees_across_backends() {
+    run(&SCENES[2]);
+}
+
+#[test]
+fn the_table_covers_the_three_scenes() {
+    let names: Vec<_> = SCENES.iter().map(|c| c.scene).collect();
+    assert_eq!(names, ["chairs_01", "floor", "sphere"]);
+}
