@@ -12,7 +12,9 @@
 //!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
 //!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o = p + n̂·ε` with
 //!   `ε = min(SceneData::ray_epsilon, d/4)`, direction `L − o` (unnormalised), any hit with
-//!   `t ∈ (0, 1 − ε/|L − o|)`: occluded lamps contribute 0. Else `E += I·cos θ / max(d², ε²)`.
+//!   `t ∈ (0, 1 − ε/|L − o|)`: occluded lamps contribute 0. Else
+//!   `E += I·cos θ / max(d², ε_s²)`, `ε_s = SceneData::ray_epsilon` (a lamp closer to a texel
+//!   than the scene's epsilon counts as that far: finite, never a division by zero).
 //!   Output `(E, 1)`; invalid texels `(0, 0, 0, 0)`.
 //! - **Copy**: `a`.
 //! - **Blur** (axis, σ): radius `R = min(⌈3σ⌉, 64)` texels along the axis; taps `k ∈ [−R, R]`
@@ -289,7 +291,7 @@ fn direct_texel(
         {
             continue;
         }
-        let k = intensity * cos / d2.max(eps * eps);
+        let k = intensity * cos / d2.max(scene.ray_epsilon * scene.ray_epsilon);
         for (ec, sc) in e.iter_mut().zip(lamp.scale) {
             *ec += k * sc;
         }
@@ -713,6 +715,69 @@ mod tests {
         // E[cos θ] under p(ω) = cos θ / π is 2/3.
         let m = mean_cos / f64::from(count);
         assert!((m - 2.0 / 3.0).abs() < 0.01, "{m}");
+    }
+
+    fn one_triangle_scene(lamp: [f32; 3]) -> CpuScene {
+        use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
+        let tris = vec![[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 0.0]]];
+        let attrs = vec![TriangleAttributes {
+            normals: [[0.0, 1.0, 0.0]; 3],
+            uvs: [[0.0, 0.0], [0.0, 1.0], [1.0, 0.5]],
+            object: 0,
+        }];
+        let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
+        let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
+        CpuScene {
+            bvh: enc,
+            lamps: vec![LampParams {
+                position: lamp,
+                world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
+                scale: [1.0; 3],
+                table: 0,
+            }],
+            tables: vec![luxbake_ies::Photometry::isotropic(1e6).gpu_table()],
+            regions: vec![None],
+            layer_size: [1, 1],
+            ray_epsilon: crate::backend::ray_epsilon(1.0),
+        }
+    }
+
+    #[test]
+    fn direct_stays_finite_for_a_lamp_on_or_next_to_the_surface() {
+        let p = [0.0, 0.0, 0.0, 1.0];
+        let n = [0.0, 1.0, 0.0, 0.0];
+        for (lamp, expect_lit) in [
+            ([0.0, 0.0, 0.0], false),
+            ([0.0, 1e-9, 0.0], true),
+            ([0.0, 1e-3, 0.0], true),
+            // |to|² underflows to 0: the lamp is on the texel, which it does not light.
+            ([1e-30, 1e-30, 0.0], false),
+            ([1e-20, 1e-20, 0.0], true),
+            ([0.0, -1e-3, 0.0], false),
+        ] {
+            let scene = one_triangle_scene(lamp);
+            let e = direct_texel(&scene, &[0], Traversal::BruteForce, p, n);
+            assert!(
+                e.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{lamp:?}: {e:?}"
+            );
+            assert_eq!(e[0] > 0.0, expect_lit, "{lamp:?}: {e:?}");
+            // Never more than I / ε².
+            let eps = scene.ray_epsilon;
+            assert!(
+                f64::from(e[0]) <= 1e6 / f64::from(eps * eps) * 1.0001,
+                "{e:?}"
+            );
+        }
+        // 1 mm above: I / d² exactly (cos = 1).
+        let e = direct_texel(
+            &one_triangle_scene([0.0, 1e-3, 0.0]),
+            &[0],
+            Traversal::Mtbvh,
+            p,
+            n,
+        );
+        assert!((f64::from(e[0]) - 1e12).abs() < 1e12 * 1e-5, "{e:?}");
     }
 
     #[test]
