@@ -1,0 +1,430 @@
+//! glTF 2.0 export: a baked scene with its light maps ([`export_baked`]), or a scene as it
+//! goes into a bake ([`export_scene`]), as one binary `.glb`.
+//!
+//! # What is written
+//! - One node per object (its transform as a column-major `matrix`), one mesh with one
+//!   triangle primitive: `POSITION`, `NORMAL`, `TEXCOORD_0` (material UVs, when the mesh has
+//!   them), **`TEXCOORD_1` (the light-map UVs)**, `COLOR_0` (vertex albedo, when present),
+//!   32-bit indices.
+//! - One material per object: `baseColorFactor` = the albedo factor, `baseColorTexture` = the
+//!   albedo texture (sRGB PNG, on `TEXCOORD_0`), metallic 0, roughness 1 (Lambertian).
+//! - Baked scenes: per receiver a light-map PNG embedded in the `.glb` (as an image and a
+//!   texture that no core material slot uses) and a linear EXR written beside the `.glb`
+//!   (`<stem>_<object>_lux.exr`: RGBA 32-bit float, RGB illuminance in lux before albedo,
+//!   alpha 1 on texels that lie on the surface). The material's `extras` say where they are:
+//!
+//! ```json
+//! "extras": { "luxbake": { "lightMap": { "index": 3, "texCoord": 1 },
+//!                          "exr": "room_chair_01_lux.exr", "luxPerUnit": 412.5,
+//!                          "quantity": "illuminance_lux" } }
+//! ```
+//!   The PNG stores `E / luxPerUnit` (clamped to 1) sRGB-encoded, the same `luxPerUnit` for
+//!   the whole scene (the 99th percentile of the illuminance), with empty texels filled from
+//!   their neighbours so bilinear filtering does not darken chart edges.
+//! - Lamps: one node per lamp at its position, and `scene.extras.luxbake.lamps`, each with
+//!   `name`, `position`, `aim`, `rotationDeg`, `multiplier`, `color` and `peakCandela`
+//!   (the node's `extras` hold the same object). Bake settings go to `asset.extras.luxbake`.
+//!
+//! # Using the light maps
+//! - **three.js**: `GLTFLoader` puts the extras in `material.userData.luxbake`; load the
+//!   texture with `parser.getDependency('texture', userData.luxbake.lightMap.index)`, set
+//!   `texture.channel = 1` (it reads `uv1`, i.e. `TEXCOORD_1`), `texture.flipY = false`,
+//!   `texture.colorSpace = THREE.SRGBColorSpace`, then `material.lightMap = texture`. three.js
+//!   treats a light map as irradiance and shades `lightMap · lightMapIntensity · albedo / π`,
+//!   so `lightMapIntensity = π` shows a white PNG texel as the full albedo; for physical
+//!   units use `luxPerUnit` times your exposure (display value per cd/m² × π).
+//! - **Babylon.js**: the extras arrive in `material.metadata.gltf.extras.luxbake`; use the
+//!   texture of that index as `material.lightmapTexture`, with
+//!   `lightmapTexture.coordinatesIndex = 1` and `material.useLightmapAsShadowmap = false`.
+//! - **Blender** and other tools: `TEXCOORD_1` imports as the second UV map; the lamps'
+//!   positions are in the lamp nodes' extras (custom properties).
+
+use std::path::{Path, PathBuf};
+
+use luxbake::bake::BakeOutput;
+use luxbake::map::MapImage;
+use luxbake::scene::{Object, Scene};
+use serde_json::{Value, json};
+
+use crate::AssetError;
+
+/// What [`export_baked`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportReport {
+    /// The `.glb`.
+    pub glb: PathBuf,
+    /// The EXR files written beside it.
+    pub exr: Vec<PathBuf>,
+    /// Illuminance (lux) that a PNG value of 1 stands for.
+    pub lux_per_unit: f32,
+}
+
+/// Writes `scene` (meshes, albedo, light-map UVs, lamps in `extras`) as a `.glb`, without
+/// light maps: the same scene another tool can bake.
+pub fn export_scene(scene: &Scene, path: &Path) -> Result<(), AssetError> {
+    let glb = encode(scene, None, path)?;
+    write(path, &glb.bytes)
+}
+
+/// Writes a baked scene as a `.glb` at `path` with a PNG light map per receiver inside it,
+/// and the linear EXR light maps beside it (see the module docs).
+pub fn export_baked(
+    scene: &Scene,
+    output: &BakeOutput,
+    path: &Path,
+) -> Result<ExportReport, AssetError> {
+    let glb = encode(scene, Some(output), path)?;
+    write(path, &glb.bytes)?;
+    let dir = path.parent().unwrap_or(Path::new("."));
+    let mut exr = Vec::new();
+    for (name, bytes) in glb.side_files {
+        let p = dir.join(name);
+        write(&p, &bytes)?;
+        exr.push(p);
+    }
+    Ok(ExportReport {
+        glb: path.to_path_buf(),
+        exr,
+        lux_per_unit: glb.lux_per_unit,
+    })
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
+    std::fs::write(path, bytes).map_err(|source| AssetError::Io {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// An encoded `.glb` and the files that go beside it.
+struct Encoded {
+    bytes: Vec<u8>,
+    side_files: Vec<(String, Vec<u8>)>,
+    lux_per_unit: f32,
+}
+
+/// The binary chunk under construction.
+#[derive(Default)]
+struct Bin {
+    data: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl Bin {
+    fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+        while !self.data.len().is_multiple_of(4) {
+            self.data.push(0);
+        }
+        let mut v =
+            json!({ "buffer": 0, "byteOffset": self.data.len(), "byteLength": bytes.len() });
+        if let Some(t) = target {
+            v["target"] = json!(t);
+        }
+        self.data.extend_from_slice(bytes);
+        self.views.push(v);
+        self.views.len() - 1
+    }
+
+    fn floats<const N: usize>(&mut self, items: &[[f32; N]], kind: &str, min_max: bool) -> usize {
+        let bytes: Vec<u8> = items
+            .iter()
+            .flatten()
+            .flat_map(|f| f.to_le_bytes())
+            .collect();
+        let view = self.view(&bytes, Some(34962));
+        let mut a = json!({ "bufferView": view, "componentType": 5126, "count": items.len(), "type": kind });
+        if min_max {
+            let mut lo = [f32::INFINITY; N];
+            let mut hi = [f32::NEG_INFINITY; N];
+            for it in items {
+                for k in 0..N {
+                    lo[k] = lo[k].min(it[k]);
+                    hi[k] = hi[k].max(it[k]);
+                }
+            }
+            a["min"] = json!(lo.to_vec());
+            a["max"] = json!(hi.to_vec());
+        }
+        self.accessors.push(a);
+        self.accessors.len() - 1
+    }
+
+    fn indices(&mut self, tris: &[[u32; 3]]) -> usize {
+        let bytes: Vec<u8> = tris
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect();
+        let view = self.view(&bytes, Some(34963));
+        self.accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": tris.len() * 3, "type": "SCALAR" }));
+        self.accessors.len() - 1
+    }
+}
+
+/// Fills empty texels (alpha 0) from valid neighbours, `passes` times.
+fn dilate(map: &MapImage, passes: u32) -> MapImage {
+    let mut m = map.clone();
+    let (w, h) = (m.width as i64, m.height as i64);
+    for _ in 0..passes {
+        let prev = m.clone();
+        let mut changed = false;
+        for y in 0..h {
+            for x in 0..w {
+                if prev.texel(x as u32, y as u32)[3] > 0.5 {
+                    continue;
+                }
+                let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
+                for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
+                    let (nx, ny) = (x + dx, y + dy);
+                    if nx >= 0 && ny >= 0 && nx < w && ny < h {
+                        let t = prev.texel(nx as u32, ny as u32);
+                        if t[3] > 0.5 {
+                            for k in 0..3 {
+                                sum[k] += t[k];
+                            }
+                            n += 1.0;
+                        }
+                    }
+                }
+                if n > 0.0 {
+                    let i = 4 * (y * w + x) as usize;
+                    if let Some(t) = m.texels.get_mut(i..i + 4) {
+                        t.copy_from_slice(&[sum[0] / n, sum[1] / n, sum[2] / n, 1.0]);
+                        changed = true;
+                    }
+                }
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    m
+}
+
+/// The scene-wide PNG scale: the 99th percentile of valid illuminance channels (≥ 1e-6).
+fn lux_per_unit(output: &BakeOutput) -> f32 {
+    let mut v: Vec<f32> = output
+        .maps
+        .iter()
+        .flat_map(|m| m.illuminance().valid_rgb())
+        .flat_map(|c| c.into_iter())
+        .filter(|x| x.is_finite())
+        .collect();
+    if v.is_empty() {
+        return 1.0;
+    }
+    let k = ((v.len() - 1) as f64 * 0.99) as usize;
+    let (_, p, _) = v.select_nth_unstable_by(k, f32::total_cmp);
+    p.max(1e-6)
+}
+
+fn lightmap_png(map: &MapImage, scale: f32, path: &Path) -> Result<Vec<u8>, AssetError> {
+    let filled = dilate(map, 16);
+    let mut rgb = Vec::with_capacity(3 * filled.width as usize * filled.height as usize);
+    for y in 0..filled.height {
+        for x in 0..filled.width {
+            let t = filled.texel(x, y);
+            for c in &t[..3] {
+                rgb.push(crate::image::linear_to_srgb(c / scale));
+            }
+        }
+    }
+    crate::image::encode_rgb_png(filled.width.max(1), filled.height.max(1), &rgb).map_err(
+        |message| AssetError::Export {
+            path: path.to_path_buf(),
+            message,
+        },
+    )
+}
+
+fn stem(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| luxbake::output::file_stem(&s.to_string_lossy()))
+        .unwrap_or_else(|| "scene".into())
+}
+
+fn matrix(o: &Object) -> Vec<f32> {
+    let l = &o.transform.linear;
+    let t = o.transform.translation;
+    vec![
+        l[0][0], l[0][1], l[0][2], 0.0, l[1][0], l[1][1], l[1][2], 0.0, l[2][0], l[2][1], l[2][2],
+        0.0, t[0], t[1], t[2], 1.0,
+    ]
+}
+
+fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Encoded, AssetError> {
+    scene.validate().map_err(|e| AssetError::Export {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    let mut bin = Bin::default();
+    let (mut nodes, mut meshes, mut materials, mut images, mut textures) = (
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::new(),
+        Vec::<Value>::new(),
+    );
+    let mut side_files = Vec::new();
+    let scale = output.map_or(1.0, lux_per_unit);
+    let file_stem = stem(path);
+    let mut albedo_textures: Vec<(*const luxbake::scene::AlbedoTexture, usize)> = Vec::new();
+    for (oi, o) in scene.objects.iter().enumerate() {
+        let m = &o.mesh;
+        let mut attributes = serde_json::Map::new();
+        attributes.insert(
+            "POSITION".into(),
+            json!(bin.floats(&m.positions, "VEC3", true)),
+        );
+        attributes.insert(
+            "NORMAL".into(),
+            json!(bin.floats(&m.normals, "VEC3", false)),
+        );
+        if let Some(uv0) = &m.material_uvs {
+            attributes.insert("TEXCOORD_0".into(), json!(bin.floats(uv0, "VEC2", false)));
+        }
+        attributes.insert(
+            "TEXCOORD_1".into(),
+            json!(bin.floats(&m.lightmap_uvs, "VEC2", false)),
+        );
+        if let Some(c) = &m.colors {
+            attributes.insert("COLOR_0".into(), json!(bin.floats(c, "VEC3", false)));
+        }
+        let indices = bin.indices(&m.indices);
+        let f = o.albedo.factor;
+        let mut pbr = json!({ "baseColorFactor": [f[0], f[1], f[2], 1.0], "metallicFactor": 0.0, "roughnessFactor": 1.0 });
+        if let Some(t) = &o.albedo.texture
+            && m.material_uvs.is_some()
+        {
+            let key = std::sync::Arc::as_ptr(t);
+            let tex = match albedo_textures.iter().find(|(k, _)| *k == key) {
+                Some(&(_, i)) => i,
+                None => {
+                    let png = crate::image::encode_albedo_png(t).map_err(|message| {
+                        AssetError::Export {
+                            path: path.to_path_buf(),
+                            message,
+                        }
+                    })?;
+                    let view = bin.view(&png, None);
+                    images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": format!("{}_albedo", o.name) }));
+                    textures.push(json!({ "source": images.len() - 1 }));
+                    albedo_textures.push((key, textures.len() - 1));
+                    textures.len() - 1
+                }
+            };
+            pbr["baseColorTexture"] = json!({ "index": tex, "texCoord": 0 });
+        }
+        let mut material = json!({ "name": o.name, "pbrMetallicRoughness": pbr });
+        if let Some(out) = output
+            && let Some(maps) = out.maps.iter().find(|mp| mp.object == oi)
+        {
+            let lm = maps.illuminance();
+            let png = lightmap_png(lm, scale, path)?;
+            let view = bin.view(&png, None);
+            images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": format!("{}_lightmap", o.name) }));
+            textures.push(
+                json!({ "source": images.len() - 1, "name": format!("{}_lightmap", o.name) }),
+            );
+            let exr_name = format!(
+                "{file_stem}_{}_lux.exr",
+                luxbake::output::file_stem(&o.name)
+            );
+            let exr = luxbake::output::encode_exr(lm).map_err(|e| AssetError::Export {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
+            side_files.push((exr_name.clone(), exr));
+            material["extras"] = json!({ "luxbake": {
+                "lightMap": { "index": textures.len() - 1, "texCoord": 1 },
+                "exr": exr_name,
+                "luxPerUnit": scale,
+                "quantity": "illuminance_lux",
+                "size": [lm.width, lm.height],
+            }});
+        }
+        materials.push(material);
+        meshes.push(json!({ "name": o.name, "primitives": [{ "attributes": attributes, "indices": indices, "material": materials.len() - 1, "mode": 4 }] }));
+        nodes.push(
+            json!({ "name": o.name, "mesh": meshes.len() - 1, "matrix": matrix(o),
+            "extras": { "luxbake": { "receiver": o.receiver, "texelScale": o.texel_scale } } }),
+        );
+    }
+    let mut lamps = Vec::new();
+    for l in &scene.lamps {
+        let peak = l
+            .photometry
+            .vertical_angles()
+            .iter()
+            .flat_map(|&v| {
+                l.photometry
+                    .horizontal_angles()
+                    .iter()
+                    .map(move |&h| (v, h))
+                    .collect::<Vec<_>>()
+            })
+            .map(|(v, h)| l.photometry.intensity_at(v, h))
+            .fold(0.0f64, f64::max);
+        let info = json!({
+            "name": l.name, "position": l.position, "aim": l.aim, "rotationDeg": l.rotation_deg,
+            "multiplier": l.multiplier, "color": l.color, "peakCandela": peak,
+        });
+        nodes.push(json!({ "name": format!("lamp_{}", l.name), "translation": l.position, "extras": { "luxbake": { "lamp": info.clone() } } }));
+        lamps.push(info);
+    }
+    let s = &scene.settings;
+    let mut root = json!({
+        "asset": { "version": "2.0", "generator": concat!("luxbake-assets ", env!("CARGO_PKG_VERSION")),
+            "extras": { "luxbake": { "texelsPerMetre": s.texels_per_metre, "rays": s.rays, "bounces": s.bounces,
+                "baked": output.is_some() } } },
+        "scene": 0,
+        "scenes": [{ "nodes": (0..nodes.len()).collect::<Vec<_>>(), "extras": { "luxbake": { "lamps": lamps } } }],
+        "nodes": nodes,
+        "meshes": meshes,
+        "materials": materials,
+        "accessors": bin.accessors,
+        "bufferViews": bin.views,
+        "buffers": [{ "byteLength": bin.data.len() }],
+    });
+    if !images.is_empty() {
+        root["images"] = json!(images);
+        root["textures"] = json!(textures);
+    }
+    let mut json_bytes = serde_json::to_vec(&root).map_err(|e| AssetError::Export {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    while !json_bytes.len().is_multiple_of(4) {
+        json_bytes.push(b' ');
+    }
+    let mut data = bin.data;
+    while !data.len().is_multiple_of(4) {
+        data.push(0);
+    }
+    let total = 12 + 8 + json_bytes.len() + 8 + data.len();
+    let too_big = |_| AssetError::Export {
+        path: path.to_path_buf(),
+        message: format!("{total} bytes: a .glb is limited to 4 GiB"),
+    };
+    let mut bytes = Vec::with_capacity(total);
+    bytes.extend_from_slice(b"glTF");
+    bytes.extend_from_slice(&2u32.to_le_bytes());
+    bytes.extend_from_slice(&u32::try_from(total).map_err(too_big)?.to_le_bytes());
+    bytes.extend_from_slice(
+        &u32::try_from(json_bytes.len())
+            .map_err(too_big)?
+            .to_le_bytes(),
+    );
+    bytes.extend_from_slice(b"JSON");
+    bytes.extend_from_slice(&json_bytes);
+    bytes.extend_from_slice(&u32::try_from(data.len()).map_err(too_big)?.to_le_bytes());
+    bytes.extend_from_slice(b"BIN\0");
+    bytes.extend_from_slice(&data);
+    Ok(Encoded {
+        bytes,
+        side_files,
+        lux_per_unit: scale,
+    })
+}
