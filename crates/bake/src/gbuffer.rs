@@ -149,71 +149,63 @@ struct WorldVerts {
     normals: Vec<[f64; 3]>,
 }
 
-/// Rasterises one object into a `size` map (row-major, region-local texels).
+/// Rows per band of parallel work within one object.
+const BAND_ROWS: usize = 16;
+
+/// A triangle in texel coordinates, ready to rasterise.
+struct UvTriangle {
+    index: u32,
+    p: [[f64; 2]; 3],
+    area2: f64,
+    /// Height of the triangle over the edge opposite each vertex, texels.
+    height: [f64; 3],
+    /// Texel rows and columns its bounding box touches (half-open).
+    rows: [usize; 2],
+    cols: [usize; 2],
+}
+
+/// Rasterises one object into a `size` map (row-major, region-local texels), in parallel
+/// bands of rows.
 pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Option<Texel>> {
     let (w, h) = (size[0] as usize, size[1] as usize);
-    let mut best: Vec<Option<Best>> = vec![None; w * h];
-    let mut mask = vec![0u16; w * h];
     let m = &o.mesh;
     let scale = [f64::from(size[0]), f64::from(size[1])];
-    // Half the diagonal of a texel: a centre at least this far inside every edge means the
-    // whole texel is inside the triangle.
-    const HALF_DIAGONAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
-    for (ti, tri) in m.indices.iter().enumerate() {
-        let Some(idx) = tri_indices(tri, m) else {
-            continue;
-        };
-        let p = idx.map(|i| {
-            let uv = m.lightmap_uvs[i];
-            [f64::from(uv[0]) * scale[0], f64::from(uv[1]) * scale[1]]
-        });
-        let area2 = cross2(sub2(p[1], p[0]), sub2(p[2], p[0]));
-        if !(area2.is_finite() && area2.abs() > 1e-12) {
-            continue;
-        }
-        // Height of the triangle over each edge (opposite vertex i), texels.
-        let height: [f64; 3] = std::array::from_fn(|i| {
-            let e = sub2(p[(i + 2) % 3], p[(i + 1) % 3]);
-            area2.abs() / (e[0] * e[0] + e[1] * e[1]).sqrt()
-        });
-        let lo = [
-            p[0][0].min(p[1][0]).min(p[2][0]),
-            p[0][1].min(p[1][1]).min(p[2][1]),
-        ];
-        let hi = [
-            p[0][0].max(p[1][0]).max(p[2][0]),
-            p[0][1].max(p[1][1]).max(p[2][1]),
-        ];
-        let x0 = lo[0].floor().clamp(0.0, w as f64) as usize;
-        let x1 = hi[0].ceil().clamp(0.0, w as f64) as usize;
-        let y0 = lo[1].floor().clamp(0.0, h as f64) as usize;
-        let y1 = hi[1].ceil().clamp(0.0, h as f64) as usize;
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let cell = [x as f64, y as f64];
-                let centre = [cell[0] + 0.5, cell[1] + 0.5];
-                let b = barycentric(&p, area2, centre);
-                let k = y * w + x;
-                let (dist, bary, mk) = if (0..3).all(|i| b[i] * height[i] >= HALF_DIAGONAL) {
-                    (0.0, b, u16::MAX)
-                } else {
-                    if !overlaps(&p, cell) {
-                        continue;
-                    }
-                    let (dist, bary) = closest(&p, b, centre);
-                    (dist, bary, coverage_mask(&p, area2, cell))
-                };
-                if best[k].is_none_or(|old| dist < old.dist) {
-                    best[k] = Some(Best {
-                        dist,
-                        tri: ti as u32,
-                        bary,
-                    });
-                }
-                mask[k] |= mk;
+    let tris: Vec<UvTriangle> = m
+        .indices
+        .iter()
+        .enumerate()
+        .filter_map(|(ti, tri)| {
+            let idx = tri_indices(tri, m)?;
+            let p = idx.map(|i| {
+                let uv = m.lightmap_uvs[i];
+                [f64::from(uv[0]) * scale[0], f64::from(uv[1]) * scale[1]]
+            });
+            let area2 = cross2(sub2(p[1], p[0]), sub2(p[2], p[0]));
+            if !(area2.is_finite() && area2.abs() > 1e-12) {
+                return None;
             }
-        }
-    }
+            let height = std::array::from_fn(|i| {
+                let e = sub2(p[(i + 2) % 3], p[(i + 1) % 3]);
+                area2.abs() / (e[0] * e[0] + e[1] * e[1]).sqrt()
+            });
+            let range = |k: usize, n: usize| {
+                let lo = p[0][k].min(p[1][k]).min(p[2][k]);
+                let hi = p[0][k].max(p[1][k]).max(p[2][k]);
+                [
+                    lo.floor().clamp(0.0, n as f64) as usize,
+                    hi.ceil().clamp(0.0, n as f64) as usize,
+                ]
+            };
+            Some(UvTriangle {
+                index: ti as u32,
+                p,
+                area2,
+                height,
+                rows: range(1, h),
+                cols: range(0, w),
+            })
+        })
+        .collect();
     let verts = WorldVerts {
         positions: m
             .positions
@@ -226,10 +218,65 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
             .map(|&n| o.transform.normal_f64(n.map(f64::from)).unwrap_or([0.0; 3]))
             .collect(),
     };
-    best.iter()
-        .zip(&mask)
-        .map(|(b, &mk)| texel(o, &verts, index, (*b)?, mk))
-        .collect()
+    let bands: Vec<Vec<Option<Texel>>> = (0..h.div_ceil(BAND_ROWS))
+        .into_par_iter()
+        .map(|band| {
+            let rows = [band * BAND_ROWS, ((band + 1) * BAND_ROWS).min(h)];
+            let (best, mask) = rasterize_band(&tris, w, rows);
+            best.iter()
+                .zip(&mask)
+                .map(|(b, &mk)| texel(o, &verts, index, (*b)?, mk))
+                .collect()
+        })
+        .collect();
+    bands.concat()
+}
+
+/// The nearest triangle sample and coverage mask of every texel in `rows` of a `w`-wide map.
+fn rasterize_band(
+    tris: &[UvTriangle],
+    w: usize,
+    rows: [usize; 2],
+) -> (Vec<Option<Best>>, Vec<u16>) {
+    // Half the diagonal of a texel: a centre at least this far inside every edge means the
+    // whole texel is inside the triangle; this far outside any edge, none of it is.
+    const HALF_DIAGONAL: f64 = std::f64::consts::FRAC_1_SQRT_2;
+    let n = w * (rows[1] - rows[0]);
+    let mut best: Vec<Option<Best>> = vec![None; n];
+    let mut mask = vec![0u16; n];
+    for t in tris {
+        let (y0, y1) = (t.rows[0].max(rows[0]), t.rows[1].min(rows[1]));
+        for y in y0..y1 {
+            for x in t.cols[0]..t.cols[1] {
+                let cell = [x as f64, y as f64];
+                let centre = [cell[0] + 0.5, cell[1] + 0.5];
+                let b = barycentric(&t.p, t.area2, centre);
+                let inside = [0, 1, 2].map(|i| b[i] * t.height[i]);
+                if inside.iter().any(|&d| d <= -HALF_DIAGONAL) {
+                    continue;
+                }
+                let (dist, bary, mk) = if inside.iter().all(|&d| d >= HALF_DIAGONAL) {
+                    (0.0, b, u16::MAX)
+                } else {
+                    if !overlaps(&t.p, cell) {
+                        continue;
+                    }
+                    let (dist, bary) = closest(&t.p, b, centre);
+                    (dist, bary, coverage_mask(&t.p, t.area2, cell))
+                };
+                let k = (y - rows[0]) * w + x;
+                if best[k].is_none_or(|old| dist < old.dist) {
+                    best[k] = Some(Best {
+                        dist,
+                        tri: t.index,
+                        bary,
+                    });
+                }
+                mask[k] |= mk;
+            }
+        }
+    }
+    (best, mask)
 }
 
 /// The G-buffer entry for the sample `b` of object `o`.
