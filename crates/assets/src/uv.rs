@@ -427,11 +427,23 @@ pub fn check(
     }
 }
 
-/// Smallest UV-space distance between triangles of different charts ([`charts`]), if there
-/// are two charts closer than `limit`; `None` when every gap is at least `limit`.
+/// Smallest UV-space distance between triangles of different charts, if there are two
+/// charts closer than `limit`; `None` when every gap is at least `limit`. Charts here are
+/// triangles connected through shared vertex indices or bit-identical UVs (vertices split
+/// for normals or materials inside one chart keep their UV).
 pub fn min_chart_gap(uvs: &[[f32; 2]], indices: &[[u32; 3]], limit: f64) -> Option<f64> {
     let tris = uv_tris(uvs, indices);
-    let chart = charts(uvs.len(), indices);
+    let mut weld: HashMap<[u32; 2], u32> = HashMap::new();
+    let canon: Vec<u32> = uvs
+        .iter()
+        .enumerate()
+        .map(|(i, uv)| *weld.entry(uv.map(f32::to_bits)).or_insert(i as u32))
+        .collect();
+    let welded: Vec<[u32; 3]> = indices
+        .iter()
+        .map(|t| t.map(|i| canon.get(i as usize).copied().unwrap_or(i)))
+        .collect();
+    let chart = charts(uvs.len(), &welded);
     let live: Vec<usize> = (0..tris.len())
         .filter(|&t| area2(&tris[t]).abs() > 1e-14)
         .collect();
