@@ -3,7 +3,8 @@
 
 use luxbake_ies::{Photometry, Tilt};
 use serde_json::json;
-use std::path::PathBuf;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `cargo xtask ies`.
 #[derive(clap::Args)]
@@ -24,108 +25,131 @@ pub fn run(args: &Args) -> Result<(), String> {
     let bytes = std::fs::read(&args.file)
         .map_err(|e| format!("cannot read {}: {e}", args.file.display()))?;
     let lamp = Photometry::parse(&bytes).map_err(|e| format!("{}: {e}", args.file.display()))?;
+    let mut o = String::new();
     if let Some(at) = &args.at {
         let (v, h) = (at[0], at[1]);
         let cd = lamp.intensity_at(v, h);
         if args.json {
-            println!("{}", json!({ "candela": cd }));
+            let _ = writeln!(o, "{}", json!({ "candela": cd }));
         } else {
-            println!("{cd:.4} cd at vertical {v}°, horizontal {h}°");
+            let _ = writeln!(o, "{cd:.4} cd at vertical {v}°, horizontal {h}°");
         }
+        emit(&o);
+        return Ok(());
+    }
+    if args.json {
+        let _ = writeln!(o, "{}", report_json(&args.file, &lamp));
+        emit(&o);
         return Ok(());
     }
     let flux = lamp.luminous_flux();
     let (max_cd, max_dir) = lamp.max_intensity();
     let opening = lamp.luminous_opening();
-    if args.json {
-        let keywords: Vec<_> = lamp
-            .keywords()
-            .iter()
-            .map(|k| json!({ "key": k.key, "value": k.value }))
-            .collect();
-        let warnings: Vec<_> = lamp
-            .warnings()
-            .iter()
-            .map(|w| json!({ "line": w.line, "message": w.message }))
-            .collect();
-        let out = json!({
-            "file": args.file.display().to_string(),
-            "format": lamp.format().name(),
-            "photometric_type": lamp.photometric_type().name(),
-            "vertical_angles": lamp.vertical_angles().len(),
-            "horizontal_angles": lamp.horizontal_angles().len(),
-            "vertical_range": [lamp.vertical_angles().first(), lamp.vertical_angles().last()],
-            "horizontal_range": [lamp.horizontal_angles().first(), lamp.horizontal_angles().last()],
-            "symmetry": lamp.symmetry().name(),
-            "candela_multiplier": lamp.candela_multiplier(),
-            "ballast_factor": lamp.ballast_factor(),
-            "lamp_count": lamp.lamp_count(),
-            "lumens_per_lamp": lamp.lumens_per_lamp(),
-            "lumens_header": lamp.lumens_header(),
-            "lumens_integrated": flux,
-            "flux_ratio": lamp.flux_ratio(),
-            "max_candela": max_cd,
-            "max_direction": max_dir,
-            "input_watts": lamp.input_watts(),
-            "tilt": tilt_name(lamp.tilt()),
-            "luminous_opening": {
-                "shape": format!("{:?}", opening.shape),
-                "width_m": opening.width,
-                "length_m": opening.length,
-                "height_m": opening.height,
-            },
-            "keywords": keywords,
-            "warnings": warnings,
-        });
-        println!("{out}");
-        return Ok(());
-    }
     let range = |a: &[f64]| match (a.first(), a.last()) {
         (Some(f), Some(l)) => format!("{} angles, {f}° … {l}°", a.len()),
         _ => "none".to_owned(),
     };
-    println!("file              {}", args.file.display());
-    println!("format            {}", lamp.format().name());
-    println!("photometric type  {}", lamp.photometric_type().name());
-    println!("vertical          {}", range(lamp.vertical_angles()));
-    println!("horizontal        {}", range(lamp.horizontal_angles()));
-    println!("symmetry          {}", lamp.symmetry().name());
-    println!("tilt              {}", tilt_name(lamp.tilt()));
-    println!(
+    let _ = writeln!(o, "file              {}", args.file.display());
+    let _ = writeln!(o, "format            {}", lamp.format().name());
+    let _ = writeln!(o, "photometric type  {}", lamp.photometric_type().name());
+    let _ = writeln!(o, "vertical          {}", range(lamp.vertical_angles()));
+    let _ = writeln!(o, "horizontal        {}", range(lamp.horizontal_angles()));
+    let _ = writeln!(o, "symmetry          {}", lamp.symmetry().name());
+    let _ = writeln!(o, "tilt              {}", tilt_name(lamp.tilt()));
+    let _ = writeln!(
+        o,
         "lamps             {} × {}",
         lamp.lamp_count(),
         lamp.lumens_per_lamp()
             .map_or("absolute photometry".to_owned(), |l| format!("{l} lm"))
     );
-    println!("candela mult.     {}", lamp.candela_multiplier());
-    println!("ballast factor    {}", lamp.ballast_factor());
-    println!("input watts       {}", lamp.input_watts());
-    println!(
+    let _ = writeln!(o, "candela mult.     {}", lamp.candela_multiplier());
+    let _ = writeln!(o, "ballast factor    {}", lamp.ballast_factor());
+    let _ = writeln!(o, "input watts       {}", lamp.input_watts());
+    let _ = writeln!(
+        o,
         "opening           {:?}, {:.3} × {:.3} × {:.3} m (width × length × height)",
         opening.shape, opening.width, opening.length, opening.height
     );
-    match lamp.lumens_header() {
-        Some(h) => println!(
+    let _ = match lamp.lumens_header() {
+        Some(h) => writeln!(
+            o,
             "lumens            {flux:.1} lm integrated, {h:.1} lm header (ratio {:.4})",
             if h > 0.0 { flux / h } else { f64::NAN }
         ),
-        None => println!("lumens            {flux:.1} lm integrated (absolute photometry)"),
-    }
-    println!(
+        None => writeln!(
+            o,
+            "lumens            {flux:.1} lm integrated (absolute photometry)"
+        ),
+    };
+    let _ = writeln!(
+        o,
         "max intensity     {max_cd:.2} cd toward ({:.4}, {:.4}, {:.4})",
         max_dir[0], max_dir[1], max_dir[2]
     );
     if lamp.input_watts() > 0.0 {
-        println!("efficacy          {:.1} lm/W", flux / lamp.input_watts());
+        let _ = writeln!(o, "efficacy          {:.1} lm/W", flux / lamp.input_watts());
     }
     for k in lamp.keywords() {
         let key = if k.key.is_empty() { "label" } else { &k.key };
-        println!("[{key}] {}", k.value.replace('\n', " / "));
+        let _ = writeln!(o, "[{key}] {}", k.value.replace('\n', " / "));
     }
     for w in lamp.warnings() {
-        println!("warning: line {}: {}", w.line, w.message);
+        let _ = writeln!(o, "warning: line {}: {}", w.line, w.message);
     }
+    emit(&o);
     Ok(())
+}
+
+/// Writes the report to stdout; a closed pipe (`| head`) is not an error worth a panic.
+fn emit(text: &str) {
+    use std::io::Write;
+    let _ = std::io::stdout().lock().write_all(text.as_bytes());
+}
+
+/// The `--json` report: one object with the fields a lighting engineer checks.
+fn report_json(file: &Path, lamp: &Photometry) -> serde_json::Value {
+    let (max_cd, max_dir) = lamp.max_intensity();
+    let opening = lamp.luminous_opening();
+    let keywords: Vec<_> = lamp
+        .keywords()
+        .iter()
+        .map(|k| json!({ "key": k.key, "value": k.value }))
+        .collect();
+    let warnings: Vec<_> = lamp
+        .warnings()
+        .iter()
+        .map(|w| json!({ "line": w.line, "message": w.message }))
+        .collect();
+    json!({
+        "file": file.display().to_string(),
+        "format": lamp.format().name(),
+        "photometric_type": lamp.photometric_type().name(),
+        "vertical_angles": lamp.vertical_angles().len(),
+        "horizontal_angles": lamp.horizontal_angles().len(),
+        "vertical_range": [lamp.vertical_angles().first(), lamp.vertical_angles().last()],
+        "horizontal_range": [lamp.horizontal_angles().first(), lamp.horizontal_angles().last()],
+        "symmetry": lamp.symmetry().name(),
+        "candela_multiplier": lamp.candela_multiplier(),
+        "ballast_factor": lamp.ballast_factor(),
+        "lamp_count": lamp.lamp_count(),
+        "lumens_per_lamp": lamp.lumens_per_lamp(),
+        "lumens_header": lamp.lumens_header(),
+        "lumens_integrated": lamp.luminous_flux(),
+        "flux_ratio": lamp.flux_ratio(),
+        "max_candela": max_cd,
+        "max_direction": max_dir,
+        "input_watts": lamp.input_watts(),
+        "tilt": tilt_name(lamp.tilt()),
+        "luminous_opening": {
+            "shape": format!("{:?}", opening.shape),
+            "width_m": opening.width,
+            "length_m": opening.length,
+            "height_m": opening.height,
+        },
+        "keywords": keywords,
+        "warnings": warnings,
+    })
 }
 
 fn tilt_name(t: &Tilt) -> String {
@@ -133,5 +157,46 @@ fn tilt_name(t: &Tilt) -> String {
         Tilt::None => "NONE".to_owned(),
         Tilt::Include(d) => format!("INCLUDE ({} angles)", d.angles.len()),
         Tilt::File { name, data } => format!("file {name} ({} angles)", data.angles.len()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn json_report_of_the_bundled_lamp() {
+        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../crates/bake/lamps/luxbake_downlight.ies");
+        let lamp = Photometry::parse(&std::fs::read(&file).unwrap()).unwrap();
+        let j = report_json(&file, &lamp);
+        assert_eq!(j["format"], "LM-63-2002");
+        assert_eq!(j["photometric_type"], "C");
+        assert_eq!(j["vertical_angles"], 37);
+        assert_eq!(j["horizontal_angles"], 25);
+        assert_eq!(j["symmetry"], "none (0-360)");
+        assert_eq!(j["candela_multiplier"], 1.0);
+        let header = j["lumens_header"].as_f64().unwrap();
+        let integrated = j["lumens_integrated"].as_f64().unwrap();
+        assert!((integrated / header - 1.0).abs() < 1e-4);
+        assert!(j["max_candela"].as_f64().unwrap() > 1000.0);
+    }
+
+    #[test]
+    fn absolute_photometry_has_null_header_lumens() {
+        let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 90\n0\n10 0\n";
+        let lamp = Photometry::parse(text.as_bytes()).unwrap();
+        let j = report_json(Path::new("x.ies"), &lamp);
+        assert!(j["lumens_header"].is_null());
+    }
+
+    #[test]
+    fn errors_are_messages() {
+        let args = Args {
+            file: PathBuf::from("/nonexistent.ies"),
+            json: false,
+            at: None,
+        };
+        assert!(run(&args).unwrap_err().contains("cannot read"));
     }
 }
