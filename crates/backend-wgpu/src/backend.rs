@@ -740,3 +740,171 @@ impl GpuBackend for WgpuBackend {
         Ok(out)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use luxbake::bake::{Progress, bake};
+    use luxbake::graph::TexFormat;
+    use luxbake::scene::{Blur, Scene, Settings};
+
+    /// A backend, or `None` with a printed reason outside CI (in CI a missing driver fails).
+    fn backend(test: &str, options: WgpuOptions) -> Option<WgpuBackend> {
+        match WgpuBackend::with_options(options) {
+            Ok(b) => Some(b),
+            Err(e) if std::env::var("CI").map_or(true, |v| v.is_empty() || v == "false") => {
+                eprintln!("skipping {test}: {e}; set CI=true to fail instead");
+                None
+            }
+            Err(e) => panic!("{test}: no wgpu adapter in CI: {e}"),
+        }
+    }
+
+    fn desc(size: [u32; 2], layers: u32) -> TexDesc {
+        TexDesc {
+            label: "t",
+            size,
+            layers,
+            format: TexFormat::Rgba32F,
+        }
+    }
+
+    #[test]
+    fn misuse_is_an_error_not_a_panic() {
+        let Some(mut b) = backend("misuse", WgpuOptions::default()) else {
+            return;
+        };
+        let max = b.limits().max_texture_size;
+        assert!(matches!(
+            b.create_texture(&desc([max + 1, 1], 1)),
+            Err(WgpuError::Limit { .. })
+        ));
+        assert!(matches!(
+            b.create_texture(&desc([0, 4], 1)),
+            Err(WgpuError::InvalidInput(_))
+        ));
+        let t = b.create_texture(&desc([4, 2], 2)).expect("texture");
+        assert!(matches!(
+            b.upload(&t, 0, &[0.0; 3]),
+            Err(WgpuError::InvalidInput(_))
+        ));
+        assert!(matches!(
+            b.upload(&t, 2, &[0.0; 32]),
+            Err(WgpuError::InvalidInput(_))
+        ));
+        assert!(matches!(
+            b.upload(&WgpuTexture(99), 0, &[0.0; 32]),
+            Err(WgpuError::InvalidInput(_))
+        ));
+        assert!(matches!(
+            b.read_back(&t, 5),
+            Err(WgpuError::InvalidInput(_))
+        ));
+        // A round trip of one layer, and the other layer still zero.
+        let texels: Vec<f32> = (0..32).map(|i| i as f32 * 0.5 - 3.0).collect();
+        b.upload(&t, 1, &texels).expect("upload");
+        assert_eq!(b.read_back(&t, 1).expect("read"), texels);
+        assert_eq!(b.read_back(&t, 0).expect("read"), vec![0.0; 32]);
+    }
+
+    #[test]
+    fn a_lost_device_is_an_error_not_a_panic() {
+        let Some(mut b) = backend("device loss", WgpuOptions::default()) else {
+            return;
+        };
+        let t = b.create_texture(&desc([8, 8], 1)).expect("texture");
+        b.gpu.device.destroy();
+        let e = b
+            .read_back(&t, 0)
+            .expect_err("read-back on a destroyed device");
+        println!("after destroy: {e}");
+        assert!(
+            matches!(
+                e,
+                WgpuError::DeviceLost { .. } | WgpuError::Validation { .. }
+            ),
+            "{e:?}"
+        );
+        assert!(b.create_texture(&desc([8, 8], 1)).is_err());
+    }
+
+    #[test]
+    fn tiles_split_the_work_and_report_progress_without_changing_the_result() {
+        let settings = Settings {
+            rays: 4,
+            bounces: 1,
+            blur: Blur::Sigma(1.0),
+            texels_per_metre: 6.0,
+            ..Settings::default()
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let mut maps = Vec::new();
+        for tile_work in [DEFAULT_TILE_WORK, 1] {
+            let Some(mut b) = backend(
+                "tiles",
+                WgpuOptions {
+                    tile_work,
+                    ..WgpuOptions::default()
+                },
+            ) else {
+                return;
+            };
+            let mut fractions: Vec<(usize, f32)> = Vec::new();
+            let out = bake(&mut b, &scene, &settings, &mut |p| {
+                if let Progress::PassProgress { index, fraction } = p {
+                    fractions.push((*index, *fraction));
+                }
+            })
+            .expect("bake");
+            // Every pass reports, monotonically, up to 1.
+            for pass in 0..out.graph.passes.len() {
+                let f: Vec<f32> = fractions
+                    .iter()
+                    .filter(|(i, _)| *i == pass)
+                    .map(|(_, f)| *f)
+                    .collect();
+                assert_eq!(f.last(), Some(&1.0), "pass {pass}");
+                assert!(f.windows(2).all(|w| w[0] < w[1]), "pass {pass}: {f:?}");
+            }
+            let direct_reports = fractions.iter().filter(|(i, _)| *i == 1).count();
+            let rows = out.layout.layer_size[1] * out.layout.layers;
+            if tile_work == 1 {
+                // One row per tile.
+                assert_eq!(direct_reports as u32, rows);
+            } else {
+                assert!(direct_reports as u32 <= rows);
+            }
+            maps.push(out.maps);
+        }
+        assert_eq!(maps[0], maps[1], "tiling changed the result");
+    }
+
+    #[test]
+    fn buffers_and_textures_give_the_same_bake() {
+        let settings = Settings {
+            rays: 4,
+            bounces: 1,
+            texels_per_metre: 6.0,
+            ..Settings::default()
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let mut maps = Vec::new();
+        for bvh_storage in [BvhStorage::Buffers, BvhStorage::Textures] {
+            let Some(mut b) = backend(
+                "storage",
+                WgpuOptions {
+                    bvh_storage,
+                    ..WgpuOptions::default()
+                },
+            ) else {
+                return;
+            };
+            maps.push(
+                bake(&mut b, &scene, &settings, &mut |_| {})
+                    .expect("bake")
+                    .maps,
+            );
+        }
+        assert_eq!(maps[0], maps[1]);
+    }
+}
