@@ -4,6 +4,10 @@
 //!
 //! `cargo bench -p luxbake-bvh` (the two models are skipped with a message when `../shared`
 //! is absent).
+//!
+//! Times are the benchmark thread's **CPU time** (`CLOCK_THREAD_CPUTIME_ID` on Unix, wall time
+//! elsewhere), not wall time, so the figures stay meaningful on a machine shared with other
+//! builds; everything is single-threaded.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
@@ -11,8 +15,108 @@ mod common;
 use std::hint::black_box;
 use std::time::Duration;
 
+use criterion::measurement::{Measurement, ValueFormatter};
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, Traversal, encode};
+
+/// CPU time of the calling thread, in nanoseconds.
+#[cfg(unix)]
+fn thread_cpu_ns() -> u64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant the C library knows.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return 0;
+    }
+    (ts.tv_sec as u64) * 1_000_000_000 + ts.tv_nsec as u64
+}
+
+/// Wall time where no thread CPU clock is available.
+#[cfg(not(unix))]
+fn thread_cpu_ns() -> u64 {
+    use std::sync::OnceLock;
+    static START: OnceLock<std::time::Instant> = OnceLock::new();
+    START
+        .get_or_init(std::time::Instant::now)
+        .elapsed()
+        .as_nanos() as u64
+}
+
+/// Criterion measurement: thread CPU time in nanoseconds.
+struct CpuTime;
+
+impl Measurement for CpuTime {
+    type Intermediate = u64;
+    type Value = u64;
+    fn start(&self) -> u64 {
+        thread_cpu_ns()
+    }
+    fn end(&self, start: u64) -> u64 {
+        thread_cpu_ns().saturating_sub(start)
+    }
+    fn add(&self, a: &u64, b: &u64) -> u64 {
+        a + b
+    }
+    fn zero(&self) -> u64 {
+        0
+    }
+    fn to_f64(&self, v: &u64) -> f64 {
+        *v as f64
+    }
+    fn formatter(&self) -> &dyn ValueFormatter {
+        &CpuTimeFormatter
+    }
+}
+
+struct CpuTimeFormatter;
+
+impl ValueFormatter for CpuTimeFormatter {
+    fn scale_values(&self, typical: f64, values: &mut [f64]) -> &'static str {
+        let (div, unit) = if typical < 1e3 {
+            (1.0, "ns (cpu)")
+        } else if typical < 1e6 {
+            (1e3, "µs (cpu)")
+        } else if typical < 1e9 {
+            (1e6, "ms (cpu)")
+        } else {
+            (1e9, "s (cpu)")
+        };
+        values.iter_mut().for_each(|v| *v /= div);
+        unit
+    }
+
+    fn scale_throughputs(
+        &self,
+        typical: f64,
+        throughput: &Throughput,
+        values: &mut [f64],
+    ) -> &'static str {
+        let n = match *throughput {
+            Throughput::Elements(n)
+            | Throughput::Bytes(n)
+            | Throughput::BytesDecimal(n)
+            | Throughput::Bits(n)
+            | Throughput::ElementsAndBytes { elements: n, .. } => n as f64,
+        };
+        let per_s = n * 1e9 / typical;
+        let (div, unit) = if per_s < 1e3 {
+            (1.0, "elem/s (cpu)")
+        } else if per_s < 1e6 {
+            (1e3, "Kelem/s (cpu)")
+        } else {
+            (1e6, "Melem/s (cpu)")
+        };
+        values.iter_mut().for_each(|v| *v = n * 1e9 / *v / div);
+        unit
+    }
+
+    fn scale_for_machines(&self, _values: &mut [f64]) -> &'static str {
+        "ns"
+    }
+}
 
 struct Scene {
     name: &'static str,
@@ -72,7 +176,7 @@ fn bake_rays(tris: &[common::Tri], count: usize) -> (Vec<Ray>, Vec<Ray>) {
     (gather, shadow)
 }
 
-fn bench(c: &mut Criterion) {
+fn bench(c: &mut Criterion<CpuTime>) {
     let options = BuildOptions::default();
     for scene in scenes() {
         let tris = &scene.tris;
@@ -98,7 +202,8 @@ fn bench(c: &mut Criterion) {
         let mut group = c.benchmark_group(format!("build/{}", scene.name));
         group
             .sample_size(10)
-            .measurement_time(Duration::from_secs(3));
+            .measurement_time(Duration::from_secs(1))
+            .warm_up_time(Duration::from_millis(500));
         group.throughput(Throughput::Elements(tris.len() as u64));
         group.bench_function("luxbake_binned_sah", |b| {
             b.iter(|| Bvh::build(black_box(tris), &options).expect("build"))
@@ -144,7 +249,8 @@ fn bench(c: &mut Criterion) {
             let mut group = c.benchmark_group(format!("{query}/{}", scene.name));
             group
                 .sample_size(10)
-                .measurement_time(Duration::from_secs(3));
+                .measurement_time(Duration::from_secs(1))
+                .warm_up_time(Duration::from_millis(500));
             let t_max = if query == "any_hit" {
                 1.0
             } else {
@@ -200,5 +306,9 @@ fn bench(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bench);
+criterion_group! {
+    name = benches;
+    config = Criterion::default().with_measurement(CpuTime);
+    targets = bench
+}
 criterion_main!(benches);
