@@ -15,6 +15,21 @@
 //!    CPU, written to mirror the GLSL ES 3.00 shader line for line. They are the oracle for every
 //!    shader: a shader bug can be reproduced here.
 //!
+//! ```
+//! use luxbake_bvh::{encode, BuildOptions, Bvh, EncodeOptions, Ray, Traversal, TriangleAttributes};
+//!
+//! let tris = [[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]]];
+//! let bvh = Bvh::build(&tris, &BuildOptions::default())?;
+//! let attributes = [TriangleAttributes::default()];
+//! let scene = encode(&bvh, &tris, &attributes, &EncodeOptions { max_texture_size: 4096 })?;
+//! // scene.links, scene.tbvh_links, scene.bounds, scene.triangles: upload as RGBA32F arrays.
+//! let ray = Ray { origin: [0.25, 0.25, 1.0], dir: [0.0, 0.0, -1.0] };
+//! let hit = scene.closest_hit(&ray, 0.0, f32::INFINITY, Traversal::Mtbvh).expect("hit");
+//! assert_eq!((hit.t, hit.u, hit.v), (1.0, 0.25, 0.25));
+//! assert!(!scene.any_hit(&ray, 0.0, 0.5, Traversal::Tbvh)); // the triangle is at t = 1
+//! # Ok::<(), luxbake_bvh::BvhError>(())
+//! ```
+//!
 //! The TBVH links live in their own one-layer texture (`tbvh_links`) beside the paper's
 //! six-layer MTBVH link array, so both traversals read the same node boxes.
 //!
