@@ -8,7 +8,10 @@ const DOWNLIGHT: &str = include_str!("../../bake/lamps/luxbake_downlight.ies");
 
 /// The bundled lamp, plus the largest shared sample files when `../shared` is present.
 fn inputs() -> Vec<(String, Vec<u8>)> {
-    let mut out = vec![("luxbake_downlight.ies".to_owned(), DOWNLIGHT.as_bytes().to_vec())];
+    let mut out = vec![(
+        "luxbake_downlight.ies".to_owned(),
+        DOWNLIGHT.as_bytes().to_vec(),
+    )];
     let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/photometry");
     for name in ["real-world/rw_8.IES", "luxpy_test_lid_file.ldt"] {
         match std::fs::read(dir.join(name)) {
@@ -46,11 +49,20 @@ fn queries(c: &mut Criterion) {
     for (name, bytes) in inputs() {
         let lamp = Photometry::parse(&bytes).expect("sample parses");
         group.bench_function(format!("intensity/{name}"), |b| {
-            b.iter(|| dirs.iter().map(|&d| lamp.intensity(black_box(d))).sum::<f64>())
+            b.iter(|| {
+                dirs.iter()
+                    .map(|&d| lamp.intensity(black_box(d)))
+                    .sum::<f64>()
+            })
         });
         let table = lamp.gpu_table();
         group.bench_function(format!("gpu_table_sample/{name}"), |b| {
-            b.iter(|| dirs32.iter().map(|&d| table.sample(black_box(d))).sum::<f32>())
+            b.iter(|| {
+                dirs32
+                    .iter()
+                    .map(|&d| table.sample(black_box(d)))
+                    .sum::<f32>()
+            })
         });
     }
     group.finish();

@@ -408,12 +408,16 @@ pub(crate) fn direction_at(t: PhotometricType, v: f64, h: f64) -> [f64; 3] {
     }
 }
 
+/// Smallest accepted step between consecutive angles, in degrees. Keeps mirrored and shifted
+/// angle lists strictly increasing after rounding, and every interpolation weight finite.
+const MIN_STEP_DEG: f64 = 1e-6;
+
 fn increasing(list: &[f64], line: usize, what: &str) -> Result<(), IesError> {
     for w in list.windows(2) {
-        if w[1] <= w[0] {
+        if !(w[1] - w[0] >= MIN_STEP_DEG) {
             return Err(IesError::NotIncreasing {
                 line,
-                what: what.into(),
+                what: format!("{what} (by at least {MIN_STEP_DEG}°)"),
                 previous: w[0],
                 next: w[1],
             });
@@ -489,7 +493,28 @@ fn validate(p: &Parts) -> Result<(), IesError> {
 
 /// Close enough to count as the same angle in degrees.
 fn near(a: f64, b: f64) -> bool {
-    (a - b).abs() < 1e-6
+    (a - b).abs() < 1e-9
+}
+
+/// The expanded grid, after checking that rounding in the symmetry expansion left every
+/// angle list strictly increasing (and a periodic list shorter than a full turn).
+fn grid(
+    p: &Parts,
+    axis: Axis,
+    theta: Vec<f64>,
+    phi: Vec<f64>,
+    values: Vec<f64>,
+    periodic: bool,
+) -> Result<Sphere, IesError> {
+    let ok = |l: &[f64]| l.windows(2).all(|w| w[1] > w[0]);
+    let wraps = !periodic || phi.len() < 2 || phi[phi.len() - 1] < phi[0] + 360.0;
+    if !(ok(&theta) && ok(&phi) && wraps) {
+        return Err(IesError::UnsupportedAngles {
+            line: p.lines[1],
+            detail: "angles too close together to expand the symmetry".into(),
+        });
+    }
+    Ok(Sphere::new(axis, theta, phi, values, periodic))
 }
 
 /// Expands the file's angles to the full sphere according to type and symmetry.
@@ -539,7 +564,7 @@ fn expand(p: &Parts, scale: f64) -> Result<(Symmetry, Sphere), IesError> {
             let (phi, values) = periodic_columns(cols, &row);
             let theta = v.clone();
             let values = flatten(&values);
-            Ok((symmetry, Sphere::new(Axis::Z, theta, phi, values, true)))
+            Ok((symmetry, grid(p, Axis::Z, theta, phi, values, true)?))
         }
         PhotometricType::A | PhotometricType::B => {
             if n == 1 {
@@ -566,7 +591,7 @@ fn expand(p: &Parts, scale: f64) -> Result<(Symmetry, Sphere), IesError> {
                     cols.iter().map(|&(a, i)| (a, row(i))).unzip()
                 };
                 let values = flatten(&values);
-                Ok((symmetry, Sphere::new(Axis::Z, theta, phi, values, periodic)))
+                Ok((symmetry, grid(p, Axis::Z, theta, phi, values, periodic)?))
             } else {
                 // Type B: θ = H + 90 (latitude about the transverse axis), φ = V (planes about
                 // it). The file's rows (per H) become the θ direction: transpose.
@@ -585,7 +610,7 @@ fn expand(p: &Parts, scale: f64) -> Result<(Symmetry, Sphere), IesError> {
                     merge_seam(&mut phi, &mut per_phi);
                 }
                 let values = flatten(&per_phi);
-                Ok((symmetry, Sphere::new(Axis::Y, theta, phi, values, periodic)))
+                Ok((symmetry, grid(p, Axis::Y, theta, phi, values, periodic)?))
             }
         }
     }

@@ -787,3 +787,59 @@ fn writer_round_trips_2002_and_2019() {
     assert_eq!(parse(&p19.to_ies(IesVersion::Lm63_2019)), p19);
     assert_eq!(p19.keyword("LUMINAIRE"), Some("one\ntwo\n"));
 }
+
+#[test]
+fn angles_closer_than_a_micro_degree_are_rejected() {
+    let close_v = type_c(&[0.0, 1e-9, 90.0], &[0.0], &[1.0, 1.0, 0.0]);
+    assert!(matches!(
+        Photometry::parse(close_v.as_bytes()),
+        Err(IesError::NotIncreasing { line: 6, .. })
+    ));
+    let close_h = type_c(&[0.0, 90.0], &[0.0, 1e-300, 90.0], &[1.0; 6]);
+    assert!(Photometry::parse(close_h.as_bytes()).is_err());
+}
+
+/// Type A data lies on a γ/C grid (γ = V + 90°, C = H), so the GPU table holds its nodes
+/// exactly; away from the edge of the measured planes (H = ±60° here) it matches to f32
+/// rounding.
+#[test]
+fn gpu_table_for_type_a() {
+    let v: Vec<f64> = (0..=12).map(|i| -90.0 + 15.0 * f64::from(i)).collect();
+    let h = [-60.0, -20.0, 0.0, 35.0, 60.0];
+    let cd: Vec<f64> = h
+        .iter()
+        .flat_map(|hh| v.iter().map(move |vv| 200.0 + vv + 0.5 * hh))
+        .collect();
+    let list = |x: &[f64]| {
+        x.iter()
+            .map(|a| a.to_string())
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    let p = parse(&ies(
+        "IESNA:LM-63-2002\n[TEST] a",
+        "TILT=NONE",
+        &format!("1 -1 1 {} {} 3 2 0 0 0", v.len(), h.len()),
+        &format!("{}\n{}\n{}", list(&v), list(&h), list(&cd)),
+    ));
+    let t = p.gpu_table();
+    let mut checked = 0;
+    for i in 0..2000 {
+        let z = 1.0 - 2.0 * (f64::from(i) + 0.5) / 2000.0;
+        let phi = 2.399_963 * f64::from(i);
+        let r = (1.0 - z * z).sqrt();
+        let d = [r * phi.cos(), r * phi.sin(), z];
+        let c = d[1].atan2(d[0]).to_degrees();
+        if c.abs() > 59.0 {
+            continue;
+        }
+        let s = f64::from(t.sample([d[0] as f32, d[1] as f32, d[2] as f32]));
+        assert!(
+            (s - p.intensity(d)).abs() < 1e-3,
+            "{d:?}: {s} vs {}",
+            p.intensity(d)
+        );
+        checked += 1;
+    }
+    assert!(checked > 500);
+}
