@@ -414,7 +414,7 @@ const MIN_STEP_DEG: f64 = 1e-6;
 
 fn increasing(list: &[f64], line: usize, what: &str) -> Result<(), IesError> {
     for w in list.windows(2) {
-        if !(w[1] - w[0] >= MIN_STEP_DEG) {
+        if w[1] - w[0] < MIN_STEP_DEG {
             return Err(IesError::NotIncreasing {
                 line,
                 what: format!("{what} (by at least {MIN_STEP_DEG}°)"),
