@@ -100,40 +100,42 @@ fn rebuild_scene(manifest: &Value) -> Result<Scene, String> {
     }
 }
 
-/// Runs the measurement; the error is a message for stderr.
-pub fn run(args: &Args) -> Result<(), String> {
-    let manifest_path = args.dir.join("manifest.json");
+/// One measured point: position and `[direct, indirect, total]` lux.
+pub type Row = ([f64; 3], [f64; 3]);
+
+/// Measures the points of `points_file` in the bake in `dir` (see the module docs).
+pub fn measure(dir: &Path, points_file: &Path, tolerance: f64) -> Result<Vec<Row>, String> {
+    let manifest_path = dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest_path)
         .map_err(|e| format!("cannot read {}: {e}", manifest_path.display()))?;
     let manifest: Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
     let scene = rebuild_scene(&manifest)?;
-    let points_text = std::fs::read_to_string(&args.points)
-        .map_err(|e| format!("cannot read {}: {e}", args.points.display()))?;
+    let points_text = std::fs::read_to_string(points_file)
+        .map_err(|e| format!("cannot read {}: {e}", points_file.display()))?;
     let points =
-        parse_points(&points_text).map_err(|e| format!("{}: {e}", args.points.display()))?;
+        parse_points(&points_text).map_err(|e| format!("{}: {e}", points_file.display()))?;
     let objects = manifest["objects"]
         .as_array()
         .ok_or("manifest: objects missing")?;
 
-    // Locate every point first, so that a bad row fails before anything is printed.
+    // Locate every point first, so that a bad row fails before anything is measured.
     let mut located = Vec::with_capacity(points.len());
     for &(line, p) in &points {
-        let sp = locate(&scene, p, args.tolerance).ok_or_else(|| {
+        let sp = locate(&scene, p, tolerance).ok_or_else(|| {
             format!(
-                "{} line {line}: point ({}, {}, {}) lies on no baked surface (none within {} m)",
-                args.points.display(),
+                "{} line {line}: point ({}, {}, {}) lies on no baked surface (none within {tolerance} m)",
+                points_file.display(),
                 p[0],
                 p[1],
                 p[2],
-                args.tolerance
             )
         })?;
         located.push((p, sp));
     }
 
     let mut cache: HashMap<usize, (MapImage, MapImage)> = HashMap::new();
-    println!("x,y,z,direct_lux,indirect_lux,total_lux");
+    let mut rows = Vec::with_capacity(located.len());
     for (p, sp) in located {
         let (direct, total) = match cache.entry(sp.object) {
             Entry::Occupied(e) => e.into_mut(),
@@ -145,7 +147,7 @@ pub fn run(args: &Args) -> Result<(), String> {
                 let file = |key: &str| -> Result<PathBuf, String> {
                     entry["files"][key]
                         .as_str()
-                        .map(|f| args.dir.join(f))
+                        .map(|f| dir.join(f))
                         .ok_or_else(|| format!("manifest: object {} has no {key} map", sp.object))
                 };
                 let total = read_exr(&file("illuminance")?).map_err(|e| e.to_string())?;
@@ -155,7 +157,16 @@ pub fn run(args: &Args) -> Result<(), String> {
         };
         let d = f64::from(luminance(direct.sample(sp.uv)));
         let t = f64::from(luminance(total.sample(sp.uv)));
-        let i = (t - d).max(0.0);
+        rows.push((p, [d, (t - d).max(0.0), t]));
+    }
+    Ok(rows)
+}
+
+/// Runs the measurement and prints the CSV; the error is a message for stderr.
+pub fn run(args: &Args) -> Result<(), String> {
+    let rows = measure(&args.dir, &args.points, args.tolerance)?;
+    println!("x,y,z,direct_lux,indirect_lux,total_lux");
+    for (p, [d, i, t]) in rows {
         println!("{},{},{},{d:.6},{i:.6},{t:.6}", p[0], p[1], p[2]);
     }
     Ok(())
@@ -177,5 +188,41 @@ mod tests {
         );
         assert!(parse_points("1,2,nan\n").is_err());
         assert!(parse_points("").expect("empty").is_empty());
+    }
+
+    #[test]
+    fn measures_a_bake_against_the_closed_form() {
+        use luxbake::bake::bake;
+        use luxbake::cpu::CpuBackend;
+        use luxbake::output::write_bake;
+        let settings = Settings {
+            rays: 4,
+            bounces: 0,
+            blur: Blur::None,
+            texels_per_metre: 8.0,
+            ..Settings::default()
+        };
+        let scene = Scene::builtin_with_settings("floor", settings).expect("floor");
+        let out = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {}).expect("bake");
+        let dir = std::env::temp_dir().join(format!("luxbake-measure-{}", std::process::id()));
+        write_bake(&dir, &scene, &out, "builtin:floor").expect("write");
+        let points = dir.join("points.csv");
+        std::fs::write(&points, "x,y,z\n3,0,4\n-5,0,2.5\n").expect("points");
+        let rows = measure(&dir, &points, 0.01).expect("measure");
+        assert_eq!(rows.len(), 2);
+        for (p, [d, i, t]) in rows {
+            // Floor scene: 1000 cd isotropic lamp 2 m above the origin.
+            let r2 = p[0] * p[0] + p[2] * p[2];
+            let want = 1000.0 * 2.0 / (4.0 + r2).powf(1.5);
+            assert!((t - want).abs() / want < 0.005, "{p:?}: {t} vs {want}");
+            assert_eq!((d, i), (t, 0.0));
+        }
+        std::fs::write(&points, "0,1,0\n").expect("points");
+        let err = measure(&dir, &points, 0.01).unwrap_err();
+        assert!(
+            err.contains("line 1") && err.contains("no baked surface"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
     }
 }
