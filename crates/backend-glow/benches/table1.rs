@@ -84,8 +84,9 @@ fn measure<B: GpuBackend>(backend: &mut B, scene: &Scene, settings: &Settings, r
 }
 
 fn main() {
-    // `cargo test --benches` runs bench targets with `--bench`-less arguments: do nothing then.
-    if std::env::args().any(|a| a == "--list" || a == "--test") {
+    // `cargo bench` passes `--bench`; `cargo test --benches` does not: do nothing then.
+    if !std::env::args().any(|a| a == "--bench") {
+        println!("table1: run with `cargo bench -p luxbake-backend-glow --bench table1`");
         return;
     }
     let scenes = list(

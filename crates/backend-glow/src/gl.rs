@@ -587,6 +587,25 @@ mod tests {
     }
 
     #[test]
+    fn gl_errors_name_the_pass_and_the_error() {
+        let Some(ctx) = context_or_skip("gl_errors_name_the_pass_and_the_error") else {
+            return;
+        };
+        let gl = ctx.gl().unwrap();
+        assert!(super::check(gl, "clean", "nothing").is_ok());
+        // SAFETY: an invalid enum only sets the error flag.
+        unsafe { gl.enable(0xFFFF) };
+        let err = super::check(gl, "some pass", "enabling").unwrap_err();
+        let msg = err.to_string();
+        assert!(
+            msg.contains("some pass") && msg.contains("GL_INVALID_ENUM"),
+            "{msg}"
+        );
+        // The flag is drained: the next check sees no stale error.
+        assert!(super::check(gl, "clean", "nothing").is_ok());
+    }
+
+    #[test]
     fn capabilities_meet_webgl2_minimums() {
         let Some(ctx) = context_or_skip("capabilities_meet_webgl2_minimums") else {
             return;
