@@ -20,7 +20,9 @@
 //! Everything left out is listed in [`BakeReport::skipped`].
 
 use std::fmt;
-use std::time::Instant;
+// `web_time::Instant` is `std::time::Instant` natively and `performance.now()` on wasm32, where
+// std's clock panics (the bake runs in a browser in `luxbake-viewer`).
+use web_time::Instant;
 
 use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
 use luxbake_ies::GpuTable;
