@@ -18,9 +18,10 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (rays, bounces, blur, texels_per_metre, bvh, seed), `layout` (`layer_size`,
-//! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela,
-//! used), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
-//! `size`, `resolution`, plus `transform` {`linear` (columns), `translation`} for all),
+//! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela
+//! (file), lumens (integrated × multiplier), used), `objects` (name, index, receiver, and for
+//! receivers `files`, `layer`, `offset`, `size`, `resolution`, plus `transform` {`linear`
+//! (columns), `translation`} for all),
 //! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run),
 //! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
 
@@ -248,6 +249,7 @@ pub fn write_bake(
                 "multiplier": l.multiplier,
                 "color": l.color,
                 "max_candela": max_cd,
+                "lumens": l.photometry.luminous_flux() * f64::from(l.multiplier),
                 "used": output.lamps_used.contains(&i),
             })
         })
