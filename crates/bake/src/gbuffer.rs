@@ -741,6 +741,57 @@ mod tests {
         );
     }
 
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(200))]
+        /// Random triangle soups (overlapping, degenerate, slivers) at random map sizes: all
+        /// data finite, normals unit, every valid texel on a triangle, and every texel that
+        /// holds a triangle's centroid valid.
+        #[test]
+        fn random_triangles(
+            tris in proptest::collection::vec(
+                (proptest::array::uniform3(proptest::array::uniform3(-2.0f32..2.0)),
+                 proptest::array::uniform3(proptest::array::uniform2(0.0f32..1.0))),
+                1..8,
+            ),
+            size in (1u32..40, 1u32..40),
+        ) {
+            let mut mesh = Mesh::default();
+            for (p, uv) in &tris {
+                let base = mesh.positions.len() as u32;
+                mesh.positions.extend_from_slice(p);
+                mesh.lightmap_uvs.extend_from_slice(uv);
+                mesh.normals.extend_from_slice(&[[0.0, 1.0, 0.0]; 3]);
+                mesh.indices.push([base, base + 1, base + 2]);
+            }
+            let o = Object {
+                name: "r".into(),
+                mesh,
+                transform: Transform::IDENTITY,
+                albedo: Albedo::grey(0.5),
+                receiver: true,
+                texel_scale: 1.0,
+            };
+            let size = [size.0, size.1];
+            let s = Scene { objects: vec![o], lamps: Vec::new(), settings: Settings::default() };
+            let l = Layout {
+                layer_size: size,
+                layers: 1,
+                regions: vec![Some(Region { layer: 0, offset: [0, 0], size })],
+            };
+            let g = rasterize(&s, &l);
+            check(&s, &l, &g, 1);
+            for (_, uv) in &tris {
+                let a2 = (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (uv[2][0] - uv[0][0]);
+                if a2.abs() * (size[0] * size[1]) as f32 > 1e-6 {
+                    let c = [0, 1].map(|k| (uv[0][k] + uv[1][k] + uv[2][k]) / 3.0);
+                    let x = ((c[0] * size[0] as f32) as u32).min(size[0] - 1);
+                    let y = ((c[1] * size[1] as f32) as u32).min(size[1] - 1);
+                    proptest::prop_assert!(g.is_valid(0, x, y), "centroid texel ({}, {}) empty", x, y);
+                }
+            }
+        }
+    }
+
     #[test]
     fn albedo_non_receivers_and_determinism() {
         let mut s = Scene::builtin("chairs_01").expect("builtin");
