@@ -8,14 +8,16 @@
 //! #   LUXBAKE_BENCH_RAYS=16 LUXBAKE_BENCH_DENSITY=64 LUXBAKE_BENCH_RUNS=3 LUXBAKE_BENCH_CPU=1
 //! ```
 //!
-//! Pass times are the bake driver's wall time per pass (each glow pass ends with `glFinish`),
-//! so they include the driver's work, not the asset load, layout, rasterisation or BVH build
-//! (the paper's Table 1 also counts only the pre-computation). Prints a Markdown table.
+//! Per pass two times are taken: the bake driver's wall time (each glow pass ends with
+//! `glFinish`) and the process's CPU time (user + system of all threads, llvmpipe's included,
+//! from `/proc/self/stat`), which stays meaningful on a machine shared with other jobs. Neither
+//! includes the asset load, layout, rasterisation or BVH build (the paper's Table 1 also counts
+//! only the pre-computation). Prints a Markdown table; the columns are summed per pass kind.
 
 use std::collections::BTreeMap;
 
 use luxbake::backend::GpuBackend;
-use luxbake::bake::bake;
+use luxbake::bake::{Progress, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
 use luxbake_backend_glow::GlowBackend;
@@ -48,36 +50,78 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-/// Median seconds per pass label (passes with the same label summed per run), the median total
-/// of the passes, texels and triangles.
+/// Process CPU time (user + system, all threads) in seconds, at clock-tick resolution; 0 where
+/// `/proc` is unavailable.
+fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    // Fields after the parenthesised command name: state is field 3, utime 14, stime 15.
+    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let fields: Vec<&str> = after.split_whitespace().collect();
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+/// Median seconds per pass label (passes with the same label summed per run), wall and CPU,
+/// the median totals, texels and triangles.
 struct Row {
     passes: BTreeMap<&'static str, f64>,
+    cpu: BTreeMap<&'static str, f64>,
     total: f64,
+    cpu_total: f64,
     texels: u64,
     triangles: usize,
 }
 
 fn measure<B: GpuBackend>(backend: &mut B, scene: &Scene, settings: &Settings, runs: usize) -> Row {
     let mut per_pass: BTreeMap<&'static str, Vec<f64>> = BTreeMap::new();
+    let mut per_pass_cpu: BTreeMap<&'static str, Vec<f64>> = BTreeMap::new();
     let mut totals = Vec::new();
+    let mut cpu_totals = Vec::new();
     let mut texels = 0;
     let mut triangles = 0;
     for _ in 0..runs {
-        let out = bake(backend, scene, settings, &mut |_| {}).expect("bake");
+        let mut cpu: BTreeMap<&'static str, f64> = BTreeMap::new();
+        let mut started: Option<(&'static str, f64)> = None;
+        let out = bake(backend, scene, settings, &mut |p| match p {
+            Progress::PassStart { label, .. } => started = Some((label, cpu_seconds())),
+            Progress::PassDone { .. } => {
+                if let Some((label, t0)) = started.take() {
+                    *cpu.entry(label).or_default() += cpu_seconds() - t0;
+                }
+            }
+            _ => {}
+        })
+        .expect("bake");
         let mut this: BTreeMap<&'static str, f64> = BTreeMap::new();
         for p in &out.report.passes {
             *this.entry(p.label).or_default() += p.seconds;
         }
         totals.push(this.values().sum());
+        cpu_totals.push(cpu.values().sum());
         for (k, v) in this {
             per_pass.entry(k).or_default().push(v);
+        }
+        for (k, v) in cpu {
+            per_pass_cpu.entry(k).or_default().push(v);
         }
         texels = out.report.texels;
         triangles = out.report.triangles;
     }
+    let medians = |m: BTreeMap<&'static str, Vec<f64>>| -> BTreeMap<&'static str, f64> {
+        m.into_iter().map(|(k, v)| (k, median(v))).collect()
+    };
     Row {
-        passes: per_pass.into_iter().map(|(k, v)| (k, median(v))).collect(),
+        passes: medians(per_pass),
+        cpu: medians(per_pass_cpu),
         total: median(totals),
+        cpu_total: median(cpu_totals),
         texels,
         triangles,
     }
@@ -111,7 +155,10 @@ fn main() {
         glow.capabilities().version
     );
     println!(
-        "| scene | backend | bvh | texels | triangles | direct | gather | blur (4) | copy+albedo+combine | total ms |"
+        "wall ms / CPU ms per pass kind (CPU = user + system time of all threads of the process)"
+    );
+    println!(
+        "| scene | backend | bvh | texels | triangles | direct | gather | blur ×4 | copy+albedo+combine | total |"
     );
     println!("|---|---|---|--:|--:|--:|--:|--:|--:|--:|");
     for name in &scenes {
@@ -139,11 +186,14 @@ fn main() {
                 ));
             }
             for (backend, row) in rows {
-                let ms = |labels: &[&str]| -> f64 {
-                    labels.iter().filter_map(|l| row.passes.get(l)).sum::<f64>() * 1e3
+                let ms = |labels: &[&str]| -> String {
+                    let sum = |m: &BTreeMap<&'static str, f64>| -> f64 {
+                        labels.iter().filter_map(|l| m.get(l)).sum::<f64>() * 1e3
+                    };
+                    format!("{:.0} / {:.0}", sum(&row.passes), sum(&row.cpu))
                 };
                 println!(
-                    "| {name} | {backend} | {mode} | {} | {} | {:.0} | {:.0} | {:.0} | {:.0} | {:.0} |",
+                    "| {name} | {backend} | {mode} | {} | {} | {} | {} | {} | {} | {:.0} / {:.0} |",
                     row.texels,
                     row.triangles,
                     ms(&["direct"]),
@@ -161,7 +211,8 @@ fn main() {
                         "copy_combined",
                         "albedo_combined"
                     ]),
-                    row.total * 1e3
+                    row.total * 1e3,
+                    row.cpu_total * 1e3
                 );
             }
         }
