@@ -174,15 +174,31 @@ pub struct MeshPart {
 
 /// Reads and parses a scene file; `mesh = "..."` objects are an error (no loader).
 pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
-    read_file(path, None)
+    read_file(path, None, &|_| {})
 }
 
 /// Reads and parses a scene file, loading `mesh = "..."` objects with `loader`.
 pub fn from_file_with(path: &Path, loader: &dyn MeshLoader) -> Result<Scene, SceneError> {
-    read_file(path, Some(loader))
+    read_file(path, Some(loader), &|_| {})
 }
 
-fn read_file(path: &Path, loader: Option<&dyn MeshLoader>) -> Result<Scene, SceneError> {
+/// Reads and parses a scene file, calling `adjust` on its settings *before* the objects are
+/// built: use it for command-line overrides, so the procedural meshes' chart padding and the
+/// mesh loader's UV padding follow the final `texels_per_metre` and `blur` (overriding
+/// `scene.settings` afterwards leaves padding sized for the file's density).
+pub fn from_file_adjusted(
+    path: &Path,
+    loader: Option<&dyn MeshLoader>,
+    adjust: &dyn Fn(&mut Settings),
+) -> Result<Scene, SceneError> {
+    read_file(path, loader, adjust)
+}
+
+fn read_file(
+    path: &Path,
+    loader: Option<&dyn MeshLoader>,
+    adjust: &dyn Fn(&mut Settings),
+) -> Result<Scene, SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -198,13 +214,13 @@ fn read_file(path: &Path, loader: Option<&dyn MeshLoader>) -> Result<Scene, Scen
         message: format!("not UTF-8: {e}"),
     })?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse(&text, base, Some(path), loader)
+    parse(&text, base, Some(path), loader, adjust)
 }
 
 /// Parses scene-file text; relative paths are relative to `base_dir`; `path` names the file
 /// in errors. `mesh = "..."` objects are an error (no loader).
 pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scene, SceneError> {
-    parse(text, base_dir, path, None)
+    parse(text, base_dir, path, None, &|_| {})
 }
 
 /// [`from_str`] with a [`MeshLoader`] for `mesh = "..."` objects.
@@ -214,7 +230,7 @@ pub fn from_str_with(
     path: Option<&Path>,
     loader: &dyn MeshLoader,
 ) -> Result<Scene, SceneError> {
-    parse(text, base_dir, path, Some(loader))
+    parse(text, base_dir, path, Some(loader), &|_| {})
 }
 
 fn parse(
@@ -222,6 +238,7 @@ fn parse(
     base_dir: &Path,
     path: Option<&Path>,
     loader: Option<&dyn MeshLoader>,
+    adjust: &dyn Fn(&mut Settings),
 ) -> Result<Scene, SceneError> {
     let cx = Cx {
         path: path.map(Path::to_path_buf),
@@ -232,7 +249,8 @@ fn parse(
         path: cx.path.clone(),
         message: e.to_string(),
     })?;
-    let settings = cx.settings(raw.settings)?;
+    let mut settings = cx.settings(raw.settings)?;
+    adjust(&mut settings);
     if raw.lamp.is_empty() {
         return Err(cx.invalid("lamp", "a scene needs at least one [[lamp]]"));
     }
@@ -1433,6 +1451,25 @@ mod tests {
             .expect_err("size")
             .to_string();
         assert!(e.contains("object[0].size"), "{e}");
+    }
+
+    #[test]
+    fn adjusted_settings_size_the_padding() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/living_room.toml");
+        let plain = from_file(&path).expect("example");
+        let coarse =
+            from_file_adjusted(&path, None, &|s| s.texels_per_metre = 12.0).expect("example");
+        assert_eq!(plain.settings.texels_per_metre, 48.0);
+        assert_eq!(coarse.settings.texels_per_metre, 12.0);
+        // Same geometry, but charts padded for 12 texels per metre: a different UV layout.
+        assert_eq!(
+            plain.objects[1].mesh.positions,
+            coarse.objects[1].mesh.positions
+        );
+        assert_ne!(
+            plain.objects[1].mesh.lightmap_uvs,
+            coarse.objects[1].mesh.lightmap_uvs
+        );
     }
 
     /// The example scene of the repository parses, and its relative lamp path resolves.
