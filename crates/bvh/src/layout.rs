@@ -88,6 +88,12 @@ pub const TRI_UV01_LAYER: u32 = 6;
 /// Triangle layer: light-map UV of vertex 2, object id.
 pub const TRI_UV2_OBJECT_LAYER: u32 = 7;
 
+/// RGBA32F texels per node over all node textures: 6 MTBVH links, 1 TBVH link, 2 bounds (the
+/// paper's 8 plus the TBVH link).
+pub const TEXELS_PER_NODE: u32 = LINK_LAYERS + TBVH_LINK_LAYERS + BOUNDS_LAYERS;
+/// RGBA32F texels per triangle (one per triangle layer).
+pub const TEXELS_PER_TRIANGLE: u32 = TRIANGLE_LAYERS;
+
 /// Ray direction components with magnitude below this (zero, ±0, subnormal) are treated as
 /// parallel to the slab, so the slab test never forms an infinite inverse or `0·∞`.
 pub const PARALLEL_EPSILON: f32 = f32::MIN_POSITIVE;
@@ -150,6 +156,11 @@ pub const CONSTANTS: &[(&str, Constant)] = &[
     (
         "LUX_TRI_UV2_OBJECT_LAYER",
         Constant::Int(TRI_UV2_OBJECT_LAYER as i64),
+    ),
+    ("LUX_TEXELS_PER_NODE", Constant::Int(TEXELS_PER_NODE as i64)),
+    (
+        "LUX_TEXELS_PER_TRIANGLE",
+        Constant::Int(TEXELS_PER_TRIANGLE as i64),
     ),
     ("LUX_PARALLEL_EPSILON", Constant::Float(PARALLEL_EPSILON)),
     ("LUX_BIG", Constant::Float(BIG)),
