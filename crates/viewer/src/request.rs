@@ -1,0 +1,393 @@
+//! What the page asks to bake: a built-in scene, settings and one lamp, as JSON.
+//!
+//! The page (main thread) and the bake worker both turn the same [`BakeRequest`] into the same
+//! [`Scene`] with [`build_scene`]: the worker bakes it, the page draws its meshes with the
+//! light maps the worker sends back.
+
+use std::sync::Arc;
+
+use luxbake::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
+use luxbake::scene::{Blur, Lamp, Scene, Settings};
+use luxbake_ies::Photometry;
+use serde::{Deserialize, Serialize};
+
+use crate::error::ViewerError;
+
+/// The lamps the page offers besides a file from disk: `(id, label)`. All are freely licensed:
+/// the repository's synthetic downlight, an isotropic point source, and two closed-form
+/// distributions generated for luxbake's tests.
+pub const BUNDLED_LAMPS: &[(&str, &str)] = &[
+    ("downlight", "luxbake downlight (1500 lm, default)"),
+    ("isotropic", "isotropic point, 120 cd (1508 lm)"),
+    ("synthetic_cosine", "synthetic I = 1000 cd·cos θ"),
+    (
+        "synthetic_asym",
+        "synthetic asymmetric 1000 cd·cos θ·(1 + ½ cos C)",
+    ),
+];
+
+/// Candela of the bundled isotropic lamp (≈ the downlight's 1500 lm over 4π sr).
+pub const ISOTROPIC_CANDELA: f64 = 120.0;
+
+/// The file id [`LampSpec::source`] takes for a photometric file loaded from disk.
+pub const FILE_SOURCE: &str = "file";
+
+const SYNTHETIC_COSINE_IES: &str = include_str!("../lamps/synthetic_cosine_typeC.ies");
+const SYNTHETIC_ASYM_IES: &str = include_str!("../lamps/synthetic_asym_typeC.ies");
+
+/// Upper bounds of the settings the page may request (a browser tab must not be asked for
+/// more than it can allocate or finish).
+pub mod limits {
+    /// Gather rays per texel per bounce.
+    pub const MAX_RAYS: u32 = 4096;
+    /// Indirect bounces.
+    pub const MAX_BOUNCES: u32 = 8;
+    /// Blur sigma, texels.
+    pub const MAX_BLUR_SIGMA: f32 = 16.0;
+    /// Texel density range, texels per metre.
+    pub const TEXELS_PER_METRE: (f32, f32) = (2.0, 128.0);
+    /// Lamp multiplier (dimmer) range.
+    pub const MULTIPLIER: (f32, f32) = (0.0, 100.0);
+}
+
+/// The lamp of a request: which photometry, where, aimed where, how bright.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct LampSpec {
+    /// A [`BUNDLED_LAMPS`] id, or [`FILE_SOURCE`] for the bytes given to [`build_scene`].
+    pub source: String,
+    /// Photometric centre, metres; `None` keeps the scene's lamp position (ceiling centre).
+    pub position: Option<[f32; 3]>,
+    /// Tilt of the aim away from straight down, degrees (0 = down, 90 = horizontal).
+    pub tilt_deg: f32,
+    /// Direction of the tilt about +Y, degrees: 0 tilts toward +X, 90 toward +Z.
+    pub azimuth_deg: f32,
+    /// Turn of the C0 plane about the aim axis, degrees ([`Lamp::rotation_deg`]).
+    pub rotation_deg: f32,
+    /// Dimmer: scalar on every intensity.
+    pub multiplier: f32,
+}
+
+impl Default for LampSpec {
+    fn default() -> Self {
+        LampSpec {
+            source: "downlight".into(),
+            position: None,
+            tilt_deg: 0.0,
+            azimuth_deg: 0.0,
+            rotation_deg: 0.0,
+            multiplier: 1.0,
+        }
+    }
+}
+
+impl LampSpec {
+    /// The world aim direction (unit) of the tilt and azimuth.
+    pub fn aim(&self) -> [f32; 3] {
+        let (st, ct) = self.tilt_deg.to_radians().sin_cos();
+        let (sa, ca) = self.azimuth_deg.to_radians().sin_cos();
+        [st * ca, -ct, st * sa]
+    }
+}
+
+/// A bake request: scene, settings, lamp.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct BakeRequest {
+    /// Built-in scene name ([`Scene::builtin_names`]).
+    pub scene: String,
+    /// Gather rays per texel per bounce.
+    pub rays: u32,
+    /// Indirect bounces (0 = direct light only).
+    pub bounces: u32,
+    /// Blur sigma in texels, 0 = no blur.
+    pub blur_sigma: f32,
+    /// Light-map texel density, texels per metre.
+    pub texels_per_metre: f32,
+    /// Seed of the bake's random-number hash.
+    pub seed: u32,
+    /// The lamp (the scene's only lamp is replaced by it).
+    pub lamp: LampSpec,
+}
+
+impl Default for BakeRequest {
+    /// `chairs_05` at 32 texels/m, 64 rays, one bounce, σ = 2: a quarter of the paper's texels,
+    /// sized for a browser's first bake (the settings panel goes up to the paper's density).
+    fn default() -> Self {
+        BakeRequest {
+            scene: "chairs_05".into(),
+            rays: 64,
+            bounces: 1,
+            blur_sigma: Settings::DEFAULT_BLUR_SIGMA,
+            texels_per_metre: 32.0,
+            seed: 0,
+            lamp: LampSpec::default(),
+        }
+    }
+}
+
+impl BakeRequest {
+    /// Parses a request from JSON (missing keys take their defaults).
+    ///
+    /// # Errors
+    /// [`ViewerError::Request`] for malformed JSON or unknown keys.
+    pub fn from_json(text: &str) -> Result<BakeRequest, ViewerError> {
+        serde_json::from_str(text).map_err(|e| ViewerError::Request(e.to_string()))
+    }
+
+    /// The bake settings of this request, checked against [`limits`].
+    ///
+    /// # Errors
+    /// [`ViewerError::Setting`] naming the first value out of range.
+    pub fn settings(&self) -> Result<Settings, ViewerError> {
+        let bad = |name: &'static str, reason: String| Err(ViewerError::Setting { name, reason });
+        if self.rays == 0 || self.rays > limits::MAX_RAYS {
+            return bad(
+                "rays",
+                format!("1 ..= {}, got {}", limits::MAX_RAYS, self.rays),
+            );
+        }
+        if self.bounces > limits::MAX_BOUNCES {
+            return bad(
+                "bounces",
+                format!("0 ..= {}, got {}", limits::MAX_BOUNCES, self.bounces),
+            );
+        }
+        if !(0.0..=limits::MAX_BLUR_SIGMA).contains(&self.blur_sigma) {
+            return bad(
+                "blur_sigma",
+                format!("0 ..= {}, got {}", limits::MAX_BLUR_SIGMA, self.blur_sigma),
+            );
+        }
+        let (lo, hi) = limits::TEXELS_PER_METRE;
+        if !(lo..=hi).contains(&self.texels_per_metre) {
+            return bad(
+                "texels_per_metre",
+                format!("{lo} ..= {hi}, got {}", self.texels_per_metre),
+            );
+        }
+        Ok(Settings {
+            rays: self.rays,
+            bounces: self.bounces,
+            blur: if self.blur_sigma > 0.0 {
+                Blur::Sigma(self.blur_sigma)
+            } else {
+                Blur::None
+            },
+            texels_per_metre: self.texels_per_metre,
+            seed: self.seed,
+            ..Settings::default()
+        })
+    }
+}
+
+/// Parses a photometric file (IES LM-63 or EULUMDAT) as the page does for a file from disk.
+///
+/// # Errors
+/// [`ViewerError::Photometry`] with `luxbake-ies`'s message (line and what was expected).
+pub fn parse_lamp_file(name: &str, bytes: &[u8]) -> Result<Photometry, ViewerError> {
+    Photometry::parse(bytes).map_err(|e| ViewerError::Photometry {
+        file: name.to_owned(),
+        message: e.to_string(),
+    })
+}
+
+/// The photometry of a bundled lamp id.
+///
+/// # Errors
+/// [`ViewerError::Request`] for an unknown id.
+pub fn bundled_photometry(id: &str) -> Result<Photometry, ViewerError> {
+    let text = match id {
+        "isotropic" => return Ok(Photometry::isotropic(ISOTROPIC_CANDELA)),
+        "downlight" => DEFAULT_LAMP_IES,
+        "synthetic_cosine" => SYNTHETIC_COSINE_IES,
+        "synthetic_asym" => SYNTHETIC_ASYM_IES,
+        _ => {
+            return Err(ViewerError::Request(format!(
+                "unknown lamp `{id}` (expected one of {})",
+                BUNDLED_LAMPS
+                    .iter()
+                    .map(|(id, _)| *id)
+                    .chain([FILE_SOURCE])
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+    };
+    parse_lamp_file(id, text.as_bytes())
+}
+
+/// Builds the scene of `request`: the built-in scene at the requested density with its lamp
+/// replaced by the requested one. `lamp_file` holds the bytes of a file from disk when
+/// `request.lamp.source` is [`FILE_SOURCE`].
+///
+/// # Errors
+/// Unknown scene or lamp, settings out of range, a lamp position outside the room or not
+/// finite, a multiplier out of range, a photometric file that does not parse.
+pub fn build_scene(request: &BakeRequest, lamp_file: Option<&[u8]>) -> Result<Scene, ViewerError> {
+    let settings = request.settings()?;
+    if !Scene::builtin_names().contains(&request.scene.as_str()) {
+        return Err(ViewerError::Request(format!(
+            "unknown scene `{}` (expected one of {})",
+            request.scene,
+            Scene::builtin_names().join(", ")
+        )));
+    }
+    let mut scene = Scene::builtin_with_settings(&request.scene, settings)
+        .map_err(|e| ViewerError::Request(e.to_string()))?;
+    let spec = &request.lamp;
+    let photometry = if spec.source == FILE_SOURCE {
+        let bytes = lamp_file.ok_or_else(|| {
+            ViewerError::Request("lamp source `file` but no file was loaded".into())
+        })?;
+        parse_lamp_file("lamp file", bytes)?
+    } else {
+        bundled_photometry(&spec.source)?
+    };
+    let (lo, hi) = limits::MULTIPLIER;
+    if !(lo..=hi).contains(&spec.multiplier) {
+        return Err(ViewerError::Setting {
+            name: "multiplier",
+            reason: format!("{lo} ..= {hi}, got {}", spec.multiplier),
+        });
+    }
+    for (name, v) in [
+        ("tilt_deg", spec.tilt_deg),
+        ("azimuth_deg", spec.azimuth_deg),
+        ("rotation_deg", spec.rotation_deg),
+    ] {
+        if !v.is_finite() {
+            return Err(ViewerError::Setting {
+                name,
+                reason: format!("must be finite, got {v}"),
+            });
+        }
+    }
+    let default_position = scene
+        .lamps
+        .first()
+        .map_or([0.0, ROOM_SIZE[1] - 0.05, 0.0], |l| l.position);
+    let position = spec.position.unwrap_or(default_position);
+    let half = [ROOM_SIZE[0] / 2.0, ROOM_SIZE[1], ROOM_SIZE[2] / 2.0];
+    let inside = (0..3).all(|i| {
+        let lo = if i == 1 { 0.0 } else { -half[i] };
+        position[i].is_finite() && position[i] > lo && position[i] < half[i]
+    });
+    if !inside {
+        return Err(ViewerError::Setting {
+            name: "position",
+            reason: format!(
+                "the lamp must be inside the room (|x| < {}, 0 < y < {}, |z| < {}), got {position:?}",
+                half[0], half[1], half[2]
+            ),
+        });
+    }
+    let mut lamp = Lamp::new(spec.source.clone(), Arc::new(photometry), position);
+    lamp.aim = spec.aim();
+    lamp.rotation_deg = spec.rotation_deg;
+    lamp.multiplier = spec.multiplier;
+    scene.lamps = vec![lamp];
+    Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_default_request_builds_chairs_05_with_the_downlight() {
+        let r = BakeRequest::default();
+        let scene = build_scene(&r, None).unwrap();
+        assert_eq!(scene.objects.len(), 6, "room + 5 chairs");
+        assert_eq!(scene.lamps.len(), 1);
+        let lamp = &scene.lamps[0];
+        assert_eq!(lamp.aim, [0.0, -1.0, 0.0]);
+        assert!((lamp.position[1] - (ROOM_SIZE[1] - 0.05)).abs() < 1e-6);
+        assert_eq!(scene.settings.texels_per_metre, 32.0);
+        assert_eq!(scene.settings.blur, Blur::Sigma(2.0));
+    }
+
+    #[test]
+    fn json_round_trips_and_missing_keys_default() {
+        let r = BakeRequest::from_json(r#"{"scene":"chairs_01","rays":16}"#).unwrap();
+        assert_eq!(r.scene, "chairs_01");
+        assert_eq!(r.rays, 16);
+        assert_eq!(r.bounces, 1);
+        let back = BakeRequest::from_json(&serde_json::to_string(&r).unwrap()).unwrap();
+        assert_eq!(back, r);
+        let e = BakeRequest::from_json(r#"{"scene":"chairs_01","rayz":16}"#).unwrap_err();
+        assert!(e.to_string().contains("rayz"), "{e}");
+    }
+
+    #[test]
+    fn every_bundled_lamp_parses_and_lights_downward() {
+        for (id, _) in BUNDLED_LAMPS {
+            let p = bundled_photometry(id).unwrap();
+            assert!(p.intensity([0.0, 0.0, -1.0]) > 100.0, "{id}");
+        }
+        assert!(bundled_photometry("nope").is_err());
+    }
+
+    #[test]
+    fn lamp_edits_reach_the_scene() {
+        let mut r = BakeRequest::default();
+        r.lamp.position = Some([1.0, 2.0, -0.5]);
+        r.lamp.tilt_deg = 90.0;
+        r.lamp.azimuth_deg = 90.0;
+        r.lamp.multiplier = 0.25;
+        r.lamp.source = "isotropic".into();
+        let scene = build_scene(&r, None).unwrap();
+        let lamp = &scene.lamps[0];
+        assert_eq!(lamp.position, [1.0, 2.0, -0.5]);
+        assert_eq!(lamp.multiplier, 0.25);
+        assert!((lamp.aim[2] - 1.0).abs() < 1e-6 && lamp.aim[1].abs() < 1e-6);
+    }
+
+    #[test]
+    fn out_of_range_values_name_their_setting() {
+        let cases: Vec<(&str, Box<dyn Fn(&mut BakeRequest)>)> = vec![
+            ("rays", Box::new(|r| r.rays = 0)),
+            ("bounces", Box::new(|r| r.bounces = 99)),
+            ("blur_sigma", Box::new(|r| r.blur_sigma = f32::NAN)),
+            ("texels_per_metre", Box::new(|r| r.texels_per_metre = 1e6)),
+            ("multiplier", Box::new(|r| r.lamp.multiplier = -1.0)),
+            (
+                "position",
+                Box::new(|r| r.lamp.position = Some([9.0, 1.0, 0.0])),
+            ),
+            (
+                "position",
+                Box::new(|r| r.lamp.position = Some([0.0, f32::NAN, 0.0])),
+            ),
+            ("tilt_deg", Box::new(|r| r.lamp.tilt_deg = f32::INFINITY)),
+        ];
+        for (name, edit) in cases {
+            let mut r = BakeRequest::default();
+            edit(&mut r);
+            let e = build_scene(&r, None).unwrap_err();
+            assert!(e.to_string().contains(name), "{name}: {e}");
+        }
+        let r = BakeRequest {
+            scene: "kitchen".into(),
+            ..BakeRequest::default()
+        };
+        assert!(
+            build_scene(&r, None)
+                .unwrap_err()
+                .to_string()
+                .contains("kitchen")
+        );
+    }
+
+    #[test]
+    fn a_file_lamp_needs_parseable_bytes() {
+        let mut r = BakeRequest::default();
+        r.lamp.source = FILE_SOURCE.into();
+        assert!(build_scene(&r, None).is_err());
+        let e =
+            build_scene(&r, Some(b"IESNA:LM-63-2002\nTILT=NONE\n1 1000 1 garbage")).unwrap_err();
+        assert!(matches!(e, ViewerError::Photometry { .. }), "{e}");
+        let ok = build_scene(&r, Some(SYNTHETIC_ASYM_IES.as_bytes())).unwrap();
+        assert_eq!(ok.lamps[0].name, FILE_SOURCE);
+    }
+}
