@@ -257,6 +257,7 @@ impl Viewer {
     /// # Errors
     /// As [`Viewer::new`].
     pub fn restore(&mut self, canvas: &HtmlCanvasElement) -> Result<(), JsError> {
+        self.renderer.abandon();
         self.renderer = Renderer::new(canvas).map_err(js_err)?;
         self.upload().map_err(js_err)
     }

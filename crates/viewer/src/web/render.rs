@@ -109,6 +109,9 @@ pub(crate) struct Renderer {
     program: glow::Program,
     meshes: Vec<GpuMesh>,
     marker: Option<GpuMesh>,
+    /// Set when the context was lost since these objects were made: they are gone with it, and
+    /// deleting them on the restored context would be a GL error.
+    stale: bool,
 }
 
 fn gpu(what: &str, e: impl std::fmt::Display) -> ViewerError {
@@ -177,7 +180,13 @@ impl Renderer {
             program,
             meshes: Vec::new(),
             marker: None,
+            stale: false,
         })
+    }
+
+    /// Marks every object as gone with a lost context (dropping then deletes nothing).
+    pub(crate) fn abandon(&mut self) {
+        self.stale = true;
     }
 
     /// Whether the browser took the context away.
@@ -357,6 +366,9 @@ impl Renderer {
 
 impl Drop for Renderer {
     fn drop(&mut self) {
+        if self.stale {
+            return;
+        }
         for m in std::mem::take(&mut self.meshes) {
             self.delete_mesh(m);
         }
