@@ -26,6 +26,10 @@ pub struct Args {
     /// Output folder.
     #[arg(long, default_value = "out")]
     out: PathBuf,
+    /// Also write the baked scene as glTF 2.0 binary (light maps on TEXCOORD_1; PNG inside,
+    /// linear EXR in lux beside it; see `luxbake_assets::export`).
+    #[arg(long)]
+    glb: Option<PathBuf>,
     /// Backend: cpu, glow or wgpu.
     #[arg(long)]
     backend: Option<BackendKind>,
@@ -79,7 +83,9 @@ impl Args {
 fn load(args: &Args) -> Result<(Scene, String), String> {
     match &args.scene_file {
         Some(path) => {
-            let mut scene = Scene::from_toml_file(path).map_err(|e| e.to_string())?;
+            let mut scene =
+                Scene::from_toml_file_with(path, &luxbake_assets::SceneLoader::default())
+                    .map_err(|e| e.to_string())?;
             args.apply(&mut scene.settings);
             let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
             Ok((scene, abs.display().to_string()))
@@ -111,6 +117,10 @@ pub fn run(args: &Args) -> Result<(), String> {
         }
     };
     write_bake(&args.out, &scene, &output, &source).map_err(|e| e.to_string())?;
+    if let Some(glb) = &args.glb {
+        luxbake_assets::export::export_baked(&scene, &output, glb).map_err(|e| e.to_string())?;
+        println!("wrote {}", glb.display());
+    }
     print_summary(&output, &scene);
     println!("wrote {}", args.out.join("manifest.json").display());
     Ok(())

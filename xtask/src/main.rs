@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bake;
+mod export;
 mod ies;
 mod measure;
 
@@ -22,6 +23,8 @@ enum Command {
     Ies(ies::Args),
     /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
     Bake(bake::Args),
+    /// Write a built-in scene (or a scene file) as glTF 2.0 binary (.glb) for other tools.
+    ExportScene(export::Args),
     /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
     Measure(measure::Args),
 }
@@ -31,6 +34,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Ies(args) => ies::run(&args),
         Command::Bake(args) => bake::run(&args),
+        Command::ExportScene(args) => export::run(&args),
         Command::Measure(args) => measure::run(&args),
     };
     match result {
