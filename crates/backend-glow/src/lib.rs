@@ -78,7 +78,8 @@
 //! Native: [`GlContext::headless`], EGL loaded at run time (`khronos-egl`, `dynamic`) on Mesa's
 //! surfaceless platform (`EGL_PLATFORM_SURFACELESS_MESA`), an OpenGL ES 3.0 context without any
 //! surface; on a machine without a GPU this is llvmpipe (`apt-get install libegl1
-//! libgl1-mesa-dri`). wasm32: `GlContext::from_canvas` asks a canvas for `webgl2`. The
+//! libgl1-mesa-dri`). wasm32: `GlContext::from_canvas` asks a canvas for `webgl2`,
+//! `GlContext::from_offscreen_canvas` an `OffscreenCanvas` (in a Web Worker). The
 //! `cfg(target_arch = "wasm32")` split is confined to the `context` module. A context is bound
 //! to the thread that created it ([`GlContext`] is neither `Send` nor `Sync`).
 //!
