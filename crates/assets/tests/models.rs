@@ -144,9 +144,18 @@ fn each_model_loads_bakes_exports_and_reimports() {
         };
         let out = cpu_bake(&scene);
         let source = if own_uvs { "own" } else { "generated" };
+        let model_texels: u64 = out.layout.regions[..model.parts.len()]
+            .iter()
+            .flatten()
+            .map(|r| r.texel_count())
+            .sum();
         println!(
-            "{file}: {triangles} triangles, UVs {source}, {} light-map texels (incl. floor), CPU bake {:.2} s",
-            out.report.texels, out.report.total_seconds
+            "{file}: {triangles} triangles, UVs {source}, {model_texels} light-map region texels \
+             of the model (scene incl. floor: {} region, {} valid) at {} texels/m, CPU bake {:.2} s",
+            out.report.region_texels,
+            out.report.texels,
+            s.texels_per_metre,
+            out.report.total_seconds
         );
         let lit: f64 = out
             .maps
