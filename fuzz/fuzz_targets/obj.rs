@@ -1,0 +1,21 @@
+//! OBJ files (any bytes) through `luxbake-assets`' OBJ reader: no panic, and whatever parses
+//! gives meshes that pass `Mesh::validate`, with light-map UVs in [0, 1]. The `.mtl` files it
+//! names resolve against a folder that does not exist.
+#![no_main]
+
+use std::path::Path;
+
+use libfuzzer_sys::fuzz_target;
+use luxbake_assets::ImportOptions;
+
+fuzz_target!(|data: &[u8]| {
+    let options = ImportOptions::default();
+    let path = Path::new("/nonexistent/luxbake-fuzz/model.obj");
+    let Ok(model) = luxbake_assets::obj_in::import_bytes(data, path, &options) else {
+        return;
+    };
+    for part in &model.parts {
+        part.mesh.validate().expect("imported meshes are valid");
+        assert!(part.mesh.lightmap_uvs.iter().flatten().all(|c| (0.0..=1.0).contains(c)));
+    }
+});
