@@ -5,6 +5,7 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 mod bake;
+mod bench;
 mod export;
 mod ies;
 mod measure;
@@ -23,6 +24,9 @@ enum Command {
     Ies(ies::Args),
     /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
     Bake(bake::Args),
+    /// Measured runs: the paper's Table 1 on every backend, scaling, and (`bench trade`) the
+    /// speed/accuracy trade; `--quick` for CI.
+    Bench(bench::Args),
     /// Write a built-in scene (or a scene file) as glTF 2.0 binary (.glb) for other tools.
     ExportScene(export::Args),
     /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
@@ -34,6 +38,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Ies(args) => ies::run(&args),
         Command::Bake(args) => bake::run(&args),
+        Command::Bench(args) => bench::run(&args),
         Command::ExportScene(args) => export::run(&args),
         Command::Measure(args) => measure::run(&args),
     };

@@ -1,0 +1,372 @@
+//! `cargo xtask bench [--quick]` and `cargo xtask bench trade [--quick]`: measured runs of the
+//! bake (not criterion benchmarks: one configuration takes seconds to minutes).
+//!
+//! - `bench` ([`table1`]): the paper's Table 1 — `chairs_01/03/05/10` and `sofa_01` × every
+//!   backend (cpu, glow, wgpu; an unavailable one is reported, not fatal) × traversal (mtbvh,
+//!   tbvh, none). Per configuration: texels, triangles, rays cast, the median and min–max of the
+//!   pass time over repeated runs (wall and process CPU time), time per pass kind, and the ratio
+//!   against CPU + MTBVH of the same scene measured in the same run. Asset load, layout,
+//!   rasterisation and BVH build are excluded from the pass time (as in the paper) and reported
+//!   separately. Then the scaling runs ([`scaling`]): time vs triangles and vs texels with
+//!   log-log slopes.
+//! - `bench trade` ([`trade`]): `chairs_05` over rays per texel, texel density, bounces and blur,
+//!   each bake compared with a converged reference by RMSE, mean relative error and
+//!   95th-percentile error (lux); a table, an SVG plot (error vs time, log-log, one curve per
+//!   knob, Pareto front marked) and the defaults chosen from the front.
+//!
+//! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
+//! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
+//! `bench/results/` (committed); `--quick` (CI) writes to `target/bench-quick/` so CI never
+//! dirties the tree. `--out` overrides both.
+//!
+//! Times are wall-clock seconds of each pass as the bake driver reports them (GPU backends
+//! synchronise at the end of every pass), plus the process CPU time (user + system of all
+//! threads, the software rasterisers' included) from `/proc/self/stat`, which stays meaningful on
+//! a shared machine where wall time does not.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use luxbake::backend::GpuBackend;
+use luxbake::bake::{BakeOutput, Progress, bake};
+use luxbake::cpu::CpuBackend;
+use luxbake::scene::{BackendKind, BvhMode, Scene, Settings};
+use luxbake_backend_glow::GlowBackend;
+use luxbake_backend_wgpu::WgpuBackend;
+
+mod scaling;
+mod table1;
+mod trade;
+
+/// Arguments of `cargo xtask bench`.
+#[derive(clap::Args)]
+pub struct Args {
+    #[command(subcommand)]
+    what: Option<What>,
+    /// Small sizes and one run per configuration (CI; each command under two minutes).
+    #[arg(long, global = true)]
+    quick: bool,
+    /// Output folder (default `bench/results`, or `target/bench-quick` with `--quick`).
+    #[arg(long, global = true)]
+    out: Option<PathBuf>,
+    /// Repetitions per configuration (Table 1: default 3, 1 with `--quick`; trade: 1).
+    #[arg(long, global = true)]
+    runs: Option<usize>,
+    /// Backends to try, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "cpu,glow,wgpu")]
+    backends: Vec<BackendKind>,
+    /// Traversal modes for Table 1, comma separated.
+    #[arg(long, value_delimiter = ',', default_value = "mtbvh,tbvh,none")]
+    bvh: Vec<BvhMode>,
+    /// Gather rays per texel for Table 1 (default 4; 2 with `--quick`).
+    #[arg(long)]
+    rays: Option<u32>,
+    /// Texel density for Table 1, texels per metre (default 16, a sixteenth of the paper's
+    /// texel counts, so that brute force finishes on a CPU; 8 with `--quick`; 64 gives the
+    /// paper's counts).
+    #[arg(long)]
+    texels_per_metre: Option<f32>,
+    /// Stop repeating a configuration once its runs together took this many seconds.
+    #[arg(long, default_value_t = 30.0)]
+    budget: f64,
+    /// Skip the scaling runs.
+    #[arg(long)]
+    no_scaling: bool,
+}
+
+#[derive(clap::Subcommand)]
+enum What {
+    /// Speed/accuracy trade on chairs_05: rays, texel density, bounces, blur vs a reference.
+    Trade(trade::Args),
+}
+
+/// Runs the command; the error is a message for stderr.
+pub fn run(args: &Args) -> Result<(), String> {
+    let out = args.out.clone().unwrap_or_else(|| {
+        if args.quick {
+            PathBuf::from("target/bench-quick")
+        } else {
+            PathBuf::from("bench/results")
+        }
+    });
+    std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
+    match &args.what {
+        Some(What::Trade(t)) => trade::run(t, args.quick, args.runs, &out),
+        None => {
+            let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
+            table1::run(args, runs, &out)
+        }
+    }
+}
+
+/// An opened backend and its renderer string, or why it is unavailable.
+pub type Opened = Result<(AnyBackend, String), String>;
+
+/// A backend chosen at run time (the enum lives at the edge; the bake itself is generic).
+pub enum AnyBackend {
+    /// The CPU reference backend.
+    Cpu(CpuBackend),
+    /// OpenGL ES 3.0 through EGL.
+    Glow(Box<GlowBackend>),
+    /// wgpu (Vulkan).
+    Wgpu(Box<WgpuBackend>),
+}
+
+impl AnyBackend {
+    /// Opens `kind`; the error says why it is unavailable. Also returns the renderer string.
+    pub fn open(kind: BackendKind) -> Opened {
+        match kind {
+            BackendKind::Cpu => Ok((AnyBackend::Cpu(CpuBackend::new()), machine())),
+            BackendKind::Glow => {
+                let b = GlowBackend::headless().map_err(|e| e.to_string())?;
+                let c = b.capabilities();
+                let renderer = format!("{} ({})", c.renderer, c.version);
+                Ok((AnyBackend::Glow(Box::new(b)), renderer))
+            }
+            BackendKind::Wgpu => {
+                let b = WgpuBackend::new().map_err(|e| e.to_string())?;
+                let i = b.adapter_info();
+                let renderer = format!("{} ({:?}, {})", i.name, i.backend, i.driver_info);
+                Ok((AnyBackend::Wgpu(Box::new(b)), renderer))
+            }
+        }
+    }
+
+    /// One timed bake.
+    pub fn bake(&mut self, scene: &Scene, settings: &Settings) -> Result<Run, String> {
+        match self {
+            AnyBackend::Cpu(b) => timed_bake(b, scene, settings),
+            AnyBackend::Glow(b) => timed_bake(&mut **b, scene, settings),
+            AnyBackend::Wgpu(b) => timed_bake(&mut **b, scene, settings),
+        }
+    }
+}
+
+/// One bake and its process CPU time per pass label.
+pub struct Run {
+    /// The bake's output (maps, report with wall times).
+    pub out: BakeOutput,
+    /// Process CPU seconds per pass label (passes with the same label summed).
+    pub pass_cpu: BTreeMap<&'static str, f64>,
+}
+
+impl Run {
+    /// Wall seconds of all passes (asset load, layout, rasterisation, BVH build excluded).
+    pub fn wall(&self) -> f64 {
+        self.out.report.passes.iter().map(|p| p.seconds).sum()
+    }
+
+    /// Process CPU seconds of all passes.
+    pub fn cpu(&self) -> f64 {
+        self.pass_cpu.values().sum()
+    }
+
+    /// Rays cast: shadow plus gather.
+    pub fn rays(&self) -> u64 {
+        self.out.report.shadow_rays + self.out.report.gather_rays
+    }
+}
+
+fn timed_bake<B: GpuBackend>(
+    backend: &mut B,
+    scene: &Scene,
+    settings: &Settings,
+) -> Result<Run, String> {
+    let mut pass_cpu: BTreeMap<&'static str, f64> = BTreeMap::new();
+    let mut started: Option<(&'static str, f64)> = None;
+    let out = bake(backend, scene, settings, &mut |p| match p {
+        Progress::PassStart { label, .. } => started = Some((label, cpu_seconds())),
+        Progress::PassDone { .. } => {
+            if let Some((label, t0)) = started.take() {
+                *pass_cpu.entry(label).or_default() += cpu_seconds() - t0;
+            }
+        }
+        _ => {}
+    })
+    .map_err(|e| e.to_string())?;
+    Ok(Run { out, pass_cpu })
+}
+
+/// Process CPU time (user + system, all threads) in seconds, at clock-tick (10 ms) resolution;
+/// 0 where `/proc` is unavailable.
+pub fn cpu_seconds() -> f64 {
+    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
+        return 0.0;
+    };
+    // Fields after the parenthesised command name: utime is field 14, stime 15 (1-based).
+    let after = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let fields: Vec<&str> = after.split_whitespace().collect();
+    let ticks = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    (ticks(11) + ticks(12)) / 100.0
+}
+
+/// Median, minimum and maximum of a sample.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Summary {
+    /// Median.
+    pub median: f64,
+    /// Minimum.
+    pub min: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Summary {
+    /// Of `v` (all zero when empty).
+    pub fn of(v: &[f64]) -> Summary {
+        let mut v = v.to_vec();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n == 0 {
+            return Summary::default();
+        }
+        let median = if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        };
+        Summary {
+            median,
+            min: v[0],
+            max: v[n - 1],
+        }
+    }
+
+    /// As JSON (seconds).
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({ "median": self.median, "min": self.min, "max": self.max })
+    }
+}
+
+/// The CPU model and core count, e.g. `AMD EPYC 7B13 ×2`.
+pub fn machine() -> String {
+    let model = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_owned())
+        })
+        .unwrap_or_else(|| std::env::consts::ARCH.to_owned());
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    format!("{model} ×{cores}")
+}
+
+/// The 1-, 5- and 15-minute load averages (`/proc/loadavg`), or "unknown".
+pub fn load_average() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
+        .unwrap_or_else(|| "unknown".to_owned())
+}
+
+/// `machine()` as a file-name fragment: lower-case ASCII letters, digits and `-`.
+pub fn machine_slug() -> String {
+    let mut slug = String::new();
+    for c in machine().chars() {
+        if c.is_ascii_alphanumeric() {
+            slug.push(c.to_ascii_lowercase());
+        } else if !slug.ends_with('-') && !slug.is_empty() {
+            slug.push('-');
+        }
+    }
+    slug.trim_end_matches('-').to_owned()
+}
+
+/// Today's UTC date and time, `YYYY-MM-DD` and `HH:MM`.
+pub fn utc_now() -> (String, String) {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    (
+        format!("{y:04}-{m:02}-{d:02}"),
+        format!("{:02}:{:02}", rem / 3600, (rem % 3600) / 60),
+    )
+}
+
+/// `<dir>/<what>-<date>-<machine>.<ext>`.
+pub fn result_path(dir: &Path, what: &str, ext: &str) -> PathBuf {
+    let (date, _) = utc_now();
+    dir.join(format!("{what}-{date}-{}.{ext}", machine_slug()))
+}
+
+/// Writes `text` to `path`, reporting it on stdout.
+pub fn write(path: &Path, text: &str) -> Result<(), String> {
+    std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Least-squares slope of `ln y` against `ln x` (points with non-positive values left out);
+/// `None` with fewer than two usable points.
+pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {
+    let p: Vec<(f64, f64)> = points
+        .iter()
+        .filter(|(x, y)| *x > 0.0 && *y > 0.0)
+        .map(|(x, y)| (x.ln(), y.ln()))
+        .collect();
+    if p.len() < 2 {
+        return None;
+    }
+    let n = p.len() as f64;
+    let mx = p.iter().map(|q| q.0).sum::<f64>() / n;
+    let my = p.iter().map(|q| q.1).sum::<f64>() / n;
+    let sxx: f64 = p.iter().map(|q| (q.0 - mx).powi(2)).sum();
+    let sxy: f64 = p.iter().map(|q| (q.0 - mx) * (q.1 - my)).sum();
+    (sxx > 0.0).then(|| sxy / sxx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn summary_median_min_max() {
+        let s = Summary::of(&[3.0, 1.0, 2.0, 10.0]);
+        assert_eq!((s.median, s.min, s.max), (2.5, 1.0, 10.0));
+        assert_eq!(Summary::of(&[4.0, 1.0, 2.0]).median, 2.0);
+        assert_eq!(Summary::of(&[]).median, 0.0);
+    }
+
+    #[test]
+    fn slope_of_power_law() {
+        let pts: Vec<(f64, f64)> = [1.0, 2.0, 4.0, 8.0]
+            .iter()
+            .map(|&x: &f64| (x, 3.0 * x.powf(1.5)))
+            .collect();
+        let s = log_log_slope(&pts).expect("slope");
+        assert!((s - 1.5).abs() < 1e-9, "{s}");
+        assert_eq!(log_log_slope(&[(1.0, 1.0)]), None);
+    }
+
+    #[test]
+    fn utc_date_is_well_formed() {
+        let (date, time) = utc_now();
+        assert_eq!(date.len(), 10, "{date}");
+        assert!(date.starts_with("20"), "{date}");
+        assert_eq!(time.len(), 5, "{time}");
+        assert!(
+            machine_slug()
+                .chars()
+                .all(|c| c.is_ascii_alphanumeric() || c == '-')
+        );
+    }
+}

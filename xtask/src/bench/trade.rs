@@ -1,0 +1,637 @@
+//! `cargo xtask bench trade`: the speed/accuracy trade on `chairs_05`.
+//!
+//! One knob at a time is varied around a base configuration (rays per texel, texel density,
+//! bounces, blur); every bake is compared with a converged reference (many rays, 4 bounces, blur
+//! off) at the same fixed set of surface points: area-uniform random points on the receivers'
+//! triangles (seeded), each read from a bake's final illuminance map with the masked bilinear
+//! look-up at the point's light-map UV (so bakes of different texel densities compare at the same
+//! place on the surface). The value compared is the photometric illuminance
+//! `Y = 0.2126 R + 0.7152 G + 0.0722 B` in lux. Errors: RMSE, mean relative error (|Δ| over
+//! `max(reference, 1 % of the mean reference)`, so dark corners do not dominate) and the 95th
+//! percentile of |Δ|. Time: the passes' wall time (no layout, rasterisation or BVH build).
+//!
+//! Bakes with the base's bounce count are also compared with a reference of that bounce count
+//! (`same-bounce` columns): that isolates noise, resolution and blur from the bias of stopping
+//! early.
+//!
+//! The Pareto front over (time, RMSE) is marked; the suggested defaults are the cheapest front
+//! point whose RMSE is within [`KNEE`] × the lowest RMSE measured.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use luxbake::bake::BakeOutput;
+use luxbake::scene::{BackendKind, Blur, Scene, Settings};
+use plotters::prelude::*;
+
+use super::{AnyBackend, Summary, load_average, machine, result_path, utc_now, write};
+
+/// The chosen configuration is the cheapest Pareto point whose RMSE is at most `KNEE` times
+/// the lowest RMSE of the grid.
+pub const KNEE: f64 = 1.25;
+
+/// Arguments of `cargo xtask bench trade`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Backend that bakes the grid and the reference.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+}
+
+/// Grid and reference of one run.
+struct Preset {
+    reference: Settings,
+    base: Settings,
+    rays: &'static [u32],
+    densities: &'static [f32],
+    bounces: &'static [u32],
+    blurs: &'static [Option<f32>],
+    /// Rays per texel of the "3 bounces" curve (bounces and rays together).
+    rays_3_bounces: &'static [u32],
+    points: usize,
+}
+
+fn preset(quick: bool) -> Preset {
+    let base = |rays, texels_per_metre| Settings {
+        rays,
+        bounces: 1,
+        blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
+        texels_per_metre,
+        ..Settings::default()
+    };
+    if quick {
+        Preset {
+            reference: Settings {
+                bounces: 4,
+                blur: Blur::None,
+                ..base(64, 8.0)
+            },
+            base: base(8, 8.0),
+            rays: &[2, 8, 32],
+            densities: &[4.0, 8.0],
+            bounces: &[0, 1, 2, 3],
+            blurs: &[None, Some(1.0), Some(2.0)],
+            rays_3_bounces: &[2, 8],
+            points: 4_000,
+        }
+    } else {
+        Preset {
+            reference: Settings {
+                bounces: 4,
+                blur: Blur::None,
+                ..base(256, 24.0)
+            },
+            base: base(32, 16.0),
+            rays: &[4, 16, 32, 64, 256],
+            densities: &[8.0, 12.0, 16.0, 24.0],
+            bounces: &[0, 1, 2, 3],
+            blurs: &[None, Some(1.0), Some(2.0), Some(4.0)],
+            rays_3_bounces: &[4, 16, 64],
+            points: 20_000,
+        }
+    }
+}
+
+/// A surface point: triangle index and barycentric weights.
+#[derive(Clone, Copy)]
+struct Point {
+    triangle: usize,
+    bary: [f32; 3],
+}
+
+/// SplitMix64.
+fn next(state: &mut u64) -> u64 {
+    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    let mut z = *state;
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+fn unit(state: &mut u64) -> f64 {
+    (next(state) >> 11) as f64 / (1u64 << 53) as f64
+}
+
+/// `count` area-uniform points on the receivers' triangles of `scene` (seeded, deterministic).
+fn surface_points(scene: &Scene, count: usize) -> Vec<Point> {
+    let (tris, attrs) = scene.world_triangles();
+    let mut cumulative = Vec::with_capacity(tris.len());
+    let mut total = 0.0f64;
+    for (t, a) in tris.iter().zip(&attrs) {
+        let receiver = scene
+            .objects
+            .get(a.object as usize)
+            .is_some_and(|o| o.receiver);
+        if receiver {
+            let e1 = [0, 1, 2].map(|i| f64::from(t[1][i] - t[0][i]));
+            let e2 = [0, 1, 2].map(|i| f64::from(t[2][i] - t[0][i]));
+            let c = [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ];
+            total += 0.5 * (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+        }
+        cumulative.push(total);
+    }
+    if total <= 0.0 {
+        return Vec::new();
+    }
+    let mut state = 0x5EED_u64;
+    (0..count)
+        .map(|_| {
+            let target = unit(&mut state) * total;
+            let triangle = cumulative
+                .partition_point(|c| *c <= target)
+                .min(cumulative.len() - 1);
+            let (mut u, mut v) = (unit(&mut state), unit(&mut state));
+            if u + v > 1.0 {
+                (u, v) = (1.0 - u, 1.0 - v);
+            }
+            Point {
+                triangle,
+                bary: [(1.0 - u - v) as f32, u as f32, v as f32],
+            }
+        })
+        .collect()
+}
+
+/// Illuminance Y (lux) of `out` at `points` on `scene` (the scene the bake was made from).
+fn values(scene: &Scene, out: &BakeOutput, points: &[Point]) -> Result<Vec<f64>, String> {
+    let (_, attrs) = scene.world_triangles();
+    let mut by_object = vec![None; scene.objects.len()];
+    for m in &out.maps {
+        if let Some(slot) = by_object.get_mut(m.object) {
+            *slot = Some(m);
+        }
+    }
+    points
+        .iter()
+        .map(|p| {
+            let a = attrs
+                .get(p.triangle)
+                .ok_or("scenes of different triangle counts")?;
+            let uv = [0, 1].map(|k| (0..3).map(|i| p.bary[i] * a.uvs[i][k]).sum::<f32>());
+            let rgb = by_object
+                .get(a.object as usize)
+                .copied()
+                .flatten()
+                .map_or([0.0; 3], |m| m.illuminance().sample(uv));
+            Ok(
+                0.2126 * f64::from(rgb[0])
+                    + 0.7152 * f64::from(rgb[1])
+                    + 0.0722 * f64::from(rgb[2]),
+            )
+        })
+        .collect()
+}
+
+/// RMSE, mean relative error and 95th-percentile |Δ| of `v` against `reference`.
+fn errors(v: &[f64], reference: &[f64]) -> (f64, f64, f64) {
+    let n = v.len().min(reference.len());
+    if n == 0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let mean_ref = reference.iter().take(n).sum::<f64>() / n as f64;
+    let floor = (0.01 * mean_ref).max(f64::MIN_POSITIVE);
+    let mut abs: Vec<f64> = v
+        .iter()
+        .zip(reference)
+        .map(|(a, b)| (a - b).abs())
+        .collect();
+    let rmse = (abs.iter().map(|d| d * d).sum::<f64>() / n as f64).sqrt();
+    let rel = abs
+        .iter()
+        .zip(reference)
+        .map(|(d, r)| d / r.max(floor))
+        .sum::<f64>()
+        / n as f64;
+    abs.sort_by(f64::total_cmp);
+    let p95 = abs[((n - 1) as f64 * 0.95).round() as usize];
+    (rmse, rel, p95)
+}
+
+/// Indices of the points of `(time, error)` that no other point beats in both.
+fn pareto(points: &[(f64, f64)]) -> Vec<usize> {
+    (0..points.len())
+        .filter(|&i| {
+            let (t, e) = points[i];
+            !points
+                .iter()
+                .enumerate()
+                .any(|(j, &(tj, ej))| j != i && tj <= t && ej <= e && (tj < t || ej < e))
+        })
+        .collect()
+}
+
+fn blur_name(b: Blur) -> String {
+    match b {
+        Blur::None => "none".to_owned(),
+        Blur::Sigma(s) => format!("σ{s}"),
+    }
+}
+
+/// A configuration's short label.
+fn label(s: &Settings) -> String {
+    format!(
+        "{} rays, {} t/m, {} b, blur {}",
+        s.rays,
+        s.texels_per_metre,
+        s.bounces,
+        blur_name(s.blur)
+    )
+}
+
+/// One measured configuration.
+struct Measured {
+    settings: Settings,
+    time: Summary,
+    texels: u64,
+    rmse: f64,
+    rel: f64,
+    p95: f64,
+    /// RMSE, mean relative and p95 error against the reference with the same bounce count.
+    same: Option<(f64, f64, f64)>,
+}
+
+/// Runs the trade study; prints and writes the results.
+pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<(), String> {
+    let p = preset(quick);
+    let runs = runs.unwrap_or(1).max(1);
+    let load_before = load_average();
+    let (date, time) = utc_now();
+    let (mut backend, renderer) =
+        AnyBackend::open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
+    let scene_name = "chairs_05";
+    let bake_at =
+        |backend: &mut AnyBackend, s: &Settings| -> Result<(Scene, Vec<f64>, BakeOutput), String> {
+            let scene =
+                Scene::builtin_with_settings(scene_name, s.clone()).map_err(|e| e.to_string())?;
+            let mut times = Vec::new();
+            let mut last = None;
+            for _ in 0..runs {
+                let r = backend.bake(&scene, s)?;
+                times.push(r.wall());
+                last = Some(r.out);
+            }
+            let out = last.ok_or("no run")?;
+            Ok((scene, times, out))
+        };
+
+    eprintln!("trade: reference {}", label(&p.reference));
+    let (ref_scene, ref_times, ref_out) = bake_at(&mut backend, &p.reference)?;
+    let points = surface_points(&ref_scene, p.points);
+    let reference = values(&ref_scene, &ref_out, &points)?;
+    let ref_time = Summary::of(&ref_times);
+    drop(ref_out);
+    // The same reference with the base's bounce count: separates the other knobs' error (noise,
+    // resolution, blur) from the bias of stopping after fewer bounces.
+    let same_bounces = Settings {
+        bounces: p.base.bounces,
+        ..p.reference.clone()
+    };
+    eprintln!("trade: reference {}", label(&same_bounces));
+    let (sb_scene, _, sb_out) = bake_at(&mut backend, &same_bounces)?;
+    let reference_sb = values(&sb_scene, &sb_out, &points)?;
+    drop(sb_out);
+
+    // The grid: one knob at a time around the base (the base itself measured once).
+    let knobs: Vec<(&str, Vec<Settings>)> = vec![
+        (
+            "rays",
+            p.rays
+                .iter()
+                .map(|&rays| Settings {
+                    rays,
+                    ..p.base.clone()
+                })
+                .collect(),
+        ),
+        (
+            "texel density",
+            p.densities
+                .iter()
+                .map(|&texels_per_metre| Settings {
+                    texels_per_metre,
+                    ..p.base.clone()
+                })
+                .collect(),
+        ),
+        (
+            "bounces",
+            p.bounces
+                .iter()
+                .map(|&bounces| Settings {
+                    bounces,
+                    ..p.base.clone()
+                })
+                .collect(),
+        ),
+        (
+            "blur",
+            p.blurs
+                .iter()
+                .map(|b| Settings {
+                    blur: b.map_or(Blur::None, Blur::Sigma),
+                    ..p.base.clone()
+                })
+                .collect(),
+        ),
+        (
+            "rays at 3 bounces",
+            p.rays_3_bounces
+                .iter()
+                .map(|&rays| Settings {
+                    rays,
+                    bounces: 3,
+                    ..p.base.clone()
+                })
+                .collect(),
+        ),
+    ];
+    let mut measured: Vec<Measured> = Vec::new();
+    let mut curves: Vec<(&str, Vec<usize>)> = Vec::new();
+    for (name, list) in &knobs {
+        let mut idx = Vec::new();
+        for s in list {
+            if let Some(i) = measured.iter().position(|m| &m.settings == s) {
+                idx.push(i);
+                continue;
+            }
+            let (scene, times, out) = bake_at(&mut backend, s)?;
+            let texels = out.report.texels;
+            let v = values(&scene, &out, &points)?;
+            let (rmse, rel, p95) = errors(&v, &reference);
+            let same = if s.bounces == same_bounces.bounces {
+                Some(errors(&v, &reference_sb))
+            } else {
+                None
+            };
+            let time = Summary::of(&times);
+            eprintln!(
+                "trade: {:<40} {:>8.0} ms  RMSE {rmse:.2} lx  rel {:.1} %  p95 {p95:.2} lx",
+                label(s),
+                time.median * 1e3,
+                rel * 100.0
+            );
+            idx.push(measured.len());
+            measured.push(Measured {
+                settings: s.clone(),
+                time,
+                texels,
+                rmse,
+                rel,
+                p95,
+                same,
+            });
+        }
+        curves.push((name, idx));
+    }
+    let load_after = load_average();
+
+    let pts: Vec<(f64, f64)> = measured.iter().map(|m| (m.time.median, m.rmse)).collect();
+    let front = pareto(&pts);
+    let best = pts.iter().map(|p| p.1).fold(f64::MAX, f64::min);
+    let choice = front
+        .iter()
+        .copied()
+        .filter(|&i| measured[i].rmse <= KNEE * best)
+        .min_by(|&a, &b| measured[a].time.median.total_cmp(&measured[b].time.median));
+
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Speed/accuracy trade — {scene_name}, {date} {time} UTC\n"
+    );
+    let _ = writeln!(
+        md,
+        "- machine: {}; backend {} ({renderer})",
+        machine(),
+        args.backend.name()
+    );
+    let _ = writeln!(
+        md,
+        "- reference: {} ({:.0} ms); {} surface points; {} run(s) per point{}",
+        label(&p.reference),
+        ref_time.median * 1e3,
+        points.len(),
+        runs,
+        if quick { "; --quick" } else { "" }
+    );
+    let _ = writeln!(
+        md,
+        "- load average (1/5/15 min) before: {load_before}, after: {load_after}\n"
+    );
+    let _ = writeln!(
+        md,
+        "| knob | rays | texels/m | bounces | blur | texels | pass ms | RMSE lx | mean rel % | p95 lx \
+         | same-bounce RMSE lx | same-bounce rel % | Pareto |"
+    );
+    let _ = writeln!(md, "|---|--:|--:|--:|---|--:|--:|--:|--:|--:|--:|--:|:-:|");
+    for (name, idx) in &curves {
+        for &i in idx {
+            let m = &measured[i];
+            let s = &m.settings;
+            let _ = writeln!(
+                md,
+                "| {name} | {} | {} | {} | {} | {} | {:.0} | {:.2} | {:.2} | {:.2} | {} | {} | {} |",
+                s.rays,
+                s.texels_per_metre,
+                s.bounces,
+                blur_name(s.blur),
+                m.texels,
+                m.time.median * 1e3,
+                m.rmse,
+                m.rel * 100.0,
+                m.p95,
+                m.same.map_or(String::new(), |e| format!("{:.2}", e.0)),
+                m.same
+                    .map_or(String::new(), |e| format!("{:.2}", e.1 * 100.0)),
+                if front.contains(&i) { "●" } else { "" }
+            );
+        }
+    }
+    match choice {
+        Some(i) => {
+            let m = &measured[i];
+            let _ = writeln!(
+                md,
+                "\nChosen (cheapest Pareto point with RMSE ≤ {KNEE} × the lowest, {best:.2} lx): \
+                 **{}** — {:.0} ms, RMSE {:.2} lx, mean rel {:.2} %, p95 {:.2} lx.",
+                label(&m.settings),
+                m.time.median * 1e3,
+                m.rmse,
+                m.rel * 100.0,
+                m.p95
+            );
+        }
+        None => {
+            let _ = writeln!(md, "\nNo Pareto point within {KNEE} × the lowest RMSE.");
+        }
+    }
+    print!("{md}");
+
+    let svg = result_path(out, "trade", "svg");
+    plot(&svg, &measured, &curves, &front).map_err(|e| format!("plot: {e}"))?;
+    println!("wrote {}", svg.display());
+    let _ = writeln!(
+        md,
+        "\n![error vs time]({})",
+        svg.file_name()
+            .map_or(String::new(), |n| n.to_string_lossy().into_owned())
+    );
+    let (measured_ref, front_ref) = (&measured, &front);
+    let json_points: Vec<serde_json::Value> = curves
+        .iter()
+        .flat_map(|(name, idx)| {
+            idx.iter().map(move |&i| {
+                let m = &measured_ref[i];
+                let s = &m.settings;
+                serde_json::json!({
+                    "knob": name, "rays": s.rays, "texels_per_metre": s.texels_per_metre,
+                    "bounces": s.bounces, "blur": blur_name(s.blur), "texels": m.texels,
+                    "pass_wall_s": m.time.json(), "rmse_lux": m.rmse, "mean_rel": m.rel,
+                    "p95_lux": m.p95, "pareto": front_ref.contains(&i),
+                    "same_bounce_reference": m.same.map(|e| serde_json::json!({
+                        "rmse_lux": e.0, "mean_rel": e.1, "p95_lux": e.2 })),
+                })
+            })
+        })
+        .collect();
+    let json = serde_json::json!({
+        "scene": scene_name, "date": date, "time_utc": time, "machine": machine(),
+        "backend": args.backend.name(), "renderer": renderer, "quick": quick, "runs": runs,
+        "reference": label(&p.reference), "reference_pass_wall_s": ref_time.json(),
+        "surface_points": points.len(),
+        "load_average_before": load_before, "load_average_after": load_after,
+        "points": json_points,
+        "chosen": choice.map(|i| label(&measured[i].settings)),
+        "knee": KNEE, "same_bounce_reference": label(&same_bounces),
+    });
+    let by_knob: BTreeMap<&str, usize> = curves.iter().map(|(n, i)| (*n, i.len())).collect();
+    eprintln!("trade: {} bakes over {:?}", measured.len(), by_knob);
+    write(&result_path(out, "trade", "md"), &md)?;
+    write(
+        &result_path(out, "trade", "json"),
+        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
+    )
+}
+
+/// Log-log plot of RMSE vs pass time, one curve per knob, the Pareto front circled in red.
+fn plot(
+    path: &Path,
+    measured: &[Measured],
+    curves: &[(&str, Vec<usize>)],
+    front: &[usize],
+) -> Result<(), Box<dyn std::error::Error>> {
+    let xs = measured.iter().map(|m| m.time.median.max(1e-4));
+    let ys = measured.iter().map(|m| m.rmse.max(1e-4));
+    let (x0, x1) = xs.fold((f64::MAX, f64::MIN), |(a, b), x| (a.min(x), b.max(x)));
+    let (y0, y1) = ys.fold((f64::MAX, f64::MIN), |(a, b), y| (a.min(y), b.max(y)));
+    if x0 > x1 || y0 > y1 {
+        return Err("nothing to plot".into());
+    }
+    let root = SVGBackend::new(path, (960, 640)).into_drawing_area();
+    root.fill(&WHITE)?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "chairs_05: error vs time (one curve per knob; red rings: Pareto front)",
+            ("sans-serif", 20),
+        )
+        .margin(15)
+        .x_label_area_size(45)
+        .y_label_area_size(70)
+        .build_cartesian_2d(
+            (x0 / 1.5..x1 * 1.5).log_scale(),
+            (y0 / 1.5..y1 * 1.5).log_scale(),
+        )?;
+    chart
+        .configure_mesh()
+        .x_desc("pass time [s] (wall)")
+        .y_desc("RMSE vs reference [lux]")
+        .draw()?;
+    let colors = [BLUE, GREEN, MAGENTA, CYAN, BLACK];
+    for (k, (name, idx)) in curves.iter().enumerate() {
+        let color = colors[k % colors.len()];
+        let mut pts: Vec<(f64, f64)> = idx
+            .iter()
+            .map(|&i| {
+                (
+                    measured[i].time.median.max(1e-4),
+                    measured[i].rmse.max(1e-4),
+                )
+            })
+            .collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
+            .label(*name)
+            .legend(move |(x, y)| {
+                PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2))
+            });
+        chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, color.filled())))?;
+    }
+    chart.draw_series(front.iter().map(|&i| {
+        Circle::new(
+            (
+                measured[i].time.median.max(1e-4),
+                measured[i].rmse.max(1e-4),
+            ),
+            9,
+            RED.stroke_width(2),
+        )
+    }))?;
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()?;
+    root.present()?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pareto_front_keeps_only_undominated_points() {
+        let pts = [(1.0, 5.0), (2.0, 3.0), (3.0, 4.0), (4.0, 1.0), (2.0, 3.0)];
+        // (3, 4) is beaten by (2, 3); the two equal points do not dominate each other.
+        assert_eq!(pareto(&pts), vec![0, 1, 3, 4]);
+    }
+
+    #[test]
+    fn errors_of_a_known_difference() {
+        let reference = [10.0, 10.0, 10.0, 10.0];
+        let v = [11.0, 9.0, 10.0, 10.0];
+        let (rmse, rel, p95) = errors(&v, &reference);
+        assert!((rmse - (0.5f64).sqrt()).abs() < 1e-12, "{rmse}");
+        assert!((rel - 0.05).abs() < 1e-12, "{rel}");
+        assert_eq!(p95, 1.0);
+        assert_eq!(errors(&[], &[]), (0.0, 0.0, 0.0));
+    }
+
+    #[test]
+    fn surface_points_are_deterministic_and_on_receivers() {
+        let scene = Scene::builtin_with_settings(
+            "chairs_01",
+            Settings {
+                texels_per_metre: 8.0,
+                ..Settings::default()
+            },
+        )
+        .expect("scene");
+        let a = surface_points(&scene, 500);
+        let b = surface_points(&scene, 500);
+        assert_eq!(a.len(), 500);
+        let (_, attrs) = scene.world_triangles();
+        for (p, q) in a.iter().zip(&b) {
+            assert_eq!(p.triangle, q.triangle);
+            assert_eq!(p.bary, q.bary);
+            assert!(p.bary.iter().all(|w| (0.0..=1.0).contains(w)));
+            assert!(scene.objects[attrs[p.triangle].object as usize].receiver);
+        }
+    }
+}
