@@ -58,6 +58,18 @@ pub fn import_bytes(
         path: path.to_path_buf(),
         message,
     };
+    // The `gltf` crate subtracts the 12-byte header from the declared length unchecked.
+    if let Some(rest) = bytes.strip_prefix(b"glTF") {
+        let declared = rest
+            .get(4..8)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .ok_or_else(|| gerr("GLB header truncated (under 12 bytes)".into()))?;
+        if declared < 12 {
+            return Err(gerr(format!(
+                "GLB header declares {declared} bytes, less than the header itself"
+            )));
+        }
+    }
     let mut g =
         gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| gerr(e.to_string()))?;
     let mut warnings = Vec::new();

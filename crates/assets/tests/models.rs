@@ -259,8 +259,12 @@ fn triangle_gltf(positions: [[f32; 3]; 3], extra: &str) -> String {
 }
 
 fn import_text(text: &str) -> Result<Model, luxbake_assets::AssetError> {
+    import_text_bytes(text.as_bytes())
+}
+
+fn import_text_bytes(bytes: &[u8]) -> Result<Model, luxbake_assets::AssetError> {
     luxbake_assets::gltf_in::import_bytes(
-        text.as_bytes(),
+        bytes,
         Path::new("/nonexistent/t.gltf"),
         &ImportOptions::default(),
     )
@@ -310,6 +314,13 @@ fn bad_gltf_gives_clear_errors() {
         "\"count\":3000,\"type\":\"SCALAR\"",
     );
     assert!(import_text(&past).is_err());
+
+    // Found by the `gltf` fuzz target: a GLB header declaring fewer bytes than itself.
+    let mut glb = b"glTF\x02\x00\x00\x00\x04\x00\x00\x00".to_vec();
+    let e = import_text_bytes(&glb).expect_err("short GLB").to_string();
+    assert!(e.contains("less than the header"), "{e}");
+    glb.truncate(9);
+    assert!(import_text_bytes(&glb).is_err());
 
     let limits = ImportOptions {
         limits: Limits {
