@@ -94,6 +94,23 @@ pub fn import_bytes(
             ignored.join(", ")
         ));
     }
+    // gltf-json's validation indexes the POSITION accessor unchecked: check every primitive's
+    // accessor indices first (found by the `gltf` fuzz target).
+    let accessors = g.document.as_json().accessors.len();
+    for (mi, m) in g.document.as_json().meshes.iter().enumerate() {
+        for (pi, p) in m.primitives.iter().enumerate() {
+            let named = p
+                .attributes
+                .values()
+                .chain(p.indices.iter())
+                .map(|i| i.value());
+            if let Some(i) = named.into_iter().find(|&i| i >= accessors) {
+                return Err(gerr(format!(
+                    "mesh {mi} primitive {pi} names accessor {i}, but there are {accessors}"
+                )));
+            }
+        }
+    }
     let blob = g.blob.take();
     let doc = gltf::Document::from_json(g.document.into_json()).map_err(|e| match e {
         gltf::Error::Validation(errs) => gerr(

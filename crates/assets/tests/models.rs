@@ -321,6 +321,11 @@ fn bad_gltf_gives_clear_errors() {
     assert!(e.contains("less than the header"), "{e}");
     glb.truncate(9);
     assert!(import_text_bytes(&glb).is_err());
+    // Also found by it: a POSITION accessor index past the accessors.
+    let e = import_text(&triangle_gltf(tri, "").replace("\"POSITION\":0", "\"POSITION\":11"))
+        .expect_err("accessor index")
+        .to_string();
+    assert!(e.contains("names accessor 11"), "{e}");
 
     let limits = ImportOptions {
         limits: Limits {
