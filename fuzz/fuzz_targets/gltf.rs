@@ -16,6 +16,12 @@ fuzz_target!(|data: &[u8]| {
     };
     for part in &model.parts {
         part.mesh.validate().expect("imported meshes are valid");
-        assert!(part.mesh.lightmap_uvs.iter().flatten().all(|c| (0.0..=1.0).contains(c)));
+        assert!(
+            part.mesh
+                .lightmap_uvs
+                .iter()
+                .flatten()
+                .all(|c| (0.0..=1.0).contains(c))
+        );
     }
 });
