@@ -9,6 +9,7 @@ mod bench;
 mod export;
 mod ies;
 mod measure;
+mod web;
 
 /// luxbake project commands.
 #[derive(Parser)]
@@ -31,6 +32,9 @@ enum Command {
     ExportScene(export::Args),
     /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
     Measure(measure::Args),
+    /// Build the browser viewer and serve it on 127.0.0.1 (`--check`: end-to-end test in
+    /// headless Chromium).
+    Web(web::Args),
 }
 
 fn main() -> ExitCode {
@@ -41,6 +45,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::ExportScene(args) => export::run(&args),
         Command::Measure(args) => measure::run(&args),
+        Command::Web(args) => web::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
