@@ -345,7 +345,8 @@ mod tests {
 
     #[test]
     fn out_of_range_values_name_their_setting() {
-        let cases: Vec<(&str, Box<dyn Fn(&mut BakeRequest)>)> = vec![
+        type Edit = Box<dyn Fn(&mut BakeRequest)>;
+        let cases: Vec<(&str, Edit)> = vec![
             ("rays", Box::new(|r| r.rays = 0)),
             ("bounces", Box::new(|r| r.bounces = 99)),
             ("blur_sigma", Box::new(|r| r.blur_sigma = f32::NAN)),
