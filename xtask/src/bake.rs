@@ -109,11 +109,15 @@ pub fn run(args: &Args) -> Result<(), String> {
             let mut backend = CpuBackend::new();
             run_with(&mut backend, &scene, &settings)?
         }
-        other => {
-            return Err(format!(
-                "backend `{}` is not built yet; use `--backend cpu`",
-                other.name()
-            ));
+        BackendKind::Glow => {
+            let mut backend = luxbake_backend_glow::GlowBackend::headless()
+                .map_err(|e| format!("glow backend: {e}"))?;
+            run_with(&mut backend, &scene, &settings)?
+        }
+        BackendKind::Wgpu => {
+            let mut backend = luxbake_backend_wgpu::WgpuBackend::new()
+                .map_err(|e| format!("wgpu backend: {e}"))?;
+            run_with(&mut backend, &scene, &settings)?
         }
     };
     write_bake(&args.out, &scene, &output, &source).map_err(|e| e.to_string())?;
