@@ -18,7 +18,7 @@
 //! seed = 0                    # 0..=4294967295
 //! backend = "cpu"             # "cpu", "glow" or "wgpu"
 //!
-//! [[lamp]]                    # at least one
+//! [[lamp]]                    # at least one (or an object with `lights = true`)
 //! name = "downlight"          # optional, for reports
 //! ies = "lamp.ies"            # .ies/.ldt path (a TILT=<file> beside it is read too),
 //!                             # "isotropic:1000" (candela), or
@@ -50,7 +50,19 @@
 //! ceiling_albedo = 0.8
 //! receiver = true             # false: casts shadows, gets no light map
 //! texel_scale = 1.0           # multiplier on texels_per_metre for this object, (0, 100]
+//! # lights = false            # mesh only: true adds the file's lights (glTF
+//!                             # KHR_lights_punctual) as lamps, moved by the object's
+//!                             # transform (an error if the file has none)
+//! # lights_ies = "x.ies"      # with lights = true: photometry for every imported light
+//!                             # instead of the file's (values as [[lamp]].ies)
+//! # lights_multiplier = 1.0   # with lights = true: >= 0, on every imported light
 //! ```
+//!
+//! A file's lights are placed by the object's transform: positions by the whole transform,
+//! aims by its linear part, renormalised; their C0 rotation is kept (0); their names are
+//! `object/light`. Their colour comes from the file, and so does their photometry unless
+//! `lights_ies` is given. A file object's `scale` also reaches the [`MeshLoader`]
+//! ([`MeshRequest::scale`]) so that generated charts keep their padding in texels.
 //!
 //! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
 //! ([`crate::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
@@ -134,6 +146,9 @@ struct RawObject {
     ceiling_albedo: Option<Value>,
     receiver: Option<bool>,
     texel_scale: Option<f64>,
+    lights: Option<bool>,
+    lights_ies: Option<String>,
+    lights_multiplier: Option<f64>,
 }
 
 /// Loads the file meshes that scene files name with `mesh = "x.glb"`. The core knows no
@@ -143,11 +158,23 @@ pub trait MeshLoader {
     /// Loads the file of `request`: one [`MeshPart`] per part (glTF primitive, OBJ material
     /// group), each in the file's frame (the object's transform is applied by the scene
     /// file), with valid light-map UVs (generated when the file has none, their chart padding
-    /// sized for `request.texels_per_metre` and `request.blur`).
+    /// sized for `request.texels_per_metre` and `request.blur` on the surface scaled by
+    /// `request.scale`), and the file's lights as lamps, also in the file's frame (the scene
+    /// file adds them only for `lights = true`).
     fn load(
         &self,
         request: &MeshRequest<'_>,
-    ) -> Result<Vec<MeshPart>, Box<dyn std::error::Error + Send + Sync>>;
+    ) -> Result<LoadedFile, Box<dyn std::error::Error + Send + Sync>>;
+}
+
+/// What a [`MeshLoader`] read from one file.
+#[derive(Debug, Clone, Default)]
+pub struct LoadedFile {
+    /// The parts; each becomes one scene object.
+    pub parts: Vec<MeshPart>,
+    /// The file's lights (glTF `KHR_lights_punctual`) as lamps in the file's frame: position
+    /// in the file's metres, `aim` the light's direction, photometry from the file.
+    pub lamps: Vec<Lamp>,
 }
 
 /// What a [`MeshLoader`] is asked to load.
@@ -159,6 +186,9 @@ pub struct MeshRequest<'a> {
     pub texels_per_metre: f32,
     /// The bake's blur (chart padding should exceed its reach).
     pub blur: crate::scene::Blur,
+    /// The object's per-axis scale (finite, non-zero): generated charts are measured on the
+    /// scaled surface so their padding stays the same in texels.
+    pub scale: [f32; 3],
 }
 
 /// One part of a loaded file; it becomes one scene object.
@@ -251,8 +281,10 @@ fn parse(
     })?;
     let mut settings = cx.settings(raw.settings)?;
     adjust(&mut settings);
-    if raw.lamp.is_empty() {
-        return Err(cx.invalid("lamp", "a scene needs at least one [[lamp]]"));
+    let no_lamps = "a scene needs at least one [[lamp]] (or an [[object]] with `lights = true` \
+                    whose file has lights)";
+    if raw.lamp.is_empty() && !raw.object.iter().any(|o| o.lights == Some(true)) {
+        return Err(cx.invalid("lamp", no_lamps));
     }
     if raw.lamp.len() > MAX_LAMPS {
         return Err(cx.invalid(
@@ -269,7 +301,7 @@ fn parse(
             format!("{} objects; at most {MAX_OBJECTS}", raw.object.len()),
         ));
     }
-    let lamps = raw
+    let mut lamps = raw
         .lamp
         .into_iter()
         .enumerate()
@@ -278,13 +310,24 @@ fn parse(
     let mut names = HashSet::new();
     let mut objects = Vec::new();
     for (i, o) in raw.object.into_iter().enumerate() {
-        objects.extend(cx.object(i, o, &settings, &mut names)?);
+        let (o, l) = cx.object(i, o, &settings, &mut names)?;
+        objects.extend(o);
         if objects.len() > MAX_OBJECTS {
             return Err(cx.invalid(
                 format!("object[{i}]"),
                 format!("the scene now has more than {MAX_OBJECTS} objects"),
             ));
         }
+        lamps.extend(l);
+        if lamps.len() > MAX_LAMPS {
+            return Err(cx.invalid(
+                format!("object[{i}].lights"),
+                format!("the scene now has more than {MAX_LAMPS} lamps"),
+            ));
+        }
+    }
+    if lamps.is_empty() {
+        return Err(cx.invalid("lamp", no_lamps));
     }
     Ok(Scene {
         objects,
@@ -478,7 +521,7 @@ impl Cx<'_> {
         raw: RawObject,
         settings: &Settings,
         names: &mut HashSet<String>,
-    ) -> Result<Vec<Object>, SceneError> {
+    ) -> Result<(Vec<Object>, Vec<Lamp>), SceneError> {
         let key = |k: &str| format!("object[{i}].{k}");
         let given = [&raw.primitive, &raw.builtin, &raw.mesh]
             .iter()
@@ -556,6 +599,37 @@ impl Cx<'_> {
         ] {
             only(present, k, &["room"], &format!("`{k}`"))?;
         }
+        for (present, k) in [
+            (raw.lights.is_some(), "lights"),
+            (raw.lights_ies.is_some(), "lights_ies"),
+            (raw.lights_multiplier.is_some(), "lights_multiplier"),
+        ] {
+            only(present, k, &["mesh"], &format!("`{k}`"))?;
+        }
+        let lights = raw.lights.unwrap_or(false);
+        for (present, k) in [
+            (raw.lights_ies.is_some(), "lights_ies"),
+            (raw.lights_multiplier.is_some(), "lights_multiplier"),
+        ] {
+            if present && !lights {
+                return Err(self.invalid(key(k), "only with `lights = true`"));
+            }
+        }
+        let lights_photometry = raw
+            .lights_ies
+            .as_deref()
+            .map(|ies| self.photometry(&key("lights_ies"), ies))
+            .transpose()?;
+        let lights_multiplier = match raw.lights_multiplier {
+            None => 1.0,
+            Some(m) if m >= 0.0 && m.is_finite() => m as f32,
+            Some(m) => {
+                return Err(self.invalid(
+                    key("lights_multiplier"),
+                    format!("{m}; expected a finite number >= 0"),
+                ));
+            }
+        };
 
         let texel_scale = match raw.texel_scale {
             Some(t) if t > 0.0 && t <= 100.0 => t as f32,
@@ -657,63 +731,6 @@ impl Cx<'_> {
             "chair" => Some(meshes::chair(padding)),
             _ => Some(meshes::sofa(padding)),
         };
-        let parts: Vec<(crate::scene::Mesh, Albedo)> = match (mesh, &raw.mesh) {
-            (Some(m), _) => vec![(
-                m,
-                Albedo {
-                    factor,
-                    texture: None,
-                },
-            )],
-            (None, Some(file)) => {
-                let Some(loader) = self.loader else {
-                    return Err(self.invalid(
-                        key("mesh"),
-                        "file meshes need a mesh loader: bake with `cargo xtask bake`, or pass \
-                         luxbake-assets' loader to `Scene::from_toml_file_with`",
-                    ));
-                };
-                let file = self.base_dir.join(file);
-                let request = MeshRequest {
-                    path: &file,
-                    texels_per_metre: settings.texels_per_metre * texel_scale,
-                    blur: settings.blur,
-                };
-                let loaded = loader
-                    .load(&request)
-                    .map_err(|source| SceneError::MeshFile {
-                        key: key("mesh"),
-                        file: file.clone(),
-                        source,
-                    })?;
-                if loaded.is_empty() {
-                    return Err(self.invalid(
-                        key("mesh"),
-                        format!("`{}` holds no triangle mesh", file.display()),
-                    ));
-                }
-                loaded
-                    .into_iter()
-                    .map(|p| {
-                        let mut a = p.albedo;
-                        if let Some(f) = albedo {
-                            a.factor = f;
-                        }
-                        (p.mesh, a)
-                    })
-                    .collect()
-            }
-            (None, None) => Vec::new(),
-        };
-
-        let position = match raw.position {
-            Some(p) => self.finite3(&key("position"), p)?,
-            None => [0.0; 3],
-        };
-        let rotation = match raw.rotation_deg {
-            Some(r) => self.finite3(&key("rotation_deg"), r)?,
-            None => [0.0; 3],
-        };
         let scale = match &raw.scale {
             None => [1.0; 3],
             Some(v) => {
@@ -739,6 +756,75 @@ impl Cx<'_> {
                 }
                 s.map(|c| c as f32)
             }
+        };
+        let mut file_lamps = Vec::new();
+        let parts: Vec<(crate::scene::Mesh, Albedo)> = match (mesh, &raw.mesh) {
+            (Some(m), _) => vec![(
+                m,
+                Albedo {
+                    factor,
+                    texture: None,
+                },
+            )],
+            (None, Some(file)) => {
+                let Some(loader) = self.loader else {
+                    return Err(self.invalid(
+                        key("mesh"),
+                        "file meshes need a mesh loader: bake with `cargo xtask bake`, or pass \
+                         luxbake-assets' loader to `Scene::from_toml_file_with`",
+                    ));
+                };
+                let file = self.base_dir.join(file);
+                let request = MeshRequest {
+                    path: &file,
+                    texels_per_metre: settings.texels_per_metre * texel_scale,
+                    blur: settings.blur,
+                    scale,
+                };
+                let loaded = loader
+                    .load(&request)
+                    .map_err(|source| SceneError::MeshFile {
+                        key: key("mesh"),
+                        file: file.clone(),
+                        source,
+                    })?;
+                if loaded.parts.is_empty() {
+                    return Err(self.invalid(
+                        key("mesh"),
+                        format!("`{}` holds no triangle mesh", file.display()),
+                    ));
+                }
+                if lights {
+                    if loaded.lamps.is_empty() {
+                        return Err(self.invalid(
+                            key("lights"),
+                            format!("`{}` holds no lights", file.display()),
+                        ));
+                    }
+                    file_lamps = loaded.lamps;
+                }
+                loaded
+                    .parts
+                    .into_iter()
+                    .map(|p| {
+                        let mut a = p.albedo;
+                        if let Some(f) = albedo {
+                            a.factor = f;
+                        }
+                        (p.mesh, a)
+                    })
+                    .collect()
+            }
+            (None, None) => Vec::new(),
+        };
+
+        let position = match raw.position {
+            Some(p) => self.finite3(&key("position"), p)?,
+            None => [0.0; 3],
+        };
+        let rotation = match raw.rotation_deg {
+            Some(r) => self.finite3(&key("rotation_deg"), r)?,
+            None => [0.0; 3],
         };
         let name = match raw.name {
             Some(n) => {
@@ -785,6 +871,28 @@ impl Cx<'_> {
             }
         };
         let transform = Transform::from_trs(position, rotation, scale);
+        // The file's lights, in world space: positions by the full transform, aims by its
+        // linear part, renormalised.
+        let lamps = file_lamps
+            .into_iter()
+            .map(|mut l| {
+                l.name = format!("{name}/{}", l.name);
+                l.position = transform.point(l.position);
+                let m = &transform.linear;
+                let a = l.aim;
+                let aim: [f32; 3] =
+                    std::array::from_fn(|r| m[0][r] * a[0] + m[1][r] * a[1] + m[2][r] * a[2]);
+                let len = aim.iter().map(|c| c * c).sum::<f32>().sqrt();
+                if len > 0.0 && len.is_finite() {
+                    l.aim = aim.map(|c| c / len);
+                }
+                if let Some(p) = &lights_photometry {
+                    l.photometry = Arc::clone(p);
+                }
+                l.multiplier *= lights_multiplier;
+                l
+            })
+            .collect();
         let receiver = raw.receiver.unwrap_or(true);
         let count = parts.len();
         let mut objects = Vec::with_capacity(count);
@@ -810,7 +918,7 @@ impl Cx<'_> {
                 texel_scale,
             });
         }
-        Ok(objects)
+        Ok((objects, lamps))
     }
 
     fn finite(&self, key: &str, v: f64) -> Result<f32, SceneError> {
@@ -1377,26 +1485,102 @@ mod tests {
         assert!(err(&big).contains("object[0].size"));
     }
 
-    /// A loader that returns `n` unit-square parts, or fails for files named `bad.*`.
+    /// A loader that returns `n` unit-square parts and one 10 cd light at (0, 1, 0) aimed
+    /// along −Z, or fails for files named `bad.*`.
     struct FakeLoader(usize);
 
     impl MeshLoader for FakeLoader {
         fn load(
             &self,
             request: &MeshRequest<'_>,
-        ) -> Result<Vec<MeshPart>, Box<dyn std::error::Error + Send + Sync>> {
+        ) -> Result<LoadedFile, Box<dyn std::error::Error + Send + Sync>> {
             if request.path.file_stem().is_some_and(|s| s == "bad") {
                 return Err("truncated file".into());
             }
             assert!(request.path.is_absolute() || request.path.starts_with("/base"));
-            Ok((0..self.0)
-                .map(|k| MeshPart {
-                    name: format!("part{k}"),
-                    mesh: meshes::plane([1.0, 1.0], 4.0 / request.texels_per_metre),
-                    albedo: Albedo::grey(0.25),
-                })
-                .collect())
+            let mut lamp = Lamp::new(
+                "bulb",
+                Arc::new(Photometry::isotropic(10.0)),
+                [0.0, 1.0, 0.0],
+            );
+            lamp.aim = [0.0, 0.0, -1.0];
+            Ok(LoadedFile {
+                parts: (0..self.0)
+                    .map(|k| MeshPart {
+                        name: format!("part{k}"),
+                        mesh: meshes::plane([1.0, 1.0], 4.0 / request.texels_per_metre),
+                        albedo: Albedo::grey(0.25),
+                    })
+                    .collect(),
+                lamps: vec![lamp],
+            })
         }
+    }
+
+    #[test]
+    fn file_lights_follow_the_object_transform() {
+        let obj = "mesh = \"lamp.glb\"\nposition = [1, 0, 2]\nrotation_deg = [0, 90, 0]\n\
+                   scale = 2\nlights = true\nlights_multiplier = 3";
+        let t = format!("[[object]]\n{obj}\n");
+        let base = Path::new("/base");
+        let s = from_str_with(&t, base, None, &FakeLoader(1)).expect("loads");
+        assert_eq!(s.lamps.len(), 1, "no [[lamp]]: the file's light alone");
+        let l = &s.lamps[0];
+        let near = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5);
+        assert!(near(l.position, [1.0, 2.0, 2.0]), "{:?}", l.position);
+        // −Z turned 90° about +Y is −X; unit length despite the scale.
+        assert!(near(l.aim, [-1.0, 0.0, 0.0]), "{:?}", l.aim);
+        assert_eq!((l.multiplier, l.name.as_str()), (3.0, "lamp/bulb"));
+        assert_eq!(l.photometry.max_intensity().0, 10.0);
+        let iso = format!("{obj}\nlights_ies = \"isotropic:50\"");
+        let s = from_str_with(&text("", LAMP, &iso), base, None, &FakeLoader(1)).expect("loads");
+        assert_eq!(s.lamps.len(), 2);
+        assert_eq!(s.lamps[1].photometry.max_intensity().0, 50.0);
+        let without = from_str_with(
+            &text("", LAMP, "mesh = \"a.glb\""),
+            base,
+            None,
+            &FakeLoader(1),
+        );
+        assert_eq!(
+            without.expect("loads").lamps.len(),
+            1,
+            "lights default to off"
+        );
+        for (extra, k) in [
+            ("mesh = \"a.glb\"\nlights = 3", "lights"),
+            (
+                "mesh = \"a.glb\"\nlights = true\nlights_ies = \"nope.ies\"",
+                "object[0].lights_ies",
+            ),
+            (
+                "mesh = \"a.glb\"\nlights = true\nlights_ies = \"isotropic:-1\"",
+                "object[0].lights_ies",
+            ),
+            (
+                "mesh = \"a.glb\"\nlights = true\nlights_multiplier = -1",
+                "object[0].lights_multiplier",
+            ),
+            (
+                "mesh = \"a.glb\"\nlights_multiplier = 2",
+                "object[0].lights_multiplier",
+            ),
+            (
+                "primitive = \"plane\"\nsize = [1, 1]\nlights = true",
+                "object[0].lights",
+            ),
+            (
+                "mesh = \"a.glb\"\nlights_ies = \"isotropic:1\"",
+                "object[0].lights_ies",
+            ),
+            ("mesh = \"a.glb\"\nlights_colour = true", "lights_colour"),
+        ] {
+            let r = from_str_with(&text("", LAMP, extra), base, None, &FakeLoader(1));
+            let e = r.expect_err(extra).to_string();
+            assert!(e.contains(k), "{extra}: {e}");
+        }
+        let r = from_str_with("[[object]]\nmesh = \"a.glb\"", base, None, &FakeLoader(1));
+        assert!(r.expect_err("no lamps").to_string().contains("lamp"));
     }
 
     #[test]
