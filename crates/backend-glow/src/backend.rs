@@ -12,7 +12,7 @@ use crate::context::{Capabilities, GlContext};
 use crate::error::{GlowError, Result};
 use crate::gl::{Program, Target, TextureArray, check};
 use crate::scene::{GpuScene, lamp_texture};
-use crate::shaders::{self, Pass, Traversal};
+use crate::shaders::{self, Pass, PassShaders, Traversal};
 
 /// Default work per draw: texel × ray (or texel × tap) evaluations of one tile. About 2^20
 /// keeps a draw in the tens of milliseconds on a laptop GPU, far from a browser's GPU watchdog
@@ -227,7 +227,7 @@ impl GpuBackend for GlowBackend {
         scene: &GlowScene,
         progress: &mut dyn FnMut(f32),
     ) -> Result<()> {
-        let Some(kind) = Pass::of(pass.kind) else {
+        let Some(kind) = pass.kind.program() else {
             // The G-buffer is uploaded, not computed.
             progress(1.0);
             return Ok(());

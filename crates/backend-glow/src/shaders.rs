@@ -14,7 +14,7 @@
 //! | gather (5) | `gather.frag.glsl` | `common`, `rng`, `bvh` |
 //! | combine (6) | `combine.frag.glsl` | `common` |
 
-use luxbake::graph::PassKind;
+pub(crate) use luxbake::graph::Program as Pass;
 use luxbake_bvh::layout;
 
 /// Shared helpers (`luxDot`, `luxNormalize`, `luxGuard`, the output and layer uniform).
@@ -53,45 +53,16 @@ impl Traversal {
     }
 }
 
-/// One fragment program per computed pass kind.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(crate) enum Pass {
-    Direct,
-    Copy,
-    Blur,
-    AlbedoMul,
-    Gather,
-    Combine,
+/// The GLSL sources and sampler names of each [`Pass`] (the core's shader program enum).
+pub(crate) trait PassShaders {
+    /// Library files and the pass file, in order.
+    fn sources(self) -> Vec<&'static str>;
+    /// The sampler uniforms of the pass's graph reads, in `PassDesc::reads` order.
+    fn sampler_names(self) -> &'static [&'static str];
 }
 
-impl Pass {
-    /// The program of a pass kind; `None` for the G-buffer (uploaded, not computed).
-    pub(crate) fn of(kind: PassKind) -> Option<Pass> {
-        Some(match kind {
-            PassKind::GBuffer => return None,
-            PassKind::Direct => Pass::Direct,
-            PassKind::Copy => Pass::Copy,
-            PassKind::Blur { .. } => Pass::Blur,
-            PassKind::AlbedoMul => Pass::AlbedoMul,
-            PassKind::Gather { .. } => Pass::Gather,
-            PassKind::Combine => Pass::Combine,
-        })
-    }
-
-    /// Program label for errors.
-    pub(crate) fn label(self) -> &'static str {
-        match self {
-            Pass::Direct => "direct",
-            Pass::Copy => "copy",
-            Pass::Blur => "blur",
-            Pass::AlbedoMul => "albedo_mul",
-            Pass::Gather => "gather",
-            Pass::Combine => "combine",
-        }
-    }
-
-    /// Library files and the pass file, in order.
-    pub(crate) fn sources(self) -> Vec<&'static str> {
+impl PassShaders for Pass {
+    fn sources(self) -> Vec<&'static str> {
         match self {
             Pass::Direct => vec![COMMON, BVH, IES, DIRECT],
             Pass::Copy => vec![COMMON, COPY],
@@ -102,8 +73,7 @@ impl Pass {
         }
     }
 
-    /// The sampler uniforms of the pass's graph reads, in `PassDesc::reads` order.
-    pub(crate) fn sampler_names(self) -> &'static [&'static str] {
+    fn sampler_names(self) -> &'static [&'static str] {
         match self {
             Pass::Direct => &["u_position", "u_normal"],
             Pass::Copy => &["u_src"],
@@ -112,11 +82,6 @@ impl Pass {
             Pass::Gather => &["u_position", "u_normal", "u_reflected"],
             Pass::Combine => &["u_direct", "u_indirect"],
         }
-    }
-
-    /// Whether the pass casts rays (and so depends on the traversal).
-    pub(crate) fn traces_rays(self) -> bool {
-        matches!(self, Pass::Direct | Pass::Gather)
     }
 }
 

@@ -9,7 +9,7 @@ use luxbake::graph::{Axis, PassDesc, PassKind, TexDesc};
 use crate::device::Gpu;
 use crate::error::{Result, WgpuError};
 use crate::scene::{GpuScene, SCENE_UNIFORM_BYTES};
-use crate::shaders::{BvhStorage, Pass, Traversal};
+use crate::shaders::{BvhStorage, Pass, PassShaders, Traversal};
 
 /// Default work per dispatch: texel × ray (or texel × tap) evaluations of one tile, as the glow
 /// backend's draws. About 2^20 keeps a dispatch in the tens of milliseconds on a laptop GPU, far
@@ -464,7 +464,7 @@ impl GpuBackend for WgpuBackend {
         scene: &WgpuScene,
         progress: &mut dyn FnMut(f32),
     ) -> Result<()> {
-        let Some(kind) = Pass::of(pass.kind) else {
+        let Some(kind) = pass.kind.program() else {
             // The G-buffer is uploaded, not computed.
             progress(1.0);
             return Ok(());

@@ -16,7 +16,7 @@
 //! `bvh_*` is `bvh_buffers.wgsl` (storage buffers, the default) or `bvh_textures.wgsl` (the
 //! paper's texture arrays), see [`BvhStorage`].
 
-use luxbake::graph::PassKind;
+pub(crate) use luxbake::graph::Program as Pass;
 use luxbake::scene::BvhMode;
 use luxbake_bvh::layout;
 
@@ -77,55 +77,16 @@ impl Traversal {
     }
 }
 
-/// One compute module per computed pass kind.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(crate) enum Pass {
-    Direct,
-    Copy,
-    Blur,
-    AlbedoMul,
-    Gather,
-    Combine,
+/// The WGSL module and bindings of each [`Pass`] (the core's shader program enum).
+pub(crate) trait PassShaders {
+    /// Number of graph textures the pass reads (bindings 0 .. n of group 0).
+    fn reads(self) -> usize;
+    /// The full WGSL source of the pass for `traversal` and `storage`.
+    fn source(self, traversal: Traversal, storage: BvhStorage) -> String;
 }
 
-impl Pass {
-    /// Every pass module.
-    pub(crate) const ALL: [Pass; 6] = [
-        Pass::Direct,
-        Pass::Copy,
-        Pass::Blur,
-        Pass::AlbedoMul,
-        Pass::Gather,
-        Pass::Combine,
-    ];
-
-    /// The module of a pass kind; `None` for the G-buffer (uploaded, not computed).
-    pub(crate) fn of(kind: PassKind) -> Option<Pass> {
-        Some(match kind {
-            PassKind::GBuffer => return None,
-            PassKind::Direct => Pass::Direct,
-            PassKind::Copy => Pass::Copy,
-            PassKind::Blur { .. } => Pass::Blur,
-            PassKind::AlbedoMul => Pass::AlbedoMul,
-            PassKind::Gather { .. } => Pass::Gather,
-            PassKind::Combine => Pass::Combine,
-        })
-    }
-
-    /// Module label for errors.
-    pub(crate) fn label(self) -> &'static str {
-        match self {
-            Pass::Direct => "direct",
-            Pass::Copy => "copy",
-            Pass::Blur => "blur",
-            Pass::AlbedoMul => "albedo_mul",
-            Pass::Gather => "gather",
-            Pass::Combine => "combine",
-        }
-    }
-
-    /// Number of graph textures the pass reads (bindings 0 .. n of group 0).
-    pub(crate) fn reads(self) -> usize {
+impl PassShaders for Pass {
+    fn reads(self) -> usize {
         match self {
             Pass::Copy => 1,
             Pass::Direct | Pass::Blur | Pass::AlbedoMul | Pass::Combine => 2,
@@ -133,13 +94,7 @@ impl Pass {
         }
     }
 
-    /// Whether the pass casts rays (bind group 1, the scene; depends on the traversal).
-    pub(crate) fn traces_rays(self) -> bool {
-        matches!(self, Pass::Direct | Pass::Gather)
-    }
-
-    /// The full WGSL source of the pass for `traversal` and `storage`.
-    pub(crate) fn source(self, traversal: Traversal, storage: BvhStorage) -> String {
+    fn source(self, traversal: Traversal, storage: BvhStorage) -> String {
         let bvh_access = match storage {
             BvhStorage::Buffers => BVH_BUFFERS,
             BvhStorage::Textures => BVH_TEXTURES,

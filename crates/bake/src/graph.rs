@@ -109,6 +109,69 @@ pub enum PassKind {
     Combine,
 }
 
+impl PassKind {
+    /// The shader program a backend runs for this pass; `None` for the G-buffer (uploaded,
+    /// not computed).
+    pub fn program(&self) -> Option<Program> {
+        Some(match self {
+            PassKind::GBuffer => return None,
+            PassKind::Direct => Program::Direct,
+            PassKind::Copy => Program::Copy,
+            PassKind::Blur { .. } => Program::Blur,
+            PassKind::AlbedoMul => Program::AlbedoMul,
+            PassKind::Gather { .. } => Program::Gather,
+            PassKind::Combine => Program::Combine,
+        })
+    }
+}
+
+/// One shader program per computed [`PassKind`] (its parameters become uniforms): what a GPU
+/// backend compiles, names in errors and keys its caches by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Program {
+    /// [`PassKind::Direct`].
+    Direct,
+    /// [`PassKind::Copy`].
+    Copy,
+    /// [`PassKind::Blur`], either axis.
+    Blur,
+    /// [`PassKind::AlbedoMul`].
+    AlbedoMul,
+    /// [`PassKind::Gather`], any bounce.
+    Gather,
+    /// [`PassKind::Combine`].
+    Combine,
+}
+
+impl Program {
+    /// Every program.
+    pub const ALL: [Program; 6] = [
+        Program::Direct,
+        Program::Copy,
+        Program::Blur,
+        Program::AlbedoMul,
+        Program::Gather,
+        Program::Combine,
+    ];
+
+    /// Short label for errors and shader file names.
+    pub fn label(self) -> &'static str {
+        match self {
+            Program::Direct => "direct",
+            Program::Copy => "copy",
+            Program::Blur => "blur",
+            Program::AlbedoMul => "albedo_mul",
+            Program::Gather => "gather",
+            Program::Combine => "combine",
+        }
+    }
+
+    /// Whether the program casts rays (and so depends on the BVH traversal).
+    pub fn traces_rays(self) -> bool {
+        matches!(self, Program::Direct | Program::Gather)
+    }
+}
+
 /// Uniform parameters of a pass (what a shader gets as uniforms).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassParams {
@@ -508,6 +571,22 @@ mod tests {
 
     fn kinds(g: &BakeGraph) -> Vec<&'static str> {
         g.passes.iter().map(|p| p.label).collect()
+    }
+
+    #[test]
+    fn every_computed_pass_has_one_program_and_the_graph_uses_them_all() {
+        let g = BakeGraph::build(&config(2, Blur::Sigma(1.5)));
+        let used: std::collections::HashSet<Program> =
+            g.passes.iter().filter_map(|p| p.kind.program()).collect();
+        assert_eq!(used, Program::ALL.into_iter().collect());
+        assert_eq!(PassKind::GBuffer.program(), None);
+        let labels: std::collections::HashSet<&str> =
+            Program::ALL.iter().map(|p| p.label()).collect();
+        assert_eq!(labels.len(), Program::ALL.len());
+        for p in &g.passes {
+            let rays = matches!(p.kind, PassKind::Direct | PassKind::Gather { .. });
+            assert_eq!(p.kind.program().is_some_and(Program::traces_rays), rays);
+        }
     }
 
     #[test]

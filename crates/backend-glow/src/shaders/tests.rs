@@ -3,7 +3,7 @@
 
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, TriangleAttributes, encode};
 
-use super::{BVH, Pass, Traversal};
+use super::{BVH, Pass, PassShaders, Traversal};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
 use crate::testutil::{TestRng, context_or_skip, render};
@@ -326,14 +326,7 @@ fn every_pass_program_compiles_for_every_traversal() {
         return;
     };
     let gl = ctx.gl().unwrap();
-    for pass in [
-        Pass::Direct,
-        Pass::Copy,
-        Pass::Blur,
-        Pass::AlbedoMul,
-        Pass::Gather,
-        Pass::Combine,
-    ] {
+    for pass in Pass::ALL {
         for t in [Traversal::Mtbvh, Traversal::Tbvh, Traversal::None] {
             let p = crate::gl::Program::new(gl, pass.label(), &super::defines(t), &pass.sources())
                 .unwrap_or_else(|e| panic!("{e}"));
