@@ -94,6 +94,11 @@
 //! maps of `floor` and `sphere` are bit-identical. The RNG is bit-exact, BVH hits are
 //! bit-identical on 1,872 of 1,872 test rays per traversal, IES look-ups are within 4e-6 of a
 //! table's maximum.
+//!
+//! ## Speed
+//! `cargo xtask bench --backends glow` measures the paper's Table 1 on this backend (MTBVH,
+//! TBVH and brute force, median and spread per pass, beside the CPU reference in the same
+//! run); the latest figures are in `docs/performance.md`.
 #![warn(missing_docs)]
 
 mod backend;
