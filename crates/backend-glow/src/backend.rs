@@ -4,20 +4,17 @@
 use std::collections::HashMap;
 
 use glow::HasContext;
-use luxbake::backend::{GpuBackend, Limits, SceneData};
-use luxbake::graph::{Axis, PassDesc, PassKind, TexDesc};
+use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
+use luxbake::graph::TexDesc;
+use luxbake::program::Scalar;
 use luxbake::scene::BvhMode;
+use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
 
 use crate::context::{Capabilities, GlContext};
 use crate::error::{GlowError, Result};
 use crate::gl::{Program, Target, TextureArray, check};
-use crate::scene::{GpuScene, lamp_texture};
-use crate::shaders::{self, Pass, PassShaders, Traversal};
-
-/// Default work per draw: texel × ray (or texel × tap) evaluations of one tile. About 2^20
-/// keeps a draw in the tens of milliseconds on a laptop GPU, far from a browser's GPU watchdog
-/// (a few seconds), and gives a progress report every few hundred milliseconds on llvmpipe.
-pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
+use crate::scene::GpuScene;
+use crate::shaders::{Pass, program_sources};
 
 /// A texture array owned by a [`GlowBackend`] (a handle; the backend frees the GL object when
 /// it is dropped).
@@ -35,7 +32,7 @@ pub struct GlowBackend {
     target: Target,
     textures: Vec<(String, TextureArray)>,
     scenes: Vec<GpuScene>,
-    programs: HashMap<(Pass, Traversal), Program>,
+    programs: HashMap<(Pass, BvhMode), Program>,
     tile_work: u64,
 }
 
@@ -47,14 +44,6 @@ impl std::fmt::Debug for GlowBackend {
             .field("programs", &self.programs.len())
             .field("tile_work", &self.tile_work)
             .finish_non_exhaustive()
-    }
-}
-
-fn traversal(mode: BvhMode) -> Traversal {
-    match mode {
-        BvhMode::Mtbvh => Traversal::Mtbvh,
-        BvhMode::Tbvh => Traversal::Tbvh,
-        BvhMode::None => Traversal::None,
     }
 }
 
@@ -84,8 +73,9 @@ impl GlowBackend {
         })
     }
 
-    /// Sets the work per draw (texel × ray evaluations, at least 1): long passes are split into
-    /// row tiles of about this much work, each a separate draw followed by a progress report.
+    /// Sets the work per draw (texel × ray evaluations, at least 1): the driver splits long
+    /// passes into row tiles of about this much work, each a separate draw followed by a
+    /// progress report.
     pub fn with_tile_work(mut self, work: u64) -> Self {
         self.tile_work = work.max(1);
         self
@@ -103,55 +93,16 @@ impl GlowBackend {
     }
 
     /// Compiles (once) and returns the program of `pass` for `traversal`.
-    fn program(&mut self, pass: Pass, traversal: Traversal) -> Result<&Program> {
+    fn program(&mut self, pass: Pass, traversal: BvhMode) -> Result<&Program> {
         let key = (pass, traversal);
         if !self.programs.contains_key(&key) {
-            let program = Program::new(
-                self.ctx.gl()?,
-                pass.label(),
-                &shaders::defines(traversal),
-                &pass.sources(),
-            )?;
+            let (prefix, sources) = program_sources(pass, traversal);
+            let program = Program::new(self.ctx.gl()?, pass.label(), &prefix, &sources)?;
             self.programs.insert(key, program);
         }
         self.programs
             .get(&key)
             .ok_or_else(|| GlowError::InvalidInput("program cache".into()))
-    }
-
-    /// Draws `program` (bound, uniforms set) into every layer of `out`, in row tiles of about
-    /// `self.tile_work / work_per_texel` texels, reporting progress after each tile.
-    fn draw_tiled(
-        &self,
-        pass: &str,
-        program: &Program,
-        out: &TextureArray,
-        work_per_texel: u64,
-        progress: &mut dyn FnMut(f32),
-    ) -> Result<()> {
-        let gl = self.ctx.gl()?;
-        let (w, h) = (out.width, out.height);
-        let per_row = u64::from(w) * work_per_texel.max(1);
-        let rows = u32::try_from((self.tile_work / per_row).clamp(1, u64::from(h))).unwrap_or(h);
-        let tiles_per_layer = h.div_ceil(rows);
-        let total = (u64::from(tiles_per_layer) * u64::from(out.layers)).max(1);
-        let mut done = 0u64;
-        for layer in 0..out.layers {
-            self.target.bind(gl, pass, out, layer)?;
-            program.set_i32(gl, "u_layer", i32::try_from(layer).unwrap_or(i32::MAX));
-            for tile in 0..tiles_per_layer {
-                let y0 = tile * rows;
-                let y1 = (y0 + rows).min(h);
-                self.target.draw(gl, pass, [0, y0, w, y1 - y0])?;
-                // Wait for the tile: honest progress, and no unbounded queue of GPU work.
-                // SAFETY: glFinish has no preconditions.
-                unsafe { gl.finish() };
-                check(gl, pass, "finishing a tile")?;
-                done += 1;
-                progress(done as f32 / total as f32);
-            }
-        }
-        Ok(())
     }
 }
 
@@ -219,119 +170,83 @@ impl GpuBackend for GlowBackend {
         Ok(GlowScene(self.scenes.len() - 1))
     }
 
-    fn run_pass(
-        &mut self,
-        pass: &PassDesc,
-        reads: &[&GlowTexture],
-        writes: &[&GlowTexture],
-        scene: &GlowScene,
-        progress: &mut dyn FnMut(f32),
-    ) -> Result<()> {
-        let Some(kind) = pass.kind.program() else {
-            // The G-buffer is uploaded, not computed.
-            progress(1.0);
-            return Ok(());
-        };
-        let names = kind.sampler_names();
-        if reads.len() != names.len() || writes.len() != 1 {
+    fn tile_work(&self) -> u64 {
+        self.tile_work
+    }
+
+    fn dispatch(&mut self, call: &Dispatch<'_, GlowTexture, GlowScene>) -> Result<()> {
+        let (label, sig) = (call.label, call.program.signature());
+        if call.reads.len() != sig.reads.len() || call.reads.contains(&call.write) {
             return Err(GlowError::InvalidInput(format!(
-                "pass `{}`: expected {} reads and 1 write, got {} and {}",
-                pass.label,
-                names.len(),
-                reads.len(),
-                writes.len()
+                "pass `{label}`: {} reads for the slots {:?}, or one is the target",
+                call.reads.len(),
+                sig.reads
             )));
         }
-        if reads.iter().any(|r| r.0 == writes[0].0) {
-            return Err(GlowError::InvalidInput(format!(
-                "pass `{}` reads the texture it writes",
-                pass.label
-            )));
-        }
-        let trav = if kind.traces_rays() {
-            traversal(pass.params.bvh)
-        } else {
-            Traversal::None
-        };
-        self.program(kind, trav)?;
+        let trav = program_traversal(call.program, call.bvh);
+        self.program(call.program, trav)?;
         let gpu_scene = self
             .scenes
-            .get(scene.0)
-            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {scene:?}")))?;
-        let out = &self.texture(writes[0])?.1;
-        if [out.width, out.height] != gpu_scene.layer_size {
+            .get(call.scene.0)
+            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let out = &self.texture(call.write)?.1;
+        let t = call.tile;
+        if [out.width, out.height] != gpu_scene.layer_size
+            || [t.layer_w, t.layer_h] != [out.width, out.height]
+            || t.layer >= out.layers
+        {
             return Err(GlowError::InvalidInput(format!(
-                "pass `{}`: target size differs from the scene's layer size",
-                pass.label
+                "pass `{label}`: tile {t:?} does not fit the target or the scene's layer size"
             )));
         }
         let gl = self.ctx.gl()?;
-        let mut samplers: Vec<(&str, &TextureArray)> = Vec::with_capacity(8);
-        for (name, r) in names.iter().zip(reads) {
-            let t = &self.texture(r)?.1;
-            if (t.width, t.height, t.layers) != (out.width, out.height, out.layers) {
-                return Err(GlowError::InvalidInput(format!(
-                    "pass `{}`: input `{name}` differs in size from the target",
-                    pass.label
-                )));
-            }
-            samplers.push((name, t));
+        let mut samplers: Vec<(String, &TextureArray)> = Vec::with_capacity(8);
+        for (slot, r) in sig.reads.iter().zip(call.reads) {
+            samplers.push((glsl_slot(slot), &self.texture(r)?.1));
         }
-        let lamps = match pass.kind {
-            PassKind::Direct => Some(lamp_texture(gl, gpu_scene, &pass.params.lamps)?),
-            _ => None,
-        };
-        if kind.traces_rays() {
-            samplers.extend(gpu_scene.bvh.samplers(trav));
+        if sig.scene.bvh {
+            samplers.extend(
+                gpu_scene
+                    .bvh
+                    .samplers(trav)
+                    .into_iter()
+                    .map(|(n, tex)| (n.to_owned(), tex)),
+            );
         }
-        match (&lamps, pass.kind) {
-            (Some((tex, _)), _) => {
-                samplers.push(("u_lamps", tex));
-                samplers.push(("u_ies", &gpu_scene.ies));
-            }
-            (None, PassKind::Gather { .. }) => samplers.push(("u_regions", &gpu_scene.regions)),
-            _ => {}
+        if sig.scene.lamps {
+            samplers.push(("u_lamps".into(), &gpu_scene.lamps));
+            samplers.push(("u_ies".into(), &gpu_scene.ies));
+        }
+        if sig.scene.regions {
+            samplers.push(("u_regions".into(), &gpu_scene.regions));
         }
         let program = self
             .programs
-            .get(&(kind, trav))
+            .get(&(call.program, trav))
             .ok_or_else(|| GlowError::InvalidInput("program cache".into()))?;
-        program.use_with(gl, pass.label, &samplers)?;
-        if kind.traces_rays() {
+        let named: Vec<(&str, &TextureArray)> =
+            samplers.iter().map(|(n, tex)| (n.as_str(), *tex)).collect();
+        self.target.bind(gl, label, out, t.layer)?;
+        program.use_with(gl, label, &named)?;
+        program.set_i32(gl, "u_layer", i32::try_from(t.layer).unwrap_or(i32::MAX));
+        if sig.scene.bvh {
             gpu_scene.bvh.set_uniforms(gl, program);
             program.set_f32(gl, "u_ray_epsilon", gpu_scene.ray_epsilon);
         }
-        let work = match pass.kind {
-            PassKind::Direct => {
-                let count = lamps.as_ref().map_or(0, |(_, n)| *n);
-                program.set_i32(gl, "u_lamp_count", count);
-                u64::try_from(count).unwrap_or(1)
+        for (field, &word) in sig.params.iter().zip(call.params) {
+            let name = glsl_param(field);
+            match field.ty {
+                Scalar::U32 => program.set_u32(gl, &name, word),
+                Scalar::I32 => program.set_i32(gl, &name, word as i32),
+                Scalar::F32 => program.set_f32(gl, &name, f32::from_bits(word)),
             }
-            PassKind::Gather { bounce } => {
-                program.set_u32(gl, "u_rays", pass.params.rays);
-                program.set_u32(gl, "u_bounce", bounce);
-                program.set_u32(gl, "u_seed", pass.params.seed);
-                u64::from(pass.params.rays)
-            }
-            PassKind::Blur { axis, sigma } => {
-                // Exactly cpu::blur_texel's radius and exponent factor.
-                let radius = ((3.0 * sigma).ceil() as i32).clamp(0, luxbake::cpu::MAX_BLUR_RADIUS);
-                let step = match axis {
-                    Axis::U => [1, 0],
-                    Axis::V => [0, 1],
-                };
-                program.set_ivec2(gl, "u_step", step);
-                program.set_i32(gl, "u_radius", radius);
-                program.set_f32(gl, "u_inv", -0.5 / (sigma * sigma));
-                u64::from(radius.unsigned_abs()) * 2 + 1
-            }
-            _ => 1,
-        };
-        let result = self.draw_tiled(pass.label, program, out, work, progress);
-        if let Some((tex, _)) = lamps {
-            tex.delete(gl);
         }
-        result
+        self.target
+            .draw(gl, label, [t.x0, t.y0, t.width, t.height])?;
+        // Wait for the tile: honest progress, and no unbounded queue of GPU work.
+        // SAFETY: glFinish has no preconditions.
+        unsafe { gl.finish() };
+        check(gl, label, "finishing a tile")
     }
 
     fn read_back(&mut self, texture: &GlowTexture, layer: u32) -> Result<Vec<f32>> {

@@ -189,6 +189,7 @@ impl Program {
     }
 
     /// Sets an `ivec2` uniform of the bound program.
+    #[cfg(test)]
     pub(crate) fn set_ivec2(&self, gl: &glow::Context, name: &str, v: [i32; 2]) {
         // SAFETY: as set_i32.
         unsafe { gl.uniform_2_i32(self.uniform(name), v[0], v[1]) };

@@ -20,25 +20,31 @@
 //! # }
 //! ```
 //!
-//! ## Passes and shaders (paper Figure 4)
-//! One GLSL file per pass in `shaders/`, loaded with `include_str!`, compiled once per pass kind
-//! (and traversal) as `#version 300 es` + precision + generated `#define`s + library files + the
-//! pass file (module `shaders`):
+//! ## Programs and shaders (paper Figure 4)
+//! The backend knows no pass kinds: it runs one `luxbake::program::Program` per
+//! [`Dispatch`](luxbake::backend::Dispatch), binding what the program's
+//! `luxbake::program::Signature` lists — its read slots as `u_<slot>` samplers, the scene
+//! resources it needs, its parameter block field by field as `u_<field>` uniforms (types from
+//! the block's fields). The GLSL sources are the core's (`crates/bake/shaders/<pass>/<pass>.glsl`
+//! beside the WGSL twin, libraries in `crates/bake/shaders/lib/`), compiled once per program
+//! and traversal as `#version 300 es` + precision + `luxbake::shader::glsl_prefix` (generated
+//! constants and declarations) + library files + the pass file:
 //!
-//! | box | pass | file | reads (texture units) |
-//! |---|---|---|---|
-//! | 2 | direct: IES intensity × cos θ / d², shadow ray | `direct.frag.glsl` | position, normal, BVH (3), lamps, IES tables: 7 |
-//! | 2→3, 6→7 | copy | `copy.frag.glsl` | source: 1 |
-//! | 3, 7 | masked separable Gaussian, one axis | `blur.frag.glsl` | source, normal: 2 |
-//! | 4, 8 | × albedo | `albedo_mul.frag.glsl` | source, albedo: 2 |
-//! | 5 | gather: cosine-weighted rays, closest hit, masked bilinear look-up | `gather.frag.glsl` | position, normal, reflected map, BVH (3), regions: 7 |
-//! | 6 | combine: direct + indirect | `combine.frag.glsl` | direct, indirect: 2 |
+//! | box | program | reads (texture units) |
+//! |---|---|---|
+//! | 2 | direct: IES intensity × cos θ / d², shadow ray | position, normal, BVH (3), lamps, IES tables: 7 |
+//! | 2→3, 6→7 | copy | source: 1 |
+//! | 3, 7 | masked separable Gaussian, one axis | source, normal: 2 |
+//! | 4, 8 | × albedo | source, albedo: 2 |
+//! | 5 | gather: cosine-weighted rays, closest hit, masked bilinear look-up | position, normal, reflected map, BVH (3), regions: 7 |
+//! | 6 | combine: direct + indirect | direct, indirect: 2 |
 //!
 //! Library files: `common.glsl` (helpers of `luxbake::cpu`), `rng.glsl` (`luxbake::rng`, bit
-//! for bit), `bvh.glsl` (`luxbake_bvh`'s CPU traversal line for line), `ies.glsl`
-//! (`luxbake_ies::GpuTable::sample`, with f32 `acos`/`atan2` polynomials because driver versions
-//! are up to ~2000 ulps off on llvmpipe). Every pass computes exactly what the CPU reference
-//! (`luxbake::cpu`, the oracle) documents, with the same f32 operations in the same order.
+//! for bit), `scene.glsl` (ray epsilon, lamps, regions), `bvh.glsl` (`luxbake_bvh`'s CPU
+//! traversal line for line), `ies.glsl` (`luxbake_ies::GpuTable::sample`, with f32
+//! `acos`/`atan2` polynomials because driver versions are up to ~2000 ulps off on llvmpipe).
+//! Every program computes exactly what the CPU reference (`luxbake::cpu`, the oracle)
+//! documents, with the same f32 operations in the same order.
 //!
 //! ## Textures
 //! Every graph texture is an RGBA32F `TEXTURE_2D_ARRAY` (one layer per light-map layer, maps in
@@ -53,11 +59,11 @@
 //!   prefixed at run time, so shader and encoder cannot drift.
 //! - Intensity tables: one layer per lamp table, four table columns per texel.
 //! - Regions: one column per object id, `(layer, x, y, receiver)` and `(width, height)`.
-//! - Lamps (per direct pass): one column per listed lamp (position, table, world-to-photometric
-//!   rows, RGB scale, table size).
+//! - Lamps: one column per uploaded lamp, the six rows of `luxbake::pack::lamp_rows`.
+//!   Regions and lamps are packed by `luxbake::pack`, as for the wgpu backend.
 //!
 //! ## Traversal
-//! MTBVH, TBVH or brute force ("no BVH"), chosen per pass from `PassParams::bvh` and compiled in
+//! MTBVH, TBVH or brute force ("no BVH"), chosen per pass (`PassDesc::bvh`) and compiled in
 //! (`LUX_TRAVERSAL`), so each program contains one loop only.
 //!
 //! ## WebGL2 limits, asserted in code
@@ -69,9 +75,10 @@
 //! `MAX_TEXTURE_SIZE` (as the paper does), see [`Capabilities`].
 //!
 //! ## Tiles and progress
-//! Long passes are split into row tiles of about [`DEFAULT_TILE_WORK`] texel × ray evaluations
-//! ([`GlowBackend::with_tile_work`]), one draw (scissored) per tile followed by `glFinish` and a
-//! progress report, so that a browser's GPU watchdog never sees a long draw. The random numbers
+//! The driver (`luxbake::bake`) splits long passes into row tiles of about
+//! [`DEFAULT_TILE_WORK`](luxbake::backend::DEFAULT_TILE_WORK) texel × ray evaluations
+//! ([`GlowBackend::with_tile_work`]), one dispatch per tile: one draw (scissored) followed by
+//! `glFinish`, then a progress report, so that a browser's GPU watchdog never sees a long draw. The random numbers
 //! are a stateless hash of the texel, so tiling does not change any result.
 //!
 //! ## Contexts
@@ -108,7 +115,7 @@ mod gl;
 mod scene;
 mod shaders;
 
-pub use backend::{DEFAULT_TILE_WORK, GlowBackend, GlowScene, GlowTexture};
+pub use backend::{GlowBackend, GlowScene, GlowTexture};
 pub use context::{Capabilities, GlContext, webgl2};
 pub use error::{GlowError, Result};
 

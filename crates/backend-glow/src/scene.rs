@@ -2,17 +2,15 @@
 //! intensity tables and the light-map regions, all RGBA32F texture arrays read with
 //! `texelFetch`.
 
-use luxbake::backend::{LampParams, SceneData};
+use luxbake::backend::SceneData;
+use luxbake::pack;
 use luxbake_bvh::{EncodedScene, layout};
 use luxbake_ies::GpuTable;
 
 use crate::context::Capabilities;
 use crate::error::{GlowError, Result};
 use crate::gl::{Program, TextureArray};
-use crate::shaders::Traversal;
-
-/// Rows of the per-pass lamp texture (see `direct.frag.glsl`).
-const LAMP_ROWS: u32 = 6;
+use luxbake::scene::BvhMode;
 
 /// Everything `upload_scene` put on the GPU.
 #[derive(Debug)]
@@ -22,8 +20,8 @@ pub(crate) struct GpuScene {
     pub(crate) ies: TextureArray,
     /// One column per object id: (layer, offset.x, offset.y, receiver), (width, height, 0, 0).
     pub(crate) regions: TextureArray,
-    lamps: Vec<LampParams>,
-    table_sizes: Vec<[u32; 2]>,
+    /// One column per uploaded lamp, `pack::LAMP_ROWS` rows.
+    pub(crate) lamps: TextureArray,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
 }
@@ -113,83 +111,52 @@ impl GpuScene {
         let ies = ies_texture(gl, caps, scene.ies_tables)?;
         let n = checked_size(caps, "objects (region texture width)", scene.regions.len())?;
         let mut data = vec![0.0f32; n as usize * 2 * 4];
-        for (i, r) in scene.regions.iter().enumerate() {
-            if let Some(r) = r {
-                data[i * 4..i * 4 + 4].copy_from_slice(&[
-                    r.layer as f32,
-                    r.offset[0] as f32,
-                    r.offset[1] as f32,
-                    1.0,
-                ]);
-                let row1 = (n as usize + i) * 4;
-                data[row1..row1 + 2].copy_from_slice(&[r.size[0] as f32, r.size[1] as f32]);
+        for (i, rows) in pack::region_rows(scene.regions).iter().enumerate() {
+            for (row, words) in rows.iter().enumerate() {
+                let at = (row * n as usize + i) * 4;
+                data[at..at + 4].copy_from_slice(&words.map(|v| v as f32));
             }
         }
         let regions = TextureArray::new(gl, "regions", n, 2, 1)?;
         regions.upload(gl, "regions", 0, &data)?;
+        let lamps = lamp_texture(gl, caps, &pack::lamp_rows(scene))?;
         Ok(Self {
             bvh,
             ies,
             regions,
-            lamps: scene.lamps.to_vec(),
-            table_sizes: scene
-                .ies_tables
-                .iter()
-                .map(|t| [t.width, t.height])
-                .collect(),
+            lamps,
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,
         })
     }
 
-    /// Deletes the textures.
     pub(crate) fn delete(&self, gl: &glow::Context) {
         self.bvh.delete(gl);
         self.ies.delete(gl);
         self.regions.delete(gl);
+        self.lamps.delete(gl);
     }
 }
 
-/// The lamps of one direct pass as a texture (one column per listed lamp, in order, see
-/// `direct.frag.glsl`) and their count. Listed indices without a lamp are left out, as the CPU
-/// reference skips them.
-pub(crate) fn lamp_texture(
+/// The uploaded lamps as a texture: one column per lamp, its [`pack::LAMP_ROWS`] rows as
+/// packed by [`pack::lamp_rows`].
+fn lamp_texture(
     gl: &glow::Context,
-    scene: &GpuScene,
-    list: &[u32],
-) -> Result<(TextureArray, i32)> {
-    let lamps: Vec<&LampParams> = list
-        .iter()
-        .filter_map(|&i| scene.lamps.get(i as usize))
-        .collect();
+    caps: &Capabilities,
+    lamps: &[pack::LampRows],
+) -> Result<TextureArray> {
     let n = lamps.len().max(1);
-    let width = u32::try_from(n).map_err(|_| GlowError::InvalidInput("too many lamps".into()))?;
-    let mut data = vec![0.0f32; n * LAMP_ROWS as usize * 4];
+    let width = checked_size(caps, "lamps (lamp texture width)", n)?;
+    let mut data = vec![0.0f32; n * pack::LAMP_ROWS * 4];
     for (i, l) in lamps.iter().enumerate() {
-        let size = scene
-            .table_sizes
-            .get(l.table as usize)
-            .copied()
-            .unwrap_or([0, 0]);
-        let m = l.world_to_photometric;
-        let rows = [
-            [l.position[0], l.position[1], l.position[2], l.table as f32],
-            [m[0][0], m[0][1], m[0][2], 0.0],
-            [m[1][0], m[1][1], m[1][2], 0.0],
-            [m[2][0], m[2][1], m[2][2], 0.0],
-            [l.scale[0], l.scale[1], l.scale[2], 0.0],
-            [size[0] as f32, size[1] as f32, 0.0, 0.0],
-        ];
-        for (row, v) in rows.iter().enumerate() {
+        for (row, v) in l.floats().iter().enumerate() {
             let at = (row * n + i) * 4;
             data[at..at + 4].copy_from_slice(v);
         }
     }
-    let tex = TextureArray::new(gl, "lamps", width, LAMP_ROWS, 1)?;
+    let tex = TextureArray::new(gl, "lamps", width, pack::LAMP_ROWS as u32, 1)?;
     tex.upload(gl, "lamps", 0, &data)?;
-    let count =
-        i32::try_from(lamps.len()).map_err(|_| GlowError::InvalidInput("too many lamps".into()))?;
-    Ok((tex, count))
+    Ok(tex)
 }
 
 /// The encoded BVH as RGBA32F texture arrays, exactly the texels of [`EncodedScene`]: node
@@ -242,11 +209,11 @@ impl BvhTextures {
     }
 
     /// The sampler bindings `bvh.glsl` declares for `traversal`.
-    pub(crate) fn samplers(&self, traversal: Traversal) -> Vec<(&'static str, &TextureArray)> {
+    pub(crate) fn samplers(&self, traversal: BvhMode) -> Vec<(&'static str, &TextureArray)> {
         let links = match traversal {
-            Traversal::Mtbvh => &self.links,
-            Traversal::Tbvh => &self.tbvh_links,
-            Traversal::None => return vec![("u_triangles", &self.triangles)],
+            BvhMode::Mtbvh => &self.links,
+            BvhMode::Tbvh => &self.tbvh_links,
+            BvhMode::None => return vec![("u_triangles", &self.triangles)],
         };
         vec![
             ("u_triangles", &self.triangles),

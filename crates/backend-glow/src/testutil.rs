@@ -16,21 +16,22 @@ pub(crate) fn context_or_skip(test: &str) -> Option<GlContext> {
 }
 
 use crate::gl::{Program, Target, TextureArray};
-use crate::shaders::{self, Traversal};
+use luxbake::scene::BvhMode;
+use luxbake::shader;
 
 /// Runs one debug fragment program over a `size` target (one layer) and reads it back.
-/// `fragment` is appended to the defines for `traversal`; `set` sets the program's uniforms.
+/// `fragment` is appended to the generated constants for `traversal`; `set` sets the program's uniforms.
 pub(crate) fn render(
     ctx: &GlContext,
     label: &str,
-    traversal: Traversal,
+    traversal: BvhMode,
     fragment: &[&str],
     samplers: &[(&str, &TextureArray)],
     set: impl Fn(&glow::Context, &Program),
     size: [u32; 2],
 ) -> Vec<f32> {
     let gl = ctx.gl().unwrap();
-    let program = Program::new(gl, label, &shaders::defines(traversal), fragment).unwrap();
+    let program = Program::new(gl, label, &shader::glsl_constants(traversal), fragment).unwrap();
     let out = TextureArray::new(gl, label, size[0], size[1], 1).unwrap();
     let target = Target::new(gl).unwrap();
     target.bind(gl, label, &out, 0).unwrap();

@@ -3,30 +3,26 @@
 
 use std::collections::HashMap;
 
-use luxbake::backend::{GpuBackend, Limits, SceneData};
-use luxbake::graph::{Axis, PassDesc, PassKind, TexDesc};
+use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
+use luxbake::graph::TexDesc;
+use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
+use luxbake::scene::BvhMode;
+use luxbake::shader::{program_traversal, wgsl, wgsl_source};
 
 use crate::device::Gpu;
 use crate::error::{Result, WgpuError};
 use crate::scene::{GpuScene, SCENE_UNIFORM_BYTES};
-use crate::shaders::{BvhStorage, Pass, PassShaders, Traversal};
-
-/// Default work per dispatch: texel × ray (or texel × tap) evaluations of one tile, as the glow
-/// backend's draws. About 2^20 keeps a dispatch in the tens of milliseconds on a laptop GPU, far
-/// from any watchdog (a few seconds), and gives a progress report every few hundred
-/// milliseconds on lavapipe.
-pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
+use crate::shaders::BvhStorage;
 
 /// Compute workgroup edge (`@workgroup_size(8, 8, 1)` in every pass).
 const WORKGROUP: u32 = 8;
-/// Bytes of the `LuxParams` uniform block (`common.wgsl`).
-const PARAMS_BYTES: u64 = 64;
-/// Binding of the output storage texture in group 0.
-const OUT_BINDING: u32 = 8;
-/// Binding of the pass parameters in group 0.
-const PARAMS_BINDING: u32 = 9;
-/// Binding of the direct pass's lamps in group 0.
-const LAMPS_BINDING: u32 = 10;
+/// Bytes of the tile block (`LuxTile`).
+const TILE_BYTES: u64 = std::mem::size_of::<TileParams>() as u64;
+
+/// Bytes of `program`'s parameter block (0 without one).
+fn params_bytes(program: Program) -> u64 {
+    4 * program.signature().params.len() as u64
+}
 
 /// A texture array owned by a [`WgpuBackend`] (a handle; the backend owns the GPU object).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -75,9 +71,10 @@ pub struct WgpuBackend {
     options: WgpuOptions,
     textures: Vec<Texture>,
     scenes: Vec<GpuScene>,
-    pass_layouts: HashMap<Pass, wgpu::BindGroupLayout>,
+    pass_layouts: HashMap<Program, wgpu::BindGroupLayout>,
     scene_layout: wgpu::BindGroupLayout,
-    pipelines: HashMap<(Pass, Traversal), wgpu::ComputePipeline>,
+    pipelines: HashMap<(Program, BvhMode), wgpu::ComputePipeline>,
+    tile: wgpu::Buffer,
     params: wgpu::Buffer,
 }
 
@@ -114,11 +111,12 @@ fn buffer_entry(
 
 const STORAGE_RO: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
 
-/// Group 0 of `pass`: its read textures, the output, the parameters (and the lamps).
-fn pass_layout_entries(pass: Pass) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let mut entries: Vec<_> = (0..pass.reads() as u32).map(texture_entry).collect();
+/// Group 0 of `program`: its read slots, the output, the tile and its parameter block.
+fn pass_layout_entries(program: Program) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let sig = program.signature();
+    let mut entries: Vec<_> = (0..sig.reads.len() as u32).map(texture_entry).collect();
     entries.push(wgpu::BindGroupLayoutEntry {
-        binding: OUT_BINDING,
+        binding: wgsl::OUT_BINDING,
         visibility: wgpu::ShaderStages::COMPUTE,
         ty: wgpu::BindingType::StorageTexture {
             access: wgpu::StorageTextureAccess::WriteOnly,
@@ -128,74 +126,51 @@ fn pass_layout_entries(pass: Pass) -> Vec<wgpu::BindGroupLayoutEntry> {
         count: None,
     });
     entries.push(buffer_entry(
-        PARAMS_BINDING,
+        wgsl::TILE_BINDING,
         wgpu::BufferBindingType::Uniform,
-        PARAMS_BYTES,
+        TILE_BYTES,
     ));
-    if pass == Pass::Direct {
-        entries.push(buffer_entry(LAMPS_BINDING, STORAGE_RO, 0));
+    if !sig.params.is_empty() {
+        entries.push(buffer_entry(
+            wgsl::PARAMS_BINDING,
+            wgpu::BufferBindingType::Uniform,
+            params_bytes(program),
+        ));
     }
     entries
 }
 
 /// Group 1 (the scene) for `storage`.
 fn scene_layout_entries(storage: BvhStorage) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let mut entries: Vec<_> = (0..3)
-        .map(|b| match storage {
-            BvhStorage::Buffers => buffer_entry(b, STORAGE_RO, 0),
-            BvhStorage::Textures => texture_entry(b),
-        })
-        .collect();
-    entries.push(buffer_entry(3, STORAGE_RO, 0));
-    entries.push(buffer_entry(4, STORAGE_RO, 0));
+    let mut entries: Vec<_> = [
+        wgsl::BOUNDS_BINDING,
+        wgsl::LINKS_BINDING,
+        wgsl::TRIANGLES_BINDING,
+    ]
+    .into_iter()
+    .map(|b| match storage {
+        BvhStorage::Buffers => buffer_entry(b, STORAGE_RO, 0),
+        BvhStorage::Textures => texture_entry(b),
+    })
+    .collect();
+    entries.push(buffer_entry(wgsl::IES_BINDING, STORAGE_RO, 0));
+    entries.push(buffer_entry(wgsl::REGIONS_BINDING, STORAGE_RO, 0));
     entries.push(buffer_entry(
-        5,
+        wgsl::SCENE_BINDING,
         wgpu::BufferBindingType::Uniform,
         SCENE_UNIFORM_BYTES,
     ));
+    entries.push(buffer_entry(wgsl::LAMPS_BINDING, STORAGE_RO, 0));
     entries
 }
 
-/// The 16 words of `LuxParams` (`common.wgsl`).
-#[derive(Debug, Clone, Copy, Default)]
-struct Params {
-    x0: u32,
-    y0: u32,
-    width: u32,
-    height: u32,
-    layer: u32,
-    layer_w: u32,
-    layer_h: u32,
-    count: u32,
-    bounce: u32,
-    seed: u32,
-    radius: i32,
-    step: [i32; 2],
-    inv: f32,
+/// Whether `program` binds the scene (group 1).
+fn uses_scene(program: Program) -> bool {
+    program.signature().scene != SceneNeeds::default()
 }
 
-impl Params {
-    fn bytes(&self) -> Vec<u8> {
-        let words: [u32; 16] = [
-            self.x0,
-            self.y0,
-            self.width,
-            self.height,
-            self.layer,
-            self.layer_w,
-            self.layer_h,
-            self.count,
-            self.bounce,
-            self.seed,
-            self.radius as u32,
-            self.step[0] as u32,
-            self.step[1] as u32,
-            self.inv.to_bits(),
-            0,
-            0,
-        ];
-        words.iter().flat_map(|w| w.to_le_bytes()).collect()
-    }
+fn words_bytes(words: &[u32]) -> Vec<u8> {
+    words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
 impl WgpuBackend {
@@ -220,7 +195,7 @@ impl WgpuBackend {
             .unwrap_or(wgpu::Backends::all());
         let gpu = Gpu::open(backends)?;
         let mut pass_layouts = HashMap::new();
-        for pass in Pass::ALL {
+        for pass in Program::ALL {
             let layout = gpu.scoped("bind group layouts", || {
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -237,14 +212,19 @@ impl WgpuBackend {
                     entries: &scene_layout_entries(options.bvh_storage),
                 })
         })?;
-        let params = gpu.scoped("pass parameters", || {
-            gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("pass parameters"),
-                size: PARAMS_BYTES,
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
+        let uniform = |label: &'static str, size: u64| {
+            gpu.scoped(label, || {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size,
+                    usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+                    mapped_at_creation: false,
+                })
             })
-        })?;
+        };
+        let tile = uniform("tile", TILE_BYTES)?;
+        let largest_block = Program::ALL.map(params_bytes).into_iter().max();
+        let params = uniform("pass parameters", largest_block.unwrap_or(0).max(16))?;
         Ok(WgpuBackend {
             gpu,
             options: WgpuOptions {
@@ -256,6 +236,7 @@ impl WgpuBackend {
             pass_layouts,
             scene_layout,
             pipelines: HashMap::new(),
+            tile,
             params,
         })
     }
@@ -277,19 +258,19 @@ impl WgpuBackend {
     }
 
     /// Creates (once) the pipeline of `pass` for `traversal`.
-    fn pipeline(&mut self, pass: Pass, traversal: Traversal) -> Result<()> {
+    fn pipeline(&mut self, pass: Program, traversal: BvhMode) -> Result<()> {
         let key = (pass, traversal);
         if self.pipelines.contains_key(&key) {
             return Ok(());
         }
         let gpu = &self.gpu;
-        let source = pass.source(traversal, self.options.bvh_storage);
+        let source = wgsl_source(pass, traversal, self.options.bvh_storage);
         let pass_layout = self
             .pass_layouts
             .get(&pass)
             .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
         let mut groups = vec![Some(pass_layout)];
-        if pass.traces_rays() {
+        if uses_scene(pass) {
             groups.push(Some(&self.scene_layout));
         }
         let during = format!("compiling the `{}` pipeline", pass.label());
@@ -456,104 +437,47 @@ impl GpuBackend for WgpuBackend {
         Ok(WgpuScene(self.scenes.len() - 1))
     }
 
-    fn run_pass(
-        &mut self,
-        pass: &PassDesc,
-        reads: &[&WgpuTexture],
-        writes: &[&WgpuTexture],
-        scene: &WgpuScene,
-        progress: &mut dyn FnMut(f32),
-    ) -> Result<()> {
-        let Some(kind) = pass.kind.program() else {
-            // The G-buffer is uploaded, not computed.
-            progress(1.0);
-            return Ok(());
-        };
-        if reads.len() != kind.reads() || writes.len() != 1 {
+    fn tile_work(&self) -> u64 {
+        self.options.tile_work
+    }
+
+    fn dispatch(&mut self, call: &Dispatch<'_, WgpuTexture, WgpuScene>) -> Result<()> {
+        let (label, sig) = (call.label, call.program.signature());
+        if call.reads.len() != sig.reads.len() || call.reads.contains(&call.write) {
             return Err(WgpuError::InvalidInput(format!(
-                "pass `{}`: expected {} reads and 1 write, got {} and {}",
-                pass.label,
-                kind.reads(),
-                reads.len(),
-                writes.len()
+                "pass `{label}`: {} reads for the slots {:?}, or one is the target",
+                call.reads.len(),
+                sig.reads
             )));
         }
-        if reads.iter().any(|r| r.0 == writes[0].0) {
-            return Err(WgpuError::InvalidInput(format!(
-                "pass `{}` reads the texture it writes",
-                pass.label
-            )));
-        }
-        let traversal = if kind.traces_rays() {
-            Traversal::of(pass.params.bvh)
-        } else {
-            Traversal::None
-        };
-        self.pipeline(kind, traversal)?;
+        let traversal = program_traversal(call.program, call.bvh);
+        self.pipeline(call.program, traversal)?;
         let gpu_scene = self
             .scenes
-            .get(scene.0)
-            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {scene:?}")))?;
-        let out = self.texture(writes[0])?;
-        if out.size != gpu_scene.layer_size {
+            .get(call.scene.0)
+            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let out = self.texture(call.write)?;
+        let t = call.tile;
+        if out.size != gpu_scene.layer_size
+            || [t.layer_w, t.layer_h] != out.size
+            || t.layer >= out.layers
+        {
             return Err(WgpuError::InvalidInput(format!(
-                "pass `{}`: target size differs from the scene's layer size",
-                pass.label
+                "pass `{label}`: tile {t:?} does not fit the target or the scene's layer size"
             )));
         }
-        let mut inputs = Vec::with_capacity(reads.len());
-        for r in reads {
-            let t = self.texture(r)?;
-            if (t.size, t.layers) != (out.size, out.layers) {
-                return Err(WgpuError::InvalidInput(format!(
-                    "pass `{}`: input `{}` differs in size from the target",
-                    pass.label, t.label
-                )));
-            }
-            inputs.push(t);
-        }
-        let gpu = &self.gpu;
-        let lamps = match pass.kind {
-            PassKind::Direct => Some(gpu_scene.lamp_buffer(gpu, &pass.params.lamps)?),
-            _ => None,
-        };
-        let mut params = Params {
-            layer_w: out.size[0],
-            layer_h: out.size[1],
-            ..Params::default()
-        };
-        let work = match pass.kind {
-            PassKind::Direct => {
-                let n = lamps.as_ref().map_or(0, |(_, n)| *n);
-                params.count = n;
-                u64::from(n)
-            }
-            PassKind::Gather { bounce } => {
-                params.count = pass.params.rays;
-                params.bounce = bounce;
-                params.seed = pass.params.seed;
-                u64::from(pass.params.rays)
-            }
-            PassKind::Blur { axis, sigma } => {
-                // Exactly cpu::blur_texel's radius and exponent factor.
-                let radius = ((3.0 * sigma).ceil() as i32).clamp(0, luxbake::cpu::MAX_BLUR_RADIUS);
-                params.radius = radius;
-                params.step = match axis {
-                    Axis::U => [1, 0],
-                    Axis::V => [0, 1],
-                };
-                params.inv = -0.5 / (sigma * sigma);
-                u64::from(radius.unsigned_abs()) * 2 + 1
-            }
-            _ => 1,
-        };
+        let inputs = call
+            .reads
+            .iter()
+            .map(|r| self.texture(r))
+            .collect::<Result<Vec<_>>>()?;
         let pipeline = self
             .pipelines
-            .get(&(kind, traversal))
+            .get(&(call.program, traversal))
             .ok_or_else(|| WgpuError::InvalidInput("pipeline cache".into()))?;
         let pass_layout = self
             .pass_layouts
-            .get(&kind)
+            .get(&call.program)
             .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
         let mut entries: Vec<wgpu::BindGroupEntry<'_>> = inputs
             .iter()
@@ -564,80 +488,68 @@ impl GpuBackend for WgpuBackend {
             })
             .collect();
         entries.push(wgpu::BindGroupEntry {
-            binding: OUT_BINDING,
+            binding: wgsl::OUT_BINDING,
             resource: wgpu::BindingResource::TextureView(&out.view),
         });
         entries.push(wgpu::BindGroupEntry {
-            binding: PARAMS_BINDING,
-            resource: self.params.as_entire_binding(),
+            binding: wgsl::TILE_BINDING,
+            resource: self.tile.as_entire_binding(),
         });
-        if let Some((buffer, _)) = &lamps {
+        let block = params_bytes(call.program);
+        if block > 0 {
             entries.push(wgpu::BindGroupEntry {
-                binding: LAMPS_BINDING,
-                resource: buffer.as_entire_binding(),
+                binding: wgsl::PARAMS_BINDING,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &self.params,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(block),
+                }),
             });
         }
-        let during = format!("pass `{}`", pass.label);
+        let gpu = &self.gpu;
+        let during = format!("pass `{label}`");
         let group = gpu.scoped(&during, || {
             gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(pass.label),
+                label: Some(label),
                 layout: pass_layout,
                 entries: &entries,
             })
         })?;
-        let scene_group = match pass.params.bvh {
-            luxbake::scene::BvhMode::Mtbvh => &gpu_scene.mtbvh,
+        let scene_group = match call.bvh {
+            BvhMode::Mtbvh => &gpu_scene.mtbvh,
             _ => &gpu_scene.tbvh,
         };
-
-        // Row tiles of about tile_work evaluations, one submission each, waited for: honest
-        // progress, no unbounded queue of GPU work and no dispatch long enough for a watchdog.
-        let [w, h] = out.size;
-        let per_row = u64::from(w) * work.max(1);
-        let rows =
-            u32::try_from((self.options.tile_work / per_row).clamp(1, u64::from(h))).unwrap_or(h);
-        let tiles_per_layer = h.div_ceil(rows);
-        let total = (u64::from(tiles_per_layer) * u64::from(out.layers)).max(1);
-        let mut done = 0u64;
-        for layer in 0..out.layers {
-            for tile in 0..tiles_per_layer {
-                let y0 = tile * rows;
-                let tile_rows = rows.min(h - y0);
-                params.layer = layer;
-                params.y0 = y0;
-                params.width = w;
-                params.height = tile_rows;
-                gpu.scoped(&during, || {
-                    gpu.queue.write_buffer(&self.params, 0, &params.bytes());
-                    let mut encoder =
-                        gpu.device
-                            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                                label: Some(pass.label),
-                            });
-                    {
-                        let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                            label: Some(pass.label),
-                            timestamp_writes: None,
-                        });
-                        cpass.set_pipeline(pipeline);
-                        cpass.set_bind_group(0, &group, &[]);
-                        if kind.traces_rays() {
-                            cpass.set_bind_group(1, scene_group, &[]);
-                        }
-                        cpass.dispatch_workgroups(
-                            w.div_ceil(WORKGROUP),
-                            tile_rows.div_ceil(WORKGROUP),
-                            1,
-                        );
-                    }
-                    gpu.queue.submit([encoder.finish()]);
-                })?;
-                gpu.wait(&during)?;
-                done += 1;
-                progress(done as f32 / total as f32);
+        gpu.scoped(&during, || {
+            gpu.queue
+                .write_buffer(&self.tile, 0, &words_bytes(&t.words()));
+            if block > 0 {
+                gpu.queue
+                    .write_buffer(&self.params, 0, &words_bytes(call.params));
             }
-        }
-        Ok(())
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+            {
+                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: None,
+                });
+                cpass.set_pipeline(pipeline);
+                cpass.set_bind_group(0, &group, &[]);
+                if uses_scene(call.program) {
+                    cpass.set_bind_group(1, scene_group, &[]);
+                }
+                cpass.dispatch_workgroups(
+                    t.width.div_ceil(WORKGROUP),
+                    t.height.div_ceil(WORKGROUP),
+                    1,
+                );
+            }
+            gpu.queue.submit([encoder.finish()]);
+        })?;
+        // Wait for the tile: honest progress, no unbounded queue of GPU work and no dispatch
+        // long enough for a watchdog.
+        gpu.wait(&during)
     }
 
     fn read_back(&mut self, texture: &WgpuTexture, layer: u32) -> Result<Vec<f32>> {

@@ -34,7 +34,7 @@
 //! default.
 //!
 //! ## Long passes, progress, errors
-//! A pass is split into row tiles of about [`DEFAULT_TILE_WORK`] texel × ray evaluations, one
+//! A pass is split into row tiles of about [`DEFAULT_TILE_WORK`](luxbake::backend::DEFAULT_TILE_WORK) texel × ray evaluations, one
 //! queue submission each, waited for before the next: no dispatch runs long enough for a GPU
 //! watchdog, and `progress` is called after every tile. A missing adapter, a refused device,
 //! a lost device, out-of-memory and validation failures are [`WgpuError`] values with a clear
@@ -58,7 +58,7 @@ mod error;
 mod scene;
 mod shaders;
 
-pub use backend::{DEFAULT_TILE_WORK, WgpuBackend, WgpuOptions, WgpuScene, WgpuTexture};
+pub use backend::{WgpuBackend, WgpuOptions, WgpuScene, WgpuTexture};
 pub use error::{Result, WgpuError};
 pub use shaders::BvhStorage;
 pub use wgpu;

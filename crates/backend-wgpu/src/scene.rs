@@ -1,8 +1,11 @@
 //! The static scene data on the GPU (bind group 1 of the ray-casting passes): the encoded BVH
 //! (storage buffers or texture arrays, [`BvhStorage`]), the intensity tables, the light-map
-//! regions and the scene constants; and the per-pass lamp buffer of the direct pass.
+//! regions, the scene constants and the lamps, packed by `luxbake::pack` (as for the glow
+//! backend) at the bindings of `luxbake::shader::wgsl`.
 
-use luxbake::backend::{LampParams, SceneData};
+use luxbake::backend::SceneData;
+use luxbake::pack;
+use luxbake::shader::wgsl;
 use luxbake_bvh::{EncodedScene, layout};
 use wgpu::util::DeviceExt;
 
@@ -12,8 +15,8 @@ use crate::shaders::BvhStorage;
 
 /// Bytes of the `LuxScene` uniform block (`scene.wgsl`).
 pub(crate) const SCENE_UNIFORM_BYTES: u64 = 48;
-/// Bytes of one `LuxLamp` (`direct.wgsl`): six vec4.
-pub(crate) const LAMP_BYTES: usize = 96;
+/// Bytes of one `LuxLamp` (`scene.wgsl`): six vec4.
+const LAMP_BYTES: usize = 16 * pack::LAMP_ROWS;
 
 /// Everything `upload_scene` put on the GPU.
 #[derive(Debug)]
@@ -22,9 +25,6 @@ pub(crate) struct GpuScene {
     pub(crate) mtbvh: wgpu::BindGroup,
     /// Bind group 1 with the TBVH links (also used by brute force, which reads no links).
     pub(crate) tbvh: wgpu::BindGroup,
-    lamps: Vec<LampParams>,
-    /// Per intensity table: (offset in the concatenated values, width, height).
-    tables: Vec<[u32; 3]>,
     pub(crate) layer_size: [u32; 2],
 }
 
@@ -179,22 +179,28 @@ impl BvhData {
                 tbvh_links,
                 triangles,
             } => [
-                e(0, bounds.as_entire_binding()),
+                e(wgsl::BOUNDS_BINDING, bounds.as_entire_binding()),
                 e(
-                    1,
+                    wgsl::LINKS_BINDING,
                     if mtbvh { links } else { tbvh_links }.as_entire_binding(),
                 ),
-                e(2, triangles.as_entire_binding()),
+                e(wgsl::TRIANGLES_BINDING, triangles.as_entire_binding()),
             ],
             BvhData::Textures(views) => {
                 let [bounds, links, tbvh_links, triangles] = views.as_ref();
                 [
-                    e(0, wgpu::BindingResource::TextureView(bounds)),
                     e(
-                        1,
+                        wgsl::BOUNDS_BINDING,
+                        wgpu::BindingResource::TextureView(bounds),
+                    ),
+                    e(
+                        wgsl::LINKS_BINDING,
                         wgpu::BindingResource::TextureView(if mtbvh { links } else { tbvh_links }),
                     ),
-                    e(2, wgpu::BindingResource::TextureView(triangles)),
+                    e(
+                        wgsl::TRIANGLES_BINDING,
+                        wgpu::BindingResource::TextureView(triangles),
+                    ),
                 ]
             }
         }
@@ -223,33 +229,21 @@ impl GpuScene {
             }
         }
         let bvh = BvhData::upload(gpu, scene.bvh, storage_kind)?;
-        let mut values = Vec::new();
-        let mut tables = Vec::with_capacity(scene.ies_tables.len());
-        for t in scene.ies_tables {
-            let n = (t.width as usize).saturating_mul(t.height as usize);
-            let offset = u32::try_from(values.len())
-                .map_err(|_| WgpuError::InvalidInput("intensity tables too large".into()))?;
-            let mut v = t.values.get(..n).unwrap_or(&t.values).to_vec();
-            v.resize(n, 0.0);
-            values.extend_from_slice(&v);
-            tables.push([offset, t.width, t.height]);
-        }
-        let ies = storage(gpu, "ies_tables", bytes_of(&values))?;
-        let mut regions = vec![0u32; 8 * scene.regions.len()];
-        for (i, r) in scene.regions.iter().enumerate() {
-            if let Some(r) = r {
-                regions[8 * i..8 * i + 8].copy_from_slice(&[
-                    r.layer,
-                    r.offset[0],
-                    r.offset[1],
-                    1,
-                    r.size[0],
-                    r.size[1],
-                    0,
-                    0,
-                ]);
-            }
-        }
+        let ies = storage(gpu, "ies_tables", bytes_of(&pack::ies_values(scene)))?;
+        let regions: Vec<u32> = pack::region_rows(scene.regions)
+            .iter()
+            .flatten()
+            .flatten()
+            .copied()
+            .collect();
+        let mut lamps: Vec<u8> = pack::lamp_rows(scene)
+            .iter()
+            .flat_map(|l| u32_bytes(&l.words()))
+            .collect();
+        // An empty array still binds one (zero) lamp: a binding is never smaller than its
+        // element.
+        lamps.resize(lamps.len().max(LAMP_BYTES), 0);
+        let lamps = storage(gpu, "lamps", lamps)?;
         let regions = storage(gpu, "regions", u32_bytes(&regions))?;
         let objects = u32::try_from(scene.regions.len())
             .map_err(|_| WgpuError::InvalidInput("too many objects".into()))?;
@@ -286,16 +280,20 @@ impl GpuScene {
                         b1,
                         b2,
                         wgpu::BindGroupEntry {
-                            binding: 3,
+                            binding: wgsl::IES_BINDING,
                             resource: ies.as_entire_binding(),
                         },
                         wgpu::BindGroupEntry {
-                            binding: 4,
+                            binding: wgsl::REGIONS_BINDING,
                             resource: regions.as_entire_binding(),
                         },
                         wgpu::BindGroupEntry {
-                            binding: 5,
+                            binding: wgsl::SCENE_BINDING,
                             resource: uniform.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: wgsl::LAMPS_BINDING,
+                            resource: lamps.as_entire_binding(),
                         },
                     ],
                 })
@@ -304,52 +302,7 @@ impl GpuScene {
         Ok(GpuScene {
             mtbvh: group(true)?,
             tbvh: group(false)?,
-            lamps: scene.lamps.to_vec(),
-            tables,
             layer_size: scene.layer_size,
         })
-    }
-
-    /// The lamps of one direct pass as a storage buffer (one `LuxLamp` per listed lamp, in
-    /// order) and their count. Listed indices without a lamp are left out, as the CPU
-    /// reference skips them.
-    pub(crate) fn lamp_buffer(&self, gpu: &Gpu, list: &[u32]) -> Result<(wgpu::Buffer, u32)> {
-        let lamps: Vec<&LampParams> = list
-            .iter()
-            .filter_map(|&i| self.lamps.get(i as usize))
-            .collect();
-        let mut data = Vec::with_capacity(LAMP_BYTES * lamps.len().max(1));
-        for l in &lamps {
-            let [offset, w, h] = self.tables.get(l.table as usize).copied().unwrap_or([0; 3]);
-            let m = l.world_to_photometric;
-            let floats = [
-                l.position[0],
-                l.position[1],
-                l.position[2],
-                0.0,
-                m[0][0],
-                m[0][1],
-                m[0][2],
-                0.0,
-                m[1][0],
-                m[1][1],
-                m[1][2],
-                0.0,
-                m[2][0],
-                m[2][1],
-                m[2][2],
-                0.0,
-                l.scale[0],
-                l.scale[1],
-                l.scale[2],
-                0.0,
-            ];
-            data.extend_from_slice(&bytes_of(&floats));
-            data.extend_from_slice(&u32_bytes(&[offset, w, h, 0]));
-        }
-        data.resize(data.len().max(LAMP_BYTES), 0);
-        let n = u32::try_from(lamps.len())
-            .map_err(|_| WgpuError::InvalidInput("too many lamps".into()))?;
-        Ok((storage(gpu, "lamps", data)?, n))
     }
 }

@@ -1,21 +1,27 @@
 //! The interface every executor of a [`BakeGraph`](crate::graph::BakeGraph) implements.
 //!
 //! A backend owns textures (RGBA32F texture arrays, [`TexDesc`]) and the static scene data a
-//! shader needs ([`SceneData`], uploaded once per bake), runs one [`PassDesc`] at a time and reads
-//! texture layers back. The [`bake`](crate::bake()) driver is generic over it (static dispatch);
-//! an enum of backends exists only at the edges (CLI, tests).
+//! shader needs ([`SceneData`], uploaded once per bake), runs one [`Dispatch`] at a time — one
+//! [`Program`] over one row tile of one layer — and reads texture layers back. It knows nothing
+//! about pass kinds: what a program reads, which scene resources and which parameter block it
+//! takes is its [`Signature`](crate::program::Signature); the order of the passes, their
+//! tiling into dispatches ([`TilePlan`](crate::program::TilePlan)), progress and every binding
+//! check are the [`bake`](crate::bake()) driver's, which is generic over the backend (static
+//! dispatch); an enum of backends exists only at the edges (`luxbake-backends`).
 //!
-//! The shape follows what a WebGL2 fragment-shader implementation needs: a pass is one draw per
-//! layer (or per tile of a layer) into the written texture's layer, reading the textures listed
-//! in [`PassDesc::reads`], the scene data textures and uniforms; no pass reads a texture it writes.
-//! The pass semantics — what each [`PassKind`](crate::graph::PassKind) computes, bit for bit where
-//! it can be — are defined by the CPU reference backend ([`crate::cpu`]).
+//! The shape follows what a WebGL2 fragment-shader implementation needs: a dispatch is one draw
+//! into the written texture's layer, restricted to the tile's rows, reading the textures of the
+//! program's slots, the scene data and uniforms; no pass reads a texture it writes. The program
+//! semantics — bit for bit where they can be — are defined by the CPU reference backend
+//! ([`crate::cpu`]).
 
 use luxbake_bvh::EncodedScene;
 use luxbake_ies::GpuTable;
 
-use crate::graph::{PassDesc, TexDesc};
+use crate::graph::TexDesc;
 use crate::layout::Region;
+use crate::program::{Program, TileParams};
+use crate::scene::BvhMode;
 
 /// What a backend can do; the driver checks the layout and graph against it.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,7 +62,8 @@ pub struct LampParams {
 pub struct SceneData<'a> {
     /// The encoded BVH and triangle data textures (object id = index into `regions`).
     pub bvh: &'a EncodedScene,
-    /// The lamps (all of them; a direct pass lists the ones it evaluates).
+    /// The lamps a direct pass evaluates, in order (the driver uploads only the lamps that
+    /// light something).
     pub lamps: &'a [LampParams],
     /// One resampled intensity table per lamp, candela, sampled with [`GpuTable::sample`].
     pub ies_tables: &'a [GpuTable],
@@ -86,11 +93,34 @@ pub fn ray_epsilon(max_abs_coord: f32) -> f32 {
     }
 }
 
+/// One program over one tile: what [`GpuBackend::dispatch`] runs.
+#[derive(Debug)]
+pub struct Dispatch<'a, T, S> {
+    /// The pass label (for errors).
+    pub label: &'static str,
+    /// The program.
+    pub program: Program,
+    /// The traversal of a ray-casting program.
+    pub bvh: BvhMode,
+    /// The textures of the program's slots, in [`Signature::reads`](crate::program::Signature)
+    /// order; the driver has checked their number and sizes.
+    pub reads: &'a [&'a T],
+    /// The written texture (never one of `reads`).
+    pub write: &'a T,
+    /// The uploaded scene.
+    pub scene: &'a S,
+    /// The words of the program's parameter block ([`ParamBlock`](crate::program::ParamBlock)),
+    /// empty for programs without one.
+    pub params: &'a [u32],
+    /// The tile: rows of one layer of `write`.
+    pub tile: TileParams,
+}
+
 /// An executor of the pass graph.
 ///
 /// Textures are created from [`TexDesc`]s, filled by [`upload`](Self::upload) (the G-buffer) or
-/// by passes, and read back layer by layer. Texel data is RGBA32F, row 0 first, `4 × width ×
-/// height` floats per layer.
+/// by dispatches, and read back layer by layer. Texel data is RGBA32F, row 0 first, `4 × width
+/// × height` floats per layer.
 pub trait GpuBackend {
     /// A texture array handle.
     type Texture;
@@ -104,6 +134,10 @@ pub trait GpuBackend {
 
     /// What this backend supports.
     fn limits(&self) -> Limits;
+
+    /// Evaluations (texels × lamps, taps or rays) one dispatch should cover: the driver splits
+    /// passes into row tiles of about this much work and reports progress after each.
+    fn tile_work(&self) -> u64;
 
     /// Creates a zero-filled texture array.
     fn create_texture(&mut self, desc: &TexDesc) -> Result<Self::Texture, Self::Error>;
@@ -119,23 +153,22 @@ pub trait GpuBackend {
     /// Uploads the static scene data.
     fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<Self::Scene, Self::Error>;
 
-    /// Runs one pass. `reads` and `writes` are the handles of `pass.reads` and `pass.writes`, in
-    /// the same order. `progress` is called with the finished fraction (0–1) as tiles complete.
-    /// The driver never passes a [`PassKind::GBuffer`](crate::graph::PassKind::GBuffer) pass:
-    /// it fills those textures with [`upload`](Self::upload) (a backend given one anyway may
-    /// treat it as done).
-    fn run_pass(
+    /// Runs `call.program` over `call.tile` and waits for it (honest progress, no unbounded
+    /// queue of GPU work).
+    fn dispatch(
         &mut self,
-        pass: &PassDesc,
-        reads: &[&Self::Texture],
-        writes: &[&Self::Texture],
-        scene: &Self::Scene,
-        progress: &mut dyn FnMut(f32),
+        call: &Dispatch<'_, Self::Texture, Self::Scene>,
     ) -> Result<(), Self::Error>;
 
     /// Reads one layer back (`4 × width × height` floats, row 0 first).
     fn read_back(&mut self, texture: &Self::Texture, layer: u32) -> Result<Vec<f32>, Self::Error>;
 }
+
+/// Default work per dispatch: texel × ray (or texel × tap) evaluations of one tile. About 2^20
+/// keeps a GPU dispatch in the tens of milliseconds on a laptop GPU, far from a browser's GPU
+/// watchdog (a few seconds), and gives a progress report every few hundred milliseconds on a
+/// software rasteriser or the CPU.
+pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
 
 #[cfg(test)]
 mod tests {

@@ -27,11 +27,12 @@ use web_time::Instant;
 use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
 use luxbake_ies::GpuTable;
 
-use crate::backend::{GpuBackend, LampParams, SceneData, ray_epsilon};
+use crate::backend::{Dispatch, GpuBackend, LampParams, SceneData, ray_epsilon};
 use crate::gbuffer::{GBuffer, rasterize};
-use crate::graph::{BakeGraph, GraphConfig, PassKind, TexId};
+use crate::graph::{BakeGraph, GraphConfig, GraphError, PassKind, TexId};
 use crate::layout::{Layout, LayoutError, Region};
 use crate::map::MapImage;
+use crate::program::TilePlan;
 use crate::scene::{Blur, BvhMode, Scene, Settings};
 
 /// Bounces stop once one adds less than this fraction of the total illuminance.
@@ -58,6 +59,9 @@ pub enum BakeError<E: std::error::Error + 'static> {
     /// The BVH could not be built or encoded.
     #[error("BVH: {0}")]
     Bvh(#[from] BvhError),
+    /// A pass of the graph breaks its program's signature (a bug in the graph builder).
+    #[error("pass graph: {0}")]
+    Graph(#[from] GraphError),
     /// The backend failed.
     #[error("{backend} backend: {source}")]
     Backend {
@@ -495,13 +499,16 @@ pub fn bake<B: GpuBackend>(
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: layout.layer_size,
         layers: layout.layers,
-        lamps: lamps_used.iter().map(|&l| l as u32).collect(),
+        lamp_count: u32::try_from(lamps_used.len()).unwrap_or(u32::MAX),
         rays: settings.rays,
         bounces: settings.bounces,
         blur: settings.blur,
         seed: settings.seed,
         bvh: bvh_mode,
     });
+    graph.validate()?;
+    // The direct pass evaluates the uploaded lamps: only those that light something.
+    let used_lamps: Vec<LampParams> = lamps_used.iter().map(|&l| lamps[l]).collect();
 
     progress(&Progress::Setup("upload"));
     let t = Instant::now();
@@ -514,7 +521,7 @@ pub fn bake<B: GpuBackend>(
     let gpu_scene = backend
         .upload_scene(&SceneData {
             bvh: &encoded,
-            lamps: &lamps,
+            lamps: &used_lamps,
             ies_tables: &tables,
             regions: &layout.regions,
             layer_size: layout.layer_size,
@@ -548,7 +555,7 @@ pub fn bake<B: GpuBackend>(
             index,
             count,
             label: pass.label,
-            bounce: pass.params.bounce,
+            bounce: pass.bounce,
         });
         let t = Instant::now();
         if pass.kind == PassKind::GBuffer {
@@ -567,22 +574,48 @@ pub fn bake<B: GpuBackend>(
                 index,
                 fraction: 1.0,
             });
-        } else {
+        } else if let (Some(program), Some(write)) = (pass.kind.program(), pass.writes.first()) {
+            // `graph.validate()` checked the slots, the parameter block and the sizes.
             let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
-            let writes: Vec<&B::Texture> =
-                pass.writes.iter().map(|w| &textures[w.index()]).collect();
-            backend
-                .run_pass(pass, &reads, &writes, &gpu_scene, &mut |fraction| {
-                    progress(&Progress::PassProgress { index, fraction })
-                })
-                .map_err(be)?;
+            let params = pass.params.words();
+            let plan = TilePlan::new(
+                layout.layer_size,
+                layout.layers,
+                pass.params.work_per_texel(),
+                backend.tile_work(),
+            );
+            let tiles = plan.len();
+            for (done, tile) in plan.tiles().enumerate() {
+                backend
+                    .dispatch(&Dispatch {
+                        label: pass.label,
+                        program,
+                        bvh: pass.bvh,
+                        reads: &reads,
+                        write: &textures[write.index()],
+                        scene: &gpu_scene,
+                        params: &params,
+                        tile,
+                    })
+                    .map_err(be)?;
+                progress(&Progress::PassProgress {
+                    index,
+                    fraction: (done as u64 + 1) as f32 / tiles as f32,
+                });
+            }
+            if tiles == 0 {
+                progress(&Progress::PassProgress {
+                    index,
+                    fraction: 1.0,
+                });
+            }
         }
         let seconds = t.elapsed().as_secs_f64();
         progress(&Progress::PassDone { index, seconds });
         passes.push(PassTiming {
             label: pass.label,
             kind: pass.kind,
-            bounce: pass.params.bounce,
+            bounce: pass.bounce,
             seconds,
         });
         index += 1;

@@ -45,10 +45,13 @@ use luxbake_bvh::{EncodedScene, Ray, Traversal};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
-use crate::backend::{GpuBackend, LampParams, Limits, SceneData};
-use crate::graph::{Axis, PassDesc, PassKind, TexDesc};
+use crate::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, Limits, SceneData};
+use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::map::sample_masked;
+use crate::program::{
+    BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, ParamBlock, Program,
+};
 use crate::rng;
 use crate::scene::BvhMode;
 
@@ -123,13 +126,6 @@ pub struct CpuScene {
 pub struct CpuBackend {
     textures: Vec<(TexDesc, Vec<f32>)>,
 }
-
-/// Rows per tile: progress is reported after each tile.
-const TILE_ROWS: u32 = 32;
-/// Largest blur radius, texels (a shader's loop bound).
-pub const MAX_BLUR_RADIUS: i32 = 64;
-/// Blur taps whose normal deviates more than this cosine (25°) from the centre's are skipped.
-pub const BLUR_NORMAL_COS: f32 = 0.906_307_8;
 
 impl CpuBackend {
     /// A backend with no textures.
@@ -247,7 +243,7 @@ fn xyz(t: [f32; 4]) -> [f32; 3] {
 /// The direct illuminance at one texel (see the module docs).
 fn direct_texel(
     scene: &CpuScene,
-    lamps: &[u32],
+    params: DirectParams,
     trav: Traversal,
     pos: [f32; 4],
     nrm: [f32; 4],
@@ -260,10 +256,7 @@ fn direct_texel(
         return [0.0, 0.0, 0.0, 1.0];
     };
     let mut e = [0.0f32; 3];
-    for &li in lamps {
-        let Some(lamp) = scene.lamps.get(li as usize) else {
-            continue;
-        };
+    for lamp in scene.lamps.iter().take(params.lamp_count as usize) {
         let Some(table) = scene.tables.get(lamp.table as usize) else {
             continue;
         };
@@ -305,12 +298,14 @@ fn gather_texel(
     scene: &CpuScene,
     reflected: View<'_>,
     trav: Traversal,
-    params: (u32, u32, u32),
+    params: GatherParams,
     texel: u32,
     pos: [f32; 4],
     nrm: [f32; 4],
 ) -> [f32; 4] {
-    let (rays, bounce, seed) = params;
+    let GatherParams {
+        rays, bounce, seed, ..
+    } = params;
     if pos[3] <= 0.5 {
         return [0.0; 4];
     }
@@ -367,8 +362,7 @@ fn gather_texel(
 fn blur_texel(
     src: View<'_>,
     nrm: View<'_>,
-    axis: Axis,
-    sigma: f32,
+    params: BlurParams,
     layer: u32,
     x: u32,
     y: u32,
@@ -382,15 +376,13 @@ fn blur_texel(
     let Some(n0) = normalize(xyz(nc)) else {
         return centre;
     };
-    let radius = ((3.0 * sigma).ceil() as i32).clamp(0, MAX_BLUR_RADIUS);
-    let inv = -0.5 / (sigma * sigma);
+    let radius = params.radius;
+    let inv = params.inv;
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
     for k in -radius..=radius {
-        let (tx, ty) = match axis {
-            Axis::U => (x as i64 + i64::from(k), i64::from(y)),
-            Axis::V => (i64::from(x), y as i64 + i64::from(k)),
-        };
+        let tx = i64::from(x) + i64::from(k) * i64::from(params.step_x);
+        let ty = i64::from(y) + i64::from(k) * i64::from(params.step_y);
         if tx < 0 || ty < 0 || tx >= i64::from(src.size[0]) || ty >= i64::from(src.size[1]) {
             continue;
         }
@@ -432,6 +424,10 @@ impl GpuBackend for CpuBackend {
 
     fn name(&self) -> &'static str {
         "cpu"
+    }
+
+    fn tile_work(&self) -> u64 {
+        DEFAULT_TILE_WORK
     }
 
     fn limits(&self) -> Limits {
@@ -499,37 +495,19 @@ impl GpuBackend for CpuBackend {
         })
     }
 
-    fn run_pass(
-        &mut self,
-        pass: &PassDesc,
-        reads: &[&CpuTexture],
-        writes: &[&CpuTexture],
-        scene: &CpuScene,
-        progress: &mut dyn FnMut(f32),
-    ) -> Result<(), CpuError> {
+    fn dispatch(&mut self, call: &Dispatch<'_, CpuTexture, CpuScene>) -> Result<(), CpuError> {
         let bad = |reason: String| CpuError::BadBindings {
-            pass: pass.label,
+            pass: call.label,
             reason,
         };
-        let expected_reads = match pass.kind {
-            PassKind::GBuffer => 0,
-            PassKind::Copy => 1,
-            PassKind::Direct | PassKind::Blur { .. } | PassKind::AlbedoMul | PassKind::Combine => 2,
-            PassKind::Gather { .. } => 3,
-        };
-        if pass.kind == PassKind::GBuffer {
-            // The G-buffer textures are filled by `upload`; nothing to compute.
-            progress(1.0);
-            return Ok(());
-        }
-        if reads.len() != expected_reads || writes.len() != 1 {
+        let slots = call.program.signature().reads.len();
+        if call.reads.len() != slots {
             return Err(bad(format!(
-                "expected {expected_reads} reads and 1 write, got {} and {}",
-                reads.len(),
-                writes.len()
+                "expected {slots} reads, got {}",
+                call.reads.len()
             )));
         }
-        let out_index = writes[0].0;
+        let out_index = call.write.0;
         let (desc, mut out) = {
             let (d, data) = self
                 .textures
@@ -538,8 +516,8 @@ impl GpuBackend for CpuBackend {
             (d.clone(), std::mem::take(data))
         };
         let result = (|| {
-            let mut views = Vec::with_capacity(reads.len());
-            for r in reads {
+            let mut views = Vec::with_capacity(call.reads.len());
+            for r in call.reads {
                 if r.0 == out_index {
                     return Err(bad("reads the texture it writes".into()));
                 }
@@ -553,12 +531,19 @@ impl GpuBackend for CpuBackend {
                     layers: d.layers,
                 });
             }
-            if desc.size != scene.layer_size {
-                return Err(bad(
-                    "texture size differs from the scene's layer size".into()
-                ));
+            let t = call.tile;
+            if desc.size != call.scene.layer_size
+                || [t.layer_w, t.layer_h] != desc.size
+                || t.layer >= desc.layers
+                || t.x0.checked_add(t.width).is_none_or(|e| e > desc.size[0])
+                || t.y0.checked_add(t.height).is_none_or(|e| e > desc.size[1])
+            {
+                return Err(bad(format!(
+                    "tile {t:?} does not fit a texture of {:?} × {} layers (scene layers {:?})",
+                    desc.size, desc.layers, call.scene.layer_size
+                )));
             }
-            run_kernel(pass, &views, &desc, &mut out, scene, progress);
+            run_tile(call, &views, &desc, &mut out);
             Ok(())
         })();
         if let Some((_, data)) = self.textures.get_mut(out_index) {
@@ -581,70 +566,55 @@ impl GpuBackend for CpuBackend {
     }
 }
 
-/// Runs one pass over every texel of every layer, tile by tile (rows in parallel).
-fn run_kernel(
-    pass: &PassDesc,
+/// Runs one dispatch: the tile's rows in parallel.
+fn run_tile(
+    call: &Dispatch<'_, CpuTexture, CpuScene>,
     views: &[View<'_>],
     desc: &TexDesc,
     out: &mut [f32],
-    scene: &CpuScene,
-    progress: &mut dyn FnMut(f32),
 ) {
-    let [w, h] = desc.size;
-    let row_floats = 4 * w as usize;
-    if row_floats == 0 || h == 0 {
-        progress(1.0);
+    let t = call.tile;
+    let row_floats = 4 * desc.size[0] as usize;
+    if row_floats == 0 || t.height == 0 {
         return;
     }
-    let trav = traversal(pass.params.bvh);
-    let tiles_per_layer = h.div_ceil(TILE_ROWS);
-    let total_tiles = (tiles_per_layer * desc.layers).max(1);
-    let mut done = 0;
-    for layer in 0..desc.layers {
-        for tile in 0..tiles_per_layer {
-            let y0 = tile * TILE_ROWS;
-            let y1 = (y0 + TILE_ROWS).min(h);
-            let start = (layer as usize * h as usize + y0 as usize) * row_floats;
-            let end = (layer as usize * h as usize + y1 as usize) * row_floats;
-            out[start..end]
-                .par_chunks_mut(row_floats)
-                .enumerate()
-                .for_each(|(r, row)| {
-                    let y = y0 + r as u32;
-                    for x in 0..w {
-                        let v = texel(pass, views, scene, trav, layer, x, y);
-                        row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
-                    }
-                });
-            done += 1;
-            progress(done as f32 / total_tiles as f32);
-        }
-    }
+    let trav = traversal(call.bvh);
+    let start = (t.layer as usize * desc.size[1] as usize + t.y0 as usize) * row_floats;
+    let end = start + t.height as usize * row_floats;
+    out[start..end]
+        .par_chunks_mut(row_floats)
+        .enumerate()
+        .for_each(|(r, row)| {
+            let y = t.y0 + r as u32;
+            for x in t.x0..t.x0 + t.width {
+                let v = texel(call, views, trav, t.layer, x, y);
+                row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
+            }
+        });
 }
 
-/// One texel of one pass.
+/// One texel of one program.
 #[inline]
 fn texel(
-    pass: &PassDesc,
+    call: &Dispatch<'_, CpuTexture, CpuScene>,
     v: &[View<'_>],
-    scene: &CpuScene,
     trav: Traversal,
     layer: u32,
     x: u32,
     y: u32,
 ) -> [f32; 4] {
-    match pass.kind {
-        PassKind::GBuffer => [0.0; 4],
-        PassKind::Direct => direct_texel(
+    let scene = call.scene;
+    match call.program {
+        Program::Direct => direct_texel(
             scene,
-            &pass.params.lamps,
+            DirectParams::from_words(call.params),
             trav,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
-        PassKind::Copy => v[0].fetch(layer, x, y),
-        PassKind::Blur { axis, sigma } => blur_texel(v[0], v[1], axis, sigma, layer, x, y),
-        PassKind::AlbedoMul => {
+        Program::Copy => v[0].fetch(layer, x, y),
+        Program::Blur => blur_texel(v[0], v[1], BlurParams::from_words(call.params), layer, x, y),
+        Program::AlbedoMul => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -654,7 +624,7 @@ fn texel(
                 a[3],
             ]
         }
-        PassKind::Combine => {
+        Program::Combine => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -664,11 +634,11 @@ fn texel(
                 a[3],
             ]
         }
-        PassKind::Gather { bounce } => gather_texel(
+        Program::Gather => gather_texel(
             scene,
             v[2],
             trav,
-            (pass.params.rays, bounce, pass.params.seed),
+            GatherParams::from_words(call.params),
             rng::texel_index(scene.layer_size, layer, x, y),
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
@@ -679,6 +649,7 @@ fn texel(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::program::blur_params;
 
     #[test]
     fn basis_is_orthonormal_for_any_normal() {
@@ -742,6 +713,13 @@ mod tests {
         }
     }
 
+    const ONE_LAMP: DirectParams = DirectParams {
+        lamp_count: 1,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
+    };
+
     #[test]
     fn direct_stays_finite_for_a_lamp_on_or_next_to_the_surface() {
         let p = [0.0, 0.0, 0.0, 1.0];
@@ -756,7 +734,7 @@ mod tests {
             ([0.0, -1e-3, 0.0], false),
         ] {
             let scene = one_triangle_scene(lamp);
-            let e = direct_texel(&scene, &[0], Traversal::BruteForce, p, n);
+            let e = direct_texel(&scene, ONE_LAMP, Traversal::BruteForce, p, n);
             assert!(
                 e.iter().all(|v| v.is_finite() && *v >= 0.0),
                 "{lamp:?}: {e:?}"
@@ -772,7 +750,7 @@ mod tests {
         // 1 mm above: I / d² exactly (cos = 1).
         let e = direct_texel(
             &one_triangle_scene([0.0, 1e-3, 0.0]),
-            &[0],
+            ONE_LAMP,
             Traversal::Mtbvh,
             p,
             n,
@@ -808,21 +786,24 @@ mod tests {
             size,
             layers: 1,
         };
-        let a = blur_texel(s, n, Axis::U, 1.0, 0, 0, 0);
-        let b = blur_texel(s, n, Axis::U, 1.0, 0, 1, 0);
+        let a = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 0, 0);
+        let b = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 1, 0);
         let w = (-0.5f32).exp();
         let expected_a = (1.0 + 3.0 * w) / (1.0 + w);
         assert!((a[0] - expected_a).abs() < 1e-6, "{a:?}");
         let expected_b = (3.0 + 1.0 * w) / (1.0 + w);
         assert!((b[0] - expected_b).abs() < 1e-6, "{b:?}");
-        assert_eq!(blur_texel(s, n, Axis::U, 1.0, 0, 2, 0), [0.0; 4]);
         assert_eq!(
-            blur_texel(s, n, Axis::U, 5.0, 0, 3, 0),
+            blur_texel(s, n, blur_params([1, 0], 1.0), 0, 2, 0),
+            [0.0; 4]
+        );
+        assert_eq!(
+            blur_texel(s, n, blur_params([1, 0], 5.0), 0, 3, 0),
             [100.0, 100.0, 100.0, 1.0]
         );
         // A vertical pass over a one-row image sees only the centre.
         assert_eq!(
-            blur_texel(s, n, Axis::V, 3.0, 0, 1, 0),
+            blur_texel(s, n, blur_params([0, 1], 3.0), 0, 1, 0),
             [3.0, 3.0, 3.0, 1.0]
         );
     }

@@ -39,6 +39,8 @@
 //! | `Gather` | position, normal, reflected | indirect |
 //! | `Combine` | direct, indirect | combined |
 
+pub use crate::program::Program;
+use crate::program::{DirectParams, GatherParams, Params, blur_params};
 use crate::scene::{Blur, BvhMode};
 
 /// Index of a texture in [`BakeGraph::textures`].
@@ -87,7 +89,7 @@ pub enum PassKind {
     /// The G-buffer: world position (w = 1 valid), normal (w = object index) and albedo
     /// (w = coverage) per texel, rasterised on the CPU and uploaded.
     GBuffer,
-    /// Direct illuminance from the lamps in [`PassParams::lamps`], with shadow rays.
+    /// Direct illuminance from the uploaded lamps, with shadow rays.
     Direct,
     /// Texel-for-texel copy.
     Copy,
@@ -125,82 +127,24 @@ impl PassKind {
     }
 }
 
-/// One shader program per computed [`PassKind`] (its parameters become uniforms): what a GPU
-/// backend compiles, names in errors and keys its caches by.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Program {
-    /// [`PassKind::Direct`].
-    Direct,
-    /// [`PassKind::Copy`].
-    Copy,
-    /// [`PassKind::Blur`], either axis.
-    Blur,
-    /// [`PassKind::AlbedoMul`].
-    AlbedoMul,
-    /// [`PassKind::Gather`], any bounce.
-    Gather,
-    /// [`PassKind::Combine`].
-    Combine,
-}
-
-impl Program {
-    /// Every program.
-    pub const ALL: [Program; 6] = [
-        Program::Direct,
-        Program::Copy,
-        Program::Blur,
-        Program::AlbedoMul,
-        Program::Gather,
-        Program::Combine,
-    ];
-
-    /// Short label for errors and shader file names.
-    pub fn label(self) -> &'static str {
-        match self {
-            Program::Direct => "direct",
-            Program::Copy => "copy",
-            Program::Blur => "blur",
-            Program::AlbedoMul => "albedo_mul",
-            Program::Gather => "gather",
-            Program::Combine => "combine",
-        }
-    }
-
-    /// Whether the program casts rays (and so depends on the BVH traversal).
-    pub fn traces_rays(self) -> bool {
-        matches!(self, Program::Direct | Program::Gather)
-    }
-}
-
-/// Uniform parameters of a pass (what a shader gets as uniforms).
-#[derive(Debug, Clone, PartialEq)]
-pub struct PassParams {
-    /// The bounce this pass belongs to: 0 for the direct part, `k` for bounce `k`.
-    pub bounce: u32,
-    /// `Direct`: indices (into the uploaded lamp table) of the lamps to evaluate.
-    pub lamps: Vec<u32>,
-    /// `Gather`: rays per texel.
-    pub rays: u32,
-    /// `Gather`: seed of the RNG hash.
-    pub seed: u32,
-    /// `Direct` and `Gather`: the traversal to use.
-    pub bvh: BvhMode,
-}
-
-/// One pass: its kind, the textures it reads and writes (in the order of the module docs'
-/// table) and its parameters.
+/// One pass: its kind, the textures it reads and writes (in the order of its program's
+/// [`Signature::reads`](crate::program::Signature::reads)) and its parameter block.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassDesc {
     /// What the pass computes.
     pub kind: PassKind,
     /// Short name for progress reports and timings.
     pub label: &'static str,
-    /// Textures read, in the kind's documented order.
+    /// Textures read, in the program's slot order.
     pub reads: Vec<TexId>,
-    /// Textures written, in the kind's documented order.
+    /// Textures written (one, or the three G-buffer textures).
     pub writes: Vec<TexId>,
-    /// Uniform parameters.
-    pub params: PassParams,
+    /// The bounce this pass belongs to: 0 for the direct part, `k` for bounce `k`.
+    pub bounce: u32,
+    /// The program's parameter block.
+    pub params: Params,
+    /// The traversal of a ray-casting pass.
+    pub bvh: BvhMode,
 }
 
 /// The G-buffer textures.
@@ -244,8 +188,8 @@ pub struct GraphConfig {
     pub layer_size: [u32; 2],
     /// Layers of every texture array.
     pub layers: u32,
-    /// Lamps the direct pass evaluates (indices into the uploaded lamp table).
-    pub lamps: Vec<u32>,
+    /// Lamps the direct pass evaluates: the first `lamp_count` uploaded lamps.
+    pub lamp_count: u32,
     /// Gather rays per texel.
     pub rays: u32,
     /// Indirect bounces (0 = direct light only).
@@ -304,6 +248,7 @@ impl Builder {
         id
     }
 
+    #[allow(clippy::too_many_arguments)]
     fn pass(
         &mut self,
         kind: PassKind,
@@ -311,22 +256,17 @@ impl Builder {
         reads: Vec<TexId>,
         writes: Vec<TexId>,
         bounce: u32,
-    ) -> &mut PassDesc {
+        params: Params,
+    ) {
         self.passes.push(PassDesc {
             kind,
             label,
             reads,
             writes,
-            params: PassParams {
-                bounce,
-                lamps: Vec::new(),
-                rays: 0,
-                seed: 0,
-                bvh: self.bvh,
-            },
+            bounce,
+            params,
+            bvh: self.bvh,
         });
-        let last = self.passes.len() - 1;
-        &mut self.passes[last]
     }
 }
 
@@ -343,12 +283,13 @@ fn gbuffer_stage(b: &mut Builder) -> GBufferTex {
         Vec::new(),
         vec![g.position, g.normal, g.albedo],
         0,
+        Params::None,
     );
     g
 }
 
-/// Stage (2): direct illuminance from `lamps`.
-fn direct_stage(b: &mut Builder, g: GBufferTex, lamps: &[u32]) -> TexId {
+/// Stage (2): direct illuminance from the first `lamp_count` uploaded lamps.
+fn direct_stage(b: &mut Builder, g: GBufferTex, lamp_count: u32) -> TexId {
     let direct = b.texture("direct");
     b.pass(
         PassKind::Direct,
@@ -356,9 +297,11 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, lamps: &[u32]) -> TexId {
         vec![g.position, g.normal],
         vec![direct],
         0,
-    )
-    .params
-    .lamps = lamps.to_vec();
+        Params::Direct(DirectParams {
+            lamp_count,
+            ..DirectParams::default()
+        }),
+    );
     direct
 }
 
@@ -374,11 +317,18 @@ fn blur_stage(
     bounce: u32,
     labels: [&'static str; 3],
 ) {
-    b.pass(PassKind::Copy, labels[0], vec![src], vec![dst], bounce);
+    b.pass(
+        PassKind::Copy,
+        labels[0],
+        vec![src],
+        vec![dst],
+        bounce,
+        Params::None,
+    );
     if let (Blur::Sigma(sigma), Some(tmp)) = (blur, tmp) {
-        for (axis, from, to, label) in [
-            (Axis::U, dst, tmp, labels[1]),
-            (Axis::V, tmp, dst, labels[2]),
+        for (axis, step, from, to, label) in [
+            (Axis::U, [1, 0], dst, tmp, labels[1]),
+            (Axis::V, [0, 1], tmp, dst, labels[2]),
         ] {
             b.pass(
                 PassKind::Blur { axis, sigma },
@@ -386,6 +336,7 @@ fn blur_stage(
                 vec![from, g.normal],
                 vec![to],
                 bounce,
+                Params::Blur(blur_params(step, sigma)),
             );
         }
     }
@@ -406,6 +357,7 @@ fn albedo_stage(
         vec![src, g.albedo],
         vec![dst],
         bounce,
+        Params::None,
     );
 }
 
@@ -419,15 +371,19 @@ fn gather_stage(
     rays: u32,
     seed: u32,
 ) {
-    let p = b.pass(
+    b.pass(
         PassKind::Gather { bounce },
         "gather",
         vec![g.position, g.normal, reflected],
         vec![indirect],
         bounce,
+        Params::Gather(GatherParams {
+            rays,
+            bounce,
+            seed,
+            ..GatherParams::default()
+        }),
     );
-    p.params.rays = rays;
-    p.params.seed = seed;
 }
 
 /// Stage (6): direct + indirect.
@@ -438,6 +394,7 @@ fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexI
         vec![direct, indirect],
         vec![combined],
         bounce,
+        Params::None,
     );
 }
 
@@ -452,7 +409,7 @@ impl BakeGraph {
             bvh: config.bvh,
         };
         let g = gbuffer_stage(&mut b);
-        let direct = direct_stage(&mut b, g, &config.lamps);
+        let direct = direct_stage(&mut b, g, config.lamp_count);
         let direct_blurred = b.texture("direct_blurred");
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
         // The blur scratch texture exists only when a blur runs.
@@ -550,6 +507,89 @@ impl BakeGraph {
     pub fn texture(&self, id: TexId) -> Option<&TexDesc> {
         self.textures.get(id.index())
     }
+
+    /// Checks every pass against its program's [`Signature`](crate::program::Signature): as
+    /// many reads as slots, one write (three for the G-buffer), the program's parameter block,
+    /// textures of the graph of one size, nothing read that is written by the same pass or
+    /// not written before.
+    pub fn validate(&self) -> Result<(), GraphError> {
+        let mut written = vec![false; self.textures.len()];
+        for (index, p) in self.passes.iter().enumerate() {
+            let fail = |reason: String| GraphError {
+                index,
+                label: p.label,
+                reason,
+            };
+            match p.kind.program() {
+                None => {
+                    if !p.reads.is_empty() || p.writes.len() != 3 || p.params != Params::None {
+                        return Err(fail(
+                            "the G-buffer upload reads nothing, writes three textures and takes \
+                             no parameters"
+                                .into(),
+                        ));
+                    }
+                }
+                Some(program) => {
+                    let sig = program.signature();
+                    if p.reads.len() != sig.reads.len() {
+                        return Err(fail(format!(
+                            "reads {} textures, program `{}` has the slots {:?}",
+                            p.reads.len(),
+                            program.label(),
+                            sig.reads
+                        )));
+                    }
+                    if p.writes.len() != 1 {
+                        return Err(fail(format!("writes {} textures, not 1", p.writes.len())));
+                    }
+                    if !program.takes(&p.params) {
+                        return Err(fail(format!(
+                            "parameters {:?} are not the block of program `{}`",
+                            p.params,
+                            program.label()
+                        )));
+                    }
+                }
+            }
+            let first = p.writes.first().and_then(|&w| self.texture(w));
+            for &t in p.reads.iter().chain(&p.writes) {
+                let Some(desc) = self.texture(t) else {
+                    return Err(fail(format!("texture {} is not in the graph", t.0)));
+                };
+                if first.is_some_and(|f| (f.size, f.layers) != (desc.size, desc.layers)) {
+                    return Err(fail(format!("texture `{}` differs in size", desc.label)));
+                }
+            }
+            for r in &p.reads {
+                if p.writes.contains(r) {
+                    return Err(fail(format!("reads the texture {} it writes", r.0)));
+                }
+                if !written[r.index()] {
+                    return Err(fail(format!(
+                        "reads texture {} before any pass wrote it",
+                        r.0
+                    )));
+                }
+            }
+            for w in &p.writes {
+                written[w.index()] = true;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A pass that breaks its program's signature ([`BakeGraph::validate`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("pass {index} `{label}`: {reason}")]
+pub struct GraphError {
+    /// Index of the pass.
+    pub index: usize,
+    /// Its label.
+    pub label: &'static str,
+    /// What is wrong.
+    pub reason: String,
 }
 
 #[cfg(test)]
@@ -560,7 +600,7 @@ mod tests {
         GraphConfig {
             layer_size: [64, 32],
             layers: 2,
-            lamps: vec![0, 2],
+            lamp_count: 2,
             rays: 16,
             bounces,
             blur,
@@ -669,10 +709,21 @@ mod tests {
         assert_eq!(rw[10], (vec![tmp, gb.normal], vec![f[6]]));
         assert_eq!(rw[11], (vec![f[6], gb.albedo], vec![f[7]]));
         // Parameters: the direct pass carries the lamp list, the gather its rays and seed.
-        assert_eq!(g.passes[1].params.lamps, vec![0, 2]);
+        assert_eq!(
+            g.passes[1].params,
+            Params::Direct(DirectParams {
+                lamp_count: 2,
+                ..DirectParams::default()
+            })
+        );
         assert_eq!(g.passes[6].kind, PassKind::Gather { bounce: 1 });
-        assert_eq!((g.passes[6].params.rays, g.passes[6].params.seed), (16, 9));
-        assert!(g.passes.iter().all(|p| p.params.bvh == BvhMode::Mtbvh));
+        let Params::Gather(gp) = g.passes[6].params else {
+            panic!("gather parameters: {:?}", g.passes[6].params);
+        };
+        assert_eq!((gp.rays, gp.bounce, gp.seed), (16, 1, 9));
+        assert_eq!(g.passes[3].params, Params::Blur(blur_params([1, 0], 2.0)));
+        assert_eq!(g.passes[4].params, Params::Blur(blur_params([0, 1], 2.0)));
+        assert!(g.passes.iter().all(|p| p.bvh == BvhMode::Mtbvh));
     }
 
     #[test]
@@ -680,6 +731,7 @@ mod tests {
         for bounces in 0..4 {
             for blur in [Blur::None, Blur::Sigma(1.0)] {
                 let g = BakeGraph::build(&config(bounces, blur));
+                assert_eq!(g.validate(), Ok(()));
                 let mut written = vec![false; g.textures.len()];
                 for p in &g.passes {
                     for r in &p.reads {
@@ -722,7 +774,7 @@ mod tests {
                     bounce: k as u32 + 1
                 }
             );
-            assert_eq!(p.params.bounce, k as u32 + 1);
+            assert_eq!(p.bounce, k as u32 + 1);
             assert_eq!(p.writes, vec![f[4]]);
         }
         // Without blur: no blur pass and no scratch texture; same texture count for any k ≥ 1.
@@ -742,6 +794,38 @@ mod tests {
                 ["gather", "combine", "copy_combined", "albedo_combined"]
             );
         }
+    }
+
+    #[test]
+    fn validate_rejects_passes_that_break_their_signature() {
+        let good = BakeGraph::build(&config(1, Blur::Sigma(1.0)));
+        let gather = good
+            .passes
+            .iter()
+            .position(|p| p.label == "gather")
+            .expect("gather");
+        let mut g = good.clone();
+        g.passes[gather].reads.pop();
+        assert!(g.validate().unwrap_err().reason.contains("slots"));
+        let mut g = good.clone();
+        g.passes[gather].params = Params::None;
+        assert!(g.validate().unwrap_err().reason.contains("block"));
+        let mut g = good.clone();
+        g.passes[gather].reads[2] = g.passes[gather].writes[0];
+        assert!(g.validate().unwrap_err().reason.contains("it writes"));
+        let mut g = good.clone();
+        g.passes[1].reads[0] = TexId(99);
+        assert!(
+            g.validate()
+                .unwrap_err()
+                .reason
+                .contains("not in the graph")
+        );
+        let mut g = good;
+        g.passes.swap(1, 2);
+        let e = g.validate().unwrap_err();
+        assert_eq!(e.index, 1);
+        assert!(e.reason.contains("before any pass wrote it"), "{e}");
     }
 
     #[test]

@@ -54,10 +54,13 @@ pub mod layout;
 pub mod map;
 pub mod meshes;
 pub mod output;
+pub mod pack;
 pub mod probe;
+pub mod program;
 pub mod rng;
 pub mod scene;
 pub mod scenefile;
+pub mod shader;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{BakeError, BakeOutput, BakeReport, Progress, bake};

@@ -3,7 +3,11 @@
 
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, TriangleAttributes, encode};
 
-use super::{BVH, Pass, PassShaders, Traversal};
+use luxbake::program::Library;
+use luxbake::scene::BvhMode;
+use luxbake::shader::glsl_library;
+
+use super::{Pass, program_sources};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
 use crate::testutil::{TestRng, context_or_skip, render};
@@ -128,11 +132,11 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
     }
     ray_tex.upload(gl, "rays", 0, &data).unwrap();
     let t_max = 1.0e30f32;
-    for traversal in [Traversal::Mtbvh, Traversal::Tbvh, Traversal::None] {
+    for traversal in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
         let cpu_mode = match traversal {
-            Traversal::Mtbvh => luxbake_bvh::Traversal::Mtbvh,
-            Traversal::Tbvh => luxbake_bvh::Traversal::Tbvh,
-            Traversal::None => luxbake_bvh::Traversal::BruteForce,
+            BvhMode::Mtbvh => luxbake_bvh::Traversal::Mtbvh,
+            BvhMode::Tbvh => luxbake_bvh::Traversal::Tbvh,
+            BvhMode::None => luxbake_bvh::Traversal::BruteForce,
         };
         let mut samplers = bvh_tex.samplers(traversal);
         samplers.push(("u_rays", &ray_tex));
@@ -141,7 +145,7 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
                 &ctx,
                 "debug_trace",
                 traversal,
-                &[BVH, TRACE_FS],
+                &[glsl_library(Library::Bvh), TRACE_FS],
                 &samplers,
                 |gl, p| {
                     bvh_tex.set_uniforms(gl, p);
@@ -214,8 +218,8 @@ fn rng_is_bit_exact() {
         let out = render(
             &ctx,
             "debug_rng",
-            Traversal::None,
-            &[super::RNG, RNG_FS],
+            BvhMode::None,
+            &[glsl_library(Library::Rng), RNG_FS],
             &[],
             |gl, p| {
                 p.set_u32(gl, "u_sample", sample);
@@ -289,8 +293,12 @@ fn ies_sampling_matches_the_cpu_table() {
         let out = render(
             &ctx,
             "debug_ies",
-            Traversal::None,
-            &[super::COMMON, super::IES, IES_FS],
+            BvhMode::None,
+            &[
+                glsl_library(Library::Common),
+                glsl_library(Library::Ies),
+                IES_FS,
+            ],
             &[("u_dirs", &dir_tex), ("u_ies", &ies)],
             |gl, p| {
                 p.set_i32(gl, "u_table", ti as i32);
@@ -327,8 +335,9 @@ fn every_pass_program_compiles_for_every_traversal() {
     };
     let gl = ctx.gl().unwrap();
     for pass in Pass::ALL {
-        for t in [Traversal::Mtbvh, Traversal::Tbvh, Traversal::None] {
-            let p = crate::gl::Program::new(gl, pass.label(), &super::defines(t), &pass.sources())
+        for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
+            let (prefix, sources) = program_sources(pass, t);
+            let p = crate::gl::Program::new(gl, pass.label(), &prefix, &sources)
                 .unwrap_or_else(|e| panic!("{e}"));
             p.delete(gl);
         }

@@ -3,8 +3,6 @@
 // (cpu::blur_texel). The empty texels between charts and the edges of the layer are skipped
 // explicitly, so nothing bleeds in and no clamping of out-of-range loads is relied on.
 
-@group(0) @binding(0) var lux_src: texture_2d_array<f32>;
-@group(0) @binding(1) var lux_normal: texture_2d_array<f32>;
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -12,7 +10,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (c.x < 0) {
         return;
     }
-    let layer = i32(lux_params.layer);
+    let layer = i32(lux_tile.layer);
     let centre = textureLoad(lux_src, c, layer, 0);
     if (centre.a <= 0.5) {
         lux_store(c, vec4<f32>(0.0));
@@ -25,9 +23,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         lux_store(c, centre);
         return;
     }
-    let size = vec2<i32>(i32(lux_params.layer_w), i32(lux_params.layer_h));
-    let step = vec2<i32>(lux_params.step_x, lux_params.step_y);
-    let radius = clamp(lux_params.radius, 0, LUX_MAX_BLUR_RADIUS);
+    let size = vec2<i32>(i32(lux_tile.layer_w), i32(lux_tile.layer_h));
+    let step = vec2<i32>(lux_pass.step_x, lux_pass.step_y);
+    let radius = clamp(lux_pass.radius, 0, LUX_MAX_BLUR_RADIUS);
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var k = -radius; k <= radius; k++) {
@@ -47,7 +45,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (!lux_normalize(nt.xyz, &n1) || !(lux_dot(n0, n1) >= LUX_BLUR_NORMAL_COS)) {
             continue;
         }
-        let w = exp(f32(k * k) * lux_params.inv);
+        let w = exp(f32(k * k) * lux_pass.inv);
         sum += w * tv.rgb;
         wsum += w;
     }

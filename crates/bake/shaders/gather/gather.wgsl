@@ -1,10 +1,7 @@
 // Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
-// exitance seen along lux_params.count cosine-weighted rays (cpu::gather_texel, operation for
+// exitance seen along lux_pass.rays cosine-weighted rays (cpu::gather_texel, operation for
 // operation). Objects' regions are in lux_regions (scene.wgsl); non-receivers reflect nothing.
 
-@group(0) @binding(0) var lux_position: texture_2d_array<f32>;
-@group(0) @binding(1) var lux_normal: texture_2d_array<f32>;
-@group(0) @binding(2) var lux_reflected: texture_2d_array<f32>;
 
 // cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
 fn lux_basis(n: vec3<f32>, t: ptr<function, vec3<f32>>, b: ptr<function, vec3<f32>>) {
@@ -68,7 +65,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (c.x < 0) {
         return;
     }
-    let layer = i32(lux_params.layer);
+    let layer = i32(lux_tile.layer);
     let pos = textureLoad(lux_position, c, layer, 0);
     let nrm = textureLoad(lux_normal, c, layer, 0);
     if (pos.w <= 0.5) {
@@ -76,19 +73,19 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     var n: vec3<f32>;
-    let rays = lux_params.count;
+    let rays = lux_pass.rays;
     if (!lux_normalize(nrm.xyz, &n) || rays == 0u) {
         lux_store(c, vec4<f32>(0.0, 0.0, 0.0, 1.0));
         return;
     }
-    let texel = lux_texel_index(vec2<u32>(lux_params.layer_w, lux_params.layer_h),
-                                lux_params.layer, u32(c.x), u32(c.y));
+    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                lux_tile.layer, u32(c.x), u32(c.y));
     let origin = pos.xyz + n * lux_scene.ray_epsilon;
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < rays; s++) {
-        let dir = lux_cosine_direction(n, lux_uniform2(texel, s, lux_params.bounce,
-                                                         lux_params.seed));
+        let dir = lux_cosine_direction(n, lux_uniform2(texel, s, lux_pass.bounce,
+                                                         lux_pass.seed));
         var hit: vec3<f32>;
         let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
         if (tri < 0) {

@@ -1,6 +1,4 @@
 // Pass "combine" (paper Figure 4, box 6): direct + indirect illuminance.
-uniform highp sampler2DArray u_direct;
-uniform highp sampler2DArray u_indirect;
 
 void main() {
     ivec3 c = luxTexel();

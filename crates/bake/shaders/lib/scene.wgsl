@@ -22,3 +22,17 @@ struct LuxScene {
 // Two entries per object id: (layer, offset.x, offset.y, receiver ? 1 : 0), (width, height, 0, 0).
 @group(1) @binding(4) var<storage, read> lux_regions: array<vec4<u32>>;
 @group(1) @binding(5) var<uniform> lux_scene: LuxScene;
+
+// One uploaded lamp (LampParams), in the order the direct pass evaluates them: position.xyz;
+// the rows of the world-to-photometric matrix; scale.rgb; (offset of its table in lux_ies,
+// width, height).
+struct LuxLamp {
+    position: vec4<f32>,
+    m0: vec4<f32>,
+    m1: vec4<f32>,
+    m2: vec4<f32>,
+    scale: vec4<f32>,
+    table: vec4<u32>,
+}
+
+@group(1) @binding(6) var<storage, read> lux_lamps: array<LuxLamp>;

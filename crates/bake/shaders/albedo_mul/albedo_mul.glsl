@@ -1,7 +1,5 @@
 // Pass "albedo multiply" (paper Figure 4, boxes 4 and 8): illuminance (lux) to exitance
 // (lm/m^2), dst = (src.rgb * albedo.rgb, src.a).
-uniform highp sampler2DArray u_src;
-uniform highp sampler2DArray u_albedo;
 
 void main() {
     ivec3 c = luxTexel();

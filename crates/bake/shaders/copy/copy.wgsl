@@ -1,6 +1,5 @@
 // Pass "copy" (paper Figure 4, box 2 -> 3 and 6 -> 7): texel-for-texel copy.
 
-@group(0) @binding(0) var lux_src: texture_2d_array<f32>;
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -8,5 +7,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (c.x < 0) {
         return;
     }
-    lux_store(c, textureLoad(lux_src, c, i32(lux_params.layer), 0));
+    lux_store(c, textureLoad(lux_src, c, i32(lux_tile.layer), 0));
 }

@@ -2,11 +2,8 @@
 // texels of the centre's object whose normal is within 25 degrees of the centre's (cpu::blur_texel).
 // The empty texels between charts and the edges of the layer are skipped explicitly, so nothing
 // bleeds in and no wrap or clamp mode is relied on.
-uniform highp sampler2DArray u_src;
-uniform highp sampler2DArray u_normal;
-uniform ivec2 u_step;       // (1, 0) for the U axis, (0, 1) for V
-uniform int u_radius;       // min(ceil(3 sigma), LUX_MAX_BLUR_RADIUS), computed on the CPU
-uniform float u_inv;        // -1 / (2 sigma^2), computed on the CPU
+// Parameters (program::BlurParams): u_step_x, u_step_y = (1, 0) for the U axis, (0, 1) for V;
+// u_radius = program::blur_radius(sigma); u_inv = -1 / (2 sigma^2), computed on the CPU.
 
 void main() {
     ivec3 c = luxTexel();
@@ -26,7 +23,7 @@ void main() {
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
     for (int k = -u_radius; k <= u_radius; ++k) {
-        ivec2 t = c.xy + k * u_step;
+        ivec2 t = c.xy + k * ivec2(u_step_x, u_step_y);
         if (t.x < 0 || t.y < 0 || t.x >= size.x || t.y >= size.y) {
             continue;
         }

@@ -1,20 +1,6 @@
 // Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
 // through the BVH (cpu::direct_texel, operation for operation).
 
-// One lamp of this pass, in the pass's order (LampParams): position.xyz; the rows of the
-// world-to-photometric matrix; scale.rgb; (offset of its table in lux_ies, width, height).
-struct LuxLamp {
-    position: vec4<f32>,
-    m0: vec4<f32>,
-    m1: vec4<f32>,
-    m2: vec4<f32>,
-    scale: vec4<f32>,
-    table: vec4<u32>,
-}
-
-@group(0) @binding(0) var lux_position: texture_2d_array<f32>;
-@group(0) @binding(1) var lux_normal: texture_2d_array<f32>;
-@group(0) @binding(10) var<storage, read> lux_lamps: array<LuxLamp>;
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -22,7 +8,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (c.x < 0) {
         return;
     }
-    let layer = i32(lux_params.layer);
+    let layer = i32(lux_tile.layer);
     let pos = textureLoad(lux_position, c, layer, 0);
     let nrm = textureLoad(lux_normal, c, layer, 0);
     if (pos.w <= 0.5) {
@@ -36,7 +22,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     var e = vec3<f32>(0.0);
-    let count = min(lux_params.count, arrayLength(&lux_lamps));
+    let count = min(lux_pass.lamp_count, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
         let lamp = lux_lamps[li];
         let lamp_pos = lamp.position.xyz;

@@ -1,16 +1,7 @@
 // Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
 // exitance seen along `u_rays` cosine-weighted rays (cpu::gather_texel, operation for operation).
 //
-// u_regions: one column per object id: row 0 (layer, offset.x, offset.y, receiver ? 1 : 0),
-// row 1 (width, height, 0, 0); non-receivers (receiver = 0) reflect nothing.
-uniform highp sampler2DArray u_position;
-uniform highp sampler2DArray u_normal;
-uniform highp sampler2DArray u_reflected;
-uniform highp sampler2DArray u_regions;
-uniform uint u_rays;
-uniform uint u_bounce;
-uniform uint u_seed;
-uniform float u_ray_epsilon;
+// Objects' regions are in u_regions (scene.glsl); non-receivers reflect nothing.
 
 // cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
 void luxBasis(vec3 n, out vec3 t, out vec3 b) {

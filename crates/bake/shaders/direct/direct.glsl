@@ -1,18 +1,7 @@
 // Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
 // through the BVH (cpu::direct_texel, operation for operation).
 //
-// u_lamps holds one column per lamp of this pass (in the pass's order), LUX_LAMP_ROWS rows:
-// row 0 (position.xyz, table), rows 1-3 world-to-photometric matrix rows (xyz, 0),
-// row 4 (scale.rgb, 0), row 5 (table width, table height, 0, 0).
-uniform highp sampler2DArray u_position;
-uniform highp sampler2DArray u_normal;
-uniform highp sampler2DArray u_lamps;
-uniform int u_lamp_count;
-uniform float u_ray_epsilon;
-
-vec4 luxLamp(int lamp, int row) {
-    return texelFetch(u_lamps, ivec3(lamp, row, 0), 0);
-}
+// Evaluates the first u_lamp_count uploaded lamps (luxLamp, scene.glsl).
 
 void main() {
     ivec3 c = luxTexel();
@@ -29,7 +18,7 @@ void main() {
         return;
     }
     vec3 e = vec3(0.0);
-    for (int li = 0; li < u_lamp_count; ++li) {
+    for (int li = 0; li < int(u_lamp_count); ++li) {
         vec4 l0 = luxLamp(li, 0);
         vec3 lampPos = l0.xyz;
         int table = int(l0.w);
@@ -47,7 +36,7 @@ void main() {
         vec3 back = -w;
         vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
                                 luxDot(luxLamp(li, 3).xyz, back));
-        float intensity = luxIesSample(table, ivec2(luxLamp(li, 5).xy), photometric);
+        float intensity = luxIesSample(table, ivec2(luxLamp(li, 5).yz), photometric);
         if (!(intensity > 0.0)) {
             continue;
         }

@@ -1,7 +1,5 @@
 // Pass "combine" (paper Figure 4, box 6): direct + indirect illuminance.
 
-@group(0) @binding(0) var lux_direct: texture_2d_array<f32>;
-@group(0) @binding(1) var lux_indirect: texture_2d_array<f32>;
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -9,7 +7,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (c.x < 0) {
         return;
     }
-    let layer = i32(lux_params.layer);
+    let layer = i32(lux_tile.layer);
     let a = textureLoad(lux_direct, c, layer, 0);
     let b = textureLoad(lux_indirect, c, layer, 0);
     lux_store(c, vec4<f32>(lux_guard3(a.rgb + b.rgb), a.a));

@@ -1,31 +1,9 @@
-// Shared by every pass: the pass parameters, the output storage texture and f32 helpers that
-// mirror luxbake::cpu operation for operation (dot products left to right, division rather than
+// Shared by every pass: f32 helpers that mirror luxbake::cpu operation for operation (dot products left to right, division rather than
 // multiplication by a reciprocal). WGSL has no isnan/isinf: they are bit tests here, which no
 // compiler may fold away.
 
-// One tile of one layer: texels (x0 .. x0 + width, y0 .. y0 + height) of layer `layer`.
-// The remaining fields are per pass kind (see each pass file); unused ones are zero.
-struct LuxParams {
-    x0: u32,
-    y0: u32,
-    width: u32,
-    height: u32,
-    layer: u32,
-    layer_w: u32,
-    layer_h: u32,
-    count: u32,     // direct: lamps of this pass; gather: rays per texel
-    bounce: u32,    // gather: bounce number (RNG pass input)
-    seed: u32,      // gather: RNG seed
-    radius: i32,    // blur: min(ceil(3 sigma), LUX_MAX_BLUR_RADIUS), computed on the CPU
-    step_x: i32,    // blur: (1, 0) for the U axis, (0, 1) for V
-    step_y: i32,
-    inv: f32,       // blur: -1 / (2 sigma^2), computed on the CPU
-    pad0: u32,
-    pad1: u32,
-}
-
-@group(0) @binding(8) var lux_out: texture_storage_2d_array<rgba32float, write>;
-@group(0) @binding(9) var<uniform> lux_params: LuxParams;
+// The generated prefix (luxbake::shader) declares the program's slots (lux_<slot>), the output
+// lux_out, the tile lux_tile (program::TileParams) and the parameter block lux_pass.
 
 const LUX_FLT_MAX: f32 = 3.40282347e38;
 
@@ -75,12 +53,12 @@ fn lux_guard3(v: vec3<f32>) -> vec3<f32> {
 
 // The texel of invocation `gid` in the bound tile, or x = -1 outside it.
 fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
-    if (gid.x >= lux_params.width || gid.y >= lux_params.height) {
+    if (gid.x >= lux_tile.width || gid.y >= lux_tile.height) {
         return vec2<i32>(-1, -1);
     }
-    return vec2<i32>(i32(lux_params.x0 + gid.x), i32(lux_params.y0 + gid.y));
+    return vec2<i32>(i32(lux_tile.x0 + gid.x), i32(lux_tile.y0 + gid.y));
 }
 
 fn lux_store(c: vec2<i32>, value: vec4<f32>) {
-    textureStore(lux_out, c, i32(lux_params.layer), value);
+    textureStore(lux_out, c, i32(lux_tile.layer), value);
 }

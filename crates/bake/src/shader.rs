@@ -1,0 +1,295 @@
+//! The shader sources of every [`Program`], GLSL ES 3.00 and WGSL side by side, and the
+//! generated prefix that declares what the program's [`Signature`] says.
+//!
+//! `shaders/<program>/<program>.glsl` and `.wgsl` hold a pass's two twins (they mirror
+//! [`crate::cpu`] operation for operation); `shaders/lib/` holds the shared [`Library`] files.
+//! A pass file declares nothing it gets from outside: the generated prefix holds
+//!
+//! - the BVH texel-layout constants (`luxbake_bvh::layout`), the traversal ids and choice, and
+//!   the blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]);
+//! - one declaration per read slot: `uniform highp sampler2DArray u_<slot>;` (GLSL, bound by
+//!   name) or `@group(0) @binding(i) var lux_<slot>: texture_2d_array<f32>;` (WGSL, `i` = slot
+//!   index);
+//! - the parameter block: one `uniform <type> u_<field>;` per field (GLSL; padding omitted), or
+//!   the struct `Lux…Params` bound as `lux_pass` at [`wgsl::PARAMS_BINDING`] (WGSL);
+//! - WGSL only: the output `lux_out` and the tile `lux_tile` ([`TileParams`]). GLSL draws into
+//!   the bound layer (`u_layer`, `common.glsl`) and restricts rows with the viewport.
+//!
+//! The `#version`/precision header of GLSL is the GL backend's (it differs between WebGL2 and
+//! desktop contexts).
+
+use luxbake_bvh::layout;
+
+use crate::program::{
+    BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Signature, TileParams,
+};
+use crate::scene::BvhMode;
+
+/// WGSL binding numbers (group 0: the pass; group 1: the scene).
+pub mod wgsl {
+    /// Group 0: the output storage texture.
+    pub const OUT_BINDING: u32 = 8;
+    /// Group 0: the tile ([`TileParams`](crate::program::TileParams)).
+    pub const TILE_BINDING: u32 = 9;
+    /// Group 0: the program's parameter block.
+    pub const PARAMS_BINDING: u32 = 10;
+    /// Group 1: BVH node bounds.
+    pub const BOUNDS_BINDING: u32 = 0;
+    /// Group 1: BVH links (MTBVH or TBVH).
+    pub const LINKS_BINDING: u32 = 1;
+    /// Group 1: triangle data.
+    pub const TRIANGLES_BINDING: u32 = 2;
+    /// Group 1: intensity tables.
+    pub const IES_BINDING: u32 = 3;
+    /// Group 1: object regions.
+    pub const REGIONS_BINDING: u32 = 4;
+    /// Group 1: the scene uniform block (`LuxScene`).
+    pub const SCENE_BINDING: u32 = 5;
+    /// Group 1: the lamps.
+    pub const LAMPS_BINDING: u32 = 6;
+}
+
+/// How WGSL reads the encoded BVH and triangle data: both hold exactly the texels of
+/// `luxbake_bvh::EncodedScene` and differ only in how a shader fetches them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum BvhStorage {
+    /// `array<vec4<f32>>` storage buffers indexed `(layer · h + y) · w + x`.
+    #[default]
+    Buffers,
+    /// RGBA32F texture arrays read with `textureLoad`, as the paper (and GLSL) does.
+    Textures,
+}
+
+/// The traversal id a program is compiled for: 0 MTBVH, 1 TBVH, 2 brute force.
+pub fn traversal_id(bvh: BvhMode) -> i32 {
+    match bvh {
+        BvhMode::Mtbvh => 0,
+        BvhMode::Tbvh => 1,
+        BvhMode::None => 2,
+    }
+}
+
+/// The traversal a program is compiled for: the pass's, or brute force (none) for programs
+/// that cast no rays.
+pub fn program_traversal(program: Program, bvh: BvhMode) -> BvhMode {
+    if program.traces_rays() {
+        bvh
+    } else {
+        BvhMode::None
+    }
+}
+
+const GLSL_PASSES: [&str; 6] = [
+    include_str!("../shaders/direct/direct.glsl"),
+    include_str!("../shaders/copy/copy.glsl"),
+    include_str!("../shaders/blur/blur.glsl"),
+    include_str!("../shaders/albedo_mul/albedo_mul.glsl"),
+    include_str!("../shaders/gather/gather.glsl"),
+    include_str!("../shaders/combine/combine.glsl"),
+];
+
+const WGSL_PASSES: [&str; 6] = [
+    include_str!("../shaders/direct/direct.wgsl"),
+    include_str!("../shaders/copy/copy.wgsl"),
+    include_str!("../shaders/blur/blur.wgsl"),
+    include_str!("../shaders/albedo_mul/albedo_mul.wgsl"),
+    include_str!("../shaders/gather/gather.wgsl"),
+    include_str!("../shaders/combine/combine.wgsl"),
+];
+
+/// The GLSL text of a library file.
+pub fn glsl_library(lib: Library) -> &'static str {
+    match lib {
+        Library::Common => include_str!("../shaders/lib/common.glsl"),
+        Library::Rng => include_str!("../shaders/lib/rng.glsl"),
+        Library::Scene => include_str!("../shaders/lib/scene.glsl"),
+        Library::Bvh => include_str!("../shaders/lib/bvh.glsl"),
+        Library::Ies => include_str!("../shaders/lib/ies.glsl"),
+    }
+}
+
+/// The WGSL files of a library (the BVH library's storage declarations first).
+pub fn wgsl_library(lib: Library, storage: BvhStorage) -> Vec<&'static str> {
+    match lib {
+        Library::Common => vec![include_str!("../shaders/lib/common.wgsl")],
+        Library::Rng => vec![include_str!("../shaders/lib/rng.wgsl")],
+        Library::Scene => vec![include_str!("../shaders/lib/scene.wgsl")],
+        Library::Bvh => vec![
+            match storage {
+                BvhStorage::Buffers => include_str!("../shaders/lib/bvh_buffers.wgsl"),
+                BvhStorage::Textures => include_str!("../shaders/lib/bvh_textures.wgsl"),
+            },
+            include_str!("../shaders/lib/bvh.wgsl"),
+        ],
+        Library::Ies => vec![include_str!("../shaders/lib/ies.wgsl")],
+    }
+}
+
+/// The sampler uniform of read slot `slot` in GLSL.
+pub fn glsl_slot(slot: &str) -> String {
+    format!("u_{slot}")
+}
+
+/// The uniform of parameter field `field` in GLSL.
+pub fn glsl_param(field: &Field) -> String {
+    format!("u_{}", field.name)
+}
+
+/// The generated GLSL prefix of `program` compiled for traversal `bvh` (see the module docs):
+/// constants, slot samplers and parameter uniforms. It follows the `#version` header.
+pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
+    let sig = program.signature();
+    let mut s = glsl_constants(program_traversal(program, bvh));
+    for slot in sig.reads {
+        s.push_str(&format!(
+            "uniform highp sampler2DArray {};\n",
+            glsl_slot(slot)
+        ));
+    }
+    for f in sig.params.iter().filter(|f| !f.is_padding()) {
+        s.push_str(&format!("uniform {} {};\n", f.ty.glsl(), glsl_param(f)));
+    }
+    s
+}
+
+/// The generated GLSL constants: BVH layout, traversal ids and the choice `bvh`, blur constants.
+pub fn glsl_constants(bvh: BvhMode) -> String {
+    format!(
+        "{}#define LUX_TRAVERSAL_MTBVH 0\n#define LUX_TRAVERSAL_TBVH 1\n\
+         #define LUX_TRAVERSAL_NONE 2\n#define LUX_TRAVERSAL {}\n\
+         #define LUX_BLUR_NORMAL_COS {:?}\n#define LUX_MAX_BLUR_RADIUS {}\n",
+        layout::glsl_defines(),
+        traversal_id(bvh),
+        BLUR_NORMAL_COS,
+        MAX_BLUR_RADIUS,
+    )
+}
+
+/// The generated WGSL constants: BVH layout, traversal ids and the choice `bvh`, blur constants.
+pub fn wgsl_constants(bvh: BvhMode) -> String {
+    format!(
+        "{}const LUX_TRAVERSAL_MTBVH: i32 = 0;\nconst LUX_TRAVERSAL_TBVH: i32 = 1;\n\
+         const LUX_TRAVERSAL_NONE: i32 = 2;\nconst LUX_TRAVERSAL: i32 = {};\n\
+         const LUX_BLUR_NORMAL_COS: f32 = {:?};\nconst LUX_MAX_BLUR_RADIUS: i32 = {};\n",
+        layout::wgsl_constants(),
+        traversal_id(bvh),
+        BLUR_NORMAL_COS,
+        MAX_BLUR_RADIUS,
+    )
+}
+
+/// The GLSL files of `program` after the prefix: its libraries, then the pass file.
+pub fn glsl_sources(program: Program) -> Vec<&'static str> {
+    let sig = program.signature();
+    let mut v: Vec<&'static str> = sig.libraries.iter().map(|&l| glsl_library(l)).collect();
+    v.push(GLSL_PASSES[program as usize]);
+    v
+}
+
+/// The WGSL declaration of a parameter struct named `name` with `fields`.
+pub fn wgsl_struct(name: &str, fields: &[Field]) -> String {
+    let mut s = format!("struct {name} {{\n");
+    for f in fields {
+        s.push_str(&format!("    {}: {},\n", f.name, f.ty.wgsl()));
+    }
+    s.push_str("}\n");
+    s
+}
+
+/// The generated WGSL prefix of `program` compiled for traversal `bvh` (see the module docs).
+pub fn wgsl_prefix(program: Program, bvh: BvhMode) -> String {
+    let sig: &Signature = program.signature();
+    let mut s = wgsl_constants(program_traversal(program, bvh));
+    for (i, slot) in sig.reads.iter().enumerate() {
+        s.push_str(&format!(
+            "@group(0) @binding({i}) var lux_{slot}: texture_2d_array<f32>;\n"
+        ));
+    }
+    s.push_str(&format!(
+        "@group(0) @binding({}) var lux_out: texture_storage_2d_array<rgba32float, write>;\n",
+        wgsl::OUT_BINDING
+    ));
+    s.push_str(&wgsl_struct(TileParams::WGSL_NAME, TileParams::FIELDS));
+    s.push_str(&format!(
+        "@group(0) @binding({}) var<uniform> lux_tile: {};\n",
+        wgsl::TILE_BINDING,
+        TileParams::WGSL_NAME
+    ));
+    if !sig.params.is_empty() {
+        s.push_str(&wgsl_struct(sig.params_wgsl, sig.params));
+        s.push_str(&format!(
+            "@group(0) @binding({}) var<uniform> lux_pass: {};\n",
+            wgsl::PARAMS_BINDING,
+            sig.params_wgsl
+        ));
+    }
+    s
+}
+
+/// The complete WGSL module of `program` for traversal `bvh`, the BVH read from `storage`.
+pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> String {
+    let mut s = wgsl_prefix(program, bvh);
+    for &lib in program.signature().libraries {
+        for f in wgsl_library(lib, storage) {
+            s.push_str(f);
+            s.push('\n');
+        }
+    }
+    s.push_str(WGSL_PASSES[program as usize]);
+    s.push('\n');
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prefixes_declare_every_slot_and_parameter_of_the_signature() {
+        for p in Program::ALL {
+            let sig = p.signature();
+            let glsl = glsl_prefix(p, BvhMode::Tbvh);
+            let wgsl = wgsl_prefix(p, BvhMode::Tbvh);
+            for (i, slot) in sig.reads.iter().enumerate() {
+                assert!(
+                    glsl.contains(&format!("sampler2DArray u_{slot};")),
+                    "{glsl}"
+                );
+                assert!(
+                    wgsl.contains(&format!("@binding({i}) var lux_{slot}:")),
+                    "{wgsl}"
+                );
+            }
+            for f in sig.params {
+                assert_eq!(
+                    glsl.contains(&format!("uniform {} u_{};", f.ty.glsl(), f.name)),
+                    !f.is_padding()
+                );
+                assert!(wgsl.contains(&format!("    {}: {},", f.name, f.ty.wgsl())));
+            }
+            assert_eq!(
+                wgsl.contains("var<uniform> lux_pass"),
+                !sig.params.is_empty()
+            );
+            let id = if p.traces_rays() { 1 } else { 2 };
+            assert!(glsl.contains(&format!("#define LUX_TRAVERSAL {id}\n")));
+            assert!(wgsl.contains(&format!("const LUX_TRAVERSAL: i32 = {id};")));
+        }
+    }
+
+    #[test]
+    fn pass_files_declare_none_of_the_generated_names() {
+        for p in Program::ALL {
+            let pass_glsl = GLSL_PASSES[p as usize];
+            let pass_wgsl = WGSL_PASSES[p as usize];
+            assert!(pass_glsl.starts_with("// Pass \""), "{}", p.label());
+            assert!(pass_wgsl.starts_with("// Pass \""), "{}", p.label());
+            for slot in p.signature().reads {
+                assert!(!pass_glsl.contains(&format!("sampler2DArray u_{slot};")));
+                assert!(!pass_wgsl.contains(&format!("var lux_{slot}:")));
+            }
+            assert!(!pass_glsl.contains("\nuniform "), "{}", p.label());
+            assert!(!pass_wgsl.contains("@binding"), "{}", p.label());
+        }
+    }
+}
