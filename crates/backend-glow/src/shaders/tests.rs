@@ -343,3 +343,83 @@ fn every_pass_program_compiles_for_every_traversal() {
         }
     }
 }
+
+/// `source` (GLSL ES 3.00 as the GL backend compiles it, after the `#version` header) as the
+/// Vulkan-flavoured GLSL 4.50 that naga's front end reads: every `sampler2DArray` becomes a
+/// `texture2DArray` combined with one sampler by a macro of the same name, every other loose
+/// uniform its own uniform block, the output a located `out`. The statements themselves are
+/// untouched, so naga type-checks and validates exactly the code the driver compiles.
+fn as_vulkan_glsl(source: &str) -> String {
+    let mut out = String::from(
+        "#version 450 core\nlayout(set = 0, binding = 0) uniform sampler lux_sampler;\n",
+    );
+    let mut binding = 1;
+    for line in source.lines() {
+        let code = line.split("//").next().unwrap_or("").trim();
+        let words: Vec<&str> = code.trim_end_matches(';').split_whitespace().collect();
+        match words.as_slice() {
+            ["uniform", "highp", "sampler2DArray", name] if code.ends_with(';') => {
+                out.push_str(&format!(
+                    "layout(set = 0, binding = {binding}) uniform texture2DArray {name}_tex;\n\
+                     #define {name} sampler2DArray({name}_tex, lux_sampler)\n"
+                ));
+            }
+            ["uniform", ty, name] if code.ends_with(';') => {
+                out.push_str(&format!(
+                    "layout(set = 1, binding = {binding}) uniform Lux_{name} {{ {ty} {name}; }};\n"
+                ));
+            }
+            ["out", "vec4", name] if code.ends_with(';') => {
+                out.push_str(&format!("layout(location = 0) out vec4 {name};\n"));
+            }
+            ["precision", ..] => {}
+            _ => {
+                out.push_str(line);
+                out.push('\n');
+                continue;
+            }
+        }
+        binding += 1;
+    }
+    out
+}
+
+#[test]
+fn every_program_validates_with_naga_for_every_traversal() {
+    let mut checked = 0;
+    for pass in Pass::ALL {
+        for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
+            let (prefix, sources) = program_sources(pass, t);
+            let glsl = std::iter::once(prefix.as_str())
+                .chain(sources)
+                .collect::<Vec<_>>()
+                .join("\n");
+            let source = as_vulkan_glsl(&glsl);
+            let label = format!("{} {t:?}", pass.label());
+            let mut frontend = naga::front::glsl::Frontend::default();
+            let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
+            let module = frontend.parse(&options, &source).unwrap_or_else(|e| {
+                panic!("{label}: {}", e.emit_to_string(&source));
+            });
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::all(),
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&source)));
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, 3 * Pass::ALL.len());
+    // The check can fail: an undeclared name is rejected.
+    let (prefix, _) = program_sources(Pass::Copy, BvhMode::None);
+    let broken = as_vulkan_glsl(&format!(
+        "{prefix}out vec4 o_color;\nvoid main() {{ o_color = texelFetch(u_src, ivec3(0), 0) * u_missing; }}\n"
+    ));
+    let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
+    assert!(
+        naga::front::glsl::Frontend::default()
+            .parse(&options, &broken)
+            .is_err()
+    );
+}
