@@ -2,8 +2,8 @@
 //!
 //! A [`BakeGraph`] lists the textures of a bake ([`TexDesc`]: every one an RGBA32F texture array
 //! of the layout's layer size and layer count) and the passes that read and write them
-//! ([`PassDesc`]), in execution order. Backends execute the passes one by one in that order; they
-//! never decide the order. The graph is built by small functions, one per stage of the paper's
+//! ([`PassDesc`]), in execution order. The driver executes the passes one by one in that order,
+//! tile by tile, on a backend; backends never decide the order. The graph is built by small functions, one per stage of the paper's
 //! Figure 4, each declaring what it reads and writes and returning the texture it produced.
 //!
 //! # Stages (the paper's Figure 5 numbering)
@@ -28,16 +28,12 @@
 //! Every light-map texture carries the texel mask in its alpha channel (1 = a valid texel of a
 //! receiver's chart, 0 = empty), which the blur and the gather's bilinear look-up use.
 //!
-//! # Read/write conventions of each pass (fixed: backends rely on them)
-//! | kind | reads | writes |
-//! |---|---|---|
-//! | `GBuffer` | — | position, normal, albedo |
-//! | `Direct` | position, normal | direct |
-//! | `Copy` | src | dst |
-//! | `Blur` | src, normal | dst |
-//! | `AlbedoMul` | src, albedo | dst |
-//! | `Gather` | position, normal, reflected | indirect |
-//! | `Combine` | direct, indirect | combined |
+//! # Reads, writes and parameters
+//! Each computed pass runs one [`Program`]; its reads follow the program's
+//! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
+//! the program's parameter block ([`Params`](crate::program::Params)); the G-buffer upload reads
+//! nothing and writes position, normal and albedo. [`BakeGraph::validate`] checks every pass
+//! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;
 use crate::program::{DirectParams, GatherParams, Params, blur_params};

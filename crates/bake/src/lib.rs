@@ -12,6 +12,15 @@
 //! execution pass by pass → read-back. [`cpu::CpuBackend`] is the reference backend and the
 //! oracle for GPU backends; [`output`] writes EXR/PNG/JSON files.
 //!
+//! ## The pass contract
+//! Each computed pass runs a [`program::Program`] whose [`program::Signature`] is data: the
+//! texture slots it reads, the scene resources it needs and its `#[repr(C)]` parameter block.
+//! [`shader`] holds every program's GLSL and WGSL side by side (`shaders/<pass>/`) and generates
+//! their declarations from the signature; [`pack`] packs the scene resources for both GPU
+//! backends. The driver validates the graph against the signatures, splits each pass into row
+//! tiles ([`program::TilePlan`]) and calls [`GpuBackend::dispatch`] per tile: a backend binds
+//! and dispatches, and knows no pass kinds.
+//!
 //! ## Physics
 //! - Surfaces are **Lambertian** (diffuse); no specular, no spectra: RGB is a lamp tint times
 //!   an albedo, each channel baked independently.
