@@ -31,6 +31,7 @@
 
 use std::collections::HashMap;
 
+use glam::{DMat2, DVec2, DVec3, Vec2, Vec3};
 use luxbake::scene::Blur;
 
 /// Largest angle between a triangle's normal and its chart's seed normal, degrees.
@@ -116,44 +117,29 @@ pub struct Unwrapped {
     pub extent_m: [f64; 2],
 }
 
-type V2 = [f64; 2];
-type V3 = [f64; 3];
-
-fn sub3(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn cross3(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-fn dot3(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross2(o: V2, a: V2, b: V2) -> f64 {
-    (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+/// Twice the signed area of the triangle `o a b` (positive when counter-clockwise).
+fn cross2(o: DVec2, a: DVec2, b: DVec2) -> f64 {
+    (a - o).perp_dot(b - o)
 }
 
 /// Twice the signed UV area of a triangle.
-fn area2(t: &[V2; 3]) -> f64 {
+fn area2(t: &[DVec2; 3]) -> f64 {
     cross2(t[0], t[1], t[2])
 }
 
 /// Whether two triangles' interiors overlap by more than `tol` along every separating axis.
-fn triangles_overlap(a: &[V2; 3], b: &[V2; 3], tol: f64) -> bool {
+fn triangles_overlap(a: &[DVec2; 3], b: &[DVec2; 3], tol: f64) -> bool {
     for tri in [a, b] {
         for i in 0..3 {
             let p = tri[i];
             let q = tri[(i + 1) % 3];
-            let axis = [q[1] - p[1], p[0] - q[0]];
-            let len = (axis[0] * axis[0] + axis[1] * axis[1]).sqrt();
+            let axis = (p - q).perp();
+            let len = axis.length();
             if len == 0.0 {
                 continue;
             }
-            let proj = |t: &[V2; 3]| {
-                let v = t.map(|p| (p[0] * axis[0] + p[1] * axis[1]) / len);
+            let proj = |t: &[DVec2; 3]| {
+                let v = t.map(|p| p.dot(axis) / len);
                 (v[0].min(v[1]).min(v[2]), v[0].max(v[1]).max(v[2]))
             };
             let (a0, a1) = proj(a);
@@ -166,21 +152,20 @@ fn triangles_overlap(a: &[V2; 3], b: &[V2; 3], tol: f64) -> bool {
     true
 }
 
-fn seg_point_dist(p: V2, a: V2, b: V2) -> f64 {
-    let ab = [b[0] - a[0], b[1] - a[1]];
-    let ap = [p[0] - a[0], p[1] - a[1]];
-    let l2 = ab[0] * ab[0] + ab[1] * ab[1];
+fn seg_point_dist(p: DVec2, a: DVec2, b: DVec2) -> f64 {
+    let ab = b - a;
+    let ap = p - a;
+    let l2 = ab.length_squared();
     let t = if l2 > 0.0 {
-        ((ap[0] * ab[0] + ap[1] * ab[1]) / l2).clamp(0.0, 1.0)
+        (ap.dot(ab) / l2).clamp(0.0, 1.0)
     } else {
         0.0
     };
-    let d = [ap[0] - t * ab[0], ap[1] - t * ab[1]];
-    (d[0] * d[0] + d[1] * d[1]).sqrt()
+    (ap - ab * t).length()
 }
 
 /// Euclidean distance between two triangles (0 when they overlap or touch).
-fn triangle_distance(a: &[V2; 3], b: &[V2; 3]) -> f64 {
+fn triangle_distance(a: &[DVec2; 3], b: &[DVec2; 3]) -> f64 {
     if triangles_overlap(a, b, -1e-12) {
         return 0.0;
     }
@@ -197,7 +182,7 @@ fn triangle_distance(a: &[V2; 3], b: &[V2; 3]) -> f64 {
 
 /// A uniform grid over the UV bounding box of some triangles, for pair queries.
 struct Grid {
-    origin: V2,
+    origin: DVec2,
     cell: f64,
     dims: [usize; 2],
     cells: HashMap<(usize, usize), Vec<u32>>,
@@ -205,9 +190,9 @@ struct Grid {
 
 impl Grid {
     /// Bins triangles (by bounding box grown by `margin`) into about `tris.len()` cells.
-    fn new(tris: &[[V2; 3]], margin: f64) -> Grid {
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
+    fn new(tris: &[[DVec2; 3]], margin: f64) -> Grid {
+        let mut lo = DVec2::INFINITY;
+        let mut hi = DVec2::NEG_INFINITY;
         for t in tris {
             for p in t {
                 for k in 0..2 {
@@ -216,18 +201,18 @@ impl Grid {
                 }
             }
         }
-        if !(lo[0].is_finite() && hi[0].is_finite() && lo[1].is_finite() && hi[1].is_finite()) {
-            lo = [0.0; 2];
-            hi = [1.0; 2];
+        if !(lo.is_finite() && hi.is_finite()) {
+            lo = DVec2::ZERO;
+            hi = DVec2::ONE;
         }
-        let size = [(hi[0] - lo[0]).max(1e-12), (hi[1] - lo[1]).max(1e-12)];
+        let size = (hi - lo).map(|d| d.max(1e-12));
         let n = (tris.len() as f64).max(1.0);
-        let cell = ((size[0] * size[1] / n).sqrt())
+        let cell = ((size.x * size.y / n).sqrt())
             .max(margin)
-            .max(size[0].max(size[1]) / 2048.0);
+            .max(size.x.max(size.y) / 2048.0);
         let dims = [
-            ((size[0] / cell).ceil() as usize).clamp(1, 4096),
-            ((size[1] / cell).ceil() as usize).clamp(1, 4096),
+            ((size.x / cell).ceil() as usize).clamp(1, 4096),
+            ((size.y / cell).ceil() as usize).clamp(1, 4096),
         ];
         let mut grid = Grid {
             origin: lo,
@@ -246,7 +231,7 @@ impl Grid {
         grid
     }
 
-    fn cell_of(&self, p: V2) -> [usize; 2] {
+    fn cell_of(&self, p: DVec2) -> [usize; 2] {
         std::array::from_fn(|k| {
             let c = ((p[k] - self.origin[k]) / self.cell).floor();
             if c.is_finite() {
@@ -257,20 +242,20 @@ impl Grid {
         })
     }
 
-    fn range(&self, t: &[V2; 3], margin: f64) -> ([usize; 2], [usize; 2]) {
-        let lo = [
-            t[0][0].min(t[1][0]).min(t[2][0]) - margin,
-            t[0][1].min(t[1][1]).min(t[2][1]) - margin,
-        ];
-        let hi = [
-            t[0][0].max(t[1][0]).max(t[2][0]) + margin,
-            t[0][1].max(t[1][1]).max(t[2][1]) + margin,
-        ];
+    fn range(&self, t: &[DVec2; 3], margin: f64) -> ([usize; 2], [usize; 2]) {
+        let lo = DVec2::new(
+            t[0].x.min(t[1].x).min(t[2].x),
+            t[0].y.min(t[1].y).min(t[2].y),
+        ) - margin;
+        let hi = DVec2::new(
+            t[0].x.max(t[1].x).max(t[2].x),
+            t[0].y.max(t[1].y).max(t[2].y),
+        ) + margin;
         (self.cell_of(lo), self.cell_of(hi))
     }
 
     /// Calls `f(i, j)` once for every pair `i < j` of triangles sharing a cell.
-    fn pairs(&self, tris: &[[V2; 3]], margin: f64, mut f: impl FnMut(usize, usize) -> bool) {
+    fn pairs(&self, tris: &[[DVec2; 3]], margin: f64, mut f: impl FnMut(usize, usize) -> bool) {
         for (&(x, y), list) in &self.cells {
             for (ai, &a) in list.iter().enumerate() {
                 for &b in &list[ai + 1..] {
@@ -290,10 +275,15 @@ impl Grid {
     }
 }
 
-fn uv_tris(uvs: &[[f32; 2]], indices: &[[u32; 3]]) -> Vec<[V2; 3]> {
+fn uv_tris(uvs: &[[f32; 2]], indices: &[[u32; 3]]) -> Vec<[DVec2; 3]> {
     indices
         .iter()
-        .map(|t| t.map(|i| uvs.get(i as usize).map_or([0.0; 2], |uv| uv.map(f64::from))))
+        .map(|t| {
+            t.map(|i| {
+                uvs.get(i as usize)
+                    .map_or(DVec2::ZERO, |&uv| Vec2::from(uv).as_dvec2())
+            })
+        })
         .collect()
 }
 
@@ -362,10 +352,9 @@ fn world_area2(positions: &[[f32; 3]], t: &[u32; 3]) -> f64 {
     let p = t.map(|i| {
         positions
             .get(i as usize)
-            .map_or([0.0; 3], |p| p.map(f64::from))
+            .map_or(DVec3::ZERO, |&p| Vec3::from(p).as_dvec3())
     });
-    let c = cross3(sub3(p[1], p[0]), sub3(p[2], p[0]));
-    dot3(c, c).sqrt()
+    (p[1] - p[0]).cross(p[2] - p[0]).length()
 }
 
 /// Checks a light-map UV set (see the module docs); `positions` measure surface area;
@@ -407,7 +396,7 @@ pub fn check(
     let live: Vec<usize> = (0..tris.len())
         .filter(|&t| area2(&tris[t]).abs() > 1e-14)
         .collect();
-    let sub: Vec<[V2; 3]> = live.iter().map(|&t| tris[t]).collect();
+    let sub: Vec<[DVec2; 3]> = live.iter().map(|&t| tris[t]).collect();
     let grid = Grid::new(&sub, 0.0);
     let mut found = None;
     grid.pairs(&sub, 0.0, |i, j| {
@@ -447,7 +436,7 @@ pub fn min_chart_gap(uvs: &[[f32; 2]], indices: &[[u32; 3]], limit: f64) -> Opti
     let live: Vec<usize> = (0..tris.len())
         .filter(|&t| area2(&tris[t]).abs() > 1e-14)
         .collect();
-    let sub: Vec<[V2; 3]> = live.iter().map(|&t| tris[t]).collect();
+    let sub: Vec<[DVec2; 3]> = live.iter().map(|&t| tris[t]).collect();
     let grid = Grid::new(&sub, limit);
     let mut best: Option<f64> = None;
     grid.pairs(&sub, limit, |i, j| {
@@ -464,16 +453,12 @@ pub fn min_chart_gap(uvs: &[[f32; 2]], indices: &[[u32; 3]], limit: f64) -> Opti
 
 /// Generates light-map UVs for a triangle mesh (see the module docs).
 pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOptions) -> Unwrapped {
-    let scale = options.scale.map(|s| {
-        if s.is_finite() {
-            f64::from(s.abs())
-        } else {
-            1.0
-        }
-    });
-    let pos: Vec<V3> = positions
+    let scale = Vec3::from(options.scale)
+        .as_dvec3()
+        .map(|s| if s.is_finite() { s.abs() } else { 1.0 });
+    let pos: Vec<DVec3> = positions
         .iter()
-        .map(|p| std::array::from_fn(|k| f64::from(p[k]) * scale[k]))
+        .map(|&p| Vec3::from(p).as_dvec3() * scale)
         .collect();
     let density = f64::from(options.texels_per_metre);
     let pad = if density.is_finite() && density > 0.0 {
@@ -481,20 +466,20 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
     } else {
         0.0
     };
-    let corner =
-        |t: usize, k: usize| -> V3 { pos.get(indices[t][k] as usize).copied().unwrap_or([0.0; 3]) };
+    let corner = |t: usize, k: usize| -> DVec3 {
+        pos.get(indices[t][k] as usize)
+            .copied()
+            .unwrap_or(DVec3::ZERO)
+    };
     // Face normals and areas.
     let nf = indices.len();
-    let mut normal = vec![[0.0; 3]; nf];
+    let mut normal = vec![DVec3::ZERO; nf];
     let mut area = vec![0.0f64; nf];
     for t in 0..nf {
-        let c = cross3(
-            sub3(corner(t, 1), corner(t, 0)),
-            sub3(corner(t, 2), corner(t, 0)),
-        );
-        let l = dot3(c, c).sqrt();
+        let c = (corner(t, 1) - corner(t, 0)).cross(corner(t, 2) - corner(t, 0));
+        let l = c.length();
         if l.is_finite() && l > 0.0 {
-            normal[t] = c.map(|x| x / l);
+            normal[t] = c / l;
             area[t] = l / 2.0;
         }
     }
@@ -534,7 +519,7 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
     let mut order: Vec<usize> = (0..nf).filter(|&t| !degenerate(t)).collect();
     order.sort_by(|&a, &b| area[b].total_cmp(&area[a]).then(a.cmp(&b)));
     let mut chart_of = vec![u32::MAX; nf];
-    let mut charts: Vec<(V3, Vec<usize>)> = Vec::new();
+    let mut charts: Vec<(DVec3, Vec<usize>)> = Vec::new();
     for &seed in &order {
         if chart_of[seed] != u32::MAX {
             continue;
@@ -552,7 +537,7 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
                 if let Some(list) = edges.get(&(a.min(b), a.max(b))) {
                     for &u in list {
                         let u = u as usize;
-                        if chart_of[u] == u32::MAX && dot3(normal[u], n) >= cos_max {
+                        if chart_of[u] == u32::MAX && normal[u].dot(n) >= cos_max {
                             chart_of[u] = id;
                             faces.push(u);
                         }
@@ -563,15 +548,15 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
         charts.push((n, faces));
     }
     // Project each chart; split self-overlapping charts into single triangles.
-    let mut flat: Vec<(Vec<usize>, Vec<[V2; 3]>)> = Vec::new();
+    let mut flat: Vec<(Vec<usize>, Vec<[DVec2; 3]>)> = Vec::new();
     for (n, faces) in charts {
         let (tan, bit) = basis(n);
-        let proj: Vec<[V2; 3]> = faces
+        let proj: Vec<[DVec2; 3]> = faces
             .iter()
             .map(|&t| {
                 std::array::from_fn(|k| {
                     let p = corner(t, k);
-                    [dot3(p, tan), dot3(p, bit)]
+                    DVec2::new(p.dot(tan), p.dot(bit))
                 })
             })
             .collect();
@@ -597,71 +582,70 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
         }
     }
     // Minimum-area rectangles, long side horizontal, origin at 0.
-    let mut rects: Vec<[f64; 2]> = Vec::with_capacity(flat.len());
+    let mut rects: Vec<DVec2> = Vec::with_capacity(flat.len());
     for (_, tris) in &mut flat {
-        let pts: Vec<V2> = tris.iter().flatten().copied().collect();
-        let angle = min_area_angle(&pts);
-        let (s, c) = angle.sin_cos();
-        let rot = |p: V2| [c * p[0] + s * p[1], -s * p[0] + c * p[1]];
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
+        let pts: Vec<DVec2> = tris.iter().flatten().copied().collect();
+        let rot = rotation(min_area_angle(&pts));
+        let mut lo = DVec2::INFINITY;
+        let mut hi = DVec2::NEG_INFINITY;
         for t in tris.iter_mut() {
             for p in t.iter_mut() {
-                *p = rot(*p);
+                *p = rot * *p;
                 for k in 0..2 {
                     lo[k] = lo[k].min(p[k]);
                     hi[k] = hi[k].max(p[k]);
                 }
             }
         }
-        let mut size = [(hi[0] - lo[0]).max(0.0), (hi[1] - lo[1]).max(0.0)];
-        let swap = size[1] > size[0];
+        let mut size = (hi - lo).map(|d| d.max(0.0));
+        let swap = size.y > size.x;
         for t in tris.iter_mut() {
             for p in t.iter_mut() {
-                let q = [p[0] - lo[0], p[1] - lo[1]];
-                *p = if swap { [q[1], q[0]] } else { q };
+                let q = *p - lo;
+                *p = if swap { DVec2::new(q.y, q.x) } else { q };
             }
         }
         if swap {
-            size = [size[1], size[0]];
+            size = DVec2::new(size.y, size.x);
         }
         rects.push(size);
     }
     // Shelf packing, tallest first.
-    let slot = |r: [f64; 2]| [r[0] + pad, r[1] + pad];
-    let total: f64 = rects.iter().map(|&r| slot(r)[0] * slot(r)[1]).sum();
-    let widest = rects.iter().map(|&r| slot(r)[0]).fold(0.0, f64::max);
+    let slot = |r: DVec2| r + pad;
+    let total: f64 = rects.iter().map(|&r| slot(r).element_product()).sum();
+    let widest = rects.iter().map(|&r| slot(r).x).fold(0.0, f64::max);
     let width = widest.max(total.sqrt() * 1.1).max(1e-9);
     let mut by_height: Vec<usize> = (0..rects.len()).collect();
-    by_height.sort_by(|&a, &b| rects[b][1].total_cmp(&rects[a][1]).then(a.cmp(&b)));
-    let mut offsets = vec![[0.0; 2]; rects.len()];
+    by_height.sort_by(|&a, &b| rects[b].y.total_cmp(&rects[a].y).then(a.cmp(&b)));
+    let mut offsets = vec![DVec2::ZERO; rects.len()];
     let (mut x, mut y, mut shelf_h, mut used_w) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for &i in &by_height {
         let s = slot(rects[i]);
-        if x > 0.0 && x + s[0] > width {
+        if x > 0.0 && x + s.x > width {
             y += shelf_h;
             x = 0.0;
             shelf_h = 0.0;
         }
-        offsets[i] = [x + pad / 2.0, y + pad / 2.0];
-        x += s[0];
+        offsets[i] = DVec2::new(x, y) + pad / 2.0;
+        x += s.x;
         used_w = used_w.max(x);
-        shelf_h = shelf_h.max(s[1]);
+        shelf_h = shelf_h.max(s.y);
     }
-    let extent = [used_w.max(1e-9), (y + shelf_h).max(1e-9)];
+    let extent = DVec2::new(used_w.max(1e-9), (y + shelf_h).max(1e-9));
     // Emit split vertices.
     let mut out = Unwrapped {
         source_vertex: Vec::new(),
         uvs: Vec::new(),
         indices: vec![[0; 3]; nf],
         charts: flat.len(),
-        extent_m: extent,
+        extent_m: extent.to_array(),
     };
     let mut remap: HashMap<(u32, u32), u32> = HashMap::new();
-    let to_uv = |p: V2, o: V2| -> [f32; 2] {
-        let u = ((p[0] + o[0]) / extent[0]).clamp(0.0, 1.0);
-        let v = ((p[1] + o[1]) / extent[1]).clamp(0.0, 1.0);
-        [u as f32, v as f32]
+    let to_uv = |p: DVec2, o: DVec2| -> [f32; 2] {
+        ((p + o) / extent)
+            .map(|c| c.clamp(0.0, 1.0))
+            .as_vec2()
+            .to_array()
     };
     let mut first_uv = None;
     for (c, (faces, tris)) in flat.iter().enumerate() {
@@ -699,26 +683,23 @@ pub fn unwrap(positions: &[[f32; 3]], indices: &[[u32; 3]], options: &UnwrapOpti
 }
 
 /// An orthonormal tangent basis of the plane perpendicular to `n`.
-fn basis(n: V3) -> (V3, V3) {
-    let a = if n[0].abs() < 0.9 {
-        [1.0, 0.0, 0.0]
-    } else {
-        [0.0, 1.0, 0.0]
-    };
-    let t = cross3(a, n);
-    let l = dot3(t, t).sqrt();
-    let t = if l > 0.0 {
-        t.map(|x| x / l)
-    } else {
-        [1.0, 0.0, 0.0]
-    };
-    let b = cross3(n, t);
-    (t, b)
+fn basis(n: DVec3) -> (DVec3, DVec3) {
+    let a = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    let t = a.cross(n);
+    let l = t.length();
+    let t = if l > 0.0 { t / l } else { DVec3::X };
+    (t, n.cross(t))
+}
+
+/// The rotation by `-angle` radians: it turns the direction at `angle` onto +x.
+fn rotation(angle: f64) -> DMat2 {
+    let (s, c) = angle.sin_cos();
+    DMat2::from_cols(DVec2::new(c, -s), DVec2::new(s, c))
 }
 
 /// The rotation (radians) that gives the points' minimum-area bounding rectangle, found by
 /// rotating calipers over the convex hull's edges.
-fn min_area_angle(points: &[V2]) -> f64 {
+fn min_area_angle(points: &[DVec2]) -> f64 {
     let hull = convex_hull(points);
     if hull.len() < 3 {
         return 0.0;
@@ -727,18 +708,19 @@ fn min_area_angle(points: &[V2]) -> f64 {
     for i in 0..hull.len() {
         let p = hull[i];
         let q = hull[(i + 1) % hull.len()];
-        let angle = (q[1] - p[1]).atan2(q[0] - p[0]);
-        let (s, c) = angle.sin_cos();
-        let mut lo = [f64::INFINITY; 2];
-        let mut hi = [f64::NEG_INFINITY; 2];
-        for h in &hull {
-            let r = [c * h[0] + s * h[1], -s * h[0] + c * h[1]];
+        let d = q - p;
+        let angle = d.y.atan2(d.x);
+        let rot = rotation(angle);
+        let mut lo = DVec2::INFINITY;
+        let mut hi = DVec2::NEG_INFINITY;
+        for &h in &hull {
+            let r = rot * h;
             for k in 0..2 {
                 lo[k] = lo[k].min(r[k]);
                 hi[k] = hi[k].max(r[k]);
             }
         }
-        let a = (hi[0] - lo[0]) * (hi[1] - lo[1]);
+        let a = (hi - lo).element_product();
         if a < best.0 {
             best = (a, angle);
         }
@@ -747,21 +729,17 @@ fn min_area_angle(points: &[V2]) -> f64 {
 }
 
 /// Andrew's monotone chain; counter-clockwise, no collinear points.
-fn convex_hull(points: &[V2]) -> Vec<V2> {
-    let mut p: Vec<V2> = points
-        .iter()
-        .copied()
-        .filter(|q| q.iter().all(|c| c.is_finite()))
-        .collect();
-    p.sort_by(|a, b| a[0].total_cmp(&b[0]).then(a[1].total_cmp(&b[1])));
+fn convex_hull(points: &[DVec2]) -> Vec<DVec2> {
+    let mut p: Vec<DVec2> = points.iter().copied().filter(|q| q.is_finite()).collect();
+    p.sort_by(|a, b| a.x.total_cmp(&b.x).then(a.y.total_cmp(&b.y)));
     p.dedup();
     if p.len() < 3 {
         return p;
     }
-    let mut hull: Vec<V2> = Vec::with_capacity(2 * p.len());
+    let mut hull: Vec<DVec2> = Vec::with_capacity(2 * p.len());
     for pass in 0..2 {
         let start = hull.len();
-        let iter: Box<dyn Iterator<Item = &V2>> = if pass == 0 {
+        let iter: Box<dyn Iterator<Item = &DVec2>> = if pass == 0 {
             Box::new(p.iter())
         } else {
             Box::new(p.iter().rev())
@@ -812,10 +790,13 @@ mod tests {
 
     #[test]
     fn overlap_test_accepts_touching_and_rejects_overlapping() {
-        let a = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]];
-        let touching = [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]];
-        let overlapping = [[0.4, 0.0], [1.0, 0.0], [0.4, 1.0]];
-        let apart = [[2.0, 0.0], [3.0, 0.0], [2.0, 1.0]];
+        let [a, touching, overlapping, apart] = [
+            [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0]],
+            [[1.0, 0.0], [1.0, 1.0], [0.0, 1.0]],
+            [[0.4, 0.0], [1.0, 0.0], [0.4, 1.0]],
+            [[2.0, 0.0], [3.0, 0.0], [2.0, 1.0]],
+        ]
+        .map(|t| t.map(DVec2::from));
         assert!(!triangles_overlap(&a, &touching, OVERLAP_TOLERANCE));
         assert!(triangles_overlap(&a, &overlapping, OVERLAP_TOLERANCE));
         assert!(!triangles_overlap(&a, &apart, OVERLAP_TOLERANCE));

@@ -37,10 +37,11 @@
 //! vertex normal; a texel with no usable normal stays empty). Indices out of range and
 //! non-finite data are skipped, never a panic.
 
+use glam::{DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
 use crate::layout::{Layout, Region};
-use crate::scene::{Object, Scene, cross, normalize, sub3, tri_indices};
+use crate::scene::{Object, Scene, tri_indices};
 
 /// Fraction of the way toward the centroid that a clamped edge sample is moved.
 pub const EDGE_NUDGE: f64 = 1e-3;
@@ -139,14 +140,14 @@ pub fn rasterize(scene: &Scene, layout: &Layout) -> GBuffer {
 struct Best {
     dist: f64,
     tri: u32,
-    bary: [f64; 3],
+    bary: DVec3,
 }
 
 /// Per-vertex world data of one object, computed once.
 struct WorldVerts {
-    positions: Vec<[f64; 3]>,
+    positions: Vec<DVec3>,
     /// Unit world normals (zero where the normal cannot be transformed or normalised).
-    normals: Vec<[f64; 3]>,
+    normals: Vec<DVec3>,
 }
 
 /// Rows per band of parallel work within one object.
@@ -155,10 +156,10 @@ const BAND_ROWS: usize = 16;
 /// A triangle in texel coordinates, ready to rasterise.
 struct UvTriangle {
     index: u32,
-    p: [[f64; 2]; 3],
+    p: [DVec2; 3],
     area2: f64,
     /// Height of the triangle over the edge opposite each vertex, texels.
-    height: [f64; 3],
+    height: DVec3,
     /// Texel rows and columns its bounding box touches (half-open).
     rows: [usize; 2],
     cols: [usize; 2],
@@ -169,25 +170,21 @@ struct UvTriangle {
 pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Option<Texel>> {
     let (w, h) = (size[0] as usize, size[1] as usize);
     let m = &o.mesh;
-    let scale = [f64::from(size[0]), f64::from(size[1])];
+    let scale = DVec2::new(f64::from(size[0]), f64::from(size[1]));
     let tris: Vec<UvTriangle> = m
         .indices
         .iter()
         .enumerate()
         .filter_map(|(ti, tri)| {
             let idx = tri_indices(tri, m)?;
-            let p = idx.map(|i| {
-                let uv = m.lightmap_uvs[i];
-                [f64::from(uv[0]) * scale[0], f64::from(uv[1]) * scale[1]]
-            });
-            let area2 = cross2(sub2(p[1], p[0]), sub2(p[2], p[0]));
+            let p = idx.map(|i| Vec2::from(m.lightmap_uvs[i]).as_dvec2() * scale);
+            let area2 = (p[1] - p[0]).perp_dot(p[2] - p[0]);
             if !(area2.is_finite() && area2.abs() > 1e-12) {
                 return None;
             }
-            let height = std::array::from_fn(|i| {
-                let e = sub2(p[(i + 2) % 3], p[(i + 1) % 3]);
-                area2.abs() / (e[0] * e[0] + e[1] * e[1]).sqrt()
-            });
+            let height = DVec3::from_array(std::array::from_fn(|i| {
+                area2.abs() / (p[(i + 2) % 3] - p[(i + 1) % 3]).length()
+            }));
             let range = |k: usize, n: usize| {
                 let lo = p[0][k].min(p[1][k]).min(p[2][k]);
                 let hi = p[0][k].max(p[1][k]).max(p[2][k]);
@@ -210,12 +207,16 @@ pub(crate) fn rasterize_object(o: &Object, index: u32, size: [u32; 2]) -> Vec<Op
         positions: m
             .positions
             .iter()
-            .map(|&q| o.transform.point_f64(q.map(f64::from)))
+            .map(|&q| DVec3::from(o.transform.point_f64(q.map(f64::from))))
             .collect(),
         normals: m
             .normals
             .iter()
-            .map(|&n| o.transform.normal_f64(n.map(f64::from)).unwrap_or([0.0; 3]))
+            .map(|&n| {
+                o.transform
+                    .normal_f64(n.map(f64::from))
+                    .map_or(DVec3::ZERO, DVec3::from)
+            })
             .collect(),
     };
     let bands: Vec<Vec<Option<Texel>>> = (0..h.div_ceil(BAND_ROWS))
@@ -248,14 +249,14 @@ fn rasterize_band(
         let (y0, y1) = (t.rows[0].max(rows[0]), t.rows[1].min(rows[1]));
         for y in y0..y1 {
             for x in t.cols[0]..t.cols[1] {
-                let cell = [x as f64, y as f64];
-                let centre = [cell[0] + 0.5, cell[1] + 0.5];
+                let cell = DVec2::new(x as f64, y as f64);
+                let centre = cell + 0.5;
                 let b = barycentric(&t.p, t.area2, centre);
-                let inside = [0, 1, 2].map(|i| b[i] * t.height[i]);
-                if inside.iter().any(|&d| d <= -HALF_DIAGONAL) {
+                let inside = b * t.height;
+                if inside.cmple(DVec3::splat(-HALF_DIAGONAL)).any() {
                     continue;
                 }
-                let (dist, bary, mk) = if inside.iter().all(|&d| d >= HALF_DIAGONAL) {
+                let (dist, bary, mk) = if inside.cmpge(DVec3::splat(HALF_DIAGONAL)).all() {
                     (0.0, b, u16::MAX)
                 } else {
                     if !overlaps(&t.p, cell) {
@@ -284,59 +285,62 @@ fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Opti
     let m = &o.mesh;
     let idx = tri_indices(m.indices.get(b.tri as usize)?, m)?;
     let bary = if b.dist > 0.0 {
-        b.bary.map(|l| l * (1.0 - EDGE_NUDGE) + EDGE_NUDGE / 3.0)
+        b.bary * (1.0 - EDGE_NUDGE) + EDGE_NUDGE / 3.0
     } else {
         b.bary
     };
-    let interp3 = |v: [[f64; 3]; 3]| -> [f64; 3] {
-        std::array::from_fn(|k| bary[0] * v[0][k] + bary[1] * v[1][k] + bary[2] * v[2][k])
-    };
+    let interp3 = |v: [DVec3; 3]| v[0] * bary.x + v[1] * bary.y + v[2] * bary.z;
     let wp = idx.map(|i| verts.positions[i]);
     let pos = interp3(wp);
-    if !pos.iter().all(|c| c.is_finite()) {
+    if !pos.is_finite() {
         return None;
     }
     let wn = idx.map(|i| verts.normals[i]);
     let n = normalize(interp3(wn))
-        .or_else(|| normalize(cross(sub3(wp[1], wp[0]), sub3(wp[2], wp[0]))))
+        .or_else(|| normalize((wp[1] - wp[0]).cross(wp[2] - wp[0])))
         .or_else(|| wn.iter().find_map(|&v| normalize(v)))?;
-    let mut albedo = o.albedo.factor.map(f64::from);
+    let mut albedo = Vec3::from(o.albedo.factor).as_dvec3();
     if let Some(colors) = &m.colors
         && let [Some(c0), Some(c1), Some(c2)] = idx.map(|i| colors.get(i))
     {
-        let c = interp3([*c0, *c1, *c2].map(|v| v.map(f64::from)));
-        albedo = std::array::from_fn(|k| albedo[k] * c[k]);
+        albedo *= interp3([*c0, *c1, *c2].map(|v| Vec3::from(v).as_dvec3()));
     }
     if let (Some(tex), Some(uvs)) = (&o.albedo.texture, &m.material_uvs)
         && let [Some(t0), Some(t1), Some(t2)] = idx.map(|i| uvs.get(i))
     {
-        let uv: [f64; 2] = std::array::from_fn(|k| {
-            bary[0] * f64::from(t0[k]) + bary[1] * f64::from(t1[k]) + bary[2] * f64::from(t2[k])
-        });
-        let s = tex.sample(uv.map(|c| c as f32));
-        albedo = std::array::from_fn(|k| albedo[k] * f64::from(s[k]));
+        let [t0, t1, t2] = [t0, t1, t2].map(|&t| Vec2::from(t).as_dvec2());
+        let uv = t0 * bary.x + t1 * bary.y + t2 * bary.z;
+        albedo *= Vec3::from(tex.sample(uv.as_vec2().to_array())).as_dvec3();
     }
-    let albedo = albedo.map(|a| if a.is_finite() { a.clamp(0.0, 1.0) } else { 0.0 } as f32);
+    let albedo = albedo
+        .map(|a| {
+            if a.is_finite() {
+                a.clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        })
+        .as_vec3();
     let coverage = mask.count_ones() as f32 / 16.0;
     Some([
-        [pos[0] as f32, pos[1] as f32, pos[2] as f32, 1.0],
-        [n[0] as f32, n[1] as f32, n[2] as f32, index as f32],
-        [albedo[0], albedo[1], albedo[2], coverage],
+        pos.as_vec3().extend(1.0).to_array(),
+        n.as_vec3().extend(index as f32).to_array(),
+        albedo.extend(coverage).to_array(),
     ])
 }
 
-fn sub2(a: [f64; 2], b: [f64; 2]) -> [f64; 2] {
-    [a[0] - b[0], a[1] - b[1]]
-}
-
-fn cross2(a: [f64; 2], b: [f64; 2]) -> f64 {
-    a[0] * b[1] - a[1] * b[0]
+/// `v` divided by its length, or `None` for a zero or non-finite vector.
+fn normalize(v: DVec3) -> Option<DVec3> {
+    let l = v.length();
+    (l > 0.0 && l.is_finite()).then(|| v / l)
 }
 
 /// Whether the triangle `p` and the unit texel square with top-left corner `cell` overlap
-/// with positive area (separating-axis test; touching along an edge does not count).
-pub(crate) fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
+/// with positive area (separating-axis test; touching along an edge does not count). Points
+/// are `DVec2`s or `[f64; 2]`s.
+pub(crate) fn overlaps<P: Into<DVec2> + Copy>(p: &[P; 3], cell: impl Into<DVec2>) -> bool {
     const EPS: f64 = 1e-9;
+    let (p, cell) = (p.map(Into::into), cell.into());
     for k in 0..2 {
         let lo = p[0][k].min(p[1][k]).min(p[2][k]);
         let hi = p[0][k].max(p[1][k]).max(p[2][k]);
@@ -344,18 +348,17 @@ pub(crate) fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
             return false;
         }
     }
-    let centre = [cell[0] + 0.5, cell[1] + 0.5];
+    let centre = cell + 0.5;
     for i in 0..3 {
-        let e = sub2(p[(i + 1) % 3], p[i]);
-        let n = [-e[1], e[0]];
-        let len = (n[0] * n[0] + n[1] * n[1]).sqrt();
-        let proj = p.map(|q| n[0] * q[0] + n[1] * q[1]);
+        let n = (p[(i + 1) % 3] - p[i]).perp();
+        let len = n.length();
+        let proj = p.map(|q| n.dot(q));
         let (tlo, thi) = (
             proj[0].min(proj[1]).min(proj[2]),
             proj[0].max(proj[1]).max(proj[2]),
         );
-        let c = n[0] * centre[0] + n[1] * centre[1];
-        let r = 0.5 * (n[0].abs() + n[1].abs());
+        let c = n.dot(centre);
+        let r = 0.5 * n.abs().element_sum();
         if thi <= c - r + EPS * len || tlo >= c + r - EPS * len {
             return false;
         }
@@ -364,33 +367,32 @@ pub(crate) fn overlaps(p: &[[f64; 2]; 3], cell: [f64; 2]) -> bool {
 }
 
 /// Barycentrics of `q` in triangle `p` (twice-signed-area `area2`).
-fn barycentric(p: &[[f64; 2]; 3], area2: f64, q: [f64; 2]) -> [f64; 3] {
-    let l0 = cross2(sub2(p[1], q), sub2(p[2], q)) / area2;
-    let l1 = cross2(sub2(p[2], q), sub2(p[0], q)) / area2;
-    [l0, l1, 1.0 - l0 - l1]
+fn barycentric(p: &[DVec2; 3], area2: f64, q: DVec2) -> DVec3 {
+    let l0 = (p[1] - q).perp_dot(p[2] - q) / area2;
+    let l1 = (p[2] - q).perp_dot(p[0] - q) / area2;
+    DVec3::new(l0, l1, 1.0 - l0 - l1)
 }
 
 /// Distance (texels) from `q` (barycentrics `b`) to triangle `p` and the barycentrics of
 /// the closest point.
-fn closest(p: &[[f64; 2]; 3], b: [f64; 3], q: [f64; 2]) -> (f64, [f64; 3]) {
-    if b.iter().all(|&l| l >= 0.0) {
+fn closest(p: &[DVec2; 3], b: DVec3, q: DVec2) -> (f64, DVec3) {
+    if b.cmpge(DVec3::ZERO).all() {
         return (0.0, b);
     }
-    let mut best = (f64::INFINITY, [1.0 / 3.0; 3]);
+    let mut best = (f64::INFINITY, DVec3::splat(1.0 / 3.0));
     for i in 0..3 {
         let j = (i + 1) % 3;
-        let e = sub2(p[j], p[i]);
-        let ee = e[0] * e[0] + e[1] * e[1];
+        let e = p[j] - p[i];
+        let ee = e.length_squared();
         let t = if ee > 0.0 {
-            ((q[0] - p[i][0]) * e[0] + (q[1] - p[i][1]) * e[1]) / ee
+            (q - p[i]).dot(e) / ee
         } else {
             0.0
         }
         .clamp(0.0, 1.0);
-        let c = [p[i][0] + t * e[0], p[i][1] + t * e[1]];
-        let d = ((q[0] - c[0]).powi(2) + (q[1] - c[1]).powi(2)).sqrt();
+        let d = q.distance(p[i] + e * t);
         if d < best.0 {
-            let mut bary = [0.0; 3];
+            let mut bary = DVec3::ZERO;
             bary[i] = 1.0 - t;
             bary[j] = t;
             best = (d, bary);
@@ -400,22 +402,16 @@ fn closest(p: &[[f64; 2]; 3], b: [f64; 3], q: [f64; 2]) -> (f64, [f64; 3]) {
 }
 
 /// 4×4 sample mask of the texel `cell` inside triangle `p`.
-fn coverage_mask(p: &[[f64; 2]; 3], area2: f64, cell: [f64; 2]) -> u16 {
-    let inside = |q: [f64; 2]| barycentric(p, area2, q).iter().all(|&l| l >= 0.0);
-    let corners = [[0.0, 0.0], [1.0, 0.0], [0.0, 1.0], [1.0, 1.0]];
-    if corners
-        .iter()
-        .all(|c| inside([cell[0] + c[0], cell[1] + c[1]]))
-    {
+fn coverage_mask(p: &[DVec2; 3], area2: f64, cell: DVec2) -> u16 {
+    let inside = |q: DVec2| barycentric(p, area2, q).cmpge(DVec3::ZERO).all();
+    let corners = [DVec2::ZERO, DVec2::X, DVec2::Y, DVec2::ONE];
+    if corners.iter().all(|&c| inside(cell + c)) {
         return u16::MAX;
     }
     let mut mask = 0u16;
     for j in 0..4 {
         for i in 0..4 {
-            let q = [
-                cell[0] + (i as f64 + 0.5) / 4.0,
-                cell[1] + (j as f64 + 0.5) / 4.0,
-            ];
+            let q = cell + DVec2::new(i as f64 + 0.5, j as f64 + 0.5) / 4.0;
             if inside(q) {
                 mask |= 1 << (j * 4 + i);
             }
@@ -428,7 +424,7 @@ fn coverage_mask(p: &[[f64; 2]; 3], area2: f64, cell: [f64; 2]) -> u16 {
 mod tests {
     use super::*;
     use crate::meshes;
-    use crate::scene::{Albedo, Mesh, Settings, Transform, dot};
+    use crate::scene::{Albedo, Mesh, Settings, Transform};
 
     fn raster(scene: &Scene) -> (Layout, GBuffer) {
         let l = Layout::new(scene, 8192, 256).expect("layout");
@@ -437,17 +433,15 @@ mod tests {
     }
 
     /// Distance from `q` to triangle `t` (3D, brute force, for tests).
-    fn point_triangle_distance(q: [f64; 3], t: [[f64; 3]; 3]) -> f64 {
-        let (e0, e1) = (sub3(t[1], t[0]), sub3(t[2], t[0]));
-        let n = cross(e0, e1);
-        let nn = dot(n, n);
+    fn point_triangle_distance(q: DVec3, t: [DVec3; 3]) -> f64 {
+        let n = (t[1] - t[0]).cross(t[2] - t[0]);
+        let nn = n.length_squared();
         if nn > 0.0 {
-            let d = sub3(q, t[0]);
-            let s = dot(d, n) / nn;
-            let proj = [q[0] - s * n[0], q[1] - s * n[1], q[2] - s * n[2]];
+            let s = (q - t[0]).dot(n) / nn;
+            let proj = q - n * s;
             let inside = (0..3).all(|i| {
                 let (a, b) = (t[i], t[(i + 1) % 3]);
-                dot(cross(sub3(b, a), sub3(proj, a)), n) >= 0.0
+                (b - a).cross(proj - a).dot(n) >= 0.0
             });
             if inside {
                 return (s * s * nn).sqrt();
@@ -456,28 +450,28 @@ mod tests {
         (0..3)
             .map(|i| {
                 let (a, b) = (t[i], t[(i + 1) % 3]);
-                let ab = sub3(b, a);
-                let l = dot(ab, ab);
+                let ab = b - a;
+                let l = ab.length_squared();
                 let s = if l > 0.0 {
-                    (dot(sub3(q, a), ab) / l).clamp(0.0, 1.0)
+                    ((q - a).dot(ab) / l).clamp(0.0, 1.0)
                 } else {
                     0.0
                 };
-                let c = [a[0] + s * ab[0], a[1] + s * ab[1], a[2] + s * ab[2]];
-                let d = sub3(q, c);
-                dot(d, d).sqrt()
+                q.distance(a + ab * s)
             })
             .fold(f64::INFINITY, f64::min)
     }
 
-    fn world_tris(o: &Object) -> Vec<[[f64; 3]; 3]> {
+    fn world_tris(o: &Object) -> Vec<[DVec3; 3]> {
         o.mesh
             .indices
             .iter()
             .map(|t| {
                 t.map(|i| {
-                    o.transform
-                        .point_f64(o.mesh.positions[i as usize].map(f64::from))
+                    DVec3::from(
+                        o.transform
+                            .point_f64(o.mesh.positions[i as usize].map(f64::from)),
+                    )
                 })
             })
             .collect()
@@ -505,7 +499,7 @@ mod tests {
                 continue;
             }
             assert_eq!(t[3], 1.0);
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let len = Vec3::from_slice(n).length();
             assert!((len - 1.0).abs() < 1e-5, "texel {k}: normal length {len}");
             let obj = n[3] as usize;
             assert_eq!(n[3], obj as f32);
@@ -525,7 +519,7 @@ mod tests {
             assert!(x >= r.offset[0] && x < r.offset[0] + r.size[0]);
             assert!(y >= r.offset[1] && y < r.offset[1] + r.size[1]);
             if k % stride == 0 {
-                let q = [t[0], t[1], t[2]].map(f64::from);
+                let q = Vec3::from_slice(t).as_dvec3();
                 let d = tris[obj]
                     .iter()
                     .map(|&tri| point_triangle_distance(q, tri))
@@ -562,10 +556,10 @@ mod tests {
         let r = f64::from(crate::builtin::SPHERE_RADIUS);
         for (p, n) in g.position.chunks_exact(4).zip(g.normal.chunks_exact(4)) {
             if p[3] == 1.0 {
-                let q = [p[0], p[1], p[2]].map(f64::from);
-                let d = dot(q, q).sqrt();
+                let q = Vec3::from_slice(p).as_dvec3();
+                let d = q.length();
                 assert!(d <= r * (1.0 + 1e-6) && d > r * 0.998, "{d}");
-                let c = dot(q, [n[0], n[1], n[2]].map(f64::from)) / d;
+                let c = q.dot(Vec3::from_slice(n).as_dvec3()) / d;
                 assert!(c < -0.999, "normal not toward the centre: {c}");
             }
         }
@@ -588,17 +582,15 @@ mod tests {
         for (oi, o) in s.objects.iter().enumerate() {
             let r = l.regions[oi].expect("receiver");
             for t in &o.mesh.indices {
-                let uv = t.map(|i| o.mesh.lightmap_uvs[i as usize].map(f64::from));
+                let uv = t.map(|i| Vec2::from(o.mesh.lightmap_uvs[i as usize]).as_dvec2());
                 for _ in 0..64 {
                     let (mut a, mut b) = (rnd(), rnd());
                     if a + b > 1.0 {
                         (a, b) = (1.0 - a, 1.0 - b);
                     }
-                    let q: [f64; 2] = std::array::from_fn(|k| {
-                        uv[0][k] + a * (uv[1][k] - uv[0][k]) + b * (uv[2][k] - uv[0][k])
-                    });
-                    let x = (q[0] * f64::from(r.size[0])).floor() as u32 + r.offset[0];
-                    let y = (q[1] * f64::from(r.size[1])).floor() as u32 + r.offset[1];
+                    let q = uv[0] + (uv[1] - uv[0]) * a + (uv[2] - uv[0]) * b;
+                    let x = (q.x * f64::from(r.size[0])).floor() as u32 + r.offset[0];
+                    let y = (q.y * f64::from(r.size[1])).floor() as u32 + r.offset[1];
                     assert!(
                         g.is_valid(r.layer, x, y),
                         "{}: texel ({x}, {y}) holds surface but is empty",
@@ -727,7 +719,7 @@ mod tests {
         );
         assert!(g.valid_texels() > 100);
         for n in g.normal.chunks_exact(4) {
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            let len = Vec3::from_slice(n).length();
             assert!(len == 0.0 || (len - 1.0).abs() < 1e-5);
         }
         // The zero-area triangle's texels sit at its one point.
@@ -781,11 +773,12 @@ mod tests {
             let g = rasterize(&s, &l);
             check(&s, &l, &g, 1);
             for (_, uv) in &tris {
-                let a2 = (uv[1][0] - uv[0][0]) * (uv[2][1] - uv[0][1]) - (uv[1][1] - uv[0][1]) * (uv[2][0] - uv[0][0]);
+                let uv = uv.map(Vec2::from);
+                let a2 = (uv[1] - uv[0]).perp_dot(uv[2] - uv[0]);
                 if a2.abs() * (size[0] * size[1]) as f32 > 1e-6 {
-                    let c = [0, 1].map(|k| (uv[0][k] + uv[1][k] + uv[2][k]) / 3.0);
-                    let x = ((c[0] * size[0] as f32) as u32).min(size[0] - 1);
-                    let y = ((c[1] * size[1] as f32) as u32).min(size[1] - 1);
+                    let c = (uv[0] + uv[1] + uv[2]) / 3.0;
+                    let x = ((c.x * size[0] as f32) as u32).min(size[0] - 1);
+                    let y = ((c.y * size[1] as f32) as u32).min(size[1] - 1);
                     proptest::prop_assert!(g.is_valid(0, x, y), "centroid texel ({}, {}) empty", x, y);
                 }
             }

@@ -14,7 +14,9 @@
 //! object's light into another's map. Non-receivers get no region (`None`). A scene with no
 //! receiver has zero layers.
 
-use crate::scene::{Object, Scene, sub3};
+use glam::{DVec3, Vec2};
+
+use crate::scene::{Object, Scene};
 
 /// Empty texels between two regions of the same layer.
 pub const REGION_GAP: u32 = 4;
@@ -261,26 +263,23 @@ pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
         let Some(idx) = crate::scene::tri_indices(tri, m) else {
             continue;
         };
-        let p = idx.map(|i| object.transform.point_f64(m.positions[i].map(f64::from)));
-        let t = idx.map(|i| m.lightmap_uvs[i].map(f64::from));
-        let (e1, e2) = (sub3(p[1], p[0]), sub3(p[2], p[0]));
-        let (d1, d2) = (
-            [t[1][0] - t[0][0], t[1][1] - t[0][1]],
-            [t[2][0] - t[0][0], t[2][1] - t[0][1]],
-        );
-        let det = d1[0] * d2[1] - d1[1] * d2[0];
-        let aw = crate::scene::length(crate::scene::cross(e1, e2)) / 2.0;
+        let p = idx.map(|i| DVec3::from(object.transform.point_f64(m.positions[i].map(f64::from))));
+        let t = idx.map(|i| Vec2::from(m.lightmap_uvs[i]).as_dvec2());
+        let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+        let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
+        let det = d1.perp_dot(d2);
+        let aw = crate::scene::length(e1.cross(e2).to_array()) / 2.0;
         let auv = det.abs() / 2.0;
         if !(aw.is_finite() && auv.is_finite()) || auv == 0.0 {
             continue;
         }
         // dP/du and dP/dv of the affine map from UV to the surface.
-        let dpdu: [f64; 3] = std::array::from_fn(|k| (d2[1] * e1[k] - d1[1] * e2[k]) / det);
-        let dpdv: [f64; 3] = std::array::from_fn(|k| (-d2[0] * e1[k] + d1[0] * e2[k]) / det);
+        let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+        let dpdv = (e1 * -d2.x + e2 * d1.x) / det;
         area_world += aw;
         area_uv += auv;
-        stretch_u += auv * crate::scene::length(dpdu);
-        stretch_v += auv * crate::scene::length(dpdv);
+        stretch_u += auv * dpdu.length();
+        stretch_v += auv * dpdv.length();
     }
     if !(area_world > 0.0 && area_uv > 0.0 && stretch_u > 0.0 && stretch_v > 0.0) {
         return None;
