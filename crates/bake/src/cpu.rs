@@ -50,7 +50,7 @@ use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::map::sample_masked;
 use crate::program::{
-    BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, ParamBlock, Program,
+    BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams, ParamBlock, Program,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -625,12 +625,13 @@ fn texel(
             ]
         }
         Program::Combine => {
+            let w = CombineParams::from_words(call.params);
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
-                guard(a[0] + b[0]),
-                guard(a[1] + b[1]),
-                guard(a[2] + b[2]),
+                guard(w.a_weight * a[0] + w.b_weight * b[0]),
+                guard(w.a_weight * a[1] + w.b_weight * b[1]),
+                guard(w.a_weight * a[2] + w.b_weight * b[2]),
                 a[3],
             ]
         }

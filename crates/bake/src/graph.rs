@@ -36,7 +36,7 @@
 //! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;
-use crate::program::{DirectParams, GatherParams, Params, blur_params};
+use crate::program::{CombineParams, DirectParams, GatherParams, Params, blur_params};
 use crate::scene::{Blur, BvhMode};
 
 /// Index of a texture in [`BakeGraph::textures`].
@@ -390,7 +390,7 @@ fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexI
         vec![direct, indirect],
         vec![combined],
         bounce,
-        Params::None,
+        Params::Combine(CombineParams::SUM),
     );
 }
 

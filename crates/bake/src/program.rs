@@ -10,8 +10,8 @@
 //!   ([`crate::shader`]).
 //! - [`Signature::scene`]: the static scene resources it needs ([`SceneNeeds`]).
 //! - [`Signature::params`]: its uniform parameter block, one `#[repr(C)]` struct per program
-//!   ([`DirectParams`], [`BlurParams`], [`GatherParams`]; none for copy, albedo multiply and
-//!   combine) whose fields — names, scalar types and byte offsets — are [`ParamBlock::FIELDS`].
+//!   ([`DirectParams`], [`BlurParams`], [`GatherParams`], [`CombineParams`]; none for copy
+//!   and albedo multiply) whose fields — names, scalar types and byte offsets — are [`ParamBlock::FIELDS`].
 //!   The GLSL uniforms and the WGSL struct are generated from those fields, so a shader and the
 //!   Rust side cannot disagree on a name, a type or an offset.
 //! - [`Signature::libraries`]: the shared shader library files it includes.
@@ -216,6 +216,30 @@ param_block! {
 }
 
 param_block! {
+    /// Parameters of [`Program::Combine`]: `dst = a_weight · a + b_weight · b`.
+    CombineParams as "LuxCombineParams" {
+        /// Weight of the first input.
+        a_weight: f32,
+        /// Weight of the second input.
+        b_weight: f32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+    }
+}
+
+impl CombineParams {
+    /// `a + b` (the paper's combine): weights 1, bit-identical to an unweighted sum.
+    pub const SUM: CombineParams = CombineParams {
+        a_weight: 1.0,
+        b_weight: 1.0,
+        pad0: 0,
+        pad1: 0,
+    };
+}
+
+param_block! {
     /// Parameters of [`Program::Gather`].
     GatherParams as "LuxGatherParams" {
         /// Rays per texel.
@@ -253,7 +277,7 @@ pub fn blur_params(step: [i32; 2], sigma: f32) -> BlurParams {
 /// The parameters of one computed pass: the block of its program.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Params {
-    /// Programs without parameters (copy, albedo multiply, combine).
+    /// Programs without parameters (copy, albedo multiply).
     None,
     /// [`Program::Direct`].
     Direct(DirectParams),
@@ -261,6 +285,8 @@ pub enum Params {
     Blur(BlurParams),
     /// [`Program::Gather`].
     Gather(GatherParams),
+    /// [`Program::Combine`].
+    Combine(CombineParams),
 }
 
 impl Params {
@@ -271,6 +297,7 @@ impl Params {
             Params::Direct(p) => p.words(),
             Params::Blur(p) => p.words(),
             Params::Gather(p) => p.words(),
+            Params::Combine(p) => p.words(),
         }
     }
 
@@ -281,6 +308,7 @@ impl Params {
             Params::Direct(_) => DirectParams::FIELDS,
             Params::Blur(_) => BlurParams::FIELDS,
             Params::Gather(_) => GatherParams::FIELDS,
+            Params::Combine(_) => CombineParams::FIELDS,
         }
     }
 
@@ -291,6 +319,7 @@ impl Params {
             Params::Direct(p) => u64::from(p.lamp_count),
             Params::Blur(p) => u64::from(p.radius.unsigned_abs()) * 2 + 1,
             Params::Gather(p) => u64::from(p.rays),
+            Params::Combine(_) => 1,
         }
         .max(1)
     }
@@ -353,7 +382,7 @@ pub enum Program {
     AlbedoMul,
     /// One bounce of indirect illuminance.
     Gather,
-    /// Direct + indirect.
+    /// Weighted sum of two maps (direct + indirect).
     Combine,
 }
 
@@ -416,8 +445,8 @@ const SIGNATURES: [Signature; 6] = [
         program: Program::Combine,
         reads: &["direct", "indirect"],
         scene: NO_SCENE,
-        params: &[],
-        params_wgsl: "",
+        params: CombineParams::FIELDS,
+        params_wgsl: CombineParams::WGSL_NAME,
         libraries: &[Library::Common],
     },
 ];
@@ -546,6 +575,7 @@ mod tests {
             DirectParams::FIELDS,
             BlurParams::FIELDS,
             GatherParams::FIELDS,
+            CombineParams::FIELDS,
         ] {
             for (i, f) in fields.iter().enumerate() {
                 assert_eq!(f.offset, 4 * i, "{}", f.name);

@@ -1,5 +1,5 @@
-// Pass "combine" (paper Figure 4, box 6): direct + indirect illuminance.
-
+// Pass "combine" (paper Figure 4, box 6): direct + indirect illuminance, weighted
+// (lux_pass.a_weight * a + lux_pass.b_weight * b; the paper's combine has both weights 1).
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -10,5 +10,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let layer = i32(lux_tile.layer);
     let a = textureLoad(lux_direct, c, layer, 0);
     let b = textureLoad(lux_indirect, c, layer, 0);
-    lux_store(c, vec4<f32>(lux_guard3(a.rgb + b.rgb), a.a));
+    lux_store(c, vec4<f32>(lux_guard3(lux_pass.a_weight * a.rgb + lux_pass.b_weight * b.rgb), a.a));
 }
