@@ -20,8 +20,8 @@
 //!    previous bake stays (same bake count, same light maps);
 //! 5. with WebGL disabled (`--disable-webgl`) the page shows a message naming WebGL2.
 //!
-//! A missing Chromium or chromedriver skips the check with a message, except with `CI=true`,
-//! where it is a failure.
+//! A missing Chromium, chromedriver or native GL driver skips the check with a message, except
+//! under CI, where it is a failure (`luxbake::ci`'s policy).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -392,7 +392,6 @@ fn free_port() -> Result<u16, String> {
 // ---------------------------------------------------------------- the check
 
 fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
-    let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
     for (what, p) in [
         ("Chromium", &args.chromium),
         ("chromedriver", &args.chromedriver),
@@ -402,12 +401,7 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
                 "{what} not found at {} (apt-get install chromium chromium-driver)",
                 p.display()
             );
-            if ci {
-                return Err(format!(
-                    "{msg}; CI=true: the browser test may not be skipped"
-                ));
-            }
-            println!("SKIPPED web check: {msg}");
+            luxbake::ci::skip_or_fail("web check", &msg);
             return Ok(());
         }
     }
@@ -417,7 +411,14 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     // Native reference bake first (llvmpipe through EGL).
     let request = BakeRequest::from_json(CHECK_REQUEST).map_err(|e| e.to_string())?;
     let scene = build_scene(&request, None).map_err(|e| e.to_string())?;
-    let mut backend = GlowBackend::headless().map_err(|e| format!("native glow: {e}"))?;
+    let mut backend = match GlowBackend::headless() {
+        Ok(b) => b,
+        Err(e) if e.is_driver_missing() => {
+            luxbake::ci::skip_or_fail("web check", &format!("native glow: {e}"));
+            return Ok(());
+        }
+        Err(e) => return Err(format!("native glow: {e}")),
+    };
     let t = Instant::now();
     let native = luxbake::bake(&mut backend, &scene, &scene.settings, &mut |_| {})
         .map_err(|e| format!("native glow bake: {e}"))?;
