@@ -110,7 +110,6 @@ pub fn settings() -> Settings {
         texels_per_metre: 12.0,
         bvh: BvhMode::Mtbvh,
         seed: 7,
-        ..Settings::default()
     }
 }
 

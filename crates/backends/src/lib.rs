@@ -63,14 +63,14 @@ impl fmt::Display for BackendKind {
 
 impl FromStr for BackendKind {
     type Err = String;
-    /// `cpu`, `glow` or `wgpu` (case-insensitive).
+    /// `cpu`, `glow` or `wgpu` (case-insensitive): the names a scene file's `settings.backend`
+    /// accepts ([`luxbake::scenefile::backend_name`]).
     fn from_str(s: &str) -> Result<BackendKind, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "cpu" => Ok(BackendKind::Cpu),
-            "glow" => Ok(BackendKind::Glow),
-            "wgpu" => Ok(BackendKind::Wgpu),
-            _ => Err(format!("expected \"cpu\", \"glow\" or \"wgpu\", got `{s}`")),
-        }
+        let name = luxbake::scenefile::backend_name(s)?;
+        BackendKind::ALL
+            .into_iter()
+            .find(|k| k.name() == name)
+            .ok_or_else(|| format!("no backend is named `{name}`"))
     }
 }
 
@@ -342,6 +342,8 @@ mod tests {
 
     #[test]
     fn names_parse_back() {
+        let names = BackendKind::ALL.map(BackendKind::name);
+        assert_eq!(names, luxbake::scenefile::BACKEND_NAMES);
         for b in BackendKind::ALL {
             assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
             assert_eq!(b.to_string(), b.name());
