@@ -5,16 +5,16 @@
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, ObjectMaps};
+use luxbake::bake::{BakeOutput, ObjectMaps, bake};
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::map::MapImage;
 use luxbake::meshes;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
+use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
-use luxbake_tests::Backend;
 
 const I0: f64 = 1000.0;
-const GPU: [Backend; 2] = [Backend::Glow, Backend::Wgpu];
+const GPU: [BackendKind; 2] = [BackendKind::Glow, BackendKind::Wgpu];
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     Settings {
@@ -66,11 +66,10 @@ impl Err {
     }
 }
 
-fn run(backend: Backend, test: &str, scene: &Scene) -> Option<BakeOutput> {
-    let mut b = backend.open(test)?;
-    let out = b
-        .bake(scene, &scene.settings, &mut |_| {})
-        .unwrap_or_else(|e| panic!("{test}: {} bake: {e}", backend.name()));
+fn run(backend: BackendKind, test: &str, scene: &Scene) -> Option<BakeOutput> {
+    let mut b = luxbake_tests::open(backend, test)?;
+    let out = bake(&mut b, scene, &scene.settings, &mut |_| {})
+        .unwrap_or_else(|e| panic!("{test}: {backend} bake: {e}"));
     for m in &out.maps {
         for stage in m.stages.iter().flatten() {
             assert!(

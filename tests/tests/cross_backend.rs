@@ -4,27 +4,28 @@
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI.
 
+use luxbake::bake::bake;
 use luxbake::graph::Figure5;
 use luxbake::scene::Scene;
-use luxbake_tests::{Backend, Pair, SCENES, SceneCase, compare, settings};
+use luxbake_backends::BackendKind;
+use luxbake_tests::{Pair, SCENES, SceneCase, compare, open, settings};
 
 fn run(case: &SceneCase) {
     let test = format!("cross_backend::{}", case.scene);
     let settings = settings();
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     let mut outputs = Vec::new();
-    for b in Backend::ALL {
-        if let Some(mut opened) = b.open(&test) {
-            let out = opened
-                .bake(&scene, &settings, &mut |_| {})
-                .unwrap_or_else(|e| panic!("{test}: {} bake failed: {e}", b.name()));
+    for b in BackendKind::ALL {
+        if let Some(mut opened) = open(b, &test) {
+            let out = bake(&mut opened, &scene, &settings, &mut |_| {})
+                .unwrap_or_else(|e| panic!("{test}: {b} bake failed: {e}"));
             outputs.push((b, out));
         }
     }
     let mut failures = Vec::new();
     let mut compared = 0;
     for pair in Pair::ALL {
-        let find = |b: Backend| outputs.iter().find(|(k, _)| *k == b).map(|(_, o)| o);
+        let find = |b: BackendKind| outputs.iter().find(|(k, _)| *k == b).map(|(_, o)| o);
         let (Some(e), Some(a)) = (find(pair.expected), find(pair.actual)) else {
             continue;
         };

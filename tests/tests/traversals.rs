@@ -1,10 +1,12 @@
 //! MTBVH, TBVH and brute-force traversal give the same images on every GPU backend
 //! (`chairs_01`, every stage), and the bake reports the traversal it used.
 
-use luxbake::bake::BakeOutput;
+use luxbake::bake::{BakeOutput, bake};
 use luxbake::graph::Figure5;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
-use luxbake_tests::{Backend, Tolerance, diff, output_dir, write_failure_images};
+use luxbake_backends::BackendKind;
+use luxbake_backends::image_diff::{Tolerance, diff, write_failure_images};
+use luxbake_tests::{open, output_dir};
 
 /// Every traversal finds the same closest hit (the same triangle, bit-identical `t` and
 /// barycentrics) except at exact ties in `t` between triangles sharing an edge, where the
@@ -29,8 +31,8 @@ fn mtbvh_tbvh_and_brute_force_give_the_same_images() {
     };
     let scene = Scene::builtin_with_settings("chairs_01", base.clone()).expect("chairs_01");
     let mut failures = Vec::new();
-    for backend in [Backend::Glow, Backend::Wgpu] {
-        let Some(mut opened) = backend.open("mtbvh_tbvh_and_brute_force_give_the_same_images")
+    for backend in [BackendKind::Glow, BackendKind::Wgpu] {
+        let Some(mut opened) = open(backend, "mtbvh_tbvh_and_brute_force_give_the_same_images")
         else {
             continue;
         };
@@ -41,9 +43,8 @@ fn mtbvh_tbvh_and_brute_force_give_the_same_images() {
                     bvh,
                     ..base.clone()
                 };
-                let out = opened
-                    .bake(&scene, &settings, &mut |_| {})
-                    .unwrap_or_else(|e| panic!("{} bake with {bvh:?}: {e}", backend.name()));
+                let out = bake(&mut opened, &scene, &settings, &mut |_| {})
+                    .unwrap_or_else(|e| panic!("{backend} bake with {bvh:?}: {e}"));
                 assert_eq!(out.report.bvh, bvh);
                 (bvh, out)
             })

@@ -10,9 +10,10 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::output::write_bake;
-use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake::scenefile::preferred_backend;
+use luxbake_backends::BackendKind;
 
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]
@@ -30,7 +31,7 @@ pub struct Args {
     /// linear EXR in lux beside it; see `luxbake_assets::export`).
     #[arg(long)]
     glb: Option<PathBuf>,
-    /// Backend: cpu, glow or wgpu.
+    /// Backend: cpu, glow or wgpu (default: the scene file's `settings.backend`, else cpu).
     #[arg(long)]
     backend: Option<BackendKind>,
     /// Gather rays per texel per bounce.
@@ -73,53 +74,46 @@ impl Args {
         if let Some(v) = self.seed {
             s.seed = v;
         }
-        if let Some(v) = self.backend {
-            s.backend = v;
-        }
     }
 }
 
-/// The scene the arguments name, with the flags applied, and its source for the manifest.
-fn load(args: &Args) -> Result<(Scene, String), String> {
+/// The scene the arguments name, with the flags applied, the backend to bake it on (the
+/// `--backend` flag, else the scene file's `settings.backend`, else cpu) and the scene's source
+/// for the manifest.
+fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
     match &args.scene_file {
         Some(path) => {
             let mut scene =
                 Scene::from_toml_file_with(path, &luxbake_assets::SceneLoader::default())
                     .map_err(|e| e.to_string())?;
             args.apply(&mut scene.settings);
+            let backend = match args.backend {
+                Some(b) => b,
+                None => match preferred_backend(path).map_err(|e| e.to_string())? {
+                    Some(name) => name.parse()?,
+                    None => BackendKind::Cpu,
+                },
+            };
             let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
-            Ok((scene, abs.display().to_string()))
+            Ok((scene, backend, abs.display().to_string()))
         }
         None => {
             let name = args.scene.as_deref().unwrap_or("chairs_05");
             let mut settings = Settings::default();
             args.apply(&mut settings);
             let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
-            Ok((scene, format!("builtin:{name}")))
+            let backend = args.backend.unwrap_or(BackendKind::Cpu);
+            Ok((scene, backend, format!("builtin:{name}")))
         }
     }
 }
 
 /// Runs the bake; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
-    let (scene, source) = load(args)?;
+    let (scene, backend, source) = load(args)?;
     let settings = scene.settings.clone();
-    let output = match settings.backend {
-        BackendKind::Cpu => {
-            let mut backend = CpuBackend::new();
-            run_with(&mut backend, &scene, &settings)?
-        }
-        BackendKind::Glow => {
-            let mut backend = luxbake_backend_glow::GlowBackend::headless()
-                .map_err(|e| format!("glow backend: {e}"))?;
-            run_with(&mut backend, &scene, &settings)?
-        }
-        BackendKind::Wgpu => {
-            let mut backend = luxbake_backend_wgpu::WgpuBackend::new()
-                .map_err(|e| format!("wgpu backend: {e}"))?;
-            run_with(&mut backend, &scene, &settings)?
-        }
-    };
+    let mut backend = luxbake_backends::open(backend).map_err(|e| e.to_string())?;
+    let output = run_with(&mut backend, &scene, &settings)?;
     write_bake(&args.out, &scene, &output, &source).map_err(|e| e.to_string())?;
     if let Some(glb) = &args.glb {
         luxbake_assets::export::export_baked(&scene, &output, glb).map_err(|e| e.to_string())?;

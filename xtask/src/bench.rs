@@ -29,10 +29,8 @@ use std::path::{Path, PathBuf};
 
 use luxbake::backend::GpuBackend;
 use luxbake::bake::{BakeOutput, Progress, bake};
-use luxbake::cpu::CpuBackend;
-use luxbake::scene::{BackendKind, BvhMode, Scene, Settings};
-use luxbake_backend_glow::GlowBackend;
-use luxbake_backend_wgpu::WgpuBackend;
+use luxbake::scene::{BvhMode, Scene, Settings};
+use luxbake_backends::{AnyBackend, BackendKind};
 
 mod scaling;
 mod table1;
@@ -102,44 +100,12 @@ pub fn run(args: &Args) -> Result<(), String> {
 /// An opened backend and its renderer string, or why it is unavailable.
 pub type Opened = Result<(AnyBackend, String), String>;
 
-/// A backend chosen at run time (the enum lives at the edge; the bake itself is generic).
-pub enum AnyBackend {
-    /// The CPU reference backend.
-    Cpu(CpuBackend),
-    /// OpenGL ES 3.0 through EGL.
-    Glow(Box<GlowBackend>),
-    /// wgpu (Vulkan).
-    Wgpu(Box<WgpuBackend>),
-}
-
-impl AnyBackend {
-    /// Opens `kind`; the error says why it is unavailable. Also returns the renderer string.
-    pub fn open(kind: BackendKind) -> Opened {
-        match kind {
-            BackendKind::Cpu => Ok((AnyBackend::Cpu(CpuBackend::new()), machine())),
-            BackendKind::Glow => {
-                let b = GlowBackend::headless().map_err(|e| e.to_string())?;
-                let c = b.capabilities();
-                let renderer = format!("{} ({})", c.renderer, c.version);
-                Ok((AnyBackend::Glow(Box::new(b)), renderer))
-            }
-            BackendKind::Wgpu => {
-                let b = WgpuBackend::new().map_err(|e| e.to_string())?;
-                let i = b.adapter_info();
-                let renderer = format!("{} ({:?}, {})", i.name, i.backend, i.driver_info);
-                Ok((AnyBackend::Wgpu(Box::new(b)), renderer))
-            }
-        }
-    }
-
-    /// One timed bake.
-    pub fn bake(&mut self, scene: &Scene, settings: &Settings) -> Result<Run, String> {
-        match self {
-            AnyBackend::Cpu(b) => timed_bake(b, scene, settings),
-            AnyBackend::Glow(b) => timed_bake(&mut **b, scene, settings),
-            AnyBackend::Wgpu(b) => timed_bake(&mut **b, scene, settings),
-        }
-    }
+/// Opens `kind`; the error says why it is unavailable. Also returns the renderer string (the
+/// machine's CPU for the CPU backend).
+pub fn open(kind: BackendKind) -> Opened {
+    let backend = luxbake_backends::open(kind).map_err(|e| e.to_string())?;
+    let renderer = backend.device().unwrap_or_else(machine);
+    Ok((backend, renderer))
 }
 
 /// One bake and its process CPU time per pass label.
@@ -167,7 +133,8 @@ impl Run {
     }
 }
 
-fn timed_bake<B: GpuBackend>(
+/// One timed bake.
+pub fn timed_bake<B: GpuBackend>(
     backend: &mut B,
     scene: &Scene,
     settings: &Settings,

@@ -20,8 +20,8 @@
 //!    previous bake stays (same bake count, same light maps);
 //! 5. with WebGL disabled (`--disable-webgl`) the page shows a message naming WebGL2.
 //!
-//! A missing Chromium or chromedriver skips the check with a message, except with `CI=true`,
-//! where it is a failure.
+//! A missing Chromium, chromedriver or native GL driver skips the check with a message, except
+//! under CI, where it is a failure (`luxbake::ci`'s policy).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -31,6 +31,7 @@ use std::time::{Duration, Instant};
 
 use luxbake::map::MapImage;
 use luxbake_backend_glow::GlowBackend;
+use luxbake_backends::image_diff::{Tolerance, diff};
 use luxbake_viewer::{BakeRequest, build_scene};
 use serde_json::{Value, json};
 
@@ -57,22 +58,19 @@ pub struct Args {
 pub const CHECK_REQUEST: &str =
     r#"{"scene":"chairs_01","texels_per_metre":12,"rays":16,"bounces":1,"blur_sigma":2,"seed":7}"#;
 
-/// Tolerances `(stage, relative RMSE, p99 relative error)` of the browser against the native
-/// glow bake (same shaders, different drivers: SwiftShader vs llvmpipe). The direct stage uses
-/// the glow cross-backend test's values (`crates/backend-glow/tests/cross_backend.rs`). The
-/// stages with indirect light keep its RMSE bound but allow a p99 of 2e-3 instead of 1e-4:
+/// Tolerances per stage (relative RMSE, p99 relative error: `luxbake_backends::image_diff`) of
+/// the browser against the native glow bake (same shaders, different drivers: SwiftShader vs
+/// llvmpipe). The direct stage uses the cross-backend tests' values (`luxbake-tests`). The
+/// stages with indirect light keep their RMSE bound but allow a p99 of 2e-3 instead of 1e-4:
 /// the drivers' `sin`/`cos` differ by an ulp or so, a gather ray that grazes an edge can hit
 /// another surface and move a texel by its 1/16 share, and the blur spreads that to the
 /// neighbours. Measured (chairs_01, [`CHECK_REQUEST`]): direct ≤ 7.4e-8 RMSE / 6.7e-7 p99;
 /// illuminance and exitance ≤ 1.8e-4 RMSE / 5.6e-4 p99.
-pub const TOLERANCES: [(&str, f64, f64); 3] = [
-    ("direct", 1e-5, 1e-5),
-    ("illuminance", 1e-3, 2e-3),
-    ("exitance", 1e-3, 2e-3),
+pub const TOLERANCES: [(&str, Tolerance); 3] = [
+    ("direct", Tolerance::new(1e-5, 1e-5)),
+    ("illuminance", Tolerance::new(1e-3, 2e-3)),
+    ("exitance", Tolerance::new(1e-3, 2e-3)),
 ];
-
-/// Relative errors are measured against at least this fraction of the mean |expected|.
-const FLOOR_FRACTION: f64 = 1e-3;
 
 /// Runs the command.
 pub fn run(args: &Args) -> Result<(), String> {
@@ -392,7 +390,6 @@ fn free_port() -> Result<u16, String> {
 // ---------------------------------------------------------------- the check
 
 fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
-    let ci = std::env::var("CI").is_ok_and(|v| v == "true" || v == "1");
     for (what, p) in [
         ("Chromium", &args.chromium),
         ("chromedriver", &args.chromedriver),
@@ -402,12 +399,7 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
                 "{what} not found at {} (apt-get install chromium chromium-driver)",
                 p.display()
             );
-            if ci {
-                return Err(format!(
-                    "{msg}; CI=true: the browser test may not be skipped"
-                ));
-            }
-            println!("SKIPPED web check: {msg}");
+            luxbake::ci::skip_or_fail("web check", &msg);
             return Ok(());
         }
     }
@@ -417,7 +409,14 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     // Native reference bake first (llvmpipe through EGL).
     let request = BakeRequest::from_json(CHECK_REQUEST).map_err(|e| e.to_string())?;
     let scene = build_scene(&request, None).map_err(|e| e.to_string())?;
-    let mut backend = GlowBackend::headless().map_err(|e| format!("native glow: {e}"))?;
+    let mut backend = match GlowBackend::headless() {
+        Ok(b) => b,
+        Err(e) if e.is_driver_missing() => {
+            luxbake::ci::skip_or_fail("web check", &format!("native glow: {e}"));
+            return Ok(());
+        }
+        Err(e) => return Err(format!("native glow: {e}")),
+    };
     let t = Instant::now();
     let native = luxbake::bake(&mut backend, &scene, &scene.settings, &mut |_| {})
         .map_err(|e| format!("native glow bake: {e}"))?;
@@ -712,53 +711,6 @@ fn map_from_json(v: &Value, width: u32, height: u32) -> Result<MapImage, String>
     })
 }
 
-/// `(texels, mask mismatches, relative RMSE, p99 relative error)` of `actual` against
-/// `expected` over the texels valid in `expected` (the glow cross-backend test's measure).
-fn diff(expected: &MapImage, actual: &MapImage) -> (usize, usize, f64, f64) {
-    let (mut n, mut masks) = (0usize, 0usize);
-    let (mut se, mut sd, mut sabs) = (0.0f64, 0.0f64, 0.0f64);
-    let pairs: Vec<(&[f32], &[f32])> = expected
-        .texels
-        .chunks_exact(4)
-        .zip(actual.texels.chunks_exact(4))
-        .collect();
-    for (e, a) in &pairs {
-        masks += usize::from((e[3] > 0.5) != (a[3] > 0.5));
-        if e[3] > 0.5 {
-            n += 1;
-            for c in 0..3 {
-                let (e, a) = (f64::from(e[c]), f64::from(a[c]));
-                se += e * e;
-                sd += (a - e) * (a - e);
-                sabs += e.abs();
-            }
-        }
-    }
-    if n == 0 {
-        return (0, masks, 0.0, 0.0);
-    }
-    let rmse = if se > 0.0 {
-        (sd / se).sqrt()
-    } else {
-        sd.sqrt()
-    };
-    let floor = (FLOOR_FRACTION * sabs / (3 * n) as f64).max(f64::MIN_POSITIVE);
-    let mut rel: Vec<f64> = pairs
-        .iter()
-        .filter(|(e, _)| e[3] > 0.5)
-        .map(|(e, a)| {
-            (0..3)
-                .map(|c| {
-                    (f64::from(a[c]) - f64::from(e[c])).abs() / f64::from(e[c]).abs().max(floor)
-                })
-                .fold(0.0, f64::max)
-        })
-        .collect();
-    rel.sort_by(f64::total_cmp);
-    let idx = ((rel.len() as f64 * 0.99).ceil() as usize).clamp(1, rel.len()) - 1;
-    (n, masks, rmse, rel[idx])
-}
-
 fn compare_maps(back: &Value, native: &luxbake::BakeOutput) -> Result<(), String> {
     let maps = back["maps"].as_array().ok_or("readback has no maps")?;
     if maps.len() != native.maps.len() {
@@ -786,19 +738,25 @@ fn compare_maps(back: &Value, native: &luxbake::BakeOutput) -> Result<(), String
                 n.name, n.region.size
             ));
         }
-        for (stage, tol_rmse, tol_p99) in TOLERANCES {
+        for (stage, tol) in TOLERANCES {
             let expected = match stage {
                 "direct" => n.direct(),
                 "illuminance" => n.illuminance(),
                 _ => n.exitance(),
             };
             let actual = map_from_json(&m[stage], w, h)?;
-            let (texels, masks, rmse, p99) = diff(expected, &actual);
-            let ok = masks == 0 && rmse <= tol_rmse && p99 <= tol_p99;
+            let d = diff(expected, &actual);
+            let ok = d.within(tol);
             println!(
-                "  {:<10} {:<12} {texels:>6} texels  rel RMSE {rmse:.2e} (≤ {tol_rmse:.0e})  p99 {p99:.2e} (≤ {tol_p99:.0e})  masks {masks}  {}",
+                "  {:<10} {:<12} {:>6} texels  rel RMSE {:.2e} (≤ {:.0e})  p99 {:.2e} (≤ {:.0e})  masks {}  {}",
                 n.name,
                 stage,
+                d.texels,
+                d.rel_rmse,
+                tol.rel_rmse,
+                d.p99,
+                tol.p99,
+                d.mask_mismatches,
                 if ok { "ok" } else { "FAIL" }
             );
             if !ok {
@@ -946,23 +904,6 @@ mod tests {
     #[test]
     fn chunked_bodies_are_joined() {
         assert_eq!(dechunk("4\r\nWiki\r\n5\r\npedia\r\n0\r\n\r\n"), "Wikipedia");
-    }
-
-    #[test]
-    fn the_diff_is_relative_and_checks_masks() {
-        let e = MapImage {
-            width: 2,
-            height: 1,
-            texels: vec![1.0, 1.0, 1.0, 1.0, 2.0, 2.0, 2.0, 1.0],
-        };
-        assert_eq!(diff(&e, &e), (2, 0, 0.0, 0.0));
-        let mut a = e.clone();
-        a.texels[4] = 2.2;
-        let (n, masks, rmse, p99) = diff(&e, &a);
-        assert_eq!((n, masks), (2, 0));
-        assert!((p99 - 0.1).abs() < 1e-6 && rmse > 0.0, "{rmse} {p99}");
-        a.texels[3] = 0.0;
-        assert_eq!(diff(&e, &a).1, 1);
     }
 
     #[test]

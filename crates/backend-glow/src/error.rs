@@ -80,6 +80,15 @@ pub enum GlowError {
     InvalidInput(String),
 }
 
+impl GlowError {
+    /// Whether the machine has no OpenGL ES 3.0 driver to run on ([`GlowError::NoContext`]):
+    /// a test that needs one skips or fails by `luxbake::ci`'s policy. Every other error,
+    /// opening included, is a failure of a driver that is there.
+    pub fn is_driver_missing(&self) -> bool {
+        matches!(self, GlowError::NoContext { .. })
+    }
+}
+
 /// Short alias used throughout the crate.
 pub type Result<T, E = GlowError> = std::result::Result<T, E>;
 

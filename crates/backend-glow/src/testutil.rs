@@ -1,18 +1,11 @@
-//! Test support: a headless context, or a printed skip outside CI.
+//! Test support: a headless context, or a skip by `luxbake::ci`'s policy.
 
-use crate::GlContext;
+use crate::{GlContext, GlowError};
 
-/// A headless context; without a driver: `None` with a printed reason, unless `CI` is set, in
-/// which case a missing driver fails the test (a GPU test skipped in CI is a failure).
+/// A headless context; without a driver `None` after [`luxbake::ci::skip_or_fail`] (which
+/// fails the test under CI).
 pub(crate) fn context_or_skip(test: &str) -> Option<GlContext> {
-    match GlContext::headless() {
-        Ok(ctx) => Some(ctx),
-        Err(e) if std::env::var_os("CI").is_none() => {
-            eprintln!("skipping {test}: no headless GL context ({e}); set CI=true to fail instead");
-            None
-        }
-        Err(e) => panic!("{test}: no headless GL context in CI: {e}"),
-    }
+    luxbake::ci::or_skip(test, GlContext::headless(), GlowError::is_driver_missing)
 }
 
 use crate::gl::{Program, Target, TextureArray};

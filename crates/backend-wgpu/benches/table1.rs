@@ -127,7 +127,6 @@ fn main() {
                 texels_per_metre: density,
                 bvh,
                 seed: 1,
-                ..Settings::default()
             };
             let scene = match Scene::builtin_with_settings(name, settings.clone()) {
                 Ok(s) => s,

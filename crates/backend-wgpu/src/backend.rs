@@ -660,16 +660,14 @@ mod tests {
     use luxbake::graph::TexFormat;
     use luxbake::scene::{Blur, Scene, Settings};
 
-    /// A backend, or `None` with a printed reason outside CI (in CI a missing driver fails).
+    /// A backend; without a driver `None` after [`luxbake::ci::skip_or_fail`] (which fails
+    /// the test under CI).
     fn backend(test: &str, options: WgpuOptions) -> Option<WgpuBackend> {
-        match WgpuBackend::with_options(options) {
-            Ok(b) => Some(b),
-            Err(e) if std::env::var("CI").map_or(true, |v| v.is_empty() || v == "false") => {
-                eprintln!("skipping {test}: {e}; set CI=true to fail instead");
-                None
-            }
-            Err(e) => panic!("{test}: no wgpu adapter in CI: {e}"),
-        }
+        luxbake::ci::or_skip(
+            test,
+            WgpuBackend::with_options(options),
+            WgpuError::is_driver_missing,
+        )
     }
 
     fn desc(size: [u32; 2], layers: u32) -> TexDesc {

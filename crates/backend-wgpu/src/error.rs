@@ -82,6 +82,13 @@ pub enum WgpuError {
 pub type Result<T, E = WgpuError> = std::result::Result<T, E>;
 
 impl WgpuError {
+    /// Whether the machine has no wgpu adapter to run on ([`WgpuError::NoAdapter`]): a test
+    /// that needs one skips or fails by `luxbake::ci`'s policy. Every other error, opening
+    /// included, is a failure of a driver that is there.
+    pub fn is_driver_missing(&self) -> bool {
+        matches!(self, WgpuError::NoAdapter { .. })
+    }
+
     /// Classifies a wgpu error caught by an error scope or the uncaptured-error handler.
     pub(crate) fn from_wgpu(during: &str, e: &wgpu::Error) -> WgpuError {
         let during = during.to_owned();

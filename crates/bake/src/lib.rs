@@ -56,6 +56,7 @@
 pub mod backend;
 pub mod bake;
 pub mod builtin;
+pub mod ci;
 pub mod cpu;
 pub mod gbuffer;
 pub mod graph;

@@ -519,41 +519,6 @@ impl FromStr for BvhMode {
     }
 }
 
-/// Which backend executes the pass graph (chosen at the edges: CLI, tests, scene file).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum BackendKind {
-    /// The CPU reference backend in this crate.
-    Cpu,
-    /// `luxbake-backend-glow` (OpenGL ES 3.0 / WebGL2).
-    Glow,
-    /// `luxbake-backend-wgpu`.
-    Wgpu,
-}
-
-impl BackendKind {
-    /// The lower-case name used by the CLI and scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            BackendKind::Cpu => "cpu",
-            BackendKind::Glow => "glow",
-            BackendKind::Wgpu => "wgpu",
-        }
-    }
-}
-
-impl FromStr for BackendKind {
-    type Err = String;
-    /// `cpu`, `glow` or `wgpu` (case-insensitive).
-    fn from_str(s: &str) -> Result<BackendKind, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "cpu" => Ok(BackendKind::Cpu),
-            "glow" => Ok(BackendKind::Glow),
-            "wgpu" => Ok(BackendKind::Wgpu),
-            _ => Err(format!("expected \"cpu\", \"glow\" or \"wgpu\", got `{s}`")),
-        }
-    }
-}
-
 /// Bake settings.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -569,8 +534,6 @@ pub struct Settings {
     pub bvh: BvhMode,
     /// Seed of the stateless random-number hash.
     pub seed: u32,
-    /// Preferred backend (the CLI flag overrides it).
-    pub backend: BackendKind,
 }
 
 impl Settings {
@@ -591,7 +554,7 @@ impl Settings {
 
 impl Default for Settings {
     /// `rays = 4`, `bounces = 3`, `blur = Sigma(2.0)`, `texels_per_metre = 64`,
-    /// `bvh = Mtbvh`, `seed = 0`, `backend = Cpu`.
+    /// `bvh = Mtbvh`, `seed = 0`.
     fn default() -> Self {
         Settings {
             rays: Settings::DEFAULT_RAYS,
@@ -600,7 +563,6 @@ impl Default for Settings {
             texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
             bvh: BvhMode::Mtbvh,
             seed: 0,
-            backend: BackendKind::Cpu,
         }
     }
 }
@@ -974,7 +936,7 @@ mod tests {
         assert_eq!((s.rays, s.bounces, s.seed), (4, 3, 0));
         assert_eq!(s.blur, Blur::Sigma(2.0));
         assert_eq!(s.texels_per_metre, 64.0);
-        assert_eq!((s.bvh, s.backend), (BvhMode::Mtbvh, BackendKind::Cpu));
+        assert_eq!(s.bvh, BvhMode::Mtbvh);
         assert_eq!("none".parse::<Blur>(), Ok(Blur::None));
         assert_eq!("1.5".parse::<Blur>(), Ok(Blur::Sigma(1.5)));
         assert!("-1".parse::<Blur>().is_err() && "x".parse::<Blur>().is_err());
@@ -982,10 +944,7 @@ mod tests {
         for b in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
             assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
         }
-        for b in [BackendKind::Cpu, BackendKind::Glow, BackendKind::Wgpu] {
-            assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
-        }
-        assert!("vulkan".parse::<BackendKind>().is_err() && "bvh".parse::<BvhMode>().is_err());
+        assert!("bvh".parse::<BvhMode>().is_err());
     }
 
     #[test]

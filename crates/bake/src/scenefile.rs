@@ -16,7 +16,7 @@
 //! texels_per_metre = 64.0     # light-map density, 0 < d <= 10000
 //! bvh = "mtbvh"               # "mtbvh", "tbvh" or "none"
 //! seed = 0                    # 0..=4294967295
-//! backend = "cpu"             # "cpu", "glow" or "wgpu"
+//! backend = "cpu"             # "cpu", "glow" or "wgpu" (see `preferred_backend`)
 //!
 //! [[lamp]]                    # at least one (or an object with `lights = true`)
 //! name = "downlight"          # optional, for reports
@@ -229,6 +229,13 @@ fn read_file(
     loader: Option<&dyn MeshLoader>,
     adjust: &dyn Fn(&mut Settings),
 ) -> Result<Scene, SceneError> {
+    let text = read_text(path)?;
+    let base = path.parent().unwrap_or(Path::new("."));
+    parse(&text, base, Some(path), loader, adjust)
+}
+
+/// The text of the scene file `path` (at most [`MAX_SCENE_FILE_BYTES`], UTF-8).
+fn read_text(path: &Path) -> Result<String, SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_path_buf(),
         source,
@@ -239,12 +246,45 @@ fn read_file(
             path: Some(path.to_path_buf()),
             message: format!("longer than {MAX_SCENE_FILE_BYTES} bytes, the limit of scene files"),
         })?;
-    let text = String::from_utf8(bytes).map_err(|e| SceneError::Toml {
+    String::from_utf8(bytes).map_err(|e| SceneError::Toml {
         path: Some(path.to_path_buf()),
         message: format!("not UTF-8: {e}"),
-    })?;
-    let base = path.parent().unwrap_or(Path::new("."));
-    parse(&text, base, Some(path), loader, adjust)
+    })
+}
+
+/// The backend names a scene file's `settings.backend` accepts.
+pub const BACKEND_NAMES: [&str; 3] = ["cpu", "glow", "wgpu"];
+
+/// `name` as one of [`BACKEND_NAMES`] (case-insensitive, surrounding spaces ignored).
+///
+/// # Errors
+/// Any other name, with a message that lists them.
+pub fn backend_name(name: &str) -> Result<&'static str, String> {
+    let lower = name.trim().to_ascii_lowercase();
+    BACKEND_NAMES
+        .into_iter()
+        .find(|n| *n == lower)
+        .ok_or_else(|| format!("expected \"cpu\", \"glow\" or \"wgpu\", got `{name}`"))
+}
+
+/// The backend the scene file `path` prefers: its `settings.backend` as one of
+/// [`BACKEND_NAMES`], or `None` when it names none. The core runs no backend, so this is no
+/// bake [`Settings`]: the caller (`cargo xtask bake`, whose `--backend` overrides it) maps the
+/// name to a backend. Parsing the file ([`from_file`]) checks the key too.
+///
+/// # Errors
+/// As [`from_file`] for reading the file and its TOML; `settings.backend` for another name.
+pub fn preferred_backend(path: &Path) -> Result<Option<&'static str>, SceneError> {
+    let cx = Cx {
+        path: Some(path.to_path_buf()),
+        base_dir: PathBuf::new(),
+        loader: None,
+    };
+    let raw = cx.raw(&read_text(path)?)?;
+    raw.settings
+        .and_then(|s| s.backend)
+        .map(|b| cx.backend(&b))
+        .transpose()
 }
 
 /// Parses scene-file text; relative paths are relative to `base_dir`; `path` names the file
@@ -275,10 +315,7 @@ fn parse(
         base_dir: base_dir.to_path_buf(),
         loader,
     };
-    let raw: RawScene = toml::from_str(text).map_err(|e| SceneError::Toml {
-        path: cx.path.clone(),
-        message: e.to_string(),
-    })?;
+    let raw = cx.raw(text)?;
     let mut settings = cx.settings(raw.settings)?;
     adjust(&mut settings);
     let no_lamps = "a scene needs at least one [[lamp]] (or an [[object]] with `lights = true` \
@@ -351,6 +388,17 @@ impl Cx<'_> {
         }
     }
 
+    fn raw(&self, text: &str) -> Result<RawScene, SceneError> {
+        toml::from_str(text).map_err(|e| SceneError::Toml {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })
+    }
+
+    fn backend(&self, name: &str) -> Result<&'static str, SceneError> {
+        backend_name(name).map_err(|e| self.invalid("settings.backend", e))
+    }
+
     fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
         let mut s = Settings::default();
         let Some(raw) = raw else { return Ok(s) };
@@ -406,10 +454,9 @@ impl Cx<'_> {
         if let Some(seed) = raw.seed {
             s.seed = seed;
         }
+        // Not a bake setting: checked here, read by `preferred_backend`.
         if let Some(b) = raw.backend {
-            s.backend = b
-                .parse()
-                .map_err(|e: String| self.invalid("settings.backend", e))?;
+            self.backend(&b)?;
         }
         Ok(s)
     }
@@ -993,7 +1040,7 @@ fn number(v: &Value) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::{BackendKind, Blur, BvhMode};
+    use crate::scene::{Blur, BvhMode};
 
     const LAMP: &str = "position = [0.0, 2.0, 0.0]\nies = \"isotropic:100\"";
     const OBJECT: &str = "primitive = \"plane\"\nsize = [1.0, 1.0]";
@@ -1049,8 +1096,8 @@ mod tests {
         let st = &s.settings;
         assert_eq!((st.rays, st.bounces, st.seed), (64, 3, 9));
         assert_eq!(
-            (st.blur, st.texels_per_metre, st.bvh, st.backend),
-            (Blur::None, 32.0, BvhMode::Tbvh, BackendKind::Wgpu)
+            (st.blur, st.texels_per_metre, st.bvh),
+            (Blur::None, 32.0, BvhMode::Tbvh)
         );
         let l = &s.lamps[0];
         assert_eq!(
@@ -1445,6 +1492,33 @@ mod tests {
             .expect_err("missing file")
             .to_string();
         assert!(e.contains("nope.toml"), "{e}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn the_preferred_backend_stays_outside_the_settings() {
+        let dir = std::env::temp_dir().join(format!("luxbake-backend-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("s.toml");
+        for (settings, want) in [
+            ("", None),
+            ("backend = \"WGPU\"", Some("wgpu")),
+            ("backend = \" glow \"", Some("glow")),
+        ] {
+            std::fs::write(&path, text(settings, LAMP, OBJECT)).expect("write scene");
+            assert_eq!(preferred_backend(&path).expect("reads"), want, "{settings}");
+            let s = from_file(&path).expect("parses");
+            assert_eq!(s.settings, Settings::default());
+        }
+        std::fs::write(&path, text("backend = \"vulkan\"", LAMP, OBJECT)).expect("write scene");
+        let e = preferred_backend(&path).expect_err("vulkan").to_string();
+        assert!(
+            e.contains("settings.backend")
+                && e.contains("expected \"cpu\", \"glow\" or \"wgpu\", got `vulkan`"),
+            "{e}"
+        );
+        assert!(from_file(&path).is_err());
+        assert!(preferred_backend(&dir.join("nope.toml")).is_err());
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -4,10 +4,10 @@
 
 use std::fmt::Write as _;
 
+use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Blur, BvhMode, Object, Scene, Settings, Transform};
 
-use super::{AnyBackend, log_log_slope};
-use luxbake::scene::BackendKind;
+use super::{log_log_slope, timed_bake};
 
 /// Gather rays per texel of the scaling runs.
 const RAYS: u32 = 4;
@@ -42,7 +42,7 @@ fn with_triangles(base: &Scene, target: usize) -> Scene {
 
 /// Runs both sweeps; returns the Markdown section and the JSON.
 pub fn run(quick: bool) -> Result<(String, serde_json::Value), String> {
-    let (mut cpu, _) = AnyBackend::open(BackendKind::Cpu)?;
+    let mut cpu = CpuBackend::new();
     let base_settings = Settings {
         rays: RAYS,
         bounces: 1,
@@ -79,7 +79,7 @@ pub fn run(quick: bool) -> Result<(String, serde_json::Value), String> {
     let mut tri_json = Vec::new();
     for &t in targets {
         let scene = with_triangles(&base, t);
-        let run = cpu.bake(&scene, &base_settings)?;
+        let run = timed_bake(&mut cpu, &scene, &base_settings)?;
         let r = &run.out.report;
         let bvh = r.setup.iter().find(|s| s.0 == "bvh").map_or(0.0, |s| s.1);
         eprintln!(
@@ -115,7 +115,7 @@ pub fn run(quick: bool) -> Result<(String, serde_json::Value), String> {
     } else {
         &[64e3, 256e3, 1024e3, 4096e3, 16384e3]
     };
-    let probe = cpu.bake(&base, &base_settings)?;
+    let probe = timed_bake(&mut cpu, &base, &base_settings)?;
     let texels0 = probe.out.report.texels.max(1) as f64;
     let _ = writeln!(
         md,
@@ -132,7 +132,7 @@ pub fn run(quick: bool) -> Result<(String, serde_json::Value), String> {
         };
         let scene =
             Scene::builtin_with_settings("chairs_01", s.clone()).map_err(|e| e.to_string())?;
-        let run = cpu.bake(&scene, &s)?;
+        let run = timed_bake(&mut cpu, &scene, &s)?;
         let r = &run.out.report;
         eprintln!("scaling: {} texels {:.0} ms", r.texels, run.wall() * 1e3);
         let _ = writeln!(

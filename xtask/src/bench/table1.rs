@@ -4,10 +4,11 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake_backends::{AnyBackend, BackendKind};
 
 use super::{
-    AnyBackend, Args, Opened, Summary, load_average, machine, result_path, utc_now, write,
+    Args, Opened, Summary, load_average, machine, open, result_path, timed_bake, utc_now, write,
 };
 
 /// The scenes of Table 1.
@@ -90,7 +91,7 @@ fn measure(
     let (mut texels, mut triangles, mut rays) = (0, 0, 0);
     let started = std::time::Instant::now();
     for _ in 0..runs {
-        let run = backend.bake(scene, settings)?;
+        let run = timed_bake(backend, scene, settings)?;
         walls.push(run.wall());
         cpus.push(run.cpu());
         let r = &run.out.report;
@@ -146,11 +147,8 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
     };
     let load_before = load_average();
     let (date, time) = utc_now();
-    let mut backends: Vec<(BackendKind, Opened)> = args
-        .backends
-        .iter()
-        .map(|&k| (k, AnyBackend::open(k)))
-        .collect();
+    let mut backends: Vec<(BackendKind, Opened)> =
+        args.backends.iter().map(|&k| (k, open(k))).collect();
     let mut renderers = BTreeMap::new();
     for (k, b) in &backends {
         let r = match b {

@@ -22,10 +22,11 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use luxbake::bake::BakeOutput;
-use luxbake::scene::{BackendKind, Blur, Scene, Settings};
+use luxbake::scene::{Blur, Scene, Settings};
+use luxbake_backends::{AnyBackend, BackendKind};
 use plotters::prelude::*;
 
-use super::{AnyBackend, Summary, load_average, machine, result_path, utc_now, write};
+use super::{Summary, load_average, machine, open, result_path, timed_bake, utc_now, write};
 
 /// The chosen configuration is the cheapest Pareto point whose RMSE is at most `KNEE` times
 /// the lowest RMSE of the grid.
@@ -261,8 +262,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     let runs = runs.unwrap_or(1).max(1);
     let load_before = load_average();
     let (date, time) = utc_now();
-    let (mut backend, renderer) =
-        AnyBackend::open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
+    let (mut backend, renderer) = open(args.backend)?;
     let scene_name = "chairs_05";
     let bake_at =
         |backend: &mut AnyBackend, s: &Settings| -> Result<(Scene, Vec<f64>, BakeOutput), String> {
@@ -271,7 +271,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
             let mut times = Vec::new();
             let mut last = None;
             for _ in 0..runs {
-                let r = backend.bake(&scene, s)?;
+                let r = timed_bake(backend, &scene, s)?;
                 times.push(r.wall());
                 last = Some(r.out);
             }
