@@ -22,9 +22,9 @@
 use std::fmt;
 use std::str::FromStr;
 
-use luxbake::backend::{GpuBackend, Limits, SceneData};
+use luxbake::backend::{Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::cpu::{CpuBackend, CpuError, CpuScene, CpuTexture};
-use luxbake::graph::{PassDesc, TexDesc};
+use luxbake::graph::TexDesc;
 use luxbake_backend_glow::{GlowBackend, GlowError, GlowScene, GlowTexture};
 use luxbake_backend_wgpu::{WgpuBackend, WgpuError, WgpuScene, WgpuTexture};
 
@@ -284,27 +284,38 @@ macro_rules! delegate {
                 }
             }
 
-            fn run_pass(
+            fn tile_work(&self) -> u64 {
+                match self { $(AnyBackend::$V(b) => b.tile_work(),)* }
+            }
+
+            fn dispatch(
                 &mut self,
-                pass: &PassDesc,
-                reads: &[&AnyTexture],
-                writes: &[&AnyTexture],
-                scene: &AnyScene,
-                progress: &mut dyn FnMut(f32),
+                call: &Dispatch<'_, AnyTexture, AnyScene>,
             ) -> Result<(), AnyError> {
-                match (self, scene) {
-                    $((AnyBackend::$V(b), AnyScene::$V(s)) => {
-                        let [reads, writes] = [reads, writes].map(|handles| {
-                            handles
-                                .iter()
-                                .map(|t| match t {
-                                    AnyTexture::$V(t) => Ok(t),
-                                    t => Err(foreign("texture", t.kind(), BackendKind::$V)),
-                                })
-                                .collect::<Result<Vec<_>, AnyError>>()
-                        });
-                        let (reads, writes) = (reads?, writes?);
-                        Ok(b.run_pass(pass, &reads, &writes, s, progress)?)
+                match (self, call.scene) {
+                    $((AnyBackend::$V(b), AnyScene::$V(scene)) => {
+                        let reads = call
+                            .reads
+                            .iter()
+                            .map(|t| match *t {
+                                AnyTexture::$V(t) => Ok(t),
+                                t => Err(foreign("texture", t.kind(), BackendKind::$V)),
+                            })
+                            .collect::<Result<Vec<_>, AnyError>>()?;
+                        let write = match call.write {
+                            AnyTexture::$V(t) => t,
+                            t => return Err(foreign("texture", t.kind(), BackendKind::$V)),
+                        };
+                        Ok(b.dispatch(&Dispatch {
+                            label: call.label,
+                            program: call.program,
+                            bvh: call.bvh,
+                            reads: &reads,
+                            write,
+                            scene,
+                            params: call.params,
+                            tile: call.tile,
+                        })?)
                     })*
                     (b, s) => Err(foreign("scene", s.kind(), b.kind())),
                 }
