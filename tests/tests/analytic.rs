@@ -8,8 +8,8 @@ use std::sync::Arc;
 use luxbake::bake::{BakeOutput, ObjectMaps};
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::map::MapImage;
-use luxbake::meshes;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
+use luxbake::sources::meshes;
 use luxbake_ies::Photometry;
 use luxbake_tests::Backend;
 

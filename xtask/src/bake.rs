@@ -17,7 +17,7 @@ use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// A TOML scene file (see the `luxbake::scenefile` docs).
+    /// A TOML scene file (see the `luxbake::sources::scenefile` docs).
     #[arg(conflicts_with = "scene")]
     scene_file: Option<PathBuf>,
     /// A built-in scene: chairs_01, chairs_03, chairs_05, chairs_10, sofa_01, floor, sphere.

@@ -12,7 +12,7 @@
 //!   [0, 1]², no overlaps, no zero-area charts); otherwise [`uv::unwrap`] generates one with our
 //!   own chart unwrapper and packer, its padding sized for the bake's blur radius.
 //! - [`SceneLoader`] plugs [`import`] into `luxbake`'s scene files (`mesh = "room.glb"`, see
-//!   [`luxbake::scenefile::MeshLoader`]).
+//!   [`luxbake::sources::scenefile::MeshLoader`]).
 //! - [`export`] writes a baked scene as a `.glb` with `TEXCOORD_1`, a PNG light map per object
 //!   and a linear EXR (lux) beside it; [`export::export_scene`] writes an unbaked scene (meshes,
 //!   albedo, lamps in `extras`) for other tools.

@@ -427,8 +427,8 @@ fn coverage_mask(p: &[[f64; 2]; 3], area2: f64, cell: [f64; 2]) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::meshes;
     use crate::scene::{Albedo, Mesh, Settings, Transform, dot};
+    use crate::sources::meshes;
 
     fn raster(scene: &Scene) -> (Layout, GBuffer) {
         let l = Layout::new(scene, 8192, 256).expect("layout");
@@ -559,7 +559,7 @@ mod tests {
         let s = Scene::builtin("sphere").expect("builtin");
         let (l, g) = raster(&s);
         assert!(check(&s, &l, &g, 97) > 300);
-        let r = f64::from(crate::builtin::SPHERE_RADIUS);
+        let r = f64::from(crate::sources::builtin::SPHERE_RADIUS);
         for (p, n) in g.position.chunks_exact(4).zip(g.normal.chunks_exact(4)) {
             if p[3] == 1.0 {
                 let q = [p[0], p[1], p[2]].map(f64::from);
@@ -805,7 +805,7 @@ mod tests {
                 if n[1] > 0.99 {
                     floor += 1;
                     let a = &g.albedo[k * 4..k * 4 + 3];
-                    assert_eq!(a, crate::builtin::ROOM_ALBEDO.floor);
+                    assert_eq!(a, crate::sources::builtin::ROOM_ALBEDO.floor);
                 }
             }
         }

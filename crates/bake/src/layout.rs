@@ -251,7 +251,7 @@ pub fn map_size(
 
 /// Metres of world surface spanned by the object's light-map square along u and along v:
 /// `sqrt(A_world / A_uv)` split by the area-weighted ratio of the surface's stretch along u
-/// and v (exact for charts laid out at a uniform metric scale, as [`crate::meshes`] does).
+/// and v (exact for charts laid out at a uniform metric scale, as [`crate::sources::meshes`] does).
 /// `None` when the UVs or the surface have no area, or the data is not finite.
 pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
     let m = &object.mesh;
@@ -294,8 +294,8 @@ pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::meshes;
     use crate::scene::{Albedo, Settings, Transform};
+    use crate::sources::meshes;
 
     fn plane_object(name: &str, size: [f32; 2], padding: f32) -> Object {
         Object {

@@ -12,6 +12,29 @@
 //! execution pass by pass → read-back. [`cpu::CpuBackend`] is the reference backend and the
 //! oracle for GPU backends; [`output`] writes EXR/PNG/JSON files.
 //!
+//! ## Crate layout
+//! Modules by concern; each imports only what lies below it (arrows: "imports"), and no file
+//! imports a file that imports it back (`cargo test -p xtask` checks every crate):
+//!
+//! ```text
+//!   output                       EXR / PNG / JSON files of a finished bake
+//!     │
+//!     ▼
+//!   bake, graph, backend, cpu,   the pipeline: bake() lays out, rasterises, builds the BVH
+//!   layout, gbuffer, map, rng,   and runs the pass graph on a GpuBackend (cpu: the
+//!   probe                        reference); reads light maps back (map, probe)
+//!     │
+//!     │      sources             where scenes come from: builtin scenes, scenefile (TOML),
+//!     │        │                 procedural meshes; Scene::builtin, Scene::from_toml_file, …
+//!     ▼        ▼                 are `impl Scene` blocks there
+//!   scene                        the model: Scene, Object, Mesh, Lamp, Transform, Albedo,
+//!                                Settings (one Settings::validate), SceneError
+//! ```
+//!
+//! The pipeline never reads a scene file and the model imports no source and no writer, so
+//! an engine can build a [`Scene`](scene::Scene) itself and call [`bake()`]. The sources stay
+//! in this crate because the `Scene` constructors are inherent methods.
+//!
 //! ## Physics
 //! - Surfaces are **Lambertian** (diffuse); no specular, no spectra: RGB is a lamp tint times
 //!   an albedo, each channel baked independently.
@@ -46,18 +69,16 @@
 
 pub mod backend;
 pub mod bake;
-pub mod builtin;
 pub mod cpu;
 pub mod gbuffer;
 pub mod graph;
 pub mod layout;
 pub mod map;
-pub mod meshes;
 pub mod output;
 pub mod probe;
 pub mod rng;
 pub mod scene;
-pub mod scenefile;
+pub mod sources;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{BakeError, BakeOutput, BakeReport, Progress, bake};

@@ -1,4 +1,6 @@
-//! The scene model: objects, lamps and bake settings, as plain data.
+//! The scene model: objects, lamps and bake settings, as plain data. It imports no scene
+//! source: built-in scenes, scene files and procedural meshes are in [`crate::sources`], on top
+//! of it.
 //!
 //! # Conventions
 //! - Units: metres for lengths, candela for intensities (from the IES file), lux (lm/m²) for
@@ -32,7 +34,7 @@
 //!    counter-clockwise seen from above (from behind the lamp, looking along `aim`).
 
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::Arc;
 
@@ -356,8 +358,8 @@ pub struct Object {
     pub receiver: bool,
     /// Multiplier on [`Settings::texels_per_metre`] for this object's light map (default 1;
     /// Unity calls it "scale in lightmap"). Density stays uniform over the object's surface.
-    /// The built-in chair and sofa use [`crate::builtin::CHAIR_TEXEL_SCALE`] and
-    /// [`crate::builtin::SOFA_TEXEL_SCALE`] to reproduce the paper's per-object map budgets.
+    /// The built-in chair and sofa use [`crate::sources::builtin::CHAIR_TEXEL_SCALE`] and
+    /// [`crate::sources::builtin::SOFA_TEXEL_SCALE`] to reproduce the paper's per-object map budgets.
     pub texel_scale: f32,
 }
 
@@ -617,43 +619,6 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// A built-in scene by name (see [`Scene::builtin_names`] and [`crate::builtin`]), at the
-    /// default texel density.
-    pub fn builtin(name: &str) -> Result<Scene, SceneError> {
-        crate::builtin::scene(name, Settings::default())
-    }
-
-    /// A built-in scene with the given settings; the procedural meshes' chart padding is
-    /// sized for `settings.texels_per_metre` (use this rather than changing the density of a
-    /// [`Scene::builtin`] afterwards).
-    pub fn builtin_with_settings(name: &str, settings: Settings) -> Result<Scene, SceneError> {
-        crate::builtin::scene(name, settings)
-    }
-
-    /// The names [`Scene::builtin`] accepts.
-    pub fn builtin_names() -> &'static [&'static str] {
-        crate::builtin::NAMES
-    }
-
-    /// Reads a TOML scene file (format: [`crate::scenefile`]); relative paths inside it are
-    /// relative to the file's folder.
-    pub fn from_toml_file(path: &Path) -> Result<Scene, SceneError> {
-        crate::scenefile::from_file(path)
-    }
-
-    /// [`Scene::from_toml_file`], loading file meshes (`mesh = "x.glb"`) with `loader`.
-    pub fn from_toml_file_with(
-        path: &Path,
-        loader: &dyn crate::scenefile::MeshLoader,
-    ) -> Result<Scene, SceneError> {
-        crate::scenefile::from_file_with(path, loader)
-    }
-
-    /// Parses a TOML scene from text; relative paths inside it are relative to `base_dir`.
-    pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-        crate::scenefile::from_str(text, base_dir, None)
-    }
-
     /// Checks every object's mesh ([`Mesh::validate`]) and that names are unique.
     pub fn validate(&self) -> Result<(), SceneError> {
         let mut names = std::collections::HashSet::new();

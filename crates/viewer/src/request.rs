@@ -6,8 +6,8 @@
 
 use std::sync::Arc;
 
-use luxbake::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake::scene::{Blur, Lamp, Scene, Settings};
+use luxbake::sources::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake_ies::Photometry;
 use serde::{Deserialize, Serialize};
 
