@@ -54,7 +54,9 @@ pub struct Args {
 }
 
 impl Args {
-    fn apply(&self, s: &mut Settings) {
+    /// Applies the flags to `s` and checks the result ([`Settings::validate`]); the error
+    /// names the flag.
+    fn apply(&self, s: &mut Settings) -> Result<(), String> {
         if let Some(v) = self.rays {
             s.rays = v;
         }
@@ -76,6 +78,8 @@ impl Args {
         if let Some(v) = self.backend {
             s.backend = v;
         }
+        s.validate()
+            .map_err(|e| format!("--{}: {}", e.name.replace('_', "-"), e.reason))
     }
 }
 
@@ -86,14 +90,14 @@ fn load(args: &Args) -> Result<(Scene, String), String> {
             let mut scene =
                 Scene::from_toml_file_with(path, &luxbake_assets::SceneLoader::default())
                     .map_err(|e| e.to_string())?;
-            args.apply(&mut scene.settings);
+            args.apply(&mut scene.settings)?;
             let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
             Ok((scene, abs.display().to_string()))
         }
         None => {
             let name = args.scene.as_deref().unwrap_or("chairs_05");
             let mut settings = Settings::default();
-            args.apply(&mut settings);
+            args.apply(&mut settings)?;
             let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
             Ok((scene, format!("builtin:{name}")))
         }
@@ -230,5 +234,38 @@ fn print_summary(out: &BakeOutput, scene: &Scene) {
         for k in &r.skipped {
             println!("  - {k}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn load_with(flags: &[&str]) -> Result<(Scene, String), String> {
+        let cli = Cli::try_parse_from([&["bake", "--scene", "floor"], flags].concat())
+            .map_err(|e| e.to_string())?;
+        load(&cli.args)
+    }
+
+    #[test]
+    fn flags_out_of_range_are_named() {
+        for (flags, name) in [
+            (&["--rays", "0"][..], "--rays"),
+            (&["--bounces", "65"], "--bounces"),
+            (&["--blur", "100"], "--blur"),
+            (&["--texels-per-metre", "0"], "--texels-per-metre"),
+        ] {
+            let e = load_with(flags).expect_err("out of range");
+            assert!(e.starts_with(name), "{flags:?}: {e}");
+        }
+        let (scene, source) = load_with(&["--rays", "2", "--texels-per-metre", "4"]).expect("ok");
+        assert_eq!((scene.settings.rays, source.as_str()), (2, "builtin:floor"));
     }
 }

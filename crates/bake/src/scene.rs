@@ -557,6 +557,18 @@ impl FromStr for BackendKind {
 }
 
 /// Bake settings.
+///
+/// # Limits
+/// One set, checked by [`Settings::validate`] wherever settings come in (scene files, the
+/// CLI, the viewer) and again by `bake()`:
+///
+/// | setting            | allowed                                                   |
+/// |--------------------|-----------------------------------------------------------|
+/// | `rays`             | 1 ..= [`MAX_RAYS`](Settings::MAX_RAYS) (65536)            |
+/// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
+/// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
+/// | `texels_per_metre` | (0, [`MAX_TEXELS_PER_METRE`](Settings::MAX_TEXELS_PER_METRE)] (10000) |
+/// | `bvh`, `seed`, `backend` | any value                                           |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     /// Gather rays per texel per bounce.
@@ -589,6 +601,57 @@ impl Settings {
     /// Default texel density, texels per metre (1.5625 cm texels). With it the built-in scenes
     /// come close to the light-map texel counts of the paper's Table 1.
     pub const DEFAULT_TEXELS_PER_METRE: f32 = 64.0;
+
+    /// Most gather rays per texel per bounce.
+    pub const MAX_RAYS: u32 = 65_536;
+    /// Most indirect bounces.
+    pub const MAX_BOUNCES: u32 = 64;
+    /// Largest blur sigma, texels.
+    pub const MAX_BLUR_SIGMA: f32 = 64.0;
+    /// Largest texel density, texels per metre.
+    pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
+
+    /// Checks every setting against the limits in the type's docs; the error names the first
+    /// setting out of range (`rays`, `bounces`, `blur` or `texels_per_metre`).
+    pub fn validate(&self) -> Result<(), SettingError> {
+        let invalid = |name, reason| Err(SettingError { name, reason });
+        if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
+            let max = Settings::MAX_RAYS;
+            return invalid("rays", format!("{}; expected 1..={max}", self.rays));
+        }
+        if self.bounces > Settings::MAX_BOUNCES {
+            let max = Settings::MAX_BOUNCES;
+            return invalid("bounces", format!("{}; expected 0..={max}", self.bounces));
+        }
+        if let Blur::Sigma(sigma) = self.blur
+            && !(sigma > 0.0 && sigma <= Settings::MAX_BLUR_SIGMA)
+        {
+            let max = Settings::MAX_BLUR_SIGMA;
+            return invalid(
+                "blur",
+                format!("{sigma}; expected a sigma in texels, 0 < sigma <= {max}, or \"none\""),
+            );
+        }
+        let d = self.texels_per_metre;
+        if !(d > 0.0 && d <= Settings::MAX_TEXELS_PER_METRE) {
+            let max = Settings::MAX_TEXELS_PER_METRE;
+            return invalid(
+                "texels_per_metre",
+                format!("{d}; expected 0 < texels_per_metre <= {max}"),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A setting outside the limits of [`Settings::validate`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid setting `{name}`: {reason}")]
+pub struct SettingError {
+    /// The setting: its field of [`Settings`], also its key in a scene file's `[settings]`.
+    pub name: &'static str,
+    /// The value and what is allowed.
+    pub reason: String,
 }
 
 impl Default for Settings {
@@ -951,6 +1014,52 @@ mod tests {
             assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
         }
         assert!("vulkan".parse::<BackendKind>().is_err() && "bvh".parse::<BvhMode>().is_err());
+    }
+
+    #[test]
+    fn validate_names_the_setting_out_of_range() {
+        let with = |edit: &dyn Fn(&mut Settings)| {
+            let mut s = Settings::default();
+            edit(&mut s);
+            s.validate().map_err(|e| e.name)
+        };
+        assert_eq!(with(&|_| {}), Ok(()));
+        assert_eq!(with(&|s| s.blur = Blur::None), Ok(()));
+        let at_the_limits = |s: &mut Settings| {
+            s.rays = Settings::MAX_RAYS;
+            s.bounces = Settings::MAX_BOUNCES;
+            s.blur = Blur::Sigma(Settings::MAX_BLUR_SIGMA);
+            s.texels_per_metre = Settings::MAX_TEXELS_PER_METRE;
+        };
+        assert_eq!(with(&at_the_limits), Ok(()));
+        assert_eq!(with(&|s| s.rays = 0), Err("rays"));
+        assert_eq!(with(&|s| s.rays = Settings::MAX_RAYS + 1), Err("rays"));
+        assert_eq!(
+            with(&|s| s.bounces = Settings::MAX_BOUNCES + 1),
+            Err("bounces")
+        );
+        for sigma in [0.0, -1.0, 64.5, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                with(&|s| s.blur = Blur::Sigma(sigma)),
+                Err("blur"),
+                "{sigma}"
+            );
+        }
+        for d in [0.0, -1.0, 10_001.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                with(&|s| s.texels_per_metre = d),
+                Err("texels_per_metre"),
+                "{d}"
+            );
+        }
+        let message = Settings {
+            rays: 0,
+            ..Settings::default()
+        }
+        .validate()
+        .expect_err("rays 0")
+        .to_string();
+        assert_eq!(message, "invalid setting `rays`: 0; expected 1..=65536");
     }
 
     #[test]

@@ -64,6 +64,9 @@
 //! `lights_ies` is given. A file object's `scale` also reaches the [`MeshLoader`]
 //! ([`MeshRequest::scale`]) so that generated charts keep their padding in texels.
 //!
+//! The `[settings]` ranges are those of every bake: the table goes through
+//! [`Settings::validate`].
+//!
 //! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
 //! ([`crate::sources::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
 //! [`crate::sources::builtin::CHAIR_TEXEL_SCALE`] and [`crate::sources::builtin::SOFA_TEXEL_SCALE`] for the
@@ -369,35 +372,21 @@ impl Cx<'_> {
         }
     }
 
+    /// The `[settings]` table over the defaults, checked by [`Settings::validate`].
     fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
         let mut s = Settings::default();
         let Some(raw) = raw else { return Ok(s) };
         if let Some(rays) = raw.rays {
-            if !(1..=65_536).contains(&rays) {
-                return Err(self.invalid("settings.rays", format!("{rays}; expected 1..=65536")));
-            }
             s.rays = rays;
         }
         if let Some(b) = raw.bounces {
-            if b > 64 {
-                return Err(self.invalid("settings.bounces", format!("{b}; expected 0..=64")));
-            }
             s.bounces = b;
         }
         if let Some(v) = raw.blur {
             s.blur = match &v {
                 Value::String(t) if t.eq_ignore_ascii_case("none") => Blur::None,
                 Value::Float(_) | Value::Integer(_) => {
-                    let sigma = number(&v).unwrap_or(f64::NAN);
-                    if !(sigma > 0.0 && sigma <= 64.0) {
-                        return Err(self.invalid(
-                            "settings.blur",
-                            format!(
-                                "{sigma}; expected a sigma in texels, 0 < sigma <= 64, or \"none\""
-                            ),
-                        ));
-                    }
-                    Blur::Sigma(sigma as f32)
+                    Blur::Sigma(number(&v).unwrap_or(f64::NAN) as f32)
                 }
                 other => {
                     return Err(self.invalid(
@@ -408,12 +397,6 @@ impl Cx<'_> {
             };
         }
         if let Some(d) = raw.texels_per_metre {
-            if !(d > 0.0 && d <= 10_000.0) {
-                return Err(self.invalid(
-                    "settings.texels_per_metre",
-                    format!("{d}; expected 0 < texels_per_metre <= 10000"),
-                ));
-            }
             s.texels_per_metre = d as f32;
         }
         if let Some(b) = raw.bvh {
@@ -429,6 +412,8 @@ impl Cx<'_> {
                 .parse()
                 .map_err(|e: String| self.invalid("settings.backend", e))?;
         }
+        s.validate()
+            .map_err(|e| self.invalid(format!("settings.{}", e.name), e.reason))?;
         Ok(s)
     }
 
