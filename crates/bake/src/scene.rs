@@ -38,6 +38,7 @@ use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::Arc;
 
+use glam::{DMat3, DVec3, Vec3};
 use luxbake_bvh::TriangleAttributes;
 use luxbake_ies::Photometry;
 
@@ -221,13 +222,11 @@ impl AlbedoTexture {
         let wrap = |i: f64, n: usize| i.rem_euclid(n as f64) as usize % n;
         let (x0i, x1i) = (wrap(x0, w), wrap(x0 + 1.0, w));
         let (y0i, y1i) = (wrap(y0, h), wrap(y0 + 1.0, h));
-        let t = |x: usize, y: usize| self.texels[y * w + x];
+        let t = |x: usize, y: usize| Vec3::from(self.texels[y * w + x]);
         let (a, b, c, d) = (t(x0i, y0i), t(x1i, y0i), t(x0i, y1i), t(x1i, y1i));
-        std::array::from_fn(|k| {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bottom = c[k] + (d[k] - c[k]) * fx;
-            top + (bottom - top) * fy
-        })
+        let top = a + (b - a) * fx;
+        let bottom = c + (d - c) * fx;
+        (top + (bottom - top) * fy).to_array()
     }
 }
 
@@ -275,10 +274,9 @@ impl Transform {
         rotation_deg_xyz: [f32; 3],
         scale: [f32; 3],
     ) -> Transform {
-        let r = rotation_xyz(rotation_deg_xyz.map(f64::from));
-        let linear = std::array::from_fn(|col| {
-            std::array::from_fn(|row| (r[row][col] * f64::from(scale[col])) as f32)
-        });
+        let r = rotation_xyz(Vec3::from(rotation_deg_xyz).as_dvec3());
+        let linear =
+            std::array::from_fn(|col| (r.col(col) * f64::from(scale[col])).as_vec3().to_array());
         Transform {
             linear,
             translation,
@@ -287,19 +285,19 @@ impl Transform {
 
     /// Maps an object-space point to world space.
     pub fn point(&self, p: [f32; 3]) -> [f32; 3] {
-        let w = self.point_f64(p.map(f64::from));
-        w.map(|c| c as f32)
+        let w = self.point_f64(Vec3::from(p).as_dvec3().to_array());
+        DVec3::from(w).as_vec3().to_array()
     }
 
     /// [`Transform::point`] in double precision.
     pub fn point_f64(&self, p: [f64; 3]) -> [f64; 3] {
-        let m = &self.linear;
-        std::array::from_fn(|r| {
-            f64::from(m[0][r]) * p[0]
-                + f64::from(m[1][r]) * p[1]
-                + f64::from(m[2][r]) * p[2]
-                + f64::from(self.translation[r])
-        })
+        let translation = Vec3::from(self.translation).as_dvec3();
+        (self.linear_f64() * DVec3::from(p) + translation).to_array()
+    }
+
+    /// The linear part in double precision.
+    fn linear_f64(&self) -> DMat3 {
+        DMat3::from_cols_array_2d(&self.linear.map(|c| Vec3::from(c).as_dvec3().to_array()))
     }
 
     /// Maps an object-space normal to a world-space unit normal with the inverse transpose of
@@ -307,32 +305,30 @@ impl Transform {
     /// keep them on the same side of the surface). Returns the input unchanged when the
     /// transform is singular or the result cannot be normalised.
     pub fn normal(&self, n: [f32; 3]) -> [f32; 3] {
-        match self.normal_f64(n.map(f64::from)) {
-            Some(v) => v.map(|c| c as f32),
+        match self.normal_f64(Vec3::from(n).as_dvec3().to_array()) {
+            Some(v) => DVec3::from(v).as_vec3().to_array(),
             None => n,
         }
     }
 
     /// [`Transform::normal`] in double precision; `None` when it cannot be normalised.
     pub fn normal_f64(&self, n: [f64; 3]) -> Option<[f64; 3]> {
-        let m: [[f64; 3]; 3] = self.linear.map(|c| c.map(f64::from));
+        let m = self.linear_f64();
         // Columns a, b, c; the inverse transpose is [b×c, c×a, a×b] / det (as columns).
-        let (a, b, c) = (m[0], m[1], m[2]);
-        let cof = [cross(b, c), cross(c, a), cross(a, b)];
-        let det = dot(a, cof[0]);
+        let (a, b, c) = (m.x_axis, m.y_axis, m.z_axis);
+        let cof = DMat3::from_cols(b.cross(c), c.cross(a), a.cross(b));
+        let det = a.dot(cof.x_axis);
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let v: [f64; 3] = std::array::from_fn(|r| {
-            (cof[0][r] * n[0] + cof[1][r] * n[1] + cof[2][r] * n[2]) * det.signum()
-        });
-        normalize(v)
+        unit(cof * DVec3::from(n) * det.signum()).map(|v| v.to_array())
     }
 
     /// Determinant of the linear part (negative for mirroring transforms).
     pub fn determinant(&self) -> f64 {
-        let m: [[f64; 3]; 3] = self.linear.map(|c| c.map(f64::from));
-        dot(m[0], cross(m[1], m[2]))
+        let m = self.linear_f64();
+        // a · (b × c) as before: glam's determinant() takes c · (a × b), which rounds differently.
+        m.x_axis.dot(m.y_axis.cross(m.z_axis))
     }
 }
 
@@ -404,25 +400,26 @@ impl Lamp {
     /// = −aim). Orthonormal and right-handed; its transpose maps back to world. The rule is
     /// in the module docs.
     pub fn world_to_photometric_matrix(&self) -> [[f32; 3]; 3] {
-        self.frame_f64().map(|row| row.map(|c| c as f32))
+        self.frame_f64()
+            .map(|row| DVec3::from(row).as_vec3().to_array())
     }
 
     /// [`Lamp::world_to_photometric_matrix`] in double precision.
     pub fn frame_f64(&self) -> [[f64; 3]; 3] {
-        let default_aim = [0.0, -1.0, 0.0];
-        let aim = normalize(self.aim.map(f64::from)).unwrap_or(default_aim);
-        let basis = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+        let default_aim = DVec3::NEG_Y;
+        let aim = unit(Vec3::from(self.aim).as_dvec3()).unwrap_or(default_aim);
+        let basis = [DVec3::X, DVec3::NEG_Z, DVec3::Y];
         // Step 2: the smallest rotation taking −Y onto `aim` (Rodrigues).
-        let c = dot(default_aim, aim);
+        let c = default_aim.dot(aim);
         let aimed = if c < -1.0 + 1e-12 {
             // Straight up: 180° about +X.
-            basis.map(|v| [v[0], -v[1], -v[2]])
+            basis.map(|v| DVec3::new(v.x, -v.y, -v.z))
         } else {
-            let k = cross(default_aim, aim);
+            let k = default_aim.cross(aim);
             basis.map(|v| {
-                let kxv = cross(k, v);
-                let kxkxv = cross(k, kxv);
-                std::array::from_fn(|i| v[i] + kxv[i] + kxkxv[i] / (1.0 + c))
+                let kxv = k.cross(v);
+                let kxkxv = k.cross(kxv);
+                v + kxv + kxkxv / (1.0 + c)
             })
         };
         // Step 3: turn about the zenith axis by rotation_deg (right-handed).
@@ -430,21 +427,16 @@ impl Lamp {
         let theta = if theta.is_finite() { theta } else { 0.0 };
         let (s, co) = theta.sin_cos();
         let zenith = aimed[2];
-        let rot = |v: [f64; 3]| -> [f64; 3] {
-            let kxv = cross(zenith, v);
-            let kdv = dot(zenith, v);
-            std::array::from_fn(|i| v[i] * co + kxv[i] * s + zenith[i] * kdv * (1.0 - co))
-        };
-        [rot(aimed[0]), rot(aimed[1]), zenith]
+        let rot = |v: DVec3| v * co + zenith.cross(v) * s + zenith * zenith.dot(v) * (1.0 - co);
+        [rot(aimed[0]), rot(aimed[1]), zenith].map(|v| v.to_array())
     }
 
     /// Maps a world direction (any length) to the photometric frame; the result has the same
     /// length. Intensity toward a texel at `p` is `photometry` evaluated at
     /// `to_photometric(p − position)`.
     pub fn to_photometric(&self, world_dir: [f32; 3]) -> [f32; 3] {
-        let m = self.frame_f64();
-        let d = world_dir.map(f64::from);
-        m.map(|row| dot(row, d) as f32)
+        let d = Vec3::from(world_dir).as_dvec3();
+        self.frame_f64().map(|row| DVec3::from(row).dot(d) as f32)
     }
 }
 
@@ -703,12 +695,13 @@ impl Scene {
     /// are unchanged, so illuminances scale as `1 / factor²`.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
+        let scale = |v: [f32; 3]| (Vec3::from(v) * factor).to_array();
         for o in &mut s.objects {
-            o.transform.linear = o.transform.linear.map(|c| c.map(|v| v * factor));
-            o.transform.translation = o.transform.translation.map(|v| v * factor);
+            o.transform.linear = o.transform.linear.map(scale);
+            o.transform.translation = scale(o.transform.translation);
         }
         for l in &mut s.lamps {
-            l.position = l.position.map(|v| v * factor);
+            l.position = scale(l.position);
         }
         s.settings.texels_per_metre /= factor;
         s
@@ -763,46 +756,44 @@ pub(crate) fn tri_indices(tri: &[u32; 3], m: &Mesh) -> Option<[usize; 3]> {
     idx.iter().all(|&i| i < n).then_some(idx)
 }
 
-/// Rotation matrix (row-major) `Rz · Ry · Rx` for angles in degrees.
-fn rotation_xyz(deg: [f64; 3]) -> [[f64; 3]; 3] {
-    let [x, y, z] = deg.map(|d| if d.is_finite() { d.to_radians() } else { 0.0 });
-    let (sx, cx) = x.sin_cos();
-    let (sy, cy) = y.sin_cos();
-    let (sz, cz) = z.sin_cos();
-    let rx = [[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]];
-    let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
-    let rz = [[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]];
-    matmul(rz, matmul(ry, rx))
+/// Rotation matrix `Rz · Ry · Rx` for angles in degrees (non-finite angles count as 0).
+fn rotation_xyz(deg: DVec3) -> DMat3 {
+    let [x, y, z] = deg
+        .to_array()
+        .map(|d| if d.is_finite() { d.to_radians() } else { 0.0 });
+    DMat3::from_rotation_z(z) * (DMat3::from_rotation_y(y) * DMat3::from_rotation_x(x))
 }
 
-fn matmul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum()))
+/// `v / |v|`, or `None` for a zero or non-finite vector. Divides (glam's `normalize`
+/// multiplies by the reciprocal, which rounds differently).
+pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
+    let l = v.length();
+    (l > 0.0 && l.is_finite()).then(|| v / l)
 }
 
+// Array forms of the vector operations, for the modules that still compute on `[f64; 3]`
+// (gbuffer, layout; `dot` only in gbuffer's tests).
+
+#[cfg(test)]
 pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    DVec3::from(a).dot(DVec3::from(b))
 }
 
 pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    DVec3::from(a).cross(DVec3::from(b)).to_array()
 }
 
-/// Unit vector, or `None` for a zero or non-finite vector.
+/// Unit vector, or `None` for a zero or non-finite vector ([`unit`]).
 pub(crate) fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
-    let l = dot(v, v).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| v.map(|c| c / l))
+    unit(DVec3::from(v)).map(|v| v.to_array())
 }
 
 pub(crate) fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+    (DVec3::from(a) - DVec3::from(b)).to_array()
 }
 
 pub(crate) fn length(v: [f64; 3]) -> f64 {
-    dot(v, v).sqrt()
+    DVec3::from(v).length()
 }
 
 #[cfg(test)]
@@ -956,20 +947,20 @@ mod tests {
         for _ in 0..500 {
             let aim = [next(), next(), next()];
             let l = lamp(aim, next() * 360.0);
-            let m = l.frame_f64();
+            let m = l.frame_f64().map(DVec3::from);
             for r in 0..3 {
                 for c in 0..3 {
-                    let d = dot(m[r], m[c]);
+                    let d = m[r].dot(m[c]);
                     let want = if r == c { 1.0 } else { 0.0 };
                     assert!((d - want).abs() < 1e-9, "aim {aim:?}: rows {r} {c}: {d}");
                 }
             }
             assert!(
-                (dot(cross(m[0], m[1]), m[2]) - 1.0).abs() < 1e-9,
+                (m[0].cross(m[1]).dot(m[2]) - 1.0).abs() < 1e-9,
                 "right-handed"
             );
-            let a = normalize(aim.map(f64::from)).unwrap_or([0.0, -1.0, 0.0]);
-            let p = l.to_photometric(a.map(|c| c as f32));
+            let a = unit(Vec3::from(aim).as_dvec3()).unwrap_or(DVec3::NEG_Y);
+            let p = l.to_photometric(a.as_vec3().to_array());
             assert!(
                 close(p, [0.0, 0.0, -1.0]),
                 "aim {aim:?} is the nadir: {p:?}"

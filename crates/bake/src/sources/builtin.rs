@@ -265,8 +265,9 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
+
     use super::*;
-    use crate::scene::{Scene, dot};
 
     /// World bounding box of an object.
     fn bounds(o: &Object) -> [[f32; 3]; 2] {
@@ -365,9 +366,9 @@ mod tests {
         assert_eq!(s.lamps[0].position, [0.0; 3]);
         let m = &s.objects[0].mesh;
         for (p, n) in m.positions.iter().zip(&m.normals) {
-            let (p, n) = (p.map(f64::from), n.map(f64::from));
-            assert!((dot(p, p).sqrt() - f64::from(SPHERE_RADIUS)).abs() < 1e-6);
-            assert!(dot(p, n) < 0.0, "inward");
+            let (p, n) = (Vec3::from(*p).as_dvec3(), Vec3::from(*n).as_dvec3());
+            assert!((p.length() - f64::from(SPHERE_RADIUS)).abs() < 1e-6);
+            assert!(p.dot(n) < 0.0, "inward");
         }
     }
 
