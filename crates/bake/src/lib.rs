@@ -13,8 +13,8 @@
 //! oracle for GPU backends; [`output`] writes EXR/PNG/JSON files.
 //!
 //! ## Crate layout
-//! Modules by concern; each imports only what lies below it (arrows: "imports"), and no file
-//! imports a file that imports it back (`cargo test -p xtask` checks every crate):
+//! Modules by concern; each imports only what lies below it (arrows: "imports"), and no
+//! files import each other in a circle (a test of `xtask` checks every crate):
 //!
 //! ```text
 //!   output                       EXR / PNG / JSON files of a finished bake
