@@ -6,7 +6,7 @@
 use std::path::Path;
 
 use libfuzzer_sys::fuzz_target;
-use luxbake::scenefile::from_str_with;
+use luxbake::sources::scenefile::from_str_with;
 use luxbake_assets::SceneLoader;
 
 fuzz_target!(|data: &[u8]| {

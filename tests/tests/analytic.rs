@@ -8,8 +8,8 @@ use std::sync::Arc;
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::map::MapImage;
-use luxbake::meshes;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
+use luxbake::sources::meshes;
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
 

@@ -12,13 +12,13 @@ use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::output::write_bake;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
-use luxbake::scenefile::preferred_backend;
+use luxbake::sources::scenefile::preferred_backend;
 use luxbake_backends::BackendKind;
 
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// A TOML scene file (see the `luxbake::scenefile` docs).
+    /// A TOML scene file (see the `luxbake::sources::scenefile` docs).
     #[arg(conflicts_with = "scene")]
     scene_file: Option<PathBuf>,
     /// A built-in scene: chairs_01, chairs_03, chairs_05, chairs_10, sofa_01, floor, sphere.
@@ -55,7 +55,9 @@ pub struct Args {
 }
 
 impl Args {
-    fn apply(&self, s: &mut Settings) {
+    /// Applies the flags to `s` and checks the result ([`Settings::validate`]); the error
+    /// names the flag.
+    fn apply(&self, s: &mut Settings) -> Result<(), String> {
         if let Some(v) = self.rays {
             s.rays = v;
         }
@@ -74,6 +76,8 @@ impl Args {
         if let Some(v) = self.seed {
             s.seed = v;
         }
+        s.validate()
+            .map_err(|e| format!("--{}: {}", e.name.replace('_', "-"), e.reason))
     }
 }
 
@@ -86,7 +90,7 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
             let mut scene =
                 Scene::from_toml_file_with(path, &luxbake_assets::SceneLoader::default())
                     .map_err(|e| e.to_string())?;
-            args.apply(&mut scene.settings);
+            args.apply(&mut scene.settings)?;
             let backend = match args.backend {
                 Some(b) => b,
                 None => match preferred_backend(path).map_err(|e| e.to_string())? {
@@ -100,7 +104,7 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
         None => {
             let name = args.scene.as_deref().unwrap_or("chairs_05");
             let mut settings = Settings::default();
-            args.apply(&mut settings);
+            args.apply(&mut settings)?;
             let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
             let backend = args.backend.unwrap_or(BackendKind::Cpu);
             Ok((scene, backend, format!("builtin:{name}")))
@@ -224,5 +228,42 @@ fn print_summary(out: &BakeOutput, scene: &Scene) {
         for k in &r.skipped {
             println!("  - {k}");
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        args: Args,
+    }
+
+    fn load_with(flags: &[&str]) -> Result<(Scene, BackendKind, String), String> {
+        let cli = Cli::try_parse_from([&["bake", "--scene", "floor"], flags].concat())
+            .map_err(|e| e.to_string())?;
+        load(&cli.args)
+    }
+
+    #[test]
+    fn flags_out_of_range_are_named() {
+        for (flags, name) in [
+            (&["--rays", "0"][..], "--rays"),
+            (&["--bounces", "65"], "--bounces"),
+            (&["--blur", "100"], "--blur"),
+            (&["--texels-per-metre", "0"], "--texels-per-metre"),
+        ] {
+            let e = load_with(flags).expect_err("out of range");
+            assert!(e.starts_with(name), "{flags:?}: {e}");
+        }
+        let (scene, backend, source) =
+            load_with(&["--rays", "2", "--texels-per-metre", "4"]).expect("ok");
+        assert_eq!(
+            (scene.settings.rays, backend, source.as_str()),
+            (2, BackendKind::Cpu, "builtin:floor")
+        );
     }
 }

@@ -8,6 +8,8 @@ mod bake;
 mod bench;
 mod export;
 mod ies;
+#[cfg(test)]
+mod import_cycles;
 mod measure;
 mod web;
 

@@ -828,7 +828,7 @@ fn check_screenshot(s: &Session, png: &[u8], path: &Path) -> Result<(), String> 
         lamp.get(2).copied().unwrap_or(0.0) as f32,
     );
     let under = at([lx, 0.0, lz])?.ok_or("the floor under the lamp is not in view")?;
-    let room = luxbake::builtin::ROOM_SIZE;
+    let room = luxbake::sources::builtin::ROOM_SIZE;
     let (hx, hz) = (room[0] / 2.0 - 0.15, room[2] / 2.0 - 0.15);
     let mut corners = Vec::new();
     for c in [

@@ -44,7 +44,7 @@ const MAX_DEPTH: usize = 256;
 
 /// Reads a `.gltf` or `.glb` file.
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Model, AssetError> {
-    let bytes = crate::read_limited(path, options.limits.max_file_bytes)?;
+    let bytes = crate::options::read_limited(path, options.limits.max_file_bytes)?;
     import_bytes(&bytes, path, options)
 }
 
@@ -655,7 +655,7 @@ fn load_uri(uri: &str, base: &Path, limits: &Limits, model: &Path) -> Result<Vec
     }
     let decoded = percent_decode(uri);
     let file = base.join(&decoded);
-    crate::read_limited(&file, limits.max_file_bytes).map_err(|e| match e {
+    crate::options::read_limited(&file, limits.max_file_bytes).map_err(|e| match e {
         AssetError::Io { source, .. } => {
             format!("missing or unreadable `{}`: {source}", file.display())
         }

@@ -1,6 +1,6 @@
 //! [`SceneLoader`]: `luxbake` scene files' `mesh = "x.glb"` objects, read by [`crate::import`].
 
-use luxbake::scenefile::{LoadedFile, MeshLoader, MeshPart, MeshRequest};
+use luxbake::sources::scenefile::{LoadedFile, MeshLoader, MeshPart, MeshRequest};
 
 use crate::{ImportOptions, Limits, uv};
 

@@ -20,7 +20,7 @@ use crate::{AssetError, ImportOptions};
 
 /// Reads an `.obj` file (and the `.mtl` files it names, relative to its folder).
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Model, AssetError> {
-    let bytes = crate::read_limited(path, options.limits.max_file_bytes)?;
+    let bytes = crate::options::read_limited(path, options.limits.max_file_bytes)?;
     import_bytes(&bytes, path, options)
 }
 
@@ -46,7 +46,7 @@ pub fn import_bytes(
     let mut reader = std::io::Cursor::new(bytes);
     let (models, materials) = tobj::load_obj_buf(&mut reader, &load_options, |mtl| {
         let file = base.join(mtl);
-        match crate::read_limited(&file, limits.max_file_bytes) {
+        match crate::options::read_limited(&file, limits.max_file_bytes) {
             Ok(data) => tobj::load_mtl_buf(&mut std::io::Cursor::new(data)),
             Err(e) => {
                 warnings
@@ -154,7 +154,7 @@ pub fn import_bytes(
                                 image: format!("`{map}` (map_Kd of `{}`)", mat.name),
                                 message,
                             };
-                            let data = crate::read_limited(&file, limits.max_file_bytes)
+                            let data = crate::options::read_limited(&file, limits.max_file_bytes)
                                 .map_err(|e| err(e.to_string()))?;
                             let t = Arc::new(crate::image::decode(&data, &limits).map_err(err)?);
                             textures.insert(map.clone(), t.clone());

@@ -9,8 +9,8 @@ use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
-use luxbake::meshes::{self, RoomAlbedo};
 use luxbake::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
+use luxbake::sources::meshes::{self, RoomAlbedo};
 use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
 use luxbake_assets::{ImportOptions, Limits, Model, UvSource, export, import};
 use luxbake_ies::Photometry;

@@ -7,7 +7,7 @@
 use std::path::{Path, PathBuf};
 
 use luxbake::scene::{Scene, Transform};
-use luxbake::scenefile::from_str_with;
+use luxbake::sources::scenefile::from_str_with;
 use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
 use luxbake_assets::{ImportOptions, Limits, SceneLoader, import};
 

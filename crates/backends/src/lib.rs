@@ -64,9 +64,9 @@ impl fmt::Display for BackendKind {
 impl FromStr for BackendKind {
     type Err = String;
     /// `cpu`, `glow` or `wgpu` (case-insensitive): the names a scene file's `settings.backend`
-    /// accepts ([`luxbake::scenefile::backend_name`]).
+    /// accepts ([`luxbake::sources::scenefile::backend_name`]).
     fn from_str(s: &str) -> Result<BackendKind, String> {
-        let name = luxbake::scenefile::backend_name(s)?;
+        let name = luxbake::sources::scenefile::backend_name(s)?;
         BackendKind::ALL
             .into_iter()
             .find(|k| k.name() == name)
@@ -354,7 +354,7 @@ mod tests {
     #[test]
     fn names_parse_back() {
         let names = BackendKind::ALL.map(BackendKind::name);
-        assert_eq!(names, luxbake::scenefile::BACKEND_NAMES);
+        assert_eq!(names, luxbake::sources::scenefile::BACKEND_NAMES);
         for b in BackendKind::ALL {
             assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
             assert_eq!(b.to_string(), b.name());

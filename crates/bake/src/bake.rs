@@ -33,7 +33,7 @@ use crate::graph::{BakeGraph, GraphConfig, GraphError, PassKind, TexId};
 use crate::layout::{Layout, LayoutError, Region};
 use crate::map::MapImage;
 use crate::program::TilePlan;
-use crate::scene::{Blur, BvhMode, Scene, Settings};
+use crate::scene::{BvhMode, Scene, Settings};
 
 /// Bounces stop once one adds less than this fraction of the total illuminance.
 pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
@@ -300,30 +300,6 @@ pub struct BakeOutput {
     pub report: BakeReport,
 }
 
-fn check_settings<E: std::error::Error>(s: &Settings) -> Result<(), BakeError<E>> {
-    if !(s.texels_per_metre.is_finite() && s.texels_per_metre > 0.0) {
-        return Err(BakeError::InvalidSetting {
-            name: "texels_per_metre",
-            reason: format!("must be finite and > 0, got {}", s.texels_per_metre),
-        });
-    }
-    if let Blur::Sigma(sigma) = s.blur
-        && !(sigma.is_finite() && sigma >= 0.0)
-    {
-        return Err(BakeError::InvalidSetting {
-            name: "blur",
-            reason: format!("sigma must be finite and ≥ 0, got {sigma}"),
-        });
-    }
-    if s.bounces > 0 && s.rays == 0 {
-        return Err(BakeError::InvalidSetting {
-            name: "rays",
-            reason: "must be ≥ 1 when bounces > 0".into(),
-        });
-    }
-    Ok(())
-}
-
 /// Per lamp and object, how many valid texels the lamp lights (no shadows), and the total.
 fn lamp_reach(
     gbuffer: &GBuffer,
@@ -383,7 +359,10 @@ pub fn bake<B: GpuBackend>(
     progress: &mut dyn FnMut(&Progress<'_>),
 ) -> Result<BakeOutput, BakeError<B::Error>> {
     let start = Instant::now();
-    check_settings(settings)?;
+    settings.validate().map_err(|e| BakeError::InvalidSetting {
+        name: e.name,
+        reason: e.reason,
+    })?;
     let name = backend.name();
     let be = |source| BakeError::Backend {
         backend: name,

@@ -423,8 +423,8 @@ fn coverage_mask(p: &[DVec2; 3], area2: f64, cell: DVec2) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::meshes;
     use crate::scene::{Albedo, Mesh, Settings, Transform};
+    use crate::sources::meshes;
 
     fn raster(scene: &Scene) -> (Layout, GBuffer) {
         let l = Layout::new(scene, 8192, 256).expect("layout");
@@ -553,7 +553,7 @@ mod tests {
         let s = Scene::builtin("sphere").expect("builtin");
         let (l, g) = raster(&s);
         assert!(check(&s, &l, &g, 97) > 300);
-        let r = f64::from(crate::builtin::SPHERE_RADIUS);
+        let r = f64::from(crate::sources::builtin::SPHERE_RADIUS);
         for (p, n) in g.position.chunks_exact(4).zip(g.normal.chunks_exact(4)) {
             if p[3] == 1.0 {
                 let q = Vec3::from_slice(p).as_dvec3();
@@ -798,7 +798,7 @@ mod tests {
                 if n[1] > 0.99 {
                     floor += 1;
                     let a = &g.albedo[k * 4..k * 4 + 3];
-                    assert_eq!(a, crate::builtin::ROOM_ALBEDO.floor);
+                    assert_eq!(a, crate::sources::builtin::ROOM_ALBEDO.floor);
                 }
             }
         }

@@ -253,7 +253,7 @@ pub fn map_size(
 
 /// Metres of world surface spanned by the object's light-map square along u and along v:
 /// `sqrt(A_world / A_uv)` split by the area-weighted ratio of the surface's stretch along u
-/// and v (exact for charts laid out at a uniform metric scale, as [`crate::meshes`] does).
+/// and v (exact for charts laid out at a uniform metric scale, as [`crate::sources::meshes`] does).
 /// `None` when the UVs or the surface have no area, or the data is not finite.
 pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
     let m = &object.mesh;
@@ -268,7 +268,7 @@ pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
         let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
         let (d1, d2) = (t[1] - t[0], t[2] - t[0]);
         let det = d1.perp_dot(d2);
-        let aw = crate::scene::length(e1.cross(e2).to_array()) / 2.0;
+        let aw = e1.cross(e2).length() / 2.0;
         let auv = det.abs() / 2.0;
         if !(aw.is_finite() && auv.is_finite()) || auv == 0.0 {
             continue;
@@ -293,8 +293,8 @@ pub fn lightmap_extent(object: &Object) -> Option<[f64; 2]> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::meshes;
     use crate::scene::{Albedo, Settings, Transform};
+    use crate::sources::meshes;
 
     fn plane_object(name: &str, size: [f32; 2], padding: f32) -> Object {
         Object {

@@ -21,6 +21,29 @@
 //! tiles ([`program::TilePlan`]) and calls [`GpuBackend::dispatch`] per tile: a backend binds
 //! and dispatches, and knows no pass kinds.
 //!
+//! ## Crate layout
+//! Modules by concern; each imports only what lies below it (arrows: "imports"), and no
+//! files import each other in a circle (a test of `xtask` checks every crate):
+//!
+//! ```text
+//!   output                       EXR / PNG / JSON files of a finished bake
+//!     │
+//!     ▼
+//!   bake, graph, backend, cpu,   the pipeline: bake() lays out, rasterises, builds the BVH
+//!   layout, gbuffer, map, rng,   and runs the pass graph on a GpuBackend (cpu: the
+//!   probe                        reference); reads light maps back (map, probe)
+//!     │
+//!     │      sources             where scenes come from: builtin scenes, scenefile (TOML),
+//!     │        │                 procedural meshes; Scene::builtin, Scene::from_toml_file, …
+//!     ▼        ▼                 are `impl Scene` blocks there
+//!   scene                        the model: Scene, Object, Mesh, Lamp, Transform, Albedo,
+//!                                Settings (one Settings::validate), SceneError
+//! ```
+//!
+//! The pipeline never reads a scene file and the model imports no source and no writer, so
+//! an engine can build a [`Scene`](scene::Scene) itself and call [`bake()`]. The sources stay
+//! in this crate because the `Scene` constructors are inherent methods.
+//!
 //! ## Physics
 //! - Surfaces are **Lambertian** (diffuse); no specular, no spectra: RGB is a lamp tint times
 //!   an albedo, each channel baked independently.
@@ -55,22 +78,20 @@
 
 pub mod backend;
 pub mod bake;
-pub mod builtin;
 pub mod ci;
 pub mod cpu;
 pub mod gbuffer;
 pub mod graph;
 pub mod layout;
 pub mod map;
-pub mod meshes;
 pub mod output;
 pub mod pack;
 pub mod probe;
 pub mod program;
 pub mod rng;
 pub mod scene;
-pub mod scenefile;
 pub mod shader;
+pub mod sources;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{BakeError, BakeOutput, BakeReport, Progress, bake};

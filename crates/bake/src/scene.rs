@@ -1,4 +1,6 @@
-//! The scene model: objects, lamps and bake settings, as plain data.
+//! The scene model: objects, lamps and bake settings, as plain data. It imports no scene
+//! source: built-in scenes, scene files and procedural meshes are in [`crate::sources`], on top
+//! of it.
 //!
 //! # Conventions
 //! - Units: metres for lengths, candela for intensities (from the IES file), lux (lm/m²) for
@@ -32,10 +34,11 @@
 //!    counter-clockwise seen from above (from behind the lamp, looking along `aim`).
 
 use std::fmt;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::str::FromStr;
 use std::sync::Arc;
 
+use glam::{DMat3, DVec3, Vec3};
 use luxbake_bvh::TriangleAttributes;
 use luxbake_ies::Photometry;
 
@@ -219,13 +222,11 @@ impl AlbedoTexture {
         let wrap = |i: f64, n: usize| i.rem_euclid(n as f64) as usize % n;
         let (x0i, x1i) = (wrap(x0, w), wrap(x0 + 1.0, w));
         let (y0i, y1i) = (wrap(y0, h), wrap(y0 + 1.0, h));
-        let t = |x: usize, y: usize| self.texels[y * w + x];
+        let t = |x: usize, y: usize| Vec3::from(self.texels[y * w + x]);
         let (a, b, c, d) = (t(x0i, y0i), t(x1i, y0i), t(x0i, y1i), t(x1i, y1i));
-        std::array::from_fn(|k| {
-            let top = a[k] + (b[k] - a[k]) * fx;
-            let bottom = c[k] + (d[k] - c[k]) * fx;
-            top + (bottom - top) * fy
-        })
+        let top = a + (b - a) * fx;
+        let bottom = c + (d - c) * fx;
+        (top + (bottom - top) * fy).to_array()
     }
 }
 
@@ -273,10 +274,9 @@ impl Transform {
         rotation_deg_xyz: [f32; 3],
         scale: [f32; 3],
     ) -> Transform {
-        let r = rotation_xyz(rotation_deg_xyz.map(f64::from));
-        let linear = std::array::from_fn(|col| {
-            std::array::from_fn(|row| (r[row][col] * f64::from(scale[col])) as f32)
-        });
+        let r = rotation_xyz(Vec3::from(rotation_deg_xyz).as_dvec3());
+        let linear =
+            std::array::from_fn(|col| (r.col(col) * f64::from(scale[col])).as_vec3().to_array());
         Transform {
             linear,
             translation,
@@ -285,19 +285,19 @@ impl Transform {
 
     /// Maps an object-space point to world space.
     pub fn point(&self, p: [f32; 3]) -> [f32; 3] {
-        let w = self.point_f64(p.map(f64::from));
-        w.map(|c| c as f32)
+        let w = self.point_f64(Vec3::from(p).as_dvec3().to_array());
+        DVec3::from(w).as_vec3().to_array()
     }
 
     /// [`Transform::point`] in double precision.
     pub fn point_f64(&self, p: [f64; 3]) -> [f64; 3] {
-        let m = &self.linear;
-        std::array::from_fn(|r| {
-            f64::from(m[0][r]) * p[0]
-                + f64::from(m[1][r]) * p[1]
-                + f64::from(m[2][r]) * p[2]
-                + f64::from(self.translation[r])
-        })
+        let translation = Vec3::from(self.translation).as_dvec3();
+        (self.linear_f64() * DVec3::from(p) + translation).to_array()
+    }
+
+    /// The linear part in double precision.
+    fn linear_f64(&self) -> DMat3 {
+        DMat3::from_cols_array_2d(&self.linear.map(|c| Vec3::from(c).as_dvec3().to_array()))
     }
 
     /// Maps an object-space normal to a world-space unit normal with the inverse transpose of
@@ -305,32 +305,30 @@ impl Transform {
     /// keep them on the same side of the surface). Returns the input unchanged when the
     /// transform is singular or the result cannot be normalised.
     pub fn normal(&self, n: [f32; 3]) -> [f32; 3] {
-        match self.normal_f64(n.map(f64::from)) {
-            Some(v) => v.map(|c| c as f32),
+        match self.normal_f64(Vec3::from(n).as_dvec3().to_array()) {
+            Some(v) => DVec3::from(v).as_vec3().to_array(),
             None => n,
         }
     }
 
     /// [`Transform::normal`] in double precision; `None` when it cannot be normalised.
     pub fn normal_f64(&self, n: [f64; 3]) -> Option<[f64; 3]> {
-        let m: [[f64; 3]; 3] = self.linear.map(|c| c.map(f64::from));
+        let m = self.linear_f64();
         // Columns a, b, c; the inverse transpose is [b×c, c×a, a×b] / det (as columns).
-        let (a, b, c) = (m[0], m[1], m[2]);
-        let cof = [cross(b, c), cross(c, a), cross(a, b)];
-        let det = dot(a, cof[0]);
+        let (a, b, c) = (m.x_axis, m.y_axis, m.z_axis);
+        let cof = DMat3::from_cols(b.cross(c), c.cross(a), a.cross(b));
+        let det = a.dot(cof.x_axis);
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        let v: [f64; 3] = std::array::from_fn(|r| {
-            (cof[0][r] * n[0] + cof[1][r] * n[1] + cof[2][r] * n[2]) * det.signum()
-        });
-        normalize(v)
+        unit(cof * DVec3::from(n) * det.signum()).map(|v| v.to_array())
     }
 
     /// Determinant of the linear part (negative for mirroring transforms).
     pub fn determinant(&self) -> f64 {
-        let m: [[f64; 3]; 3] = self.linear.map(|c| c.map(f64::from));
-        dot(m[0], cross(m[1], m[2]))
+        let m = self.linear_f64();
+        // a · (b × c) as before: glam's determinant() takes c · (a × b), which rounds differently.
+        m.x_axis.dot(m.y_axis.cross(m.z_axis))
     }
 }
 
@@ -356,8 +354,8 @@ pub struct Object {
     pub receiver: bool,
     /// Multiplier on [`Settings::texels_per_metre`] for this object's light map (default 1;
     /// Unity calls it "scale in lightmap"). Density stays uniform over the object's surface.
-    /// The built-in chair and sofa use [`crate::builtin::CHAIR_TEXEL_SCALE`] and
-    /// [`crate::builtin::SOFA_TEXEL_SCALE`] to reproduce the paper's per-object map budgets.
+    /// The built-in chair and sofa use [`crate::sources::builtin::CHAIR_TEXEL_SCALE`] and
+    /// [`crate::sources::builtin::SOFA_TEXEL_SCALE`] to reproduce the paper's per-object map budgets.
     pub texel_scale: f32,
 }
 
@@ -402,25 +400,26 @@ impl Lamp {
     /// = −aim). Orthonormal and right-handed; its transpose maps back to world. The rule is
     /// in the module docs.
     pub fn world_to_photometric_matrix(&self) -> [[f32; 3]; 3] {
-        self.frame_f64().map(|row| row.map(|c| c as f32))
+        self.frame_f64()
+            .map(|row| DVec3::from(row).as_vec3().to_array())
     }
 
     /// [`Lamp::world_to_photometric_matrix`] in double precision.
     pub fn frame_f64(&self) -> [[f64; 3]; 3] {
-        let default_aim = [0.0, -1.0, 0.0];
-        let aim = normalize(self.aim.map(f64::from)).unwrap_or(default_aim);
-        let basis = [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]];
+        let default_aim = DVec3::NEG_Y;
+        let aim = unit(Vec3::from(self.aim).as_dvec3()).unwrap_or(default_aim);
+        let basis = [DVec3::X, DVec3::NEG_Z, DVec3::Y];
         // Step 2: the smallest rotation taking −Y onto `aim` (Rodrigues).
-        let c = dot(default_aim, aim);
+        let c = default_aim.dot(aim);
         let aimed = if c < -1.0 + 1e-12 {
             // Straight up: 180° about +X.
-            basis.map(|v| [v[0], -v[1], -v[2]])
+            basis.map(|v| DVec3::new(v.x, -v.y, -v.z))
         } else {
-            let k = cross(default_aim, aim);
+            let k = default_aim.cross(aim);
             basis.map(|v| {
-                let kxv = cross(k, v);
-                let kxkxv = cross(k, kxv);
-                std::array::from_fn(|i| v[i] + kxv[i] + kxkxv[i] / (1.0 + c))
+                let kxv = k.cross(v);
+                let kxkxv = k.cross(kxv);
+                v + kxv + kxkxv / (1.0 + c)
             })
         };
         // Step 3: turn about the zenith axis by rotation_deg (right-handed).
@@ -428,21 +427,16 @@ impl Lamp {
         let theta = if theta.is_finite() { theta } else { 0.0 };
         let (s, co) = theta.sin_cos();
         let zenith = aimed[2];
-        let rot = |v: [f64; 3]| -> [f64; 3] {
-            let kxv = cross(zenith, v);
-            let kdv = dot(zenith, v);
-            std::array::from_fn(|i| v[i] * co + kxv[i] * s + zenith[i] * kdv * (1.0 - co))
-        };
-        [rot(aimed[0]), rot(aimed[1]), zenith]
+        let rot = |v: DVec3| v * co + zenith.cross(v) * s + zenith * zenith.dot(v) * (1.0 - co);
+        [rot(aimed[0]), rot(aimed[1]), zenith].map(|v| v.to_array())
     }
 
     /// Maps a world direction (any length) to the photometric frame; the result has the same
     /// length. Intensity toward a texel at `p` is `photometry` evaluated at
     /// `to_photometric(p − position)`.
     pub fn to_photometric(&self, world_dir: [f32; 3]) -> [f32; 3] {
-        let m = self.frame_f64();
-        let d = world_dir.map(f64::from);
-        m.map(|row| dot(row, d) as f32)
+        let d = Vec3::from(world_dir).as_dvec3();
+        self.frame_f64().map(|row| DVec3::from(row).dot(d) as f32)
     }
 }
 
@@ -520,6 +514,18 @@ impl FromStr for BvhMode {
 }
 
 /// Bake settings.
+///
+/// # Limits
+/// One set, checked by [`Settings::validate`] wherever settings come in (scene files, the
+/// CLI, the viewer) and again by `bake()`:
+///
+/// | setting            | allowed                                                   |
+/// |--------------------|-----------------------------------------------------------|
+/// | `rays`             | 1 ..= [`MAX_RAYS`](Settings::MAX_RAYS) (65536)            |
+/// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
+/// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
+/// | `texels_per_metre` | (0, [`MAX_TEXELS_PER_METRE`](Settings::MAX_TEXELS_PER_METRE)] (10000) |
+/// | `bvh`, `seed`, `backend` | any value                                           |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     /// Gather rays per texel per bounce.
@@ -550,6 +556,57 @@ impl Settings {
     /// Default texel density, texels per metre (1.5625 cm texels). With it the built-in scenes
     /// come close to the light-map texel counts of the paper's Table 1.
     pub const DEFAULT_TEXELS_PER_METRE: f32 = 64.0;
+
+    /// Most gather rays per texel per bounce.
+    pub const MAX_RAYS: u32 = 65_536;
+    /// Most indirect bounces.
+    pub const MAX_BOUNCES: u32 = 64;
+    /// Largest blur sigma, texels.
+    pub const MAX_BLUR_SIGMA: f32 = 64.0;
+    /// Largest texel density, texels per metre.
+    pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
+
+    /// Checks every setting against the limits in the type's docs; the error names the first
+    /// setting out of range (`rays`, `bounces`, `blur` or `texels_per_metre`).
+    pub fn validate(&self) -> Result<(), SettingError> {
+        let invalid = |name, reason| Err(SettingError { name, reason });
+        if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
+            let max = Settings::MAX_RAYS;
+            return invalid("rays", format!("{}; expected 1..={max}", self.rays));
+        }
+        if self.bounces > Settings::MAX_BOUNCES {
+            let max = Settings::MAX_BOUNCES;
+            return invalid("bounces", format!("{}; expected 0..={max}", self.bounces));
+        }
+        if let Blur::Sigma(sigma) = self.blur
+            && !(sigma > 0.0 && sigma <= Settings::MAX_BLUR_SIGMA)
+        {
+            let max = Settings::MAX_BLUR_SIGMA;
+            return invalid(
+                "blur",
+                format!("{sigma}; expected a sigma in texels, 0 < sigma <= {max}, or \"none\""),
+            );
+        }
+        let d = self.texels_per_metre;
+        if !(d > 0.0 && d <= Settings::MAX_TEXELS_PER_METRE) {
+            let max = Settings::MAX_TEXELS_PER_METRE;
+            return invalid(
+                "texels_per_metre",
+                format!("{d}; expected 0 < texels_per_metre <= {max}"),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A setting outside the limits of [`Settings::validate`].
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("invalid setting `{name}`: {reason}")]
+pub struct SettingError {
+    /// The setting: its field of [`Settings`], also its key in a scene file's `[settings]`.
+    pub name: &'static str,
+    /// The value and what is allowed.
+    pub reason: String,
 }
 
 impl Default for Settings {
@@ -579,43 +636,6 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// A built-in scene by name (see [`Scene::builtin_names`] and [`crate::builtin`]), at the
-    /// default texel density.
-    pub fn builtin(name: &str) -> Result<Scene, SceneError> {
-        crate::builtin::scene(name, Settings::default())
-    }
-
-    /// A built-in scene with the given settings; the procedural meshes' chart padding is
-    /// sized for `settings.texels_per_metre` (use this rather than changing the density of a
-    /// [`Scene::builtin`] afterwards).
-    pub fn builtin_with_settings(name: &str, settings: Settings) -> Result<Scene, SceneError> {
-        crate::builtin::scene(name, settings)
-    }
-
-    /// The names [`Scene::builtin`] accepts.
-    pub fn builtin_names() -> &'static [&'static str] {
-        crate::builtin::NAMES
-    }
-
-    /// Reads a TOML scene file (format: [`crate::scenefile`]); relative paths inside it are
-    /// relative to the file's folder.
-    pub fn from_toml_file(path: &Path) -> Result<Scene, SceneError> {
-        crate::scenefile::from_file(path)
-    }
-
-    /// [`Scene::from_toml_file`], loading file meshes (`mesh = "x.glb"`) with `loader`.
-    pub fn from_toml_file_with(
-        path: &Path,
-        loader: &dyn crate::scenefile::MeshLoader,
-    ) -> Result<Scene, SceneError> {
-        crate::scenefile::from_file_with(path, loader)
-    }
-
-    /// Parses a TOML scene from text; relative paths inside it are relative to `base_dir`.
-    pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<Scene, SceneError> {
-        crate::scenefile::from_str(text, base_dir, None)
-    }
-
     /// Checks every object's mesh ([`Mesh::validate`]) and that names are unique.
     pub fn validate(&self) -> Result<(), SceneError> {
         let mut names = std::collections::HashSet::new();
@@ -637,12 +657,13 @@ impl Scene {
     /// are unchanged, so illuminances scale as `1 / factor²`.
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
+        let scale = |v: [f32; 3]| (Vec3::from(v) * factor).to_array();
         for o in &mut s.objects {
-            o.transform.linear = o.transform.linear.map(|c| c.map(|v| v * factor));
-            o.transform.translation = o.transform.translation.map(|v| v * factor);
+            o.transform.linear = o.transform.linear.map(scale);
+            o.transform.translation = scale(o.transform.translation);
         }
         for l in &mut s.lamps {
-            l.position = l.position.map(|v| v * factor);
+            l.position = scale(l.position);
         }
         s.settings.texels_per_metre /= factor;
         s
@@ -697,46 +718,19 @@ pub(crate) fn tri_indices(tri: &[u32; 3], m: &Mesh) -> Option<[usize; 3]> {
     idx.iter().all(|&i| i < n).then_some(idx)
 }
 
-/// Rotation matrix (row-major) `Rz · Ry · Rx` for angles in degrees.
-fn rotation_xyz(deg: [f64; 3]) -> [[f64; 3]; 3] {
-    let [x, y, z] = deg.map(|d| if d.is_finite() { d.to_radians() } else { 0.0 });
-    let (sx, cx) = x.sin_cos();
-    let (sy, cy) = y.sin_cos();
-    let (sz, cz) = z.sin_cos();
-    let rx = [[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]];
-    let ry = [[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]];
-    let rz = [[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]];
-    matmul(rz, matmul(ry, rx))
+/// Rotation matrix `Rz · Ry · Rx` for angles in degrees (non-finite angles count as 0).
+fn rotation_xyz(deg: DVec3) -> DMat3 {
+    let [x, y, z] = deg
+        .to_array()
+        .map(|d| if d.is_finite() { d.to_radians() } else { 0.0 });
+    DMat3::from_rotation_z(z) * (DMat3::from_rotation_y(y) * DMat3::from_rotation_x(x))
 }
 
-fn matmul(a: [[f64; 3]; 3], b: [[f64; 3]; 3]) -> [[f64; 3]; 3] {
-    std::array::from_fn(|r| std::array::from_fn(|c| (0..3).map(|k| a[r][k] * b[k][c]).sum()))
-}
-
-pub(crate) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-pub(crate) fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-/// Unit vector, or `None` for a zero or non-finite vector.
-pub(crate) fn normalize(v: [f64; 3]) -> Option<[f64; 3]> {
-    let l = dot(v, v).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| v.map(|c| c / l))
-}
-
-pub(crate) fn sub3(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-pub(crate) fn length(v: [f64; 3]) -> f64 {
-    dot(v, v).sqrt()
+/// `v / |v|`, or `None` for a zero or non-finite vector. Divides (glam's `normalize`
+/// multiplies by the reciprocal, which rounds differently).
+pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
+    let l = v.length();
+    (l > 0.0 && l.is_finite()).then(|| v / l)
 }
 
 #[cfg(test)]
@@ -890,20 +884,20 @@ mod tests {
         for _ in 0..500 {
             let aim = [next(), next(), next()];
             let l = lamp(aim, next() * 360.0);
-            let m = l.frame_f64();
+            let m = l.frame_f64().map(DVec3::from);
             for r in 0..3 {
                 for c in 0..3 {
-                    let d = dot(m[r], m[c]);
+                    let d = m[r].dot(m[c]);
                     let want = if r == c { 1.0 } else { 0.0 };
                     assert!((d - want).abs() < 1e-9, "aim {aim:?}: rows {r} {c}: {d}");
                 }
             }
             assert!(
-                (dot(cross(m[0], m[1]), m[2]) - 1.0).abs() < 1e-9,
+                (m[0].cross(m[1]).dot(m[2]) - 1.0).abs() < 1e-9,
                 "right-handed"
             );
-            let a = normalize(aim.map(f64::from)).unwrap_or([0.0, -1.0, 0.0]);
-            let p = l.to_photometric(a.map(|c| c as f32));
+            let a = unit(Vec3::from(aim).as_dvec3()).unwrap_or(DVec3::NEG_Y);
+            let p = l.to_photometric(a.as_vec3().to_array());
             assert!(
                 close(p, [0.0, 0.0, -1.0]),
                 "aim {aim:?} is the nadir: {p:?}"
@@ -945,6 +939,52 @@ mod tests {
             assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
         }
         assert!("bvh".parse::<BvhMode>().is_err());
+    }
+
+    #[test]
+    fn validate_names_the_setting_out_of_range() {
+        let with = |edit: &dyn Fn(&mut Settings)| {
+            let mut s = Settings::default();
+            edit(&mut s);
+            s.validate().map_err(|e| e.name)
+        };
+        assert_eq!(with(&|_| {}), Ok(()));
+        assert_eq!(with(&|s| s.blur = Blur::None), Ok(()));
+        let at_the_limits = |s: &mut Settings| {
+            s.rays = Settings::MAX_RAYS;
+            s.bounces = Settings::MAX_BOUNCES;
+            s.blur = Blur::Sigma(Settings::MAX_BLUR_SIGMA);
+            s.texels_per_metre = Settings::MAX_TEXELS_PER_METRE;
+        };
+        assert_eq!(with(&at_the_limits), Ok(()));
+        assert_eq!(with(&|s| s.rays = 0), Err("rays"));
+        assert_eq!(with(&|s| s.rays = Settings::MAX_RAYS + 1), Err("rays"));
+        assert_eq!(
+            with(&|s| s.bounces = Settings::MAX_BOUNCES + 1),
+            Err("bounces")
+        );
+        for sigma in [0.0, -1.0, 64.5, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                with(&|s| s.blur = Blur::Sigma(sigma)),
+                Err("blur"),
+                "{sigma}"
+            );
+        }
+        for d in [0.0, -1.0, 10_001.0, f32::NAN, f32::INFINITY] {
+            assert_eq!(
+                with(&|s| s.texels_per_metre = d),
+                Err("texels_per_metre"),
+                "{d}"
+            );
+        }
+        let message = Settings {
+            rays: 0,
+            ..Settings::default()
+        }
+        .validate()
+        .expect_err("rays 0")
+        .to_string();
+        assert_eq!(message, "invalid setting `rays`: 0; expected 1..=65536");
     }
 
     #[test]

@@ -8,9 +8,9 @@ use luxbake::bake::{BakeOutput, ObjectMaps, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::map::MapImage;
-use luxbake::meshes;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
+use luxbake::sources::meshes;
 use luxbake_ies::Photometry;
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {

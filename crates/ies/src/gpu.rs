@@ -80,8 +80,15 @@ fn common_step(angles: &[f64], span: u64) -> Option<u64> {
         .filter(|&g| g > 0)
 }
 
+impl Photometry {
+    /// A resampled table for shaders; see [`GpuTable`].
+    pub fn gpu_table(&self) -> GpuTable {
+        GpuTable::from_photometry(self)
+    }
+}
+
 impl GpuTable {
-    pub(crate) fn from_photometry(p: &Photometry) -> GpuTable {
+    fn from_photometry(p: &Photometry) -> GpuTable {
         let s = p.sphere();
         let (height, width) = match s.axis {
             Axis::Z => {

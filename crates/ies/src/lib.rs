@@ -92,6 +92,7 @@ mod ies;
 mod ldt;
 mod model;
 mod photometry;
+mod read;
 mod sphere;
 mod text;
 mod write;

@@ -1,10 +1,10 @@
 //! [`Photometry`]: the parsed file and its full-sphere model, and the photometric queries.
 
+use crate::IesError;
 use crate::model::{
     Format, Keyword, LdtInfo, LuminousOpening, PhotometricType, Symmetry, Tilt, Units, Warning,
 };
 use crate::sphere::{self, Axis, Sphere};
-use crate::{GpuTable, IesError, ParseOptions};
 use std::f64::consts::PI;
 
 /// Largest accepted intensity after multipliers, in candela (the brightest searchlights reach
@@ -87,44 +87,6 @@ pub(crate) struct Parts {
 }
 
 impl Photometry {
-    /// Reads an IES LM-63 file (any version) or an EULUMDAT file, detected from the content,
-    /// with default [`Limits`](crate::Limits). A `TILT=<file>` line is an error
-    /// ([`IesError::TiltFileUnresolved`]); use [`Photometry::parse_with`] and a resolver.
-    pub fn parse(bytes: &[u8]) -> Result<Photometry, IesError> {
-        Photometry::parse_with(bytes, &ParseOptions::default())
-    }
-
-    /// Reads a file with explicit limits and a `TILT=<file>` resolver.
-    ///
-    /// A file is LM-63 when its first non-blank line starts with `IESNA` or `IES:` or when any
-    /// line starts with `TILT`; otherwise it is read as EULUMDAT.
-    pub fn parse_with(bytes: &[u8], options: &ParseOptions) -> Result<Photometry, IesError> {
-        let limits = &options.limits;
-        if bytes.len() > limits.max_bytes {
-            return Err(IesError::TooLarge {
-                size: bytes.len(),
-                limit: limits.max_bytes,
-            });
-        }
-        let text = crate::text::decode(bytes);
-        if text.trim().is_empty() {
-            return Err(IesError::Empty);
-        }
-        let lines = crate::text::lines(&text);
-        let first = lines.iter().map(|l| l.trim()).find(|l| !l.is_empty());
-        let is_ies = first.is_some_and(|l| {
-            let up = l.to_ascii_uppercase();
-            up.starts_with("IESNA") || up.starts_with("IES:")
-        }) || lines
-            .iter()
-            .any(|l| l.trim_start().to_ascii_uppercase().starts_with("TILT"));
-        if is_ies {
-            crate::ies::parse(&lines, options)
-        } else {
-            crate::ldt::parse(&lines, limits)
-        }
-    }
-
     /// A lamp that shines `candela` in every direction (4π·`candela` lumens). Negative or
     /// non-finite values give a dark lamp.
     pub fn isotropic(candela: f64) -> Photometry {
@@ -386,11 +348,6 @@ impl Photometry {
             return (0.0, [0.0, 0.0, -1.0]);
         }
         (v * self.tilt0, sphere::direction(self.sphere.axis, t, p))
-    }
-
-    /// A resampled table for shaders; see [`GpuTable`].
-    pub fn gpu_table(&self) -> GpuTable {
-        GpuTable::from_photometry(self)
     }
 
     pub(crate) fn sphere(&self) -> &Sphere {

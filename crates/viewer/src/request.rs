@@ -6,8 +6,8 @@
 
 use std::sync::Arc;
 
-use luxbake::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake::scene::{Blur, Lamp, Scene, Settings};
+use luxbake::sources::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake_ies::Photometry;
 use serde::{Deserialize, Serialize};
 
@@ -35,20 +35,9 @@ pub const FILE_SOURCE: &str = "file";
 const SYNTHETIC_COSINE_IES: &str = include_str!("../lamps/synthetic_cosine_typeC.ies");
 const SYNTHETIC_ASYM_IES: &str = include_str!("../lamps/synthetic_asym_typeC.ies");
 
-/// Upper bounds of the settings the page may request (a browser tab must not be asked for
-/// more than it can allocate or finish).
-pub mod limits {
-    /// Gather rays per texel per bounce.
-    pub const MAX_RAYS: u32 = 4096;
-    /// Indirect bounces.
-    pub const MAX_BOUNCES: u32 = 8;
-    /// Blur sigma, texels.
-    pub const MAX_BLUR_SIGMA: f32 = 16.0;
-    /// Texel density range, texels per metre.
-    pub const TEXELS_PER_METRE: (f32, f32) = (2.0, 128.0);
-    /// Lamp multiplier (dimmer) range.
-    pub const MULTIPLIER: (f32, f32) = (0.0, 100.0);
-}
+/// Range of the lamp's dimmer ([`LampSpec::multiplier`]). The bake settings' limits are
+/// those of every bake, [`Settings::validate`].
+pub const MULTIPLIER_RANGE: (f32, f32) = (0.0, 100.0);
 
 /// The lamp of a request: which photometry, where, aimed where, how bright.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -111,13 +100,15 @@ pub struct BakeRequest {
 }
 
 impl Default for BakeRequest {
-    /// `chairs_05` at 32 texels/m, 64 rays, one bounce, σ = 2: a quarter of the paper's texels,
-    /// sized for a browser's first bake (the settings panel goes up to the paper's density).
+    /// `chairs_05` with the bake's default rays, bounces and blur ([`Settings::default`]),
+    /// except the density: 32 texels/m, a quarter of the paper's texels, because a browser's
+    /// first bake must fit a tab's memory and finish in seconds (the settings panel goes up to
+    /// the paper's density).
     fn default() -> Self {
         BakeRequest {
             scene: "chairs_05".into(),
-            rays: 64,
-            bounces: 1,
+            rays: Settings::DEFAULT_RAYS,
+            bounces: Settings::DEFAULT_BOUNCES,
             blur_sigma: Settings::DEFAULT_BLUR_SIGMA,
             texels_per_metre: 32.0,
             seed: 0,
@@ -135,49 +126,32 @@ impl BakeRequest {
         serde_json::from_str(text).map_err(|e| ViewerError::Request(e.to_string()))
     }
 
-    /// The bake settings of this request, checked against [`limits`].
+    /// The bake settings of this request, checked by [`Settings::validate`]; `blur_sigma`
+    /// 0 means no blur.
     ///
     /// # Errors
-    /// [`ViewerError::Setting`] naming the first value out of range.
+    /// [`ViewerError::Setting`] naming the first value out of range by its JSON key.
     pub fn settings(&self) -> Result<Settings, ViewerError> {
-        let bad = |name: &'static str, reason: String| Err(ViewerError::Setting { name, reason });
-        if self.rays == 0 || self.rays > limits::MAX_RAYS {
-            return bad(
-                "rays",
-                format!("1 ..= {}, got {}", limits::MAX_RAYS, self.rays),
-            );
-        }
-        if self.bounces > limits::MAX_BOUNCES {
-            return bad(
-                "bounces",
-                format!("0 ..= {}, got {}", limits::MAX_BOUNCES, self.bounces),
-            );
-        }
-        if !(0.0..=limits::MAX_BLUR_SIGMA).contains(&self.blur_sigma) {
-            return bad(
-                "blur_sigma",
-                format!("0 ..= {}, got {}", limits::MAX_BLUR_SIGMA, self.blur_sigma),
-            );
-        }
-        let (lo, hi) = limits::TEXELS_PER_METRE;
-        if !(lo..=hi).contains(&self.texels_per_metre) {
-            return bad(
-                "texels_per_metre",
-                format!("{lo} ..= {hi}, got {}", self.texels_per_metre),
-            );
-        }
-        Ok(Settings {
+        let settings = Settings {
             rays: self.rays,
             bounces: self.bounces,
-            blur: if self.blur_sigma > 0.0 {
-                Blur::Sigma(self.blur_sigma)
-            } else {
+            blur: if self.blur_sigma == 0.0 {
                 Blur::None
+            } else {
+                Blur::Sigma(self.blur_sigma)
             },
             texels_per_metre: self.texels_per_metre,
             seed: self.seed,
             ..Settings::default()
-        })
+        };
+        settings.validate().map_err(|e| ViewerError::Setting {
+            name: match e.name {
+                "blur" => "blur_sigma",
+                name => name,
+            },
+            reason: e.reason,
+        })?;
+        Ok(settings)
     }
 }
 
@@ -244,7 +218,7 @@ pub fn build_scene(request: &BakeRequest, lamp_file: Option<&[u8]>) -> Result<Sc
     } else {
         bundled_photometry(&spec.source)?
     };
-    let (lo, hi) = limits::MULTIPLIER;
+    let (lo, hi) = MULTIPLIER_RANGE;
     if !(lo..=hi).contains(&spec.multiplier) {
         return Err(ViewerError::Setting {
             name: "multiplier",
@@ -312,7 +286,7 @@ mod tests {
         let r = BakeRequest::from_json(r#"{"scene":"chairs_01","rays":16}"#).unwrap();
         assert_eq!(r.scene, "chairs_01");
         assert_eq!(r.rays, 16);
-        assert_eq!(r.bounces, 1);
+        assert_eq!(r.bounces, Settings::DEFAULT_BOUNCES);
         let back = BakeRequest::from_json(&serde_json::to_string(&r).unwrap()).unwrap();
         assert_eq!(back, r);
         let e = BakeRequest::from_json(r#"{"scene":"chairs_01","rayz":16}"#).unwrap_err();

@@ -9,7 +9,7 @@
 mod render;
 
 use luxbake::Progress;
-use luxbake::builtin::ROOM_SIZE;
+use luxbake::sources::builtin::ROOM_SIZE;
 use luxbake_backend_glow::{GlContext, GlowBackend};
 use serde_json::json;
 use wasm_bindgen::prelude::*;

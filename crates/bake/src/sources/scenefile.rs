@@ -64,9 +64,12 @@
 //! `lights_ies` is given. A file object's `scale` also reaches the [`MeshLoader`]
 //! ([`MeshRequest::scale`]) so that generated charts keep their padding in texels.
 //!
+//! The `[settings]` ranges are those of every bake: the table goes through
+//! [`Settings::validate`].
+//!
 //! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
-//! ([`crate::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
-//! [`crate::builtin::CHAIR_TEXEL_SCALE`] and [`crate::builtin::SOFA_TEXEL_SCALE`] for the
+//! ([`crate::sources::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
+//! [`crate::sources::builtin::CHAIR_TEXEL_SCALE`] and [`crate::sources::builtin::SOFA_TEXEL_SCALE`] for the
 //! built-in furniture (as in the built-in scenes).
 
 use std::collections::HashSet;
@@ -77,9 +80,9 @@ use luxbake_ies::{ParseOptions, Photometry};
 use serde::Deserialize;
 use toml::Value;
 
-use crate::builtin;
-use crate::meshes::{self, RoomAlbedo};
-use crate::scene::{Albedo, Lamp, Object, Scene, SceneError, Settings, Transform};
+use crate::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform};
+use crate::sources::builtin;
+use crate::sources::meshes::{self, RoomAlbedo};
 
 /// Largest scene file read, bytes.
 pub const MAX_SCENE_FILE_BYTES: u64 = 1 << 20;
@@ -153,7 +156,7 @@ struct RawObject {
 
 /// Loads the file meshes that scene files name with `mesh = "x.glb"`. The core knows no
 /// file formats: a loader is implemented elsewhere (`luxbake-assets` reads glTF and OBJ) and
-/// passed to [`from_file_with`] / [`Scene::from_toml_file_with`](crate::scene::Scene::from_toml_file_with).
+/// passed to [`from_file_with`] / [`Scene::from_toml_file_with`].
 pub trait MeshLoader {
     /// Loads the file of `request`: one [`MeshPart`] per part (glTF primitive, OBJ material
     /// group), each in the file's frame (the object's transform is applied by the scene
@@ -185,7 +188,7 @@ pub struct MeshRequest<'a> {
     /// The object's light-map density: `texels_per_metre × texel_scale`.
     pub texels_per_metre: f32,
     /// The bake's blur (chart padding should exceed its reach).
-    pub blur: crate::scene::Blur,
+    pub blur: Blur,
     /// The object's per-axis scale (finite, non-zero): generated charts are measured on the
     /// scaled surface so their padding stays the same in texels.
     pub scale: [f32; 3],
@@ -197,9 +200,27 @@ pub struct MeshPart {
     /// The part's name in the file (for reports; object names come from the scene file).
     pub name: String,
     /// The geometry, in the file's frame.
-    pub mesh: crate::scene::Mesh,
+    pub mesh: Mesh,
     /// Its albedo (an `albedo` key in the scene file replaces the factor, keeps the texture).
     pub albedo: Albedo,
+}
+
+impl Scene {
+    /// Reads a TOML scene file (format: [`crate::sources::scenefile`]); relative paths inside
+    /// it are relative to the file's folder.
+    pub fn from_toml_file(path: &Path) -> Result<Scene, SceneError> {
+        from_file(path)
+    }
+
+    /// [`Scene::from_toml_file`], loading file meshes (`mesh = "x.glb"`) with `loader`.
+    pub fn from_toml_file_with(path: &Path, loader: &dyn MeshLoader) -> Result<Scene, SceneError> {
+        from_file_with(path, loader)
+    }
+
+    /// Parses a TOML scene from text; relative paths inside it are relative to `base_dir`.
+    pub fn from_toml_str(text: &str, base_dir: &Path) -> Result<Scene, SceneError> {
+        from_str(text, base_dir, None)
+    }
 }
 
 /// Reads and parses a scene file; `mesh = "..."` objects are an error (no loader).
@@ -399,35 +420,21 @@ impl Cx<'_> {
         backend_name(name).map_err(|e| self.invalid("settings.backend", e))
     }
 
+    /// The `[settings]` table over the defaults, checked by [`Settings::validate`].
     fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
         let mut s = Settings::default();
         let Some(raw) = raw else { return Ok(s) };
         if let Some(rays) = raw.rays {
-            if !(1..=65_536).contains(&rays) {
-                return Err(self.invalid("settings.rays", format!("{rays}; expected 1..=65536")));
-            }
             s.rays = rays;
         }
         if let Some(b) = raw.bounces {
-            if b > 64 {
-                return Err(self.invalid("settings.bounces", format!("{b}; expected 0..=64")));
-            }
             s.bounces = b;
         }
         if let Some(v) = raw.blur {
             s.blur = match &v {
-                Value::String(t) if t.eq_ignore_ascii_case("none") => crate::scene::Blur::None,
+                Value::String(t) if t.eq_ignore_ascii_case("none") => Blur::None,
                 Value::Float(_) | Value::Integer(_) => {
-                    let sigma = number(&v).unwrap_or(f64::NAN);
-                    if !(sigma > 0.0 && sigma <= 64.0) {
-                        return Err(self.invalid(
-                            "settings.blur",
-                            format!(
-                                "{sigma}; expected a sigma in texels, 0 < sigma <= 64, or \"none\""
-                            ),
-                        ));
-                    }
-                    crate::scene::Blur::Sigma(sigma as f32)
+                    Blur::Sigma(number(&v).unwrap_or(f64::NAN) as f32)
                 }
                 other => {
                     return Err(self.invalid(
@@ -438,12 +445,6 @@ impl Cx<'_> {
             };
         }
         if let Some(d) = raw.texels_per_metre {
-            if !(d > 0.0 && d <= 10_000.0) {
-                return Err(self.invalid(
-                    "settings.texels_per_metre",
-                    format!("{d}; expected 0 < texels_per_metre <= 10000"),
-                ));
-            }
             s.texels_per_metre = d as f32;
         }
         if let Some(b) = raw.bvh {
@@ -458,6 +459,8 @@ impl Cx<'_> {
         if let Some(b) = raw.backend {
             self.backend(&b)?;
         }
+        s.validate()
+            .map_err(|e| self.invalid(format!("settings.{}", e.name), e.reason))?;
         Ok(s)
     }
 
@@ -805,7 +808,7 @@ impl Cx<'_> {
             }
         };
         let mut file_lamps = Vec::new();
-        let parts: Vec<(crate::scene::Mesh, Albedo)> = match (mesh, &raw.mesh) {
+        let parts: Vec<(Mesh, Albedo)> = match (mesh, &raw.mesh) {
             (Some(m), _) => vec![(
                 m,
                 Albedo {

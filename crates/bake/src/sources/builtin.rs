@@ -26,8 +26,28 @@ use std::sync::{Arc, OnceLock};
 
 use luxbake_ies::Photometry;
 
-use crate::meshes::{self, RoomAlbedo};
-use crate::scene::{Albedo, Lamp, Object, Scene, SceneError, Settings, Transform};
+use crate::scene::{Albedo, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform};
+use crate::sources::meshes::{self, RoomAlbedo};
+
+impl Scene {
+    /// A built-in scene by name (see [`Scene::builtin_names`] and [`crate::sources::builtin`]),
+    /// at the default texel density.
+    pub fn builtin(name: &str) -> Result<Scene, SceneError> {
+        scene(name, Settings::default())
+    }
+
+    /// A built-in scene with the given settings; the procedural meshes' chart padding is
+    /// sized for `settings.texels_per_metre` (use this rather than changing the density of a
+    /// [`Scene::builtin`] afterwards).
+    pub fn builtin_with_settings(name: &str, settings: Settings) -> Result<Scene, SceneError> {
+        scene(name, settings)
+    }
+
+    /// The names [`Scene::builtin`] accepts.
+    pub fn builtin_names() -> &'static [&'static str] {
+        NAMES
+    }
+}
 
 /// The names [`scene`] accepts.
 pub const NAMES: &[&str] = &[
@@ -90,7 +110,7 @@ pub const CHAIR_PLACEMENTS: [[f32; 3]; 10] = [
 pub const SOFA_PLACEMENT: [f32; 3] = [0.0, -1.2, 0.0];
 
 /// The embedded LM-63-2002 file of the default downlight.
-pub const DEFAULT_LAMP_IES: &str = include_str!("../lamps/luxbake_downlight.ies");
+pub const DEFAULT_LAMP_IES: &str = include_str!("../../lamps/luxbake_downlight.ies");
 
 /// The default downlight's photometry, parsed once from [`DEFAULT_LAMP_IES`].
 pub fn default_photometry() -> Result<Arc<Photometry>, SceneError> {
@@ -132,12 +152,7 @@ pub fn padding_m(texels_per_metre: f32, texel_scale: f32) -> f32 {
     }
 }
 
-fn object(
-    name: impl Into<String>,
-    mesh: crate::scene::Mesh,
-    transform: Transform,
-    albedo: [f32; 3],
-) -> Object {
+fn object(name: impl Into<String>, mesh: Mesh, transform: Transform, albedo: [f32; 3]) -> Object {
     Object {
         name: name.into(),
         mesh,
@@ -250,8 +265,9 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
 
 #[cfg(test)]
 mod tests {
+    use glam::Vec3;
+
     use super::*;
-    use crate::scene::{Scene, dot};
 
     /// World bounding box of an object.
     fn bounds(o: &Object) -> [[f32; 3]; 2] {
@@ -350,9 +366,9 @@ mod tests {
         assert_eq!(s.lamps[0].position, [0.0; 3]);
         let m = &s.objects[0].mesh;
         for (p, n) in m.positions.iter().zip(&m.normals) {
-            let (p, n) = (p.map(f64::from), n.map(f64::from));
-            assert!((dot(p, p).sqrt() - f64::from(SPHERE_RADIUS)).abs() < 1e-6);
-            assert!(dot(p, n) < 0.0, "inward");
+            let (p, n) = (Vec3::from(*p).as_dvec3(), Vec3::from(*n).as_dvec3());
+            assert!((p.length() - f64::from(SPHERE_RADIUS)).abs() < 1e-6);
+            assert!(p.dot(n) < 0.0, "inward");
         }
     }
 

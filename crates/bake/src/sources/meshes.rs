@@ -9,12 +9,14 @@
 //! the rectangle's border), and the rectangle is mapped onto [0, 1]² (u and v scaled
 //! separately, so one metre of surface spans the same number of texels along u and v once the
 //! layout sizes the rectangle). Pass `padding` = (padding in texels) / (texels per metre); the
-//! built-in scenes use [`crate::builtin::CHART_PADDING_TEXELS`] texels.
+//! built-in scenes use [`crate::sources::builtin::CHART_PADDING_TEXELS`] texels.
 //!
 //! Shared positions along chart seams are computed from the same inputs in the same order, so
 //! closed meshes are watertight bit for bit (a ray cannot leak through a seam).
 
-use crate::scene::{Mesh, cross, dot, normalize, sub3 as sub};
+use glam::{DVec2, DVec3, Vec2Swizzles, dvec3};
+
+use crate::scene::{Mesh, unit};
 
 /// Per-part albedos of the room (linear RGB), applied as vertex colours.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -40,9 +42,9 @@ impl RoomAlbedo {
 
 #[derive(Debug, Clone, Copy)]
 struct Vertex {
-    p: [f64; 3],
-    n: [f64; 3],
-    chart_xy: [f64; 2],
+    p: DVec3,
+    n: DVec3,
+    chart_xy: DVec2,
     color: [f32; 3],
 }
 
@@ -64,7 +66,7 @@ impl Builder {
         self.chart_starts.push(self.verts.len());
     }
 
-    fn vertex(&mut self, p: [f64; 3], n: [f64; 3], chart_xy: [f64; 2]) -> u32 {
+    fn vertex(&mut self, p: DVec3, n: DVec3, chart_xy: DVec2) -> u32 {
         self.colored |= self.color.is_some();
         self.verts.push(Vertex {
             p,
@@ -82,18 +84,15 @@ impl Builder {
     }
 
     /// A flat rectangle as one chart: corners counter-clockwise seen from the front.
-    fn rect_chart(&mut self, corners: [[f64; 3]; 4]) {
-        let n = normalize(cross(
-            sub(corners[1], corners[0]),
-            sub(corners[3], corners[0]),
-        ))
-        .unwrap_or([0.0, 1.0, 0.0]);
+    fn rect_chart(&mut self, corners: [DVec3; 4]) {
+        let (side1, side2) = (corners[1] - corners[0], corners[3] - corners[0]);
+        let n = unit(side1.cross(side2)).unwrap_or(DVec3::Y);
         self.begin_chart();
-        let e1 = normalize(sub(corners[1], corners[0])).unwrap_or([1.0, 0.0, 0.0]);
-        let e2 = normalize(sub(corners[3], corners[0])).unwrap_or([0.0, 0.0, 1.0]);
+        let e1 = unit(side1).unwrap_or(DVec3::X);
+        let e2 = unit(side2).unwrap_or(DVec3::Z);
         let v = corners.map(|p| {
-            let d = sub(p, corners[0]);
-            self.vertex(p, n, [dot(d, e1), dot(d, e2)])
+            let d = p - corners[0];
+            self.vertex(p, n, DVec2::new(d.dot(e1), d.dot(e2)))
         });
         self.quad(v);
     }
@@ -114,58 +113,55 @@ impl Builder {
             .iter()
             .zip(&ends)
             .map(|(&s, &e)| {
-                let mut lo = [f64::INFINITY; 2];
-                let mut hi = [f64::NEG_INFINITY; 2];
-                for v in &self.verts[s..e] {
-                    for k in 0..2 {
-                        lo[k] = lo[k].min(v.chart_xy[k]);
-                        hi[k] = hi[k].max(v.chart_xy[k]);
-                    }
-                }
-                let size = [hi[0] - lo[0], hi[1] - lo[1]];
+                // f64::min/max per component: glam's min/max compare, which treats NaN
+                // differently.
+                let (lo, hi) = self.verts[s..e].iter().fold(
+                    (DVec2::INFINITY, DVec2::NEG_INFINITY),
+                    |(lo, hi), v| {
+                        let p = v.chart_xy;
+                        (
+                            DVec2::new(lo.x.min(p.x), lo.y.min(p.y)),
+                            DVec2::new(hi.x.max(p.x), hi.y.max(p.y)),
+                        )
+                    },
+                );
+                let size = hi - lo;
                 ChartBox {
                     range: s..e,
                     lo,
                     size,
-                    rotated: size[1] > size[0],
+                    rotated: size.y > size.x,
                 }
             })
             .collect();
-        let cells: Vec<[f64; 2]> = charts
+        let cells: Vec<DVec2> = charts
             .iter()
-            .map(|c| {
-                let [w, h] = if c.rotated {
-                    [c.size[1], c.size[0]]
-                } else {
-                    c.size
-                };
-                [w + padding, h + padding]
-            })
+            .map(|c| if c.rotated { c.size.yx() } else { c.size } + padding)
             .collect();
         let (origins, total) = pack(&cells);
         let mut uvs = vec![[0.0f32; 2]; self.verts.len()];
-        for (c, o) in charts.iter().zip(&origins) {
+        for (c, &o) in charts.iter().zip(&origins) {
             for i in c.range.clone() {
-                let local = [
-                    self.verts[i].chart_xy[0] - c.lo[0],
-                    self.verts[i].chart_xy[1] - c.lo[1],
-                ];
-                let local = if c.rotated {
-                    [local[1], local[0]]
-                } else {
-                    local
-                };
-                let u = (o[0] + padding / 2.0 + local[0]) / total[0];
-                let v = (o[1] + padding / 2.0 + local[1]) / total[1];
-                uvs[i] = [u.clamp(0.0, 1.0) as f32, v.clamp(0.0, 1.0) as f32];
+                let local = self.verts[i].chart_xy - c.lo;
+                let local = if c.rotated { local.yx() } else { local };
+                let uv = (o + padding / 2.0 + local) / total;
+                uvs[i] = [uv.x.clamp(0.0, 1.0) as f32, uv.y.clamp(0.0, 1.0) as f32];
             }
         }
         let colors = self
             .colored
             .then(|| self.verts.iter().map(|v| v.color).collect());
         Mesh {
-            positions: self.verts.iter().map(|v| v.p.map(|c| c as f32)).collect(),
-            normals: self.verts.iter().map(|v| v.n.map(|c| c as f32)).collect(),
+            positions: self
+                .verts
+                .iter()
+                .map(|v| v.p.as_vec3().to_array())
+                .collect(),
+            normals: self
+                .verts
+                .iter()
+                .map(|v| v.n.as_vec3().to_array())
+                .collect(),
             lightmap_uvs: uvs,
             material_uvs: None,
             colors,
@@ -176,8 +172,8 @@ impl Builder {
 
 struct ChartBox {
     range: std::ops::Range<usize>,
-    lo: [f64; 2],
-    size: [f64; 2],
+    lo: DVec2,
+    size: DVec2,
     rotated: bool,
 }
 
@@ -185,24 +181,25 @@ struct ChartBox {
 /// Tries several shelf widths and keeps the smallest total area whose aspect ratio is at most
 /// 2:1 (or the smallest area if none is).
 /// A candidate packing: total area, whether its aspect is within 2:1, origins, total size.
-type Packing = (f64, bool, Vec<[f64; 2]>, [f64; 2]);
+type Packing = (f64, bool, Vec<DVec2>, DVec2);
 
-fn pack(cells: &[[f64; 2]]) -> (Vec<[f64; 2]>, [f64; 2]) {
+fn pack(cells: &[DVec2]) -> (Vec<DVec2>, DVec2) {
     let mut order: Vec<usize> = (0..cells.len()).collect();
     order.sort_by(|&a, &b| {
-        cells[b][1]
-            .total_cmp(&cells[a][1])
-            .then(cells[b][0].total_cmp(&cells[a][0]))
+        cells[b]
+            .y
+            .total_cmp(&cells[a].y)
+            .then(cells[b].x.total_cmp(&cells[a].x))
             .then(a.cmp(&b))
     });
-    let area: f64 = cells.iter().map(|c| c[0] * c[1]).sum();
-    let widest = cells.iter().map(|c| c[0]).fold(0.0f64, f64::max);
+    let area: f64 = cells.iter().map(|c| c.x * c.y).sum();
+    let widest = cells.iter().map(|c| c.x).fold(0.0f64, f64::max);
     let mut best: Option<Packing> = None;
     for step in 0..=24 {
         let width = (area.sqrt() * (0.8 + 0.05 * f64::from(step))).max(widest);
         let (origins, total) = shelves(cells, &order, width);
-        let a = total[0] * total[1];
-        let square_enough = total[0] <= 2.0 * total[1] && total[1] <= 2.0 * total[0];
+        let a = total.x * total.y;
+        let square_enough = total.x <= 2.0 * total.y && total.y <= 2.0 * total.x;
         let better = match &best {
             None => true,
             Some((ba, bs, _, _)) => (square_enough && !bs) || (square_enough == *bs && a < *ba),
@@ -212,33 +209,28 @@ fn pack(cells: &[[f64; 2]]) -> (Vec<[f64; 2]>, [f64; 2]) {
         }
     }
     match best {
-        Some((_, _, origins, total)) if total[0] > 0.0 && total[1] > 0.0 => (origins, total),
-        Some((_, _, origins, _)) => (origins, [1.0, 1.0]),
-        None => (Vec::new(), [1.0, 1.0]),
+        Some((_, _, origins, total)) if total.x > 0.0 && total.y > 0.0 => (origins, total),
+        Some((_, _, origins, _)) => (origins, DVec2::ONE),
+        None => (Vec::new(), DVec2::ONE),
     }
 }
 
-fn shelves(cells: &[[f64; 2]], order: &[usize], width: f64) -> (Vec<[f64; 2]>, [f64; 2]) {
-    let mut origins = vec![[0.0; 2]; cells.len()];
+fn shelves(cells: &[DVec2], order: &[usize], width: f64) -> (Vec<DVec2>, DVec2) {
+    let mut origins = vec![DVec2::ZERO; cells.len()];
     let (mut x, mut y, mut shelf_h, mut total_w) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for &i in order {
-        let [w, h] = cells[i];
+        let DVec2 { x: w, y: h } = cells[i];
         if x > 0.0 && x + w > width {
             y += shelf_h;
             x = 0.0;
             shelf_h = 0.0;
         }
-        origins[i] = [x, y];
+        origins[i] = DVec2::new(x, y);
         x += w;
         shelf_h = shelf_h.max(h);
         total_w = total_w.max(x);
     }
-    (origins, [total_w, y + shelf_h])
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    let d = sub(a, b);
-    dot(d, d).sqrt()
+    (origins, DVec2::new(total_w, y + shelf_h))
 }
 
 /// Emits the six faces of a cube-topology grid surface, one chart per face. `tables[a]` are
@@ -250,7 +242,7 @@ fn cube_grid(
     b: &mut Builder,
     tables: [&[f64]; 3],
     inward: bool,
-    map: &dyn Fn([f64; 3]) -> ([f64; 3], [f64; 3]),
+    map: &dyn Fn(DVec3) -> (DVec3, DVec3),
     color: &dyn Fn(usize, bool) -> Option<[f32; 3]>,
 ) {
     // (axis, positive side, u axis, v axis) with u × v = outward normal.
@@ -271,7 +263,7 @@ fn cube_grid(
         };
         let (tu, tv) = (tables[ua], tables[va]);
         let grid = |i: usize, j: usize| {
-            let mut q = [0.0; 3];
+            let mut q = DVec3::ZERO;
             q[axis] = fixed;
             q[ua] = tu[i];
             q[va] = tv[j];
@@ -281,19 +273,19 @@ fn cube_grid(
         let (jm, im) = (tv.len() / 2, tu.len() / 2);
         let mut su = vec![0.0; tu.len()];
         for i in 1..tu.len() {
-            su[i] = su[i - 1] + dist(grid(i, jm).0, grid(i - 1, jm).0);
+            su[i] = su[i - 1] + grid(i, jm).0.distance(grid(i - 1, jm).0);
         }
         let mut sv = vec![0.0; tv.len()];
         for j in 1..tv.len() {
-            sv[j] = sv[j - 1] + dist(grid(im, j).0, grid(im, j - 1).0);
+            sv[j] = sv[j - 1] + grid(im, j).0.distance(grid(im, j - 1).0);
         }
         b.begin_chart();
         let base = b.verts.len() as u32;
         for (j, &cv) in sv.iter().enumerate() {
             for (i, &cu) in su.iter().enumerate() {
                 let (p, n) = grid(i, j);
-                let n = if inward { n.map(|c| -c) } else { n };
-                b.vertex(p, n, [cu, cv]);
+                let n = if inward { -n } else { n };
+                b.vertex(p, n, DVec2::new(cu, cv));
             }
         }
         let row = tu.len() as u32;
@@ -320,7 +312,7 @@ pub fn room(size: [f32; 3], albedo: RoomAlbedo, padding: f32) -> Mesh {
     let mut b = Builder::default();
     let tables: [Vec<f64>; 3] = [vec![-h[0], h[0]], vec![0.0, 2.0 * h[1]], vec![-h[2], h[2]]];
     // Normals are set per face afterwards (edge points belong to several faces).
-    let id = |q: [f64; 3]| (q, [0.0; 3]);
+    let id = |q: DVec3| (q, DVec3::ZERO);
     cube_grid(
         &mut b,
         [&tables[0], &tables[1], &tables[2]],
@@ -343,7 +335,7 @@ pub fn room(size: [f32; 3], albedo: RoomAlbedo, padding: f32) -> Mesh {
 fn set_flat_normals(b: &mut Builder) {
     for t in &b.tris {
         let [a, c, d] = t.map(|i| b.verts[i as usize].p);
-        if let Some(n) = normalize(cross(sub(c, a), sub(d, a))) {
+        if let Some(n) = unit((c - a).cross(d - a)) {
             for &i in t {
                 b.verts[i as usize].n = n;
             }
@@ -359,8 +351,8 @@ pub fn cuboid(size: [f32; 3], inward: bool, padding: f32) -> Mesh {
     let mut b = Builder::default();
     box_part(
         &mut b,
-        [-s[0] / 2.0, 0.0, -s[2] / 2.0],
-        [s[0] / 2.0, s[1], s[2] / 2.0],
+        dvec3(-s[0] / 2.0, 0.0, -s[2] / 2.0),
+        dvec3(s[0] / 2.0, s[1], s[2] / 2.0),
         inward,
     );
     b.finish(f64::from(padding))
@@ -368,8 +360,8 @@ pub fn cuboid(size: [f32; 3], inward: bool, padding: f32) -> Mesh {
 
 /// One box between corners `lo` and `hi`: a strip chart of the four sides around the longest
 /// axis plus two cap charts.
-fn box_part(b: &mut Builder, lo: [f64; 3], hi: [f64; 3], inward: bool) {
-    let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
+fn box_part(b: &mut Builder, lo: DVec3, hi: DVec3, inward: bool) {
+    let ext = hi - lo;
     let a = if ext[0] >= ext[1] && ext[0] >= ext[2] {
         0
     } else if ext[1] >= ext[2] {
@@ -379,14 +371,14 @@ fn box_part(b: &mut Builder, lo: [f64; 3], hi: [f64; 3], inward: bool) {
     };
     let (bx, cx) = ((a + 1) % 3, (a + 2) % 3);
     let point = |av: f64, bv: f64, cv: f64| {
-        let mut p = [0.0; 3];
+        let mut p = DVec3::ZERO;
         p[a] = av;
         p[bx] = bv;
         p[cx] = cv;
         p
     };
     let axis_n = |k: usize, sign: f64| {
-        let mut n = [0.0; 3];
+        let mut n = DVec3::ZERO;
         n[k] = if inward { -sign } else { sign };
         n
     };
@@ -397,16 +389,17 @@ fn box_part(b: &mut Builder, lo: [f64; 3], hi: [f64; 3], inward: bool) {
         (axis_n(cx, 1.0), [hi[bx], hi[cx]], [lo[bx], hi[cx]]),
         (axis_n(bx, -1.0), [lo[bx], hi[cx]], [lo[bx], lo[cx]]),
         (axis_n(cx, -1.0), [lo[bx], lo[cx]], [hi[bx], lo[cx]]),
-    ];
+    ]
+    .map(|(n, s, e)| (n, DVec2::from(s), DVec2::from(e)));
     b.begin_chart();
     let mut u = 0.0;
     for (n, s, e) in sides {
-        let w = ((e[0] - s[0]).powi(2) + (e[1] - s[1]).powi(2)).sqrt();
+        let w = s.distance(e);
         let q = [
-            b.vertex(point(lo[a], s[0], s[1]), n, [u, 0.0]),
-            b.vertex(point(lo[a], e[0], e[1]), n, [u + w, 0.0]),
-            b.vertex(point(hi[a], e[0], e[1]), n, [u + w, ext[a]]),
-            b.vertex(point(hi[a], s[0], s[1]), n, [u, ext[a]]),
+            b.vertex(point(lo[a], s.x, s.y), n, DVec2::new(u, 0.0)),
+            b.vertex(point(lo[a], e.x, e.y), n, DVec2::new(u + w, 0.0)),
+            b.vertex(point(hi[a], e.x, e.y), n, DVec2::new(u + w, ext[a])),
+            b.vertex(point(hi[a], s.x, s.y), n, DVec2::new(u, ext[a])),
         ];
         if inward {
             b.quad([q[0], q[3], q[2], q[1]]);
@@ -418,7 +411,7 @@ fn box_part(b: &mut Builder, lo: [f64; 3], hi: [f64; 3], inward: bool) {
     // Caps: +a with (u, v) = (b, c) since b × c = a; −a with (c, b).
     for (av, first, second) in [(hi[a], bx, cx), (lo[a], cx, bx)] {
         let corner = |s1: f64, s2: f64| {
-            let mut p = [0.0; 3];
+            let mut p = DVec3::ZERO;
             p[a] = av;
             p[first] = s1;
             p[second] = s2;
@@ -446,10 +439,10 @@ pub fn plane(size: [f32; 2], padding: f32) -> Mesh {
     );
     let mut b = Builder::default();
     b.rect_chart([
-        [-hx, 0.0, -hz],
-        [-hx, 0.0, hz],
-        [hx, 0.0, hz],
-        [hx, 0.0, -hz],
+        dvec3(-hx, 0.0, -hz),
+        dvec3(-hx, 0.0, hz),
+        dvec3(hx, 0.0, hz),
+        dvec3(hx, 0.0, -hz),
     ]);
     b.finish(f64::from(padding))
 }
@@ -476,9 +469,9 @@ pub fn sphere(radius: f32, segments: u32, inward: bool, padding: f32) -> Mesh {
     if n.is_multiple_of(2) {
         t[n / 2] = 0.0;
     }
-    let map = |q: [f64; 3]| {
-        let d = normalize(q).unwrap_or([0.0, 1.0, 0.0]);
-        (d.map(|c| c * r), d)
+    let map = |q: DVec3| {
+        let d = unit(q).unwrap_or(DVec3::Y);
+        (d * r, d)
     };
     let mut b = Builder::default();
     cube_grid(&mut b, [&t, &t, &t], inward, &map, &|_, _| None);
@@ -497,8 +490,8 @@ pub fn chair(padding: f32) -> Mesh {
     let mut part = |c: [f64; 3], e: [f64; 3], y0: f64, y1: f64| {
         box_part(
             &mut b,
-            [c[0] - e[0] / 2.0, y0, c[2] - e[2] / 2.0],
-            [c[0] + e[0] / 2.0, y1, c[2] + e[2] / 2.0],
+            dvec3(c[0] - e[0] / 2.0, y0, c[2] - e[2] / 2.0),
+            dvec3(c[0] + e[0] / 2.0, y1, c[2] + e[2] / 2.0),
             false,
         );
     };
@@ -563,24 +556,18 @@ fn rounded_table(h: f64, r: f64, bands: usize, interior: usize) -> Vec<f64> {
 
 /// One rounded box between `lo` and `hi` (corner radius `r`) with `bands` segments per 45° of
 /// rounding and `interior[axis]` segments across each flat part; six charts.
-fn rounded_part(
-    b: &mut Builder,
-    lo: [f64; 3],
-    hi: [f64; 3],
-    r: f64,
-    bands: usize,
-    interior: [usize; 3],
-) {
-    let c = std::array::from_fn::<f64, 3, _>(|k| (lo[k] + hi[k]) / 2.0);
-    let h = std::array::from_fn::<f64, 3, _>(|k| (hi[k] - lo[k]) / 2.0);
-    let r = r.min(h[0]).min(h[1]).min(h[2]);
+fn rounded_part(b: &mut Builder, lo: DVec3, hi: DVec3, r: f64, bands: usize, interior: [usize; 3]) {
+    let c = (lo + hi) / 2.0;
+    let h = (hi - lo) / 2.0;
+    let r = r.min(h.x).min(h.y).min(h.z);
     let tables: [Vec<f64>; 3] = std::array::from_fn(|k| rounded_table(h[k], r, bands, interior[k]));
-    let map = |q: [f64; 3]| {
-        let inner: [f64; 3] = std::array::from_fn(|k| q[k].clamp(-(h[k] - r), h[k] - r));
-        let d = sub(q, inner);
-        match normalize(d) {
-            Some(n) => (std::array::from_fn(|k| c[k] + inner[k] + r * n[k]), n),
-            None => (std::array::from_fn(|k| c[k] + q[k]), [0.0, 1.0, 0.0]),
+    let flat = h - r;
+    let map = |q: DVec3| {
+        // f64::clamp per component (glam's clamp compares, which treats NaN differently).
+        let inner = DVec3::from_array(std::array::from_fn(|k| q[k].clamp(-flat[k], flat[k])));
+        match unit(q - inner) {
+            Some(n) => (c + inner + r * n, n),
+            None => (c + q, DVec3::Y),
         }
     };
     cube_grid(
@@ -604,24 +591,24 @@ pub fn sofa(padding: f32) -> Mesh {
     for (x, z) in [(-0.92, 0.36), (0.92, 0.36), (-0.92, -0.38), (0.92, -0.38)] {
         box_part(
             &mut b,
-            [x - 0.03, 0.0, z - 0.03],
-            [x + 0.03, 0.08, z + 0.03],
+            dvec3(x - 0.03, 0.0, z - 0.03),
+            dvec3(x + 0.03, 0.08, z + 0.03),
             false,
         );
     }
     // Plinth and back frame.
     rounded_part(
         &mut b,
-        [-0.85, 0.08, -0.30],
-        [0.85, 0.36, 0.42],
+        dvec3(-0.85, 0.08, -0.30),
+        dvec3(0.85, 0.36, 0.42),
         0.02,
         1,
         [3, 1, 2],
     );
     rounded_part(
         &mut b,
-        [-0.85, 0.08, -0.45],
-        [0.85, 0.85, -0.30],
+        dvec3(-0.85, 0.08, -0.45),
+        dvec3(0.85, 0.85, -0.30),
         0.03,
         1,
         [4, 1, 1],
@@ -630,8 +617,8 @@ pub fn sofa(padding: f32) -> Mesh {
     for x in [-1.0, 0.85] {
         rounded_part(
             &mut b,
-            [x, 0.08, -0.45],
-            [x + 0.15, 0.62, 0.45],
+            dvec3(x, 0.08, -0.45),
+            dvec3(x + 0.15, 0.62, 0.45),
             0.04,
             1,
             [1, 1, 2],
@@ -644,16 +631,16 @@ pub fn sofa(padding: f32) -> Mesh {
         let x1 = x0 + width;
         rounded_part(
             &mut b,
-            [x0, 0.36, -0.30],
-            [x1, 0.50, 0.44],
+            dvec3(x0, 0.36, -0.30),
+            dvec3(x1, 0.50, 0.44),
             0.05,
             2,
             [2, 1, 1],
         );
         rounded_part(
             &mut b,
-            [x0, 0.50, -0.30],
-            [x1, 0.80, -0.14],
+            dvec3(x0, 0.50, -0.30),
+            dvec3(x1, 0.80, -0.14),
             0.05,
             1,
             [1, 1, 1],
@@ -665,6 +652,8 @@ pub fn sofa(padding: f32) -> Mesh {
 #[cfg(test)]
 mod tests {
     use std::collections::HashMap;
+
+    use glam::Vec3;
 
     use super::*;
     use crate::layout::map_size;
@@ -701,12 +690,17 @@ mod tests {
         }
     }
 
+    /// The positions of a triangle's corners, in double precision.
+    fn corners(m: &Mesh, t: &[u32; 3]) -> [DVec3; 3] {
+        t.map(|i| Vec3::from(m.positions[i as usize]).as_dvec3())
+    }
+
     fn signed_volume(m: &Mesh) -> f64 {
         m.indices
             .iter()
             .map(|t| {
-                let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-                dot(a, cross(b, c)) / 6.0
+                let [a, b, c] = corners(m, t);
+                a.dot(b.cross(c)) / 6.0
             })
             .sum()
     }
@@ -773,14 +767,11 @@ mod tests {
             assert_eq!(v < 0.0, inward, "{name}: signed volume {v}");
             // Vertex normals agree with the winding.
             for t in &m.indices {
-                let [a, b, c] = t.map(|i| m.positions[i as usize].map(f64::from));
-                let g = normalize(cross(sub(b, a), sub(c, a))).expect("non-degenerate");
+                let [a, b, c] = corners(&m, t);
+                let g = unit((b - a).cross(c - a)).expect("non-degenerate");
                 for &i in t {
-                    let n = m.normals[i as usize].map(f64::from);
-                    assert!(
-                        dot(g, n) > 0.7,
-                        "{name}: normal {n:?} against winding {g:?}"
-                    );
+                    let n = Vec3::from(m.normals[i as usize]).as_dvec3();
+                    assert!(g.dot(n) > 0.7, "{name}: normal {n:?} against winding {g:?}");
                 }
             }
         }
@@ -805,13 +796,8 @@ mod tests {
         }
         // Facet centroids within 0.2 % of the radius: the closed-sphere test stays exact.
         for t in &m.indices {
-            let c: [f64; 3] = std::array::from_fn(|k| {
-                t.iter()
-                    .map(|&i| f64::from(m.positions[i as usize][k]))
-                    .sum::<f64>()
-                    / 3.0
-            });
-            let r = dot(c, c).sqrt();
+            let [a, b, c] = corners(&m, t);
+            let r = ((a + b + c) / 3.0).length();
             assert!(r > 2.0 * 0.998, "{r}");
         }
     }
@@ -952,19 +938,15 @@ mod tests {
                 _ => 1e-3,
             };
             for t in &m.indices {
-                let p = t.map(|i| m.positions[i as usize].map(f64::from));
-                let uv = t.map(|i| m.lightmap_uvs[i as usize].map(f64::from));
-                let (e1, e2) = (sub(p[1], p[0]), sub(p[2], p[0]));
-                let (d1, d2) = (
-                    [uv[1][0] - uv[0][0], uv[1][1] - uv[0][1]],
-                    [uv[2][0] - uv[0][0], uv[2][1] - uv[0][1]],
-                );
-                let det = d1[0] * d2[1] - d1[1] * d2[0];
-                let dpdu: [f64; 3] = std::array::from_fn(|k| (d2[1] * e1[k] - d1[1] * e2[k]) / det);
-                let dpdv: [f64; 3] =
-                    std::array::from_fn(|k| (-d2[0] * e1[k] + d1[0] * e2[k]) / det);
-                let su = dot(dpdu, dpdu).sqrt() / e[0];
-                let sv = dot(dpdv, dpdv).sqrt() / e[1];
+                let p = corners(&m, t);
+                let uv = t.map(|i| DVec2::from(m.lightmap_uvs[i as usize].map(f64::from)));
+                let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+                let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
+                let det = d1.perp_dot(d2);
+                let dpdu = (d2.y * e1 - d1.y * e2) / det;
+                let dpdv = (-d2.x * e1 + d1.x * e2) / det;
+                let su = dpdu.length() / e[0];
+                let sv = dpdv.length() / e[1];
                 assert!(
                     (su - 1.0).abs() < tol && (sv - 1.0).abs() < tol,
                     "{name}: stretch {su} {sv}"

@@ -1,0 +1,17 @@
+//! Scene sources: where a [`Scene`](crate::scene::Scene) comes from. They build on the scene
+//! model ([`crate::scene`]), which knows none of them.
+//!
+//! - [`builtin`]: the built-in scenes and lamps of the paper's test cases and the analytic
+//!   checks ([`Scene::builtin`](crate::scene::Scene::builtin)).
+//! - [`scenefile`]: the TOML scene-file format
+//!   ([`Scene::from_toml_file`](crate::scene::Scene::from_toml_file)); file meshes come in
+//!   through its [`MeshLoader`](scenefile::MeshLoader).
+//! - [`meshes`]: procedural meshes with light-map UVs (room, box, plane, sphere, chair, sofa),
+//!   used by both.
+//!
+//! The `Scene` constructors live beside their sources, in `impl Scene` blocks of these
+//! modules.
+
+pub mod builtin;
+pub mod meshes;
+pub mod scenefile;
