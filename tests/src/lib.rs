@@ -26,7 +26,7 @@ use std::path::PathBuf;
 
 use luxbake::bake::BakeOutput;
 use luxbake::graph::Figure5;
-use luxbake::scene::{Blur, BvhMode, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Settings};
 use luxbake_backends::image_diff::{DiffStats, Tolerance, diff, write_failure_images};
 use luxbake_backends::{AnyBackend, BackendKind, OpenError};
 
@@ -41,35 +41,52 @@ const DIRECT: Tolerance = Tolerance::new(1e-5, 1e-5);
 /// here) of its value.
 const GATHERED: Tolerance = Tolerance::new(1e-3, 1e-4);
 
-/// One compared scene: its built-in name and its tolerance per Figure 5 stage.
+/// One compared scene: its built-in name, the method baked and its tolerance per Figure 5
+/// stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SceneCase {
     /// Built-in scene name
     /// ([`Scene::builtin_with_settings`](luxbake::scene::Scene::builtin_with_settings)).
     pub scene: &'static str,
+    /// The pipeline ([`settings`]).
+    pub method: Method,
     /// Tolerance per stage, in [`Figure5::NAMES`] order.
     pub stages: [Tolerance; 8],
 }
 
-/// The table of scenes × stages × tolerances (every backend pair).
-pub const SCENES: [SceneCase; 3] = [
+/// The stage tolerances of every case: the G-buffer exact, the direct stages as the direct
+/// light, the gathered stages (for the converged method: the indirect light with its tail,
+/// the total and its exitance) as gathered light.
+const STAGES: [Tolerance; 8] = [
+    EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
+];
+
+/// The table of scenes × methods × stages × tolerances (every backend pair).
+pub const SCENES: [SceneCase; 5] = [
     SceneCase {
         scene: "chairs_01",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        method: Method::Paper,
+        stages: STAGES,
     },
     SceneCase {
         scene: "floor",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        method: Method::Paper,
+        stages: STAGES,
     },
     SceneCase {
         scene: "sphere",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        method: Method::Paper,
+        stages: STAGES,
+    },
+    SceneCase {
+        scene: "chairs_01",
+        method: Method::Converged,
+        stages: STAGES,
+    },
+    SceneCase {
+        scene: "sphere",
+        method: Method::Converged,
+        stages: STAGES,
     },
 ];
 
@@ -101,15 +118,26 @@ pub fn tolerance(pair: &str, case: &SceneCase, stage: usize) -> Tolerance {
         .map_or(case.stages[stage], |g| g.tolerance)
 }
 
-/// The reduced bake settings of the comparisons (see the crate docs).
-pub fn settings() -> Settings {
+/// The reduced bake settings of the comparisons (see the crate docs): the paper's method with
+/// one bounce, or the converged method's `default` preset with at most four explicit bounces.
+pub fn settings(method: Method) -> Settings {
+    let base = match method {
+        Method::Paper => Settings {
+            bounces: 1,
+            ..Settings::paper()
+        },
+        Method::Converged => Settings {
+            bounces: 4,
+            ..Settings::preset(Quality::Default)
+        },
+    };
     Settings {
         rays: 16,
-        bounces: 1,
         blur: Blur::Sigma(2.0),
         texels_per_metre: 12.0,
         bvh: BvhMode::Mtbvh,
         seed: 7,
+        ..base
     }
 }
 

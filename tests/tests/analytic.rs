@@ -22,7 +22,7 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
         bounces,
         blur: Blur::None,
         texels_per_metre,
-        ..Settings::default()
+        ..Settings::paper()
     }
 }
 

@@ -1,5 +1,6 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
-//! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere`, with the tolerances of
+//! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
+//! `chairs_01` and `sphere` (converged method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI.
@@ -11,8 +12,8 @@ use luxbake_backends::BackendKind;
 use luxbake_tests::{Pair, SCENES, SceneCase, compare, open, settings};
 
 fn run(case: &SceneCase) {
-    let test = format!("cross_backend::{}", case.scene);
-    let settings = settings();
+    let test = format!("cross_backend::{}::{}", case.scene, case.method.name());
+    let settings = settings(case.method);
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     let mut outputs = Vec::new();
     for b in BackendKind::ALL {
@@ -68,7 +69,29 @@ fn sphere_every_stage_agrees_across_backends() {
 }
 
 #[test]
-fn the_table_covers_the_three_scenes() {
-    let names: Vec<_> = SCENES.iter().map(|c| c.scene).collect();
-    assert_eq!(names, ["chairs_01", "floor", "sphere"]);
+fn chairs_01_converged_every_stage_agrees_across_backends() {
+    run(&SCENES[3]);
+}
+
+#[test]
+fn sphere_converged_every_stage_agrees_across_backends() {
+    run(&SCENES[4]);
+}
+
+#[test]
+fn the_table_covers_three_scenes_and_both_methods() {
+    let names: Vec<_> = SCENES
+        .iter()
+        .map(|c| (c.scene, c.method.name()))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("chairs_01", "paper"),
+            ("floor", "paper"),
+            ("sphere", "paper"),
+            ("chairs_01", "converged"),
+            ("sphere", "converged"),
+        ]
+    );
 }

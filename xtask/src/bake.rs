@@ -1,9 +1,12 @@
 //! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
-//! [--rays N] [--bounces K] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
+//! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
+//! [--tail-tolerance F] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
 //! [--seed S]`: bake a scene's light maps into a folder.
 //!
-//! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`.
-//! Flags override the scene's `[settings]`. A progress bar per pass, then a summary table.
+//! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
+//! the converged method's `default` preset. Flags override the scene's `[settings]`:
+//! `--method`/`--quality` choose the preset (rays, bounces, blur, tail tolerance), then the
+//! explicit flags override single values. A progress bar per pass, then a summary table.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -11,7 +14,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::output::write_bake;
-use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Scene, Settings};
 use luxbake::sources::scenefile::preferred_backend;
 use luxbake_backends::BackendKind;
 
@@ -34,12 +37,23 @@ pub struct Args {
     /// Backend: cpu, glow or wgpu (default: the scene file's `settings.backend`, else cpu).
     #[arg(long)]
     backend: Option<BackendKind>,
-    /// Gather rays per texel per bounce.
+    /// Pipeline: `converged` (every bounce; the default) or `paper` (the paper's fixed bounces
+    /// and blur, with its measured defaults).
+    #[arg(long)]
+    method: Option<Method>,
+    /// Preset of the converged method: draft, default or final.
+    #[arg(long)]
+    quality: Option<Quality>,
+    /// Gather rays per texel per bounce (converged: of the first bounce).
     #[arg(long)]
     rays: Option<u32>,
-    /// Indirect bounces (0 = direct light only).
+    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
     #[arg(long)]
     bounces: Option<u32>,
+    /// Converged: stop explicit bounces when the estimated tail (or its uncertainty) is under
+    /// this fraction of the total.
+    #[arg(long)]
+    tail_tolerance: Option<f32>,
     /// Light-map density, texels per metre.
     #[arg(long)]
     texels_per_metre: Option<f32>,
@@ -58,6 +72,27 @@ impl Args {
     /// Applies the flags to `s` and checks the result ([`Settings::validate`]); the error
     /// names the flag.
     fn apply(&self, s: &mut Settings) -> Result<(), String> {
+        if self.method.is_some() || self.quality.is_some() {
+            let quality = self.quality.unwrap_or(s.quality);
+            let method = match (self.method, self.quality) {
+                (Some(m), _) => m,
+                (None, Some(_)) => Method::Converged,
+                (None, None) => s.method,
+            };
+            let preset = match method {
+                Method::Paper => Settings::paper(),
+                Method::Converged => Settings::preset(quality),
+            };
+            *s = Settings {
+                texels_per_metre: s.texels_per_metre,
+                bvh: s.bvh,
+                seed: s.seed,
+                ..preset
+            };
+        }
+        if let Some(v) = self.tail_tolerance {
+            s.tail_tolerance = v;
+        }
         if let Some(v) = self.rays {
             s.rays = v;
         }

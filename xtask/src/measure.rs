@@ -18,7 +18,7 @@ use luxbake::map::MapImage;
 use luxbake::output::picture::luminance;
 use luxbake::output::read_exr;
 use luxbake::probe::locate;
-use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Scene, Settings};
 use serde_json::Value;
 
 /// Arguments of `cargo xtask measure`.
@@ -68,7 +68,16 @@ pub fn parse_points(text: &str) -> Result<Vec<(usize, [f64; 3])>, String> {
 
 fn settings_from(manifest: &Value) -> Result<Settings, String> {
     let s = &manifest["settings"];
-    let mut out = Settings::default();
+    // Manifests before the converged method have no `method`: they were the paper's.
+    let method: Method = s["method"].as_str().unwrap_or("paper").parse()?;
+    let quality: Quality = s["quality"].as_str().unwrap_or("default").parse()?;
+    let mut out = match method {
+        Method::Paper => Settings::paper(),
+        Method::Converged => Settings::preset(quality),
+    };
+    if let Some(t) = s["tail_tolerance"].as_f64() {
+        out.tail_tolerance = t as f32;
+    }
     let num = |key: &str| {
         s[key]
             .as_f64()

@@ -123,10 +123,11 @@ fn main() {
             let settings = Settings {
                 rays,
                 bounces: 1,
-                blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
+                blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
                 texels_per_metre: density,
                 bvh,
                 seed: 1,
+                ..Settings::paper()
             };
             let scene = match Scene::builtin_with_settings(name, settings.clone()) {
                 Ok(s) => s,

@@ -32,8 +32,9 @@ use crate::gbuffer::{GBuffer, rasterize};
 use crate::graph::{BakeGraph, GraphConfig, GraphError, PassKind, TexId};
 use crate::layout::{Layout, LayoutError, Region};
 use crate::map::MapImage;
-use crate::program::TilePlan;
-use crate::scene::{BvhMode, Scene, Settings};
+use crate::program::{CombineParams, Params, TilePlan};
+use crate::scene::{BvhMode, Method, Scene, Settings};
+use crate::series::Series;
 
 /// Bounces stop once one adds less than this fraction of the total illuminance.
 pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
@@ -208,8 +209,15 @@ pub struct BakeReport {
     pub gather_rays: u64,
     /// Traversal used.
     pub bvh: BvhMode,
-    /// Bounces run.
+    /// Explicit bounces run.
     pub bounces_run: u32,
+    /// [`Method::Converged`](crate::scene::Method::Converged): the estimated tail of the
+    /// inter-reflection series that the explicit bounces left out and the bake added, as a
+    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method.
+    pub tail_fraction: f64,
+    /// [`Method::Converged`](crate::scene::Method::Converged): the bounce ratio λ the tail
+    /// was extrapolated with (`None` before a second bounce or for the paper's method).
+    pub bounce_ratio: Option<f64>,
     /// Set-up steps and their wall time, seconds.
     pub setup: Vec<(&'static str, f64)>,
     /// Every executed pass.
@@ -475,7 +483,7 @@ pub fn bake<B: GpuBackend>(
             |m, &c| if c.is_finite() { m.max(c.abs()) } else { m },
         );
 
-    let graph = BakeGraph::build(&GraphConfig {
+    let mut graph = BakeGraph::build(&GraphConfig {
         layer_size: layout.layer_size,
         layers: layout.layers,
         lamp_count: u32::try_from(lamps_used.len()).unwrap_or(u32::MAX),
@@ -484,6 +492,8 @@ pub fn bake<B: GpuBackend>(
         blur: settings.blur,
         seed: settings.seed,
         bvh: bvh_mode,
+        method: settings.method,
+        higher_rays: settings.higher_rays(),
     });
     graph.validate()?;
     // The direct pass evaluates the uploaded lamps: only those that light something.
@@ -526,6 +536,7 @@ pub fn bake<B: GpuBackend>(
     let mut bounces_run = 0;
     let mut direct_energy = 0.0f64;
     let mut previous_indirect = 0.0f64;
+    let mut series = Series::default();
     let count = graph.passes.len();
     let mut index = 0;
     while index < count {
@@ -600,13 +611,41 @@ pub fn bake<B: GpuBackend>(
         index += 1;
         if pass.kind == PassKind::Direct && settings.bounces > 0 {
             direct_energy = energy(&read_all(backend, graph.direct).map_err(be)?);
+            series.direct = direct_energy;
         }
-        // End of a bounce: measure what it added and stop when it is negligible.
-        if let Some(k) = graph
+        let bounce_end = graph
             .bounce_passes
             .iter()
-            .position(|&(_, end)| end == index)
-        {
+            .position(|&(_, end)| end == index);
+        // Converged method: after each bounce, the increment's energy decides whether to stop;
+        // then the tail factor is set and the finishing passes run.
+        if let (Some(k), Some(delta)) = (bounce_end, graph.delta) {
+            let k = k as u32 + 1;
+            bounces_run = k;
+            series
+                .increments
+                .push(energy(&read_all(backend, delta).map_err(be)?));
+            let last = k as usize == graph.bounce_passes.len();
+            if last || series.converged(f64::from(settings.tail_tolerance)) {
+                if !last {
+                    skipped.push(Skipped::Bounces {
+                        from: k + 1,
+                        to: settings.bounces,
+                        added: series.tail_fraction() as f32,
+                    });
+                }
+                if let Some(tail) = graph.tail_pass {
+                    graph.passes[tail].params = Params::Combine(CombineParams {
+                        b_weight: series.tail_factor() as f32,
+                        ..CombineParams::SUM
+                    });
+                }
+                index = graph.finish_passes.0;
+            }
+            continue;
+        }
+        // Paper method: end of a bounce: measure what it added and stop when it is negligible.
+        if let Some(k) = bounce_end {
             let k = k as u32 + 1;
             bounces_run = k;
             let indirect_tex = graph.figure5.stages[4].unwrap_or(graph.direct);
@@ -665,7 +704,20 @@ pub fn bake<B: GpuBackend>(
         region_texels: layout.texel_count(),
         triangles: triangles.len(),
         shadow_rays,
-        gather_rays: valid_texels * u64::from(settings.rays) * u64::from(bounces_run),
+        gather_rays: valid_texels
+            * match (settings.method, bounces_run) {
+                (Method::Paper, k) => u64::from(settings.rays) * u64::from(k),
+                (Method::Converged, 0) => 0,
+                (Method::Converged, k) => {
+                    u64::from(settings.rays) + u64::from(settings.higher_rays()) * u64::from(k - 1)
+                }
+            },
+        tail_fraction: if graph.delta.is_some() {
+            series.tail_fraction()
+        } else {
+            0.0
+        },
+        bounce_ratio: graph.delta.and(series.ratio()),
         bvh: bvh_mode,
         bounces_run,
         setup,

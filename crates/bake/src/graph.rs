@@ -37,7 +37,7 @@
 
 pub use crate::program::Program;
 use crate::program::{CombineParams, DirectParams, GatherParams, Params, blur_params};
-use crate::scene::{Blur, BvhMode};
+use crate::scene::{Blur, BvhMode, Method};
 
 /// Index of a texture in [`BakeGraph::textures`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -196,6 +196,10 @@ pub struct GraphConfig {
     pub seed: u32,
     /// Traversal for the ray-casting passes.
     pub bvh: BvhMode,
+    /// The pipeline.
+    pub method: Method,
+    /// [`Method::Converged`]: rays of bounces 2 and later (the first uses `rays`).
+    pub higher_rays: u32,
 }
 
 /// The bake's textures and passes, in execution order.
@@ -220,6 +224,17 @@ pub struct BakeGraph {
     pub direct_blurred: TexId,
     /// `(first, end)` pass index range of each bounce `k` (entry `k − 1`).
     pub bounce_passes: Vec<(usize, usize)>,
+    /// The pipeline this graph computes.
+    pub method: Method,
+    /// [`Method::Converged`]: the filtered indirect increment of the running bounce, whose
+    /// energy decides when to stop and scales the tail.
+    pub delta: Option<TexId>,
+    /// [`Method::Converged`]: `(first, end)` of the passes that run once after the last bounce
+    /// (tail, combine, × albedo); empty for [`Method::Paper`].
+    pub finish_passes: (usize, usize),
+    /// [`Method::Converged`]: the combine that adds the tail, `sum + f · delta`; the driver sets
+    /// `f` when it stops.
+    pub tail_pass: Option<usize>,
 }
 
 /// Builds a [`BakeGraph`]: textures are added on demand, passes appended in order.
@@ -394,9 +409,148 @@ fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexI
     );
 }
 
+/// The converged pipeline ([`Method::Converged`], see the module docs).
+fn build_converged(config: &GraphConfig) -> BakeGraph {
+    let mut b = Builder {
+        layer_size: config.layer_size,
+        layers: config.layers,
+        textures: Vec::new(),
+        passes: Vec::new(),
+        bvh: config.bvh,
+    };
+    let g = gbuffer_stage(&mut b);
+    let direct = direct_stage(&mut b, g, config.lamp_count);
+    // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
+    let reflected = b.texture("reflected");
+    albedo_stage(&mut b, g, direct, reflected, 0, "albedo_direct");
+    let mut figure5 = Figure5 {
+        stages: [
+            Some(g.albedo),
+            Some(direct),
+            Some(direct),
+            Some(reflected),
+            None,
+            None,
+            None,
+            None,
+        ],
+    };
+    let mut bounce_passes = Vec::new();
+    let (mut illuminance, mut exitance) = (direct, reflected);
+    let (mut delta_tex, mut tail_pass) = (None, None);
+    let first_finish;
+    if config.bounces > 0 {
+        let delta = b.texture("delta");
+        let scratch = b.texture("scratch");
+        let sum = b.texture("indirect_sum");
+        for k in 1..=config.bounces {
+            let first = b.passes.len();
+            let rays = if k == 1 {
+                config.rays
+            } else {
+                config.higher_rays
+            };
+            gather_stage(&mut b, g, reflected, delta, k, rays, config.seed);
+            // The increment is noisy: filter it (in place through the scratch texture).
+            if let Blur::Sigma(sigma) = config.blur
+                && sigma > 0.0
+                && sigma.is_finite()
+            {
+                for (axis, step, from, to, label) in [
+                    (Axis::U, [1, 0], delta, scratch, "filter_delta_u"),
+                    (Axis::V, [0, 1], scratch, delta, "filter_delta_v"),
+                ] {
+                    b.pass(
+                        PassKind::Blur { axis, sigma },
+                        label,
+                        vec![from, g.normal],
+                        vec![to],
+                        k,
+                        Params::Blur(blur_params(step, sigma)),
+                    );
+                }
+            }
+            if k == 1 {
+                b.pass(
+                    PassKind::Copy,
+                    "accumulate",
+                    vec![delta],
+                    vec![sum],
+                    k,
+                    Params::None,
+                );
+            } else {
+                combine_stage(&mut b, sum, delta, scratch, k);
+                b.pass(
+                    PassKind::Copy,
+                    "accumulate",
+                    vec![scratch],
+                    vec![sum],
+                    k,
+                    Params::None,
+                );
+            }
+            albedo_stage(&mut b, g, delta, reflected, k, "albedo_delta");
+            bounce_passes.push((first, b.passes.len()));
+        }
+        first_finish = b.passes.len();
+        // The tail Σ_{j>K} Δ_j ≈ f · Δ_K, f set by the driver when it stops at bounce K.
+        tail_pass = Some(b.passes.len());
+        b.pass(
+            PassKind::Combine,
+            "tail",
+            vec![sum, delta],
+            vec![scratch],
+            config.bounces,
+            Params::Combine(CombineParams {
+                b_weight: 0.0,
+                ..CombineParams::SUM
+            }),
+        );
+        let combined = b.texture("combined");
+        combine_stage(&mut b, direct, scratch, combined, config.bounces);
+        let reflected_combined = b.texture("reflected_combined");
+        albedo_stage(
+            &mut b,
+            g,
+            combined,
+            reflected_combined,
+            config.bounces,
+            "albedo_combined",
+        );
+        figure5.stages[4] = Some(scratch);
+        figure5.stages[5] = Some(combined);
+        figure5.stages[6] = Some(combined);
+        figure5.stages[7] = Some(reflected_combined);
+        illuminance = combined;
+        exitance = reflected_combined;
+        delta_tex = Some(delta);
+    } else {
+        first_finish = b.passes.len();
+    }
+    BakeGraph {
+        finish_passes: (first_finish, b.passes.len()),
+        textures: b.textures,
+        passes: b.passes,
+        gbuffer: g,
+        figure5,
+        direct,
+        illuminance,
+        exitance,
+        direct_blurred: direct,
+        bounce_passes,
+        method: Method::Converged,
+        delta: delta_tex,
+        tail_pass,
+    }
+}
+
 impl BakeGraph {
-    /// Builds the graph of the paper's pipeline for `config` (see the module docs).
+    /// Builds the graph of `config.method`'s pipeline (see the module docs).
     pub fn build(config: &GraphConfig) -> BakeGraph {
+        if config.method == Method::Converged {
+            return build_converged(config);
+        }
         let mut b = Builder {
             layer_size: config.layer_size,
             layers: config.layers,
@@ -486,6 +640,7 @@ impl BakeGraph {
             illuminance = combined_blurred;
             exitance = reflected_combined;
         }
+        let end = b.passes.len();
         BakeGraph {
             textures: b.textures,
             passes: b.passes,
@@ -496,6 +651,10 @@ impl BakeGraph {
             exitance,
             direct_blurred,
             bounce_passes,
+            method: Method::Paper,
+            delta: None,
+            finish_passes: (end, end),
+            tail_pass: None,
         }
     }
 
@@ -602,6 +761,67 @@ mod tests {
             blur,
             seed: 9,
             bvh: BvhMode::Mtbvh,
+            method: Method::Paper,
+            higher_rays: 4,
+        }
+    }
+
+    fn converged(bounces: u32, blur: Blur) -> GraphConfig {
+        GraphConfig {
+            method: Method::Converged,
+            ..config(bounces, blur)
+        }
+    }
+
+    #[test]
+    fn the_converged_graph_accumulates_filtered_increments_and_finishes_with_the_tail() {
+        for blur in [Blur::None, Blur::Sigma(2.0)] {
+            for bounces in 0..4 {
+                let g = BakeGraph::build(&converged(bounces, blur));
+                assert_eq!(g.validate(), Ok(()), "{bounces} {blur:?}");
+                assert_eq!(g.method, Method::Converged);
+                assert_eq!(g.bounce_passes.len(), bounces as usize);
+                assert_eq!(g.finish_passes.1, g.passes.len());
+                // The reported direct light is never blurred.
+                assert_eq!(g.direct_blurred, g.direct);
+                let gathers: Vec<&PassDesc> = g
+                    .passes
+                    .iter()
+                    .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+                    .collect();
+                for (k, p) in gathers.iter().enumerate() {
+                    let Params::Gather(gp) = p.params else {
+                        panic!("{:?}", p.params)
+                    };
+                    // The first bounce uses `rays`, later ones `higher_rays`.
+                    assert_eq!(gp.rays, if k == 0 { 16 } else { 4 });
+                    assert_eq!(Some(p.writes[0]), g.delta);
+                }
+                if bounces == 0 {
+                    assert_eq!((g.delta, g.tail_pass), (None, None));
+                    assert_eq!(g.illuminance, g.direct);
+                    continue;
+                }
+                let tail = g.tail_pass.expect("tail");
+                assert_eq!(tail, g.finish_passes.0);
+                assert_eq!(g.passes[tail].reads[1], g.delta.expect("delta"));
+                let labels: Vec<_> = g.passes[g.finish_passes.0..]
+                    .iter()
+                    .map(|p| p.label)
+                    .collect();
+                assert_eq!(labels, ["tail", "combine", "albedo_combined"]);
+                let filters = g
+                    .passes
+                    .iter()
+                    .filter(|p| matches!(p.kind, PassKind::Blur { .. }))
+                    .count();
+                let per_bounce = if blur == Blur::None { 0 } else { 2 };
+                assert_eq!(filters, per_bounce * bounces as usize);
+                // Each filter reads an increment (never the direct light).
+                for p in g.passes.iter().filter(|p| matches!(p.kind, PassKind::Blur { .. })) {
+                    assert_ne!(p.reads[0], g.direct);
+                }
+            }
         }
     }
 

@@ -90,6 +90,7 @@ pub mod probe;
 pub mod program;
 pub mod rng;
 pub mod scene;
+pub mod series;
 pub mod shader;
 pub mod sources;
 

@@ -440,6 +440,78 @@ impl Lamp {
     }
 }
 
+/// Which pipeline a bake runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Method {
+    /// The paper's pipeline exactly: fixed bounces (the Jacobi iteration
+    /// `ind_k = gather(ρ · blur(direct + ind_{k−1}))`), Gaussian blur of the reported maps,
+    /// hash sampling.
+    Paper,
+    /// Every bounce: explicit bounce increments until the series' tail can be estimated
+    /// ([`crate::series`]), the tail added, only the noisy indirect light filtered; the direct
+    /// light is reported unblurred.
+    Converged,
+}
+
+impl Method {
+    /// The lower-case name used by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Paper => "paper",
+            Method::Converged => "converged",
+        }
+    }
+}
+
+impl FromStr for Method {
+    type Err = String;
+    /// `paper` or `converged` (case-insensitive).
+    fn from_str(s: &str) -> Result<Method, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "paper" => Ok(Method::Paper),
+            "converged" => Ok(Method::Converged),
+            _ => Err(format!("expected \"paper\" or \"converged\", got `{s}`")),
+        }
+    }
+}
+
+/// Quality preset of the converged method ([`Settings::preset`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Quality {
+    /// Fast previews.
+    Draft,
+    /// The default.
+    Default,
+    /// Lighting-engineering accuracy.
+    Final,
+}
+
+impl Quality {
+    /// The lower-case name used by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Draft => "draft",
+            Quality::Default => "default",
+            Quality::Final => "final",
+        }
+    }
+}
+
+impl FromStr for Quality {
+    type Err = String;
+    /// `draft`, `default` or `final` (case-insensitive).
+    fn from_str(s: &str) -> Result<Quality, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "draft" => Ok(Quality::Draft),
+            "default" => Ok(Quality::Default),
+            "final" => Ok(Quality::Final),
+            _ => Err(format!(
+                "expected \"draft\", \"default\" or \"final\", got `{s}`"
+            )),
+        }
+    }
+}
+
 /// Gaussian blur setting.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Blur {
@@ -528,12 +600,23 @@ impl FromStr for BvhMode {
 /// | `bvh`, `seed`, `backend` | any value                                           |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
-    /// Gather rays per texel per bounce.
+    /// The pipeline.
+    pub method: Method,
+    /// The preset these settings started from (recorded in the manifest; explicit settings
+    /// may have changed single values since).
+    pub quality: Quality,
+    /// Gather rays per texel: per bounce ([`Method::Paper`]), or of the first bounce
+    /// ([`Method::Converged`]; later bounces use [`Settings::higher_rays`]).
     pub rays: u32,
-    /// Indirect bounces (0 = direct light only).
+    /// Indirect bounces ([`Method::Paper`]), or the most explicit bounces before the tail is
+    /// estimated ([`Method::Converged`]); 0 = direct light only.
     pub bounces: u32,
-    /// Blur of the direct and combined maps.
+    /// [`Method::Paper`]: blur of the direct and combined maps. [`Method::Converged`]: filter of
+    /// the indirect increments only.
     pub blur: Blur,
+    /// [`Method::Converged`]: explicit bounces stop once the estimated tail, or its uncertainty,
+    /// is under this fraction of the total ([`crate::series`]).
+    pub tail_tolerance: f32,
     /// Light-map texel density, texels per metre.
     pub texels_per_metre: f32,
     /// Traversal structure.
@@ -543,19 +626,67 @@ pub struct Settings {
 }
 
 impl Settings {
-    /// Default gather rays per texel per bounce. Chosen from the measured speed/accuracy
-    /// Pareto front (`cargo xtask bench trade`, docs/performance.md): after the blur, more rays
-    /// barely lower the error, while more bounces do.
-    pub const DEFAULT_RAYS: u32 = 4;
-    /// Default number of indirect bounces. The paper stops at one; measured against a
-    /// 4-bounce reference in the furnished rooms, one bounce leaves the illuminance ~47 % low on
-    /// average, three ~19 % (docs/performance.md), at a fraction of the cost of more rays.
-    pub const DEFAULT_BOUNCES: u32 = 3;
-    /// Default blur sigma, texels.
-    pub const DEFAULT_BLUR_SIGMA: f32 = 2.0;
+    /// Gather rays per texel per bounce of [`Settings::paper`]. Chosen from the measured
+    /// speed/accuracy Pareto front against a 4-bounce reference (`cargo xtask bench trade`,
+    /// docs/performance.md).
+    pub const PAPER_RAYS: u32 = 4;
+    /// Bounces of [`Settings::paper`].
+    pub const PAPER_BOUNCES: u32 = 3;
+    /// Blur sigma of [`Settings::paper`], texels.
+    pub const PAPER_BLUR_SIGMA: f32 = 2.0;
+    /// Hard cap of explicit bounces of the converged presets.
+    pub const CONVERGED_MAX_BOUNCES: u32 = 32;
     /// Default texel density, texels per metre (1.5625 cm texels). With it the built-in scenes
     /// come close to the light-map texel counts of the paper's Table 1.
     pub const DEFAULT_TEXELS_PER_METRE: f32 = 64.0;
+
+    /// The method paper's pipeline with the settings measured best for it: 4 rays, 3 bounces,
+    /// blur σ 2, 64 texels/m, MTBVH, seed 0.
+    pub fn paper() -> Settings {
+        Settings {
+            method: Method::Paper,
+            quality: Quality::Default,
+            rays: Settings::PAPER_RAYS,
+            bounces: Settings::PAPER_BOUNCES,
+            blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
+            tail_tolerance: 0.01,
+            texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
+            bvh: BvhMode::Mtbvh,
+            seed: 0,
+        }
+    }
+
+    /// The converged method at `quality`: first-bounce rays, tail tolerance and filter (the
+    /// measured time and error of each preset are in docs/performance.md).
+    ///
+    /// | preset | rays | tail tolerance | filter σ |
+    /// |---|--:|--:|--:|
+    /// | draft | 4 | 5 % | 2 |
+    /// | default | 16 | 1 % | 2 |
+    /// | final | 128 | 0.2 % | 1 |
+    pub fn preset(quality: Quality) -> Settings {
+        let (rays, tail_tolerance, sigma) = match quality {
+            Quality::Draft => (4, 0.05, 2.0),
+            Quality::Default => (16, 0.01, 2.0),
+            Quality::Final => (128, 0.002, 1.0),
+        };
+        Settings {
+            method: Method::Converged,
+            quality,
+            rays,
+            bounces: Settings::CONVERGED_MAX_BOUNCES,
+            blur: Blur::Sigma(sigma),
+            tail_tolerance,
+            ..Settings::paper()
+        }
+    }
+
+    /// Rays of the converged method's bounces after the first: a quarter of `rays`, and at
+    /// least one. Higher bounces are smooth (the sum of many paths) and filtered, so fewer rays
+    /// keep their error under the first bounce's.
+    pub fn higher_rays(&self) -> u32 {
+        (self.rays / 4).max(1)
+    }
 
     /// Most gather rays per texel per bounce.
     pub const MAX_RAYS: u32 = 65_536;
@@ -567,7 +698,8 @@ impl Settings {
     pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
 
     /// Checks every setting against the limits in the type's docs; the error names the first
-    /// setting out of range (`rays`, `bounces`, `blur` or `texels_per_metre`).
+    /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance` or
+    /// `texels_per_metre`).
     pub fn validate(&self) -> Result<(), SettingError> {
         let invalid = |name, reason| Err(SettingError { name, reason });
         if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
@@ -585,6 +717,13 @@ impl Settings {
             return invalid(
                 "blur",
                 format!("{sigma}; expected a sigma in texels, 0 < sigma <= {max}, or \"none\""),
+            );
+        }
+        let t = self.tail_tolerance;
+        if !(t > 0.0 && t < 1.0) {
+            return invalid(
+                "tail_tolerance",
+                format!("{t}; expected a fraction, 0 < tail_tolerance < 1"),
             );
         }
         let d = self.texels_per_metre;
@@ -610,17 +749,9 @@ pub struct SettingError {
 }
 
 impl Default for Settings {
-    /// `rays = 4`, `bounces = 3`, `blur = Sigma(2.0)`, `texels_per_metre = 64`,
-    /// `bvh = Mtbvh`, `seed = 0`.
+    /// The converged method's `default` preset ([`Settings::preset`]).
     fn default() -> Self {
-        Settings {
-            rays: Settings::DEFAULT_RAYS,
-            bounces: Settings::DEFAULT_BOUNCES,
-            blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
-            texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
-            bvh: BvhMode::Mtbvh,
-            seed: 0,
-        }
+        Settings::preset(Quality::Default)
     }
 }
 

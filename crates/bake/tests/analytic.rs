@@ -19,7 +19,7 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
         bounces,
         blur: Blur::None,
         texels_per_metre,
-        ..Settings::default()
+        ..Settings::paper()
     }
 }
 
@@ -291,7 +291,7 @@ fn room_scene(albedo_factor: Option<f32>, multiplier: f32) -> Scene {
             bounces: 1,
             blur: Blur::Sigma(1.5),
             texels_per_metre: 6.0,
-            ..Settings::default()
+            ..Settings::paper()
         },
     )
     .expect("chairs_01");

@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use luxbake::scene::{Blur, Lamp, Scene, Settings};
+use luxbake::scene::{Blur, Lamp, Method, Quality, Scene, Settings};
 use luxbake::sources::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake_ies::Photometry;
 use serde::{Deserialize, Serialize};
@@ -85,9 +85,13 @@ impl LampSpec {
 pub struct BakeRequest {
     /// Built-in scene name ([`Scene::builtin_names`]).
     pub scene: String,
-    /// Gather rays per texel per bounce.
+    /// The pipeline: `converged` or `paper` ([`Method`]).
+    pub method: String,
+    /// The converged method's preset: `draft`, `default` or `final` ([`Quality`]).
+    pub quality: String,
+    /// Gather rays per texel per bounce (converged: of the first bounce).
     pub rays: u32,
-    /// Indirect bounces (0 = direct light only).
+    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
     pub bounces: u32,
     /// Blur sigma in texels, 0 = no blur.
     pub blur_sigma: f32,
@@ -100,24 +104,39 @@ pub struct BakeRequest {
 }
 
 impl Default for BakeRequest {
-    /// `chairs_05` with the bake's default rays, bounces and blur ([`Settings::default`]),
-    /// except the density: 32 texels/m, a quarter of the paper's texels, because a browser's
-    /// first bake must fit a tab's memory and finish in seconds (the settings panel goes up to
-    /// the paper's density).
+    /// `chairs_05` with the bake's default method and preset ([`Settings::default`]), except
+    /// the density: 32 texels/m, a quarter of the paper's texels, because a browser's first
+    /// bake must fit a tab's memory and finish in seconds (the settings panel goes up to the
+    /// paper's density).
     fn default() -> Self {
+        BakeRequest::with_preset(Method::Converged, Quality::Default)
+    }
+}
+
+impl BakeRequest {
+    /// The default request with the rays, bounces and blur of `method`'s preset at `quality`
+    /// ([`Settings::paper`], [`Settings::preset`]).
+    pub fn with_preset(method: Method, quality: Quality) -> BakeRequest {
+        let s = match method {
+            Method::Paper => Settings::paper(),
+            Method::Converged => Settings::preset(quality),
+        };
         BakeRequest {
             scene: "chairs_05".into(),
-            rays: Settings::DEFAULT_RAYS,
-            bounces: Settings::DEFAULT_BOUNCES,
-            blur_sigma: Settings::DEFAULT_BLUR_SIGMA,
+            method: method.name().into(),
+            quality: quality.name().into(),
+            rays: s.rays,
+            bounces: s.bounces,
+            blur_sigma: match s.blur {
+                Blur::None => 0.0,
+                Blur::Sigma(sigma) => sigma,
+            },
             texels_per_metre: 32.0,
             seed: 0,
             lamp: LampSpec::default(),
         }
     }
-}
 
-impl BakeRequest {
     /// Parses a request from JSON (missing keys take their defaults).
     ///
     /// # Errors
@@ -132,6 +151,15 @@ impl BakeRequest {
     /// # Errors
     /// [`ViewerError::Setting`] naming the first value out of range by its JSON key.
     pub fn settings(&self) -> Result<Settings, ViewerError> {
+        let setting = |name: &'static str| {
+            move |reason: String| ViewerError::Setting { name, reason }
+        };
+        let method: Method = self.method.parse().map_err(setting("method"))?;
+        let quality: Quality = self.quality.parse().map_err(setting("quality"))?;
+        let base = match method {
+            Method::Paper => Settings::paper(),
+            Method::Converged => Settings::preset(quality),
+        };
         let settings = Settings {
             rays: self.rays,
             bounces: self.bounces,
@@ -142,7 +170,7 @@ impl BakeRequest {
             },
             texels_per_metre: self.texels_per_metre,
             seed: self.seed,
-            ..Settings::default()
+            ..base
         };
         settings.validate().map_err(|e| ViewerError::Setting {
             name: match e.name {
@@ -286,7 +314,8 @@ mod tests {
         let r = BakeRequest::from_json(r#"{"scene":"chairs_01","rays":16}"#).unwrap();
         assert_eq!(r.scene, "chairs_01");
         assert_eq!(r.rays, 16);
-        assert_eq!(r.bounces, Settings::DEFAULT_BOUNCES);
+        assert_eq!(r.bounces, Settings::default().bounces);
+        assert_eq!((r.method.as_str(), r.quality.as_str()), ("converged", "default"));
         let back = BakeRequest::from_json(&serde_json::to_string(&r).unwrap()).unwrap();
         assert_eq!(back, r);
         let e = BakeRequest::from_json(r#"{"scene":"chairs_01","rayz":16}"#).unwrap_err();
@@ -322,6 +351,8 @@ mod tests {
         type Edit = Box<dyn Fn(&mut BakeRequest)>;
         let cases: Vec<(&str, Edit)> = vec![
             ("rays", Box::new(|r| r.rays = 0)),
+            ("method", Box::new(|r| r.method = "fast".into())),
+            ("quality", Box::new(|r| r.quality = "best".into())),
             ("bounces", Box::new(|r| r.bounces = 99)),
             ("blur_sigma", Box::new(|r| r.blur_sigma = f32::NAN)),
             ("texels_per_metre", Box::new(|r| r.texels_per_metre = 1e6)),

@@ -1,6 +1,6 @@
 // luxbake viewer page: UI, input, render loop; the bake runs in worker.js.
 // Test hooks live on `window.luxbake` (used by `cargo xtask web --check`).
-import init, { Viewer, bundledLamps, sceneNames, defaultRequest, checkLampFile } from './pkg/luxbake_viewer.js';
+import init, { Viewer, bundledLamps, sceneNames, defaultRequest, presetRequest, checkLampFile } from './pkg/luxbake_viewer.js';
 
 const $ = (id) => document.getElementById(id);
 const canvas = $('canvas');
@@ -186,6 +186,8 @@ function syncControls() {
   set('lamp-tilt', l.tilt_deg); set('lamp-azimuth', l.azimuth_deg);
   set('lamp-rotation', l.rotation_deg); set('lamp-multiplier', l.multiplier);
   set('blur', r.blur_sigma);
+  $('method').value = r.method;
+  $('quality').value = r.quality;
   for (const [id, v] of [['rays', r.rays], ['bounces', r.bounces], ['density', r.texels_per_metre]]) {
     const el = $(id);
     if (![...el.options].some((o) => Number(o.value) === v)) el.append(new Option(String(v)));
@@ -214,6 +216,14 @@ function wireControls() {
   lampInput('lamp-rotation', (v) => { r.lamp.rotation_deg = v; });
   lampInput('lamp-multiplier', (v) => { r.lamp.multiplier = v; });
   lampInput('blur', (v) => { r.blur_sigma = v; });
+  const preset = () => {
+    const p = JSON.parse(presetRequest($('method').value, $('quality').value));
+    for (const key of ['method', 'quality', 'rays', 'bounces', 'blur_sigma']) r[key] = p[key];
+    syncControls();
+    requestBake();
+  };
+  $('method').onchange = preset;
+  $('quality').onchange = preset;
   $('rays').onchange = (e) => { r.rays = Number(e.target.value); requestBake(); };
   $('bounces').onchange = (e) => { r.bounces = Number(e.target.value); requestBake(); };
   $('density').onchange = (e) => { r.texels_per_metre = Number(e.target.value); requestBake(); };
@@ -311,8 +321,8 @@ async function main() {
   const request = JSON.parse(defaultRequest());
   // URL overrides, e.g. ?scene=chairs_01&texels_per_metre=12&rays=16
   const params = new URLSearchParams(location.search);
-  for (const key of ['scene', 'rays', 'bounces', 'blur_sigma', 'texels_per_metre', 'seed']) {
-    if (params.has(key)) request[key] = key === 'scene' ? params.get(key) : Number(params.get(key));
+  for (const key of ['scene', 'method', 'quality', 'rays', 'bounces', 'blur_sigma', 'texels_per_metre', 'seed']) {
+    if (params.has(key)) request[key] = ['scene', 'method', 'quality'].includes(key) ? params.get(key) : Number(params.get(key));
   }
   hooks.request = request;
   fillSelect($('scene'), JSON.parse(sceneNames()).map((n) => [n, n]));

@@ -46,10 +46,10 @@ pub fn run(quick: bool) -> Result<(String, serde_json::Value), String> {
     let base_settings = Settings {
         rays: RAYS,
         bounces: 1,
-        blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
+        blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
         texels_per_metre: if quick { 4.0 } else { 12.0 },
         bvh: BvhMode::Mtbvh,
-        ..Settings::default()
+        ..Settings::paper()
     };
     let mut md = String::new();
     let _ = writeln!(

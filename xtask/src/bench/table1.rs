@@ -139,11 +139,11 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
     let settings = Settings {
         rays: args.rays.unwrap_or(if quick { 2 } else { 4 }),
         bounces: 1,
-        blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
+        blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
         texels_per_metre: args
             .texels_per_metre
             .unwrap_or(if quick { 8.0 } else { 16.0 }),
-        ..Settings::default()
+        ..Settings::paper()
     };
     let load_before = load_average();
     let (date, time) = utc_now();
@@ -204,7 +204,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
         "- settings: {} gather rays/texel, 1 bounce, blur σ {}, {} texels/m; {} run(s) per \
          configuration (fewer where the runs exceeded {} s){}",
         settings.rays,
-        Settings::DEFAULT_BLUR_SIGMA,
+        Settings::PAPER_BLUR_SIGMA,
         settings.texels_per_metre,
         runs,
         args.budget,
@@ -318,7 +318,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
         "date": date, "time_utc": time, "machine": machine(), "renderers": renderers,
         "quick": quick, "runs": runs, "budget_s": args.budget,
         "settings": { "rays": settings.rays, "bounces": 1,
-                      "blur_sigma": Settings::DEFAULT_BLUR_SIGMA,
+                      "blur_sigma": Settings::PAPER_BLUR_SIGMA,
                       "texels_per_metre": settings.texels_per_metre },
         "load_average_before": load_before, "load_average_after": load_after,
         "table1": json_cells,

@@ -57,9 +57,9 @@ fn preset(quick: bool) -> Preset {
     let base = |rays, texels_per_metre| Settings {
         rays,
         bounces: 1,
-        blur: Blur::Sigma(Settings::DEFAULT_BLUR_SIGMA),
+        blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
         texels_per_metre,
-        ..Settings::default()
+        ..Settings::paper()
     };
     if quick {
         Preset {
@@ -619,7 +619,7 @@ mod tests {
             "chairs_01",
             Settings {
                 texels_per_metre: 8.0,
-                ..Settings::default()
+                ..Settings::paper()
             },
         )
         .expect("scene");

@@ -7,7 +7,7 @@
 //! |---|---|
 //! | `<name>_illuminance.exr` | final illuminance E, lux, before albedo (RGB; A = texel mask) |
 //! | `<name>_exitance.exr` | final exitance M = ρ·E, lm/m² (RGB; A = mask) |
-//! | `<name>_direct.exr` | direct illuminance, lux, blurred as E is (indirect = E − direct) |
+//! | `<name>_direct.exr` | direct illuminance, lux (method paper: blurred as E is; converged: unblurred, as in E); indirect = E − direct |
 //! | `<name>.png` | exitance, tone-mapped ([`picture`] docs) |
 //! | `<name>_false_color.png` | illuminance in false colour with a lux scale bar |
 //! | `<name>_stages.png` | the eight stages of Figure 5 side by side |
@@ -17,12 +17,16 @@
 //!
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
-//! `settings` (rays, bounces, blur, texels_per_metre, bvh, seed), `layout` (`layer_size`,
+//! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
+//! seed), `layout` (`layer_size`,
 //! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela
 //! (file), lumens (integrated × multiplier), used), `objects` (name, index, receiver, and for
 //! receivers `files`, `layer`, `offset`, `size`, `resolution`, plus `transform` {`linear`
 //! (columns), `translation`} for all),
-//! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run),
+//! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run,
+//! `explicit_bounces` (= bounces_run), `tail_fraction` (the estimated share of the total
+//! illuminance that the converged method added for the bounces it did not run explicitly),
+//! `bounce_ratio` (the ratio λ it extrapolated with, or null)),
 //! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
 
 pub mod picture;
@@ -261,6 +265,9 @@ pub fn write_bake(
         "units": {"length": "m", "illuminance": "lux", "exitance": "lm/m^2"},
         "backend": rep.backend,
         "settings": {
+            "method": s.method.name(),
+            "quality": s.quality.name(),
+            "tail_tolerance": s.tail_tolerance,
             "rays": s.rays,
             "bounces": s.bounces,
             "blur": blur_json(s.blur),
@@ -279,6 +286,9 @@ pub fn write_bake(
             "gather_rays": rep.gather_rays,
             "bvh": rep.bvh.name(),
             "bounces_run": rep.bounces_run,
+            "explicit_bounces": rep.bounces_run,
+            "tail_fraction": rep.tail_fraction,
+            "bounce_ratio": rep.bounce_ratio,
         },
         "timings": {
             "setup": rep.setup.iter().map(|(k, t)| json!({"label": k, "seconds": t})).collect::<Vec<_>>(),

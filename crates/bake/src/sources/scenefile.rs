@@ -80,7 +80,7 @@ use luxbake_ies::{ParseOptions, Photometry};
 use serde::Deserialize;
 use toml::Value;
 
-use crate::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform};
+use crate::scene::{Albedo, Blur, Lamp, Mesh, Method, Object, Quality, Scene, SceneError, Settings, Transform};
 use crate::sources::builtin;
 use crate::sources::meshes::{self, RoomAlbedo};
 
@@ -108,6 +108,9 @@ struct RawScene {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawSettings {
+    method: Option<String>,
+    quality: Option<String>,
+    tail_tolerance: Option<f64>,
     rays: Option<u32>,
     bounces: Option<u32>,
     blur: Option<Value>,
@@ -422,8 +425,29 @@ impl Cx<'_> {
 
     /// The `[settings]` table over the defaults, checked by [`Settings::validate`].
     fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
-        let mut s = Settings::default();
-        let Some(raw) = raw else { return Ok(s) };
+        let Some(raw) = raw else {
+            return Ok(Settings::default());
+        };
+        // The method and the preset give the starting values; explicit keys override them.
+        let quality: Quality = match &raw.quality {
+            Some(q) => q
+                .parse()
+                .map_err(|e: String| self.invalid("settings.quality", e))?,
+            None => Quality::Default,
+        };
+        let method: Method = match &raw.method {
+            Some(m) => m
+                .parse()
+                .map_err(|e: String| self.invalid("settings.method", e))?,
+            None => Method::Converged,
+        };
+        let mut s = match method {
+            Method::Paper => Settings::paper(),
+            Method::Converged => Settings::preset(quality),
+        };
+        if let Some(t) = raw.tail_tolerance {
+            s.tail_tolerance = t as f32;
+        }
         if let Some(rays) = raw.rays {
             s.rays = rays;
         }

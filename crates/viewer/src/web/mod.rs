@@ -53,6 +53,17 @@ pub fn default_request() -> String {
     serde_json::to_string(&BakeRequest::default()).unwrap_or_default()
 }
 
+/// The default request with the rays, bounces and blur of a method's preset, as JSON; an
+/// unknown method or quality gives the default request.
+#[wasm_bindgen(js_name = presetRequest)]
+pub fn preset_request(method: &str, quality: &str) -> String {
+    let request = match (method.parse(), quality.parse()) {
+        (Ok(m), Ok(q)) => BakeRequest::with_preset(m, q),
+        _ => BakeRequest::default(),
+    };
+    serde_json::to_string(&request).unwrap_or_default()
+}
+
 /// Parses a photometric file from disk; returns a one-line summary or the parser's error.
 ///
 /// # Errors
