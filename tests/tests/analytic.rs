@@ -1,7 +1,9 @@
 //! The core's closed-form checks on every GPU backend (blur off where a closed form is
 //! compared): the floor under an isotropic lamp within 0.5 %, the closed sphere's
-//! inter-reflection series `E = (I/R²)·Σ_{i≤k} ρ^i` within 1 %. Each test prints the errors
-//! it measured. (The CPU backend's own checks live in the core crate.)
+//! inter-reflection series `E = (I/R²)·Σ_{i≤k} ρ^i` within 1 % (paper method), and at the
+//! converged method's default preset CIE 171:2006 test case 5.8 within 2 % and the closed
+//! sphere's whole series within 1 %, for ρ up to 0.95. Each test prints the errors it measured.
+//! (The CPU backend's own checks live in the core crate.)
 
 use std::sync::Arc;
 
@@ -9,7 +11,7 @@ use luxbake::bake::{BakeOutput, ObjectMaps, bake};
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::map::MapImage;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
-use luxbake::sources::meshes;
+use luxbake::sources::{closed_forms, meshes};
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
 
@@ -162,4 +164,63 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
             assert!(err.max < 0.01, "{} k={k}: {err:?}", backend.name());
         }
     }
+}
+
+/// Mean over the valid texels of every map of `f(total, direct)` (green channel).
+fn map_mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for m in &out.maps {
+        let (e, d) = (m.illuminance(), m.direct());
+        for (te, td) in e.texels.chunks_exact(4).zip(d.texels.chunks_exact(4)) {
+            if te[3] > 0.5 {
+                sum += f(f64::from(te[1]), f64::from(td[1]));
+                n += 1;
+            }
+        }
+    }
+    assert!(n > 1000, "{n} texels");
+    sum / n as f64
+}
+
+#[test]
+fn cie_171_5_8_and_the_closed_sphere_converge_on_every_gpu_backend() {
+    let mut compared = 0;
+    for backend in GPU {
+        for rho in [0.5f32, 0.8, 0.95] {
+            let settings = Settings {
+                texels_per_metre: 6.0,
+                ..Settings::default()
+            };
+            let (cube, want) = closed_forms::cie_171_5_8(rho, settings);
+            let Some(out) = run(backend, "cie_171_5_8", &cube) else {
+                return;
+            };
+            let indirect = map_mean(&out, |e, d| e - d);
+            println!(
+                "{} CIE 5.8 ρ = {rho:.2}: mean indirect {indirect:.1} lx, exact {want:.1} lx, \
+                 error {:+.2} % ({} explicit bounces)",
+                backend.name(),
+                100.0 * (indirect / want - 1.0),
+                out.report.bounces_run
+            );
+            assert!((indirect / want - 1.0).abs() < 0.02, "{}", backend.name());
+            let settings = Settings {
+                texels_per_metre: 12.0,
+                ..Settings::default()
+            };
+            let (sphere, want) = closed_forms::closed_sphere(1.0, rho, I0, settings);
+            let Some(out) = run(backend, "closed_sphere_converged", &sphere) else {
+                return;
+            };
+            let worst = map_mean(&out, |e, _| (e / want - 1.0).abs());
+            println!(
+                "{} sphere ρ = {rho:.2}: mean |error| {:.3} %",
+                backend.name(),
+                100.0 * worst
+            );
+            assert!(worst < 0.01, "{}", backend.name());
+            compared += 2;
+        }
+    }
+    assert_eq!(compared, 12);
 }

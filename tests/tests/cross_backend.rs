@@ -80,10 +80,7 @@ fn sphere_converged_every_stage_agrees_across_backends() {
 
 #[test]
 fn the_table_covers_three_scenes_and_both_methods() {
-    let names: Vec<_> = SCENES
-        .iter()
-        .map(|c| (c.scene, c.method.name()))
-        .collect();
+    let names: Vec<_> = SCENES.iter().map(|c| (c.scene, c.method.name())).collect();
     assert_eq!(
         names,
         [

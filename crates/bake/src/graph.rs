@@ -818,7 +818,11 @@ mod tests {
                 let per_bounce = if blur == Blur::None { 0 } else { 2 };
                 assert_eq!(filters, per_bounce * bounces as usize);
                 // Each filter reads an increment (never the direct light).
-                for p in g.passes.iter().filter(|p| matches!(p.kind, PassKind::Blur { .. })) {
+                for p in g
+                    .passes
+                    .iter()
+                    .filter(|p| matches!(p.kind, PassKind::Blur { .. }))
+                {
                     assert_ne!(p.reads[0], g.direct);
                 }
             }

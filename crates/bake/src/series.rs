@@ -76,7 +76,10 @@ impl Series {
     /// module docs); `None` before the third bounce.
     pub fn uncertainty(&self) -> Option<f64> {
         let k = self.increments.len();
-        let (now, before) = (ratio_at(&self.increments, k)?, ratio_at(&self.increments, k - 1)?);
+        let (now, before) = (
+            ratio_at(&self.increments, k)?,
+            ratio_at(&self.increments, k - 1)?,
+        );
         let total = self.explicit() + self.tail();
         let last = self.increments.last().copied().unwrap_or(0.0);
         (total > 0.0).then(|| last * (now - before).abs() / ((1.0 - now).powi(2) * total))
@@ -113,9 +116,7 @@ mod tests {
     fn geometric(direct: f64, first: f64, ratio: f64, bounces: usize) -> Series {
         Series {
             direct,
-            increments: (0..bounces)
-                .map(|k| first * ratio.powi(k as i32))
-                .collect(),
+            increments: (0..bounces).map(|k| first * ratio.powi(k as i32)).collect(),
         }
     }
 

@@ -1,17 +1,14 @@
-//! The converged method against closed forms: CIE 171:2006 test case 5.8 (a closed cube of
-//! uniform reflectance with an isotropic source at its centre) and the closed diffuse sphere,
-//! both at the default preset, for reflectances up to 0.95.
-
-use std::f64::consts::PI;
-use std::sync::Arc;
+//! The converged method against closed forms on the CPU reference: CIE 171:2006 test case 5.8
+//! (a closed cube of uniform reflectance with an isotropic source at its centre) and the closed
+//! diffuse sphere, at the default preset, for reflectances up to 0.95. The GPU backends run the
+//! same checks in the workspace's `tests/` crate.
 
 use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
-use luxbake::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
-use luxbake::sources::meshes::{self, RoomAlbedo};
-use luxbake_ies::Photometry;
+use luxbake::scene::Settings;
+use luxbake::sources::closed_forms::{cie_171_5_8, closed_sphere};
 
-/// Mean over every valid texel of every map of `f(total, direct)`.
+/// Mean over every valid texel of every map of `f(total, direct)` (green channel).
 fn mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> (f64, usize) {
     let (mut sum, mut n) = (0.0, 0usize);
     for m in &out.maps {
@@ -27,45 +24,16 @@ fn mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> (f64, usize) {
     (sum / n as f64, n)
 }
 
-fn isotropic_lamp(candela: f64, position: [f32; 3]) -> Lamp {
-    Lamp::new(
-        "source",
-        Arc::new(Photometry::isotropic(candela)),
-        position,
-    )
-}
-
-/// CIE 171:2006 test case 5.8: a 4 m cube, every surface of reflectance ρ, a 10 000 lm
-/// isotropic source at its centre. The area-mean indirect illuminance is exactly
-/// Φ·ρ / (A·(1 − ρ)), A = 96 m²: 104.2, 416.7 and 1979.2 lx for ρ = 0.5, 0.8, 0.95.
 #[test]
 fn cie_171_test_5_8_closed_cube() {
-    let flux = 10_000.0;
     for rho in [0.5f32, 0.8, 0.95] {
         let settings = Settings {
             texels_per_metre: 6.0,
             ..Settings::default()
         };
-        let scene = Scene {
-            objects: vec![Object {
-                name: "cube".into(),
-                mesh: meshes::room(
-                    [4.0, 4.0, 4.0],
-                    RoomAlbedo::uniform([rho; 3]),
-                    4.0 / settings.texels_per_metre,
-                ),
-                transform: Transform::IDENTITY,
-                albedo: Albedo::grey(1.0),
-                receiver: true,
-                texel_scale: 1.0,
-            }],
-            lamps: vec![isotropic_lamp(flux / (4.0 * PI), [0.0, 2.0, 0.0])],
-            settings: settings.clone(),
-        };
+        let (scene, want) = cie_171_5_8(rho, settings.clone());
         let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
         let (indirect, texels) = mean(&out, |e, d| e - d);
-        let rho = f64::from(rho);
-        let want = flux * rho / (96.0 * (1.0 - rho));
         let err = indirect / want - 1.0;
         println!(
             "ρ = {rho:.2}: {texels} texels, {} explicit bounces, tail {:.1} %, mean indirect \
@@ -78,31 +46,15 @@ fn cie_171_test_5_8_closed_cube() {
     }
 }
 
-/// A closed diffuse sphere of radius R and reflectance ρ with an isotropic lamp of intensity
-/// I at its centre: E = (I/R²) / (1 − ρ) everywhere.
 #[test]
 fn closed_sphere_converges_to_the_whole_series() {
-    let (radius, candela) = (1.0f32, 1000.0);
     for rho in [0.5f32, 0.8, 0.95] {
         let settings = Settings {
             texels_per_metre: 12.0,
             ..Settings::default()
         };
-        let scene = Scene {
-            objects: vec![Object {
-                name: "sphere".into(),
-                mesh: meshes::sphere(radius, 64, true, 4.0 / settings.texels_per_metre),
-                transform: Transform::IDENTITY,
-                albedo: Albedo::grey(rho),
-                receiver: true,
-                texel_scale: 1.0,
-            }],
-            lamps: vec![isotropic_lamp(candela, [0.0; 3])],
-            settings: settings.clone(),
-        };
+        let (scene, want) = closed_sphere(1.0, rho, 1000.0, settings.clone());
         let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
-        let rho = f64::from(rho);
-        let want = candela / f64::from(radius * radius) / (1.0 - rho);
         let (e, texels) = mean(&out, |e, _| e);
         let (worst, _) = mean(&out, |e, _| (e / want - 1.0).abs());
         println!(

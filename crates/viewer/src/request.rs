@@ -151,9 +151,8 @@ impl BakeRequest {
     /// # Errors
     /// [`ViewerError::Setting`] naming the first value out of range by its JSON key.
     pub fn settings(&self) -> Result<Settings, ViewerError> {
-        let setting = |name: &'static str| {
-            move |reason: String| ViewerError::Setting { name, reason }
-        };
+        let setting =
+            |name: &'static str| move |reason: String| ViewerError::Setting { name, reason };
         let method: Method = self.method.parse().map_err(setting("method"))?;
         let quality: Quality = self.quality.parse().map_err(setting("quality"))?;
         let base = match method {
@@ -315,7 +314,10 @@ mod tests {
         assert_eq!(r.scene, "chairs_01");
         assert_eq!(r.rays, 16);
         assert_eq!(r.bounces, Settings::default().bounces);
-        assert_eq!((r.method.as_str(), r.quality.as_str()), ("converged", "default"));
+        assert_eq!(
+            (r.method.as_str(), r.quality.as_str()),
+            ("converged", "default")
+        );
         let back = BakeRequest::from_json(&serde_json::to_string(&r).unwrap()).unwrap();
         assert_eq!(back, r);
         let e = BakeRequest::from_json(r#"{"scene":"chairs_01","rayz":16}"#).unwrap_err();

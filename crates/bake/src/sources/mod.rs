@@ -6,6 +6,8 @@
 //! - [`scenefile`]: the TOML scene-file format
 //!   ([`Scene::from_toml_file`](crate::scene::Scene::from_toml_file)); file meshes come in
 //!   through its [`MeshLoader`](scenefile::MeshLoader).
+//! - [`closed_forms`]: scenes with closed-form answers (CIE 171:2006 test case 5.8, the closed
+//!   sphere) and their exact values.
 //! - [`meshes`]: procedural meshes with light-map UVs (room, box, plane, sphere, chair, sofa),
 //!   used by both.
 //!
@@ -13,5 +15,6 @@
 //! modules.
 
 pub mod builtin;
+pub mod closed_forms;
 pub mod meshes;
 pub mod scenefile;

@@ -80,7 +80,9 @@ use luxbake_ies::{ParseOptions, Photometry};
 use serde::Deserialize;
 use toml::Value;
 
-use crate::scene::{Albedo, Blur, Lamp, Mesh, Method, Object, Quality, Scene, SceneError, Settings, Transform};
+use crate::scene::{
+    Albedo, Blur, Lamp, Mesh, Method, Object, Quality, Scene, SceneError, Settings, Transform,
+};
 use crate::sources::builtin;
 use crate::sources::meshes::{self, RoomAlbedo};
 
