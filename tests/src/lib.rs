@@ -16,7 +16,8 @@
 //!
 //! The comparisons run in `tests/cross_backend.rs` (cpu-vs-glow, cpu-vs-wgpu, glow-vs-wgpu on
 //! `chairs_01`, `floor`, `sphere`) and the closed-form checks on every GPU backend in
-//! `tests/analytic.rs`. Settings are reduced for test time on two CPU cores (the default bake
+//! `tests/analytic.rs`; `tests/atrous.rs` compares the à-trous denoiser's programs, which are
+//! not in the bake graph yet, pass by pass on synthetic textures (cpu-vs-glow, cpu-vs-wgpu). Settings are reduced for test time on two CPU cores (the default bake
 //! is 64 texels per metre, 4 rays and 3 bounces): [`settings`] uses 12 texels per metre, 16 gather rays,
 //! one bounce, blur σ = 2. The comparison does not depend on them: every backend computes the
 //! same texels with the same random numbers.

@@ -35,6 +35,36 @@
 //!   misses and non-receivers add 0. Output `(Σ / N, 1)`. Since `E = π·mean(L)` over a
 //!   cosine-weighted hemisphere and a Lambertian surface's radiance is `L = M/π`, the mean
 //!   exitance is the indirect illuminance.
+//! - **Variance** (the à-trous filter's noise estimate; derivation in
+//!   [`atrous_steps`](crate::program::atrous_steps)): `a` is the noisy map, `b` the G-buffer
+//!   position, then the normal. The window is the 5×5 taps at offsets `o ∈ [−2, 2]²` that lie
+//!   on the centre's surface (**guide**, below) with `n̂·n̂ₜ ≥ 0.9063` (25°), each with its
+//!   luminance `l = 0.2126 r + 0.7152 g + 0.0722 b` (left to right). For each direction
+//!   `d` in (1, 0), (0, 1), (1, 1), (1, −1) in that order, over the pairs `(o, o + d)` with
+//!   both ends in the window (rows, then columns of `o`): `v_d = Σ(l_{o+d} − l_o)² / (2n)`;
+//!   directions with `n < max(min_pairs, 1)` are skipped. Output `(v, v, v, 1)` with `v` the smallest
+//!   `v_d` (first wins ties), or 0 when no direction counts; invalid centres `(0, 0, 0, 0)`;
+//!   a centre whose normal cannot be normalised `(0, 0, 0, 1)`.
+//! - **Atrous** (step `s`): `a` the map being filtered (value `c` at the centre), `b` the
+//!   variance map (its `r` is `σ²`), then position and normal. Taps at `s·(i, j)`,
+//!   `i, j ∈ −2..=2` (rows `j` outer, columns `i` inner) on the centre's surface (guide) with
+//!   `cos = n̂·n̂ₜ > 0` get `w = B3[i]·B3[j]·cos^(2^normal_log2)·w_l` (the power by squaring,
+//!   stopping once it is 0 or 1; `B3` = 1/16, 1/4, 3/8, 1/4, 1/16) with `Δ = v − c`,
+//!   `Δl` = its luminance and `w_l = 1` if `Δl = 0`, else `exp(−Δl² / (variance_scale·σ²))`
+//!   when `variance_scale·σ² > 0`, else 0. Taps with `w ≤ 0` (or NaN) are skipped. Output
+//!   `(c + ΣwΔ / Σw, 1)` — the centre itself is a tap, so a constant field is returned exactly
+//!   and a texel with no other usable tap keeps its value. A centre whose normal cannot be
+//!   normalised, or with no usable tap at all (a NaN or infinite centre), keeps its value:
+//!   `(c, 1)`. Invalid centres `(0, 0, 0, 0)`. A step beyond the layer's width and height
+//!   leaves only the centre.
+//!
+//! The **guide** of the denoiser passes: a tap at offset `o` from the centre `p` is on the
+//! centre's surface when it lies inside the layer, its `a.w > ½`, its object index equals the
+//! centre's, its normal can be normalised and, for `o ≠ 0`, its world position lies in the
+//! shell its offset allows on the centre's chart: `reach_min²·m² ≤ |x_t − x_p|² ≤
+//! reach²·|o|²`, `m = max(0, max(|o.x|, |o.y|) − 2)` (the variance pass has no lower bound,
+//! its offsets are at most 2). So taps of another chart — close in UV, elsewhere in the world
+//! — are skipped (the test is derived in [`atrous_steps`](crate::program::atrous_steps)).
 //!
 //! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
 //! NaN or infinity ever reaches a map.
@@ -50,7 +80,8 @@ use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::map::sample_masked;
 use crate::program::{
-    BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams, ParamBlock, Program,
+    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams,
+    ParamBlock, Program, VarianceParams,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -417,6 +448,209 @@ fn blur_texel(
     }
 }
 
+/// Rec. 709 luminance, left to right.
+#[inline]
+fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+/// The centre of a denoiser pass and the surface its taps must lie on (module docs: guide).
+struct Guide<'a> {
+    src: View<'a>,
+    pos: View<'a>,
+    nrm: View<'a>,
+    layer: u32,
+    x: i64,
+    y: i64,
+    p: [f32; 3],
+    n: [f32; 3],
+    object: f32,
+    reach2: f32,
+    reach_min2: f32,
+}
+
+impl<'a> Guide<'a> {
+    /// The guide of texel `(x, y)` with the chart test's `[reach_min, reach]`; `None` when its
+    /// normal cannot be normalised.
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        src: View<'a>,
+        pos: View<'a>,
+        nrm: View<'a>,
+        reach: [f32; 2],
+        layer: u32,
+        x: u32,
+        y: u32,
+    ) -> Option<Guide<'a>> {
+        let nc = nrm.fetch(layer, x, y);
+        Some(Guide {
+            src,
+            pos,
+            nrm,
+            layer,
+            x: i64::from(x),
+            y: i64::from(y),
+            p: xyz(pos.fetch(layer, x, y)),
+            n: normalize(xyz(nc))?,
+            object: nc[3],
+            reach2: reach[1] * reach[1],
+            reach_min2: reach[0] * reach[0],
+        })
+    }
+
+    /// The tap at `offset` texels: its value and `n̂·n̂ₜ` when it lies on the centre's surface.
+    fn tap(&self, offset: [i64; 2]) -> Option<([f32; 4], f32)> {
+        let (tx, ty) = (self.x + offset[0], self.y + offset[1]);
+        let size = self.src.size;
+        if tx < 0 || ty < 0 || tx >= i64::from(size[0]) || ty >= i64::from(size[1]) {
+            return None;
+        }
+        let (tx, ty) = (tx as u32, ty as u32);
+        let t = self.src.fetch(self.layer, tx, ty);
+        if t[3] <= 0.5 {
+            return None;
+        }
+        let nt = self.nrm.fetch(self.layer, tx, ty);
+        if nt[3] != self.object {
+            return None;
+        }
+        let d = sub(xyz(self.pos.fetch(self.layer, tx, ty)), self.p);
+        let d2 = dot(d, d);
+        let o2 = (offset[0] * offset[0] + offset[1] * offset[1]) as f32;
+        let m = (offset[0].abs().max(offset[1].abs()) - 2).max(0);
+        if o2 > 0.0 && !(d2 <= self.reach2 * o2 && d2 >= self.reach_min2 * (m * m) as f32) {
+            return None;
+        }
+        Some((t, dot(self.n, normalize(xyz(nt))?)))
+    }
+}
+
+/// The pairs directions of the variance estimate, in order.
+const VARIANCE_DIRECTIONS: [[i64; 2]; 4] = [[1, 0], [0, 1], [1, 1], [1, -1]];
+
+/// The noise variance of the luminance at one texel (see the module docs).
+#[allow(clippy::too_many_arguments)]
+fn variance_texel(
+    src: View<'_>,
+    pos: View<'_>,
+    nrm: View<'_>,
+    params: VarianceParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    if src.fetch(layer, x, y)[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let Some(guide) = Guide::new(src, pos, nrm, [0.0, params.reach], layer, x, y) else {
+        return [0.0, 0.0, 0.0, 1.0];
+    };
+    // The 5×5 window, row by row: the luminance of each tap on the surface.
+    let mut window = [None; 25];
+    for (k, w) in window.iter_mut().enumerate() {
+        let o = [k as i64 % 5 - 2, k as i64 / 5 - 2];
+        *w = match guide.tap(o) {
+            Some((t, cos)) if cos >= BLUR_NORMAL_COS => Some(luminance(xyz(t))),
+            _ => None,
+        };
+    }
+    let mut best: Option<f32> = None;
+    for d in VARIANCE_DIRECTIONS {
+        let (mut sum, mut n) = (0.0f32, 0u32);
+        for k in 0..25i64 {
+            let (i, j) = (k % 5 + d[0], k / 5 + d[1]);
+            if !(0..5).contains(&i) || !(0..5).contains(&j) {
+                continue;
+            }
+            if let (Some(a), Some(b)) = (window[k as usize], window[(j * 5 + i) as usize]) {
+                let diff = b - a;
+                sum += diff * diff;
+                n += 1;
+            }
+        }
+        if n >= params.min_pairs && n > 0 {
+            let v = sum / (2 * n) as f32;
+            if best.is_none_or(|b| v < b) {
+                best = Some(v);
+            }
+        }
+    }
+    let v = guard(best.unwrap_or(0.0));
+    [v, v, v, 1.0]
+}
+
+/// One à-trous iteration at one texel (see the module docs).
+#[allow(clippy::too_many_arguments)]
+fn atrous_texel(
+    src: View<'_>,
+    variance: View<'_>,
+    pos: View<'_>,
+    nrm: View<'_>,
+    params: AtrousParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let c = src.fetch(layer, x, y);
+    if c[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let kept = [guard(c[0]), guard(c[1]), guard(c[2]), 1.0];
+    let reach = [params.reach_min, params.reach];
+    let Some(guide) = Guide::new(src, pos, nrm, reach, layer, x, y) else {
+        return kept;
+    };
+    let scale = params.variance_scale * variance.fetch(layer, x, y)[0];
+    let step = i64::from(params.step);
+    let mut sum = [0.0f32; 3];
+    let mut wsum = 0.0f32;
+    for (j, &bj) in B3.iter().enumerate() {
+        for (i, &bi) in B3.iter().enumerate() {
+            let o = [(i as i64 - 2) * step, (j as i64 - 2) * step];
+            let Some((t, cos)) = guide.tap(o) else {
+                continue;
+            };
+            if cos.is_nan() || cos <= 0.0 {
+                continue;
+            }
+            let mut wn = cos;
+            for _ in 0..params.normal_log2 {
+                if wn == 0.0 || wn == 1.0 {
+                    break;
+                }
+                wn *= wn;
+            }
+            let d = [t[0] - c[0], t[1] - c[1], t[2] - c[2]];
+            let dl = luminance(d);
+            let wl = if dl == 0.0 {
+                1.0
+            } else if scale > 0.0 {
+                (-(dl * dl) / scale).exp()
+            } else {
+                0.0
+            };
+            let w = bi * bj * wn * wl;
+            if w.is_nan() || w <= 0.0 {
+                continue;
+            }
+            for k in 0..3 {
+                sum[k] += w * d[k];
+            }
+            wsum += w;
+        }
+    }
+    if wsum > 0.0 {
+        [
+            guard(c[0] + sum[0] / wsum),
+            guard(c[1] + sum[1] / wsum),
+            guard(c[2] + sum[2] / wsum),
+            1.0,
+        ]
+    } else {
+        kept
+    }
+}
+
 impl GpuBackend for CpuBackend {
     type Texture = CpuTexture;
     type Scene = CpuScene;
@@ -644,6 +878,25 @@ fn texel(
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
+        Program::Variance => variance_texel(
+            v[0],
+            v[1],
+            v[2],
+            VarianceParams::from_words(call.params),
+            layer,
+            x,
+            y,
+        ),
+        Program::Atrous => atrous_texel(
+            v[0],
+            v[1],
+            v[2],
+            v[3],
+            AtrousParams::from_words(call.params),
+            layer,
+            x,
+            y,
+        ),
     }
 }
 
@@ -807,5 +1060,373 @@ mod tests {
             blur_texel(s, n, blur_params([0, 1], 3.0), 0, 1, 0),
             [3.0, 3.0, 3.0, 1.0]
         );
+    }
+}
+
+#[cfg(test)]
+mod denoiser_tests {
+    use super::*;
+    use crate::program::{AtrousConfig, Params, atrous_steps, blur_params};
+
+    /// Texel size of the synthetic fields, metres.
+    const H: f32 = 0.1;
+
+    /// A synthetic one-layer light map with its G-buffer.
+    #[derive(Clone)]
+    struct Field {
+        size: [u32; 2],
+        map: Vec<f32>,
+        pos: Vec<f32>,
+        nrm: Vec<f32>,
+    }
+
+    fn view(data: &[f32], size: [u32; 2]) -> View<'_> {
+        View {
+            data,
+            size,
+            layers: 1,
+        }
+    }
+
+    /// One pass over every texel of a one-layer map of `size`.
+    fn apply(size: [u32; 2], f: impl Fn(u32, u32) -> [f32; 4]) -> Vec<f32> {
+        (0..size[1])
+            .flat_map(|y| (0..size[0]).map(move |x| (x, y)))
+            .flat_map(|(x, y)| f(x, y))
+            .collect()
+    }
+
+    /// A standard normal number from the RNG hash (Box–Muller).
+    fn gauss(texel: u32, seed: u32) -> f32 {
+        let [u0, u1] = rng::uniform2(texel, 0, 0, seed);
+        (-2.0 * (1.0 - u0).ln()).sqrt() * (2.0 * PI * u1).cos()
+    }
+
+    impl Field {
+        /// A floor chart (normal +Y, object 0) of texels `H` metres apart, all valid with
+        /// grey value `value(x, y)`.
+        fn flat(size: [u32; 2], value: impl Fn(u32, u32) -> f32) -> Field {
+            let mut f = Field {
+                size,
+                map: Vec::new(),
+                pos: Vec::new(),
+                nrm: Vec::new(),
+            };
+            for y in 0..size[1] {
+                for x in 0..size[0] {
+                    let v = value(x, y);
+                    f.map.extend([v, v, v, 1.0]);
+                    f.pos
+                        .extend([(x as f32 + 0.5) * H, 0.0, (y as f32 + 0.5) * H, 1.0]);
+                    f.nrm.extend([0.0, 1.0, 0.0, 0.0]);
+                }
+            }
+            f
+        }
+
+        fn index(&self, x: u32, y: u32) -> usize {
+            4 * (y * self.size[0] + x) as usize
+        }
+
+        fn value(&self, x: u32, y: u32) -> [f32; 4] {
+            let i = self.index(x, y);
+            [0, 1, 2, 3].map(|c| self.map[i + c])
+        }
+
+        /// Makes texel `(x, y)` empty (all zeros, as the G-buffer has it) with `garbage` in
+        /// the map's RGB.
+        fn clear(&mut self, x: u32, y: u32, garbage: f32) {
+            let i = self.index(x, y);
+            self.map[i..i + 4].copy_from_slice(&[garbage, garbage, garbage, 0.0]);
+            self.pos[i..i + 4].fill(0.0);
+            self.nrm[i..i + 4].fill(0.0);
+        }
+
+        /// The variance map and the output of `config`'s passes.
+        fn denoise(&self, config: &AtrousConfig) -> (Vec<f32>, Vec<f32>) {
+            let size = self.size;
+            let (pos, nrm) = (view(&self.pos, size), view(&self.nrm, size));
+            let mut variance = Vec::new();
+            let mut out = self.map.clone();
+            for (_, params) in atrous_steps(config) {
+                let src = out.clone();
+                let s = view(&src, size);
+                match params {
+                    Params::Variance(p) => {
+                        variance = apply(size, |x, y| variance_texel(s, pos, nrm, p, 0, x, y));
+                    }
+                    Params::Atrous(p) => {
+                        let v = view(&variance, size);
+                        out = apply(size, |x, y| atrous_texel(s, v, pos, nrm, p, 0, x, y));
+                    }
+                    other => panic!("{other:?}"),
+                }
+            }
+            (variance, out)
+        }
+
+        /// The separable Gaussian of the blur passes (U, then V).
+        fn gaussian(&self, sigma: f32) -> Vec<f32> {
+            let (size, nrm) = (self.size, view(&self.nrm, self.size));
+            let u = apply(size, |x, y| {
+                blur_texel(
+                    view(&self.map, size),
+                    nrm,
+                    blur_params([1, 0], sigma),
+                    0,
+                    x,
+                    y,
+                )
+            });
+            apply(size, |x, y| {
+                blur_texel(view(&u, size), nrm, blur_params([0, 1], sigma), 0, x, y)
+            })
+        }
+    }
+
+    /// RMSE of the red channel of `map` against `truth(x, y)` over the texels `keep` accepts.
+    fn rmse(
+        f: &Field,
+        map: &[f32],
+        truth: impl Fn(u32, u32) -> f32,
+        keep: impl Fn(u32, u32) -> bool,
+    ) -> f64 {
+        let (mut se, mut n) = (0.0f64, 0usize);
+        for y in 0..f.size[1] {
+            for x in (0..f.size[0]).filter(|&x| keep(x, y)) {
+                let e = f64::from(map[f.index(x, y)]) - f64::from(truth(x, y));
+                se += e * e;
+                n += 1;
+            }
+        }
+        assert!(n > 0);
+        (se / n as f64).sqrt()
+    }
+
+    const ITERATIONS: u32 = 5;
+
+    #[test]
+    fn a_constant_field_is_returned_exactly() {
+        // A floor of object 0 (value 3.7) with a hole, object 1 (value 0.25) on the right and a
+        // wall strip facing +X at the top (value 12), whose texels are an edge apart.
+        let mut f = Field::flat([40, 24], |x, _| if x >= 30 { 0.25 } else { 3.7 });
+        for y in 8..12 {
+            for x in 10..15 {
+                f.clear(x, y, 1e6);
+            }
+        }
+        for y in 0..24 {
+            for x in 30..40 {
+                let i = f.index(x, y);
+                f.nrm[i + 3] = 1.0;
+            }
+        }
+        for y in 0..3 {
+            for x in 0..30 {
+                let i = f.index(x, y);
+                f.map[i..i + 3].fill(12.0);
+                f.pos[i..i + 3].copy_from_slice(&[0.0, (3 - y) as f32 * H, x as f32 * H]);
+                f.nrm[i..i + 3].copy_from_slice(&[1.0, 0.0, 0.0]);
+            }
+        }
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        for y in 0..24 {
+            for x in 0..40 {
+                let i = f.index(x, y);
+                let v = f.value(x, y);
+                if v[3] > 0.5 {
+                    assert_eq!(out[i..i + 4], v, "({x}, {y})");
+                    assert_eq!(variance[i..i + 4], [0.0, 0.0, 0.0, 1.0], "({x}, {y})");
+                } else {
+                    assert_eq!(out[i..i + 4], [0.0; 4], "({x}, {y})");
+                    assert_eq!(variance[i..i + 4], [0.0; 4], "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    /// A noisy field split at x = 24: the left half around 1, the right half around `right`.
+    fn split_field(right: f32) -> Field {
+        Field::flat([48, 32], |x, y| {
+            let base = if x < 24 { 1.0 } else { right };
+            base * (1.0 + 0.2 * gauss(y * 48 + x, 5))
+        })
+    }
+
+    /// Asserts that each half of `f` is denoised exactly as if the other half were empty.
+    fn halves_are_independent(f: &Field, config: &AtrousConfig) {
+        let (_, both) = f.denoise(config);
+        for left in [true, false] {
+            let mut alone = f.clone();
+            for y in 0..32 {
+                for x in (0..48).filter(|&x| (x < 24) != left) {
+                    alone.clear(x, y, 0.0);
+                }
+            }
+            let (_, out) = alone.denoise(config);
+            for y in 0..32 {
+                for x in (0..48).filter(|&x| (x < 24) == left) {
+                    let i = f.index(x, y);
+                    assert_eq!(both[i..i + 4], out[i..i + 4], "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn no_light_moves_between_objects_or_charts() {
+        let config = AtrousConfig::new(ITERATIONS, H);
+        // Two objects side by side on one plane: contiguous positions and normals.
+        let mut objects = split_field(40.0);
+        for y in 0..32 {
+            for x in 24..48 {
+                let i = objects.index(x, y);
+                objects.nrm[i + 3] = 1.0;
+            }
+        }
+        halves_are_independent(&objects, &config);
+        // Two charts of one object, adjacent in the map, 20 m apart in the world (as far as
+        // five iterations reach: 32·√2 texels × 1.5 × 0.1 m = 6.8 m, and more).
+        for right in [40.0, 1.5] {
+            let mut charts = split_field(right);
+            for y in 0..32 {
+                for x in 24..48 {
+                    let i = charts.index(x, y);
+                    charts.pos[i + 2] += 20.0;
+                }
+            }
+            halves_are_independent(&charts, &config);
+            // Without the chart test they do exchange light: the other chart's texels then
+            // also inflate the variance estimate, which lets even the large step through.
+            let loose = AtrousConfig {
+                chart_tolerance: 1e6,
+                ..config
+            };
+            let (_, mixed) = charts.denoise(&loose);
+            let (_, kept) = charts.denoise(&config);
+            let left = |m: &[f32]| (0..32).map(|y| m[charts.index(23, y)]).sum::<f32>() / 32.0;
+            println!(
+                "charts 1 | {right}: mean next to the seam {} (without the chart test {})",
+                left(&kept),
+                left(&mixed)
+            );
+            assert!(left(&mixed) > left(&kept) + 0.05);
+        }
+    }
+
+    #[test]
+    fn the_chart_test_rejects_taps_nearer_or_farther_than_their_offset_allows() {
+        // Along a row of texels H apart, move the texel 8 to the right of the centre to a
+        // distance `d`: on the chart it may lie (8 − 2)·H/1.5 = 0.4 m to 8·1.5·H = 1.2 m away.
+        let config = AtrousConfig::new(1, H);
+        let reach = [config.reach_min(), config.reach()];
+        for (d, accepted) in [
+            (0.8, true),
+            (0.41, true),
+            (1.19, true),
+            (0.1, false),
+            (0.39, false),
+            (1.21, false),
+        ] {
+            let mut f = Field::flat([16, 1], |_, _| 1.0);
+            let i = f.index(10, 0);
+            f.pos[i] = f.pos[f.index(2, 0)] + d;
+            let (src, pos, nrm) = (
+                view(&f.map, f.size),
+                view(&f.pos, f.size),
+                view(&f.nrm, f.size),
+            );
+            let guide = Guide::new(src, pos, nrm, reach, 0, 2, 0).expect("normal");
+            assert_eq!(guide.tap([8, 0]).is_some(), accepted, "{d}");
+            // Within two texels only the upper bound applies.
+            assert!(guide.tap([1, 0]).is_some() && guide.tap([0, 0]).is_some());
+        }
+    }
+
+    #[test]
+    fn noise_on_a_flat_field_is_reduced() {
+        let sigma = 0.1f32;
+        let f = Field::flat([64, 64], |x, y| 1.0 + sigma * gauss(y * 64 + x, 11));
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        let all = |_, _| true;
+        let before = rmse(&f, &f.map, |_, _| 1.0, all);
+        let after = rmse(&f, &out, |_, _| 1.0, all);
+        let mean_var = variance
+            .chunks_exact(4)
+            .map(|t| f64::from(t[0]))
+            .sum::<f64>()
+            / 4096.0;
+        println!(
+            "flat field: RMSE {before:.4} → {after:.4} ({:.1}× less); mean variance estimate \
+             {mean_var:.5} (true {:.5})",
+            before / after,
+            sigma * sigma
+        );
+        assert!(before / after > 8.0, "{before} → {after}");
+        // The estimate is the smallest of four: a little under σ².
+        let rel = mean_var / f64::from(sigma * sigma);
+        assert!((0.6..=1.05).contains(&rel), "{rel}");
+    }
+
+    #[test]
+    fn a_low_noise_shadow_edge_survives_better_than_under_the_gaussian() {
+        // A contact shadow: 1.0 lit, 0.2 shadowed from x = 32 on, with 1 % noise.
+        let signal = |x: u32, _| if x < 32 { 1.0 } else { 0.2 };
+        let f = Field::flat([64, 64], |x, y| {
+            signal(x, y) * (1.0 + 0.01 * gauss(y * 64 + x, 3))
+        });
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        let gaussian = f.gaussian(2.0);
+        let near = |x: u32, _| (28..36).contains(&x);
+        let far = |x: u32, _| !(20..44).contains(&x);
+        let atrous_edge = rmse(&f, &out, signal, near);
+        let gauss_edge = rmse(&f, &gaussian, signal, near);
+        let noisy_far = rmse(&f, &f.map, signal, far);
+        let atrous_far = rmse(&f, &out, signal, far);
+        println!(
+            "shadow edge (±4 texels): RMSE à-trous {atrous_edge:.5}, Gaussian σ = 2 \
+             {gauss_edge:.5} ({:.0}× less); away from it noise {noisy_far:.5} → {atrous_far:.5}",
+            gauss_edge / atrous_edge
+        );
+        assert!(
+            atrous_edge * 10.0 < gauss_edge,
+            "{atrous_edge} vs {gauss_edge}"
+        );
+        assert!(atrous_far * 3.0 < noisy_far, "{noisy_far} → {atrous_far}");
+        // The edge does not inflate the variance estimate next to it.
+        let i = f.index(31, 32);
+        assert!(variance[i] < 4.0 * 0.01 * 0.01, "{}", variance[i]);
+    }
+
+    #[test]
+    fn outputs_stay_finite_and_lonely_texels_keep_their_value() {
+        let mut f = Field::flat([12, 12], |x, y| (x * 12 + y) as f32);
+        let specials = [
+            ((2, 2), f32::NAN),
+            ((3, 2), f32::INFINITY),
+            ((4, 2), f32::MAX),
+            ((5, 2), -1.0),
+        ];
+        for ((x, y), v) in specials {
+            let i = f.index(x, y);
+            f.map[i..i + 3].fill(v);
+        }
+        // A centre without a usable normal, and a texel alone among empty ones.
+        let i = f.index(8, 8);
+        f.nrm[i..i + 3].fill(0.0);
+        for y in 9..12 {
+            for x in 0..3 {
+                if (x, y) != (1, 10) {
+                    f.clear(x, y, 0.0);
+                }
+            }
+        }
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        for v in variance.iter().chain(&out) {
+            assert!(v.is_finite() && *v >= 0.0, "{v}");
+        }
+        assert_eq!(out[f.index(8, 8)..f.index(8, 8) + 4], f.value(8, 8));
+        assert_eq!(out[f.index(1, 10)..f.index(1, 10) + 4], f.value(1, 10));
+        assert_eq!(variance[f.index(1, 10)], 0.0);
     }
 }

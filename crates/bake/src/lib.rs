@@ -69,6 +69,11 @@
 //!   within 25°) only, with renormalised weights: the empty texels between UV charts do not
 //!   bleed in, which removes the paper's black seams. Order as in the paper: direct → copy →
 //!   blur → ×albedo → gather → combine → blur → ×albedo. `blur = none` disables it.
+//! - **Denoising** (programs ready, not yet in the graph): an edge-stopping à-trous wavelet
+//!   filter of the indirect illuminance guided by world position, normal and object, with a
+//!   robust per-texel estimate of the noise variance ([`program::atrous_steps`] lists its
+//!   passes and derives it; [`cpu`] specifies them). It never mixes objects or charts and
+//!   returns a constant field exactly.
 //!
 //! ## Conventions
 //! Right-handed, +Y up, metres; the lamp frame and light-map UV conventions are in [`scene`].

@@ -10,8 +10,9 @@
 //!   ([`crate::shader`]).
 //! - [`Signature::scene`]: the static scene resources it needs ([`SceneNeeds`]).
 //! - [`Signature::params`]: its uniform parameter block, one `#[repr(C)]` struct per program
-//!   ([`DirectParams`], [`BlurParams`], [`GatherParams`], [`CombineParams`]; none for copy
-//!   and albedo multiply) whose fields — names, scalar types and byte offsets — are [`ParamBlock::FIELDS`].
+//!   ([`DirectParams`], [`BlurParams`], [`GatherParams`], [`CombineParams`],
+//!   [`VarianceParams`], [`AtrousParams`]; none for copy and albedo multiply) whose fields —
+//!   names, scalar types and byte offsets — are [`ParamBlock::FIELDS`].
 //!   The GLSL uniforms and the WGSL struct are generated from those fields, so a shader and the
 //!   Rust side cannot disagree on a name, a type or an offset.
 //! - [`Signature::libraries`]: the shared shader library files it includes.
@@ -23,7 +24,8 @@
 //! # Adding a pass
 //! A new pass with parameters touches: its [`Program`] variant and [`Signature`] (and its
 //! parameter struct) here, its CPU function in [`crate::cpu`], and one shader file per
-//! language under `shaders/<pass>/`.
+//! language under `shaders/<pass>/` (one `include_str!` line each in [`crate::shader`]'s pass
+//! tables). Shader code that several passes share is a [`Library`] (`shaders/lib/`).
 
 use std::fmt;
 
@@ -253,6 +255,49 @@ param_block! {
     }
 }
 
+param_block! {
+    /// Parameters of [`Program::Variance`]: the noise variance of the luminance at a texel,
+    /// estimated from neighbouring texels of its surface (the derivation is in
+    /// [`atrous_steps`]' docs and [`crate::cpu`]).
+    VarianceParams as "LuxVarianceParams" {
+        /// Farthest a tap on the centre's chart lies per texel of offset, metres
+        /// ([`AtrousConfig::reach`]).
+        reach: f32,
+        /// Fewest texel pairs a direction needs to give an estimate ([`ATROUS_MIN_PAIRS`]).
+        min_pairs: u32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+    }
+}
+
+param_block! {
+    /// Parameters of one iteration of [`Program::Atrous`] (edge-stopping à-trous wavelet
+    /// filter; see [`atrous_steps`]).
+    AtrousParams as "LuxAtrousParams" {
+        /// Spacing of the 5×5 taps, texels: `2^i` at iteration `i`.
+        step: i32,
+        /// Farthest a tap on the centre's chart lies per texel of offset, metres
+        /// ([`AtrousConfig::reach`]).
+        reach: f32,
+        /// Nearest a tap on the centre's chart lies per texel of offset beyond the first two,
+        /// metres ([`AtrousConfig::reach_min`]).
+        reach_min: f32,
+        /// Normal weight `max(0, n̂·n̂ₜ)^(2^normal_log2)`.
+        normal_log2: u32,
+        /// Luminance weight `exp(−Δl² / (variance_scale · σ²))`, σ² the centre's variance
+        /// estimate: `σ_l² · ρᵢ` ([`AtrousConfig::sigma_luminance`], [`b3_noise_factor`]).
+        variance_scale: f32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+        /// Padding.
+        pad2: u32,
+    }
+}
+
 /// Largest blur radius, texels (a shader's loop bound).
 pub const MAX_BLUR_RADIUS: i32 = 64;
 /// Blur taps whose normal deviates more than this cosine (25°) from the centre's are skipped.
@@ -274,6 +319,182 @@ pub fn blur_params(step: [i32; 2], sigma: f32) -> BlurParams {
     }
 }
 
+/// The B3-spline kernel of the à-trous filter, one axis: taps `−2 ..= 2` (Dammertz et al.
+/// 2010); the 5×5 weights are the products `B3[i] · B3[j]`.
+pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
+/// Default [`AtrousConfig::chart_tolerance`]: a tap on the centre's chart lies at most 1.5 texel
+/// sizes away per texel of offset (and at least 1/1.5 per texel beyond the first two). On the
+/// built-in scenes' G-buffers, same-object taps facing the same way lie within 1.19·|o|
+/// texel sizes (the sphere's cube-face charts) and, on the one-chart floor, beyond
+/// 1.05·(‖o‖∞ − 2).
+pub const ATROUS_CHART_TOLERANCE: f32 = 1.5;
+/// Default [`AtrousConfig::normal_log2`]: exponent 128, SVGF's σₙ (weight ½ at 6°, 0.14 at 10°,
+/// 0.01 at 15°).
+pub const ATROUS_NORMAL_LOG2: u32 = 7;
+/// Default [`AtrousConfig::sigma_luminance`]: a luminance step of 4σ (σ the noise's standard
+/// deviation at that iteration) gets weight `e⁻¹`.
+pub const ATROUS_SIGMA_LUMINANCE: f32 = 4.0;
+/// Fewest texel pairs along one direction that give a variance estimate.
+pub const ATROUS_MIN_PAIRS: u32 = 4;
+/// Most à-trous iterations: step `2^9 = 512` texels already spans the largest WebGL2 layer
+/// (2048) with its ±2 taps.
+pub const MAX_ATROUS_ITERATIONS: u32 = 10;
+
+/// The edge-stopping à-trous denoiser of the indirect illuminance: what [`atrous_steps`] turns
+/// into passes.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AtrousConfig {
+    /// À-trous iterations (steps 1, 2, 4, …), at most [`MAX_ATROUS_ITERATIONS`].
+    pub iterations: u32,
+    /// World size of one texel, metres, `[smallest, largest]` over the receivers:
+    /// `1 / (texels_per_metre · texel_scale)` for the largest and the smallest `texel_scale`
+    /// (both `1 / texels_per_metre` at a uniform density). The chart test allows what the
+    /// coarsest receiver needs as the farthest and what the densest needs as the nearest
+    /// distance per texel of offset, so it never rejects a tap of a receiver's own chart for
+    /// its density; a mixed-density scene's test is looser by the ratio.
+    pub texel_size: [f32; 2],
+    /// How much farther (and nearer) than `|offset| · texel_size` a tap on the same chart may
+    /// lie (UV stretch, rounding of small maps), ≥ 1.
+    pub chart_tolerance: f32,
+    /// Normal weight exponent, as a power of two.
+    pub normal_log2: u32,
+    /// Width of the luminance edge-stopping term, in standard deviations of the noise.
+    pub sigma_luminance: f32,
+}
+
+impl AtrousConfig {
+    /// `iterations` at a uniform density of `1 / texel_size` texels per metre, with the
+    /// defaults [`ATROUS_CHART_TOLERANCE`], [`ATROUS_NORMAL_LOG2`] and
+    /// [`ATROUS_SIGMA_LUMINANCE`].
+    pub fn new(iterations: u32, texel_size: f32) -> AtrousConfig {
+        AtrousConfig {
+            iterations,
+            texel_size: [texel_size; 2],
+            chart_tolerance: ATROUS_CHART_TOLERANCE,
+            normal_log2: ATROUS_NORMAL_LOG2,
+            sigma_luminance: ATROUS_SIGMA_LUMINANCE,
+        }
+    }
+
+    /// Farthest a tap on the centre's chart lies per texel of offset: largest texel size ×
+    /// chart tolerance, metres (0 when not finite and ≥ 0: then only the centre is a tap).
+    pub fn reach(&self) -> f32 {
+        finite_or_zero(self.texel_size[1] * self.chart_tolerance)
+    }
+
+    /// Nearest a tap on the centre's chart lies per texel of offset beyond the first two:
+    /// smallest texel size / chart tolerance, metres (0 when not finite and ≥ 0: no lower
+    /// bound).
+    pub fn reach_min(&self) -> f32 {
+        finite_or_zero(self.texel_size[0] / self.chart_tolerance)
+    }
+}
+
+fn finite_or_zero(v: f32) -> f32 {
+    if v.is_finite() && v >= 0.0 { v } else { 0.0 }
+}
+
+/// The white-noise variance factor `ρᵢ` after `i` à-trous iterations: `(Σₖ cᵢ[k]²)²`, `cᵢ` the
+/// one-axis equivalent kernel of iterations `0 .. i` (the B3 kernel dilated by 1, 2, …,
+/// `2^(i−1)`, convolved). Independent noise of variance σ² has variance `ρᵢ·σ²` after them
+/// (without edge stopping): 1, 0.0748, 0.0189, …
+pub fn b3_noise_factor(i: u32) -> f64 {
+    let mut c = vec![1.0f64];
+    for j in 0..i.min(MAX_ATROUS_ITERATIONS) {
+        let step = 1usize << j;
+        let mut next = vec![0.0f64; c.len() + 4 * step];
+        for (k, &ck) in c.iter().enumerate() {
+            for (t, &b) in B3.iter().enumerate() {
+                next[k + t * step] += ck * f64::from(b);
+            }
+        }
+        c = next;
+    }
+    let s: f64 = c.iter().map(|v| v * v).sum();
+    s * s
+}
+
+/// The passes of the à-trous denoiser, in order, for the graph builder to chain:
+///
+/// 1. `(Program::Variance, Params::Variance(_))`: reads `[noisy, position, normal]`, writes
+///    the variance map `var`;
+/// 2. for `i` in `0 .. iterations`: `(Program::Atrous, Params::Atrous(_))` with step `2^i`,
+///    reading `[previous, var, position, normal]` (`previous` = the noisy map for `i = 0`, then
+///    the last iteration's output: ping-pong between two textures) and writing the next.
+///
+/// The last output is the denoised map. `iterations` above [`MAX_ATROUS_ITERATIONS`] are
+/// clamped; with 0 iterations only the variance pass is listed.
+///
+/// # The filter
+/// Dammertz et al. 2010 / SVGF (Schied et al. 2017) without temporal history. Iteration `i`
+/// computes, for a valid centre texel `p` with value `c` and taps `q = p + 2^i·(a, b)`,
+/// `a, b ∈ −2..=2`:
+///
+/// `out = c + Σ w_q (v_q − c) / Σ w_q`, `w_q = B3[a]·B3[b] · max(0, n̂_p·n̂_q)^(2^normal_log2) ·
+/// exp(−Δl² / (σ_l²·ρᵢ·σ²_p))`
+///
+/// over taps on the centre's surface only, with `Δl` the luminance of `v_q − c` and `σ²_p` the
+/// variance estimate at `p`. Written relative to `c`, a constant field is returned bit for
+/// bit.
+///
+/// A tap is on the centre's surface when it is valid, of the same object and on the same
+/// chart. Charts are not labelled in the G-buffer, but every chart is laid out at the
+/// receiver's uniform texel density, so a tap `o` texels away on the centre's chart lies
+/// `≈ |o|·h` metres away in the world (h the texel size; a chord on a curved chart is
+/// shorter, but only by a few per cent while the normals still pass the normal weight). A tap
+/// beyond `reach·|o|` ([`AtrousConfig::reach`]) or nearer than `reach_min·(‖o‖∞ − 2)`
+/// ([`AtrousConfig::reach_min`]; the 2 texels of slack cover the chart's edge texels, which
+/// are sampled at the chart border up to ½√2 texel from their centre) lies on another chart
+/// — close in UV, elsewhere in the world — and is skipped. Taps on another chart that happen
+/// to lie in that shell at that distance still pass (the test is geometric); when they also
+/// face the same way (normal weight) they are most likely the same surface continued.
+///
+/// # The variance estimate
+/// The gather pass averages N independent ray samples per texel and every texel has its own
+/// random numbers, so the indirect map is `s + ε`: a smooth signal plus independent noise of
+/// variance σ² per texel. Then the difference of two neighbouring texels along a direction in
+/// which `s` is constant is pure noise with variance 2σ², so `½·mean((l_{q+d} − l_q)²)` over
+/// pairs along `d` estimates σ². Along other directions the signal's own gradient (a contact
+/// shadow, a steep fall-off) adds to it. [`Program::Variance`] therefore takes, in a 5×5
+/// window of the centre's surface, that estimate for each of the directions (1, 0), (0, 1),
+/// (1, 1), (1, −1) with at least [`ATROUS_MIN_PAIRS`] pairs, and keeps the smallest: the
+/// direction most nearly along the signal's iso-lines. A straight edge in the signal does not
+/// inflate the estimate (the direction along it sees no step), so the luminance term keeps
+/// the edge, while a noisy flat region gets σ² (somewhat under, being the smallest of four
+/// estimates: 0.72 σ² measured on white noise, which narrows the luminance term by 15 %).
+/// A lone outlier (one lucky ray) or sparse light in a dark corner raises every direction, so
+/// it is smoothed; a median-based estimate would call it signal and keep it. A texel with no
+/// such direction gets 0: no luminance smoothing. After `i` iterations the noise is reduced
+/// by [`b3_noise_factor`]`(i)`, so iteration `i` scales the estimate by it; the factor assumes
+/// that every tap counts, so near edges, where fewer do and more noise is left, the filter is
+/// stricter, never looser.
+pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
+    let (reach, reach_min) = (config.reach(), config.reach_min());
+    let sigma2 = f64::from(config.sigma_luminance) * f64::from(config.sigma_luminance);
+    let mut steps = vec![(
+        Program::Variance,
+        Params::Variance(VarianceParams {
+            reach,
+            min_pairs: ATROUS_MIN_PAIRS,
+            ..VarianceParams::default()
+        }),
+    )];
+    steps.extend((0..config.iterations.min(MAX_ATROUS_ITERATIONS)).map(|i| {
+        (
+            Program::Atrous,
+            Params::Atrous(AtrousParams {
+                step: 1 << i,
+                reach,
+                reach_min,
+                normal_log2: config.normal_log2,
+                variance_scale: (sigma2 * b3_noise_factor(i)) as f32,
+                ..AtrousParams::default()
+            }),
+        )
+    }));
+    steps
+}
+
 /// The parameters of one computed pass: the block of its program.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Params {
@@ -287,6 +508,10 @@ pub enum Params {
     Gather(GatherParams),
     /// [`Program::Combine`].
     Combine(CombineParams),
+    /// [`Program::Variance`].
+    Variance(VarianceParams),
+    /// [`Program::Atrous`].
+    Atrous(AtrousParams),
 }
 
 impl Params {
@@ -298,6 +523,8 @@ impl Params {
             Params::Blur(p) => p.words(),
             Params::Gather(p) => p.words(),
             Params::Combine(p) => p.words(),
+            Params::Variance(p) => p.words(),
+            Params::Atrous(p) => p.words(),
         }
     }
 
@@ -309,6 +536,8 @@ impl Params {
             Params::Blur(_) => BlurParams::FIELDS,
             Params::Gather(_) => GatherParams::FIELDS,
             Params::Combine(_) => CombineParams::FIELDS,
+            Params::Variance(_) => VarianceParams::FIELDS,
+            Params::Atrous(_) => AtrousParams::FIELDS,
         }
     }
 
@@ -320,6 +549,9 @@ impl Params {
             Params::Blur(p) => u64::from(p.radius.unsigned_abs()) * 2 + 1,
             Params::Gather(p) => u64::from(p.rays),
             Params::Combine(_) => 1,
+            // 25 taps, then 4 directions × 20 pairs.
+            Params::Variance(_) => 105,
+            Params::Atrous(_) => 25,
         }
         .max(1)
     }
@@ -349,6 +581,9 @@ pub enum Library {
     Bvh,
     /// Bilinear intensity-table sampling (`luxbake_ies::GpuTable::sample`).
     Ies,
+    /// The denoiser's guide: luminance and whether a tap lies on the centre's surface
+    /// (`cpu::Guide`); for programs reading the slots `src`, `position` and `normal`.
+    Guide,
 }
 
 /// What a program reads and which parameters it takes.
@@ -384,6 +619,10 @@ pub enum Program {
     Gather,
     /// Weighted sum of two maps (direct + indirect).
     Combine,
+    /// Noise variance of the luminance, for the à-trous filter's edge-stopping.
+    Variance,
+    /// One iteration of the edge-stopping à-trous wavelet filter.
+    Atrous,
 }
 
 const NO_SCENE: SceneNeeds = SceneNeeds {
@@ -392,7 +631,7 @@ const NO_SCENE: SceneNeeds = SceneNeeds {
     regions: false,
 };
 
-const SIGNATURES: [Signature; 6] = [
+const SIGNATURES: [Signature; 8] = [
     Signature {
         program: Program::Direct,
         reads: &["position", "normal"],
@@ -449,17 +688,35 @@ const SIGNATURES: [Signature; 6] = [
         params_wgsl: CombineParams::WGSL_NAME,
         libraries: &[Library::Common],
     },
+    Signature {
+        program: Program::Variance,
+        reads: &["src", "position", "normal"],
+        scene: NO_SCENE,
+        params: VarianceParams::FIELDS,
+        params_wgsl: VarianceParams::WGSL_NAME,
+        libraries: &[Library::Common, Library::Guide],
+    },
+    Signature {
+        program: Program::Atrous,
+        reads: &["src", "variance", "position", "normal"],
+        scene: NO_SCENE,
+        params: AtrousParams::FIELDS,
+        params_wgsl: AtrousParams::WGSL_NAME,
+        libraries: &[Library::Common, Library::Guide],
+    },
 ];
 
 impl Program {
     /// Every program.
-    pub const ALL: [Program; 6] = [
+    pub const ALL: [Program; 8] = [
         Program::Direct,
         Program::Copy,
         Program::Blur,
         Program::AlbedoMul,
         Program::Gather,
         Program::Combine,
+        Program::Variance,
+        Program::Atrous,
     ];
 
     /// Short label for errors and shader file names (`shaders/<label>/<label>.{glsl,wgsl}`).
@@ -471,6 +728,8 @@ impl Program {
             Program::AlbedoMul => "albedo_mul",
             Program::Gather => "gather",
             Program::Combine => "combine",
+            Program::Variance => "variance",
+            Program::Atrous => "atrous",
         }
     }
 
@@ -566,6 +825,7 @@ mod tests {
         assert_eq!(labels.len(), Program::ALL.len());
         assert!(Program::Direct.traces_rays() && Program::Gather.traces_rays());
         assert!(!Program::Blur.traces_rays());
+        assert!(!Program::Variance.traces_rays() && !Program::Atrous.traces_rays());
     }
 
     #[test]
@@ -576,6 +836,8 @@ mod tests {
             BlurParams::FIELDS,
             GatherParams::FIELDS,
             CombineParams::FIELDS,
+            VarianceParams::FIELDS,
+            AtrousParams::FIELDS,
         ] {
             for (i, f) in fields.iter().enumerate() {
                 assert_eq!(f.offset, 4 * i, "{}", f.name);
@@ -591,6 +853,54 @@ mod tests {
         assert!(Program::Blur.takes(&Params::Blur(b)));
         assert!(!Program::Gather.takes(&Params::Blur(b)));
         assert!(Program::Copy.takes(&Params::None));
+    }
+
+    #[test]
+    fn atrous_steps_list_the_variance_pass_then_doubling_steps() {
+        assert_eq!(b3_noise_factor(0), 1.0);
+        assert!((b3_noise_factor(1) - (70.0f64 / 256.0).powi(2)).abs() < 1e-15);
+        let config = AtrousConfig {
+            texel_size: [0.01, 0.04],
+            ..AtrousConfig::new(4, 0.0)
+        };
+        let steps = atrous_steps(&config);
+        assert_eq!(steps.len(), 5);
+        for (program, params) in &steps {
+            assert!(program.takes(params), "{program:?} {params:?}");
+        }
+        let Params::Variance(v) = steps[0].1 else {
+            panic!("{:?}", steps[0]);
+        };
+        assert_eq!((v.reach, v.min_pairs), (0.04 * 1.5, ATROUS_MIN_PAIRS));
+        let mut previous = f32::INFINITY;
+        for (i, (_, params)) in steps[1..].iter().enumerate() {
+            let Params::Atrous(a) = *params else {
+                panic!("{params:?}");
+            };
+            assert_eq!(a.step, 1 << i);
+            assert_eq!((a.reach, a.reach_min), (0.04 * 1.5, 0.01 / 1.5));
+            assert_eq!(a.normal_log2, ATROUS_NORMAL_LOG2);
+            assert!(a.variance_scale < previous && a.variance_scale > 0.0);
+            previous = a.variance_scale;
+            assert_eq!(AtrousParams::from_words(&a.words()), a);
+        }
+        assert_eq!(
+            steps[1].1,
+            Params::Atrous(AtrousParams {
+                step: 1,
+                reach: 0.06,
+                reach_min: 0.01 / 1.5,
+                normal_log2: 7,
+                variance_scale: 16.0,
+                ..AtrousParams::default()
+            })
+        );
+        // Iterations are clamped; broken texel sizes reach nothing.
+        let many = atrous_steps(&AtrousConfig::new(99, 0.1));
+        assert_eq!(many.len(), 1 + MAX_ATROUS_ITERATIONS as usize);
+        assert_eq!(AtrousConfig::new(1, f32::NAN).reach(), 0.0);
+        assert_eq!(AtrousConfig::new(1, -1.0).reach_min(), 0.0);
+        assert_eq!(atrous_steps(&AtrousConfig::new(0, 0.1)).len(), 1);
     }
 
     #[test]

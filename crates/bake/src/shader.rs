@@ -79,22 +79,26 @@ pub fn program_traversal(program: Program, bvh: BvhMode) -> BvhMode {
     }
 }
 
-const GLSL_PASSES: [&str; 6] = [
+const GLSL_PASSES: [&str; 8] = [
     include_str!("../shaders/direct/direct.glsl"),
     include_str!("../shaders/copy/copy.glsl"),
     include_str!("../shaders/blur/blur.glsl"),
     include_str!("../shaders/albedo_mul/albedo_mul.glsl"),
     include_str!("../shaders/gather/gather.glsl"),
     include_str!("../shaders/combine/combine.glsl"),
+    include_str!("../shaders/variance/variance.glsl"),
+    include_str!("../shaders/atrous/atrous.glsl"),
 ];
 
-const WGSL_PASSES: [&str; 6] = [
+const WGSL_PASSES: [&str; 8] = [
     include_str!("../shaders/direct/direct.wgsl"),
     include_str!("../shaders/copy/copy.wgsl"),
     include_str!("../shaders/blur/blur.wgsl"),
     include_str!("../shaders/albedo_mul/albedo_mul.wgsl"),
     include_str!("../shaders/gather/gather.wgsl"),
     include_str!("../shaders/combine/combine.wgsl"),
+    include_str!("../shaders/variance/variance.wgsl"),
+    include_str!("../shaders/atrous/atrous.wgsl"),
 ];
 
 /// The GLSL text of a library file.
@@ -105,6 +109,7 @@ pub fn glsl_library(lib: Library) -> &'static str {
         Library::Scene => include_str!("../shaders/lib/scene.glsl"),
         Library::Bvh => include_str!("../shaders/lib/bvh.glsl"),
         Library::Ies => include_str!("../shaders/lib/ies.glsl"),
+        Library::Guide => include_str!("../shaders/lib/guide.glsl"),
     }
 }
 
@@ -122,6 +127,7 @@ pub fn wgsl_library(lib: Library, storage: BvhStorage) -> Vec<&'static str> {
             include_str!("../shaders/lib/bvh.wgsl"),
         ],
         Library::Ies => vec![include_str!("../shaders/lib/ies.wgsl")],
+        Library::Guide => vec![include_str!("../shaders/lib/guide.wgsl")],
     }
 }
 
