@@ -55,11 +55,22 @@ pub struct SceneCase {
     pub stages: [Tolerance; 8],
 }
 
-/// The stage tolerances of every case: the G-buffer exact, the direct stages as the direct
-/// light, the gathered stages (for the converged method: the indirect light with its tail,
-/// the total and its exitance) as gathered light.
+/// Gathered light after the converged method's denoiser: a ray that flips on one backend
+/// (see [`GATHERED`]) also moves the variance estimate and the luminance weights of the
+/// à-trous taps around it, and the bounce ratio of the tail, so a few texels near such a ray
+/// differ by a few per cent (measured on `chairs_01`: relative RMSE ≤ 2.7e-3, p99 ≤ 1.8e-2).
+const DENOISED: Tolerance = Tolerance::new(5e-3, 3e-2);
+
+/// The stage tolerances of the paper's method: the G-buffer exact, the direct stages as the
+/// direct light, the gathered stages as gathered light.
 const STAGES: [Tolerance; 8] = [
     EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
+];
+
+/// The stage tolerances of the converged method: stages (5)–(8) are the denoised indirect
+/// light with its tail, the total and its exitance.
+const CONVERGED_STAGES: [Tolerance; 8] = [
+    EXACT, DIRECT, DIRECT, DIRECT, DENOISED, DENOISED, DENOISED, DENOISED,
 ];
 
 /// The table of scenes × methods × stages × tolerances (every backend pair).
@@ -82,12 +93,12 @@ pub const SCENES: [SceneCase; 5] = [
     SceneCase {
         scene: "chairs_01",
         method: Method::Converged,
-        stages: STAGES,
+        stages: CONVERGED_STAGES,
     },
     SceneCase {
         scene: "sphere",
         method: Method::Converged,
-        stages: STAGES,
+        stages: CONVERGED_STAGES,
     },
 ];
 

@@ -12,9 +12,9 @@ use luxbake::map::MapImage;
 use luxbake::program::{AtrousConfig, Params, Program, TilePlan, atrous_steps};
 use luxbake::rng;
 use luxbake::scene::BvhMode;
-use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
 use luxbake_backends::BackendKind;
 use luxbake_backends::image_diff::diff;
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
 use luxbake_tests::open;
 
 const SIZE: [u32; 2] = [48, 40];

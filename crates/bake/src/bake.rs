@@ -348,6 +348,24 @@ fn lamp_reach(
     reach
 }
 
+/// World size of a light-map texel, `[smallest, largest]` over the receivers, metres.
+fn receiver_texel_sizes(scene: &Scene, texels_per_metre: f32) -> [f32; 2] {
+    let scales = scene
+        .objects
+        .iter()
+        .filter(|o| o.receiver)
+        .map(|o| o.texel_scale)
+        .filter(|s| s.is_finite() && *s > 0.0);
+    let (lo, hi) = scales.fold((f32::INFINITY, 0.0f32), |(lo, hi), s| {
+        (lo.min(s), hi.max(s))
+    });
+    if hi > 0.0 {
+        [1.0 / (texels_per_metre * hi), 1.0 / (texels_per_metre * lo)]
+    } else {
+        [1.0 / texels_per_metre; 2]
+    }
+}
+
 /// Sum of RGB over valid texels of `layers` (read-back layers), f64.
 fn energy(layers: &[Vec<f32>]) -> f64 {
     layers
@@ -494,6 +512,7 @@ pub fn bake<B: GpuBackend>(
         bvh: bvh_mode,
         method: settings.method,
         higher_rays: settings.higher_rays(),
+        texel_size: receiver_texel_sizes(scene, settings.texels_per_metre),
     });
     graph.validate()?;
     // The direct pass evaluates the uploaded lamps: only those that light something.

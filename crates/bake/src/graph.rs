@@ -36,7 +36,10 @@
 //! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;
-use crate::program::{CombineParams, DirectParams, GatherParams, Params, blur_params};
+use crate::program::{
+    AtrousConfig, CombineParams, DirectParams, GatherParams, MAX_ATROUS_ITERATIONS, Params,
+    atrous_steps, blur_params,
+};
 use crate::scene::{Blur, BvhMode, Method};
 
 /// Index of a texture in [`BakeGraph::textures`].
@@ -103,8 +106,15 @@ pub enum PassKind {
         /// Bounce number, 1-based (also the `pass` input of the RNG hash).
         bounce: u32,
     },
-    /// `dst = direct + indirect`.
+    /// `dst = a_weight · a + b_weight · b` (direct + indirect).
     Combine,
+    /// The noise variance estimate that guides the à-trous filter.
+    Variance,
+    /// One à-trous iteration of the edge-stopping filter.
+    Atrous {
+        /// Tap spacing, texels (2^iteration).
+        step: i32,
+    },
 }
 
 impl PassKind {
@@ -119,6 +129,8 @@ impl PassKind {
             PassKind::AlbedoMul => Program::AlbedoMul,
             PassKind::Gather { .. } => Program::Gather,
             PassKind::Combine => Program::Combine,
+            PassKind::Variance => Program::Variance,
+            PassKind::Atrous { .. } => Program::Atrous,
         })
     }
 }
@@ -200,6 +212,9 @@ pub struct GraphConfig {
     pub method: Method,
     /// [`Method::Converged`]: rays of bounces 2 and later (the first uses `rays`).
     pub higher_rays: u32,
+    /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
+    /// metres (the à-trous filter's chart test, [`AtrousConfig::texel_size`]).
+    pub texel_size: [f32; 2],
 }
 
 /// The bake's textures and passes, in execution order.
@@ -409,6 +424,68 @@ fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexI
     );
 }
 
+/// The à-trous iterations of the converged method's filter for `blur`: none for
+/// [`Blur::None`], else `3 + round(log2 σ)` within `1 ..= MAX_ATROUS_ITERATIONS` (σ 2: four
+/// iterations, taps up to ±30 texels; σ 1: three).
+pub fn atrous_iterations(blur: Blur) -> u32 {
+    match blur {
+        Blur::Sigma(sigma) if sigma > 0.0 && sigma.is_finite() => {
+            (3.0 + sigma.log2().round()).clamp(1.0, MAX_ATROUS_ITERATIONS as f32) as u32
+        }
+        _ => 0,
+    }
+}
+
+/// Denoises `noisy` in place: the variance estimate into `variance`, then the à-trous
+/// iterations alternating between `scratch` and `noisy`, ending in `noisy`.
+fn denoise_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    noisy: TexId,
+    scratch: TexId,
+    variance: TexId,
+    config: &AtrousConfig,
+    bounce: u32,
+) {
+    let mut current = noisy;
+    // `atrous_steps` yields the variance estimate, then the iterations.
+    for (_, params) in atrous_steps(config) {
+        match params {
+            Params::Variance(_) => b.pass(
+                PassKind::Variance,
+                "variance",
+                vec![noisy, g.position, g.normal],
+                vec![variance],
+                bounce,
+                params,
+            ),
+            Params::Atrous(p) => {
+                let target = if current == noisy { scratch } else { noisy };
+                b.pass(
+                    PassKind::Atrous { step: p.step },
+                    "atrous",
+                    vec![current, variance, g.position, g.normal],
+                    vec![target],
+                    bounce,
+                    params,
+                );
+                current = target;
+            }
+            _ => {}
+        }
+    }
+    if current != noisy {
+        b.pass(
+            PassKind::Copy,
+            "atrous_copy",
+            vec![current],
+            vec![noisy],
+            bounce,
+            Params::None,
+        );
+    }
+}
+
 /// The converged pipeline ([`Method::Converged`], see the module docs).
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder {
@@ -421,14 +498,14 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let g = gbuffer_stage(&mut b);
     let direct = direct_stage(&mut b, g, config.lamp_count);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
-    let reflected = b.texture("reflected");
-    albedo_stage(&mut b, g, direct, reflected, 0, "albedo_direct");
+    let reflected_direct = b.texture("reflected_direct");
+    albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
     let mut figure5 = Figure5 {
         stages: [
             Some(g.albedo),
             Some(direct),
             Some(direct),
-            Some(reflected),
+            Some(reflected_direct),
             None,
             None,
             None,
@@ -436,13 +513,20 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         ],
     };
     let mut bounce_passes = Vec::new();
-    let (mut illuminance, mut exitance) = (direct, reflected);
+    let (mut illuminance, mut exitance) = (direct, reflected_direct);
     let (mut delta_tex, mut tail_pass) = (None, None);
     let first_finish;
     if config.bounces > 0 {
+        // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
+        let reflected = b.texture("reflected");
         let delta = b.texture("delta");
         let scratch = b.texture("scratch");
         let sum = b.texture("indirect_sum");
+        let denoise = AtrousConfig {
+            texel_size: config.texel_size,
+            ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
+        };
+        let variance = (denoise.iterations > 0).then(|| b.texture("variance"));
         for k in 1..=config.bounces {
             let first = b.passes.len();
             let rays = if k == 1 {
@@ -450,25 +534,11 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             } else {
                 config.higher_rays
             };
-            gather_stage(&mut b, g, reflected, delta, k, rays, config.seed);
-            // The increment is noisy: filter it (in place through the scratch texture).
-            if let Blur::Sigma(sigma) = config.blur
-                && sigma > 0.0
-                && sigma.is_finite()
-            {
-                for (axis, step, from, to, label) in [
-                    (Axis::U, [1, 0], delta, scratch, "filter_delta_u"),
-                    (Axis::V, [0, 1], scratch, delta, "filter_delta_v"),
-                ] {
-                    b.pass(
-                        PassKind::Blur { axis, sigma },
-                        label,
-                        vec![from, g.normal],
-                        vec![to],
-                        k,
-                        Params::Blur(blur_params(step, sigma)),
-                    );
-                }
+            let source = if k == 1 { reflected_direct } else { reflected };
+            gather_stage(&mut b, g, source, delta, k, rays, config.seed);
+            // The increment is noisy: denoise it (back into `delta`, through the scratch).
+            if let Some(variance) = variance {
+                denoise_stage(&mut b, g, delta, scratch, variance, &denoise, k);
             }
             if k == 1 {
                 b.pass(
@@ -763,6 +833,7 @@ mod tests {
             bvh: BvhMode::Mtbvh,
             method: Method::Paper,
             higher_rays: 4,
+            texel_size: [1.0 / 64.0; 2],
         }
     }
 
@@ -810,20 +881,25 @@ mod tests {
                     .map(|p| p.label)
                     .collect();
                 assert_eq!(labels, ["tail", "combine", "albedo_combined"]);
-                let filters = g
-                    .passes
-                    .iter()
-                    .filter(|p| matches!(p.kind, PassKind::Blur { .. }))
-                    .count();
-                let per_bounce = if blur == Blur::None { 0 } else { 2 };
-                assert_eq!(filters, per_bounce * bounces as usize);
+                // Per bounce: the variance estimate and four à-trous iterations (σ 2), which
+                // end back in the increment; no Gaussian blur at all.
+                let count =
+                    |f: fn(&PassKind) -> bool| g.passes.iter().filter(|p| f(&p.kind)).count();
+                let (variance, atrous) = if blur == Blur::None { (0, 0) } else { (1, 4) };
+                assert_eq!(
+                    count(|k| *k == PassKind::Variance),
+                    variance * bounces as usize
+                );
+                assert_eq!(
+                    count(|k| matches!(k, PassKind::Atrous { .. })),
+                    atrous * bounces as usize
+                );
+                assert_eq!(count(|k| matches!(k, PassKind::Blur { .. })), 0);
                 // Each filter reads an increment (never the direct light).
-                for p in g
-                    .passes
-                    .iter()
-                    .filter(|p| matches!(p.kind, PassKind::Blur { .. }))
-                {
-                    assert_ne!(p.reads[0], g.direct);
+                for p in &g.passes {
+                    if matches!(p.kind, PassKind::Variance | PassKind::Atrous { .. }) {
+                        assert_ne!(p.reads[0], g.direct);
+                    }
                 }
             }
         }
@@ -836,13 +912,14 @@ mod tests {
     #[test]
     fn every_computed_pass_has_one_program_and_the_graph_uses_them_all() {
         let g = BakeGraph::build(&config(2, Blur::Sigma(1.5)));
-        let used: std::collections::HashSet<Program> =
-            g.passes.iter().filter_map(|p| p.kind.program()).collect();
-        // The à-trous denoiser's programs are not in the graph yet.
-        let wired = Program::ALL
-            .into_iter()
-            .filter(|p| !matches!(p, Program::Variance | Program::Atrous));
-        assert_eq!(used, wired.collect());
+        let c = BakeGraph::build(&converged(2, Blur::Sigma(1.5)));
+        let used: std::collections::HashSet<Program> = g
+            .passes
+            .iter()
+            .chain(&c.passes)
+            .filter_map(|p| p.kind.program())
+            .collect();
+        assert_eq!(used, Program::ALL.into_iter().collect());
         assert_eq!(PassKind::GBuffer.program(), None);
         let labels: std::collections::HashSet<&str> =
             Program::ALL.iter().map(|p| p.label()).collect();

@@ -1057,11 +1057,27 @@ mod tests {
 
     #[test]
     fn settings_defaults_and_names() {
-        let s = Settings::default();
+        let s = Settings::paper();
         assert_eq!((s.rays, s.bounces, s.seed), (4, 3, 0));
-        assert_eq!(s.blur, Blur::Sigma(2.0));
+        assert_eq!((s.method, s.blur), (Method::Paper, Blur::Sigma(2.0)));
         assert_eq!(s.texels_per_metre, 64.0);
         assert_eq!(s.bvh, BvhMode::Mtbvh);
+        assert_eq!(Settings::default(), Settings::preset(Quality::Default));
+        for q in [Quality::Draft, Quality::Default, Quality::Final] {
+            let p = Settings::preset(q);
+            assert_eq!((p.method, p.quality), (Method::Converged, q));
+            assert!(p.validate().is_ok(), "{q:?}");
+            assert_eq!(q.name().parse::<Quality>(), Ok(q));
+        }
+        for m in [Method::Paper, Method::Converged] {
+            assert_eq!(m.name().parse::<Method>(), Ok(m));
+        }
+        assert!("fast".parse::<Method>().is_err() && "best".parse::<Quality>().is_err());
+        let bad = Settings {
+            tail_tolerance: 0.0,
+            ..Settings::default()
+        };
+        assert_eq!(bad.validate().map_err(|e| e.name), Err("tail_tolerance"));
         assert_eq!("none".parse::<Blur>(), Ok(Blur::None));
         assert_eq!("1.5".parse::<Blur>(), Ok(Blur::Sigma(1.5)));
         assert!("-1".parse::<Blur>().is_err() && "x".parse::<Blur>().is_err());
