@@ -656,36 +656,38 @@ impl Settings {
         }
     }
 
-    /// The converged method at `quality`: first-bounce rays, tail tolerance and filter (the
-    /// measured time and error of each preset are in docs/performance.md).
+    /// The converged method at `quality`: first-bounce rays, the cap of explicit bounces, the
+    /// tail tolerance and the denoiser's size (`blur` σ: `3 + round(log2 σ)` à-trous
+    /// iterations). Measured against Radiance on `chairs_05` (docs/performance.md).
     ///
-    /// | preset | rays | tail tolerance | filter σ |
-    /// |---|--:|--:|--:|
-    /// | draft | 4 | 5 % | 2 |
-    /// | default | 16 | 1 % | 2 |
-    /// | final | 128 | 0.2 % | 1 |
+    /// | preset | rays (later bounces) | most bounces | tail tolerance | σ (iterations) |
+    /// |---|--:|--:|--:|--:|
+    /// | draft | 2 (1) | 2 | 5 % | 1 (3) |
+    /// | default | 8 (1) | 32 | 1 % | 1 (3) |
+    /// | final | 128 (16) | 32 | 0.2 % | 2 (4) |
     pub fn preset(quality: Quality) -> Settings {
-        let (rays, tail_tolerance, sigma) = match quality {
-            Quality::Draft => (4, 0.05, 2.0),
-            Quality::Default => (16, 0.01, 2.0),
-            Quality::Final => (128, 0.002, 1.0),
+        let (rays, bounces, tail_tolerance, sigma) = match quality {
+            Quality::Draft => (2, 2, 0.05, 1.0),
+            Quality::Default => (8, Settings::CONVERGED_MAX_BOUNCES, 0.01, 1.0),
+            Quality::Final => (128, Settings::CONVERGED_MAX_BOUNCES, 0.002, 2.0),
         };
         Settings {
             method: Method::Converged,
             quality,
             rays,
-            bounces: Settings::CONVERGED_MAX_BOUNCES,
+            bounces,
             blur: Blur::Sigma(sigma),
             tail_tolerance,
             ..Settings::paper()
         }
     }
 
-    /// Rays of the converged method's bounces after the first: a quarter of `rays`, and at
-    /// least one. Higher bounces are smooth (the sum of many paths) and filtered, so fewer rays
-    /// keep their error under the first bounce's.
+    /// Rays of the converged method's bounces after the first: an eighth of `rays`, and at
+    /// least one. Higher bounces are smooth (the sum of many paths) and their noise is averaged
+    /// by the next gather and the final denoiser, so few rays keep their error under the first
+    /// bounce's (measured: docs/performance.md).
     pub fn higher_rays(&self) -> u32 {
-        (self.rays / 4).max(1)
+        (self.rays / 8).max(1)
     }
 
     /// Most gather rays per texel per bounce.

@@ -305,7 +305,14 @@ mod tests {
         assert_eq!(lamp.aim, [0.0, -1.0, 0.0]);
         assert!((lamp.position[1] - (ROOM_SIZE[1] - 0.05)).abs() < 1e-6);
         assert_eq!(scene.settings.texels_per_metre, 32.0);
-        assert_eq!(scene.settings.blur, Blur::Sigma(2.0));
+        let preset = Settings::default();
+        assert_eq!(
+            (scene.settings.method, scene.settings.rays, scene.settings.blur),
+            (preset.method, preset.rays, preset.blur)
+        );
+        let paper = BakeRequest::with_preset(Method::Paper, Quality::Default);
+        let s = build_scene(&paper, None).unwrap().settings;
+        assert_eq!((s.method, s.rays, s.bounces), (Method::Paper, 4, 3));
     }
 
     #[test]
