@@ -10,9 +10,13 @@
 //!   separately. Then the scaling runs ([`scaling`]): time vs triangles and vs texels with
 //!   log-log slopes.
 //! - `bench trade` ([`trade`]): `chairs_05` over rays per texel, texel density, bounces and blur,
-//!   each bake compared with a converged reference by RMSE, mean relative error and
-//!   95th-percentile error (lux); a table, an SVG plot (error vs time, log-log, one curve per
-//!   knob, Pareto front marked) and the defaults chosen from the front.
+//!   each bake compared with the independent Radiance reference (`bench/references/`: mean
+//!   |relative error|, bias, p95) and, for continuity, with luxbake's own converged bake (RMSE,
+//!   mean relative error, 95th-percentile error in lux); a table, an SVG plot (error against
+//!   Radiance vs time, log-log, one curve per knob, Pareto front marked) and the defaults
+//!   chosen from the front.
+//! - `bench refcheck` ([`refcheck`]): one bake against the independent Radiance reference of
+//!   `bench/references/<scene>.csv`: mean |relative error|, bias and p95 per surface kind.
 //!
 //! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
 //! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
@@ -32,6 +36,7 @@ use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
+mod refcheck;
 mod scaling;
 mod table1;
 mod trade;
@@ -74,8 +79,12 @@ pub struct Args {
 
 #[derive(clap::Subcommand)]
 enum What {
-    /// Speed/accuracy trade on chairs_05: rays, texel density, bounces, blur vs a reference.
+    /// Speed/accuracy trade on chairs_05: rays, texel density, bounces, blur against the
+    /// Radiance reference (and luxbake's own converged bake).
     Trade(trade::Args),
+    /// A bake (default: `cargo xtask bake`'s defaults, in memory) against the independent
+    /// Radiance reference in `bench/references/<scene>.csv`: relative errors per surface kind.
+    Refcheck(refcheck::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -90,6 +99,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     match &args.what {
         Some(What::Trade(t)) => trade::run(t, args.quick, args.runs, &out),
+        Some(What::Refcheck(r)) => refcheck::run(r, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)

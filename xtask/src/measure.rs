@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use luxbake::map::MapImage;
 use luxbake::output::picture::luminance;
 use luxbake::output::read_exr;
-use luxbake::probe::locate;
+use luxbake::probe::{SurfacePoint, locate};
 use luxbake::scene::{Blur, BvhMode, Method, Quality, Scene, Settings};
 use serde_json::Value;
 
@@ -114,34 +114,58 @@ pub type Row = ([f64; 3], [f64; 3]);
 
 /// Measures the points of `points_file` in the bake in `dir` (see the module docs).
 pub fn measure(dir: &Path, points_file: &Path, tolerance: f64) -> Result<Vec<Row>, String> {
+    let points_text = std::fs::read_to_string(points_file)
+        .map_err(|e| format!("cannot read {}: {e}", points_file.display()))?;
+    let points =
+        parse_points(&points_text).map_err(|e| format!("{}: {e}", points_file.display()))?;
+    measure_points(dir, &points, &points_file.display().to_string(), tolerance)
+}
+
+/// Locates every point on `scene`'s receivers (the rule of the module docs); the error names
+/// the first point on no baked surface by `label` (its file) and line.
+pub fn locate_points(
+    scene: &Scene,
+    points: &[(usize, [f64; 3])],
+    label: &str,
+    tolerance: f64,
+) -> Result<Vec<SurfacePoint>, String> {
+    points
+        .iter()
+        .map(|&(line, p)| {
+            locate(scene, p, tolerance).ok_or_else(|| {
+                format!(
+                    "{label} line {line}: point ({}, {}, {}) lies on no baked surface (none within {tolerance} m)",
+                    p[0], p[1], p[2],
+                )
+            })
+        })
+        .collect()
+}
+
+/// Measures `points` (`(line, [x, y, z])`, as [`parse_points`] returns them; `label` names
+/// their source in errors) in the bake in `dir`: the look-up of `cargo xtask measure`.
+pub fn measure_points(
+    dir: &Path,
+    points: &[(usize, [f64; 3])],
+    label: &str,
+    tolerance: f64,
+) -> Result<Vec<Row>, String> {
     let manifest_path = dir.join("manifest.json");
     let text = std::fs::read_to_string(&manifest_path)
         .map_err(|e| format!("cannot read {}: {e}", manifest_path.display()))?;
     let manifest: Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
     let scene = rebuild_scene(&manifest)?;
-    let points_text = std::fs::read_to_string(points_file)
-        .map_err(|e| format!("cannot read {}: {e}", points_file.display()))?;
-    let points =
-        parse_points(&points_text).map_err(|e| format!("{}: {e}", points_file.display()))?;
     let objects = manifest["objects"]
         .as_array()
         .ok_or("manifest: objects missing")?;
 
     // Locate every point first, so that a bad row fails before anything is measured.
-    let mut located = Vec::with_capacity(points.len());
-    for &(line, p) in &points {
-        let sp = locate(&scene, p, tolerance).ok_or_else(|| {
-            format!(
-                "{} line {line}: point ({}, {}, {}) lies on no baked surface (none within {tolerance} m)",
-                points_file.display(),
-                p[0],
-                p[1],
-                p[2],
-            )
-        })?;
-        located.push((p, sp));
-    }
+    let located: Vec<([f64; 3], SurfacePoint)> = points
+        .iter()
+        .map(|&(_, p)| p)
+        .zip(locate_points(&scene, points, label, tolerance)?)
+        .collect();
 
     let mut cache: HashMap<usize, (MapImage, MapImage)> = HashMap::new();
     let mut rows = Vec::with_capacity(located.len());

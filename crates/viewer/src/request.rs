@@ -307,7 +307,11 @@ mod tests {
         assert_eq!(scene.settings.texels_per_metre, 32.0);
         let preset = Settings::default();
         assert_eq!(
-            (scene.settings.method, scene.settings.rays, scene.settings.blur),
+            (
+                scene.settings.method,
+                scene.settings.rays,
+                scene.settings.blur
+            ),
             (preset.method, preset.rays, preset.blur)
         );
         let paper = BakeRequest::with_preset(Method::Paper, Quality::Default);

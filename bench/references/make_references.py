@@ -1,0 +1,776 @@
+#!/usr/bin/env python3
+"""Independent reference illuminance for luxbake's built-in scenes, computed with Radiance.
+
+luxbake's accuracy is measured against values it did not compute: this script exports a
+built-in scene with `cargo xtask export-scene`, converts the glTF to a Radiance scene
+description, picks calculation points on every kind of surface, and runs `rtrace -I` (irradiance
+at a point with a given normal) with settings for a converged diffuse inter-reflection solution:
+no ambient cache, many bounces, thousands of hemisphere samples. The result is
+`bench/references/<scene>.csv`, which `cargo xtask bench refcheck` and `cargo xtask bench trade`
+compare bakes against. CI never runs this script (it needs Radiance); the CSVs are committed.
+
+Requirements (not part of the repository, not needed by CI):
+    python3 -m venv /tmp/radiance-venv
+    /tmp/radiance-venv/bin/pip install pyradiance==1.3.1 numpy   # Radiance 6.0a binaries
+    /tmp/radiance-venv/bin/python bench/references/make_references.py
+
+Conventions (see README.md beside this file for the full story):
+- luxbake world: metres, right-handed, +Y up. Radiance world here: (X, Y, Z) = (x, -z, y), a
+  proper rotation (Z up), so the luminaire that `ies2rad` writes (nadir -Z, C0 +X, C90 +Y) is,
+  untransformed, exactly luxbake's default lamp frame (nadir -y, C0 +x, C90 -z). Lamps with a
+  non-default `aim` or `rotationDeg` are refused.
+- Materials: `plastic` with the object's linear RGB albedo (glTF baseColorFactor times the mean
+  vertex COLOR_0 of the triangle), specularity 0, roughness 0: Lambertian, as luxbake.
+- Lamps: `ies2rad -dm -i 0.005 -c R G B -m MULT`: an `illum` sphere of 5 mm radius (a point
+  source for every point more than a few cm away, like luxbake's point lamps; the IES file's
+  150 mm disk opening is not used), intensity = candela x multiplier. Isotropic lamps (the
+  `floor` and `sphere` scenes) become a 5 mm `illum` sphere of radiance I / (179 pi r^2).
+- Lux: Radiance irradiance per channel (W/m^2 in its 179 lm/W convention) times 179, then the
+  Rec. 709 luminance Y = 0.2126 R + 0.7152 G + 0.0722 B, the weighting `cargo xtask measure`
+  applies to luxbake's maps (the lamps are white, so direct light has R = G = B; Radiance's own
+  0.265/0.670/0.065 weighting differs only on coloured inter-reflections, see the README).
+
+Cost on the 2-core development machine (shared, niced): about 5 to 6 minutes of rtrace per
+furnished scene, 21 minutes for all five scenes, 9 minutes for `validate`.
+
+Sub-commands:
+    scenes       (default) write <scene>.csv for the scenes given (--scenes)
+    validate     direct-only check (inverse-square-cosine law with the IES intensity), the CIE
+                 171:2006 closed box (test case 5.8) and the convergence check; writes
+                 validation.json
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import shutil
+import struct
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+REPO = HERE.parent.parent
+DOWNLIGHT_IES = REPO / "crates" / "bake" / "lamps" / "luxbake_downlight.ies"
+EFFICACY = 179.0  # Radiance's luminous efficacy of white light, lm/W
+REC709 = np.array([0.2126, 0.7152, 0.0722])
+RADIANCE_Y = np.array([0.265, 0.670, 0.065])
+LAMP_RADIUS = 0.005  # m, radius of the illum sphere standing in for a point lamp
+OFFSET = 0.001  # m, calculation points sit this far off the surface along its normal
+
+# Reference rtrace settings: no ambient cache (-aa 0, so -ar/-as/-ac do not matter), 20 ambient
+# bounces (mean reflectance of the rooms ~0.65: 0.65^20 = 2e-4 of the inter-reflected light is
+# cut off), 4096 hemisphere samples at the point itself (deeper bounces take one path each:
+# with -aa 0, Radiance sizes the sample count by the ray weight), no weight cut-off to speak of,
+# zero ambient value. Direct: every source sampled every time (-dt 0 -dc 1), no jitter or
+# subdivision of the 5 mm lamp sphere. -lr 1000: Radiance's default -lr -10 ends paths by
+# Russian roulette after 10 reflections, which lost 10 % of the indirect light in the closed box
+# at rho = 0.8; with a hard limit far above -ab, -ab alone decides the bounces.
+REFERENCE = {"ab": 20, "ad": 4096, "lw": 1e-9}
+COMMON = ["-aa", "0", "-av", "0", "0", "0", "-dt", "0", "-dc", "1", "-dj", "0", "-ds", "0",
+          "-dr", "0", "-st", "1", "-ss", "0", "-lr", "1000", "-u+"]
+
+# Points per surface kind of the furnished scenes; furniture split by facing (seat tops,
+# backs and sides, undersides), so that the chair backs are not left out for their small area.
+COUNTS = {"floor": 90, "wall": 90, "ceiling": 40, "furniture/up": 40, "furniture/side": 40,
+          "furniture/down": 20}
+MARGIN_ROOM = 0.05  # m, least distance of a room point from any other surface or face edge
+MARGIN_FURNITURE = 0.02  # m, the same on furniture (chair parts are 3.5 to 45 cm wide)
+
+
+# ---------------------------------------------------------------------------------------------
+# Radiance
+
+
+def radiance_env() -> dict:
+    """Environment with pyradiance's bundled Radiance binaries and library on the path."""
+    try:
+        import pyradiance  # noqa: F401  (only for its location)
+    except ImportError:
+        sys.exit("error: pyradiance is not installed (pip install pyradiance numpy)")
+    base = Path(sys.modules["pyradiance"].__file__).resolve().parent
+    env = dict(os.environ)
+    env["PATH"] = f"{base / 'bin'}{os.pathsep}{env.get('PATH', '')}"
+    env["RAYPATH"] = f".{os.pathsep}{base / 'lib'}"
+    return env
+
+
+def radiance_version(env: dict) -> str:
+    out = subprocess.run(["rtrace", "-version"], env=env, capture_output=True, text=True)
+    return out.stdout.strip()
+
+
+def rtrace(octree: Path, rays: np.ndarray, ab: int, ad: int, lw: float, env: dict,
+           cwd: Path) -> np.ndarray:
+    """Irradiance (W/m^2, RGB) of `rtrace -I` at rows `x y z nx ny nz` (Radiance frame)."""
+    args = ["rtrace", "-I", "-h", "-ab", str(ab), "-ad", str(ad), "-lw", f"{lw:g}", *COMMON,
+            str(octree)]
+    text = "".join(f"{r[0]:.6f} {r[1]:.6f} {r[2]:.6f} {r[3]:.6f} {r[4]:.6f} {r[5]:.6f}\n"
+                   for r in rays)
+    out = subprocess.run(["nice", "-n", "10", *args], input=text, env=env, cwd=cwd,
+                         capture_output=True, text=True, check=True)
+    vals = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()
+                     if line.strip()])
+    if vals.shape != (len(rays), 3):
+        raise RuntimeError(f"rtrace returned {vals.shape} for {len(rays)} rays: {out.stderr}")
+    return vals
+
+
+def to_rad(p: np.ndarray) -> np.ndarray:
+    """luxbake world (y up) -> Radiance world (z up): (x, y, z) -> (x, -z, y)."""
+    p = np.asarray(p, dtype=np.float64)
+    return np.stack([p[..., 0], -p[..., 2], p[..., 1]], axis=-1)
+
+
+# ---------------------------------------------------------------------------------------------
+# glTF
+
+
+COMPONENT = {5120: np.int8, 5121: np.uint8, 5122: np.int16, 5123: np.uint16, 5125: np.uint32,
+             5126: np.float32}
+WIDTH = {"SCALAR": 1, "VEC2": 2, "VEC3": 3, "VEC4": 4, "MAT4": 16}
+
+
+def read_glb(path: Path):
+    data = path.read_bytes()
+    magic, _version, length = struct.unpack_from("<4sII", data, 0)
+    if magic != b"glTF":
+        raise ValueError(f"{path}: not a .glb")
+    off, chunks = 12, {}
+    while off < length:
+        size, kind = struct.unpack_from("<I4s", data, off)
+        chunks[kind] = data[off + 8: off + 8 + size]
+        off += 8 + size
+    return json.loads(chunks[b"JSON"]), chunks.get(b"BIN\x00", b"")
+
+
+def accessor(gltf, binary, index) -> np.ndarray:
+    a = gltf["accessors"][index]
+    view = gltf["bufferViews"][a["bufferView"]]
+    dtype = np.dtype(COMPONENT[a["componentType"]])
+    width = WIDTH[a["type"]]
+    stride = view.get("byteStride") or dtype.itemsize * width
+    start = view.get("byteOffset", 0) + a.get("byteOffset", 0)
+    arr = np.ndarray((a["count"], width), dtype=dtype, buffer=binary, offset=start,
+                     strides=(stride, dtype.itemsize)).copy()
+    if a.get("normalized"):
+        return arr.astype(np.float64) / np.iinfo(dtype).max
+    return arr
+
+
+def load_scene(glb: Path) -> dict:
+    """World triangles (luxbake frame), per-triangle normal, albedo and object; the lamps."""
+    gltf, binary = read_glb(glb)
+    tris, normals, albedo, objects, names = [], [], [], [], []
+
+    def visit(node_index, parent):
+        node = gltf["nodes"][node_index]
+        m = np.array(node["matrix"], dtype=np.float64).reshape(4, 4).T if "matrix" in node \
+            else np.eye(4)
+        if "matrix" not in node and any(k in node for k in ("rotation", "scale")):
+            raise ValueError("TRS nodes with rotation/scale are not supported")
+        if "translation" in node:
+            m[:3, 3] += node["translation"]
+        world = parent @ m
+        if "mesh" in node:
+            obj = len(names)
+            names.append(node.get("name", f"object_{obj}"))
+            receiver = node.get("extras", {}).get("luxbake", {}).get("receiver", True)
+            for prim in gltf["meshes"][node["mesh"]]["primitives"]:
+                if prim.get("mode", 4) != 4:
+                    raise ValueError("only triangle primitives")
+                attrs = prim["attributes"]
+                pos = accessor(gltf, binary, attrs["POSITION"]).astype(np.float64)
+                nrm = accessor(gltf, binary, attrs["NORMAL"]).astype(np.float64)
+                idx = accessor(gltf, binary, prim["indices"]).reshape(-1, 3).astype(np.int64)
+                mat = gltf["materials"][prim["material"]]
+                pbr = mat.get("pbrMetallicRoughness", {})
+                if "baseColorTexture" in pbr:
+                    raise ValueError(f"{names[-1]}: albedo textures are not supported")
+                factor = np.array(pbr.get("baseColorFactor", [1, 1, 1, 1])[:3], dtype=np.float64)
+                if "COLOR_0" in attrs:
+                    col = accessor(gltf, binary, attrs["COLOR_0"]).astype(np.float64)[:, :3]
+                    tri_col = col[idx].mean(axis=1) * factor
+                else:
+                    tri_col = np.tile(factor, (len(idx), 1))
+                wp = pos @ world[:3, :3].T + world[:3, 3]
+                nm = np.linalg.inv(world[:3, :3]).T
+                wn = nrm @ nm.T
+                t = wp[idx]
+                n = wn[idx].mean(axis=1)
+                n /= np.linalg.norm(n, axis=1, keepdims=True)
+                geo = np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])
+                keep = np.linalg.norm(geo, axis=1) > 1e-12
+                tris.append(t[keep])
+                normals.append(n[keep])
+                albedo.append(tri_col[keep])
+                objects.append(np.full(int(keep.sum()), obj))
+                if not receiver:
+                    print(f"note: {names[-1]} is not a receiver (occluder only)")
+        for child in node.get("children", []):
+            visit(child, world)
+
+    scene = gltf["scenes"][gltf.get("scene", 0)]
+    for n in scene["nodes"]:
+        visit(n, np.eye(4))
+    lamps = scene.get("extras", {}).get("luxbake", {}).get("lamps", [])
+    return {
+        "lamp_positions": [np.array(lamp["position"], dtype=np.float64) for lamp in lamps],
+        "tris": np.concatenate(tris),
+        "normals": np.concatenate(normals),
+        "albedo": np.concatenate(albedo),
+        "object": np.concatenate(objects),
+        "names": names,
+        "lamps": lamps,
+    }
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene description
+
+
+def lamp_rad(lamp: dict, index: int, workdir: Path, env: dict) -> str:
+    """Radiance text of one luxbake lamp (see the module docs)."""
+    aim = np.array(lamp.get("aim", [0, -1, 0]), dtype=np.float64)
+    aim_ok = np.linalg.norm(aim) > 0 and np.allclose(aim / np.linalg.norm(aim), [0, -1, 0])
+    if not aim_ok or abs(lamp.get("rotationDeg", 0.0)) > 1e-9:
+        raise NotImplementedError(f"lamp {lamp['name']}: only the default frame is converted")
+    mult = float(lamp.get("multiplier", 1.0))
+    color = [float(c) for c in lamp.get("color", [1, 1, 1])]
+    x, y, z = to_rad(np.array(lamp["position"]))
+    name = f"lamp{index}"
+    if lamp["name"] == "downlight":
+        shutil.copy(DOWNLIGHT_IES, workdir / f"{name}.ies")
+        subprocess.run(["ies2rad", "-dm", "-i", str(LAMP_RADIUS), "-c", *map(str, color),
+                        "-m", str(mult), "-o", name, f"{name}.ies"],
+                       cwd=workdir, env=env, check=True, capture_output=True)
+        return f"!xform -n {name} -t {x:.6f} {y:.6f} {z:.6f} {name}.rad\n"
+    if lamp["name"].startswith("isotropic"):
+        candela = float(lamp["peakCandela"]) * mult
+        radiance = candela / (EFFICACY * math.pi * LAMP_RADIUS ** 2)
+        r, g, b = (radiance * c for c in color)
+        return (f"void illum {name}_mat\n0\n0\n3 {r:.6g} {g:.6g} {b:.6g}\n\n"
+                f"{name}_mat sphere {name}\n0\n0\n4 {x:.6f} {y:.6f} {z:.6f} {LAMP_RADIUS}\n\n")
+    raise NotImplementedError(f"lamp {lamp['name']}: unknown photometry")
+
+
+def write_scene(scene: dict, workdir: Path, env: dict) -> Path:
+    """Writes scene.rad and scene.oct in `workdir`; returns the octree."""
+    lines = []
+    materials = {}
+    for rgb in scene["albedo"]:
+        key = tuple(np.round(rgb, 6))
+        if key not in materials:
+            materials[key] = f"mat{len(materials)}"
+            lines.append(f"void plastic {materials[key]}\n0\n0\n5 {key[0]:.6f} {key[1]:.6f} "
+                         f"{key[2]:.6f} 0 0\n")
+    rad = to_rad(scene["tris"])
+    for i, (t, rgb) in enumerate(zip(rad, scene["albedo"])):
+        m = materials[tuple(np.round(rgb, 6))]
+        coords = " ".join(f"{v:.7f}" for v in t.reshape(-1))
+        lines.append(f"{m} polygon t{i}\n0\n0\n9 {coords}\n")
+    for k, lamp in enumerate(scene["lamps"]):
+        lines.append(lamp_rad(lamp, k, workdir, env))
+    (workdir / "scene.rad").write_text("\n".join(lines))
+    with open(workdir / "scene.oct", "wb") as f:
+        subprocess.run(["oconv", "scene.rad"], cwd=workdir, env=env, stdout=f, check=True)
+    return workdir / "scene.oct"
+
+
+# ---------------------------------------------------------------------------------------------
+# Geometry helpers for choosing points
+
+
+def first_hits(scene: dict, origins: np.ndarray, dirs: np.ndarray):
+    """Nearest triangle hit per ray (Moller-Trumbore): (t, triangle index), t = inf on a miss."""
+    tri = scene["tris"]
+    v0, e1, e2 = tri[:, 0], tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    best_t = np.full(len(origins), np.inf)
+    best_i = np.full(len(origins), -1)
+    for k, (o, d) in enumerate(zip(origins, dirs)):
+        p = np.cross(d, e2)
+        det = np.einsum("ij,ij->i", e1, p)
+        ok = np.abs(det) > 1e-14
+        inv = np.where(ok, 1.0 / np.where(ok, det, 1.0), 0.0)
+        s = o - v0
+        u = np.einsum("ij,ij->i", s, p) * inv
+        q = np.cross(s, e1)
+        v = (q @ d) * inv
+        t = np.einsum("ij,ij->i", e2, q) * inv
+        hit = ok & (u >= 0) & (v >= 0) & (u + v <= 1) & (t > 1e-7)
+        if hit.any():
+            t = np.where(hit, t, np.inf)
+            j = int(np.argmin(t))
+            best_t[k], best_i[k] = t[j], j
+    return best_t, best_i
+
+
+def point_triangle_distance(p: np.ndarray, tri: np.ndarray) -> np.ndarray:
+    """Distance from point `p` to every triangle of `tri` (n, 3, 3)."""
+    a, b, c = tri[:, 0], tri[:, 1], tri[:, 2]
+    n = np.cross(b - a, c - a)
+    nn = np.linalg.norm(n, axis=1)
+    n = n / nn[:, None]
+    d_plane = np.einsum("ij,ij->i", p - a, n)
+    q = p - d_plane[:, None] * n
+    inside = np.ones(len(tri), dtype=bool)
+    for x, y in ((a, b), (b, c), (c, a)):
+        inside &= np.einsum("ij,ij->i", np.cross(y - x, q - x), n) >= 0
+    dist = np.abs(d_plane)
+
+    def seg(x, y):
+        e = y - x
+        t = np.clip(np.einsum("ij,ij->i", p - x, e) / np.einsum("ij,ij->i", e, e), 0, 1)
+        return np.linalg.norm(p - (x + t[:, None] * e), axis=1)
+
+    edge = np.minimum(np.minimum(seg(a, b), seg(b, c)), seg(c, a))
+    return np.where(inside, dist, edge)
+
+
+def surface_kind(scene: dict, tri_index: int) -> str:
+    name = scene["names"][scene["object"][tri_index]]
+    ny = scene["normals"][tri_index][1]
+    if name in ("room", "floor"):
+        return "floor" if ny > 0.9 else "ceiling" if ny < -0.9 else "wall"
+    if name == "sphere":
+        return "sphere"
+    return "furniture"
+
+
+def hemisphere_dirs(n: np.ndarray, count: int, rng) -> np.ndarray:
+    """The normal plus `count - 1` random directions within 70 degrees of it."""
+    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    dirs = [n]
+    for _ in range(count - 1):
+        th = math.radians(70) * math.sqrt(rng.random())
+        ph = 2 * math.pi * rng.random()
+        dirs.append(math.cos(th) * n + math.sin(th) * (math.cos(ph) * u + math.sin(ph) * v))
+    return np.array(dirs)
+
+
+def acceptable(scene: dict, ti: int, p: np.ndarray, margin: float, rng) -> bool:
+    """Whether surface point `p` of triangle `ti` is an unambiguous calculation point."""
+    tri, nrm, obj = scene["tris"], scene["normals"], scene["object"]
+    n = nrm[ti]
+    coplanar = (np.einsum("ij,j->i", nrm, n) > 1 - 1e-6) & \
+        (np.abs(np.einsum("ij,j->i", tri[:, 0] - p, n)) < 1e-6) & (obj == obj[ti])
+    # 1. Every other surface in front of or touching the plane is at least `margin` away
+    #    (corners, touching or crossing parts); one wholly behind it (the far side of a thin
+    #    board) only needs to be clearly farther than the point's 1 mm offset.
+    others = ~coplanar
+    behind = np.all(np.einsum("ijk,k->ij", tri - p, n) < -1e-4, axis=1)
+    for group, least in ((others & ~behind, margin), (others & behind, 0.005)):
+        if group.any() and point_triangle_distance(p, tri[group]).min() < least:
+            return False
+    # 2. The face extends at least `margin` around the point in every direction (open edges).
+    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    plane = tri[coplanar]
+    for k in range(8):
+        a = 2 * math.pi * k / 8
+        q = p + margin * (math.cos(a) * u + math.sin(a) * v)
+        if point_triangle_distance(q, plane).min() > 1e-6:
+            return False
+    # 3. Not inside a solid: rays from the point leave through front faces only.
+    dirs = hemisphere_dirs(n, 6, rng)
+    origins = np.repeat((p + OFFSET * n)[None], len(dirs), axis=0)
+    t, idx = first_hits(scene, origins, dirs)
+    for d, tt, j in zip(dirs, t, idx):
+        if np.isfinite(tt) and np.dot(d, nrm[j]) > 0:
+            return False
+    # 4. Not near a hard shadow edge: every lamp is seen (or hidden) alike from the point and
+    #    from the 8 points `margin` around it. luxbake's lamps are points, so their shadows
+    #    are sharp, and a light map resolves a sharp edge only to its texel size and blur: a
+    #    point a few mm inside a shadow reads as half lit (+400 % against the reference), which
+    #    says nothing about the inter-reflections these references are for.
+    ring = [p + OFFSET * n + margin * (math.cos(a) * u + math.sin(a) * v)
+            for a in np.arange(8) * (2 * math.pi / 8)]
+    probes = np.array([p + OFFSET * n, *ring])
+    for lamp in scene["lamp_positions"]:
+        to = lamp - probes
+        dist = np.linalg.norm(to, axis=1)
+        t, _ = first_hits(scene, probes, to / dist[:, None])
+        seen = t > dist - 1e-3
+        if seen.any() and not seen.all():
+            return False
+    return True
+
+
+def choose_points(scene: dict, counts: dict, seed: int):
+    """Area-uniform random points per surface kind that pass `acceptable`."""
+    rng = np.random.default_rng(seed)
+    tri = scene["tris"]
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    kinds = np.array([surface_kind(scene, i) for i in range(len(tri))])
+    ny = scene["normals"][:, 1]
+    facing = np.where(ny > 0.5, "up", np.where(ny < -0.5, "down", "side"))
+    strata = np.char.add(np.char.add(kinds.astype(str), "/"), facing)
+    chosen = []
+    for stratum, count in counts.items():
+        kind = stratum.split("/")[0]
+        pool = np.flatnonzero((kinds == stratum) | (strata == stratum))
+        if len(pool) == 0:
+            continue
+        w = area[pool] / area[pool].sum()
+        margin = MARGIN_ROOM if kind in ("floor", "wall", "ceiling") else MARGIN_FURNITURE
+        got, tries = 0, 0
+        while got < count and tries < 200 * count:
+            tries += 1
+            ti = int(rng.choice(pool, p=w))
+            r1, r2 = rng.random(), rng.random()
+            if r1 + r2 > 1:
+                r1, r2 = 1 - r1, 1 - r2
+            t = tri[ti]
+            p = t[0] + r1 * (t[1] - t[0]) + r2 * (t[2] - t[0])
+            if acceptable(scene, ti, p, margin, rng):
+                chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
+                got += 1
+        if got < count:
+            print(f"warning: only {got} of {count} {stratum} points")
+    return chosen
+
+
+def sphere_points(scene: dict, count: int, seed: int):
+    """Centroids of random triangles (the sphere has no flat face to keep off the edges of)."""
+    rng = np.random.default_rng(seed)
+    picks = rng.choice(len(scene["tris"]), size=count, replace=False)
+    return [(scene["tris"][i].mean(axis=0), scene["normals"][i], "sphere", "sphere")
+            for i in sorted(picks)]
+
+
+def floor_points(scene: dict, count: int, seed: int):
+    """Random points of the `floor` scene's plane, at least 1 m inside its edges."""
+    rng = np.random.default_rng(seed)
+    half = np.abs(scene["tris"][:, :, 0]).max() - 1.0
+    pts = []
+    for _ in range(count):
+        x, z = rng.uniform(-half, half, size=2)
+        pts.append((np.array([x, 0.0, z]), np.array([0.0, 1.0, 0.0]), "floor", "floor"))
+    return pts
+
+
+# ---------------------------------------------------------------------------------------------
+# Scenes
+
+
+def export_glb(name: str, out: Path) -> None:
+    cmd = ["cargo", "xtask", "export-scene", name, str(out)]
+    subprocess.run(["nice", "-n", "10", *cmd], cwd=REPO, check=True)
+
+
+def points_for(name: str, scene: dict):
+    if name == "sphere":
+        return sphere_points(scene, 100, seed=1)
+    if name == "floor":
+        return floor_points(scene, 100, seed=1)
+    return choose_points(scene, COUNTS, seed=sum(map(ord, name)))
+
+
+def rays_of(points) -> np.ndarray:
+    p = np.array([q[0] + OFFSET * q[1] for q in points])
+    n = np.array([q[1] for q in points])
+    return np.concatenate([to_rad(p), to_rad(n)], axis=1)
+
+
+def lux(irradiance: np.ndarray) -> np.ndarray:
+    """Per-channel lux (179 lm/W) of Radiance irradiance."""
+    return EFFICACY * irradiance
+
+
+def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: dict) -> dict:
+    work = workroot / name
+    work.mkdir(parents=True, exist_ok=True)
+    glb = work / f"{name}.glb"
+    export_glb(name, glb)
+    scene = load_scene(glb)
+    octree = write_scene(scene, work, env)
+    t0 = time.time()
+    points = points_for(name, scene)
+    t_points = time.time() - t0
+    rays = rays_of(points)
+    t0 = time.time()
+    direct = lux(rtrace(octree, rays, 0, settings["ad"], settings["lw"], env, work))
+    total = lux(rtrace(octree, rays, settings["ab"], settings["ad"], settings["lw"], env, work))
+    t_trace = time.time() - t0
+    y_total, y_direct = total @ REC709, direct @ REC709
+    path = out_dir / f"{name}.csv"
+    with open(path, "w") as f:
+        f.write(f"# Radiance reference for the built-in scene `{name}`: made by "
+                f"make_references.py (see README.md)\n")
+        f.write(f"# {radiance_version(env)}; rtrace -I -ab {settings['ab']} -ad {settings['ad']} "
+                f"-lw {settings['lw']:g} {' '.join(COMMON)}\n")
+        f.write("# position 1 mm off the surface along the normal; lux = Rec. 709 Y of the RGB "
+                "illuminance (179 lm/W); direct = -ab 0\n")
+        f.write("x,y,z,nx,ny,nz,surface,object,lux,direct_lux,lux_r,lux_g,lux_b\n")
+        for (p, n, kind, obj), off, yt, yd, rgb in zip(points, rays, y_total, y_direct, total):
+            q = p + OFFSET * n
+            f.write(f"{q[0]:.4f},{q[1]:.4f},{q[2]:.4f},{n[0]:.5f},{n[1]:.5f},{n[2]:.5f},"
+                    f"{kind},{obj},{yt:.3f},{yd:.3f},{rgb[0]:.3f},{rgb[1]:.3f},{rgb[2]:.3f}\n")
+    kinds = {}
+    for (_, _, kind, _), yt, yr in zip(points, y_total, total @ RADIANCE_Y):
+        kinds.setdefault(kind, []).append((yt, yr))
+    summary = {
+        "points": len(points),
+        "per_kind": {k: len(v) for k, v in kinds.items()},
+        "mean_lux_per_kind": {k: float(np.mean([a for a, _ in v])) for k, v in kinds.items()},
+        "radiance_weighting_vs_rec709_max_rel": float(
+            np.max(np.abs(total @ RADIANCE_Y / np.maximum(y_total, 1e-9) - 1))),
+        "seconds_points": round(t_points, 1),
+        "seconds_rtrace": round(t_trace, 1),
+        "triangles": int(len(scene["tris"])),
+    }
+    print(f"{name}: wrote {path} ({len(points)} points, rtrace {t_trace:.0f} s)")
+    return summary
+
+
+# ---------------------------------------------------------------------------------------------
+# Validation
+
+
+def ies_table(path: Path):
+    """(vertical angles, horizontal angles, candela[h][v]) of an LM-63 file with TILT=NONE."""
+    text = path.read_text().splitlines()
+    i = next(k for k, line in enumerate(text) if line.startswith("TILT="))
+    nums = " ".join(text[i + 1:]).split()
+    vals = [float(v) for v in nums]
+    n_lamps, lumens, mult, nv, nh = vals[0], vals[1], vals[2], int(vals[3]), int(vals[4])
+    rest = vals[13:]
+    vert, horiz = np.array(rest[:nv]), np.array(rest[nv:nv + nh])
+    cd = np.array(rest[nv + nh: nv + nh + nv * nh]).reshape(nh, nv) * mult
+    return vert, horiz, cd
+
+
+def ies_intensity(table, gamma_deg: float, c_deg: float) -> float:
+    """Bilinear intensity (as luxbake-ies and Radiance's brightdata interpolate)."""
+    vert, horiz, cd = table
+    c = c_deg % 360.0
+    if gamma_deg > vert[-1]:
+        return 0.0
+    row = [np.interp(gamma_deg, vert, cd[h]) for h in range(len(horiz))]
+    return float(np.interp(c, horiz, row))
+
+
+def direct_check(env: dict, workroot: Path) -> dict:
+    """chairs_01, -ab 0: unoccluded room points against I(gamma, C) cos(theta) / d^2."""
+    work = workroot / "direct"
+    work.mkdir(parents=True, exist_ok=True)
+    glb = work / "chairs_01.glb"
+    export_glb("chairs_01", glb)
+    scene = load_scene(glb)
+    octree = write_scene(scene, work, env)
+    lamp = np.array(scene["lamps"][0]["position"])
+    table = ies_table(DOWNLIGHT_IES)
+    rng = np.random.default_rng(7)
+    pts, normals = [], []
+    # Floor grid and the four walls below the lamp, kept off the corners.
+    for x in np.linspace(-2.3, 2.3, 9):
+        for z in np.linspace(-1.8, 1.8, 7):
+            pts.append([x, 0.0, z])
+            normals.append([0, 1.0, 0])
+    for _ in range(40):
+        side = rng.integers(4)
+        h = rng.uniform(0.1, 2.0)
+        if side < 2:
+            x = 2.5 * (1 if side == 0 else -1)
+            pts.append([x, h, rng.uniform(-1.8, 1.8)])
+            normals.append([-np.sign(x), 0, 0])
+        else:
+            z = 2.0 * (1 if side == 2 else -1)
+            pts.append([rng.uniform(-2.3, 2.3), h, z])
+            normals.append([0, 0, -np.sign(z)])
+    pts, normals = np.array(pts), np.array(normals)
+    origins = pts + OFFSET * normals
+    to_lamp = lamp - origins
+    dist = np.linalg.norm(to_lamp, axis=1)
+    dirs = to_lamp / dist[:, None]
+    t, _ = first_hits(scene, origins, dirs)
+    visible = t > dist - 0.01
+    expected = []
+    for o, d, r, n in zip(origins, dirs, dist, normals):
+        w = -d  # lamp -> point, world
+        gamma = math.degrees(math.acos(np.clip(-w[1], -1, 1)))  # from nadir (-y)
+        c = math.degrees(math.atan2(-w[2], w[0]))  # C0 +x, C90 -z
+        expected.append(ies_intensity(table, gamma, c) * max(np.dot(n, d), 0) / r ** 2)
+    expected = np.array(expected)
+    rays = np.concatenate([to_rad(origins), to_rad(normals)], axis=1)
+    got = lux(rtrace(octree, rays, 0, 64, 1e-9, env, work)) @ REC709
+    use = visible & (expected > 1.0)
+    rel = got[use] / expected[use] - 1
+    print(f"direct check: {use.sum()} unoccluded points, max |rel| {np.abs(rel).max():.4%}, "
+          f"mean {rel.mean():+.4%}")
+    return {"points": int(use.sum()), "max_abs_rel": float(np.abs(rel).max()),
+            "mean_rel": float(rel.mean()), "lux_range": [float(expected[use].min()),
+                                                         float(expected[use].max())],
+            "worst": {"expected_lux": float(expected[use][np.argmax(np.abs(rel))]),
+                      "radiance_lux": float(got[use][np.argmax(np.abs(rel))])}}
+
+
+def closed_box(env: dict, workroot: Path, rho: float, ab: int, ad: int, grid: int) -> dict:
+    """CIE 171:2006 test case 5.8: 4 m cube, 10 000 lm isotropic point source at the centre."""
+    work = workroot / f"box_{rho}_{ab}"
+    work.mkdir(parents=True, exist_ok=True)
+    side, flux = 4.0, 10000.0
+    candela = flux / (4 * math.pi)
+    h = side / 2
+    rad = [f"void plastic grey\n0\n0\n5 {rho} {rho} {rho} 0 0\n"]
+    corners = {  # inward-facing faces (Radiance frame, z up)
+        "floor": [(-h, -h, -h), (-h, h, -h), (h, h, -h), (h, -h, -h)],
+        "ceiling": [(-h, -h, h), (h, -h, h), (h, h, h), (-h, h, h)],
+        "xm": [(-h, -h, -h), (-h, -h, h), (-h, h, h), (-h, h, -h)],
+        "xp": [(h, -h, -h), (h, h, -h), (h, h, h), (h, -h, h)],
+        "ym": [(-h, -h, -h), (h, -h, -h), (h, -h, h), (-h, -h, h)],
+        "yp": [(-h, h, -h), (-h, h, h), (h, h, h), (h, h, -h)],
+    }
+    for k, c in corners.items():
+        rad.append(f"grey polygon {k}\n0\n0\n12 " + " ".join(f"{v}" for p in c for v in p) + "\n")
+    L = candela / (EFFICACY * math.pi * LAMP_RADIUS ** 2)
+    rad.append(f"void illum src\n0\n0\n3 {L} {L} {L}\n\nsrc sphere s\n0\n0\n4 0 0 0 "
+               f"{LAMP_RADIUS}\n")
+    (work / "box.rad").write_text("\n".join(rad))
+    with open(work / "box.oct", "wb") as f:
+        subprocess.run(["oconv", "box.rad"], cwd=work, env=env, stdout=f, check=True)
+    # Gauss-Legendre product rule (grid x grid nodes per face) for the area mean: the nodes
+    # crowd toward the edges, where the indirect illuminance bends fastest (a uniform midpoint
+    # grid converges only about linearly there: +1.4 %, +0.5 %, +0.2 % at 4, 8, 16 per side).
+    x, wx = np.polynomial.legendre.leggauss(grid)
+    u = x * h
+    rays, weights = [], []
+    for axis in range(3):
+        for sign in (-1, 1):
+            for a, wa in zip(u, wx):
+                for b, wb in zip(u, wx):
+                    weights.append(wa * wb)
+                    p = [0.0, 0.0, 0.0]
+                    others = [k for k in range(3) if k != axis]
+                    p[axis] = sign * (h - OFFSET)
+                    p[others[0]], p[others[1]] = a, b
+                    n = [0.0, 0.0, 0.0]
+                    n[axis] = -sign
+                    rays.append(p + n)
+    rays = np.array(rays)
+    t0 = time.time()
+    total = lux(rtrace(work / "box.oct", rays, ab, ad, 1e-9, env, work)) @ REC709
+    direct = lux(rtrace(work / "box.oct", rays, 0, ad, 1e-9, env, work)) @ REC709
+    secs = time.time() - t0
+    # Analytic direct at the same points: I cos(theta) / d^2.
+    pos = rays[:, :3]
+    d = np.linalg.norm(pos, axis=1)
+    cos = np.einsum("ij,ij->i", -pos / d[:, None], rays[:, 3:])
+    direct_exact = candela * cos / d ** 2
+    indirect = total - direct
+    want = flux * rho / (6 * side ** 2 * (1 - rho))
+    weights = np.array(weights)
+    got = float((indirect * weights).sum() / weights.sum())
+    res = {"rho": rho, "ab": ab, "ad": ad, "points": len(rays), "indirect_mean_lux": got,
+           "closed_form_lux": want, "rel_error": got / want - 1,
+           "truncation_expected": -rho ** ab,
+           "direct_max_abs_rel": float(np.max(np.abs(direct / direct_exact - 1))),
+           "seconds": round(secs, 1)}
+    print(f"closed box rho={rho} ab={ab} ad={ad}: indirect mean {got:.2f} lx vs {want:.2f} "
+          f"({res['rel_error']:+.3%}; truncation alone {-rho ** ab:+.3%}), direct max |rel| "
+          f"{res['direct_max_abs_rel']:.3%}")
+    return res
+
+
+def convergence(env: dict, workroot: Path, name: str, count: int, settings: dict,
+                higher: dict) -> dict:
+    """Reruns `count` points of <name>.csv with higher -ab/-ad and reports the change."""
+    work = workroot / f"conv_{name}"
+    work.mkdir(parents=True, exist_ok=True)
+    glb = work / f"{name}.glb"
+    export_glb(name, glb)
+    scene = load_scene(glb)
+    octree = write_scene(scene, work, env)
+    rows = [line.split(",") for line in (HERE / f"{name}.csv").read_text().splitlines()
+            if line and not line.startswith("#") and not line.startswith("x,")]
+    rng = np.random.default_rng(3)
+    pick = sorted(rng.choice(len(rows), size=min(count, len(rows)), replace=False))
+    sub = [rows[i] for i in pick]
+    pos = np.array([[float(v) for v in r[:3]] for r in sub])
+    nrm = np.array([[float(v) for v in r[3:6]] for r in sub])
+    ref = np.array([float(r[8]) for r in sub])
+    rays = np.concatenate([to_rad(pos), to_rad(nrm)], axis=1)
+    t0 = time.time()
+    again = lux(rtrace(octree, rays, settings["ab"], settings["ad"], settings["lw"], env,
+                       work)) @ REC709
+    hi = lux(rtrace(octree, rays, higher["ab"], higher["ad"], higher["lw"], env, work)) @ REC709
+    secs = time.time() - t0
+    rel_hi = hi / ref - 1
+    rel_again = again / ref - 1
+    res = {"scene": name, "points": len(sub), "settings": settings, "higher": higher,
+           "higher_vs_committed": {"mean_rel": float(rel_hi.mean()),
+                                   "mean_abs_rel": float(np.abs(rel_hi).mean()),
+                                   "max_abs_rel": float(np.abs(rel_hi).max())},
+           "rerun_same_settings": {"mean_rel": float(rel_again.mean()),
+                                   "mean_abs_rel": float(np.abs(rel_again).mean()),
+                                   "max_abs_rel": float(np.abs(rel_again).max())},
+           "seconds": round(secs, 1)}
+    print(f"convergence {name}: -ab {higher['ab']} -ad {higher['ad']} vs committed: mean "
+          f"{rel_hi.mean():+.3%}, mean |rel| {np.abs(rel_hi).mean():.3%}, max |rel| "
+          f"{np.abs(rel_hi).max():.3%}; rerun at the same settings: mean |rel| "
+          f"{np.abs(rel_again).mean():.3%}, max {np.abs(rel_again).max():.3%}")
+    return res
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("what", nargs="?", default="scenes", choices=["scenes", "validate"])
+    ap.add_argument("--scenes", default="chairs_01,chairs_05,sofa_01,floor,sphere")
+    ap.add_argument("--out", type=Path, default=HERE)
+    ap.add_argument("--ab", type=int, default=REFERENCE["ab"])
+    ap.add_argument("--ad", type=int, default=REFERENCE["ad"])
+    ap.add_argument("--lw", type=float, default=REFERENCE["lw"])
+    ap.add_argument("--keep", type=Path, help="keep the Radiance files in this folder")
+    args = ap.parse_args()
+    env = radiance_env()
+    settings = {"ab": args.ab, "ad": args.ad, "lw": args.lw}
+    workroot = args.keep or Path(tempfile.mkdtemp(prefix="luxbake-radiance-"))
+    workroot.mkdir(parents=True, exist_ok=True)
+    started = time.time()
+    meta = {"radiance": radiance_version(env), "python": platform.python_version(),
+            "numpy": np.__version__, "machine": platform.processor() or platform.machine()}
+    try:
+        import importlib.metadata as md
+        meta["pyradiance"] = md.version("pyradiance")
+    except Exception:  # noqa: BLE001
+        pass
+    if args.what == "scenes":
+        log = {"meta": meta, "settings": settings, "common_flags": COMMON, "scenes": {}}
+        for name in args.scenes.split(","):
+            log["scenes"][name] = make_scene(name, args.out, env, workroot, settings)
+        log["seconds"] = round(time.time() - started, 1)
+        (args.out / "scenes.json").write_text(json.dumps(log, indent=2) + "\n")
+    else:
+        log = {"meta": meta, "settings": settings, "common_flags": COMMON}
+        log["direct"] = direct_check(env, workroot)
+        log["closed_box"] = [
+            closed_box(env, workroot, 0.5, settings["ab"], 1024, 8),
+            closed_box(env, workroot, 0.8, settings["ab"], 1024, 8),
+            closed_box(env, workroot, 0.8, 60, 1024, 8),
+        ]
+        log["convergence"] = convergence(env, workroot, "chairs_05", 40, settings,
+                                         {"ab": 30, "ad": 16384, "lw": settings["lw"]})
+        log["seconds"] = round(time.time() - started, 1)
+        (args.out / "validation.json").write_text(json.dumps(log, indent=2) + "\n")
+    if not args.keep:
+        shutil.rmtree(workroot, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,610 @@
+//! `cargo xtask bench refcheck [--scene NAME] [--dir BAKE_DIR]`: a bake against the independent
+//! references of `bench/references/<scene>.csv`.
+//!
+//! The references are illuminances that Radiance computed at calculation points of the
+//! built-in scenes (`bench/references/make_references.py`; method, conventions and validation
+//! in `bench/references/README.md`): luxbake computed none of them. Each point is read from
+//! the bake with the look-up of `cargo xtask measure` (closest receiving triangle within
+//! [`TOLERANCE`], masked bilinear sample at its light-map UV, Rec. 709 luminance) and compared
+//! by relative error `(bake − reference) / reference`: mean |relative error|, bias (mean signed
+//! relative error) and the 95th percentile of |relative error|, over all points and per
+//! surface kind (floor, wall, ceiling, furniture). The same figures for the direct part (points
+//! with at least [`MIN_DIRECT_LUX`] of direct light) and the indirect part (total − direct)
+//! separate the lamp model from the inter-reflections.
+//!
+//! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults (override
+//! with `--rays`, `--bounces`, `--texels-per-metre`, `--blur`, `--backend`). `bench trade`
+//! calls [`evaluate`] for every bake of its grid.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use luxbake::bake::BakeOutput;
+use luxbake::output::picture::luminance;
+use luxbake::probe::SurfacePoint;
+use luxbake::scene::{Blur, Scene, Settings};
+use luxbake_backends::BackendKind;
+
+use super::{machine, open, result_path, timed_bake, utc_now, write};
+use crate::measure;
+
+/// Largest distance from a reference point to a baked surface, metres (`measure`'s default;
+/// the points sit 1 mm off their surface).
+pub const TOLERANCE: f64 = 0.01;
+
+/// Points with less direct reference light than this (lux) are left out of the direct-light
+/// figures (their relative error is meaningless: the ceiling gets none).
+pub const MIN_DIRECT_LUX: f64 = 1.0;
+
+/// Arguments of `cargo xtask bench refcheck`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Built-in scene with a reference in `bench/references/` (chairs_01, chairs_05,
+    /// sofa_01, floor, sphere).
+    #[arg(long, default_value = "chairs_05")]
+    scene: String,
+    /// Compare this folder written by `cargo xtask bake` (of the same scene) instead of baking.
+    #[arg(long)]
+    dir: Option<PathBuf>,
+    /// Reference CSV (default `bench/references/<scene>.csv`).
+    #[arg(long)]
+    references: Option<PathBuf>,
+    /// Backend of the in-memory bake.
+    #[arg(long, default_value = "cpu")]
+    backend: BackendKind,
+    /// Gather rays per texel per bounce (default: `cargo xtask bake`'s).
+    #[arg(long)]
+    rays: Option<u32>,
+    /// Indirect bounces (default: `cargo xtask bake`'s).
+    #[arg(long)]
+    bounces: Option<u32>,
+    /// Light-map density, texels per metre (default: `cargo xtask bake`'s).
+    #[arg(long)]
+    texels_per_metre: Option<f32>,
+    /// Blur sigma in texels, or `none` (default: `cargo xtask bake`'s).
+    #[arg(long)]
+    blur: Option<Blur>,
+}
+
+/// One reference point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RefPoint {
+    /// Line in the CSV (1-based).
+    pub line: usize,
+    /// World position, metres (1 mm off the surface along `normal`).
+    pub position: [f64; 3],
+    /// Surface normal (unit).
+    pub normal: [f64; 3],
+    /// Surface kind: floor, wall, ceiling, furniture (or the scene's own, e.g. sphere).
+    pub surface: String,
+    /// Object name, when the file has the column.
+    pub object: Option<String>,
+    /// Reference illuminance, lux (Rec. 709 luminance of the RGB illuminance).
+    pub lux: f64,
+    /// Its direct part, lux, when the file has the column.
+    pub direct_lux: Option<f64>,
+}
+
+/// `bench/references/` of this checkout.
+pub fn references_dir() -> PathBuf {
+    let xtask = Path::new(env!("CARGO_MANIFEST_DIR"));
+    xtask
+        .parent()
+        .unwrap_or(xtask)
+        .join("bench")
+        .join("references")
+}
+
+/// `path` relative to the checkout when it lies inside it (for reports), else as given.
+pub fn shown(path: &Path) -> String {
+    let xtask = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = xtask.parent().unwrap_or(xtask);
+    path.strip_prefix(root)
+        .unwrap_or(path)
+        .display()
+        .to_string()
+}
+
+/// The committed reference of built-in scene `name`.
+pub fn reference_path(name: &str) -> PathBuf {
+    references_dir().join(format!("{name}.csv"))
+}
+
+/// Parses a reference CSV: `#` comments and blank lines skipped, then a header naming the
+/// columns (`x,y,z,nx,ny,nz,surface,lux` required; `object`, `direct_lux` and others
+/// optional, in any order), then one point per row.
+pub fn parse(text: &str) -> Result<Vec<RefPoint>, String> {
+    let mut header: Option<Vec<String>> = None;
+    let mut col = BTreeMap::new();
+    let mut points = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line_no = i + 1;
+        let line = raw.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let Some(names) = &header else {
+            let names: Vec<String> = fields.iter().map(|f| f.to_ascii_lowercase()).collect();
+            for (k, n) in names.iter().enumerate() {
+                col.insert(n.clone(), k);
+            }
+            for need in ["x", "y", "z", "nx", "ny", "nz", "surface", "lux"] {
+                if !col.contains_key(need) {
+                    return Err(format!("line {line_no}: header lacks the column `{need}`"));
+                }
+            }
+            header = Some(names);
+            continue;
+        };
+        if fields.len() != names.len() {
+            return Err(format!(
+                "line {line_no}: {} fields, the header has {}",
+                fields.len(),
+                names.len()
+            ));
+        }
+        let num = |name: &str| -> Result<f64, String> {
+            let v = fields[col[name]];
+            v.parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| format!("line {line_no}: `{name}` is not a finite number: `{v}`"))
+        };
+        let position = [num("x")?, num("y")?, num("z")?];
+        let n = [num("nx")?, num("ny")?, num("nz")?];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if (len - 1.0).abs() >= 0.01 {
+            return Err(format!("line {line_no}: the normal is not a unit vector"));
+        }
+        let lux = num("lux")?;
+        if lux <= 0.0 {
+            return Err(format!(
+                "line {line_no}: reference lux must be > 0, got {lux}"
+            ));
+        }
+        let direct_lux = match col.get("direct_lux") {
+            Some(_) => Some(num("direct_lux")?),
+            None => None,
+        };
+        points.push(RefPoint {
+            line: line_no,
+            position,
+            normal: n.map(|c| c / len),
+            surface: fields[col["surface"]].to_owned(),
+            object: col.get("object").map(|&k| fields[k].to_owned()),
+            lux,
+            direct_lux,
+        });
+    }
+    if header.is_none() {
+        return Err("no header row".to_owned());
+    }
+    Ok(points)
+}
+
+/// Reads and parses a reference CSV.
+pub fn load(path: &Path) -> Result<Vec<RefPoint>, String> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    parse(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Relative-error statistics of values against references.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Stats {
+    /// Points compared.
+    pub n: usize,
+    /// Mean |relative error|.
+    pub mean_abs_rel: f64,
+    /// Mean signed relative error (negative: the bake is low).
+    pub bias: f64,
+    /// 95th percentile of |relative error| (nearest rank on the sorted list).
+    pub p95_abs_rel: f64,
+}
+
+impl Stats {
+    /// Of `values` against `reference` (pairs with a non-positive reference left out).
+    pub fn of(values: &[f64], reference: &[f64]) -> Stats {
+        let rel: Vec<f64> = values
+            .iter()
+            .zip(reference)
+            .filter(|(_, r)| **r > 0.0)
+            .map(|(v, r)| (v - r) / r)
+            .collect();
+        let n = rel.len();
+        if n == 0 {
+            return Stats::default();
+        }
+        let mut abs: Vec<f64> = rel.iter().map(|r| r.abs()).collect();
+        abs.sort_by(f64::total_cmp);
+        Stats {
+            n,
+            mean_abs_rel: abs.iter().sum::<f64>() / n as f64,
+            bias: rel.iter().sum::<f64>() / n as f64,
+            p95_abs_rel: abs[((n - 1) as f64 * 0.95).round() as usize],
+        }
+    }
+
+    /// As JSON (fractions, not percent).
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({ "points": self.n, "mean_abs_rel": self.mean_abs_rel,
+            "bias": self.bias, "p95_abs_rel": self.p95_abs_rel })
+    }
+}
+
+/// The figures of one group of points.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Group {
+    /// Total illuminance.
+    pub total: Stats,
+    /// Direct part, points with at least [`MIN_DIRECT_LUX`] of direct reference light.
+    pub direct: Stats,
+    /// Indirect part (total − direct), points with a direct column.
+    pub indirect: Stats,
+}
+
+impl Group {
+    /// As JSON.
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({ "total": self.total.json(), "direct": self.direct.json(),
+            "indirect": self.indirect.json() })
+    }
+}
+
+/// A bake compared with a reference: all points, then per surface kind.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Comparison {
+    /// Every point.
+    pub all: Group,
+    /// Per surface kind, sorted by name.
+    pub per_surface: BTreeMap<String, Group>,
+}
+
+impl Comparison {
+    /// As JSON.
+    pub fn json(&self) -> serde_json::Value {
+        let per: serde_json::Map<String, serde_json::Value> = self
+            .per_surface
+            .iter()
+            .map(|(k, g)| (k.clone(), g.json()))
+            .collect();
+        serde_json::json!({ "all": self.all.json(), "per_surface": per })
+    }
+
+    /// Markdown table: one row for all points, one per surface kind (percent).
+    pub fn markdown(&self) -> String {
+        let mut md = String::new();
+        let _ = writeln!(
+            md,
+            "| surface | points | mean \\|rel\\| % | bias % | p95 \\|rel\\| % | direct bias % \
+             | indirect bias % | indirect mean \\|rel\\| % |"
+        );
+        let _ = writeln!(md, "|---|--:|--:|--:|--:|--:|--:|--:|");
+        let rows = std::iter::once(("all", &self.all))
+            .chain(self.per_surface.iter().map(|(k, g)| (k.as_str(), g)));
+        for (name, g) in rows {
+            let pct = |s: &Stats, v: f64| {
+                if s.n == 0 {
+                    "–".to_owned()
+                } else {
+                    format!("{:+.1}", v * 100.0)
+                }
+            };
+            let _ = writeln!(
+                md,
+                "| {name} | {} | {:.1} | {:+.1} | {:.1} | {} | {} | {} |",
+                g.total.n,
+                g.total.mean_abs_rel * 100.0,
+                g.total.bias * 100.0,
+                g.total.p95_abs_rel * 100.0,
+                pct(&g.direct, g.direct.bias),
+                pct(&g.indirect, g.indirect.bias),
+                if g.indirect.n == 0 {
+                    "–".to_owned()
+                } else {
+                    format!("{:.1}", g.indirect.mean_abs_rel * 100.0)
+                },
+            );
+        }
+        md
+    }
+}
+
+/// A bake's `[direct, total]` lux at each point.
+pub type Measured = [f64; 2];
+
+/// Compares `measured` (same order as `refs`) with the references.
+pub fn compare(refs: &[RefPoint], measured: &[Measured]) -> Comparison {
+    let group = |idx: &[usize]| -> Group {
+        let pick = |f: &dyn Fn(usize) -> Option<(f64, f64)>| -> (Vec<f64>, Vec<f64>) {
+            idx.iter().filter_map(|&i| f(i)).unzip()
+        };
+        let (v, r) = pick(&|i| Some((measured[i][1], refs[i].lux)));
+        let (dv, dr) = pick(&|i| {
+            refs[i]
+                .direct_lux
+                .filter(|d| *d >= MIN_DIRECT_LUX)
+                .map(|d| (measured[i][0], d))
+        });
+        let (iv, ir) = pick(&|i| {
+            refs[i]
+                .direct_lux
+                .map(|d| (measured[i][1] - measured[i][0], refs[i].lux - d))
+        });
+        Group {
+            total: Stats::of(&v, &r),
+            direct: Stats::of(&dv, &dr),
+            indirect: Stats::of(&iv, &ir),
+        }
+    };
+    let n = refs.len().min(measured.len());
+    let all: Vec<usize> = (0..n).collect();
+    let mut kinds: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (i, r) in refs.iter().enumerate().take(n) {
+        kinds.entry(r.surface.clone()).or_default().push(i);
+    }
+    Comparison {
+        all: group(&all),
+        per_surface: kinds
+            .iter()
+            .map(|(k, idx)| (k.clone(), group(idx)))
+            .collect(),
+    }
+}
+
+/// Locates the reference points on `scene`'s receivers (`measure`'s rule and tolerance);
+/// `label` names the file in errors.
+pub fn locate(scene: &Scene, refs: &[RefPoint], label: &str) -> Result<Vec<SurfacePoint>, String> {
+    let points: Vec<(usize, [f64; 3])> = refs.iter().map(|r| (r.line, r.position)).collect();
+    measure::locate_points(scene, &points, label, TOLERANCE)
+}
+
+/// `[direct, total]` lux of an in-memory bake at located points: the masked bilinear look-up
+/// and Rec. 709 luminance of `cargo xtask measure` (which reads the same maps from EXR).
+pub fn sample(out: &BakeOutput, located: &[SurfacePoint]) -> Result<Vec<Measured>, String> {
+    located
+        .iter()
+        .map(|sp| {
+            let maps = out
+                .maps
+                .iter()
+                .find(|m| m.object == sp.object)
+                .ok_or_else(|| format!("object {} has no light map", sp.object))?;
+            Ok([
+                f64::from(luminance(maps.direct().sample(sp.uv))),
+                f64::from(luminance(maps.illuminance().sample(sp.uv))),
+            ])
+        })
+        .collect()
+}
+
+/// Compares the in-memory bake `out` of `scene` with `refs` (`label`: their file, for errors).
+pub fn evaluate(
+    scene: &Scene,
+    out: &BakeOutput,
+    refs: &[RefPoint],
+    label: &str,
+) -> Result<Comparison, String> {
+    let located = locate(scene, refs, label)?;
+    Ok(compare(refs, &sample(out, &located)?))
+}
+
+fn settings_label(s: &Settings) -> String {
+    format!(
+        "{} rays, {} texels/m, {} bounces, blur {}",
+        s.rays, s.texels_per_metre, s.bounces, s.blur
+    )
+}
+
+/// Runs the check; prints and writes `refcheck-<date>-<machine>.{md,json}` into `out`.
+pub fn run(args: &Args, out: &Path) -> Result<(), String> {
+    let ref_path = args
+        .references
+        .clone()
+        .unwrap_or_else(|| reference_path(&args.scene));
+    let refs = load(&ref_path)?;
+    let label = shown(&ref_path);
+    let (what, comparison, extra) = match &args.dir {
+        Some(dir) => {
+            let points: Vec<(usize, [f64; 3])> =
+                refs.iter().map(|r| (r.line, r.position)).collect();
+            let rows = measure::measure_points(dir, &points, &label, TOLERANCE)?;
+            let measured: Vec<Measured> = rows.iter().map(|(_, [d, _, t])| [*d, *t]).collect();
+            let what = format!("bake folder {}", dir.display());
+            (
+                what,
+                compare(&refs, &measured),
+                serde_json::json!({ "dir": dir.display().to_string() }),
+            )
+        }
+        None => {
+            let mut s = Settings::default();
+            if let Some(v) = args.rays {
+                s.rays = v;
+            }
+            if let Some(v) = args.bounces {
+                s.bounces = v;
+            }
+            if let Some(v) = args.texels_per_metre {
+                s.texels_per_metre = v;
+            }
+            if let Some(v) = args.blur {
+                s.blur = v;
+            }
+            let scene =
+                Scene::builtin_with_settings(&args.scene, s.clone()).map_err(|e| e.to_string())?;
+            let (mut backend, renderer) =
+                open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
+            eprintln!("refcheck: baking {} ({})", args.scene, settings_label(&s));
+            let run = timed_bake(&mut backend, &scene, &s)?;
+            let wall = run.wall();
+            let c = evaluate(&scene, &run.out, &refs, &label)?;
+            let what = format!(
+                "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s",
+                args.scene,
+                settings_label(&s),
+                args.backend.name(),
+                wall
+            );
+            let extra = serde_json::json!({ "settings": {
+                "rays": s.rays, "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
+                "blur": s.blur.to_string() }, "backend": args.backend.name(),
+                "renderer": renderer, "pass_wall_s": wall });
+            (what, c, extra)
+        }
+    };
+    let (date, time) = utc_now();
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Reference check — {} against Radiance, {date} {time} UTC\n",
+        args.scene
+    );
+    let _ = writeln!(md, "- bake: {what}");
+    let _ = writeln!(
+        md,
+        "- reference: `{}` ({} points; Radiance `rtrace -I`, see bench/references/README.md)",
+        label,
+        refs.len()
+    );
+    let _ = writeln!(
+        md,
+        "- relative error = (bake − reference) / reference; bias = its mean; direct: points \
+         with ≥ {MIN_DIRECT_LUX} lx of direct light; indirect = total − direct\n"
+    );
+    md.push_str(&comparison.markdown());
+    print!("{md}");
+    let json = serde_json::json!({
+        "scene": args.scene, "date": date, "time_utc": time, "machine": machine(),
+        "reference": label, "points": refs.len(),
+        "bake": extra, "comparison": comparison.json(),
+    });
+    write(&result_path(out, "refcheck", "md"), &md)?;
+    write(
+        &result_path(out, "refcheck", "json"),
+        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_by_header_names() {
+        let text = "# comment\n\nx,y,z,nx,ny,nz,surface,object,lux,direct_lux,lux_r\n\
+                    1,0.001,2,0,1,0,floor,room,50,30,51\n\
+                    0,1,1.999,0,0,-1,wall,room,20.5,0,20\n";
+        let p = parse(text).expect("parse");
+        assert_eq!(p.len(), 2);
+        assert_eq!(p[0].line, 4);
+        assert_eq!(p[0].position, [1.0, 0.001, 2.0]);
+        assert_eq!(p[0].surface, "floor");
+        assert_eq!(p[0].object.as_deref(), Some("room"));
+        assert_eq!((p[0].lux, p[0].direct_lux), (50.0, Some(30.0)));
+        assert_eq!(p[1].normal, [0.0, 0.0, -1.0]);
+        // Columns in another order, no optional ones.
+        let q = parse("lux,surface,x,y,z,nx,ny,nz\n7,ceiling,0,2.599,0,0,-1,0\n").expect("parse");
+        assert_eq!(
+            (q[0].lux, q[0].direct_lux, q[0].object.clone()),
+            (7.0, None, None)
+        );
+        assert!(parse("x,y,z\n1,2,3\n").unwrap_err().contains("`nx`"));
+        let bad = "x,y,z,nx,ny,nz,surface,lux\n1,2,3,0,1,0,floor\n";
+        assert!(parse(bad).unwrap_err().contains("line 2"));
+        let flat = "x,y,z,nx,ny,nz,surface,lux\n1,2,3,0,0,0,floor,4\n";
+        assert!(parse(flat).unwrap_err().contains("unit vector"));
+        let zero = "x,y,z,nx,ny,nz,surface,lux\n1,2,3,0,1,0,floor,0\n";
+        assert!(parse(zero).unwrap_err().contains("> 0"));
+        assert!(parse("# only a comment\n").is_err());
+    }
+
+    #[test]
+    fn stats_of_known_errors() {
+        let r = [10.0, 10.0, 20.0, 40.0];
+        let v = [9.0, 11.0, 10.0, 40.0];
+        let s = Stats::of(&v, &r);
+        assert_eq!(s.n, 4);
+        assert!((s.mean_abs_rel - 0.175).abs() < 1e-12, "{s:?}");
+        assert!((s.bias + 0.125).abs() < 1e-12, "{s:?}");
+        assert!((s.p95_abs_rel - 0.5).abs() < 1e-12, "{s:?}");
+        assert_eq!(Stats::of(&[], &[]), Stats::default());
+        assert_eq!(Stats::of(&[1.0], &[0.0]).n, 0);
+    }
+
+    #[test]
+    fn compare_groups_by_surface() {
+        let p = |surface: &str, lux: f64, direct: f64| RefPoint {
+            line: 1,
+            position: [0.0; 3],
+            normal: [0.0, 1.0, 0.0],
+            surface: surface.to_owned(),
+            object: None,
+            lux,
+            direct_lux: Some(direct),
+        };
+        let refs = [
+            p("floor", 100.0, 60.0),
+            p("wall", 40.0, 0.5),
+            p("wall", 20.0, 10.0),
+        ];
+        let measured = [[60.0, 90.0], [0.5, 30.0], [10.0, 20.0]];
+        let c = compare(&refs, &measured);
+        assert_eq!(c.all.total.n, 3);
+        assert_eq!(c.per_surface["wall"].total.n, 2);
+        assert!((c.per_surface["floor"].total.bias + 0.1).abs() < 1e-12);
+        assert!((c.per_surface["floor"].indirect.bias + 0.25).abs() < 1e-12);
+        // The wall point with 0.5 lx direct is left out of the direct figures only.
+        assert_eq!(c.per_surface["wall"].direct.n, 1);
+        assert_eq!(c.per_surface["wall"].indirect.n, 2);
+        let md = c.markdown();
+        assert!(
+            md.contains("| all | 3 |") && md.contains("| wall | 2 |"),
+            "{md}"
+        );
+    }
+
+    /// Every committed reference parses and its points lie on the scene's receivers.
+    #[test]
+    fn committed_references_locate_on_their_scenes() {
+        for name in ["chairs_01", "chairs_05", "sofa_01", "floor", "sphere"] {
+            let path = reference_path(name);
+            let refs = load(&path).unwrap_or_else(|e| panic!("{e}"));
+            assert!(refs.len() >= 100, "{name}: {} points", refs.len());
+            let scene = Scene::builtin(name).expect("builtin");
+            let located = locate(&scene, &refs, name).unwrap_or_else(|e| panic!("{e}"));
+            for (r, sp) in refs.iter().zip(&located) {
+                assert!(
+                    (sp.distance - 0.001).abs() < 2e-4,
+                    "{name} line {}: {} m off the surface",
+                    r.line,
+                    sp.distance
+                );
+            }
+        }
+    }
+
+    /// The `floor` reference is direct light only (one plane: nothing to inter-reflect), so a
+    /// coarse bake must meet it closely: a check of the whole chain (file, look-up, units).
+    #[test]
+    fn a_floor_bake_meets_the_floor_reference() {
+        use luxbake::bake::bake;
+        use luxbake::cpu::CpuBackend;
+        let refs = load(&reference_path("floor")).expect("floor reference");
+        let settings = Settings {
+            rays: 1,
+            bounces: 0,
+            blur: Blur::None,
+            texels_per_metre: 4.0,
+            ..Settings::default()
+        };
+        let scene = Scene::builtin_with_settings("floor", settings.clone()).expect("floor");
+        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let c = evaluate(&scene, &out, &refs, "floor.csv").expect("evaluate");
+        assert_eq!(c.all.total.n, refs.len());
+        assert!(c.all.total.mean_abs_rel < 0.01, "{:?}", c.all.total);
+        assert!(c.all.total.bias.abs() < 0.01, "{:?}", c.all.total);
+    }
+}
