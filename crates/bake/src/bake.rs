@@ -504,6 +504,7 @@ pub fn bake<B: GpuBackend>(
         bounces: settings.bounces,
         blur: settings.blur,
         seed: settings.seed,
+        sampler: settings.sampler,
         bvh: bvh_mode,
     });
     graph.validate()?;

@@ -37,6 +37,7 @@
 
 pub use crate::program::Program;
 use crate::program::{DirectParams, GatherParams, Params, blur_params};
+use crate::rng::Sampler;
 use crate::scene::{Blur, BvhMode};
 
 /// Index of a texture in [`BakeGraph::textures`].
@@ -194,6 +195,8 @@ pub struct GraphConfig {
     pub blur: Blur,
     /// RNG seed.
     pub seed: u32,
+    /// Sampler of the gather directions.
+    pub sampler: Sampler,
     /// Traversal for the ray-casting passes.
     pub bvh: BvhMode,
 }
@@ -357,15 +360,15 @@ fn albedo_stage(
     );
 }
 
-/// Stage (5): one bounce of indirect light gathered from `reflected`.
+/// Stage (5): one bounce of indirect light gathered from `reflected`, with `config`'s rays,
+/// seed and sampler.
 fn gather_stage(
     b: &mut Builder,
     g: GBufferTex,
     reflected: TexId,
     indirect: TexId,
     bounce: u32,
-    rays: u32,
-    seed: u32,
+    config: &GraphConfig,
 ) {
     b.pass(
         PassKind::Gather { bounce },
@@ -374,10 +377,10 @@ fn gather_stage(
         vec![indirect],
         bounce,
         Params::Gather(GatherParams {
-            rays,
+            rays: config.rays,
             bounce,
-            seed,
-            ..GatherParams::default()
+            seed: config.seed,
+            sampler: config.sampler.id(),
         }),
     );
 }
@@ -457,7 +460,7 @@ impl BakeGraph {
                 } else {
                     reflected_combined
                 };
-                gather_stage(&mut b, g, reflected, indirect, k, config.rays, config.seed);
+                gather_stage(&mut b, g, reflected, indirect, k, config);
                 combine_stage(&mut b, direct, indirect, combined, k);
                 blur_stage(
                     &mut b,
@@ -601,6 +604,7 @@ mod tests {
             bounces,
             blur,
             seed: 9,
+            sampler: Sampler::Sobol,
             bvh: BvhMode::Mtbvh,
         }
     }
@@ -704,7 +708,8 @@ mod tests {
         assert_eq!(rw[9], (vec![f[6], gb.normal], vec![tmp]));
         assert_eq!(rw[10], (vec![tmp, gb.normal], vec![f[6]]));
         assert_eq!(rw[11], (vec![f[6], gb.albedo], vec![f[7]]));
-        // Parameters: the direct pass carries the lamp list, the gather its rays and seed.
+        // Parameters: the direct pass carries the lamp list, the gather its rays, seed and
+        // sampler.
         assert_eq!(
             g.passes[1].params,
             Params::Direct(DirectParams {
@@ -716,7 +721,10 @@ mod tests {
         let Params::Gather(gp) = g.passes[6].params else {
             panic!("gather parameters: {:?}", g.passes[6].params);
         };
-        assert_eq!((gp.rays, gp.bounce, gp.seed), (16, 1, 9));
+        assert_eq!(
+            (gp.rays, gp.bounce, gp.seed, gp.sampler),
+            (16, 1, 9, Sampler::Sobol.id())
+        );
         assert_eq!(g.passes[3].params, Params::Blur(blur_params([1, 0], 2.0)));
         assert_eq!(g.passes[4].params, Params::Blur(blur_params([0, 1], 2.0)));
         assert!(g.passes.iter().all(|p| p.bvh == BvhMode::Mtbvh));

@@ -1,8 +1,10 @@
-//! The stateless random-number hash of the gather passes.
+//! The stateless random numbers of the gather passes.
 //!
 //! Every random number of a bake is a pure function of `(texel, sample, pass, seed)`: no state
 //! is carried between texels, rays or passes, so any backend (Rust, GLSL ES 3.00, WGSL) computes
-//! the same numbers bit for bit, in any order, on any tile split.
+//! the same numbers bit for bit, in any order, on any tile split. Two [`Sampler`]s draw the
+//! gather directions' uniforms `(u0, u1)`: the paper's independent hash ([`uniform2`], the
+//! default) and a per-texel scrambled Sobol (0,2)-sequence ([`sobol2`]).
 //!
 //! # Specification (reproduce exactly)
 //! All arithmetic is on unsigned 32-bit integers with wrap-around (`uint` in GLSL ES 3.00 and
@@ -21,14 +23,55 @@
 //! pass   = the gather's bounce number, 1 .. bounces
 //! seed   = Settings::seed
 //!
-//! u0 = float(h >> 8u) * 2^-24          // h = hash(...): first uniform in [0, 1)
-//! u1 = float(pcg(h) >> 8u) * 2^-24     // second uniform in [0, 1)
+//! unit(h) = float(h >> 8u) * 2^-24      // the top 24 bits as a uniform in [0, 1)
 //! ```
+//!
+//! **Hash sampler** ([`Sampler::Hash`], the paper's): with `h = hash(texel, sample, pass, seed)`,
+//! `u0 = unit(h)`, `u1 = unit(pcg(h))`.
+//!
+//! **Sobol sampler** ([`Sampler::Sobol`]): the first two dimensions of the Sobol sequence — a
+//! (0,2)-sequence in base 2 — shuffled and Owen-scrambled per texel as in Burley 2020,
+//! "Practical Hash-based Owen Scrambling" (JCGT 9(4)), with that paper's Laine–Karras-style
+//! hash:
+//!
+//! ```text
+//! reverse(x)        = x with bit b moved to bit 31 - b, for every b
+//! lk(x, k):                             // Burley 2020's laine_karras_permutation
+//!     x = x + k
+//!     x = x ^ (x * 0x6c50b47cu)
+//!     x = x ^ (x * 0xb82f1e52u)
+//!     x = x ^ (x * 0xc7afe638u)
+//!     x = x ^ (x * 0x8d22f6e6u)
+//!     return x
+//! owen(x, k)        = reverse(lk(reverse(x), k))   // nested uniform scramble of x's bits
+//!
+//! V[0] = 0x80000000u, V[b] = V[b-1] ^ (V[b-1] >> 1u)   // b = 1 .. 31: SOBOL_DIRECTIONS,
+//!                                                      // dimension 1 (Pascal's triangle mod 2)
+//! sobol1(i)         = XOR of V[b] over the set bits b of i
+//!
+//! key = hash(texel, 0, pass, seed)      // one key per texel and pass
+//! i   = owen(sample, key)               // shuffled index
+//! u0  = unit(owen(reverse(i), pcg(key)))         // dimension 0: van der Corput
+//! u1  = unit(owen(sobol1(i), pcg(pcg(key))))     // dimension 1
+//! ```
+//!
+//! `lk` only carries bits upward (`x * even` and `+ k` change bit `b` from bits below `b`), so
+//! `owen` flips each bit of `x` by a function of the bits above it: a base-2 Owen scramble. For
+//! `N = 2^m` rays the shuffled indices `owen(0 .. N-1, key)` fill one aligned block of `N`
+//! consecutive Sobol indices, whose points form a (0,m,2)-net, and the scramble keeps it one:
+//! every elementary interval `[a/2^j, (a+1)/2^j) × [b/2^(m-j), (b+1)/2^(m-j))` holds exactly
+//! one of the texel's points (for `j`, `m - j` ≤ 24, the bits `unit` keeps). Each point is still
+//! uniform on `[0, 1)²`, so the estimate stays unbiased. Other ray counts take a prefix of
+//! such a block: still stratified, less evenly.
 //!
 //! `h >> 8` has 24 significant bits, so its conversion to `float` is exact, and so is the
 //! multiplication by 2^-24: the uniforms are bit-identical on every IEEE-754 binary32 target.
 //! (What is done with them afterwards — `sqrt`, `cos`, `sin` — is only as exact as each
-//! platform's functions.)
+//! platform's functions.) The GPU twins read [`SOBOL_DIRECTIONS`] from the generated shader
+//! prefix ([`crate::shader`]), so the table exists once.
+
+use std::fmt;
+use std::str::FromStr;
 
 /// The PCG-RXS-M-XS 32-bit permutation used as a hash (see the module docs).
 #[inline]
@@ -55,17 +98,152 @@ pub const fn texel_index(layer_size: [u32; 2], layer: u32, x: u32, y: u32) -> u3
         .wrapping_add(x)
 }
 
-/// A uniform number in `[0, 1)` from the top 24 bits of `h`: `(h >> 8) * 2^-24` (exact).
+/// `unit(h)`: a uniform number in `[0, 1)` from the top 24 bits of `h`: `(h >> 8) * 2^-24`
+/// (exact).
 #[inline]
 pub fn unit_f32(h: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// The two uniforms `(u0, u1)` of one draw (see the module docs).
+/// The two uniforms `(u0, u1)` of one draw of the hash sampler (see the module docs).
 #[inline]
 pub fn uniform2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
     let h = hash(texel, sample, pass, seed);
     [unit_f32(h), unit_f32(pcg(h))]
+}
+
+/// Which generator draws the gather directions' uniforms (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Sampler {
+    /// Independent hashes per ray ([`uniform2`]): the paper's sampling; RMSE falls as N^-1/2.
+    #[default]
+    Hash,
+    /// The per-texel shuffled, Owen-scrambled Sobol (0,2)-sequence ([`sobol2`]).
+    Sobol,
+}
+
+impl Sampler {
+    /// Every sampler.
+    pub const ALL: [Sampler; 2] = [Sampler::Hash, Sampler::Sobol];
+
+    /// The lower-case name used by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Hash => "hash",
+            Sampler::Sobol => "sobol",
+        }
+    }
+
+    /// The id a shader compares `GatherParams::sampler` with (`LUX_SAMPLER_<NAME>` in the
+    /// generated prefix): 0 hash, 1 Sobol.
+    pub fn id(self) -> u32 {
+        match self {
+            Sampler::Hash => 0,
+            Sampler::Sobol => 1,
+        }
+    }
+
+    /// The sampler of id `id`; any id but Sobol's draws with the hash, as the shaders do.
+    pub fn from_id(id: u32) -> Sampler {
+        if id == Sampler::Sobol.id() {
+            Sampler::Sobol
+        } else {
+            Sampler::Hash
+        }
+    }
+
+    /// The two uniforms of ray `sample` of `texel` in bounce `pass`.
+    #[inline]
+    pub fn uniform2(self, texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
+        match self {
+            Sampler::Hash => uniform2(texel, sample, pass, seed),
+            Sampler::Sobol => sobol2(texel, sample, pass, seed),
+        }
+    }
+}
+
+impl fmt::Display for Sampler {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Sampler {
+    type Err = String;
+    /// `hash` or `sobol` (case-insensitive).
+    fn from_str(s: &str) -> Result<Sampler, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "hash" => Ok(Sampler::Hash),
+            "sobol" => Ok(Sampler::Sobol),
+            _ => Err(format!("expected \"hash\" or \"sobol\", got `{s}`")),
+        }
+    }
+}
+
+/// The direction numbers `V[b]` of Sobol dimension 1: `V[0] = 2^31`,
+/// `V[b] = V[b-1] ^ (V[b-1] >> 1)` (the rows of Pascal's triangle mod 2, bit-reversed).
+pub const SOBOL_DIRECTIONS: [u32; 32] = sobol_directions();
+
+const fn sobol_directions() -> [u32; 32] {
+    let mut v = [0u32; 32];
+    v[0] = 1 << 31;
+    let mut b = 1;
+    while b < 32 {
+        v[b] = v[b - 1] ^ (v[b - 1] >> 1);
+        b += 1;
+    }
+    v
+}
+
+/// `sobol1(i)`: Sobol dimension 1 of index `i`, the XOR of [`SOBOL_DIRECTIONS`]`[b]` over the
+/// set bits `b` of `i`.
+#[inline]
+pub const fn sobol1(mut i: u32) -> u32 {
+    let mut y = 0;
+    let mut b = 0;
+    while i != 0 {
+        if i & 1 != 0 {
+            y ^= SOBOL_DIRECTIONS[b];
+        }
+        i >>= 1;
+        b += 1;
+    }
+    y
+}
+
+/// `lk(x, k)`: the Laine–Karras-style permutation of Burley 2020 (see the module docs).
+#[inline]
+pub const fn laine_karras(mut x: u32, key: u32) -> u32 {
+    x = x.wrapping_add(key);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// `owen(x, k)`: the nested uniform (Owen) scramble of the bits of `x` keyed by `key`,
+/// `reverse(lk(reverse(x), key))`.
+#[inline]
+pub const fn owen(x: u32, key: u32) -> u32 {
+    laine_karras(x.reverse_bits(), key).reverse_bits()
+}
+
+/// The scrambled Sobol point of ray `sample` of `texel` in bounce `pass`, as 32-bit fractions
+/// (before [`unit_f32`]; see the module docs).
+#[inline]
+pub const fn sobol2_bits(texel: u32, sample: u32, pass: u32, seed: u32) -> [u32; 2] {
+    let key = hash(texel, 0, pass, seed);
+    let i = owen(sample, key);
+    let kx = pcg(key);
+    let ky = pcg(kx);
+    [owen(i.reverse_bits(), kx), owen(sobol1(i), ky)]
+}
+
+/// The two uniforms `(u0, u1)` of one draw of the Sobol sampler (see the module docs).
+#[inline]
+pub fn sobol2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
+    sobol2_bits(texel, sample, pass, seed).map(unit_f32)
 }
 
 #[cfg(test)]
@@ -110,6 +288,114 @@ mod tests {
         assert_eq!(texel_index([4, 3], 0, 0, 1), 4);
         assert_eq!(texel_index([4, 3], 1, 0, 0), 12);
         assert_eq!(texel_index([4, 3], 2, 1, 2), 2 * 12 + 2 * 4 + 1);
+    }
+
+    // Reference values from crates/bake/tools/rng_reference.py, written from the module docs
+    // (dimension 1 from Pascal's triangle mod 2 there, not from the recurrence used here).
+    #[test]
+    fn sobol_known_values() {
+        assert_eq!(
+            [0, 1, 2, 3, 4, 31].map(|b| SOBOL_DIRECTIONS[b]),
+            [
+                0x8000_0000,
+                0xc000_0000,
+                0xa000_0000,
+                0xf000_0000,
+                0x8800_0000,
+                0xffff_ffff
+            ]
+        );
+        assert_eq!(sobol1(0), 0);
+        assert_eq!(sobol1(3), 0x4000_0000);
+        assert_eq!(sobol1(5), 0x2000_0000);
+        assert_eq!(sobol1(u32::MAX), 1);
+        assert_eq!(laine_karras(0x1234_5678, 0x9abc_def0), 0x14ef_64c8);
+        assert_eq!(owen(0x1234_5678, 0x9abc_def0), 0x180f_3b55);
+        assert_eq!(sobol2_bits(0, 0, 1, 0), [0xeb37_07d2, 0x8354_9e88]);
+        assert_eq!(sobol2_bits(1, 2, 3, 4), [0x04c7_c62f, 0x90b2_632a]);
+        assert_eq!(sobol2_bits(123_456, 7, 1, 42), [0xd212_f1c1, 0xfcf8_d029]);
+        assert_eq!(
+            sobol2_bits(5, 1000, 2, 0xdead_beef),
+            [0x3e6c_b620, 0x748e_6251]
+        );
+        let [u0, u1] = sobol2(1, 2, 3, 4);
+        assert_eq!(u0, 0x0004_c7c6 as f32 / 16_777_216.0);
+        assert_eq!(u1, 0x0090_b263 as f32 / 16_777_216.0);
+        assert_eq!(Sampler::Sobol.uniform2(1, 2, 3, 4), [u0, u1]);
+        assert_eq!(Sampler::Hash.uniform2(1, 2, 3, 4), uniform2(1, 2, 3, 4));
+    }
+
+    /// For N = 2^m rays, every elementary interval of area 1/N holds exactly one of a texel's
+    /// points (a (0,m,2)-net), for every texel, pass and seed tried.
+    #[test]
+    fn sobol_points_of_a_texel_are_stratified() {
+        for (texel, pass, seed) in [(0, 1, 0), (1, 1, 0), (77_777, 2, 9), (u32::MAX, 5, 0xdead)] {
+            for m in 0..=11u32 {
+                let n = 1u32 << m;
+                let points: Vec<[f32; 2]> = (0..n).map(|s| sobol2(texel, s, pass, seed)).collect();
+                for j in 0..=m {
+                    let (cols, rows) = (1u32 << j, 1u32 << (m - j));
+                    let mut seen = vec![false; n as usize];
+                    for p in &points {
+                        // Exact: 2^j · u only moves the exponent.
+                        let cx = (p[0] * cols as f32) as u32;
+                        let cy = (p[1] * rows as f32) as u32;
+                        let cell = &mut seen[(cy * cols + cx) as usize];
+                        assert!(
+                            !*cell,
+                            "texel {texel} N {n} interval {cols}×{rows}: two points"
+                        );
+                        *cell = true;
+                    }
+                }
+            }
+        }
+        // The hash sampler is not stratified: 16 draws leave some of the 4 × 4 cells empty.
+        let cells: std::collections::HashSet<(u32, u32)> = (0..16)
+            .map(|s| uniform2(3, s, 1, 0))
+            .map(|u| ((u[0] * 4.0) as u32, (u[1] * 4.0) as u32))
+            .collect();
+        assert!(cells.len() < 16);
+    }
+
+    #[test]
+    fn sobol_points_are_uniform_over_texels_and_differ_between_texels() {
+        // The first point of every texel is uniform on [0, 1)²: mean 1/2 per dimension.
+        let n = 65_536u32;
+        let mut sum = [0.0f64; 2];
+        for t in 0..n {
+            let u = sobol2(t, 0, 1, 7);
+            assert!(u.iter().all(|v| (0.0..1.0).contains(v)));
+            sum[0] += f64::from(u[0]);
+            sum[1] += f64::from(u[1]);
+        }
+        for s in sum {
+            assert!(
+                (s / f64::from(n) - 0.5).abs() < 0.01,
+                "mean {}",
+                s / f64::from(n)
+            );
+        }
+        let base = sobol2_bits(10, 3, 1, 1);
+        assert_ne!(base, sobol2_bits(11, 3, 1, 1));
+        assert_ne!(base, sobol2_bits(10, 3, 2, 1));
+        assert_ne!(base, sobol2_bits(10, 3, 1, 2));
+        // owen is a bijection: 2^16 inputs, 2^16 distinct outputs.
+        let outputs: std::collections::HashSet<u32> =
+            (0..1u32 << 16).map(|x| owen(x << 7, 0x1234_5678)).collect();
+        assert_eq!(outputs.len(), 1 << 16);
+    }
+
+    #[test]
+    fn sampler_names_and_ids() {
+        for s in Sampler::ALL {
+            assert_eq!(s.name().to_uppercase().parse::<Sampler>(), Ok(s));
+            assert_eq!(Sampler::from_id(s.id()), s);
+            assert_eq!(s.to_string(), s.name());
+        }
+        assert_eq!(Sampler::default(), Sampler::Hash);
+        assert_eq!(Sampler::from_id(7), Sampler::Hash);
+        assert!("halton".parse::<Sampler>().is_err());
     }
 
     #[test]

@@ -39,6 +39,8 @@ use std::sync::Arc;
 use luxbake_bvh::TriangleAttributes;
 use luxbake_ies::Photometry;
 
+pub use crate::rng::Sampler;
+
 /// Errors of scene construction, scene files and mesh validation.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -569,6 +571,9 @@ pub struct Settings {
     pub bvh: BvhMode,
     /// Seed of the stateless random-number hash.
     pub seed: u32,
+    /// Sampler of the gather directions: the paper's independent hash, or the per-texel
+    /// scrambled Sobol sequence ([`crate::rng`]).
+    pub sampler: Sampler,
     /// Preferred backend (the CLI flag overrides it).
     pub backend: BackendKind,
 }
@@ -591,7 +596,7 @@ impl Settings {
 
 impl Default for Settings {
     /// `rays = 4`, `bounces = 3`, `blur = Sigma(2.0)`, `texels_per_metre = 64`,
-    /// `bvh = Mtbvh`, `seed = 0`, `backend = Cpu`.
+    /// `bvh = Mtbvh`, `seed = 0`, `sampler = Hash`, `backend = Cpu`.
     fn default() -> Self {
         Settings {
             rays: Settings::DEFAULT_RAYS,
@@ -600,6 +605,7 @@ impl Default for Settings {
             texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
             bvh: BvhMode::Mtbvh,
             seed: 0,
+            sampler: Sampler::Hash,
             backend: BackendKind::Cpu,
         }
     }
@@ -975,6 +981,7 @@ mod tests {
         assert_eq!(s.blur, Blur::Sigma(2.0));
         assert_eq!(s.texels_per_metre, 64.0);
         assert_eq!((s.bvh, s.backend), (BvhMode::Mtbvh, BackendKind::Cpu));
+        assert_eq!(s.sampler, Sampler::Hash);
         assert_eq!("none".parse::<Blur>(), Ok(Blur::None));
         assert_eq!("1.5".parse::<Blur>(), Ok(Blur::Sigma(1.5)));
         assert!("-1".parse::<Blur>().is_err() && "x".parse::<Blur>().is_err());

@@ -1,6 +1,7 @@
-// The stateless random-number hash of the gather passes: a bit-exact port of luxbake::rng (see
-// its module docs for the specification). u32 arithmetic wraps and shifts are logical in WGSL,
-// exactly as u32 wrapping_* in Rust.
+// The stateless random numbers of the gather passes: a bit-exact port of luxbake::rng (see its
+// module docs for the specification). u32 arithmetic wraps and shifts are logical in WGSL,
+// exactly as u32 wrapping_* in Rust. LUX_SOBOL_V and the LUX_SAMPLER_* ids are generated
+// (shader::wgsl_constants).
 
 // PCG-RXS-M-XS 32 used as a hash (rng::pcg).
 fn lux_pcg(v: u32) -> u32 {
@@ -24,8 +25,61 @@ fn lux_unit(h: u32) -> f32 {
     return f32(h >> 8u) * (1.0 / 16777216.0);
 }
 
-// rng::uniform2: the two uniforms of one draw.
+// rng::uniform2: the two uniforms of one draw of the hash sampler.
 fn lux_uniform2(texel: u32, sample_index: u32, pass_index: u32, seed: u32) -> vec2<f32> {
     let h = lux_hash(texel, sample_index, pass_index, seed);
     return vec2<f32>(lux_unit(h), lux_unit(lux_pcg(h)));
+}
+
+// rng::laine_karras (Burley 2020).
+fn lux_laine_karras(v: u32, key: u32) -> u32 {
+    var x = v + key;
+    x ^= x * 0x6c50b47cu;
+    x ^= x * 0xb82f1e52u;
+    x ^= x * 0xc7afe638u;
+    x ^= x * 0x8d22f6e6u;
+    return x;
+}
+
+// rng::owen: nested uniform scramble of the bits of x.
+fn lux_owen(x: u32, key: u32) -> u32 {
+    return reverseBits(lux_laine_karras(reverseBits(x), key));
+}
+
+// rng::sobol1: Sobol dimension 1, the XOR of LUX_SOBOL_V[b] over the set bits b of i.
+fn lux_sobol1(index: u32) -> u32 {
+    var directions = LUX_SOBOL_V;
+    var i = index;
+    var y = 0u;
+    for (var b = 0u; b < 32u && i != 0u; b++) {
+        if ((i & 1u) != 0u) {
+            y ^= directions[b];
+        }
+        i >>= 1u;
+    }
+    return y;
+}
+
+// rng::sobol2_bits: the texel's shuffled, Owen-scrambled Sobol point of one draw.
+fn lux_sobol2_bits(texel: u32, sample_index: u32, pass_index: u32, seed: u32) -> vec2<u32> {
+    let key = lux_hash(texel, 0u, pass_index, seed);
+    let i = lux_owen(sample_index, key);
+    let kx = lux_pcg(key);
+    let ky = lux_pcg(kx);
+    return vec2<u32>(lux_owen(reverseBits(i), kx), lux_owen(lux_sobol1(i), ky));
+}
+
+// rng::sobol2: the two uniforms of one draw of the Sobol sampler.
+fn lux_sobol2(texel: u32, sample_index: u32, pass_index: u32, seed: u32) -> vec2<f32> {
+    let b = lux_sobol2_bits(texel, sample_index, pass_index, seed);
+    return vec2<f32>(lux_unit(b.x), lux_unit(b.y));
+}
+
+// rng::Sampler::uniform2: the uniforms of sampler `sampler_id` (GatherParams::sampler).
+fn lux_sample2(sampler_id: u32, texel: u32, sample_index: u32, pass_index: u32, seed: u32)
+    -> vec2<f32> {
+    if (sampler_id == LUX_SAMPLER_SOBOL) {
+        return lux_sobol2(texel, sample_index, pass_index, seed);
+    }
+    return lux_uniform2(texel, sample_index, pass_index, seed);
 }
