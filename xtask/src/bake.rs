@@ -1,6 +1,6 @@
 //! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--rays N] [--bounces K] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
-//! [--seed S]`: bake a scene's light maps into a folder.
+//! [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into a folder.
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`.
 //! Flags override the scene's `[settings]`. A progress bar per pass, then a summary table.
@@ -12,7 +12,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::output::write_bake;
-use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{BackendKind, Blur, BvhMode, Sampler, Scene, Settings};
 
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]
@@ -51,6 +51,10 @@ pub struct Args {
     /// Seed of the random-number hash.
     #[arg(long)]
     seed: Option<u32>,
+    /// Gather directions: hash (the paper's independent draws) or sobol (per-texel scrambled
+    /// Sobol sequence).
+    #[arg(long)]
+    sampler: Option<Sampler>,
 }
 
 impl Args {
@@ -72,6 +76,9 @@ impl Args {
         }
         if let Some(v) = self.seed {
             s.seed = v;
+        }
+        if let Some(v) = self.sampler {
+            s.sampler = v;
         }
         if let Some(v) = self.backend {
             s.backend = v;

@@ -18,7 +18,7 @@ use luxbake::map::MapImage;
 use luxbake::output::picture::luminance;
 use luxbake::output::read_exr;
 use luxbake::probe::locate;
-use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Sampler, Scene, Settings};
 use serde_json::Value;
 
 /// Arguments of `cargo xtask measure`.
@@ -84,6 +84,9 @@ fn settings_from(manifest: &Value) -> Result<Settings, String> {
     };
     if let Some(b) = s["bvh"].as_str() {
         out.bvh = b.parse::<BvhMode>()?;
+    }
+    if let Some(b) = s["sampler"].as_str() {
+        out.sampler = b.parse::<Sampler>()?;
     }
     Ok(out)
 }

@@ -16,6 +16,7 @@
 //! texels_per_metre = 64.0     # light-map density, 0 < d <= 10000
 //! bvh = "mtbvh"               # "mtbvh", "tbvh" or "none"
 //! seed = 0                    # 0..=4294967295
+//! sampler = "hash"            # gather directions: "hash" (the paper's) or "sobol"
 //! backend = "cpu"             # "cpu", "glow" or "wgpu"
 //!
 //! [[lamp]]                    # at least one (or an object with `lights = true`)
@@ -111,6 +112,7 @@ struct RawSettings {
     texels_per_metre: Option<f64>,
     bvh: Option<String>,
     seed: Option<u32>,
+    sampler: Option<String>,
     backend: Option<String>,
 }
 
@@ -405,6 +407,11 @@ impl Cx<'_> {
         }
         if let Some(seed) = raw.seed {
             s.seed = seed;
+        }
+        if let Some(sampler) = raw.sampler {
+            s.sampler = sampler
+                .parse()
+                .map_err(|e: String| self.invalid("settings.sampler", e))?;
         }
         if let Some(b) = raw.backend {
             s.backend = b
@@ -1039,7 +1046,7 @@ mod tests {
 
     #[test]
     fn every_key_is_read() {
-        let settings = "rays = 64\nbounces = 3\nblur = \"none\"\ntexels_per_metre = 32\nbvh = \"tbvh\"\nseed = 9\nbackend = \"wgpu\"";
+        let settings = "rays = 64\nbounces = 3\nblur = \"none\"\ntexels_per_metre = 32\nbvh = \"tbvh\"\nseed = 9\nsampler = \"sobol\"\nbackend = \"wgpu\"";
         let lamp = "name = \"l\"\nies = \"builtin:downlight\"\nposition = [1, 2, 3]\naim = [1.0, 0.0, 0.0]\nrotation_deg = 45\nmultiplier = 2.5\ncolor = [1.0, 0.5, 0.25]";
         let objects = "name = \"r\"\nprimitive = \"room\"\nsize = [4, 2.5, 3]\nposition = [1, 0, 0]\nalbedo = 0.6\nfloor_albedo = [0.1, 0.2, 0.3]\nwalls_albedo = 0.4\nceiling_albedo = 0.9\nreceiver = false\ntexel_scale = 0.5\n\
             [[object]]\nprimitive = \"sphere\"\nradius = 0.5\ninward = true\nsegments = 4\nrotation_deg = [0, 90, 0]\nscale = [1, 2, 1]\n\
@@ -1048,6 +1055,7 @@ mod tests {
         let s = parse(&text(settings, lamp, objects)).expect("parses");
         let st = &s.settings;
         assert_eq!((st.rays, st.bounces, st.seed), (64, 3, 9));
+        assert_eq!(st.sampler, crate::scene::Sampler::Sobol);
         assert_eq!(
             (st.blur, st.texels_per_metre, st.bvh, st.backend),
             (Blur::None, 32.0, BvhMode::Tbvh, BackendKind::Wgpu)
@@ -1129,6 +1137,7 @@ mod tests {
             ),
             ("bvh = \"kd\"", LAMP, OBJECT, "settings.bvh"),
             ("seed = -3", LAMP, OBJECT, "seed"),
+            ("sampler = \"halton\"", LAMP, OBJECT, "settings.sampler"),
             ("backend = \"vulkan\"", LAMP, OBJECT, "settings.backend"),
             ("raus = 3", LAMP, OBJECT, "raus"),
             ("", "ies = \"isotropic:1\"", OBJECT, "position"),
