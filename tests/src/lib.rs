@@ -5,8 +5,9 @@
 //! blurred direct, reflected direct, indirect, combined, blurred combined, reflected combined).
 //! This crate holds, in one place:
 //!
-//! - [`SCENES`]: the scenes compared and their **tolerances per stage** (one table of scenes ×
-//!   stages × tolerances, [`Tolerance`]: relative RMSE and 99th-percentile relative error);
+//! - [`SCENES`]: the scenes compared, each with its gather sampler, and their **tolerances per
+//!   stage** (one table of scenes × stages × tolerances, [`Tolerance`]: relative RMSE and
+//!   99th-percentile relative error);
 //! - [`KNOWN_GAPS`]: the one list of known, explained backend differences that loosen a
 //!   tolerance for one backend pair (none is skipped: a gap only widens a tolerance);
 //! - [`diff`] and [`write_failure_images`]: the comparison and, on failure, the expected /
@@ -16,11 +17,12 @@
 //!   CI (`CI` set): a GPU test skipped in CI is a failure.
 //!
 //! The comparisons run in `tests/cross_backend.rs` (cpu-vs-glow, cpu-vs-wgpu, glow-vs-wgpu on
-//! `chairs_01`, `floor`, `sphere`) and the closed-form checks on every GPU backend in
-//! `tests/analytic.rs`. Settings are reduced for test time on two CPU cores (the default bake
-//! is 64 texels per metre, 4 rays and 3 bounces): [`settings`] uses 12 texels per metre, 16 gather rays,
-//! one bounce, blur σ = 2. The comparison does not depend on them: every backend computes the
-//! same texels with the same random numbers.
+//! `chairs_01`, `floor`, `sphere` with the paper's hash sampler and `chairs_01` with the Sobol
+//! sampler) and the closed-form checks on every GPU backend in `tests/analytic.rs`. Settings
+//! are reduced for test time on two CPU cores (the default bake is 64 texels per metre, 4 rays
+//! and 3 bounces): [`settings`] uses 12 texels per metre, 16 gather rays, one bounce, blur
+//! σ = 2. The comparison does not depend on them: every backend computes the same texels with
+//! the same random numbers.
 //!
 //! The diff code started as the glow backend's `tests/common` (moved here to be shared).
 #![warn(missing_docs)]
@@ -33,7 +35,7 @@ use luxbake::graph::Figure5;
 use luxbake::map::MapImage;
 use luxbake::output::encode_png;
 use luxbake::output::picture::{Picture, srgb_byte};
-use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Sampler, Scene, Settings};
 use luxbake_backend_glow::GlowBackend;
 use luxbake_backend_wgpu::WgpuBackend;
 
@@ -66,45 +68,76 @@ const DIRECT: Tolerance = tol(1e-5, 1e-5);
 /// here) of its value.
 const GATHERED: Tolerance = tol(1e-3, 1e-4);
 
-/// One compared scene: its built-in name and its tolerance per Figure 5 stage.
+/// One compared scene: its built-in name, the gather's sampler and its tolerance per Figure 5
+/// stage.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SceneCase {
     /// Built-in scene name ([`Scene::builtin_with_settings`]).
     pub scene: &'static str,
+    /// The gather directions' sampler ([`Settings::sampler`]).
+    pub sampler: Sampler,
     /// Tolerance per stage, in [`Figure5::NAMES`] order.
     pub stages: [Tolerance; 8],
 }
 
+impl SceneCase {
+    /// The case's name in reports, failure-image folders and [`KNOWN_GAPS`]: the scene, with
+    /// `_<sampler>` appended for any sampler but the default hash (`chairs_01_sobol`).
+    pub fn name(&self) -> String {
+        if self.sampler == Sampler::default() {
+            self.scene.to_owned()
+        } else {
+            format!("{}_{}", self.scene, self.sampler.name())
+        }
+    }
+
+    /// The reduced settings ([`settings`]) with the case's sampler.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            sampler: self.sampler,
+            ..settings()
+        }
+    }
+}
+
+/// The tolerances of a bake with a gather: the uploaded albedo exact, direct light, gathered
+/// light.
+const BAKED: [Tolerance; 8] = [
+    EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
+];
+
 /// The table of scenes × stages × tolerances (every backend pair).
-pub const SCENES: [SceneCase; 3] = [
+pub const SCENES: [SceneCase; 4] = [
     SceneCase {
         scene: "chairs_01",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        sampler: Sampler::Hash,
+        stages: BAKED,
     },
     SceneCase {
         scene: "floor",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        sampler: Sampler::Hash,
+        stages: BAKED,
     },
     SceneCase {
         scene: "sphere",
-        stages: [
-            EXACT, DIRECT, DIRECT, DIRECT, GATHERED, GATHERED, GATHERED, GATHERED,
-        ],
+        sampler: Sampler::Hash,
+        stages: BAKED,
+    },
+    SceneCase {
+        scene: "chairs_01",
+        sampler: Sampler::Sobol,
+        stages: BAKED,
     },
 ];
 
 /// A known, explained difference between two backends: replaces the table's tolerance of one
-/// stage of one scene for one pair.
+/// stage of one case for one pair.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct KnownGap {
     /// The pair, as `"expected-vs-actual"` ([`Pair::name`]).
     pub pair: &'static str,
-    /// Scene name.
-    pub scene: &'static str,
+    /// Case name ([`SceneCase::name`]).
+    pub case: &'static str,
     /// Stage index (0-based, [`Figure5::NAMES`] order).
     pub stage: usize,
     /// The tolerance that applies instead.
@@ -117,11 +150,11 @@ pub struct KnownGap {
 /// on lavapipe/llvmpipe. Add an entry here (with its reason) rather than skipping a test.
 pub const KNOWN_GAPS: &[KnownGap] = &[];
 
-/// The tolerance of `stage` of `scene` for `pair`: a known gap's, else the table's.
+/// The tolerance of `stage` of `case` for `pair`: a known gap's, else the table's.
 pub fn tolerance(pair: &str, case: &SceneCase, stage: usize) -> Tolerance {
     KNOWN_GAPS
         .iter()
-        .find(|g| g.pair == pair && g.scene == case.scene && g.stage == stage)
+        .find(|g| g.pair == pair && g.case == case.name() && g.stage == stage)
         .map_or(case.stages[stage], |g| g.tolerance)
 }
 
@@ -430,7 +463,7 @@ pub struct StageReport {
 
 /// Compares every stage of every object of two bakes of `case` under `pair`'s tolerances;
 /// returns the pooled statistics per stage and a message per failing object and stage (its
-/// images are written under `output_dir()/<pair>/<scene>/`).
+/// images are written under `output_dir()/<pair>/<case name>/`).
 pub fn compare(
     pair: Pair,
     case: &SceneCase,
@@ -438,12 +471,13 @@ pub fn compare(
     actual: &BakeOutput,
 ) -> (Vec<StageReport>, Vec<String>) {
     let name = pair.name();
+    let case_name = case.name();
     let mut reports = Vec::new();
     let mut failures = Vec::new();
     if expected.maps.len() != actual.maps.len() {
         failures.push(format!(
             "{name} {}: {} objects vs {}",
-            case.scene,
+            case_name,
             expected.maps.len(),
             actual.maps.len()
         ));
@@ -459,7 +493,7 @@ pub fn compare(
                 _ => {
                     failures.push(format!(
                         "{name} {} `{}` stage ({}): present in one bake only",
-                        case.scene,
+                        case_name,
                         e.name,
                         stage + 1
                     ));
@@ -469,7 +503,7 @@ pub fn compare(
             let s = diff(ei, ai);
             pooled.pool(&s);
             if !s.within(tolerance) {
-                let dir = output_dir().join(&name).join(case.scene);
+                let dir = output_dir().join(&name).join(&case_name);
                 let file = format!("{}_{}", e.name, Figure5::NAMES[stage].replace(' ', "_"));
                 let written = match write_failure_images(&dir, &file, ei, ai) {
                     Ok(()) => format!("images in {}", dir.display()),
@@ -477,7 +511,7 @@ pub fn compare(
                 };
                 failures.push(format!(
                     "{name} {} `{}` stage ({}) {}: {s:?} exceeds {tolerance:?}; {written}",
-                    case.scene,
+                    case_name,
                     e.name,
                     stage + 1,
                     Figure5::NAMES[stage],
@@ -556,12 +590,17 @@ mod tests {
         let pairs: Vec<String> = Pair::ALL.iter().map(|p| p.name()).collect();
         for g in KNOWN_GAPS {
             assert!(pairs.contains(&g.pair.to_owned()), "{g:?}");
-            assert!(SCENES.iter().any(|c| c.scene == g.scene), "{g:?}");
+            assert!(SCENES.iter().any(|c| c.name() == g.case), "{g:?}");
             assert!(g.stage < 8 && !g.reason.is_empty(), "{g:?}");
         }
-        // Every table scene exists.
+        // Every table scene exists, and case names are unique.
         for c in SCENES {
             assert!(Scene::builtin_names().contains(&c.scene), "{}", c.scene);
         }
+        let names: std::collections::HashSet<String> = SCENES.iter().map(|c| c.name()).collect();
+        assert_eq!(names.len(), SCENES.len());
+        assert_eq!(SCENES[3].name(), "chairs_01_sobol");
+        assert_eq!(SCENES[3].settings().sampler, Sampler::Sobol);
+        assert_eq!(SCENES[0].settings(), settings());
     }
 }

@@ -1,16 +1,16 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
-//! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere`, with the tolerances of
-//! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
-//! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
-//! fails in CI.
+//! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (hash sampler) and
+//! `chairs_01` with the Sobol sampler, with the tolerances of [`luxbake_tests::SCENES`] and
+//! [`luxbake_tests::KNOWN_GAPS`]. Each case is baked once per backend; a GPU backend without a
+//! driver is skipped with a printed reason outside CI and fails in CI.
 
 use luxbake::graph::Figure5;
-use luxbake::scene::Scene;
-use luxbake_tests::{Backend, Pair, SCENES, SceneCase, compare, settings};
+use luxbake::scene::{Sampler, Scene};
+use luxbake_tests::{Backend, Pair, SCENES, SceneCase, compare};
 
 fn run(case: &SceneCase) {
-    let test = format!("cross_backend::{}", case.scene);
-    let settings = settings();
+    let test = format!("cross_backend::{}", case.name());
+    let settings = case.settings();
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     let mut outputs = Vec::new();
     for b in Backend::ALL {
@@ -32,9 +32,9 @@ fn run(case: &SceneCase) {
         let (reports, f) = compare(pair, case, e, a);
         for r in &reports {
             println!(
-                "{:<13} {:<9} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}  (tol {:.0e} / {:.0e})",
+                "{:<13} {:<15} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}  (tol {:.0e} / {:.0e})",
                 pair.name(),
-                case.scene,
+                case.name(),
                 r.stage + 1,
                 Figure5::NAMES[r.stage],
                 r.stats.texels,
@@ -67,7 +67,13 @@ fn sphere_every_stage_agrees_across_backends() {
 }
 
 #[test]
-fn the_table_covers_the_three_scenes() {
-    let names: Vec<_> = SCENES.iter().map(|c| c.scene).collect();
-    assert_eq!(names, ["chairs_01", "floor", "sphere"]);
+fn chairs_01_sobol_every_stage_agrees_across_backends() {
+    run(&SCENES[3]);
+}
+
+#[test]
+fn the_table_covers_the_three_scenes_and_the_sobol_sampler() {
+    let names: Vec<_> = SCENES.iter().map(SceneCase::name).collect();
+    assert_eq!(names, ["chairs_01", "floor", "sphere", "chairs_01_sobol"]);
+    assert_eq!(SCENES[3].sampler, Sampler::Sobol);
 }
