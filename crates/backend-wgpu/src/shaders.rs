@@ -14,7 +14,7 @@ mod tests {
         BLUR_NORMAL_COS, BlurParams, DirectParams, Field, GatherParams, Library, MAX_BLUR_RADIUS,
         ParamBlock, Program, TileParams,
     };
-    use luxbake::rng::SOBOL_DIRECTIONS;
+    use luxbake::rng::Sampler;
     use luxbake::scene::BvhMode;
     use luxbake::shader::{BvhStorage, wgsl_constants, wgsl_library, wgsl_source};
     use luxbake_bvh::layout;
@@ -237,7 +237,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     #[test]
     fn rng_is_bit_exact() {
-        use luxbake::rng::{Sampler, hash, sobol2, sobol2_bits, texel_index, uniform2};
+        use luxbake::rng::{hash, sobol2, sobol2_bits, texel_index, uniform2};
         let gpu = match crate::device::Gpu::open(
             wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all()),
         ) {
@@ -324,20 +324,9 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             find("LUX_MAX_BLUR_RADIUS"),
             Expression::Literal(Literal::I32(v)) if v == MAX_BLUR_RADIUS
         ));
-        // The Sobol direction numbers, element by element as naga reads them.
-        let Expression::Compose { components, .. } = find("LUX_SOBOL_V") else {
-            panic!("LUX_SOBOL_V is not an array constant");
-        };
-        let table: Vec<u32> = components
-            .iter()
-            .map(|&c| match module.global_expressions[c] {
-                Expression::Literal(Literal::U32(v)) => v,
-                ref other => panic!("LUX_SOBOL_V element {other:?}"),
-            })
-            .collect();
-        assert_eq!(table, SOBOL_DIRECTIONS);
-        for (name, id) in [("LUX_SAMPLER_HASH", 0), ("LUX_SAMPLER_SOBOL", 1)] {
-            assert!(matches!(find(name), Expression::Literal(Literal::U32(v)) if v == id));
+        for s in Sampler::ALL {
+            let name = format!("LUX_SAMPLER_{}", s.name().to_ascii_uppercase());
+            assert!(matches!(find(&name), Expression::Literal(Literal::U32(v)) if v == s.id()));
         }
     }
 }

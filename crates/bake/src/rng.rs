@@ -35,7 +35,7 @@
 //! hash:
 //!
 //! ```text
-//! reverse(x)        = x with bit b moved to bit 31 - b, for every b
+//! reverse(x)  = x with bit b moved to bit 31 - b, for every b
 //! lk(x, k):                             // Burley 2020's laine_karras_permutation
 //!     x = x + k
 //!     x = x ^ (x * 0x6c50b47cu)
@@ -43,17 +43,27 @@
 //!     x = x ^ (x * 0xc7afe638u)
 //!     x = x ^ (x * 0x8d22f6e6u)
 //!     return x
-//! owen(x, k)        = reverse(lk(reverse(x), k))   // nested uniform scramble of x's bits
-//!
-//! V[0] = 0x80000000u, V[b] = V[b-1] ^ (V[b-1] >> 1u)   // b = 1 .. 31: SOBOL_DIRECTIONS,
-//!                                                      // dimension 1 (Pascal's triangle mod 2)
-//! sobol1(i)         = XOR of V[b] over the set bits b of i
+//! owen(x, k)  = reverse(lk(reverse(x), k))     // nested uniform (Owen) scramble of x's bits
+//! pascal(x):                            // bit r of the result: XOR of the bits b of x whose
+//!     x = x ^ ((x >> 1u) & 0x55555555u) // index b has every bit of r set (Pascal's triangle
+//!     x = x ^ ((x >> 2u) & 0x33333333u) // mod 2, by Lucas' theorem)
+//!     x = x ^ ((x >> 4u) & 0x0f0f0f0fu)
+//!     x = x ^ ((x >> 8u) & 0x00ff00ffu)
+//!     x = x ^ ((x >> 16u) & 0x0000ffffu)
+//!     return x
 //!
 //! key = hash(texel, 0, pass, seed)      // one key per texel and pass
-//! i   = owen(sample, key)               // shuffled index
-//! u0  = unit(owen(reverse(i), pcg(key)))         // dimension 0: van der Corput
-//! u1  = unit(owen(sobol1(i), pcg(pcg(key))))     // dimension 1
+//! i   = owen(sample, key)               // the shuffled index
+//! u0  = unit(reverse(lk(i, pcg(key))))             // = unit(owen(reverse(i), pcg(key)))
+//! u1  = unit(reverse(lk(pascal(i), pcg(pcg(key)))))  // = unit(owen(sobol1(i), pcg(pcg(key))))
 //! ```
+//!
+//! Sobol's dimension 0 of index `i` is `reverse(i)` (van der Corput) and dimension 1 is
+//! `sobol1(i) = reverse(pascal(i))`, the XOR of the direction numbers `V[b]` over the set bits
+//! `b` of `i` with `V[0] = 2^31`, `V[b] = V[b-1] ^ (V[b-1] >> 1)`: [`pascal`] computes that
+//! matrix product in five steps instead of a 32-step loop over a table (checked against the
+//! direction numbers in the tests). `owen(reverse(x), k) = reverse(lk(x, k))`, hence the two
+//! final lines.
 //!
 //! `lk` only carries bits upward (`x * even` and `+ k` change bit `b` from bits below `b`), so
 //! `owen` flips each bit of `x` by a function of the bits above it: a base-2 Owen scramble. For
@@ -67,8 +77,8 @@
 //! `h >> 8` has 24 significant bits, so its conversion to `float` is exact, and so is the
 //! multiplication by 2^-24: the uniforms are bit-identical on every IEEE-754 binary32 target.
 //! (What is done with them afterwards — `sqrt`, `cos`, `sin` — is only as exact as each
-//! platform's functions.) The GPU twins read [`SOBOL_DIRECTIONS`] from the generated shader
-//! prefix ([`crate::shader`]), so the table exists once.
+//! platform's functions.) The shaders compare `GatherParams::sampler` with the ids
+//! [`Sampler::id`] generated into their prefix ([`crate::shader`]).
 
 use std::fmt;
 use std::str::FromStr;
@@ -180,35 +190,16 @@ impl FromStr for Sampler {
     }
 }
 
-/// The direction numbers `V[b]` of Sobol dimension 1: `V[0] = 2^31`,
-/// `V[b] = V[b-1] ^ (V[b-1] >> 1)` (the rows of Pascal's triangle mod 2, bit-reversed).
-pub const SOBOL_DIRECTIONS: [u32; 32] = sobol_directions();
-
-const fn sobol_directions() -> [u32; 32] {
-    let mut v = [0u32; 32];
-    v[0] = 1 << 31;
-    let mut b = 1;
-    while b < 32 {
-        v[b] = v[b - 1] ^ (v[b - 1] >> 1);
-        b += 1;
-    }
-    v
-}
-
-/// `sobol1(i)`: Sobol dimension 1 of index `i`, the XOR of [`SOBOL_DIRECTIONS`]`[b]` over the
-/// set bits `b` of `i`.
+/// `pascal(x)`: `x` times Pascal's triangle mod 2 (see the module docs); `reverse(pascal(i))`
+/// is Sobol's dimension 1 of index `i`.
 #[inline]
-pub const fn sobol1(mut i: u32) -> u32 {
-    let mut y = 0;
-    let mut b = 0;
-    while i != 0 {
-        if i & 1 != 0 {
-            y ^= SOBOL_DIRECTIONS[b];
-        }
-        i >>= 1;
-        b += 1;
-    }
-    y
+pub const fn pascal(mut x: u32) -> u32 {
+    x ^= (x >> 1) & 0x5555_5555;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 16) & 0x0000_ffff;
+    x
 }
 
 /// `lk(x, k)`: the Laine–Karras-style permutation of Burley 2020 (see the module docs).
@@ -237,7 +228,10 @@ pub const fn sobol2_bits(texel: u32, sample: u32, pass: u32, seed: u32) -> [u32;
     let i = owen(sample, key);
     let kx = pcg(key);
     let ky = pcg(kx);
-    [owen(i.reverse_bits(), kx), owen(sobol1(i), ky)]
+    [
+        laine_karras(i, kx).reverse_bits(),
+        laine_karras(pascal(i), ky).reverse_bits(),
+    ]
 }
 
 /// The two uniforms `(u0, u1)` of one draw of the Sobol sampler (see the module docs).
@@ -290,25 +284,47 @@ mod tests {
         assert_eq!(texel_index([4, 3], 2, 1, 2), 2 * 12 + 2 * 4 + 1);
     }
 
+    /// Sobol dimension 1 from its definition: the XOR of the direction numbers
+    /// `V[0] = 2^31`, `V[b] = V[b-1] ^ (V[b-1] >> 1)` over the set bits `b` of `i`.
+    fn sobol1(i: u32) -> u32 {
+        let mut v = 1u32 << 31;
+        let mut y = 0;
+        for b in 0..32 {
+            if i >> b & 1 == 1 {
+                y ^= v;
+            }
+            v ^= v >> 1;
+        }
+        y
+    }
+
     // Reference values from crates/bake/tools/rng_reference.py, written from the module docs
-    // (dimension 1 from Pascal's triangle mod 2 there, not from the recurrence used here).
+    // in Python (dimension 1 from Lucas' theorem there, neither from the direction-number
+    // recurrence nor from the shift steps of `pascal`).
+    #[test]
+    fn pascal_is_sobol_dimension_one() {
+        assert_eq!(sobol1(1 << 4), 0x8800_0000);
+        assert_eq!(sobol1(1 << 31), 0xffff_ffff);
+        assert_eq!(pascal(3).reverse_bits(), 0x4000_0000);
+        assert_eq!(pascal(5).reverse_bits(), 0x2000_0000);
+        assert_eq!(pascal(u32::MAX).reverse_bits(), 1);
+        let mut x = 0x9e37_79b9u32;
+        for i in (0..1u32 << 12).chain((0..4096).map(|_| {
+            x = pcg(x);
+            x
+        })) {
+            assert_eq!(pascal(i).reverse_bits(), sobol1(i), "index {i:#x}");
+        }
+        // owen(reverse(x), k) = reverse(lk(x, k)): the shortcut of sobol2_bits.
+        assert_eq!(
+            owen(0x1234_5678u32.reverse_bits(), 99),
+            laine_karras(0x1234_5678, 99).reverse_bits()
+        );
+    }
+
+    // Reference values from crates/bake/tools/rng_reference.py.
     #[test]
     fn sobol_known_values() {
-        assert_eq!(
-            [0, 1, 2, 3, 4, 31].map(|b| SOBOL_DIRECTIONS[b]),
-            [
-                0x8000_0000,
-                0xc000_0000,
-                0xa000_0000,
-                0xf000_0000,
-                0x8800_0000,
-                0xffff_ffff
-            ]
-        );
-        assert_eq!(sobol1(0), 0);
-        assert_eq!(sobol1(3), 0x4000_0000);
-        assert_eq!(sobol1(5), 0x2000_0000);
-        assert_eq!(sobol1(u32::MAX), 1);
         assert_eq!(laine_karras(0x1234_5678, 0x9abc_def0), 0x14ef_64c8);
         assert_eq!(owen(0x1234_5678, 0x9abc_def0), 0x180f_3b55);
         assert_eq!(sobol2_bits(0, 0, 1, 0), [0xeb37_07d2, 0x8354_9e88]);

@@ -6,8 +6,8 @@
 //! A pass file declares nothing it gets from outside: the generated prefix holds
 //!
 //! - the BVH texel-layout constants (`luxbake_bvh::layout`), the traversal ids and choice, the
-//!   blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]), the sampler ids
-//!   ([`Sampler::id`]) and the Sobol direction numbers ([`SOBOL_DIRECTIONS`], `LUX_SOBOL_V`);
+//!   blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]) and the sampler ids
+//!   ([`Sampler::id`], `LUX_SAMPLER_HASH`, `LUX_SAMPLER_SOBOL`);
 //! - one declaration per read slot: `uniform highp sampler2DArray u_<slot>;` (GLSL, bound by
 //!   name) or `@group(0) @binding(i) var lux_<slot>: texture_2d_array<f32>;` (WGSL, `i` = slot
 //!   index);
@@ -24,7 +24,7 @@ use luxbake_bvh::layout;
 use crate::program::{
     BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Signature, TileParams,
 };
-use crate::rng::{SOBOL_DIRECTIONS, Sampler};
+use crate::rng::Sampler;
 use crate::scene::BvhMode;
 
 /// WGSL binding numbers (group 0: the pass; group 1: the scene).
@@ -154,17 +154,8 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
     s
 }
 
-/// The Sobol direction numbers as a comma-separated list of `u32` literals (`0x…u`).
-fn sobol_literals() -> String {
-    SOBOL_DIRECTIONS
-        .iter()
-        .map(|v| format!("{v:#010x}u"))
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
 /// The generated GLSL constants: BVH layout, traversal ids and the choice `bvh`, blur
-/// constants, sampler ids, Sobol direction numbers.
+/// constants, sampler ids.
 pub fn glsl_constants(bvh: BvhMode) -> String {
     let mut s = format!(
         "{}#define LUX_TRAVERSAL_MTBVH 0\n#define LUX_TRAVERSAL_TBVH 1\n\
@@ -182,15 +173,11 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
             sampler.id()
         ));
     }
-    s.push_str(&format!(
-        "const uint LUX_SOBOL_V[32] = uint[32]({});\n",
-        sobol_literals()
-    ));
     s
 }
 
 /// The generated WGSL constants: BVH layout, traversal ids and the choice `bvh`, blur
-/// constants, sampler ids, Sobol direction numbers.
+/// constants, sampler ids.
 pub fn wgsl_constants(bvh: BvhMode) -> String {
     let mut s = format!(
         "{}const LUX_TRAVERSAL_MTBVH: i32 = 0;\nconst LUX_TRAVERSAL_TBVH: i32 = 1;\n\
@@ -208,10 +195,6 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
             sampler.id()
         ));
     }
-    s.push_str(&format!(
-        "const LUX_SOBOL_V = array<u32, 32>({});\n",
-        sobol_literals()
-    ));
     s
 }
 
@@ -314,47 +297,18 @@ mod tests {
         }
     }
 
-    /// The values between the parentheses of the line of `source` that starts with `start`, as
-    /// `u32` literals (`0x…u` or `…u`).
-    fn u32_list(source: &str, start: &str) -> Vec<u32> {
-        let line = source
-            .lines()
-            .find(|l| l.starts_with(start))
-            .unwrap_or_else(|| panic!("no line `{start}` in\n{source}"));
-        let inner = &line[start.len()..line.rfind(')').expect("closing parenthesis")];
-        inner
-            .split(',')
-            .map(|v| {
-                let v = v.trim().trim_end_matches('u');
-                match v.strip_prefix("0x") {
-                    Some(hex) => u32::from_str_radix(hex, 16),
-                    None => v.parse(),
-                }
-                .unwrap_or_else(|e| panic!("`{v}`: {e}"))
-            })
-            .collect()
-    }
-
     #[test]
-    fn generated_sobol_table_and_sampler_ids_are_the_rust_ones() {
+    fn generated_sampler_ids_are_the_rust_ones() {
         let glsl = glsl_constants(BvhMode::Mtbvh);
         let wgsl = wgsl_constants(BvhMode::Mtbvh);
-        assert_eq!(
-            u32_list(&glsl, "const uint LUX_SOBOL_V[32] = uint[32]("),
-            SOBOL_DIRECTIONS
-        );
-        assert_eq!(
-            u32_list(&wgsl, "const LUX_SOBOL_V = array<u32, 32>("),
-            SOBOL_DIRECTIONS
-        );
         for s in Sampler::ALL {
             let name = s.name().to_ascii_uppercase();
             assert!(glsl.contains(&format!("#define LUX_SAMPLER_{name} {}u\n", s.id())));
             assert!(wgsl.contains(&format!("const LUX_SAMPLER_{name}: u32 = {}u;\n", s.id())));
         }
         // Every prefix carries them (the gather's included).
-        assert!(glsl_prefix(Program::Gather, BvhMode::Tbvh).contains("LUX_SOBOL_V[32]"));
-        assert!(wgsl_prefix(Program::Gather, BvhMode::Tbvh).contains("const LUX_SOBOL_V"));
+        assert!(glsl_prefix(Program::Gather, BvhMode::Tbvh).contains("#define LUX_SAMPLER_SOBOL"));
+        assert!(wgsl_prefix(Program::Gather, BvhMode::Tbvh).contains("const LUX_SAMPLER_SOBOL"));
     }
 
     #[test]

@@ -1,7 +1,7 @@
 // The stateless random numbers of the gather passes: a bit-exact port of luxbake::rng (see its
 // module docs for the specification). uint arithmetic wraps and shifts are logical in
-// GLSL ES 3.00, exactly as u32 wrapping_* in Rust. LUX_SOBOL_V and the LUX_SAMPLER_* ids are
-// generated (shader::glsl_constants).
+// GLSL ES 3.00, exactly as u32 wrapping_* in Rust. The LUX_SAMPLER_* ids are generated
+// (shader::glsl_constants).
 
 // PCG-RXS-M-XS 32 used as a hash (rng::pcg).
 uint luxPcg(uint v) {
@@ -55,16 +55,14 @@ uint luxOwen(uint x, uint key) {
     return luxReverseBits(luxLaineKarras(luxReverseBits(x), key));
 }
 
-// rng::sobol1: Sobol dimension 1, the XOR of LUX_SOBOL_V[b] over the set bits b of i.
-uint luxSobol1(uint i) {
-    uint y = 0u;
-    for (int b = 0; b < 32 && i != 0u; ++b) {
-        if ((i & 1u) != 0u) {
-            y ^= LUX_SOBOL_V[b];
-        }
-        i >>= 1u;
-    }
-    return y;
+// rng::pascal: x times Pascal's triangle mod 2 (reversed, Sobol's dimension 1).
+uint luxPascal(uint x) {
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    return x;
 }
 
 // rng::sobol2_bits: the texel's shuffled, Owen-scrambled Sobol point of one draw.
@@ -73,7 +71,8 @@ uvec2 luxSobol2Bits(uint texel, uint sampleIndex, uint pass, uint seed) {
     uint i = luxOwen(sampleIndex, key);
     uint kx = luxPcg(key);
     uint ky = luxPcg(kx);
-    return uvec2(luxOwen(luxReverseBits(i), kx), luxOwen(luxSobol1(i), ky));
+    return uvec2(luxReverseBits(luxLaineKarras(i, kx)),
+                 luxReverseBits(luxLaineKarras(luxPascal(i), ky)));
 }
 
 // rng::sobol2: the two uniforms of one draw of the Sobol sampler.

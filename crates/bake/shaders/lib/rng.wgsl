@@ -1,6 +1,6 @@
 // The stateless random numbers of the gather passes: a bit-exact port of luxbake::rng (see its
 // module docs for the specification). u32 arithmetic wraps and shifts are logical in WGSL,
-// exactly as u32 wrapping_* in Rust. LUX_SOBOL_V and the LUX_SAMPLER_* ids are generated
+// exactly as u32 wrapping_* in Rust. The LUX_SAMPLER_* ids are generated
 // (shader::wgsl_constants).
 
 // PCG-RXS-M-XS 32 used as a hash (rng::pcg).
@@ -46,18 +46,15 @@ fn lux_owen(x: u32, key: u32) -> u32 {
     return reverseBits(lux_laine_karras(reverseBits(x), key));
 }
 
-// rng::sobol1: Sobol dimension 1, the XOR of LUX_SOBOL_V[b] over the set bits b of i.
-fn lux_sobol1(index: u32) -> u32 {
-    var directions = LUX_SOBOL_V;
-    var i = index;
-    var y = 0u;
-    for (var b = 0u; b < 32u && i != 0u; b++) {
-        if ((i & 1u) != 0u) {
-            y ^= directions[b];
-        }
-        i >>= 1u;
-    }
-    return y;
+// rng::pascal: x times Pascal's triangle mod 2 (reversed, Sobol's dimension 1).
+fn lux_pascal(v: u32) -> u32 {
+    var x = v;
+    x ^= (x >> 1u) & 0x55555555u;
+    x ^= (x >> 2u) & 0x33333333u;
+    x ^= (x >> 4u) & 0x0f0f0f0fu;
+    x ^= (x >> 8u) & 0x00ff00ffu;
+    x ^= (x >> 16u) & 0x0000ffffu;
+    return x;
 }
 
 // rng::sobol2_bits: the texel's shuffled, Owen-scrambled Sobol point of one draw.
@@ -66,7 +63,8 @@ fn lux_sobol2_bits(texel: u32, sample_index: u32, pass_index: u32, seed: u32) ->
     let i = lux_owen(sample_index, key);
     let kx = lux_pcg(key);
     let ky = lux_pcg(kx);
-    return vec2<u32>(lux_owen(reverseBits(i), kx), lux_owen(lux_sobol1(i), ky));
+    return vec2<u32>(reverseBits(lux_laine_karras(i, kx)),
+                     reverseBits(lux_laine_karras(lux_pascal(i), ky)));
 }
 
 // rng::sobol2: the two uniforms of one draw of the Sobol sampler.
