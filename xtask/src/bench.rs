@@ -1,5 +1,6 @@
-//! `cargo xtask bench [--quick]` and `cargo xtask bench trade [--quick]`: measured runs of the
-//! bake (not criterion benchmarks: one configuration takes seconds to minutes).
+//! `cargo xtask bench [--quick]`, `cargo xtask bench trade [--quick]` and
+//! `cargo xtask bench sampling [--quick]`: measured runs of the bake (not criterion benchmarks:
+//! one configuration takes seconds to minutes).
 //!
 //! - `bench` ([`table1`]): the paper's Table 1 — `chairs_01/03/05/10` and `sofa_01` × every
 //!   backend (cpu, glow, wgpu; an unavailable one is reported, not fatal) × traversal (mtbvh,
@@ -13,6 +14,9 @@
 //!   each bake compared with a converged reference by RMSE, mean relative error and
 //!   95th-percentile error (lux); a table, an SVG plot (error vs time, log-log, one curve per
 //!   knob, Pareto front marked) and the defaults chosen from the front.
+//! - `bench sampling` ([`sampling`]): the gather's error against the ray count for each direction
+//!   sampler (hash, Sobol) on a box room, vs a converged reference: relative RMSE, log-log
+//!   slopes, hash / Sobol ratios.
 //!
 //! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
 //! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
@@ -34,6 +38,7 @@ use luxbake::scene::{BackendKind, BvhMode, Scene, Settings};
 use luxbake_backend_glow::GlowBackend;
 use luxbake_backend_wgpu::WgpuBackend;
 
+mod sampling;
 mod scaling;
 mod table1;
 mod trade;
@@ -78,6 +83,8 @@ pub struct Args {
 enum What {
     /// Speed/accuracy trade on chairs_05: rays, texel density, bounces, blur vs a reference.
     Trade(trade::Args),
+    /// Gather error vs rays per direction sampler (hash, Sobol) on a box room.
+    Sampling(sampling::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -92,6 +99,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     std::fs::create_dir_all(&out).map_err(|e| format!("{}: {e}", out.display()))?;
     match &args.what {
         Some(What::Trade(t)) => trade::run(t, args.quick, args.runs, &out),
+        Some(What::Sampling(s)) => sampling::run(s, args.quick, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)
