@@ -323,6 +323,21 @@ pub fn write(path: &Path, text: &str) -> Result<(), String> {
     Ok(())
 }
 
+/// Writes a study's results: `md` and `json` (pretty) as `<dir>/<what>-<date>-<machine>.md` and
+/// `.json`.
+pub fn write_results(
+    dir: &Path,
+    what: &str,
+    md: &str,
+    json: &serde_json::Value,
+) -> Result<(), String> {
+    write(&result_path(dir, what, "md"), md)?;
+    write(
+        &result_path(dir, what, "json"),
+        &serde_json::to_string_pretty(json).map_err(|e| e.to_string())?,
+    )
+}
+
 /// Least-squares slope of `ln y` against `ln x` (points with non-positive values left out);
 /// `None` with fewer than two usable points.
 pub fn log_log_slope(points: &[(f64, f64)]) -> Option<f64> {

@@ -375,34 +375,6 @@ mod tests {
     }
 
     #[test]
-    fn sobol_points_are_uniform_over_texels_and_differ_between_texels() {
-        // The first point of every texel is uniform on [0, 1)²: mean 1/2 per dimension.
-        let n = 65_536u32;
-        let mut sum = [0.0f64; 2];
-        for t in 0..n {
-            let u = sobol2(t, 0, 1, 7);
-            assert!(u.iter().all(|v| (0.0..1.0).contains(v)));
-            sum[0] += f64::from(u[0]);
-            sum[1] += f64::from(u[1]);
-        }
-        for s in sum {
-            assert!(
-                (s / f64::from(n) - 0.5).abs() < 0.01,
-                "mean {}",
-                s / f64::from(n)
-            );
-        }
-        let base = sobol2_bits(10, 3, 1, 1);
-        assert_ne!(base, sobol2_bits(11, 3, 1, 1));
-        assert_ne!(base, sobol2_bits(10, 3, 2, 1));
-        assert_ne!(base, sobol2_bits(10, 3, 1, 2));
-        // owen is a bijection: 2^16 inputs, 2^16 distinct outputs.
-        let outputs: std::collections::HashSet<u32> =
-            (0..1u32 << 16).map(|x| owen(x << 7, 0x1234_5678)).collect();
-        assert_eq!(outputs.len(), 1 << 16);
-    }
-
-    #[test]
     fn sampler_names_and_ids() {
         for s in Sampler::ALL {
             assert_eq!(s.name().to_uppercase().parse::<Sampler>(), Ok(s));
@@ -416,25 +388,34 @@ mod tests {
 
     #[test]
     fn uniforms_are_roughly_uniform_and_inputs_decorrelated() {
-        // Mean of 64k draws near 1/2; neighbouring texels, samples, passes and seeds differ.
-        let mut sum = [0.0f64; 2];
-        let n = 65_536u32;
-        for t in 0..n {
-            let u = uniform2(t, 0, 1, 7);
-            sum[0] += f64::from(u[0]);
-            sum[1] += f64::from(u[1]);
+        // For both samplers: the first draws of 64k texels lie in [0, 1) with means near 1/2,
+        // and neighbouring texels, samples, passes and seeds draw other numbers.
+        for sampler in Sampler::ALL {
+            let n = 65_536u32;
+            let mut sum = [0.0f64; 2];
+            for t in 0..n {
+                let u = sampler.uniform2(t, 0, 1, 7);
+                assert!(u.iter().all(|v| (0.0..1.0).contains(v)), "{sampler} {u:?}");
+                sum[0] += f64::from(u[0]);
+                sum[1] += f64::from(u[1]);
+            }
+            for s in sum {
+                let mean = s / f64::from(n);
+                assert!((mean - 0.5).abs() < 0.01, "{sampler}: mean {mean}");
+            }
+            let base = sampler.uniform2(10, 10, 1, 1);
+            for [t, s, p, k] in [
+                [11, 10, 1, 1],
+                [10, 11, 1, 1],
+                [10, 10, 2, 1],
+                [10, 10, 1, 2],
+            ] {
+                assert_ne!(base, sampler.uniform2(t, s, p, k), "{sampler}");
+            }
         }
-        for s in sum {
-            assert!(
-                (s / f64::from(n) - 0.5).abs() < 0.01,
-                "mean {}",
-                s / f64::from(n)
-            );
-        }
-        let base = hash(10, 10, 1, 1);
-        assert_ne!(base, hash(11, 10, 1, 1));
-        assert_ne!(base, hash(10, 11, 1, 1));
-        assert_ne!(base, hash(10, 10, 2, 1));
-        assert_ne!(base, hash(10, 10, 1, 2));
+        // owen is a bijection: 2^16 inputs, 2^16 distinct outputs.
+        let outputs: std::collections::HashSet<u32> =
+            (0..1u32 << 16).map(|x| owen(x << 7, 0x1234_5678)).collect();
+        assert_eq!(outputs.len(), 1 << 16);
     }
 }

@@ -22,7 +22,7 @@ use luxbake::bake::BakeOutput;
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{BackendKind, Sampler, Scene, Settings};
 
-use super::{AnyBackend, load_average, log_log_slope, machine, result_path, utc_now, write};
+use super::{AnyBackend, load_average, log_log_slope, machine, utc_now, write_results};
 
 /// Rays per texel of each reference bake (full run).
 pub const REFERENCE_RAYS: u32 = 16_384;
@@ -349,11 +349,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         "targets": { "sobol_slope_at_most": TARGET_SLOPE,
                      "ratio_at_least": TARGET_RATIOS.iter().map(|(n, r)| serde_json::json!({ "rays": n, "ratio": r })).collect::<Vec<_>>() },
     });
-    write(&result_path(out, "sampling", "md"), &md)?;
-    write(
-        &result_path(out, "sampling", "json"),
-        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
+    write_results(out, "sampling", &md, &json)
 }
 
 #[cfg(test)]

@@ -6,9 +6,7 @@ use std::path::Path;
 
 use luxbake::scene::{BackendKind, Blur, BvhMode, Scene, Settings};
 
-use super::{
-    AnyBackend, Args, Opened, Summary, load_average, machine, result_path, utc_now, write,
-};
+use super::{AnyBackend, Args, Opened, Summary, load_average, machine, utc_now, write_results};
 
 /// The scenes of Table 1.
 pub const SCENES: [&str; 5] = [
@@ -326,11 +324,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
         "table1": json_cells,
         "scaling": scaling.map(|s| s.1),
     });
-    write(&result_path(out, "table1", "md"), &md)?;
-    write(
-        &result_path(out, "table1", "json"),
-        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
+    write_results(out, "table1", &md, &json)
 }
 
 #[cfg(test)]

@@ -25,7 +25,7 @@ use luxbake::bake::BakeOutput;
 use luxbake::scene::{BackendKind, Blur, Scene, Settings};
 use plotters::prelude::*;
 
-use super::{AnyBackend, Summary, load_average, machine, result_path, utc_now, write};
+use super::{AnyBackend, Summary, load_average, machine, result_path, utc_now, write_results};
 
 /// The chosen configuration is the cheapest Pareto point whose RMSE is at most `KNEE` times
 /// the lowest RMSE of the grid.
@@ -511,11 +511,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     });
     let by_knob: BTreeMap<&str, usize> = curves.iter().map(|(n, i)| (*n, i.len())).collect();
     eprintln!("trade: {} bakes over {:?}", measured.len(), by_knob);
-    write(&result_path(out, "trade", "md"), &md)?;
-    write(
-        &result_path(out, "trade", "json"),
-        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
+    write_results(out, "trade", &md, &json)
 }
 
 /// Log-log plot of RMSE vs pass time, one curve per knob, the Pareto front circled in red.
