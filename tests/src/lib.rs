@@ -27,7 +27,7 @@ use std::path::PathBuf;
 
 use luxbake::bake::BakeOutput;
 use luxbake::graph::Figure5;
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Settings};
 use luxbake_backends::image_diff::{DiffStats, Tolerance, diff, write_failure_images};
 use luxbake_backends::{AnyBackend, BackendKind, OpenError};
 
@@ -51,6 +51,8 @@ pub struct SceneCase {
     pub scene: &'static str,
     /// The pipeline ([`settings`]).
     pub method: Method,
+    /// The gather directions' sampler ([`Settings::sampler`]).
+    pub sampler: Sampler,
     /// Tolerance per stage, in [`Figure5::NAMES`] order.
     pub stages: [Tolerance; 8],
 }
@@ -74,30 +76,41 @@ const CONVERGED_STAGES: [Tolerance; 8] = [
 ];
 
 /// The table of scenes × methods × stages × tolerances (every backend pair).
-pub const SCENES: [SceneCase; 5] = [
+pub const SCENES: [SceneCase; 6] = [
     SceneCase {
         scene: "chairs_01",
         method: Method::Paper,
+        sampler: Sampler::Hash,
         stages: STAGES,
     },
     SceneCase {
         scene: "floor",
         method: Method::Paper,
+        sampler: Sampler::Hash,
         stages: STAGES,
     },
     SceneCase {
         scene: "sphere",
         method: Method::Paper,
+        sampler: Sampler::Hash,
+        stages: STAGES,
+    },
+    SceneCase {
+        scene: "chairs_01",
+        method: Method::Paper,
+        sampler: Sampler::Sobol,
         stages: STAGES,
     },
     SceneCase {
         scene: "chairs_01",
         method: Method::Converged,
+        sampler: Sampler::Sobol,
         stages: CONVERGED_STAGES,
     },
     SceneCase {
         scene: "sphere",
         method: Method::Converged,
+        sampler: Sampler::Sobol,
         stages: CONVERGED_STAGES,
     },
 ];
@@ -108,7 +121,7 @@ pub const SCENES: [SceneCase; 5] = [
 pub struct KnownGap {
     /// The pair, as `"expected-vs-actual"` ([`Pair::name`]).
     pub pair: &'static str,
-    /// Scene name.
+    /// Case name ([`SceneCase::name`]).
     pub scene: &'static str,
     /// Stage index (0-based, [`Figure5::NAMES`] order).
     pub stage: usize,
@@ -126,12 +139,40 @@ pub const KNOWN_GAPS: &[KnownGap] = &[];
 pub fn tolerance(pair: &str, case: &SceneCase, stage: usize) -> Tolerance {
     KNOWN_GAPS
         .iter()
-        .find(|g| g.pair == pair && g.scene == case.scene && g.stage == stage)
+        .find(|g| g.pair == pair && g.scene == case.name() && g.stage == stage)
         .map_or(case.stages[stage], |g| g.tolerance)
 }
 
+impl SceneCase {
+    /// The case's name in reports, failure-image folders and [`KNOWN_GAPS`]: the scene, with
+    /// the method and, for a sampler other than the method's default, the sampler
+    /// (`chairs_01_paper_sobol`).
+    pub fn name(&self) -> String {
+        let default = settings(self.method).sampler;
+        if self.sampler == default {
+            format!("{}_{}", self.scene, self.method.name())
+        } else {
+            format!(
+                "{}_{}_{}",
+                self.scene,
+                self.method.name(),
+                self.sampler.name()
+            )
+        }
+    }
+
+    /// The reduced settings ([`settings`]) of the case's method with its sampler.
+    pub fn settings(&self) -> Settings {
+        Settings {
+            sampler: self.sampler,
+            ..settings(self.method)
+        }
+    }
+}
+
 /// The reduced bake settings of the comparisons (see the crate docs): the paper's method with
-/// one bounce, or the converged method's `default` preset with at most four explicit bounces.
+/// one bounce (hash sampling), or the converged method's `default` preset (Sobol sampling) with
+/// at most four explicit bounces.
 pub fn settings(method: Method) -> Settings {
     let base = match method {
         Method::Paper => Settings {
@@ -234,7 +275,7 @@ pub fn compare(
     if expected.maps.len() != actual.maps.len() {
         failures.push(format!(
             "{name} {}: {} objects vs {}",
-            case.scene,
+            case.name(),
             expected.maps.len(),
             actual.maps.len()
         ));
@@ -250,7 +291,7 @@ pub fn compare(
                 _ => {
                     failures.push(format!(
                         "{name} {} `{}` stage ({}): present in one bake only",
-                        case.scene,
+                        case.name(),
                         e.name,
                         stage + 1
                     ));
@@ -260,7 +301,7 @@ pub fn compare(
             let s = diff(ei, ai);
             pooled.pool(&s);
             if !s.within(tolerance) {
-                let dir = output_dir().join(&name).join(case.scene);
+                let dir = output_dir().join(&name).join(case.name());
                 let file = format!("{}_{}", e.name, Figure5::NAMES[stage].replace(' ', "_"));
                 let written = match write_failure_images(&dir, &file, ei, ai) {
                     Ok(()) => format!("images in {}", dir.display()),
@@ -268,7 +309,7 @@ pub fn compare(
                 };
                 failures.push(format!(
                     "{name} {} `{}` stage ({}) {}: {s:?} exceeds {tolerance:?}; {written}",
-                    case.scene,
+                    case.name(),
                     e.name,
                     stage + 1,
                     Figure5::NAMES[stage],

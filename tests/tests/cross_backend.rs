@@ -9,11 +9,11 @@ use luxbake::bake::bake;
 use luxbake::graph::Figure5;
 use luxbake::scene::Scene;
 use luxbake_backends::BackendKind;
-use luxbake_tests::{Pair, SCENES, SceneCase, compare, open, settings};
+use luxbake_tests::{Pair, SCENES, SceneCase, compare, open};
 
 fn run(case: &SceneCase) {
-    let test = format!("cross_backend::{}::{}", case.scene, case.method.name());
-    let settings = settings(case.method);
+    let test = format!("cross_backend::{}", case.name());
+    let settings = case.settings();
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     let mut outputs = Vec::new();
     for b in BackendKind::ALL {
@@ -36,7 +36,7 @@ fn run(case: &SceneCase) {
             println!(
                 "{:<13} {:<9} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}  (tol {:.0e} / {:.0e})",
                 pair.name(),
-                case.scene,
+                case.name(),
                 r.stage + 1,
                 Figure5::NAMES[r.stage],
                 r.stats.texels,
@@ -69,26 +69,32 @@ fn sphere_every_stage_agrees_across_backends() {
 }
 
 #[test]
-fn chairs_01_converged_every_stage_agrees_across_backends() {
+fn chairs_01_sobol_every_stage_agrees_across_backends() {
     run(&SCENES[3]);
 }
 
 #[test]
-fn sphere_converged_every_stage_agrees_across_backends() {
+fn chairs_01_converged_every_stage_agrees_across_backends() {
     run(&SCENES[4]);
 }
 
 #[test]
-fn the_table_covers_three_scenes_and_both_methods() {
-    let names: Vec<_> = SCENES.iter().map(|c| (c.scene, c.method.name())).collect();
+fn sphere_converged_every_stage_agrees_across_backends() {
+    run(&SCENES[5]);
+}
+
+#[test]
+fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
+    let names: Vec<_> = SCENES.iter().map(SceneCase::name).collect();
     assert_eq!(
         names,
         [
-            ("chairs_01", "paper"),
-            ("floor", "paper"),
-            ("sphere", "paper"),
-            ("chairs_01", "converged"),
-            ("sphere", "converged"),
+            "chairs_01_paper",
+            "floor_paper",
+            "sphere_paper",
+            "chairs_01_paper_sobol",
+            "chairs_01_converged",
+            "sphere_converged",
         ]
     );
 }

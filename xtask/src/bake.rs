@@ -1,7 +1,7 @@
 //! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
 //! [--tail-tolerance F] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
-//! [--seed S]`: bake a scene's light maps into a folder.
+//! [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into a folder.
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
 //! the converged method's `default` preset. Flags override the scene's `[settings]`:
@@ -14,7 +14,7 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::output::write_bake;
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Scene, Settings};
 use luxbake::sources::scenefile::preferred_backend;
 use luxbake_backends::BackendKind;
 
@@ -66,6 +66,10 @@ pub struct Args {
     /// Seed of the random-number hash.
     #[arg(long)]
     seed: Option<u32>,
+    /// Gather directions: hash (the paper's independent draws) or sobol (per-texel scrambled
+    /// Sobol sequence; the converged presets' default).
+    #[arg(long)]
+    sampler: Option<Sampler>,
 }
 
 impl Args {
@@ -110,6 +114,9 @@ impl Args {
         }
         if let Some(v) = self.seed {
             s.seed = v;
+        }
+        if let Some(v) = self.sampler {
+            s.sampler = v;
         }
         s.validate()
             .map_err(|e| format!("--{}: {}", e.name.replace('_', "-"), e.reason))

@@ -1,5 +1,6 @@
-//! `cargo xtask bench [--quick]` and `cargo xtask bench trade [--quick]`: measured runs of the
-//! bake (not criterion benchmarks: one configuration takes seconds to minutes).
+//! `cargo xtask bench [--quick]`, `cargo xtask bench trade [--quick]` and
+//! `cargo xtask bench sampling [--quick]`: measured runs of the bake (not criterion benchmarks:
+//! one configuration takes seconds to minutes).
 //!
 //! - `bench` ([`table1`]): the paper's Table 1 — `chairs_01/03/05/10` and `sofa_01` × every
 //!   backend (cpu, glow, wgpu; an unavailable one is reported, not fatal) × traversal (mtbvh,
@@ -17,6 +18,9 @@
 //!   chosen from the front.
 //! - `bench refcheck` ([`refcheck`]): one bake against the independent Radiance reference of
 //!   `bench/references/<scene>.csv`: mean |relative error|, bias and p95 per surface kind.
+//! - `bench sampling` ([`sampling`]): the gather's error against the ray count for each direction
+//!   sampler (hash, Sobol) on a box room, vs a converged reference: relative RMSE, log-log
+//!   slopes, hash / Sobol ratios.
 //!
 //! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
 //! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
@@ -37,6 +41,7 @@ use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
 mod refcheck;
+mod sampling;
 mod scaling;
 mod table1;
 mod trade;
@@ -85,6 +90,8 @@ enum What {
     /// A bake (default: `cargo xtask bake`'s defaults, in memory) against the independent
     /// Radiance reference in `bench/references/<scene>.csv`: relative errors per surface kind.
     Refcheck(refcheck::Args),
+    /// Gather error vs rays per direction sampler (hash, Sobol) on a box room.
+    Sampling(sampling::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -100,6 +107,7 @@ pub fn run(args: &Args) -> Result<(), String> {
     match &args.what {
         Some(What::Trade(t)) => trade::run(t, args.quick, args.runs, &out),
         Some(What::Refcheck(r)) => refcheck::run(r, &out),
+        Some(What::Sampling(s)) => sampling::run(s, args.quick, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)
@@ -290,6 +298,21 @@ pub fn write(path: &Path, text: &str) -> Result<(), String> {
     std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
     println!("wrote {}", path.display());
     Ok(())
+}
+
+/// Writes a study's results: `md` and `json` (pretty) as `<dir>/<what>-<date>-<machine>.md` and
+/// `.json`.
+pub fn write_results(
+    dir: &Path,
+    what: &str,
+    md: &str,
+    json: &serde_json::Value,
+) -> Result<(), String> {
+    write(&result_path(dir, what, "md"), md)?;
+    write(
+        &result_path(dir, what, "json"),
+        &serde_json::to_string_pretty(json).map_err(|e| e.to_string())?,
+    )
 }
 
 /// Least-squares slope of `ln y` against `ln x` (points with non-positive values left out);

@@ -18,7 +18,7 @@ use luxbake::map::MapImage;
 use luxbake::output::picture::luminance;
 use luxbake::output::read_exr;
 use luxbake::probe::{SurfacePoint, locate};
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Scene, Settings};
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Scene, Settings};
 use serde_json::Value;
 
 /// Arguments of `cargo xtask measure`.
@@ -77,6 +77,9 @@ fn settings_from(manifest: &Value) -> Result<Settings, String> {
     };
     if let Some(t) = s["tail_tolerance"].as_f64() {
         out.tail_tolerance = t as f32;
+    }
+    if let Some(b) = s["sampler"].as_str() {
+        out.sampler = b.parse::<Sampler>()?;
     }
     let num = |key: &str| {
         s[key]

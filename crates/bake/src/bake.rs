@@ -509,6 +509,7 @@ pub fn bake<B: GpuBackend>(
         bounces: settings.bounces,
         blur: settings.blur,
         seed: settings.seed,
+        sampler: settings.sampler,
         bvh: bvh_mode,
         method: settings.method,
         higher_rays: settings.higher_rays(),

@@ -26,9 +26,10 @@
 //! - **AlbedoMul**: `(a.rgb × b.rgb, a.w)` — b is the G-buffer albedo.
 //! - **Combine**: `(a.rgb + b.rgb, a.w)`.
 //! - **Gather** (bounce k): N = `rays` directions, cosine-weighted about n̂: with
-//!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)`, `r = √u₀`, `φ = 2π·u₁`, local
-//!   `(r cos φ, r sin φ, √(1 − u₀))` in the orthonormal basis of Duff et al. (2017) built from
-//!   n̂. Closest hit from `p + n̂·ε` (t ∈ (0, ∞)). A hit counts when the hit object has a
+//!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)` (the hash sampler) or
+//!   [`rng::sobol2`]`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
+//!   `r = √u₀`, `φ = 2π·u₁`, local `(r cos φ, r sin φ, √(1 − u₀))` in the orthonormal basis
+//!   of Duff et al. (2017) built from n̂. Closest hit from `p + n̂·ε` (t ∈ (0, ∞)). A hit counts when the hit object has a
 //!   region and the ray meets the front of the surface (interpolated shading normal `n_h`,
 //!   `n_h·dir < 0`); then it adds the reflected map `a` looked up at the hit's light-map UV in
 //!   the hit object's region by [`map::sample_masked`](crate::map::sample_masked). Back faces,
@@ -335,8 +336,12 @@ fn gather_texel(
     nrm: [f32; 4],
 ) -> [f32; 4] {
     let GatherParams {
-        rays, bounce, seed, ..
+        rays,
+        bounce,
+        seed,
+        sampler,
     } = params;
+    let sampler = rng::Sampler::from_id(sampler);
     if pos[3] <= 0.5 {
         return [0.0; 4];
     }
@@ -349,7 +354,7 @@ fn gather_texel(
     let o = mad(xyz(pos), n, scene.ray_epsilon);
     let mut sum = [0.0f32; 3];
     for s in 0..rays {
-        let dir = cosine_direction(n, rng::uniform2(texel, s, bounce, seed));
+        let dir = cosine_direction(n, sampler.uniform2(texel, s, bounce, seed));
         let Some(hit) = scene
             .bvh
             .closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav)

@@ -40,6 +40,7 @@ use crate::program::{
     AtrousConfig, CombineParams, DirectParams, GatherParams, MAX_ATROUS_ITERATIONS, Params,
     atrous_steps, blur_params,
 };
+use crate::rng::Sampler;
 use crate::scene::{Blur, BvhMode, Method};
 
 /// Index of a texture in [`BakeGraph::textures`].
@@ -212,6 +213,8 @@ pub struct GraphConfig {
     pub method: Method,
     /// [`Method::Converged`]: rays of bounces 2 and later (the first uses `rays`).
     pub higher_rays: u32,
+    /// Sampler of the gather directions.
+    pub sampler: Sampler,
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
     /// metres (the à-trous filter's chart test, [`AtrousConfig::texel_size`]).
     pub texel_size: [f32; 2],
@@ -388,6 +391,7 @@ fn albedo_stage(
 }
 
 /// Stage (5): one bounce of indirect light gathered from `reflected`.
+#[allow(clippy::too_many_arguments)]
 fn gather_stage(
     b: &mut Builder,
     g: GBufferTex,
@@ -396,6 +400,7 @@ fn gather_stage(
     bounce: u32,
     rays: u32,
     seed: u32,
+    sampler: Sampler,
 ) {
     b.pass(
         PassKind::Gather { bounce },
@@ -407,7 +412,7 @@ fn gather_stage(
             rays,
             bounce,
             seed,
-            ..GatherParams::default()
+            sampler: sampler.id(),
         }),
     );
 }
@@ -537,7 +542,16 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             let source = if k == 1 { reflected_direct } else { reflected };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
-            gather_stage(&mut b, g, source, delta, k, rays, config.seed);
+            gather_stage(
+                &mut b,
+                g,
+                source,
+                delta,
+                k,
+                rays,
+                config.seed,
+                config.sampler,
+            );
             if k == 1 {
                 b.pass(
                     PassKind::Copy,
@@ -692,7 +706,16 @@ impl BakeGraph {
                 } else {
                     reflected_combined
                 };
-                gather_stage(&mut b, g, reflected, indirect, k, config.rays, config.seed);
+                gather_stage(
+                    &mut b,
+                    g,
+                    reflected,
+                    indirect,
+                    k,
+                    config.rays,
+                    config.seed,
+                    config.sampler,
+                );
                 combine_stage(&mut b, direct, indirect, combined, k);
                 blur_stage(
                     &mut b,
@@ -845,6 +868,7 @@ mod tests {
             method: Method::Paper,
             higher_rays: 4,
             texel_size: [1.0 / 64.0; 2],
+            sampler: Sampler::Sobol,
         }
     }
 
@@ -1033,7 +1057,10 @@ mod tests {
         let Params::Gather(gp) = g.passes[6].params else {
             panic!("gather parameters: {:?}", g.passes[6].params);
         };
-        assert_eq!((gp.rays, gp.bounce, gp.seed), (16, 1, 9));
+        assert_eq!(
+            (gp.rays, gp.bounce, gp.seed, gp.sampler),
+            (16, 1, 9, Sampler::Sobol.id())
+        );
         assert_eq!(g.passes[3].params, Params::Blur(blur_params([1, 0], 2.0)));
         assert_eq!(g.passes[4].params, Params::Blur(blur_params([0, 1], 2.0)));
         assert!(g.passes.iter().all(|p| p.bvh == BvhMode::Mtbvh));

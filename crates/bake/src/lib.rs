@@ -61,7 +61,9 @@
 //!   object's reflected map is read (masked bilinear, [`map`]) at the hit's light-map UV.
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face
 //!   hits (the ray meets the side the shading normal points away from), misses and hits on
-//!   non-receivers contribute 0.
+//!   non-receivers contribute 0. The directions come from the stateless random numbers of
+//!   [`rng`]: the paper's independent hash per ray, or a per-texel scrambled Sobol sequence
+//!   whose error falls faster with N ([`scene::Settings::sampler`]).
 //! - **Bounces**: `ind_k = gather(ρ × blur(direct + ind_{k−1}))`, `ind_0 = 0`, and
 //!   `combined = direct + ind_k`: a Jacobi iteration. For a closed sphere of albedo ρ with an
 //!   isotropic lamp of intensity I at its centre it gives `E = (I/R²)·Σ_{i=0..k} ρ^i`.

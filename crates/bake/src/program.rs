@@ -250,8 +250,8 @@ param_block! {
         bounce: u32,
         /// Seed of the RNG hash.
         seed: u32,
-        /// Padding.
-        pad0: u32,
+        /// The direction sampler's id ([`Sampler::id`](crate::rng::Sampler::id)).
+        sampler: u32,
     }
 }
 

@@ -1,8 +1,10 @@
-//! The stateless random-number hash of the gather passes.
+//! The stateless random numbers of the gather passes.
 //!
 //! Every random number of a bake is a pure function of `(texel, sample, pass, seed)`: no state
 //! is carried between texels, rays or passes, so any backend (Rust, GLSL ES 3.00, WGSL) computes
-//! the same numbers bit for bit, in any order, on any tile split.
+//! the same numbers bit for bit, in any order, on any tile split. Two [`Sampler`]s draw the
+//! gather directions' uniforms `(u0, u1)`: the paper's independent hash ([`uniform2`], the
+//! default) and a per-texel scrambled Sobol (0,2)-sequence ([`sobol2`]).
 //!
 //! # Specification (reproduce exactly)
 //! All arithmetic is on unsigned 32-bit integers with wrap-around (`uint` in GLSL ES 3.00 and
@@ -21,14 +23,65 @@
 //! pass   = the gather's bounce number, 1 .. bounces
 //! seed   = Settings::seed
 //!
-//! u0 = float(h >> 8u) * 2^-24          // h = hash(...): first uniform in [0, 1)
-//! u1 = float(pcg(h) >> 8u) * 2^-24     // second uniform in [0, 1)
+//! unit(h) = float(h >> 8u) * 2^-24      // the top 24 bits as a uniform in [0, 1)
 //! ```
+//!
+//! **Hash sampler** ([`Sampler::Hash`], the paper's): with `h = hash(texel, sample, pass, seed)`,
+//! `u0 = unit(h)`, `u1 = unit(pcg(h))`.
+//!
+//! **Sobol sampler** ([`Sampler::Sobol`]): the first two dimensions of the Sobol sequence — a
+//! (0,2)-sequence in base 2 — shuffled and Owen-scrambled per texel as in Burley 2020,
+//! "Practical Hash-based Owen Scrambling" (JCGT 9(4)), with that paper's Laine–Karras-style
+//! hash:
+//!
+//! ```text
+//! reverse(x)  = x with bit b moved to bit 31 - b, for every b
+//! lk(x, k):                             // Burley 2020's laine_karras_permutation
+//!     x = x + k
+//!     x = x ^ (x * 0x6c50b47cu)
+//!     x = x ^ (x * 0xb82f1e52u)
+//!     x = x ^ (x * 0xc7afe638u)
+//!     x = x ^ (x * 0x8d22f6e6u)
+//!     return x
+//! owen(x, k)  = reverse(lk(reverse(x), k))     // nested uniform (Owen) scramble of x's bits
+//! pascal(x):                            // bit r of the result: XOR of the bits b of x whose
+//!     x = x ^ ((x >> 1u) & 0x55555555u) // index b has every bit of r set (Pascal's triangle
+//!     x = x ^ ((x >> 2u) & 0x33333333u) // mod 2, by Lucas' theorem)
+//!     x = x ^ ((x >> 4u) & 0x0f0f0f0fu)
+//!     x = x ^ ((x >> 8u) & 0x00ff00ffu)
+//!     x = x ^ ((x >> 16u) & 0x0000ffffu)
+//!     return x
+//!
+//! key = hash(texel, 0, pass, seed)      // one key per texel and pass
+//! i   = owen(sample, key)               // the shuffled index
+//! u0  = unit(reverse(lk(i, pcg(key))))             // = unit(owen(reverse(i), pcg(key)))
+//! u1  = unit(reverse(lk(pascal(i), pcg(pcg(key)))))  // = unit(owen(sobol1(i), pcg(pcg(key))))
+//! ```
+//!
+//! Sobol's dimension 0 of index `i` is `reverse(i)` (van der Corput) and dimension 1 is
+//! `sobol1(i) = reverse(pascal(i))`, the XOR of the direction numbers `V[b]` over the set bits
+//! `b` of `i` with `V[0] = 2^31`, `V[b] = V[b-1] ^ (V[b-1] >> 1)`: [`pascal`] computes that
+//! matrix product in five steps instead of a 32-step loop over a table (checked against the
+//! direction numbers in the tests). `owen(reverse(x), k) = reverse(lk(x, k))`, hence the two
+//! final lines.
+//!
+//! `lk` only carries bits upward (`x * even` and `+ k` change bit `b` from bits below `b`), so
+//! `owen` flips each bit of `x` by a function of the bits above it: a base-2 Owen scramble. For
+//! `N = 2^m` rays the shuffled indices `owen(0 .. N-1, key)` fill one aligned block of `N`
+//! consecutive Sobol indices, whose points form a (0,m,2)-net, and the scramble keeps it one:
+//! every elementary interval `[a/2^j, (a+1)/2^j) × [b/2^(m-j), (b+1)/2^(m-j))` holds exactly
+//! one of the texel's points (for `j`, `m - j` ≤ 24, the bits `unit` keeps). Each point is still
+//! uniform on `[0, 1)²`, so the estimate stays unbiased. Other ray counts take a prefix of
+//! such a block: still stratified, less evenly.
 //!
 //! `h >> 8` has 24 significant bits, so its conversion to `float` is exact, and so is the
 //! multiplication by 2^-24: the uniforms are bit-identical on every IEEE-754 binary32 target.
 //! (What is done with them afterwards — `sqrt`, `cos`, `sin` — is only as exact as each
-//! platform's functions.)
+//! platform's functions.) The shaders compare `GatherParams::sampler` with the ids
+//! [`Sampler::id`] generated into their prefix ([`crate::shader`]).
+
+use std::fmt;
+use std::str::FromStr;
 
 /// The PCG-RXS-M-XS 32-bit permutation used as a hash (see the module docs).
 #[inline]
@@ -55,17 +108,136 @@ pub const fn texel_index(layer_size: [u32; 2], layer: u32, x: u32, y: u32) -> u3
         .wrapping_add(x)
 }
 
-/// A uniform number in `[0, 1)` from the top 24 bits of `h`: `(h >> 8) * 2^-24` (exact).
+/// `unit(h)`: a uniform number in `[0, 1)` from the top 24 bits of `h`: `(h >> 8) * 2^-24`
+/// (exact).
 #[inline]
 pub fn unit_f32(h: u32) -> f32 {
     (h >> 8) as f32 * (1.0 / 16_777_216.0)
 }
 
-/// The two uniforms `(u0, u1)` of one draw (see the module docs).
+/// The two uniforms `(u0, u1)` of one draw of the hash sampler (see the module docs).
 #[inline]
 pub fn uniform2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
     let h = hash(texel, sample, pass, seed);
     [unit_f32(h), unit_f32(pcg(h))]
+}
+
+/// Which generator draws the gather directions' uniforms (see the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Sampler {
+    /// Independent hashes per ray ([`uniform2`]): the paper's sampling; RMSE falls as N^-1/2.
+    #[default]
+    Hash,
+    /// The per-texel shuffled, Owen-scrambled Sobol (0,2)-sequence ([`sobol2`]).
+    Sobol,
+}
+
+impl Sampler {
+    /// Every sampler.
+    pub const ALL: [Sampler; 2] = [Sampler::Hash, Sampler::Sobol];
+
+    /// The lower-case name used by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Hash => "hash",
+            Sampler::Sobol => "sobol",
+        }
+    }
+
+    /// The id a shader compares `GatherParams::sampler` with (`LUX_SAMPLER_<NAME>` in the
+    /// generated prefix): 0 hash, 1 Sobol.
+    pub fn id(self) -> u32 {
+        match self {
+            Sampler::Hash => 0,
+            Sampler::Sobol => 1,
+        }
+    }
+
+    /// The sampler of id `id`; any id but Sobol's draws with the hash, as the shaders do.
+    pub fn from_id(id: u32) -> Sampler {
+        if id == Sampler::Sobol.id() {
+            Sampler::Sobol
+        } else {
+            Sampler::Hash
+        }
+    }
+
+    /// The two uniforms of ray `sample` of `texel` in bounce `pass`.
+    #[inline]
+    pub fn uniform2(self, texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
+        match self {
+            Sampler::Hash => uniform2(texel, sample, pass, seed),
+            Sampler::Sobol => sobol2(texel, sample, pass, seed),
+        }
+    }
+}
+
+impl fmt::Display for Sampler {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for Sampler {
+    type Err = String;
+    /// `hash` or `sobol` (case-insensitive).
+    fn from_str(s: &str) -> Result<Sampler, String> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "hash" => Ok(Sampler::Hash),
+            "sobol" => Ok(Sampler::Sobol),
+            _ => Err(format!("expected \"hash\" or \"sobol\", got `{s}`")),
+        }
+    }
+}
+
+/// `pascal(x)`: `x` times Pascal's triangle mod 2 (see the module docs); `reverse(pascal(i))`
+/// is Sobol's dimension 1 of index `i`.
+#[inline]
+pub const fn pascal(mut x: u32) -> u32 {
+    x ^= (x >> 1) & 0x5555_5555;
+    x ^= (x >> 2) & 0x3333_3333;
+    x ^= (x >> 4) & 0x0f0f_0f0f;
+    x ^= (x >> 8) & 0x00ff_00ff;
+    x ^= (x >> 16) & 0x0000_ffff;
+    x
+}
+
+/// `lk(x, k)`: the Laine–Karras-style permutation of Burley 2020 (see the module docs).
+#[inline]
+pub const fn laine_karras(mut x: u32, key: u32) -> u32 {
+    x = x.wrapping_add(key);
+    x ^= x.wrapping_mul(0x6c50_b47c);
+    x ^= x.wrapping_mul(0xb82f_1e52);
+    x ^= x.wrapping_mul(0xc7af_e638);
+    x ^= x.wrapping_mul(0x8d22_f6e6);
+    x
+}
+
+/// `owen(x, k)`: the nested uniform (Owen) scramble of the bits of `x` keyed by `key`,
+/// `reverse(lk(reverse(x), key))`.
+#[inline]
+pub const fn owen(x: u32, key: u32) -> u32 {
+    laine_karras(x.reverse_bits(), key).reverse_bits()
+}
+
+/// The scrambled Sobol point of ray `sample` of `texel` in bounce `pass`, as 32-bit fractions
+/// (before [`unit_f32`]; see the module docs).
+#[inline]
+pub const fn sobol2_bits(texel: u32, sample: u32, pass: u32, seed: u32) -> [u32; 2] {
+    let key = hash(texel, 0, pass, seed);
+    let i = owen(sample, key);
+    let kx = pcg(key);
+    let ky = pcg(kx);
+    [
+        laine_karras(i, kx).reverse_bits(),
+        laine_karras(pascal(i), ky).reverse_bits(),
+    ]
+}
+
+/// The two uniforms `(u0, u1)` of one draw of the Sobol sampler (see the module docs).
+#[inline]
+pub fn sobol2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
+    sobol2_bits(texel, sample, pass, seed).map(unit_f32)
 }
 
 #[cfg(test)]
@@ -112,27 +284,138 @@ mod tests {
         assert_eq!(texel_index([4, 3], 2, 1, 2), 2 * 12 + 2 * 4 + 1);
     }
 
+    /// Sobol dimension 1 from its definition: the XOR of the direction numbers
+    /// `V[0] = 2^31`, `V[b] = V[b-1] ^ (V[b-1] >> 1)` over the set bits `b` of `i`.
+    fn sobol1(i: u32) -> u32 {
+        let mut v = 1u32 << 31;
+        let mut y = 0;
+        for b in 0..32 {
+            if i >> b & 1 == 1 {
+                y ^= v;
+            }
+            v ^= v >> 1;
+        }
+        y
+    }
+
+    // Reference values from crates/bake/tools/rng_reference.py, written from the module docs
+    // in Python (dimension 1 from Lucas' theorem there, neither from the direction-number
+    // recurrence nor from the shift steps of `pascal`).
+    #[test]
+    fn pascal_is_sobol_dimension_one() {
+        assert_eq!(sobol1(1 << 4), 0x8800_0000);
+        assert_eq!(sobol1(1 << 31), 0xffff_ffff);
+        assert_eq!(pascal(3).reverse_bits(), 0x4000_0000);
+        assert_eq!(pascal(5).reverse_bits(), 0x2000_0000);
+        assert_eq!(pascal(u32::MAX).reverse_bits(), 1);
+        let mut x = 0x9e37_79b9u32;
+        for i in (0..1u32 << 12).chain((0..4096).map(|_| {
+            x = pcg(x);
+            x
+        })) {
+            assert_eq!(pascal(i).reverse_bits(), sobol1(i), "index {i:#x}");
+        }
+        // owen(reverse(x), k) = reverse(lk(x, k)): the shortcut of sobol2_bits.
+        assert_eq!(
+            owen(0x1234_5678u32.reverse_bits(), 99),
+            laine_karras(0x1234_5678, 99).reverse_bits()
+        );
+    }
+
+    // Reference values from crates/bake/tools/rng_reference.py.
+    #[test]
+    fn sobol_known_values() {
+        assert_eq!(laine_karras(0x1234_5678, 0x9abc_def0), 0x14ef_64c8);
+        assert_eq!(owen(0x1234_5678, 0x9abc_def0), 0x180f_3b55);
+        assert_eq!(sobol2_bits(0, 0, 1, 0), [0xeb37_07d2, 0x8354_9e88]);
+        assert_eq!(sobol2_bits(1, 2, 3, 4), [0x04c7_c62f, 0x90b2_632a]);
+        assert_eq!(sobol2_bits(123_456, 7, 1, 42), [0xd212_f1c1, 0xfcf8_d029]);
+        assert_eq!(
+            sobol2_bits(5, 1000, 2, 0xdead_beef),
+            [0x3e6c_b620, 0x748e_6251]
+        );
+        let [u0, u1] = sobol2(1, 2, 3, 4);
+        assert_eq!(u0, 0x0004_c7c6 as f32 / 16_777_216.0);
+        assert_eq!(u1, 0x0090_b263 as f32 / 16_777_216.0);
+        assert_eq!(Sampler::Sobol.uniform2(1, 2, 3, 4), [u0, u1]);
+        assert_eq!(Sampler::Hash.uniform2(1, 2, 3, 4), uniform2(1, 2, 3, 4));
+    }
+
+    /// For N = 2^m rays, every elementary interval of area 1/N holds exactly one of a texel's
+    /// points (a (0,m,2)-net), for every texel, pass and seed tried.
+    #[test]
+    fn sobol_points_of_a_texel_are_stratified() {
+        for (texel, pass, seed) in [(0, 1, 0), (1, 1, 0), (77_777, 2, 9), (u32::MAX, 5, 0xdead)] {
+            for m in 0..=11u32 {
+                let n = 1u32 << m;
+                let points: Vec<[f32; 2]> = (0..n).map(|s| sobol2(texel, s, pass, seed)).collect();
+                for j in 0..=m {
+                    let (cols, rows) = (1u32 << j, 1u32 << (m - j));
+                    let mut seen = vec![false; n as usize];
+                    for p in &points {
+                        // Exact: 2^j · u only moves the exponent.
+                        let cx = (p[0] * cols as f32) as u32;
+                        let cy = (p[1] * rows as f32) as u32;
+                        let cell = &mut seen[(cy * cols + cx) as usize];
+                        assert!(
+                            !*cell,
+                            "texel {texel} N {n} interval {cols}×{rows}: two points"
+                        );
+                        *cell = true;
+                    }
+                }
+            }
+        }
+        // The hash sampler is not stratified: 16 draws leave some of the 4 × 4 cells empty.
+        let cells: std::collections::HashSet<(u32, u32)> = (0..16)
+            .map(|s| uniform2(3, s, 1, 0))
+            .map(|u| ((u[0] * 4.0) as u32, (u[1] * 4.0) as u32))
+            .collect();
+        assert!(cells.len() < 16);
+    }
+
+    #[test]
+    fn sampler_names_and_ids() {
+        for s in Sampler::ALL {
+            assert_eq!(s.name().to_uppercase().parse::<Sampler>(), Ok(s));
+            assert_eq!(Sampler::from_id(s.id()), s);
+            assert_eq!(s.to_string(), s.name());
+        }
+        assert_eq!(Sampler::default(), Sampler::Hash);
+        assert_eq!(Sampler::from_id(7), Sampler::Hash);
+        assert!("halton".parse::<Sampler>().is_err());
+    }
+
     #[test]
     fn uniforms_are_roughly_uniform_and_inputs_decorrelated() {
-        // Mean of 64k draws near 1/2; neighbouring texels, samples, passes and seeds differ.
-        let mut sum = [0.0f64; 2];
-        let n = 65_536u32;
-        for t in 0..n {
-            let u = uniform2(t, 0, 1, 7);
-            sum[0] += f64::from(u[0]);
-            sum[1] += f64::from(u[1]);
+        // For both samplers: the first draws of 64k texels lie in [0, 1) with means near 1/2,
+        // and neighbouring texels, samples, passes and seeds draw other numbers.
+        for sampler in Sampler::ALL {
+            let n = 65_536u32;
+            let mut sum = [0.0f64; 2];
+            for t in 0..n {
+                let u = sampler.uniform2(t, 0, 1, 7);
+                assert!(u.iter().all(|v| (0.0..1.0).contains(v)), "{sampler} {u:?}");
+                sum[0] += f64::from(u[0]);
+                sum[1] += f64::from(u[1]);
+            }
+            for s in sum {
+                let mean = s / f64::from(n);
+                assert!((mean - 0.5).abs() < 0.01, "{sampler}: mean {mean}");
+            }
+            let base = sampler.uniform2(10, 10, 1, 1);
+            for [t, s, p, k] in [
+                [11, 10, 1, 1],
+                [10, 11, 1, 1],
+                [10, 10, 2, 1],
+                [10, 10, 1, 2],
+            ] {
+                assert_ne!(base, sampler.uniform2(t, s, p, k), "{sampler}");
+            }
         }
-        for s in sum {
-            assert!(
-                (s / f64::from(n) - 0.5).abs() < 0.01,
-                "mean {}",
-                s / f64::from(n)
-            );
-        }
-        let base = hash(10, 10, 1, 1);
-        assert_ne!(base, hash(11, 10, 1, 1));
-        assert_ne!(base, hash(10, 11, 1, 1));
-        assert_ne!(base, hash(10, 10, 2, 1));
-        assert_ne!(base, hash(10, 10, 1, 2));
+        // owen is a bijection: 2^16 inputs, 2^16 distinct outputs.
+        let outputs: std::collections::HashSet<u32> =
+            (0..1u32 << 16).map(|x| owen(x << 7, 0x1234_5678)).collect();
+        assert_eq!(outputs.len(), 1 << 16);
     }
 }

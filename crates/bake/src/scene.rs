@@ -440,6 +440,8 @@ impl Lamp {
     }
 }
 
+pub use crate::rng::Sampler;
+
 /// Which pipeline a bake runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Method {
@@ -623,6 +625,9 @@ pub struct Settings {
     pub bvh: BvhMode,
     /// Seed of the stateless random-number hash.
     pub seed: u32,
+    /// Sampler of the gather directions: the paper's independent hash, or the per-texel
+    /// scrambled Sobol sequence ([`crate::rng`]).
+    pub sampler: Sampler,
 }
 
 impl Settings {
@@ -641,7 +646,7 @@ impl Settings {
     pub const DEFAULT_TEXELS_PER_METRE: f32 = 64.0;
 
     /// The method paper's pipeline with the settings measured best for it: 4 rays, 3 bounces,
-    /// blur σ 2, 64 texels/m, MTBVH, seed 0.
+    /// blur σ 2, 64 texels/m, MTBVH, seed 0, hash sampling.
     pub fn paper() -> Settings {
         Settings {
             method: Method::Paper,
@@ -653,6 +658,7 @@ impl Settings {
             texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
             bvh: BvhMode::Mtbvh,
             seed: 0,
+            sampler: Sampler::Hash,
         }
     }
 
@@ -678,6 +684,7 @@ impl Settings {
             bounces,
             blur: Blur::Sigma(sigma),
             tail_tolerance,
+            sampler: Sampler::Sobol,
             ..Settings::paper()
         }
     }
@@ -1063,8 +1070,9 @@ mod tests {
         assert_eq!((s.rays, s.bounces, s.seed), (4, 3, 0));
         assert_eq!((s.method, s.blur), (Method::Paper, Blur::Sigma(2.0)));
         assert_eq!(s.texels_per_metre, 64.0);
-        assert_eq!(s.bvh, BvhMode::Mtbvh);
+        assert_eq!((s.bvh, s.sampler), (BvhMode::Mtbvh, Sampler::Hash));
         assert_eq!(Settings::default(), Settings::preset(Quality::Default));
+        assert_eq!(Settings::default().sampler, Sampler::Sobol);
         for q in [Quality::Draft, Quality::Default, Quality::Final] {
             let p = Settings::preset(q);
             assert_eq!((p.method, p.quality), (Method::Converged, q));

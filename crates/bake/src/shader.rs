@@ -5,8 +5,9 @@
 //! [`crate::cpu`] operation for operation); `shaders/lib/` holds the shared [`Library`] files.
 //! A pass file declares nothing it gets from outside: the generated prefix holds
 //!
-//! - the BVH texel-layout constants (`luxbake_bvh::layout`), the traversal ids and choice, and
-//!   the blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]);
+//! - the BVH texel-layout constants (`luxbake_bvh::layout`), the traversal ids and choice, the
+//!   blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]) and the sampler ids
+//!   ([`Sampler::id`], `LUX_SAMPLER_HASH`, `LUX_SAMPLER_SOBOL`);
 //! - one declaration per read slot: `uniform highp sampler2DArray u_<slot>;` (GLSL, bound by
 //!   name) or `@group(0) @binding(i) var lux_<slot>: texture_2d_array<f32>;` (WGSL, `i` = slot
 //!   index);
@@ -23,6 +24,7 @@ use luxbake_bvh::layout;
 use crate::program::{
     BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Signature, TileParams,
 };
+use crate::rng::Sampler;
 use crate::scene::BvhMode;
 
 /// WGSL binding numbers (group 0: the pass; group 1: the scene).
@@ -158,9 +160,10 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
     s
 }
 
-/// The generated GLSL constants: BVH layout, traversal ids and the choice `bvh`, blur constants.
+/// The generated GLSL constants: BVH layout, traversal ids and the choice `bvh`, blur
+/// constants, sampler ids.
 pub fn glsl_constants(bvh: BvhMode) -> String {
-    format!(
+    let mut s = format!(
         "{}#define LUX_TRAVERSAL_MTBVH 0\n#define LUX_TRAVERSAL_TBVH 1\n\
          #define LUX_TRAVERSAL_NONE 2\n#define LUX_TRAVERSAL {}\n\
          #define LUX_BLUR_NORMAL_COS {:?}\n#define LUX_MAX_BLUR_RADIUS {}\n",
@@ -168,12 +171,21 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
         traversal_id(bvh),
         BLUR_NORMAL_COS,
         MAX_BLUR_RADIUS,
-    )
+    );
+    for sampler in Sampler::ALL {
+        s.push_str(&format!(
+            "#define LUX_SAMPLER_{} {}u\n",
+            sampler.name().to_ascii_uppercase(),
+            sampler.id()
+        ));
+    }
+    s
 }
 
-/// The generated WGSL constants: BVH layout, traversal ids and the choice `bvh`, blur constants.
+/// The generated WGSL constants: BVH layout, traversal ids and the choice `bvh`, blur
+/// constants, sampler ids.
 pub fn wgsl_constants(bvh: BvhMode) -> String {
-    format!(
+    let mut s = format!(
         "{}const LUX_TRAVERSAL_MTBVH: i32 = 0;\nconst LUX_TRAVERSAL_TBVH: i32 = 1;\n\
          const LUX_TRAVERSAL_NONE: i32 = 2;\nconst LUX_TRAVERSAL: i32 = {};\n\
          const LUX_BLUR_NORMAL_COS: f32 = {:?};\nconst LUX_MAX_BLUR_RADIUS: i32 = {};\n",
@@ -181,7 +193,15 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
         traversal_id(bvh),
         BLUR_NORMAL_COS,
         MAX_BLUR_RADIUS,
-    )
+    );
+    for sampler in Sampler::ALL {
+        s.push_str(&format!(
+            "const LUX_SAMPLER_{}: u32 = {}u;\n",
+            sampler.name().to_ascii_uppercase(),
+            sampler.id()
+        ));
+    }
+    s
 }
 
 /// The GLSL files of `program` after the prefix: its libraries, then the pass file.
@@ -281,6 +301,20 @@ mod tests {
             assert!(glsl.contains(&format!("#define LUX_TRAVERSAL {id}\n")));
             assert!(wgsl.contains(&format!("const LUX_TRAVERSAL: i32 = {id};")));
         }
+    }
+
+    #[test]
+    fn generated_sampler_ids_are_the_rust_ones() {
+        let glsl = glsl_constants(BvhMode::Mtbvh);
+        let wgsl = wgsl_constants(BvhMode::Mtbvh);
+        for s in Sampler::ALL {
+            let name = s.name().to_ascii_uppercase();
+            assert!(glsl.contains(&format!("#define LUX_SAMPLER_{name} {}u\n", s.id())));
+            assert!(wgsl.contains(&format!("const LUX_SAMPLER_{name}: u32 = {}u;\n", s.id())));
+        }
+        // Every prefix carries them (the gather's included).
+        assert!(glsl_prefix(Program::Gather, BvhMode::Tbvh).contains("#define LUX_SAMPLER_SOBOL"));
+        assert!(wgsl_prefix(Program::Gather, BvhMode::Tbvh).contains("const LUX_SAMPLER_SOBOL"));
     }
 
     #[test]

@@ -1,14 +1,19 @@
-//! Test 5: the same seed gives bit-identical EXR files; another seed changes the noise.
-//! Also checks the file set and manifest keys that `cargo xtask bake` writes.
+//! Test 5: the same seed gives bit-identical EXR files; another seed changes the noise, and so
+//! does the other gather sampler. Also checks the file set and manifest keys that
+//! `cargo xtask bake` writes.
 
 use std::path::{Path, PathBuf};
 
 use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::output::write_bake;
-use luxbake::scene::{Blur, Scene, Settings};
+use luxbake::scene::{Blur, Sampler, Scene, Settings};
 
 fn scene(seed: u32) -> Scene {
+    scene_with(seed, Sampler::default())
+}
+
+fn scene_with(seed: u32, sampler: Sampler) -> Scene {
     Scene::builtin_with_settings(
         "chairs_01",
         Settings {
@@ -17,6 +22,7 @@ fn scene(seed: u32) -> Scene {
             blur: Blur::Sigma(1.5),
             texels_per_metre: 6.0,
             seed,
+            sampler,
             ..Settings::default()
         },
     )
@@ -88,6 +94,7 @@ fn same_seed_gives_identical_exr_bytes() {
         assert!(!manifest[key].is_null(), "manifest lacks {key}");
     }
     assert_eq!(manifest["settings"]["rays"], 8);
+    assert_eq!(manifest["settings"]["sampler"], "hash");
     assert!(da.join("manifest.json").exists());
 
     // A different seed changes the gathered noise (and nothing is NaN).
@@ -100,5 +107,24 @@ fn same_seed_gives_identical_exr_bytes() {
     assert!(differs, "the seed must drive the gather");
     for d in [da, db] {
         std::fs::remove_dir_all(d).ok();
+    }
+}
+
+#[test]
+fn the_sobol_sampler_is_deterministic_and_only_changes_the_gather() {
+    let hash = run(&scene(7));
+    let s = scene_with(7, Sampler::Sobol);
+    let (a, b) = (run(&s), run(&s));
+    assert_eq!(a.maps, b.maps, "two Sobol bakes with the same seed differ");
+    for (h, x) in hash.maps.iter().zip(&a.maps) {
+        // Stages (1)-(4) come before any gather; (5)-(8) depend on the gathered rays.
+        assert_eq!(h.stages[..4], x.stages[..4], "{}", h.name);
+        let texels = |m: &Option<luxbake::map::MapImage>| m.as_ref().map(|i| i.texels.clone());
+        assert_ne!(texels(&h.stages[4]), texels(&x.stages[4]), "{}", h.name);
+        let finite = |m: &Option<luxbake::map::MapImage>| {
+            m.as_ref()
+                .is_some_and(|i| i.texels.iter().all(|v| v.is_finite() && *v >= 0.0))
+        };
+        assert!(x.stages[4..].iter().all(finite), "{}", h.name);
     }
 }

@@ -8,7 +8,7 @@ use luxbake::scene::{Blur, BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
 use super::{
-    Args, Opened, Summary, load_average, machine, open, result_path, timed_bake, utc_now, write,
+    Args, Opened, Summary, load_average, machine, open, timed_bake, utc_now, write_results,
 };
 
 /// The scenes of Table 1.
@@ -324,11 +324,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
         "table1": json_cells,
         "scaling": scaling.map(|s| s.1),
     });
-    write(&result_path(out, "table1", "md"), &md)?;
-    write(
-        &result_path(out, "table1", "json"),
-        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
+    write_results(out, "table1", &md, &json)
 }
 
 #[cfg(test)]

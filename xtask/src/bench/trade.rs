@@ -37,7 +37,9 @@ use luxbake_backends::{AnyBackend, BackendKind};
 use plotters::prelude::*;
 
 use super::refcheck::{self, Comparison};
-use super::{Summary, load_average, machine, open, result_path, timed_bake, utc_now, write};
+use super::{
+    Summary, load_average, machine, open, result_path, timed_bake, utc_now, write_results,
+};
 
 /// The chosen configuration is the cheapest Pareto point whose mean |relative error| against
 /// the Radiance reference is at most `KNEE` times the lowest of the grid.
@@ -587,11 +589,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     });
     let by_knob: BTreeMap<&str, usize> = curves.iter().map(|(n, i)| (*n, i.len())).collect();
     eprintln!("trade: {} bakes over {:?}", measured.len(), by_knob);
-    write(&result_path(out, "trade", "md"), &md)?;
-    write(
-        &result_path(out, "trade", "json"),
-        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
-    )
+    write_results(out, "trade", &md, &json)
 }
 
 /// Log-log plot of the mean |relative error| against Radiance vs pass time, one curve per knob,

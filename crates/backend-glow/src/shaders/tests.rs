@@ -196,47 +196,86 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
     ray_tex.delete(gl);
 }
 
+/// `u_what` 0: the hash's bits (16 per channel) and the hash sampler's uniforms; 1: the Sobol
+/// sampler's bits; 2: both samplers' uniforms through `luxSample2` with their generated ids.
 const RNG_FS: &str = "uniform uint u_sample;\n\
     uniform uint u_pass;\n\
     uniform uint u_seed;\n\
     uniform int u_layer;\n\
+    uniform int u_what;\n\
     out vec4 o;\n\
+    vec2 halves(uint h) { return vec2(float(h & 0xffffu), float(h >> 16u)); }\n\
     void main() {\n\
         uvec2 p = uvec2(gl_FragCoord.xy);\n\
         uint t = luxTexelIndex(uvec2(97u, 61u), uint(u_layer), p.x, p.y);\n\
-        uint h = luxHash(t, u_sample, u_pass, u_seed);\n\
-        o = vec4(float(h & 0xffffu), float(h >> 16u), luxUniform2(t, u_sample, u_pass, u_seed));\n\
+        if (u_what == 0) {\n\
+            uint h = luxHash(t, u_sample, u_pass, u_seed);\n\
+            o = vec4(halves(h), luxUniform2(t, u_sample, u_pass, u_seed));\n\
+        } else if (u_what == 1) {\n\
+            uvec2 b = luxSobol2Bits(t, u_sample, u_pass, u_seed);\n\
+            o = vec4(halves(b.x), halves(b.y));\n\
+        } else {\n\
+            o = vec4(luxSample2(LUX_SAMPLER_HASH, t, u_sample, u_pass, u_seed),\n\
+                     luxSample2(LUX_SAMPLER_SOBOL, t, u_sample, u_pass, u_seed));\n\
+        }\n\
     }\n";
 
 #[test]
 fn rng_is_bit_exact() {
+    use luxbake::rng::{Sampler, hash, sobol2_bits, texel_index, uniform2};
     let Some(ctx) = context_or_skip("rng_is_bit_exact") else {
         return;
     };
     let size = [97u32, 61];
-    for (sample, pass, seed, layer) in [(0u32, 1u32, 0u32, 0i32), (255, 3, 0xDEAD_BEEF, 5)] {
-        let out = render(
-            &ctx,
-            "debug_rng",
-            BvhMode::None,
-            &[glsl_library(Library::Rng), RNG_FS],
-            &[],
-            |gl, p| {
-                p.set_u32(gl, "u_sample", sample);
-                p.set_u32(gl, "u_pass", pass);
-                p.set_u32(gl, "u_seed", seed);
-                p.set_i32(gl, "u_layer", layer);
-            },
-            size,
-        );
-        for y in 0..size[1] {
-            for x in 0..size[0] {
-                let t = luxbake::rng::texel_index(size, layer as u32, x, y);
-                let h = luxbake::rng::hash(t, sample, pass, seed);
-                let [u0, u1] = luxbake::rng::uniform2(t, sample, pass, seed);
-                let i = ((y * size[0] + x) * 4) as usize;
-                let expected = [(h & 0xffff) as f32, (h >> 16) as f32, u0, u1];
-                assert_eq!(out[i..i + 4], expected, "texel ({x}, {y}) layer {layer}");
+    let halves = |h: u32| [(h & 0xffff) as f32, (h >> 16) as f32];
+    for (sample, pass, seed, layer) in [
+        (0u32, 1u32, 0u32, 0i32),
+        (255, 3, 0xDEAD_BEEF, 5),
+        (u32::MAX - 2, 2, 7, 1),
+    ] {
+        for what in 0..3 {
+            let out = render(
+                &ctx,
+                "debug_rng",
+                BvhMode::None,
+                &[glsl_library(Library::Rng), RNG_FS],
+                &[],
+                |gl, p| {
+                    p.set_u32(gl, "u_sample", sample);
+                    p.set_u32(gl, "u_pass", pass);
+                    p.set_u32(gl, "u_seed", seed);
+                    p.set_i32(gl, "u_layer", layer);
+                    p.set_i32(gl, "u_what", what);
+                },
+                size,
+            );
+            for y in 0..size[1] {
+                for x in 0..size[0] {
+                    let t = texel_index(size, layer as u32, x, y);
+                    let expected: [f32; 4] = match what {
+                        0 => {
+                            let [a, b] = halves(hash(t, sample, pass, seed));
+                            let [u0, u1] = uniform2(t, sample, pass, seed);
+                            [a, b, u0, u1]
+                        }
+                        1 => {
+                            let [bx, by] = sobol2_bits(t, sample, pass, seed);
+                            let ([a, b], [c, d]) = (halves(bx), halves(by));
+                            [a, b, c, d]
+                        }
+                        _ => {
+                            let [h0, h1] = Sampler::Hash.uniform2(t, sample, pass, seed);
+                            let [s0, s1] = Sampler::Sobol.uniform2(t, sample, pass, seed);
+                            [h0, h1, s0, s1]
+                        }
+                    };
+                    let i = ((y * size[0] + x) * 4) as usize;
+                    assert_eq!(
+                        out[i..i + 4],
+                        expected,
+                        "texel ({x}, {y}) layer {layer}, sample {sample}, output {what}"
+                    );
+                }
             }
         }
     }

@@ -79,7 +79,7 @@ void main() {
     int objects = textureSize(u_regions, 0).x;
     vec3 sum = vec3(0.0);
     for (uint s = 0u; s < u_rays; ++s) {
-        vec3 dir = luxCosineDirection(n, luxUniform2(texel, s, u_bounce, u_seed));
+        vec3 dir = luxCosineDirection(n, luxSample2(u_sampler, texel, s, u_bounce, u_seed));
         vec3 hit;
         int tri = luxTrace(origin, dir, 0.0, infinity, false, hit);
         if (tri < 0) {

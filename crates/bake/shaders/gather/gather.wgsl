@@ -84,8 +84,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < rays; s++) {
-        let dir = lux_cosine_direction(n, lux_uniform2(texel, s, lux_pass.bounce,
-                                                         lux_pass.seed));
+        let dir = lux_cosine_direction(n, lux_sample2(lux_pass.sampler, texel, s,
+                                                        lux_pass.bounce, lux_pass.seed));
         var hit: vec3<f32>;
         let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
         if (tri < 0) {

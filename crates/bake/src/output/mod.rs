@@ -18,7 +18,7 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
-//! seed), `layout` (`layer_size`,
+//! seed, sampler), `layout` (`layer_size`,
 //! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela
 //! (file), lumens (integrated × multiplier), used), `objects` (name, index, receiver, and for
 //! receivers `files`, `layer`, `offset`, `size`, `resolution`, plus `transform` {`linear`
@@ -274,6 +274,7 @@ pub fn write_bake(
             "texels_per_metre": s.texels_per_metre,
             "bvh": s.bvh.name(),
             "seed": s.seed,
+            "sampler": s.sampler.name(),
         },
         "layout": {"layer_size": output.layout.layer_size, "layers": output.layout.layers},
         "lamps": lamps,

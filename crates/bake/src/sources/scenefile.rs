@@ -113,6 +113,7 @@ struct RawSettings {
     method: Option<String>,
     quality: Option<String>,
     tail_tolerance: Option<f64>,
+    sampler: Option<String>,
     rays: Option<u32>,
     bounces: Option<u32>,
     blur: Option<Value>,
@@ -449,6 +450,11 @@ impl Cx<'_> {
         };
         if let Some(t) = raw.tail_tolerance {
             s.tail_tolerance = t as f32;
+        }
+        if let Some(sampler) = raw.sampler {
+            s.sampler = sampler
+                .parse()
+                .map_err(|e: String| self.invalid("settings.sampler", e))?;
         }
         if let Some(rays) = raw.rays {
             s.rays = rays;
