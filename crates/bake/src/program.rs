@@ -23,9 +23,10 @@
 //!
 //! # Adding a pass
 //! A new pass with parameters touches: its [`Program`] variant and [`Signature`] (and its
-//! parameter struct) here, its CPU function in [`crate::cpu`], and one shader file per
-//! language under `shaders/<pass>/` (one `include_str!` line each in [`crate::shader`]'s pass
-//! tables). Shader code that several passes share is a [`Library`] (`shaders/lib/`).
+//! parameter struct) here — the signature names its shader files, `pass_files!("<label>")` —,
+//! its CPU function in [`crate::cpu`], and one shader file per language under
+//! `shaders/<label>/`. Backends and [`crate::shader`] need no change. Shader code that several
+//! passes share is a [`Library`] (`shaders/lib/`).
 
 use std::fmt;
 
@@ -601,6 +602,20 @@ pub struct Signature {
     pub params_wgsl: &'static str,
     /// Library files included before the pass file, in order.
     pub libraries: &'static [Library],
+    /// The pass file in GLSL ES 3.00: `shaders/<label>/<label>.glsl`.
+    pub glsl: &'static str,
+    /// The pass file in WGSL: `shaders/<label>/<label>.wgsl`.
+    pub wgsl: &'static str,
+}
+
+/// The GLSL and WGSL pass files of the program labelled `$label`.
+macro_rules! pass_files {
+    ($label:literal) => {
+        (
+            include_str!(concat!("../shaders/", $label, "/", $label, ".glsl")),
+            include_str!(concat!("../shaders/", $label, "/", $label, ".wgsl")),
+        )
+    };
 }
 
 /// One shader program per computed pass kind: what a backend compiles, names in errors and
@@ -643,6 +658,8 @@ const SIGNATURES: [Signature; 8] = [
         params: DirectParams::FIELDS,
         params_wgsl: DirectParams::WGSL_NAME,
         libraries: &[Library::Common, Library::Scene, Library::Bvh, Library::Ies],
+        glsl: pass_files!("direct").0,
+        wgsl: pass_files!("direct").1,
     },
     Signature {
         program: Program::Copy,
@@ -651,6 +668,8 @@ const SIGNATURES: [Signature; 8] = [
         params: &[],
         params_wgsl: "",
         libraries: &[Library::Common],
+        glsl: pass_files!("copy").0,
+        wgsl: pass_files!("copy").1,
     },
     Signature {
         program: Program::Blur,
@@ -659,6 +678,8 @@ const SIGNATURES: [Signature; 8] = [
         params: BlurParams::FIELDS,
         params_wgsl: BlurParams::WGSL_NAME,
         libraries: &[Library::Common],
+        glsl: pass_files!("blur").0,
+        wgsl: pass_files!("blur").1,
     },
     Signature {
         program: Program::AlbedoMul,
@@ -667,6 +688,8 @@ const SIGNATURES: [Signature; 8] = [
         params: &[],
         params_wgsl: "",
         libraries: &[Library::Common],
+        glsl: pass_files!("albedo_mul").0,
+        wgsl: pass_files!("albedo_mul").1,
     },
     Signature {
         program: Program::Gather,
@@ -679,6 +702,8 @@ const SIGNATURES: [Signature; 8] = [
         params: GatherParams::FIELDS,
         params_wgsl: GatherParams::WGSL_NAME,
         libraries: &[Library::Common, Library::Rng, Library::Scene, Library::Bvh],
+        glsl: pass_files!("gather").0,
+        wgsl: pass_files!("gather").1,
     },
     Signature {
         program: Program::Combine,
@@ -687,6 +712,8 @@ const SIGNATURES: [Signature; 8] = [
         params: CombineParams::FIELDS,
         params_wgsl: CombineParams::WGSL_NAME,
         libraries: &[Library::Common],
+        glsl: pass_files!("combine").0,
+        wgsl: pass_files!("combine").1,
     },
     Signature {
         program: Program::Variance,
@@ -695,6 +722,8 @@ const SIGNATURES: [Signature; 8] = [
         params: VarianceParams::FIELDS,
         params_wgsl: VarianceParams::WGSL_NAME,
         libraries: &[Library::Common, Library::Guide],
+        glsl: pass_files!("variance").0,
+        wgsl: pass_files!("variance").1,
     },
     Signature {
         program: Program::Atrous,
@@ -703,6 +732,8 @@ const SIGNATURES: [Signature; 8] = [
         params: AtrousParams::FIELDS,
         params_wgsl: AtrousParams::WGSL_NAME,
         libraries: &[Library::Common, Library::Guide],
+        glsl: pass_files!("atrous").0,
+        wgsl: pass_files!("atrous").1,
     },
 ];
 

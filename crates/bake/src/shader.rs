@@ -81,28 +81,6 @@ pub fn program_traversal(program: Program, bvh: BvhMode) -> BvhMode {
     }
 }
 
-const GLSL_PASSES: [&str; 8] = [
-    include_str!("../shaders/direct/direct.glsl"),
-    include_str!("../shaders/copy/copy.glsl"),
-    include_str!("../shaders/blur/blur.glsl"),
-    include_str!("../shaders/albedo_mul/albedo_mul.glsl"),
-    include_str!("../shaders/gather/gather.glsl"),
-    include_str!("../shaders/combine/combine.glsl"),
-    include_str!("../shaders/variance/variance.glsl"),
-    include_str!("../shaders/atrous/atrous.glsl"),
-];
-
-const WGSL_PASSES: [&str; 8] = [
-    include_str!("../shaders/direct/direct.wgsl"),
-    include_str!("../shaders/copy/copy.wgsl"),
-    include_str!("../shaders/blur/blur.wgsl"),
-    include_str!("../shaders/albedo_mul/albedo_mul.wgsl"),
-    include_str!("../shaders/gather/gather.wgsl"),
-    include_str!("../shaders/combine/combine.wgsl"),
-    include_str!("../shaders/variance/variance.wgsl"),
-    include_str!("../shaders/atrous/atrous.wgsl"),
-];
-
 /// The GLSL text of a library file.
 pub fn glsl_library(lib: Library) -> &'static str {
     match lib {
@@ -208,7 +186,7 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
 pub fn glsl_sources(program: Program) -> Vec<&'static str> {
     let sig = program.signature();
     let mut v: Vec<&'static str> = sig.libraries.iter().map(|&l| glsl_library(l)).collect();
-    v.push(GLSL_PASSES[program as usize]);
+    v.push(program.signature().glsl);
     v
 }
 
@@ -261,7 +239,7 @@ pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> Strin
             s.push('\n');
         }
     }
-    s.push_str(WGSL_PASSES[program as usize]);
+    s.push_str(program.signature().wgsl);
     s.push('\n');
     s
 }
@@ -320,8 +298,8 @@ mod tests {
     #[test]
     fn pass_files_declare_none_of_the_generated_names() {
         for p in Program::ALL {
-            let pass_glsl = GLSL_PASSES[p as usize];
-            let pass_wgsl = WGSL_PASSES[p as usize];
+            let pass_glsl = p.signature().glsl;
+            let pass_wgsl = p.signature().wgsl;
             assert!(pass_glsl.starts_with("// Pass \""), "{}", p.label());
             assert!(pass_wgsl.starts_with("// Pass \""), "{}", p.label());
             for slot in p.signature().reads {
