@@ -669,12 +669,12 @@ impl Settings {
     /// | preset | rays (later bounces) | most bounces | tail tolerance | σ (iterations) |
     /// |---|--:|--:|--:|--:|
     /// | draft | 2 (1) | 2 | 5 % | 1 (3) |
-    /// | default | 8 (1) | 32 | 1 % | 1 (3) |
+    /// | default | 6 (1) | 32 | 1 % | 1 (3) |
     /// | final | 128 (16) | 32 | 0.2 % | 2 (4) |
     pub fn preset(quality: Quality) -> Settings {
         let (rays, bounces, tail_tolerance, sigma) = match quality {
             Quality::Draft => (2, 2, 0.05, 1.0),
-            Quality::Default => (8, Settings::CONVERGED_MAX_BOUNCES, 0.01, 1.0),
+            Quality::Default => (6, Settings::CONVERGED_MAX_BOUNCES, 0.01, 1.0),
             Quality::Final => (128, Settings::CONVERGED_MAX_BOUNCES, 0.002, 2.0),
         };
         Settings {
