@@ -14,13 +14,20 @@
 //! and the same acos/atan2 polynomials as the glow backend (the driver's are far from libm).
 //! Units are those of the core: lux before albedo, lm/m² after.
 //!
-//! ## Shaders
-//! One WGSL file per pass in `shaders/`, side by side, plus library files (`common`, `rng`,
-//! `scene`, `bvh`, `ies`); every module is prefixed with constants generated from
-//! `luxbake_bvh::layout::wgsl_constants()` and `luxbake::cpu`'s blur constants, so they cannot
-//! drift, and every module is validated with naga (the validator wgpu runs) in a unit test.
-//! Passes are compute shaders (8 × 8 workgroups) that read inputs with `textureLoad` and write
-//! one layer of a write-only `rgba32float` storage texture.
+//! ## Programs and shaders
+//! The backend knows no pass kinds: it runs one `luxbake::program::Program` per
+//! [`Dispatch`](luxbake::backend::Dispatch) and binds what the program's signature lists — its
+//! read slots at group 0 bindings 0.., the output, the tile block and the program's parameter
+//! block (bytes of its `#[repr(C)]` struct), and the scene (group 1) when the program needs it
+//! — at the bindings of `luxbake::shader::wgsl`. The WGSL is the core's
+//! (`crates/bake/shaders/<pass>/<pass>.wgsl` beside the GLSL twin, libraries in
+//! `crates/bake/shaders/lib/`), assembled by `luxbake::shader::wgsl_source` after a prefix
+//! generated from the signature (slot bindings, parameter structs, BVH layout constants,
+//! traversal and blur constants), so shader and Rust cannot drift; every module is validated with
+//! naga in a unit test, and the parameter structs are checked field by field, offsets included,
+//! against the Rust blocks. Lamps, regions and intensity tables are packed by `luxbake::pack`,
+//! as for the glow backend. Programs are compute shaders (8 × 8 workgroups) that read inputs
+//! with `textureLoad` and write one layer of a write-only `rgba32float` storage texture.
 //!
 //! ## BVH in storage buffers (measured choice)
 //! The encoded BVH ([`luxbake_bvh::EncodedScene`]) is uploaded unchanged either as storage
@@ -34,8 +41,10 @@
 //! default.
 //!
 //! ## Long passes, progress, errors
-//! A pass is split into row tiles of about [`DEFAULT_TILE_WORK`](luxbake::backend::DEFAULT_TILE_WORK) texel × ray evaluations, one
-//! queue submission each, waited for before the next: no dispatch runs long enough for a GPU
+//! The driver (`luxbake::bake`) splits a pass into row tiles of about
+//! [`DEFAULT_TILE_WORK`](luxbake::backend::DEFAULT_TILE_WORK) texel × ray evaluations
+//! ([`WgpuOptions::tile_work`]); each is one dispatch: one queue submission, waited for before
+//! the next: no dispatch runs long enough for a GPU
 //! watchdog, and `progress` is called after every tile. A missing adapter, a refused device,
 //! a lost device, out-of-memory and validation failures are [`WgpuError`] values with a clear
 //! message (error scopes around every call, a device-lost callback and an uncaptured-error

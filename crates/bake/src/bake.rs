@@ -211,11 +211,11 @@ pub struct BakeReport {
     pub bvh: BvhMode,
     /// Explicit bounces run.
     pub bounces_run: u32,
-    /// [`Method::Converged`](crate::scene::Method::Converged): the estimated tail of the
+    /// [`Method::Converged`]: the estimated tail of the
     /// inter-reflection series that the explicit bounces left out and the bake added, as a
     /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method.
     pub tail_fraction: f64,
-    /// [`Method::Converged`](crate::scene::Method::Converged): the bounce ratio λ the tail
+    /// [`Method::Converged`]: the bounce ratio λ the tail
     /// was extrapolated with (`None` before a second bounce or for the paper's method).
     pub bounce_ratio: Option<f64>,
     /// Set-up steps and their wall time, seconds.

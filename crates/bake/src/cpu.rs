@@ -5,7 +5,7 @@
 //!
 //! # Pass semantics (what every backend must compute)
 //! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
-//! object index) and the pass's inputs `a`, `b` (in [`PassDesc::reads`] order):
+//! object index) and the pass's inputs `a`, `b` (in [`PassDesc::reads`](crate::graph::PassDesc::reads) order):
 //!
 //! - **Direct**: for each listed lamp with position `L`, `to = L − p`, `d² = |to|²`,
 //!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.

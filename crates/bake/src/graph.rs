@@ -31,7 +31,7 @@
 //! # Reads, writes and parameters
 //! Each computed pass runs one [`Program`]; its reads follow the program's
 //! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
-//! the program's parameter block ([`Params`](crate::program::Params)); the G-buffer upload reads
+//! the program's parameter block ([`Params`]); the G-buffer upload reads
 //! nothing and writes position, normal and albedo. [`BakeGraph::validate`] checks every pass
 //! against its signature (the driver runs it before executing a graph).
 
