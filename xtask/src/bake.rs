@@ -83,10 +83,7 @@ impl Args {
                 (None, Some(_)) => Method::Converged,
                 (None, None) => s.method,
             };
-            let preset = match method {
-                Method::Paper => Settings::paper(),
-                Method::Converged => Settings::preset(quality),
-            };
+            let preset = Settings::of(method, quality);
             *s = Settings {
                 texels_per_metre: s.texels_per_metre,
                 bvh: s.bvh,

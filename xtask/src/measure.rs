@@ -71,10 +71,7 @@ fn settings_from(manifest: &Value) -> Result<Settings, String> {
     // Manifests before the converged method have no `method`: they were the paper's.
     let method: Method = s["method"].as_str().unwrap_or("paper").parse()?;
     let quality: Quality = s["quality"].as_str().unwrap_or("default").parse()?;
-    let mut out = match method {
-        Method::Paper => Settings::paper(),
-        Method::Converged => Settings::preset(quality),
-    };
+    let mut out = Settings::of(method, quality);
     if let Some(t) = s["tail_tolerance"].as_f64() {
         out.tail_tolerance = t as f32;
     }

@@ -81,8 +81,8 @@ use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::map::sample_masked;
 use crate::program::{
-    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams,
-    ParamBlock, Program, VarianceParams,
+    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, Params, Program,
+    VarianceParams,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -818,6 +818,7 @@ fn run_tile(
         return;
     }
     let trav = traversal(call.bvh);
+    let params = Params::decode(call.program, call.params);
     let start = (t.layer as usize * desc.size[1] as usize + t.y0 as usize) * row_floats;
     let end = start + t.height as usize * row_floats;
     out[start..end]
@@ -826,16 +827,17 @@ fn run_tile(
         .for_each(|(r, row)| {
             let y = t.y0 + r as u32;
             for x in t.x0..t.x0 + t.width {
-                let v = texel(call, views, trav, t.layer, x, y);
+                let v = texel(call, params, views, trav, t.layer, x, y);
                 row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
             }
         });
 }
 
-/// One texel of one program.
+/// One texel of one program; `params` is the program's block, decoded once per dispatch.
 #[inline]
 fn texel(
     call: &Dispatch<'_, CpuTexture, CpuScene>,
+    params: Params,
     v: &[View<'_>],
     trav: Traversal,
     layer: u32,
@@ -843,17 +845,15 @@ fn texel(
     y: u32,
 ) -> [f32; 4] {
     let scene = call.scene;
-    match call.program {
-        Program::Direct => direct_texel(
+    match params {
+        Params::Direct(p) => direct_texel(
             scene,
-            DirectParams::from_words(call.params),
+            p,
             trav,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
-        Program::Copy => v[0].fetch(layer, x, y),
-        Program::Blur => blur_texel(v[0], v[1], BlurParams::from_words(call.params), layer, x, y),
-        Program::AlbedoMul => {
+        Params::None if call.program == Program::AlbedoMul => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -863,8 +863,10 @@ fn texel(
                 a[3],
             ]
         }
-        Program::Combine => {
-            let w = CombineParams::from_words(call.params);
+        // Copy, the one other program without parameters.
+        Params::None => v[0].fetch(layer, x, y),
+        Params::Blur(p) => blur_texel(v[0], v[1], p, layer, x, y),
+        Params::Combine(w) => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -874,34 +876,17 @@ fn texel(
                 a[3],
             ]
         }
-        Program::Gather => gather_texel(
+        Params::Gather(p) => gather_texel(
             scene,
             v[2],
             trav,
-            GatherParams::from_words(call.params),
+            p,
             rng::texel_index(scene.layer_size, layer, x, y),
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
-        Program::Variance => variance_texel(
-            v[0],
-            v[1],
-            v[2],
-            VarianceParams::from_words(call.params),
-            layer,
-            x,
-            y,
-        ),
-        Program::Atrous => atrous_texel(
-            v[0],
-            v[1],
-            v[2],
-            v[3],
-            AtrousParams::from_words(call.params),
-            layer,
-            x,
-            y,
-        ),
+        Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
+        Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
     }
 }
 

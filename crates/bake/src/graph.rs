@@ -266,6 +266,17 @@ struct Builder {
 }
 
 impl Builder {
+    /// An empty graph of `config`'s texture size and traversal.
+    fn new(config: &GraphConfig) -> Builder {
+        Builder {
+            layer_size: config.layer_size,
+            layers: config.layers,
+            textures: Vec::new(),
+            passes: Vec::new(),
+            bvh: config.bvh,
+        }
+    }
+
     fn texture(&mut self, label: &'static str) -> TexId {
         let id = TexId(self.textures.len() as u32);
         self.textures.push(TexDesc {
@@ -493,13 +504,7 @@ fn denoise_stage(
 
 /// The converged pipeline ([`Method::Converged`], see the module docs).
 fn build_converged(config: &GraphConfig) -> BakeGraph {
-    let mut b = Builder {
-        layer_size: config.layer_size,
-        layers: config.layers,
-        textures: Vec::new(),
-        passes: Vec::new(),
-        bvh: config.bvh,
-    };
+    let mut b = Builder::new(config);
     let g = gbuffer_stage(&mut b);
     let direct = direct_stage(&mut b, g, config.lamp_count);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
@@ -646,13 +651,7 @@ impl BakeGraph {
         if config.method == Method::Converged {
             return build_converged(config);
         }
-        let mut b = Builder {
-            layer_size: config.layer_size,
-            layers: config.layers,
-            textures: Vec::new(),
-            passes: Vec::new(),
-            bvh: config.bvh,
-        };
+        let mut b = Builder::new(config);
         let g = gbuffer_stage(&mut b);
         let direct = direct_stage(&mut b, g, config.lamp_count);
         let direct_blurred = b.texture("direct_blurred");

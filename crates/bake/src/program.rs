@@ -516,6 +516,20 @@ pub enum Params {
 }
 
 impl Params {
+    /// `program`'s block from its words (the inverse of [`words`](Self::words); missing words
+    /// read as 0).
+    pub fn decode(program: Program, words: &[u32]) -> Params {
+        match program {
+            Program::Direct => Params::Direct(DirectParams::from_words(words)),
+            Program::Copy | Program::AlbedoMul => Params::None,
+            Program::Blur => Params::Blur(BlurParams::from_words(words)),
+            Program::Gather => Params::Gather(GatherParams::from_words(words)),
+            Program::Combine => Params::Combine(CombineParams::from_words(words)),
+            Program::Variance => Params::Variance(VarianceParams::from_words(words)),
+            Program::Atrous => Params::Atrous(AtrousParams::from_words(words)),
+        }
+    }
+
     /// The block's words (empty for [`Params::None`]).
     pub fn words(&self) -> Vec<u32> {
         match self {

@@ -689,6 +689,15 @@ impl Settings {
         }
     }
 
+    /// The starting settings of `method`: [`Settings::paper`], or the converged method's
+    /// [`Settings::preset`] at `quality` (which the paper's method ignores).
+    pub fn of(method: Method, quality: Quality) -> Settings {
+        match method {
+            Method::Paper => Settings::paper(),
+            Method::Converged => Settings::preset(quality),
+        }
+    }
+
     /// Rays of the converged method's bounces after the first: an eighth of `rays`, and at
     /// least one. Higher bounces are smooth (the sum of many paths) and their noise is averaged
     /// by the next gather and the final denoiser, so few rays keep their error under the first

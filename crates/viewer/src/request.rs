@@ -117,10 +117,7 @@ impl BakeRequest {
     /// The default request with the rays, bounces and blur of `method`'s preset at `quality`
     /// ([`Settings::paper`], [`Settings::preset`]).
     pub fn with_preset(method: Method, quality: Quality) -> BakeRequest {
-        let s = match method {
-            Method::Paper => Settings::paper(),
-            Method::Converged => Settings::preset(quality),
-        };
+        let s = Settings::of(method, quality);
         BakeRequest {
             scene: "chairs_05".into(),
             method: method.name().into(),
@@ -155,10 +152,7 @@ impl BakeRequest {
             |name: &'static str| move |reason: String| ViewerError::Setting { name, reason };
         let method: Method = self.method.parse().map_err(setting("method"))?;
         let quality: Quality = self.quality.parse().map_err(setting("quality"))?;
-        let base = match method {
-            Method::Paper => Settings::paper(),
-            Method::Converged => Settings::preset(quality),
-        };
+        let base = Settings::of(method, quality);
         let settings = Settings {
             rays: self.rays,
             bounces: self.bounces,

@@ -444,10 +444,7 @@ impl Cx<'_> {
                 .map_err(|e: String| self.invalid("settings.method", e))?,
             None => Method::Converged,
         };
-        let mut s = match method {
-            Method::Paper => Settings::paper(),
-            Method::Converged => Settings::preset(quality),
-        };
+        let mut s = Settings::of(method, quality);
         if let Some(t) = raw.tail_tolerance {
             s.tail_tolerance = t as f32;
         }
