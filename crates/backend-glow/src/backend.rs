@@ -176,13 +176,6 @@ impl GpuBackend for GlowBackend {
 
     fn dispatch(&mut self, call: &Dispatch<'_, GlowTexture, GlowScene>) -> Result<()> {
         let (label, sig) = (call.label, call.program.signature());
-        if call.reads.len() != sig.reads.len() || call.reads.contains(&call.write) {
-            return Err(GlowError::InvalidInput(format!(
-                "pass `{label}`: {} reads for the slots {:?}, or one is the target",
-                call.reads.len(),
-                sig.reads
-            )));
-        }
         let trav = program_traversal(call.program, call.bvh);
         self.program(call.program, trav)?;
         let gpu_scene = self
@@ -190,20 +183,23 @@ impl GpuBackend for GlowBackend {
             .get(call.scene.0)
             .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
         let out = &self.texture(call.write)?.1;
+        let size = |t: &TextureArray| ([t.width, t.height], t.layers);
+        let reads = call
+            .reads
+            .iter()
+            .map(|r| Ok(&self.texture(r)?.1))
+            .collect::<Result<Vec<_>>>()?;
+        let sizes: Vec<_> = reads.iter().map(|t| size(t)).collect();
+        call.check(size(out), &sizes, gpu_scene.layer_size)
+            .map_err(|reason| GlowError::InvalidInput(format!("pass `{label}`: {reason}")))?;
         let t = call.tile;
-        if [out.width, out.height] != gpu_scene.layer_size
-            || [t.layer_w, t.layer_h] != [out.width, out.height]
-            || t.layer >= out.layers
-        {
-            return Err(GlowError::InvalidInput(format!(
-                "pass `{label}`: tile {t:?} does not fit the target or the scene's layer size"
-            )));
-        }
         let gl = self.ctx.gl()?;
-        let mut samplers: Vec<(String, &TextureArray)> = Vec::with_capacity(8);
-        for (slot, r) in sig.reads.iter().zip(call.reads) {
-            samplers.push((glsl_slot(slot), &self.texture(r)?.1));
-        }
+        let mut samplers: Vec<(String, &TextureArray)> = sig
+            .reads
+            .iter()
+            .zip(reads)
+            .map(|(slot, t)| (glsl_slot(slot), t))
+            .collect();
         if sig.scene.bvh {
             samplers.extend(
                 gpu_scene

@@ -442,14 +442,7 @@ impl GpuBackend for WgpuBackend {
     }
 
     fn dispatch(&mut self, call: &Dispatch<'_, WgpuTexture, WgpuScene>) -> Result<()> {
-        let (label, sig) = (call.label, call.program.signature());
-        if call.reads.len() != sig.reads.len() || call.reads.contains(&call.write) {
-            return Err(WgpuError::InvalidInput(format!(
-                "pass `{label}`: {} reads for the slots {:?}, or one is the target",
-                call.reads.len(),
-                sig.reads
-            )));
-        }
+        let label = call.label;
         let traversal = program_traversal(call.program, call.bvh);
         self.pipeline(call.program, traversal)?;
         let gpu_scene = self
@@ -457,20 +450,15 @@ impl GpuBackend for WgpuBackend {
             .get(call.scene.0)
             .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
         let out = self.texture(call.write)?;
-        let t = call.tile;
-        if out.size != gpu_scene.layer_size
-            || [t.layer_w, t.layer_h] != out.size
-            || t.layer >= out.layers
-        {
-            return Err(WgpuError::InvalidInput(format!(
-                "pass `{label}`: tile {t:?} does not fit the target or the scene's layer size"
-            )));
-        }
         let inputs = call
             .reads
             .iter()
             .map(|r| self.texture(r))
             .collect::<Result<Vec<_>>>()?;
+        let sizes: Vec<_> = inputs.iter().map(|t| (t.size, t.layers)).collect();
+        call.check((out.size, out.layers), &sizes, gpu_scene.layer_size)
+            .map_err(|reason| WgpuError::InvalidInput(format!("pass `{label}`: {reason}")))?;
+        let t = call.tile;
         let pipeline = self
             .pipelines
             .get(&(call.program, traversal))

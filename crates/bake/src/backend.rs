@@ -116,6 +116,51 @@ pub struct Dispatch<'a, T, S> {
     pub tile: TileParams,
 }
 
+impl<T: PartialEq, S> Dispatch<'_, T, S> {
+    /// The one binding check every backend runs before a dispatch: as many reads as the
+    /// program has slots, none of them the target, every read of the target's size
+    /// (`reads` and `target` are `(layer size, layers)`), the target of the scene's layer size,
+    /// and the tile inside one layer of the target. The error says what is wrong.
+    pub fn check(
+        &self,
+        target: ([u32; 2], u32),
+        reads: &[([u32; 2], u32)],
+        scene_layer_size: [u32; 2],
+    ) -> Result<(), String> {
+        let slots = self.program.signature().reads;
+        if self.reads.len() != slots.len() || reads.len() != slots.len() {
+            return Err(format!(
+                "{} reads for the slots {slots:?}",
+                self.reads.len()
+            ));
+        }
+        if self.reads.contains(&self.write) {
+            return Err("reads the texture it writes".into());
+        }
+        if let Some((i, r)) = reads.iter().enumerate().find(|(_, r)| **r != target) {
+            return Err(format!(
+                "read `{}` is {:?} × {} layers, the target {:?} × {}",
+                slots[i], r.0, r.1, target.0, target.1
+            ));
+        }
+        let ([w, h], layers) = target;
+        let t = self.tile;
+        if [w, h] != scene_layer_size
+            || [t.layer_w, t.layer_h] != [w, h]
+            || t.layer >= layers
+            || t.x0.checked_add(t.width).is_none_or(|e| e > w)
+            || t.y0.checked_add(t.height).is_none_or(|e| e > h)
+        {
+            return Err(format!(
+                "tile {t:?} does not fit a target of {:?} × {layers} layers (scene layers {:?})",
+                [w, h],
+                scene_layer_size
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// An executor of the pass graph.
 ///
 /// Textures are created from [`TexDesc`]s, filled by [`upload`](Self::upload) (the G-buffer) or
@@ -173,6 +218,38 @@ pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_binding_check_names_what_is_wrong() {
+        use crate::program::{Program, TilePlan};
+        let tile = TilePlan::new([8, 4], 2, 1, 1 << 20)
+            .tiles()
+            .next()
+            .expect("tile");
+        let call = |reads: &'static [&'static u32], write: &'static u32| Dispatch {
+            label: "t",
+            program: Program::Combine,
+            bvh: BvhMode::None,
+            reads,
+            write,
+            scene: &(),
+            params: &[],
+            tile,
+        };
+        let target = ([8, 4], 2);
+        let ok = call(&[&1, &2], &3);
+        assert_eq!(ok.check(target, &[target; 2], [8, 4]), Ok(()));
+        let e = |c: &Dispatch<'_, u32, ()>, reads: &[([u32; 2], u32)], scene| {
+            c.check(target, reads, scene).expect_err("invalid")
+        };
+        assert!(e(&call(&[&1], &3), &[target], [8, 4]).contains("slots"));
+        assert!(e(&call(&[&1, &3], &3), &[target; 2], [8, 4]).contains("it writes"));
+        assert!(e(&ok, &[target, ([8, 4], 1)], [8, 4]).contains("`indirect`"));
+        assert!(e(&ok, &[target; 2], [8, 8]).contains("does not fit"));
+        let mut past = ok;
+        past.tile.layer = 2;
+        assert!(e(&past, &[target; 2], [8, 4]).contains("does not fit"));
+    }
 
     #[test]
     fn epsilon_scales_with_the_scene_and_stays_finite() {

@@ -735,17 +735,6 @@ impl GpuBackend for CpuBackend {
     }
 
     fn dispatch(&mut self, call: &Dispatch<'_, CpuTexture, CpuScene>) -> Result<(), CpuError> {
-        let bad = |reason: String| CpuError::BadBindings {
-            pass: call.label,
-            reason,
-        };
-        let slots = call.program.signature().reads.len();
-        if call.reads.len() != slots {
-            return Err(bad(format!(
-                "expected {slots} reads, got {}",
-                call.reads.len()
-            )));
-        }
         let out_index = call.write.0;
         let (desc, mut out) = {
             let (d, data) = self
@@ -757,31 +746,19 @@ impl GpuBackend for CpuBackend {
         let result = (|| {
             let mut views = Vec::with_capacity(call.reads.len());
             for r in call.reads {
-                if r.0 == out_index {
-                    return Err(bad("reads the texture it writes".into()));
-                }
                 let (d, data) = self.get(r)?;
-                if d.size != desc.size || d.layers != desc.layers {
-                    return Err(bad(format!("texture {} differs in size", d.label)));
-                }
                 views.push(View {
                     data,
                     size: d.size,
                     layers: d.layers,
                 });
             }
-            let t = call.tile;
-            if desc.size != call.scene.layer_size
-                || [t.layer_w, t.layer_h] != desc.size
-                || t.layer >= desc.layers
-                || t.x0.checked_add(t.width).is_none_or(|e| e > desc.size[0])
-                || t.y0.checked_add(t.height).is_none_or(|e| e > desc.size[1])
-            {
-                return Err(bad(format!(
-                    "tile {t:?} does not fit a texture of {:?} × {} layers (scene layers {:?})",
-                    desc.size, desc.layers, call.scene.layer_size
-                )));
-            }
+            let sizes: Vec<_> = views.iter().map(|v| (v.size, v.layers)).collect();
+            call.check((desc.size, desc.layers), &sizes, call.scene.layer_size)
+                .map_err(|reason| CpuError::BadBindings {
+                    pass: call.label,
+                    reason,
+                })?;
             run_tile(call, &views, &desc, &mut out);
             Ok(())
         })();
