@@ -11,7 +11,7 @@ use luxbake::shader::{program_traversal, wgsl, wgsl_source};
 
 use crate::device::Gpu;
 use crate::error::{Result, WgpuError};
-use crate::scene::{GpuScene, SCENE_UNIFORM_BYTES};
+use crate::scene::{GpuScene, SCENE_UNIFORM_BYTES, u32_bytes};
 use crate::shaders::BvhStorage;
 
 /// Compute workgroup edge (`@workgroup_size(8, 8, 1)` in every pass).
@@ -167,10 +167,6 @@ fn scene_layout_entries(storage: BvhStorage) -> Vec<wgpu::BindGroupLayoutEntry> 
 /// Whether `program` binds the scene (group 1).
 fn uses_scene(program: Program) -> bool {
     program.signature().scene != SceneNeeds::default()
-}
-
-fn words_bytes(words: &[u32]) -> Vec<u8> {
-    words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
 impl WgpuBackend {
@@ -509,10 +505,10 @@ impl GpuBackend for WgpuBackend {
         };
         gpu.scoped(&during, || {
             gpu.queue
-                .write_buffer(&self.tile, 0, &words_bytes(&t.words()));
+                .write_buffer(&self.tile, 0, &u32_bytes(&t.words()));
             if block > 0 {
                 gpu.queue
-                    .write_buffer(&self.params, 0, &words_bytes(call.params));
+                    .write_buffer(&self.params, 0, &u32_bytes(call.params));
             }
             let mut encoder = gpu
                 .device

@@ -33,7 +33,7 @@ pub(crate) fn bytes_of(words: &[f32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
-fn u32_bytes(words: &[u32]) -> Vec<u8> {
+pub(crate) fn u32_bytes(words: &[u32]) -> Vec<u8> {
     words.iter().flat_map(|w| w.to_le_bytes()).collect()
 }
 
