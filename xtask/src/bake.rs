@@ -70,6 +70,23 @@ pub struct Args {
     /// Sobol sequence; the converged presets' default).
     #[arg(long)]
     sampler: Option<Sampler>,
+    /// Converged: gather the first bounce on every n-th texel per axis and interpolate on each
+    /// surface (1 = every texel).
+    #[arg(long)]
+    stride: Option<u32>,
+    /// Converged: rays per gathered texel of the bounces after the first.
+    #[arg(long)]
+    higher_rays: Option<u32>,
+    /// Converged: --stride of the bounces after the first.
+    #[arg(long)]
+    higher_stride: Option<u32>,
+    /// Converged: more first-bounce rays for texels whose estimated relative standard error
+    /// exceeds --refine-error (0 = no refinement).
+    #[arg(long)]
+    refine_rays: Option<u32>,
+    /// Converged: the relative standard error per texel that refinement aims at.
+    #[arg(long)]
+    refine_error: Option<f32>,
 }
 
 impl Args {
@@ -96,6 +113,21 @@ impl Args {
         }
         if let Some(v) = self.rays {
             s.rays = v;
+        }
+        if let Some(v) = self.stride {
+            s.stride = v;
+        }
+        if let Some(v) = self.higher_rays {
+            s.higher_rays = v;
+        }
+        if let Some(v) = self.higher_stride {
+            s.higher_stride = v;
+        }
+        if let Some(v) = self.refine_rays {
+            s.refine_rays = v;
+        }
+        if let Some(v) = self.refine_error {
+            s.refine_error = v;
         }
         if let Some(v) = self.bounces {
             s.bounces = v;

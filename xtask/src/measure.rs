@@ -78,6 +78,22 @@ fn settings_from(manifest: &Value) -> Result<Settings, String> {
     if let Some(b) = s["sampler"].as_str() {
         out.sampler = b.parse::<Sampler>()?;
     }
+    // Manifests before reduced-resolution gathers and refinement lack these keys.
+    if let Some(v) = s["stride"].as_u64() {
+        out.stride = v as u32;
+    }
+    if let Some(v) = s["higher_rays"].as_u64() {
+        out.higher_rays = v as u32;
+    }
+    if let Some(v) = s["higher_stride"].as_u64() {
+        out.higher_stride = v as u32;
+    }
+    if let Some(v) = s["refine_rays"].as_u64() {
+        out.refine_rays = v as u32;
+    }
+    if let Some(v) = s["refine_error"].as_f64() {
+        out.refine_error = v as f32;
+    }
     let num = |key: &str| {
         s[key]
             .as_f64()

@@ -512,7 +512,10 @@ pub fn bake<B: GpuBackend>(
         sampler: settings.sampler,
         bvh: bvh_mode,
         method: settings.method,
-        higher_rays: settings.higher_rays(),
+        higher_rays: settings.higher_rays,
+        stride: settings.stride,
+        higher_stride: settings.higher_stride,
+        refine: Some((settings.refine_rays, settings.refine_error)),
         texel_size: receiver_texel_sizes(scene, settings.texels_per_metre),
     });
     graph.validate()?;
@@ -728,8 +731,12 @@ pub fn bake<B: GpuBackend>(
             * match (settings.method, bounces_run) {
                 (Method::Paper, k) => u64::from(settings.rays) * u64::from(k),
                 (Method::Converged, 0) => 0,
+                // Nominal: grid texels × rays (orphans and refinement rays not counted).
                 (Method::Converged, k) => {
-                    u64::from(settings.rays) + u64::from(settings.higher_rays()) * u64::from(k - 1)
+                    let per =
+                        |rays: u32, stride: u32| u64::from(rays) / u64::from(stride.max(1)).pow(2);
+                    per(settings.rays, settings.stride)
+                        + per(settings.higher_rays, settings.higher_stride) * u64::from(k - 1)
                 }
             },
         tail_fraction: if graph.delta.is_some() {

@@ -43,8 +43,11 @@
 //!   luminance `l = 0.2126 r + 0.7152 g + 0.0722 b` (left to right). For each direction
 //!   `d` in (1, 0), (0, 1), (1, 1), (1, −1) in that order, over the pairs `(o, o + d)` with
 //!   both ends in the window (rows, then columns of `o`): `v_d = Σ(l_{o+d} − l_o)² / (2n)`;
-//!   directions with `n < max(min_pairs, 1)` are skipped. Output `(v, v, v, 1)` with `v` the smallest
-//!   `v_d` (first wins ties), or 0 when no direction counts; invalid centres `(0, 0, 0, 0)`;
+//!   directions with `n < max(min_pairs, 1)` are skipped; `v` is the smallest `v_d` (first
+//!   wins ties), or 0 when no direction counts. Output `(v, m, v₀, 1)`: `v` of the window,
+//!   then, with the centre `o = 0` left out (so that they do not depend on the centre's own
+//!   noise; for refinement), the mean luminance `m` of the taps (0 without taps) and their
+//!   `v₀`; invalid centres `(0, 0, 0, 0)`;
 //!   a centre whose normal cannot be normalised `(0, 0, 0, 1)`.
 //! - **Atrous** (step `s`): `a` the map being filtered (value `c` at the centre), `b` the
 //!   variance map (its `r` is `σ²`), then position and normal. Taps at `s·(i, j)`,
@@ -82,7 +85,7 @@ use crate::layout::Region;
 use crate::map::sample_masked;
 use crate::program::{
     AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, Params, Program,
-    VarianceParams,
+    RefineParams, UpsampleParams, VarianceParams, coarse,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -324,36 +327,23 @@ fn direct_texel(
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
 }
 
-/// The gathered indirect illuminance at one texel (see the module docs).
+/// The sum of the reflected exitance seen along rays `first .. first + count` of a texel's
+/// sequence, cast from `o` around the unit normal `n` (see the module docs).
 #[allow(clippy::too_many_arguments)]
-fn gather_texel(
+fn gather_rays(
     scene: &CpuScene,
     reflected: View<'_>,
     trav: Traversal,
-    params: GatherParams,
+    sampler: rng::Sampler,
     texel: u32,
-    pos: [f32; 4],
-    nrm: [f32; 4],
-) -> [f32; 4] {
-    let GatherParams {
-        rays,
-        bounce,
-        seed,
-        sampler,
-    } = params;
-    let sampler = rng::Sampler::from_id(sampler);
-    if pos[3] <= 0.5 {
-        return [0.0; 4];
-    }
-    let Some(n) = normalize(xyz(nrm)) else {
-        return [0.0, 0.0, 0.0, 1.0];
-    };
-    if rays == 0 {
-        return [0.0, 0.0, 0.0, 1.0];
-    }
-    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    rays: std::ops::Range<u32>,
+    bounce: u32,
+    seed: u32,
+    o: [f32; 3],
+    n: [f32; 3],
+) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
-    for s in 0..rays {
+    for s in rays {
         let dir = cosine_direction(n, sampler.uniform2(texel, s, bounce, seed));
         let Some(hit) = scene
             .bvh
@@ -385,11 +375,192 @@ fn gather_texel(
             sum[c] += m[c];
         }
     }
+    sum
+}
+
+/// The gathered indirect illuminance at one texel (see the module docs); with
+/// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered
+/// ([`coarse_rays`]), the others written as 0 for [`upsample_texel`].
+#[allow(clippy::too_many_arguments)]
+fn gather_texel(
+    scene: &CpuScene,
+    [pos_map, nrm_map, reflected]: [View<'_>; 3],
+    trav: Traversal,
+    params: GatherParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let pos = pos_map.fetch(layer, x, y);
+    if pos[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
+        return [0.0, 0.0, 0.0, 1.0];
+    };
+    let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
+    if rays == 0 {
+        return [0.0, 0.0, 0.0, 1.0];
+    }
+    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    let sum = gather_rays(
+        scene,
+        reflected,
+        trav,
+        rng::Sampler::from_id(params.sampler),
+        rng::texel_index(scene.layer_size, layer, x, y),
+        0..rays,
+        params.bounce,
+        params.seed,
+        o,
+        n,
+    );
     let inv = 1.0 / rays as f32;
     [
         guard(sum[0] * inv),
         guard(sum[1] * inv),
         guard(sum[2] * inv),
+        1.0,
+    ]
+}
+
+/// The weights of texel `(x, y)`'s grid-cell corners that lie on its surface
+/// ([`program::coarse`]), 0 for the others, and their sum.
+fn coarse_weights(
+    pos: View<'_>,
+    nrm: View<'_>,
+    stride: u32,
+    reach: f32,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> ([([i64; 2], f32); 4], f32) {
+    let mut cell = coarse::cell(x, y, stride);
+    let nc = nrm.fetch(layer, x, y);
+    let p = xyz(pos.fetch(layer, x, y));
+    let Some(n) = normalize(xyz(nc)) else {
+        return (cell.map(|(c, _)| (c, 0.0)), 0.0);
+    };
+    let reach2 = reach * reach;
+    let mut total = 0.0f32;
+    for (corner, weight) in &mut cell {
+        let [tx, ty] = *corner;
+        let on_surface =
+            *weight > 0.0 && tx < i64::from(pos.size[0]) && ty < i64::from(pos.size[1]) && {
+                let (tx, ty) = (tx as u32, ty as u32);
+                let pt = pos.fetch(layer, tx, ty);
+                let nt = nrm.fetch(layer, tx, ty);
+                let d = sub(xyz(pt), p);
+                let (ox, oy) = (tx as i64 - i64::from(x), ty as i64 - i64::from(y));
+                pt[3] > 0.5
+                    && nt[3] == nc[3]
+                    && normalize(xyz(nt)).is_some_and(|n1| dot(n, n1) >= BLUR_NORMAL_COS)
+                    && dot(d, d) <= reach2 * (ox * ox + oy * oy) as f32
+            };
+        if on_surface {
+            total += *weight;
+        } else {
+            *weight = 0.0;
+        }
+    }
+    (cell, total)
+}
+
+/// The rays the gather casts at texel `(x, y)`: `rays` at every texel at stride 1 and at grid
+/// texels, `orphan_rays` at orphans, else 0 ([`program::coarse`]).
+fn coarse_rays(
+    pos: View<'_>,
+    nrm: View<'_>,
+    params: &GatherParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> u32 {
+    let stride = params.stride;
+    if stride <= 1 || (x.is_multiple_of(stride) && y.is_multiple_of(stride)) {
+        params.rays
+    } else if coarse_weights(pos, nrm, stride, params.reach, layer, x, y).1 > 0.0 {
+        0
+    } else {
+        params.orphan_rays
+    }
+}
+
+/// [`Program::Upsample`] at one texel.
+fn upsample_texel(
+    [src, pos, nrm]: [View<'_>; 3],
+    params: UpsampleParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    if pos.fetch(layer, x, y)[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let own = src.fetch(layer, x, y);
+    let (corners, total) = coarse_weights(pos, nrm, params.stride, params.reach, layer, x, y);
+    if total.is_nan() || total <= 0.0 {
+        return own;
+    }
+    let mut sum = [0.0f32; 3];
+    for ([tx, ty], w) in corners {
+        if w > 0.0 {
+            let v = src.fetch(layer, tx as u32, ty as u32);
+            for c in 0..3 {
+                sum[c] += w * v[c];
+            }
+        }
+    }
+    [
+        guard(sum[0] / total),
+        guard(sum[1] / total),
+        guard(sum[2] / total),
+        1.0,
+    ]
+}
+
+/// [`Program::Refine`] at one texel.
+fn refine_texel(
+    scene: &CpuScene,
+    [pos_map, nrm_map, reflected, first_map, variance]: [View<'_>; 5],
+    trav: Traversal,
+    params: RefineParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let pos = pos_map.fetch(layer, x, y);
+    let first = first_map.fetch(layer, x, y);
+    if pos[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let n = normalize(xyz(nrm_map.fetch(layer, x, y)));
+    let (Some(n), 1..) = (n, params.rays) else {
+        return first;
+    };
+    let noise = variance.fetch(layer, x, y);
+    if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
+        return first;
+    }
+    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    let sum = gather_rays(
+        scene,
+        reflected,
+        trav,
+        rng::Sampler::from_id(params.sampler),
+        rng::texel_index(scene.layer_size, layer, x, y),
+        params.first_rays..params.first_rays + params.rays,
+        params.bounce,
+        params.seed,
+        o,
+        n,
+    );
+    let total = (params.first_rays + params.rays) as f32;
+    let k = params.first_rays as f32;
+    [
+        guard((k * first[0] + sum[0]) / total),
+        guard((k * first[1] + sum[1]) / total),
+        guard((k * first[2] + sum[2]) / total),
         1.0,
     ]
 }
@@ -559,6 +730,25 @@ fn variance_texel(
             _ => None,
         };
     }
+    // With the centre, for the denoiser (a lone outlier raises its own estimate, so it is
+    // smoothed); without it, for refinement (whose decision must not depend on the centre's
+    // own noise).
+    let with_centre = window_variance(&window, params.min_pairs);
+    window[12] = None;
+    let without_centre = window_variance(&window, params.min_pairs);
+    // The window's mean luminance without the centre: what refinement compares the noise with.
+    let (mut sum, mut n) = (0.0f32, 0u32);
+    for l in window.iter().flatten() {
+        sum += l;
+        n += 1;
+    }
+    let mean = if n > 0 { guard(sum / n as f32) } else { 0.0 };
+    [with_centre, mean, without_centre, 1.0]
+}
+
+/// The variance estimate of a 5×5 window of luminances (`None`: not on the surface): the
+/// smallest over [`VARIANCE_DIRECTIONS`] with enough pairs, else 0 (see the module docs).
+fn window_variance(window: &[Option<f32>; 25], min_pairs: u32) -> f32 {
     let mut best: Option<f32> = None;
     for d in VARIANCE_DIRECTIONS {
         let (mut sum, mut n) = (0.0f32, 0u32);
@@ -573,15 +763,14 @@ fn variance_texel(
                 n += 1;
             }
         }
-        if n >= params.min_pairs && n > 0 {
+        if n >= min_pairs && n > 0 {
             let v = sum / (2 * n) as f32;
             if best.is_none_or(|b| v < b) {
                 best = Some(v);
             }
         }
     }
-    let v = guard(best.unwrap_or(0.0));
-    [v, v, v, 1.0]
+    guard(best.unwrap_or(0.0))
 }
 
 /// One à-trous iteration at one texel (see the module docs).
@@ -853,17 +1042,13 @@ fn texel(
                 a[3],
             ]
         }
-        Params::Gather(p) => gather_texel(
-            scene,
-            v[2],
-            trav,
-            p,
-            rng::texel_index(scene.layer_size, layer, x, y),
-            v[0].fetch(layer, x, y),
-            v[1].fetch(layer, x, y),
-        ),
+        Params::Gather(p) => gather_texel(scene, [v[0], v[1], v[2]], trav, p, layer, x, y),
         Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
         Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
+        Params::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
+        Params::Refine(p) => {
+            refine_texel(scene, [v[0], v[1], v[2], v[3], v[4]], trav, p, layer, x, y)
+        }
     }
 }
 
@@ -1203,7 +1388,11 @@ mod denoiser_tests {
                 let v = f.value(x, y);
                 if v[3] > 0.5 {
                     assert_eq!(out[i..i + 4], v, "({x}, {y})");
-                    assert_eq!(variance[i..i + 4], [0.0, 0.0, 0.0, 1.0], "({x}, {y})");
+                    // No noise; the mean luminance of the window without the centre is the
+                    // field's (one grey level per surface here).
+                    let (var, mean) = (&variance[i..i + 4], luminance(xyz(v)));
+                    assert_eq!([var[0], var[2], var[3]], [0.0, 0.0, 1.0], "({x}, {y})");
+                    assert!((var[1] - mean).abs() <= 1e-6 * mean, "({x}, {y}): {var:?}");
                 } else {
                     assert_eq!(out[i..i + 4], [0.0; 4], "({x}, {y})");
                     assert_eq!(variance[i..i + 4], [0.0; 4], "({x}, {y})");
@@ -1395,5 +1584,107 @@ mod denoiser_tests {
         assert_eq!(out[f.index(8, 8)..f.index(8, 8) + 4], f.value(8, 8));
         assert_eq!(out[f.index(1, 10)..f.index(1, 10) + 4], f.value(1, 10));
         assert_eq!(variance[f.index(1, 10)], 0.0);
+    }
+
+    /// The reduced-resolution gather's reach on a [`Field`]: the denoiser's chart test.
+    const COARSE_REACH: f32 = H * 1.5;
+
+    /// The rays the gather at `stride` (16 rays per grid texel, 5 per orphan) casts at `(x, y)`.
+    fn rays_at(pos: View<'_>, nrm: View<'_>, stride: u32, x: u32, y: u32) -> u32 {
+        let params = GatherParams {
+            rays: 16,
+            stride,
+            reach: COARSE_REACH,
+            orphan_rays: 5,
+            ..GatherParams::default()
+        };
+        coarse_rays(pos, nrm, &params, 0, x, y)
+    }
+
+    /// A 13×13 floor with column 11 and row 11 a one-texel strip of another object, valued
+    /// `strip`, the floor `floor(x, y)`.
+    fn floor_with_strip(floor: impl Fn(u32, u32) -> f32, strip: f32) -> Field {
+        let mut f = Field::flat([13, 13], floor);
+        for k in 0..13 {
+            for (x, y) in [(11, k), (k, 11)] {
+                let i = f.index(x, y);
+                f.nrm[i + 3] = 1.0;
+                f.map[i..i + 3].fill(strip);
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn the_coarse_grid_traces_grid_texels_and_orphans_only() {
+        let f = floor_with_strip(|_, _| 1.0, 1.0);
+        let (pos, nrm) = (view(&f.pos, f.size), view(&f.nrm, f.size));
+        for stride in [2u32, 3, 4] {
+            for y in (0..13).filter(|&y| y != 11) {
+                for x in (0..13).filter(|&x| x != 11) {
+                    // Every floor texel's corner (x₀, y₀) is floor, so only grid texels are
+                    // traced, with the grid's rays.
+                    let grid = x % stride == 0 && y % stride == 0;
+                    assert_eq!(
+                        rays_at(pos, nrm, stride, x, y),
+                        if grid { 16 } else { 0 },
+                        "stride {stride} ({x}, {y})"
+                    );
+                }
+            }
+            // No grid line runs along the strip (11 is no multiple of 2, 3 or 4): every strip
+            // texel is an orphan, with the orphans' rays.
+            for k in 0..13 {
+                assert_eq!(rays_at(pos, nrm, stride, 11, k), 5, "stride {stride}");
+                assert_eq!(rays_at(pos, nrm, stride, k, 11), 5, "stride {stride}");
+            }
+        }
+        // Stride 1 traces everything with the grid's rays.
+        assert_eq!(rays_at(pos, nrm, 1, 5, 7), 16);
+        assert_eq!(rays_at(pos, nrm, 1, 11, 7), 16);
+        assert_eq!(coarse::orphan_rays(16, 3), 6);
+        assert_eq!(coarse::orphan_rays(1, 4), 1);
+    }
+
+    #[test]
+    fn upsampling_reproduces_a_linear_field_and_keeps_grid_texels_and_orphans() {
+        let linear = |x: u32, y: u32| 2.0 + 0.25 * x as f32 + 0.5 * y as f32;
+        let mut f = floor_with_strip(linear, 7.0);
+        // Garbage where the gather at stride 4 writes nothing (the gather writes 0 there).
+        for y in (0..13).filter(|&y| y != 11) {
+            for x in (0..13).filter(|&x| x != 11 && (x % 4 != 0 || y % 4 != 0)) {
+                let i = f.index(x, y);
+                f.map[i..i + 3].fill(1e6);
+            }
+        }
+        let size = f.size;
+        let (pos, nrm) = (view(&f.pos, size), view(&f.nrm, size));
+        let params = UpsampleParams {
+            stride: 4,
+            reach: COARSE_REACH,
+            ..UpsampleParams::default()
+        };
+        let out = apply(size, |x, y| {
+            upsample_texel([view(&f.map, size), pos, nrm], params, 0, x, y)
+        });
+        let mut compared = 0;
+        for y in 0..13 {
+            for x in 0..13 {
+                let (got, want) = (out[f.index(x, y)], linear(x, y));
+                if x == 11 || y == 11 {
+                    // Orphans keep their own value: no floor light crosses into the strip.
+                    assert_eq!(got, 7.0, "strip ({x}, {y})");
+                } else {
+                    // Bilinear interpolation of a linear field between floor corners (across
+                    // the strip too: it is the same floor) is exact.
+                    assert!(
+                        (got - want).abs() <= 1e-5 * want,
+                        "({x}, {y}): {got} vs {want}"
+                    );
+                }
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 169);
     }
 }

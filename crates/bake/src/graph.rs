@@ -37,8 +37,9 @@
 
 pub use crate::program::Program;
 use crate::program::{
-    AtrousConfig, CombineParams, DirectParams, GatherParams, MAX_ATROUS_ITERATIONS, Params,
-    atrous_steps, blur_params,
+    ATROUS_MIN_PAIRS, AtrousConfig, CombineParams, DirectParams, GatherParams,
+    MAX_ATROUS_ITERATIONS, Params, RefineParams, UpsampleParams, VarianceParams, atrous_steps,
+    blur_params, coarse,
 };
 use crate::rng::Sampler;
 use crate::scene::{Blur, BvhMode, Method};
@@ -116,6 +117,13 @@ pub enum PassKind {
         /// Tap spacing, texels (2^iteration).
         step: i32,
     },
+    /// Fills the texels a reduced-resolution gather left out.
+    Upsample,
+    /// Progressive refinement of a gather where its variance estimate misses the target.
+    Refine {
+        /// Bounce number, 1-based.
+        bounce: u32,
+    },
 }
 
 impl PassKind {
@@ -132,6 +140,8 @@ impl PassKind {
             PassKind::Combine => Program::Combine,
             PassKind::Variance => Program::Variance,
             PassKind::Atrous { .. } => Program::Atrous,
+            PassKind::Upsample => Program::Upsample,
+            PassKind::Refine { .. } => Program::Refine,
         })
     }
 }
@@ -213,6 +223,14 @@ pub struct GraphConfig {
     pub method: Method,
     /// [`Method::Converged`]: rays of bounces 2 and later (the first uses `rays`).
     pub higher_rays: u32,
+    /// [`Method::Converged`]: grid stride of the first bounce's gather (1: every texel;
+    /// [`GatherParams::stride`]).
+    pub stride: u32,
+    /// [`Method::Converged`]: grid stride of the gather of bounces 2 and later.
+    pub higher_stride: u32,
+    /// [`Method::Converged`]: progressive refinement of the first bounce, `(rays, max_error)`
+    /// ([`Program::Refine`]); `None` or 0 rays: off.
+    pub refine: Option<(u32, f32)>,
     /// Sampler of the gather directions.
     pub sampler: Sampler,
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
@@ -401,31 +419,58 @@ fn albedo_stage(
     );
 }
 
-/// Stage (5): one bounce of indirect light gathered from `reflected`.
-#[allow(clippy::too_many_arguments)]
-fn gather_stage(
-    b: &mut Builder,
-    g: GBufferTex,
-    reflected: TexId,
-    indirect: TexId,
-    bounce: u32,
+/// How one gather samples: rays per texel, and the grid of a reduced-resolution gather.
+#[derive(Debug, Clone, Copy)]
+struct GatherSampling {
     rays: u32,
     seed: u32,
     sampler: Sampler,
+    /// Grid stride (1: every texel) and its chart reach, metres.
+    stride: u32,
+    reach: f32,
+}
+
+/// Stage (5): one bounce of indirect light gathered from `reflected` into `indirect`; a
+/// reduced-resolution gather goes through `coarse` and is upsampled into `indirect`.
+fn gather_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    [reflected, indirect, coarse]: [TexId; 3],
+    bounce: u32,
+    sampling: GatherSampling,
 ) {
+    let reduced = sampling.stride > 1;
     b.pass(
         PassKind::Gather { bounce },
         "gather",
         vec![g.position, g.normal, reflected],
-        vec![indirect],
+        vec![if reduced { coarse } else { indirect }],
         bounce,
         Params::Gather(GatherParams {
-            rays,
+            rays: sampling.rays,
             bounce,
-            seed,
-            sampler: sampler.id(),
+            seed: sampling.seed,
+            sampler: sampling.sampler.id(),
+            stride: sampling.stride.max(1),
+            reach: sampling.reach,
+            orphan_rays: coarse::orphan_rays(sampling.rays, sampling.stride),
+            ..GatherParams::default()
         }),
     );
+    if reduced {
+        b.pass(
+            PassKind::Upsample,
+            "upsample",
+            vec![coarse, g.position, g.normal],
+            vec![indirect],
+            bounce,
+            Params::Upsample(UpsampleParams {
+                stride: sampling.stride,
+                reach: sampling.reach,
+                ..UpsampleParams::default()
+            }),
+        );
+    }
 }
 
 /// Stage (6): direct + indirect.
@@ -536,27 +581,72 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             texel_size: config.texel_size,
             ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
         };
-        let variance = (denoise.iterations > 0).then(|| b.texture("variance"));
+        let refine = config.refine.filter(|&(rays, _)| rays > 0);
+        let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
+        let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
+            .then(|| b.texture("coarse"));
         for k in 1..=config.bounces {
             let first = b.passes.len();
-            let rays = if k == 1 {
-                config.rays
-            } else {
-                config.higher_rays
-            };
             let source = if k == 1 { reflected_direct } else { reflected };
+            let sampling = GatherSampling {
+                rays: if k == 1 {
+                    config.rays
+                } else {
+                    config.higher_rays
+                },
+                seed: config.seed,
+                sampler: config.sampler,
+                stride: if k == 1 {
+                    config.stride
+                } else {
+                    config.higher_stride
+                },
+                reach: denoise.reach(),
+            };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
-            gather_stage(
-                &mut b,
-                g,
-                source,
-                delta,
-                k,
-                rays,
-                config.seed,
-                config.sampler,
-            );
+            match (k, refine, variance) {
+                (1, Some((more, max_error)), Some(variance)) if config.stride <= 1 => {
+                    // Progressive refinement: the first gather into `scratch`, its variance
+                    // estimate, then more rays where the estimate misses the target.
+                    gather_stage(&mut b, g, [source, scratch, scratch], k, sampling);
+                    b.pass(
+                        PassKind::Variance,
+                        "refine_variance",
+                        vec![scratch, g.position, g.normal],
+                        vec![variance],
+                        k,
+                        Params::Variance(VarianceParams {
+                            reach: denoise.reach(),
+                            min_pairs: ATROUS_MIN_PAIRS,
+                            ..VarianceParams::default()
+                        }),
+                    );
+                    b.pass(
+                        PassKind::Refine { bounce: k },
+                        "refine",
+                        vec![g.position, g.normal, source, scratch, variance],
+                        vec![delta],
+                        k,
+                        Params::Refine(RefineParams {
+                            rays: more,
+                            bounce: k,
+                            seed: config.seed,
+                            sampler: config.sampler.id(),
+                            first_rays: config.rays,
+                            max_error,
+                            ..RefineParams::default()
+                        }),
+                    );
+                }
+                _ => gather_stage(
+                    &mut b,
+                    g,
+                    [source, delta, coarse.unwrap_or(scratch)],
+                    k,
+                    sampling,
+                ),
+            }
             if k == 1 {
                 b.pass(
                     PassKind::Copy,
@@ -705,16 +795,14 @@ impl BakeGraph {
                 } else {
                     reflected_combined
                 };
-                gather_stage(
-                    &mut b,
-                    g,
-                    reflected,
-                    indirect,
-                    k,
-                    config.rays,
-                    config.seed,
-                    config.sampler,
-                );
+                let sampling = GatherSampling {
+                    rays: config.rays,
+                    seed: config.seed,
+                    sampler: config.sampler,
+                    stride: 1,
+                    reach: 0.0,
+                };
+                gather_stage(&mut b, g, [reflected, indirect, indirect], k, sampling);
                 combine_stage(&mut b, direct, indirect, combined, k);
                 blur_stage(
                     &mut b,
@@ -866,9 +954,75 @@ mod tests {
             bvh: BvhMode::Mtbvh,
             method: Method::Paper,
             higher_rays: 4,
+            stride: 1,
+            higher_stride: 1,
+            refine: None,
             texel_size: [1.0 / 64.0; 2],
             sampler: Sampler::Sobol,
         }
+    }
+
+    #[test]
+    fn reduced_resolution_gathers_are_upsampled_and_refinement_follows_the_first_gather() {
+        let labels = |g: &BakeGraph, bounce: usize| -> Vec<&'static str> {
+            let (a, b) = g.bounce_passes[bounce];
+            g.passes[a..b].iter().map(|p| p.label).collect()
+        };
+        // Stride 2, then 4: every gather writes the grid texture, an upsample fills `delta`.
+        let g = BakeGraph::build(&GraphConfig {
+            stride: 2,
+            higher_stride: 4,
+            ..converged(3, Blur::Sigma(1.0))
+        });
+        assert_eq!(g.validate(), Ok(()));
+        let delta = g.delta.expect("delta");
+        for k in 0..3 {
+            assert_eq!(
+                labels(&g, k)[..2],
+                ["gather", "upsample"],
+                "bounce {}",
+                k + 1
+            );
+            let (a, _) = g.bounce_passes[k];
+            let (gather, up) = (&g.passes[a], &g.passes[a + 1]);
+            let (Params::Gather(gp), Params::Upsample(up_params)) = (gather.params, up.params)
+            else {
+                panic!("{:?} {:?}", gather.params, up.params)
+            };
+            let stride = if k == 0 { 2 } else { 4 };
+            assert_eq!((gp.stride, up_params.stride), (stride, stride));
+            assert_eq!(gp.reach, up_params.reach);
+            assert!(gp.reach > 0.0);
+            assert_eq!(up.reads[0], gather.writes[0]);
+            assert_ne!(gather.writes[0], delta);
+            assert_eq!(up.writes[0], delta);
+        }
+        // Refinement: gather, its variance, then the refine pass into `delta`; later bounces
+        // unchanged.
+        let g = BakeGraph::build(&GraphConfig {
+            refine: Some((8, 0.1)),
+            ..converged(2, Blur::None)
+        });
+        assert_eq!(g.validate(), Ok(()));
+        assert_eq!(labels(&g, 0)[..3], ["gather", "refine_variance", "refine"]);
+        assert_eq!(labels(&g, 1)[0], "gather");
+        let (a, _) = g.bounce_passes[0];
+        let (first, variance, refine) = (&g.passes[a], &g.passes[a + 1], &g.passes[a + 2]);
+        let Params::Refine(rp) = refine.params else {
+            panic!("{:?}", refine.params)
+        };
+        assert_eq!((rp.rays, rp.first_rays, rp.max_error), (8, 16, 0.1));
+        assert_eq!(variance.reads[0], first.writes[0]);
+        assert_eq!(refine.reads[3..], [first.writes[0], variance.writes[0]]);
+        assert_eq!(Some(refine.writes[0]), g.delta);
+        // Refinement needs a gather at every texel: with a stride it is not built (settings
+        // reject the combination before).
+        let g = BakeGraph::build(&GraphConfig {
+            refine: Some((8, 0.1)),
+            stride: 2,
+            ..converged(2, Blur::None)
+        });
+        assert!(g.passes.iter().all(|p| p.label != "refine"));
     }
 
     fn converged(bounces: u32, blur: Blur) -> GraphConfig {
@@ -948,10 +1102,16 @@ mod tests {
     fn every_computed_pass_has_one_program_and_the_graph_uses_them_all() {
         let g = BakeGraph::build(&config(2, Blur::Sigma(1.5)));
         let c = BakeGraph::build(&converged(2, Blur::Sigma(1.5)));
+        let reduced = BakeGraph::build(&GraphConfig {
+            higher_stride: 2,
+            refine: Some((4, 0.1)),
+            ..converged(2, Blur::Sigma(1.5))
+        });
         let used: std::collections::HashSet<Program> = g
             .passes
             .iter()
             .chain(&c.passes)
+            .chain(&reduced.passes)
             .filter_map(|p| p.kind.program())
             .collect();
         assert_eq!(used, Program::ALL.into_iter().collect());

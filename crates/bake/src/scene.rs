@@ -599,6 +599,9 @@ impl FromStr for BvhMode {
 /// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
 /// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
 /// | `texels_per_metre` | (0, [`MAX_TEXELS_PER_METRE`](Settings::MAX_TEXELS_PER_METRE)] (10000) |
+/// | `higher_rays`      | 1 ..= `MAX_RAYS`                                           |
+/// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
+/// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
 /// | `bvh`, `seed`, `backend` | any value                                           |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -628,6 +631,23 @@ pub struct Settings {
     /// Sampler of the gather directions: the paper's independent hash, or the per-texel
     /// scrambled Sobol sequence ([`crate::rng`]).
     pub sampler: Sampler,
+    /// [`Method::Converged`]: the first bounce is gathered on a grid of every `stride`-th
+    /// texel per axis (and on texels with no grid texel on their surface) and interpolated on
+    /// each surface ([`crate::program::coarse`]); 1 = every texel.
+    pub stride: u32,
+    /// [`Method::Converged`]: rays per gathered texel of the bounces after the first. Higher
+    /// bounces are smooth (the sum of many paths) and their noise is averaged by the next
+    /// gather and the final denoiser, so few rays, on a coarser grid, keep their error under
+    /// the first bounce's (measured: docs/performance.md).
+    pub higher_rays: u32,
+    /// [`Method::Converged`]: [`Settings::stride`] of the bounces after the first.
+    pub higher_stride: u32,
+    /// [`Method::Converged`]: progressive refinement of the first bounce — texels whose
+    /// estimated relative standard error after `rays` exceeds [`Settings::refine_error`] get
+    /// this many more rays ([`crate::program::Program::Refine`]); 0 = off.
+    pub refine_rays: u32,
+    /// [`Method::Converged`]: the relative standard error per texel that refinement aims at.
+    pub refine_error: f32,
 }
 
 impl Settings {
@@ -659,33 +679,62 @@ impl Settings {
             bvh: BvhMode::Mtbvh,
             seed: 0,
             sampler: Sampler::Hash,
+            stride: 1,
+            higher_rays: 1,
+            higher_stride: 1,
+            refine_rays: 0,
+            refine_error: 0.1,
         }
     }
 
-    /// The converged method at `quality`: first-bounce rays, the cap of explicit bounces, the
-    /// tail tolerance and the denoiser's size (`blur` σ: `3 + round(log2 σ)` à-trous
-    /// iterations). Measured against Radiance on `chairs_05` (docs/performance.md).
+    /// The converged method at `quality`: first-bounce rays and grid stride, the later
+    /// bounces' rays and stride, the cap of explicit bounces, the tail tolerance and the
+    /// denoiser's size (`blur` σ: `3 + round(log2 σ)` à-trous iterations). Measured against
+    /// Radiance on `chairs_05` and for grain on a box room (docs/performance.md).
     ///
-    /// | preset | rays (later bounces) | most bounces | tail tolerance | σ (iterations) |
-    /// |---|--:|--:|--:|--:|
-    /// | draft | 2 (1) | 2 | 5 % | 1 (3) |
-    /// | default | 6 (1) | 32 | 1 % | 1 (3) |
-    /// | final | 128 (16) | 32 | 0.2 % | 2 (4) |
+    /// | preset | rays (stride) | later bounces: rays (stride) | most bounces | tail tolerance | σ (iterations) |
+    /// |---|--:|--:|--:|--:|--:|
+    /// | draft | 16 (4) | 8 (8) | 3 | 5 % | none |
+    /// | default | 6 (1) | 4 (2) | 32 | 1 % | 1 (3) |
+    /// | final | 128 (1) | 16 (1) | 32 | 0.2 % | 2 (4) |
+    ///
+    /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the
+    /// box room it refined 60–77 % of the texels at targets that lowered the error, so it
+    /// cost as many rays as sampling every texel more (docs/performance.md).
     pub fn preset(quality: Quality) -> Settings {
-        let (rays, bounces, tail_tolerance, sigma) = match quality {
-            Quality::Draft => (2, 2, 0.05, 1.0),
-            Quality::Default => (6, Settings::CONVERGED_MAX_BOUNCES, 0.01, 1.0),
-            Quality::Final => (128, Settings::CONVERGED_MAX_BOUNCES, 0.002, 2.0),
-        };
-        Settings {
+        let base = Settings {
             method: Method::Converged,
             quality,
-            rays,
-            bounces,
-            blur: Blur::Sigma(sigma),
-            tail_tolerance,
+            bounces: Settings::CONVERGED_MAX_BOUNCES,
             sampler: Sampler::Sobol,
             ..Settings::paper()
+        };
+        match quality {
+            Quality::Draft => Settings {
+                rays: 16,
+                stride: 4,
+                higher_rays: 8,
+                higher_stride: 8,
+                bounces: 3,
+                tail_tolerance: 0.05,
+                blur: Blur::None,
+                ..base
+            },
+            Quality::Default => Settings {
+                rays: 6,
+                higher_rays: 4,
+                higher_stride: 2,
+                tail_tolerance: 0.01,
+                blur: Blur::Sigma(1.0),
+                ..base
+            },
+            Quality::Final => Settings {
+                rays: 128,
+                higher_rays: 16,
+                tail_tolerance: 0.002,
+                blur: Blur::Sigma(2.0),
+                ..base
+            },
         }
     }
 
@@ -698,26 +747,20 @@ impl Settings {
         }
     }
 
-    /// Rays of the converged method's bounces after the first: an eighth of `rays`, and at
-    /// least one. Higher bounces are smooth (the sum of many paths) and their noise is averaged
-    /// by the next gather and the final denoiser, so few rays keep their error under the first
-    /// bounce's (measured: docs/performance.md).
-    pub fn higher_rays(&self) -> u32 {
-        (self.rays / 8).max(1)
-    }
-
     /// Most gather rays per texel per bounce.
     pub const MAX_RAYS: u32 = 65_536;
     /// Most indirect bounces.
     pub const MAX_BOUNCES: u32 = 64;
     /// Largest blur sigma, texels.
     pub const MAX_BLUR_SIGMA: f32 = 64.0;
+    /// Largest [`Settings::higher_stride`].
+    pub const MAX_STRIDE: u32 = 16;
     /// Largest texel density, texels per metre.
     pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
 
     /// Checks every setting against the limits in the type's docs; the error names the first
-    /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance` or
-    /// `texels_per_metre`).
+    /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance`, `stride`,
+    /// `higher_stride`, `higher_rays`, `refine_rays`, `refine_error` or `texels_per_metre`).
     pub fn validate(&self) -> Result<(), SettingError> {
         let invalid = |name, reason| Err(SettingError { name, reason });
         if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
@@ -742,6 +785,46 @@ impl Settings {
             return invalid(
                 "tail_tolerance",
                 format!("{t}; expected a fraction, 0 < tail_tolerance < 1"),
+            );
+        }
+        for (name, stride) in [
+            ("stride", self.stride),
+            ("higher_stride", self.higher_stride),
+        ] {
+            if !(1..=Settings::MAX_STRIDE).contains(&stride) {
+                let max = Settings::MAX_STRIDE;
+                return invalid(name, format!("{stride}; expected 1..={max}"));
+            }
+        }
+        if !(1..=Settings::MAX_RAYS).contains(&self.higher_rays) {
+            let max = Settings::MAX_RAYS;
+            return invalid(
+                "higher_rays",
+                format!("{}; expected 1..={max}", self.higher_rays),
+            );
+        }
+        if self.refine_rays > Settings::MAX_RAYS {
+            let max = Settings::MAX_RAYS;
+            return invalid(
+                "refine_rays",
+                format!("{}; expected 0..={max}", self.refine_rays),
+            );
+        }
+        if self.refine_rays > 0 && self.stride > 1 {
+            return invalid(
+                "refine_rays",
+                format!(
+                    "{}; refinement needs a first bounce gathered at every texel (stride 1, \
+                     not {}); set refine_rays = 0 or stride = 1",
+                    self.refine_rays, self.stride
+                ),
+            );
+        }
+        let e = self.refine_error;
+        if !(e > 0.0 && e.is_finite()) {
+            return invalid(
+                "refine_error",
+                format!("{e}; expected a positive relative standard error"),
             );
         }
         let d = self.texels_per_metre;

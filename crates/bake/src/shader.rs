@@ -90,6 +90,8 @@ pub fn glsl_library(lib: Library) -> &'static str {
         Library::Bvh => include_str!("../shaders/lib/bvh.glsl"),
         Library::Ies => include_str!("../shaders/lib/ies.glsl"),
         Library::Guide => include_str!("../shaders/lib/guide.glsl"),
+        Library::Gather => include_str!("../shaders/lib/gather.glsl"),
+        Library::Coarse => include_str!("../shaders/lib/coarse.glsl"),
     }
 }
 
@@ -108,6 +110,8 @@ pub fn wgsl_library(lib: Library, storage: BvhStorage) -> Vec<&'static str> {
         ],
         Library::Ies => vec![include_str!("../shaders/lib/ies.wgsl")],
         Library::Guide => vec![include_str!("../shaders/lib/guide.wgsl")],
+        Library::Gather => vec![include_str!("../shaders/lib/gather.wgsl")],
+        Library::Coarse => vec![include_str!("../shaders/lib/coarse.wgsl")],
     }
 }
 

@@ -37,3 +37,8 @@ vec3 luxGuard3(vec3 v) {
 ivec3 luxTexel() {
     return ivec3(ivec2(gl_FragCoord.xy), u_layer);
 }
+
+// cpu::luminance: Rec. 709, left to right.
+float luxLuminance(vec3 c) {
+    return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+}

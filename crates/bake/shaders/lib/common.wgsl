@@ -62,3 +62,8 @@ fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
 fn lux_store(c: vec2<i32>, value: vec4<f32>) {
     textureStore(lux_out, c, i32(lux_tile.layer), value);
 }
+
+// cpu::luminance: Rec. 709, left to right.
+fn lux_luminance(c: vec3<f32>) -> f32 {
+    return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+}

@@ -1,12 +1,7 @@
-// Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide: the
-// luminance, and whether a tap lies on the centre's surface (inside the layer, valid, the
+// Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide:
+// whether a tap lies on the centre's surface (inside the layer, valid, the
 // centre's object, a normal, within the chart reach). For programs reading the slots src,
 // position and normal.
-
-// cpu::luminance: Rec. 709, left to right.
-float luxLuminance(vec3 c) {
-    return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
-}
 
 struct LuxGuide {
     ivec3 c;

@@ -1,36 +1,15 @@
 // Pass "variance": the noise variance of the luminance at a texel, for the atrous pass's
-// edge-stopping (cpu::variance_texel; the derivation is program::atrous_steps'). In the 5x5
-// window of taps on the centre's surface facing within 25 degrees, for each direction (1, 0),
-// (0, 1), (1, 1), (1, -1) with at least min_pairs pairs of taps: half the mean squared
-// luminance difference of the pairs; the smallest wins (the direction along the signal's
-// edges sees only noise). No direction: 0.
+// edge-stopping and for refinement (cpu::variance_texel; the derivation is
+// program::atrous_steps'). In the 5x5 window of taps on the centre's surface facing within 25
+// degrees, for each direction (1, 0), (0, 1), (1, 1), (1, -1) with at least min_pairs pairs of
+// taps: half the mean squared luminance difference of the pairs; the smallest wins (the
+// direction along the signal's edges sees only noise). No direction: 0. Output (variance,
+// then with the centre left out -- refinement's decision must not depend on the centre's own
+// noise -- the mean luminance of the taps and their variance, 1).
 
-@compute @workgroup_size(8, 8, 1)
-fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let c = lux_texel(gid);
-    if (c.x < 0) {
-        return;
-    }
-    if (textureLoad(lux_src, c, i32(lux_tile.layer), 0).a <= 0.5) {
-        lux_store(c, vec4<f32>(0.0));
-        return;
-    }
-    var g: LuxGuide;
-    if (!lux_guide(c, 0.0, lux_pass.reach, &g)) {
-        lux_store(c, vec4<f32>(0.0, 0.0, 0.0, 1.0));
-        return;
-    }
-    // The window, row by row: the luminance of each tap on the surface.
-    var lum: array<f32, 25>;
-    var ok: array<bool, 25>;
-    for (var k = 0; k < 25; k++) {
-        var t: vec4<f32>;
-        var cosine: f32;
-        ok[k] = lux_tap(g, vec2<i32>(k % 5 - 2, k / 5 - 2), &t, &cosine)
-            && cosine >= LUX_BLUR_NORMAL_COS;
-        lum[k] = select(0.0, lux_luminance(t.rgb), ok[k]);
-    }
-    var dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
+// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variance).
+fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
+    let dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
                                    vec2<i32>(1, -1));
     var found = false;
     var best = 0.0;
@@ -58,6 +37,49 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             }
         }
     }
-    let v = lux_guard(best);
-    lux_store(c, vec4<f32>(v, v, v, 1.0));
+    return lux_guard(best);
+}
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
+        return;
+    }
+    if (textureLoad(lux_src, c, i32(lux_tile.layer), 0).a <= 0.5) {
+        lux_store(c, vec4<f32>(0.0));
+        return;
+    }
+    var g: LuxGuide;
+    if (!lux_guide(c, 0.0, lux_pass.reach, &g)) {
+        lux_store(c, vec4<f32>(0.0, 0.0, 0.0, 1.0));
+        return;
+    }
+    // The window, row by row: the luminance of each tap on the surface.
+    var lum: array<f32, 25>;
+    var ok: array<bool, 25>;
+    for (var k = 0; k < 25; k++) {
+        var t: vec4<f32>;
+        var cosine: f32;
+        ok[k] = lux_tap(g, vec2<i32>(k % 5 - 2, k / 5 - 2), &t, &cosine)
+            && cosine >= LUX_BLUR_NORMAL_COS;
+        lum[k] = select(0.0, lux_luminance(t.rgb), ok[k]);
+    }
+    let with_centre = lux_window_variance(lum, ok);
+    ok[12] = false;
+    let without_centre = lux_window_variance(lum, ok);
+    // The mean luminance without the centre (cpu::variance_texel), for refinement.
+    var sum = 0.0;
+    var count = 0u;
+    for (var k = 0; k < 25; k++) {
+        if (ok[k]) {
+            sum += lum[k];
+            count += 1u;
+        }
+    }
+    var mean = 0.0;
+    if (count > 0u) {
+        mean = lux_guard(sum / f32(count));
+    }
+    lux_store(c, vec4<f32>(with_centre, mean, without_centre, 1.0));
 }

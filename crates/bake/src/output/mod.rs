@@ -18,7 +18,8 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
-//! seed, sampler), `layout` (`layer_size`,
+//! seed, sampler, stride, higher_rays, higher_stride, refine_rays,
+//! refine_error), `layout` (`layer_size`,
 //! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela
 //! (file), lumens (integrated × multiplier), used), `objects` (name, index, receiver, and for
 //! receivers `files`, `layer`, `offset`, `size`, `resolution`, plus `transform` {`linear`
@@ -275,6 +276,11 @@ pub fn write_bake(
             "bvh": s.bvh.name(),
             "seed": s.seed,
             "sampler": s.sampler.name(),
+            "stride": s.stride,
+            "higher_rays": s.higher_rays,
+            "higher_stride": s.higher_stride,
+            "refine_rays": s.refine_rays,
+            "refine_error": s.refine_error,
         },
         "layout": {"layer_size": output.layout.layer_size, "layers": output.layout.layers},
         "lamps": lamps,

@@ -114,6 +114,11 @@ struct RawSettings {
     quality: Option<String>,
     tail_tolerance: Option<f64>,
     sampler: Option<String>,
+    stride: Option<u32>,
+    higher_rays: Option<u32>,
+    higher_stride: Option<u32>,
+    refine_rays: Option<u32>,
+    refine_error: Option<f64>,
     rays: Option<u32>,
     bounces: Option<u32>,
     blur: Option<Value>,
@@ -455,6 +460,21 @@ impl Cx<'_> {
         }
         if let Some(rays) = raw.rays {
             s.rays = rays;
+        }
+        if let Some(v) = raw.stride {
+            s.stride = v;
+        }
+        if let Some(v) = raw.higher_rays {
+            s.higher_rays = v;
+        }
+        if let Some(v) = raw.higher_stride {
+            s.higher_stride = v;
+        }
+        if let Some(v) = raw.refine_rays {
+            s.refine_rays = v;
+        }
+        if let Some(v) = raw.refine_error {
+            s.refine_error = v as f32;
         }
         if let Some(b) = raw.bounces {
             s.bounces = b;

@@ -1,0 +1,64 @@
+// The reduced-resolution gather's grid (program::coarse; cpu::coarse_weights, operation for
+// operation): which corners of a texel's grid cell lie on its surface, and with what bilinear
+// weight. For programs reading the slots position and normal.
+
+// The weights of texel c's grid-cell corners (order (x0, y0), (x1, y0), (x0, y1), (x1, y1))
+// that lie on c's surface, 0 for the others; returns their sum.
+float luxCoarseWeights(ivec3 c, uint stride, float reach, out ivec2 corners[4],
+                       out float weights[4]) {
+    int s = int(max(stride, 1u));
+    ivec2 size = textureSize(u_position, 0).xy;
+    int x0 = c.x / s * s;
+    int y0 = c.y / s * s;
+    float fx = float(c.x - x0) / float(s);
+    float fy = float(c.y - y0) / float(s);
+    corners = ivec2[4](ivec2(x0, y0), ivec2(x0 + s, y0), ivec2(x0, y0 + s), ivec2(x0 + s, y0 + s));
+    float bilinear[4] = float[4]((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy,
+                                 fx * fy);
+    weights = float[4](0.0, 0.0, 0.0, 0.0);
+    vec4 nc = texelFetch(u_normal, c, 0);
+    vec3 p = texelFetch(u_position, c, 0).xyz;
+    vec3 n;
+    if (!luxNormalize(nc.xyz, n)) {
+        return 0.0;
+    }
+    float reach2 = reach * reach;
+    float total = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        ivec2 t = corners[i];
+        if (!(bilinear[i] > 0.0) || t.x >= size.x || t.y >= size.y) {
+            continue;
+        }
+        ivec3 tc = ivec3(t, c.z);
+        vec4 pt = texelFetch(u_position, tc, 0);
+        if (pt.w <= 0.5) {
+            continue;
+        }
+        vec4 nt = texelFetch(u_normal, tc, 0);
+        vec3 n1;
+        if (nt.w != nc.w || !luxNormalize(nt.xyz, n1) || luxDot(n, n1) < LUX_BLUR_NORMAL_COS) {
+            continue;
+        }
+        vec3 d = pt.xyz - p;
+        int ox = t.x - c.x;
+        int oy = t.y - c.y;
+        if (!(luxDot(d, d) <= reach2 * float(ox * ox + oy * oy))) {
+            continue;
+        }
+        weights[i] = bilinear[i];
+        total += bilinear[i];
+    }
+    return total;
+}
+
+// cpu::coarse_rays: the rays the gather at `stride` casts at texel c: `rays` at every texel at
+// stride 1 and at grid texels, `orphanRays` at orphans (no corner on c's surface), else 0.
+uint luxCoarseRays(ivec3 c, uint stride, float reach, uint rays, uint orphanRays) {
+    int s = int(stride);
+    if (s <= 1 || (c.x % s == 0 && c.y % s == 0)) {
+        return rays;
+    }
+    ivec2 corners[4];
+    float weights[4];
+    return luxCoarseWeights(c, stride, reach, corners, weights) > 0.0 ? 0u : orphanRays;
+}

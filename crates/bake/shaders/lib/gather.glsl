@@ -1,0 +1,103 @@
+// The gather's ray loop, shared by the gather and refine passes (cpu::gather_rays, operation
+// for operation). For programs reading the slot `reflected`; objects' regions are in
+// u_regions (scene.glsl); non-receivers reflect nothing.
+
+// cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
+void luxBasis(vec3 n, out vec3 t, out vec3 b) {
+    float s = (floatBitsToUint(n.z) & 0x80000000u) != 0u ? -1.0 : 1.0;
+    float a = -1.0 / (s + n.z);
+    float bb = n.x * n.y * a;
+    t = vec3(1.0 + s * n.x * n.x * a, s * bb, -s * n.x);
+    b = vec3(bb, s + n.y * n.y * a, -n.y);
+}
+
+// cpu::cosine_direction.
+vec3 luxCosineDirection(vec3 n, vec2 u) {
+    const float TWO_PI = 6.28318530717959;
+    vec3 t;
+    vec3 b;
+    luxBasis(n, t, b);
+    float r = sqrt(u.x);
+    float phi = TWO_PI * u.y;
+    float x = r * cos(phi);
+    float y = r * sin(phi);
+    float z = sqrt(max(1.0 - u.x, 0.0));
+    return vec3(t.x * x + b.x * y + n.x * z, t.y * x + b.y * y + n.y * z,
+                t.z * x + b.z * y + n.z * z);
+}
+
+// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region.
+vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
+    if (size.x == 0 || size.y == 0 || !luxFinite(uv.x) || !luxFinite(uv.y)) {
+        return vec3(0.0);
+    }
+    float fx = clamp(uv.x * float(size.x) - 0.5, 0.0, float(size.x - 1));
+    float fy = clamp(uv.y * float(size.y) - 0.5, 0.0, float(size.y - 1));
+    float x0f = floor(fx);
+    float y0f = floor(fy);
+    float tx = fx - x0f;
+    float ty = fy - y0f;
+    int x0 = int(x0f);
+    int y0 = int(y0f);
+    int x1 = min(x0 + 1, size.x - 1);
+    int y1 = min(y0 + 1, size.y - 1);
+    ivec2 xs[4] = ivec2[4](ivec2(x0, y0), ivec2(x1, y0), ivec2(x0, y1), ivec2(x1, y1));
+    float ws[4] = float[4]((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    vec3 sum = vec3(0.0);
+    float wsum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        vec4 t = texelFetch(u_reflected, ivec3(offset + xs[i], layer), 0);
+        if (t.a > 0.5) {
+            sum += ws[i] * t.rgb;
+            wsum += ws[i];
+        }
+    }
+    if (wsum > 0.0) {
+        return vec3(sum.x / wsum, sum.y / wsum, sum.z / wsum);
+    }
+    return vec3(0.0);
+}
+
+// cpu::gather_rays: the sum of the reflected exitance seen along rays `firstRay .. firstRay + count`
+// of the texel's sequence, cast from `origin` around the unit normal `n`.
+vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
+                  uint samplerId, uint bounce, uint seed) {
+    float infinity = uintBitsToFloat(0x7f800000u);
+    int objects = textureSize(u_regions, 0).x;
+    vec3 sum = vec3(0.0);
+    for (uint s = firstRay; s < firstRay + count; ++s) {
+        vec3 dir = luxCosineDirection(n, luxSample2(samplerId, texel, s, bounce, seed));
+        vec3 hit;
+        int tri = luxTrace(origin, dir, 0.0, infinity, false, hit);
+        if (tri < 0) {
+            continue;
+        }
+        ivec2 tc = luxTriangleCoord(tri);
+        vec4 uv2Object = texelFetch(u_triangles, ivec3(tc, LUX_TRI_UV2_OBJECT_LAYER), 0);
+        int object = int(uv2Object.z);
+        if (object < 0 || object >= objects) {
+            continue;
+        }
+        vec4 region0 = texelFetch(u_regions, ivec3(object, 0, 0), 0);
+        if (region0.w <= 0.5) {
+            continue;
+        }
+        vec4 region1 = texelFetch(u_regions, ivec3(object, 1, 0), 0);
+        float u = hit.y;
+        float v = hit.z;
+        float w0 = 1.0 - u - v;
+        vec3 n0 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_N0_LAYER), 0).xyz;
+        vec3 n1 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_N1_LAYER), 0).xyz;
+        vec3 n2 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_N2_LAYER), 0).xyz;
+        vec3 nh = vec3(w0 * n0.x + u * n1.x + v * n2.x, w0 * n0.y + u * n1.y + v * n2.y,
+                       w0 * n0.z + u * n1.z + v * n2.z);
+        if (!(luxDot(nh, dir) < 0.0)) {
+            continue;
+        }
+        vec4 uv01 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_UV01_LAYER), 0);
+        vec2 uv = vec2(w0 * uv01.x + u * uv01.z + v * uv2Object.x,
+                       w0 * uv01.y + u * uv01.w + v * uv2Object.y);
+        sum += luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+    }
+    return sum;
+}

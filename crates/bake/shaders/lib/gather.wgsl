@@ -1,0 +1,103 @@
+// The gather's ray loop, shared by the gather and refine passes (cpu::gather_rays, operation
+// for operation). For programs reading the slot `reflected`; objects' regions are in
+// lux_regions (scene.wgsl); non-receivers reflect nothing.
+
+// cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
+fn lux_basis(n: vec3<f32>, t: ptr<function, vec3<f32>>, b: ptr<function, vec3<f32>>) {
+    let s = select(1.0, -1.0, lux_sign_bit(n.z));
+    let a = -1.0 / (s + n.z);
+    let bb = n.x * n.y * a;
+    *t = vec3<f32>(1.0 + s * n.x * n.x * a, s * bb, -s * n.x);
+    *b = vec3<f32>(bb, s + n.y * n.y * a, -n.y);
+}
+
+// cpu::cosine_direction.
+fn lux_cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+    var t: vec3<f32>;
+    var b: vec3<f32>;
+    lux_basis(n, &t, &b);
+    let r = sqrt(u.x);
+    let phi = 6.28318530717959 * u.y;
+    let x = r * cos(phi);
+    let y = r * sin(phi);
+    let z = sqrt(max(1.0 - u.x, 0.0));
+    return vec3<f32>(t.x * x + b.x * y + n.x * z, t.y * x + b.y * y + n.y * z,
+                     t.z * x + b.z * y + n.z * z);
+}
+
+// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region.
+fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f32>) -> vec3<f32> {
+    if (size.x == 0 || size.y == 0 || !lux_finite(uv.x) || !lux_finite(uv.y)) {
+        return vec3<f32>(0.0);
+    }
+    let fx = clamp(uv.x * f32(size.x) - 0.5, 0.0, f32(size.x - 1));
+    let fy = clamp(uv.y * f32(size.y) - 0.5, 0.0, f32(size.y - 1));
+    let x0f = floor(fx);
+    let y0f = floor(fy);
+    let tx = fx - x0f;
+    let ty = fy - y0f;
+    let x0 = i32(x0f);
+    let y0 = i32(y0f);
+    let x1 = min(x0 + 1, size.x - 1);
+    let y1 = min(y0 + 1, size.y - 1);
+    let xs = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x1, y0), vec2<i32>(x0, y1),
+                                 vec2<i32>(x1, y1));
+    let ws = array<f32, 4>((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    var sum = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var i = 0; i < 4; i++) {
+        let t = textureLoad(lux_reflected, offset + xs[i], layer, 0);
+        if (t.a > 0.5) {
+            sum += ws[i] * t.rgb;
+            wsum += ws[i];
+        }
+    }
+    if (wsum > 0.0) {
+        return vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum);
+    }
+    return vec3<f32>(0.0);
+}
+
+// cpu::gather_rays: the sum of the reflected exitance seen along rays `first_ray .. first_ray + count`
+// of the texel's sequence, cast from `origin` around the unit normal `n`.
+fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, count: u32,
+                  sampler_id: u32, bounce: u32, seed: u32) -> vec3<f32> {
+    let objects = lux_scene.object_count;
+    var sum = vec3<f32>(0.0);
+    for (var s = first_ray; s < first_ray + count; s++) {
+        let dir = lux_cosine_direction(n, lux_sample2(sampler_id, texel, s, bounce, seed));
+        var hit: vec3<f32>;
+        let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
+        if (tri < 0) {
+            continue;
+        }
+        let tc = lux_triangle_coord(tri);
+        let uv2_object = lux_triangle_at(tc, LUX_TRI_UV2_OBJECT_LAYER);
+        let object = i32(uv2_object.z);
+        if (object < 0 || object >= objects) {
+            continue;
+        }
+        let region0 = lux_regions[2 * object];
+        if (region0.w == 0u) {
+            continue;
+        }
+        let region1 = lux_regions[2 * object + 1];
+        let u = hit.y;
+        let v = hit.z;
+        let w0 = 1.0 - u - v;
+        let n0 = lux_triangle_at(tc, LUX_TRI_N0_LAYER).xyz;
+        let n1 = lux_triangle_at(tc, LUX_TRI_N1_LAYER).xyz;
+        let n2 = lux_triangle_at(tc, LUX_TRI_N2_LAYER).xyz;
+        let nh = vec3<f32>(w0 * n0.x + u * n1.x + v * n2.x, w0 * n0.y + u * n1.y + v * n2.y,
+                           w0 * n0.z + u * n1.z + v * n2.z);
+        if (!(lux_dot(nh, dir) < 0.0)) {
+            continue;
+        }
+        let uv01 = lux_triangle_at(tc, LUX_TRI_UV01_LAYER);
+        let uv = vec2<f32>(w0 * uv01.x + u * uv01.z + v * uv2_object.x,
+                           w0 * uv01.y + u * uv01.w + v * uv2_object.y);
+        sum += lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
+                                 uv);
+    }
+    return sum;
+}

@@ -1,0 +1,40 @@
+// Pass "refine": progressive refinement of the first gather (lux_first, first_rays rays). A
+// texel whose relative standard error, estimated as sqrt(variance) / mean luminance of its
+// 5x5 window from the variance pass over the first gather (not its own luminance: a decision
+// on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
+// (samples first_rays .. first_rays + rays of its sequence) and the ray-count-weighted mean of
+// both; every other texel keeps the first gather's value (cpu::refine_texel).
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
+        return;
+    }
+    let layer = i32(lux_tile.layer);
+    let pos = textureLoad(lux_position, c, layer, 0);
+    let first = textureLoad(lux_first, c, layer, 0);
+    if (pos.w <= 0.5) {
+        lux_store(c, vec4<f32>(0.0));
+        return;
+    }
+    var n: vec3<f32>;
+    let rays = lux_pass.rays;
+    if (!lux_normalize(textureLoad(lux_normal, c, layer, 0).xyz, &n) || rays == 0u) {
+        lux_store(c, first);
+        return;
+    }
+    let noise = textureLoad(lux_variance, c, layer, 0);
+    if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
+        lux_store(c, first);
+        return;
+    }
+    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                lux_tile.layer, u32(c.x), u32(c.y));
+    let origin = pos.xyz + n * lux_scene.ray_epsilon;
+    let sum = lux_gather_sum(origin, n, texel, lux_pass.first_rays, rays, lux_pass.sampler,
+                             lux_pass.bounce, lux_pass.seed);
+    let total = f32(lux_pass.first_rays + rays);
+    let m = f32(lux_pass.first_rays) * first.rgb + sum;
+    lux_store(c, vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0));
+}
