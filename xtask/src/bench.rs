@@ -1,5 +1,5 @@
 //! `cargo xtask bench [--quick]`, `cargo xtask bench trade [--quick]` and
-//! `cargo xtask bench sampling [--quick]`: measured runs of the bake (not criterion benchmarks:
+//! `cargo xtask bench sampling [--quick]`, `cargo xtask bench grain [--quick]`: measured runs of the bake (not criterion benchmarks:
 //! one configuration takes seconds to minutes).
 //!
 //! - `bench` ([`table1`]): the paper's Table 1 — `chairs_01/03/05/10` and `sofa_01` × every
@@ -21,6 +21,8 @@
 //! - `bench sampling` ([`sampling`]): the gather's error against the ray count for each direction
 //!   sampler (hash, Sobol) on a box room, vs a converged reference: relative RMSE, log-log
 //!   slopes, hash / Sobol ratios.
+//! - `bench grain` ([`grain`]): the grain of the box room's floor, ceiling and walls per preset
+//!   against a 4096-ray reference: relative standard deviation and bias of `E / E_ref`.
 //!
 //! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
 //! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
@@ -40,6 +42,7 @@ use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
+mod grain;
 mod refcheck;
 mod sampling;
 mod scaling;
@@ -92,6 +95,8 @@ enum What {
     Refcheck(refcheck::Args),
     /// Gather error vs rays per direction sampler (hash, Sobol) on a box room.
     Sampling(sampling::Args),
+    /// Grain of flat, evenly lit surfaces per preset against a 4096-ray reference.
+    Grain(grain::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -108,6 +113,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         Some(What::Trade(t)) => trade::run(t, args.quick, args.runs, &out),
         Some(What::Refcheck(r)) => refcheck::run(r, &out),
         Some(What::Sampling(s)) => sampling::run(s, args.quick, &out),
+        Some(What::Grain(g)) => grain::run(g, args.quick, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)
