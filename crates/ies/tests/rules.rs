@@ -283,6 +283,38 @@ fn tilt_include_is_parsed_and_applied() {
     assert_eq!(p.tilt().factor(-5.0), 1.0);
 }
 
+/// Every tilted query scales by the factor interpolated at the tilt: the flux, the peak and
+/// each value of the shaders' table (at 0° the untilted queries).
+#[test]
+fn tilted_queries_scale_by_the_interpolated_factor() {
+    let p = parse(&ies(
+        "IESNA:LM-63-2002\n[TEST] a",
+        TILT_BLOCK,
+        "1 1000 1 3 1 1 2 0 0 0",
+        "0 45 90\n0\n100 60 0",
+    ));
+    let (flux, (peak, peak_dir), table) = (p.luminous_flux(), p.max_intensity(), p.gpu_table());
+    assert_eq!(p.gpu_table_tilted(0.0), table);
+    // 30°: two thirds of the way from 1 to 0.8; 45° a listed angle; 120° past the last one.
+    for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8), (120.0, 0.5)] {
+        assert!(close(p.tilt().factor(tilt), factor, 1e-12), "{tilt}");
+        assert!(close(p.luminous_flux_tilted(tilt), flux * factor, 1e-12));
+        let (m, dir) = p.max_intensity_tilted(tilt);
+        assert!(close(m, peak * factor, 1e-12) && dir == peak_dir);
+        let tilted = p.gpu_table_tilted(tilt);
+        assert_eq!((tilted.width, tilted.height), (table.width, table.height));
+        for (a, b) in tilted.values.iter().zip(&table.values) {
+            assert!((f64::from(*a) - f64::from(*b) * factor).abs() <= 1e-5 * f64::from(*b));
+        }
+        let d = [0.3, 0.1, -0.8];
+        assert!(close(
+            p.intensity_tilted(d, tilt),
+            p.intensity(d) * factor,
+            1e-12
+        ));
+    }
+}
+
 #[test]
 fn tilt_file_needs_a_resolver() {
     let text = ies(
