@@ -431,6 +431,15 @@ impl Lamp {
         [rot(aimed[0]), rot(aimed[1]), zenith].map(|v| v.to_array())
     }
 
+    /// The luminaire's tilt, degrees in [0, 180]: the angle between its photometric nadir
+    /// (`aim`) and world straight down (−Y), at which the bake evaluates the photometry's tilt
+    /// factors (`TILT=INCLUDE` or a tilt file; see `luxbake_ies`, *Multipliers and tilt*).
+    /// `rotation_deg` turns the lamp about its nadir and leaves the tilt unchanged.
+    pub fn tilt_deg(&self) -> f64 {
+        // Row 2 is the zenith, −aim: its +Y component is the cosine of the tilt.
+        self.frame_f64()[2][1].clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
     /// Maps a world direction (any length) to the photometric frame; the result has the same
     /// length. Intensity toward a texel at `p` is `photometry` evaluated at
     /// `to_photometric(p − position)`.
@@ -941,6 +950,24 @@ mod tests {
         // Singular transforms return the input, never NaN.
         let z = Transform::from_trs([0.0; 3], [0.0; 3], [0.0, 1.0, 1.0]);
         assert_eq!(z.normal([0.0, 1.0, 0.0]), [0.0, 1.0, 0.0]);
+    }
+
+    #[test]
+    fn tilt_is_the_angle_between_aim_and_straight_down() {
+        let h = 0.5f32.sqrt();
+        for (aim, rotation, want) in [
+            ([0.0, -1.0, 0.0], 0.0, 0.0),
+            ([0.0, -2.0, 0.0], 70.0, 0.0),
+            ([h, -h, 0.0], 0.0, 45.0),
+            ([0.0, -h, h], 30.0, 45.0),
+            ([0.5, -(0.75f32.sqrt()), 0.0], 0.0, 30.0),
+            ([1.0, 0.0, 0.0], 90.0, 90.0),
+            ([0.0, 1.0, 0.0], 0.0, 180.0),
+            ([0.0, 0.0, 0.0], 0.0, 0.0),
+        ] {
+            let t = lamp(aim, rotation).tilt_deg();
+            assert!((t - want).abs() < 1e-5, "{aim:?} {rotation}: {t}");
+        }
     }
 
     #[test]

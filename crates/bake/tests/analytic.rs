@@ -239,6 +239,57 @@ fn floor_type_c_lamp_and_turned_lamp() {
     }
 }
 
+/// 1000 cd in every direction, with tilt factors 1, 0.8 and 0.5 at 0°, 45° and 90°.
+const TILTED_ISOTROPIC_IES: &str = "IESNA:LM-63-2002\n[TEST] tilt\nTILT=INCLUDE\n1\n3\n\
+    0 45 90\n1 0.8 0.5\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 180\n0\n1000 1000\n";
+
+// Test 1d: the tilt factor is taken at the lamp's tilt (the angle between its aim and straight
+// down): an isotropic lamp aimed 30° and 45° off the vertical gives exactly the factor times
+// the light of the same lamp aimed down, and the closed form E = f(tilt)·I·h / d³.
+#[test]
+fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
+    let h = 2.0f64;
+    let photometry = Arc::new(Photometry::parse(TILTED_ISOTROPIC_IES.as_bytes()).expect("parse"));
+    let bake_at = |tilt_deg: f64| {
+        let mut lamp = Lamp::new("tilted", Arc::clone(&photometry), [0.0, h as f32, 0.0]);
+        let t = tilt_deg.to_radians();
+        lamp.aim = [t.sin() as f32, -t.cos() as f32, 0.0];
+        assert!(
+            (lamp.tilt_deg() - tilt_deg).abs() < 1e-4,
+            "{}",
+            lamp.tilt_deg()
+        );
+        let scene = floor_scene(8.0, lamp);
+        let out = run(&scene);
+        assert_finite(&out);
+        let g = gbuffer(&scene, &out);
+        let maps = &out.maps[0];
+        let t: Vec<([f64; 3], [f32; 4])> = texels(&g, maps, maps.illuminance()).collect();
+        t
+    };
+    let down = bake_at(0.0);
+    // 30°: two thirds of the way from 1 (0°) to 0.8 (45°).
+    for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8)] {
+        let tilted = bake_at(tilt);
+        assert_eq!(tilted.len(), down.len());
+        let (mut ratio, mut closed) = (Err::default(), Err::default());
+        for ((p, e), (_, e0)) in tilted.iter().zip(&down) {
+            ratio.add(f64::from(e[0]), factor * f64::from(e0[0]));
+            let r2 = p[0] * p[0] + p[2] * p[2];
+            let dy = h - p[1];
+            closed.add(f64::from(e[0]), factor * I0 * dy / (dy * dy + r2).powf(1.5));
+        }
+        println!(
+            "tilt {tilt}°: factor {factor:.4}, {} texels; against factor × aimed down max {:.2e}, \
+             against the closed form max {:.2e}",
+            ratio.n, ratio.max, closed.max
+        );
+        assert!(ratio.n > 10_000);
+        assert!(ratio.max < 1e-5, "{ratio:?}");
+        assert!(closed.max < 0.005, "{closed:?}");
+    }
+}
+
 fn fine_sphere_scene(radius: f32, albedo: f32, bounces: u32) -> Scene {
     let density = 12.0 / radius;
     let mesh = meshes::sphere(radius, 64, true, 4.0 / density);
