@@ -196,7 +196,8 @@ impl Photometry {
         self.format
     }
     /// Keyword lines in file order (`[MORE]` joined). For EULUMDAT files, the header's text
-    /// fields under the LM-63 keywords `TEST`, `MANUFAC`, `LUMCAT`, `LUMINAIRE`, `LAMP`, `ISSUEDATE`.
+    /// fields under the LM-63 keywords `TEST`, `MANUFAC`, `LUMCAT`, `LUMINAIRE`, `LAMP` (the
+    /// lamp type of each set, one line each), `ISSUEDATE`.
     pub fn keywords(&self) -> &[Keyword] {
         &self.keywords
     }
@@ -211,12 +212,13 @@ impl Photometry {
     pub fn tilt(&self) -> &Tilt {
         &self.tilt
     }
-    /// Number of lamps.
+    /// Number of lamps (EULUMDAT: of every lamp set).
     pub fn lamp_count(&self) -> u32 {
         self.lamp_count
     }
     /// Rated lumens per lamp; `None` for absolute photometry (`-1` in the file; EULUMDAT: a
-    /// negative number of lamps).
+    /// negative number of lamps). EULUMDAT: the total flux of every lamp set over the number
+    /// of lamps.
     pub fn lumens_per_lamp(&self) -> Option<f64> {
         self.lumens_per_lamp
     }
@@ -225,8 +227,8 @@ impl Photometry {
     pub fn lumens_header(&self) -> Option<f64> {
         self.lumens_per_lamp.map(|l| l * f64::from(self.lamp_count))
     }
-    /// Candela multiplier (EULUMDAT: conversion factor × lamp flux / 1000, since its values
-    /// are in cd/klm).
+    /// Candela multiplier (EULUMDAT: conversion factor × the total flux of every lamp set
+    /// / 1000, since its values are in cd/klm).
     pub fn candela_multiplier(&self) -> f64 {
         self.candela_multiplier
     }
@@ -244,7 +246,7 @@ impl Photometry {
     pub fn file_generation_type(&self) -> Option<f64> {
         (self.format == Format::Lm63_2019).then_some(self.ballast_lamp_factor)
     }
-    /// Input watts.
+    /// Input watts (EULUMDAT: the sum over the lamp sets).
     pub fn input_watts(&self) -> f64 {
         self.input_watts
     }

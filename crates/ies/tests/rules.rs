@@ -802,6 +802,75 @@ fn eulumdat_errors() {
     ));
 }
 
+/// The one lamp set of [`ldt`] (lamps, type, flux, colour, CRI, watts).
+const ONE_SET: &str = "1\n1\nLED\n1000\n3000K\n90\n10\n";
+/// Three lamp sets, field by field: 2 + 1 + 1 lamps, 2600 + 1300 + 600 lm, 64 + 32 + 10 W.
+const THREE_SETS: &str = "3\n2\n1\n1\nT5\nT5\nLED\n2600\n1300\n600\n3000K\n3000K\n4000K\n\
+    80\n80\n90\n64\n32\n10\n";
+
+#[test]
+fn eulumdat_lamp_sets_are_all_fitted() {
+    let one = parse(&ldt(1, 24, 5.0, |_, _| 100.0));
+    let text = ldt(1, 24, 5.0, |_, _| 100.0).replacen(ONE_SET, THREE_SETS, 1);
+    let p = parse(&text);
+    let sets = &p.ldt().unwrap().lamp_sets;
+    assert_eq!(sets.len(), 3);
+    assert_eq!(
+        sets.iter()
+            .map(|s| (
+                s.count,
+                s.lamp_type.as_str(),
+                s.flux,
+                s.color.as_str(),
+                s.watts
+            ))
+            .collect::<Vec<_>>(),
+        [
+            (2, "T5", 2600.0, "3000K", 64.0),
+            (1, "T5", 1300.0, "3000K", 32.0),
+            (1, "LED", 600.0, "4000K", 10.0)
+        ]
+    );
+    assert_eq!(sets[2].cri, "90");
+    // 100 cd/klm of 4500 lm: 450 cd, 4.5 times the one 1000 lm set.
+    assert_eq!(p.candela_multiplier(), 4.5);
+    assert_eq!(p.intensity_at(30.0, 0.0), 450.0);
+    assert!(close(p.luminous_flux(), 4.5 * one.luminous_flux(), 1e-12));
+    assert_eq!((p.lamp_count(), p.lumens_header()), (4, Some(4500.0)));
+    assert_eq!(
+        (p.lumens_per_lamp(), p.input_watts()),
+        (Some(1125.0), 106.0)
+    );
+    assert_eq!(p.keyword("LAMP"), Some("T5\nT5\nLED"));
+    // Written as LM-63: the same intensities, lamps, lumens and watts, every lamp type.
+    let back = parse(&p.to_ies(IesVersion::Lm63_2002));
+    assert_eq!(back.intensity_at(30.0, 0.0), 450.0);
+    assert_eq!((back.lamp_count(), back.lumens_header()), (4, Some(4500.0)));
+    assert_eq!(back.input_watts(), 106.0);
+    assert_eq!(back.keyword("LAMP"), Some("T5\nT5\nLED"));
+    // Absolute photometry: negative counts in every set, the intensities still per klm of
+    // the total flux.
+    let absolute = parse(&text.replacen("3\n2\n1\n1\n", "3\n-2\n-1\n-1\n", 1));
+    assert_eq!(absolute.lumens_per_lamp(), None);
+    assert_eq!(absolute.intensity_at(30.0, 0.0), 450.0);
+}
+
+#[test]
+fn eulumdat_lamp_sets_mixing_absolute_and_relative_are_an_error() {
+    let text = ldt(1, 24, 5.0, |_, _| 100.0).replacen(ONE_SET, THREE_SETS, 1);
+    let mixed = text.replacen("3\n2\n1\n1\n", "3\n2\n-1\n1\n", 1);
+    match Photometry::parse(mixed.as_bytes()) {
+        Err(e @ IesError::OutOfRange { line: 28, .. }) => {
+            let m = e.to_string();
+            assert!(m.contains("lamp set 2") && m.contains("-1"), "{m}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Fewer sets than announced: the file ends early or a field is read as the wrong one.
+    let short = ldt(1, 24, 5.0, |_, _| 100.0).replacen("\n1\n1\nLED\n", "\n2\n1\nLED\n", 1);
+    assert!(Photometry::parse(short.as_bytes()).is_err());
+}
+
 // ---------------------------------------------------------------- writer
 
 #[test]
