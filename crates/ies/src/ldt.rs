@@ -330,6 +330,7 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         symmetry_indicator: isym as u8,
         c_planes: mc,
         c_step: dc,
+        c_angles,
         gamma_count: ng,
         gamma_step: dg,
         report_number: texts[0].to_owned(),

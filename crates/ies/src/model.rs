@@ -423,6 +423,9 @@ pub struct LdtInfo {
     pub c_planes: usize,
     /// Distance between C planes Dc, degrees.
     pub c_step: f64,
+    /// All Mc C-plane angles as in the file, degrees; the planes stored for the symmetry are
+    /// [`Photometry::horizontal_angles`](crate::Photometry::horizontal_angles).
+    pub c_angles: Vec<f64>,
     /// Intensities per C plane Ng.
     pub gamma_count: usize,
     /// Distance between γ angles Dg, degrees.

@@ -193,6 +193,11 @@ fn written_samples_parse_back_equal() {
                 assert!((a - b).abs() <= 1e-9 * a.abs().max(1.0), "{name}: {a} {b}");
             }
         }
+        // EULUMDAT files are also written back as EULUMDAT, losslessly; LM-63 data is not.
+        match p.to_ldt() {
+            Some(text) => assert_eq!(Photometry::parse(text.as_bytes()).unwrap(), p, "{name}"),
+            None => assert_ne!(p.format(), Format::Eulumdat, "{name}"),
+        }
     }
 }
 
