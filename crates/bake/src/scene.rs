@@ -607,7 +607,7 @@ impl FromStr for BvhMode {
 /// | `rays`             | 1 ..= [`MAX_RAYS`](Settings::MAX_RAYS) (65536)            |
 /// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
 /// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
-/// | `texels_per_metre` | (0, [`MAX_TEXELS_PER_METRE`](Settings::MAX_TEXELS_PER_METRE)] (10000) |
+/// | `texels_per_metre` | finite, > 0; the maps it gives must fit [`Layout::MAX_TEXELS`](crate::layout::Layout::MAX_TEXELS), checked when the layout is sized |
 /// | `bvh`, `seed`, `backend` | any value                                           |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -721,9 +721,6 @@ impl Settings {
     pub const MAX_BOUNCES: u32 = 64;
     /// Largest blur sigma, texels.
     pub const MAX_BLUR_SIGMA: f32 = 64.0;
-    /// Largest texel density, texels per metre.
-    pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
-
     /// Checks every setting against the limits in the type's docs; the error names the first
     /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance` or
     /// `texels_per_metre`).
@@ -753,12 +750,12 @@ impl Settings {
                 format!("{t}; expected a fraction, 0 < tail_tolerance < 1"),
             );
         }
+        // No upper bound: the texel count it gives is limited where the layout is sized.
         let d = self.texels_per_metre;
-        if !(d > 0.0 && d <= Settings::MAX_TEXELS_PER_METRE) {
-            let max = Settings::MAX_TEXELS_PER_METRE;
+        if !(d.is_finite() && d > 0.0) {
             return invalid(
                 "texels_per_metre",
-                format!("{d}; expected 0 < texels_per_metre <= {max}"),
+                format!("{d}; expected a finite number > 0"),
             );
         }
         Ok(())
@@ -1086,6 +1083,9 @@ mod tests {
         let s = Scene::builtin("chairs_01").expect("builtin");
         for f in [1e-3f32, 1e3] {
             let t = s.scaled(f);
+            // At 1/1000 scale: 64 000 texels per metre, as valid as 64.
+            assert_eq!(t.settings.texels_per_metre, 64.0 / f);
+            assert_eq!(t.settings.validate(), Ok(()), "scale {f}");
             let (a, b) = (
                 crate::layout::Layout::new(&s, 4096, 64).expect("layout"),
                 crate::layout::Layout::new(&t, 4096, 64).expect("layout"),
@@ -1147,7 +1147,7 @@ mod tests {
             s.rays = Settings::MAX_RAYS;
             s.bounces = Settings::MAX_BOUNCES;
             s.blur = Blur::Sigma(Settings::MAX_BLUR_SIGMA);
-            s.texels_per_metre = Settings::MAX_TEXELS_PER_METRE;
+            s.texels_per_metre = 1e30;
         };
         assert_eq!(with(&at_the_limits), Ok(()));
         assert_eq!(with(&|s| s.rays = 0), Err("rays"));
@@ -1163,7 +1163,7 @@ mod tests {
                 "{sigma}"
             );
         }
-        for d in [0.0, -1.0, 10_001.0, f32::NAN, f32::INFINITY] {
+        for d in [0.0, -1.0, -1e-30, f32::NAN, f32::INFINITY] {
             assert_eq!(
                 with(&|s| s.texels_per_metre = d),
                 Err("texels_per_metre"),

@@ -7,6 +7,7 @@ use std::sync::Arc;
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::layout::Layout;
 use luxbake::map::MapImage;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
@@ -288,6 +289,50 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
         assert!(ratio.max < 1e-5, "{ratio:?}");
         assert!(closed.max < 0.005, "{closed:?}");
     }
+}
+
+// Test 1e: the floor modelled at 1/1000 scale bakes at 16 000 texels per metre: the same
+// layout as at full scale at 16, and E × 10⁶ (the same candela at a thousandth of the
+// distance) in every texel.
+#[test]
+fn a_scene_at_a_thousandth_of_the_scale_bakes_the_same_texels() {
+    let full = floor_scene(16.0, isotropic(I0, [0.0, 2.0, 0.0]));
+    let small = full.scaled(1e-3);
+    assert!(small.settings.texels_per_metre > 10_000.0);
+    let (a, b) = (run(&full), run(&small));
+    assert_finite(&b);
+    assert_eq!(a.layout, b.layout);
+    let mut err = Err::default();
+    let (ea, eb) = (a.maps[0].illuminance(), b.maps[0].illuminance());
+    for (x, y) in ea.texels.chunks_exact(4).zip(eb.texels.chunks_exact(4)) {
+        assert_eq!(x[3], y[3], "the same texels are valid");
+        if x[3] > 0.5 {
+            err.add(f64::from(y[0]), 1e6 * f64::from(x[0]));
+        }
+    }
+    println!(
+        "1/1000 scale: {} texels laid out, {} compared, max relative deviation from E × 10⁶ {:.2e}",
+        b.layout.texel_count(),
+        err.n,
+        err.max
+    );
+    assert!(err.n > 10_000);
+    assert!(err.max < 1e-4, "{err:?}");
+}
+
+// Test 1f: an absurd density stops the bake with an error naming the texel count and the
+// limit, before anything of that size is allocated.
+#[test]
+fn an_absurd_density_is_an_error_not_an_allocation() {
+    let scene = floor_scene(1e9, isotropic(I0, [0.0, 2.0, 0.0]));
+    let e = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {})
+        .expect_err("too many texels");
+    let m = e.to_string();
+    assert!(
+        m.contains(&format!("limit of {} texels", Layout::MAX_TEXELS))
+            && m.contains("texels_per_metre"),
+        "{m}"
+    );
 }
 
 fn fine_sphere_scene(radius: f32, albedo: f32, bounces: u32) -> Scene {
