@@ -5,6 +5,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
+use luxbake::ci::skip_or_fail;
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
@@ -71,16 +72,17 @@ fn assert_finite(out: &BakeOutput) {
     }
 }
 
-fn shared(path: &str) -> Option<PathBuf> {
+/// `path` inside `../shared`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test`
+/// under CI).
+fn shared(test: &str, path: &str) -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared")
         .join(path);
     if p.exists() {
-        Some(p)
-    } else {
-        println!("skipped: {} not found", p.display());
-        None
+        return Some(p);
     }
+    skip_or_fail(test, &format!("{} not found", p.display()));
+    None
 }
 
 /// Relative error statistics.
@@ -155,8 +157,8 @@ fn floor_inverse_square_cosine() {
     assert!(points.max < 0.005, "{points:?}");
 }
 
-fn asym_lamp(position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
-    let path = shared("photometry/synthetic_asym_typeC.ies")?;
+fn asym_lamp(test: &str, position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
+    let path = shared(test, "photometry/synthetic_asym_typeC.ies")?;
     let bytes = std::fs::read(path).expect("read");
     let mut l = Lamp::new(
         "asym",
@@ -181,10 +183,11 @@ fn expected(lamp: &Lamp, frame: &[[f64; 3]; 3], p: [f64; 3]) -> f64 {
 #[test]
 fn floor_type_c_lamp_and_turned_lamp() {
     let h = 2.0f32;
-    let Some(lamp) = asym_lamp([0.0, h, 0.0], 0.0) else {
+    let test = "floor_type_c_lamp_and_turned_lamp";
+    let Some(lamp) = asym_lamp(test, [0.0, h, 0.0], 0.0) else {
         return;
     };
-    let Some(turned) = asym_lamp([0.0, h, 0.0], 90.0) else {
+    let Some(turned) = asym_lamp(test, [0.0, h, 0.0], 90.0) else {
         return;
     };
     let peak = lamp.photometry.max_intensity().0;
