@@ -294,6 +294,16 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     let lamp_count = lamps.clamp(1, u64::from(u32::MAX)) as u32;
     let total_flux: f64 = lamp_sets.iter().map(|s| s.flux).sum();
     let total_watts: f64 = lamp_sets.iter().map(|s| s.watts).sum();
+    for (what, total) in [("flux", total_flux), ("wattage", total_watts)] {
+        if !total.is_finite() {
+            return Err(IesError::OutOfRange {
+                line: l_sets,
+                what: format!("total {what} of the lamp sets"),
+                value: total,
+                expected: "a finite sum".into(),
+            });
+        }
+    }
     let lamp_types: Vec<&str> = lamp_sets
         .iter()
         .map(|s| s.lamp_type.as_str())

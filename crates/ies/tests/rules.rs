@@ -856,13 +856,21 @@ fn eulumdat_lamp_sets_are_all_fitted() {
 }
 
 #[test]
-fn eulumdat_lamp_sets_mixing_absolute_and_relative_are_an_error() {
+fn eulumdat_inconsistent_lamp_sets_are_errors() {
     let text = ldt(1, 24, 5.0, |_, _| 100.0).replacen(ONE_SET, THREE_SETS, 1);
     let mixed = text.replacen("3\n2\n1\n1\n", "3\n2\n-1\n1\n", 1);
     match Photometry::parse(mixed.as_bytes()) {
         Err(e @ IesError::OutOfRange { line: 28, .. }) => {
             let m = e.to_string();
             assert!(m.contains("lamp set 2") && m.contains("-1"), "{m}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Sums that overflow.
+    let huge = text.replacen("\n64\n32\n10\n", "\n1e308\n1e308\n10\n", 1);
+    match Photometry::parse(huge.as_bytes()) {
+        Err(e @ IesError::OutOfRange { line: 26, .. }) => {
+            assert!(e.to_string().contains("total wattage"), "{e}")
         }
         other => panic!("{other:?}"),
     }
