@@ -20,6 +20,10 @@
 //!   API in **degrees** (file angles) or as direction vectors.
 //! * Every file is expanded once, at load, to a full-sphere grid; queries never look at the
 //!   symmetry again.
+//! * EULUMDAT intensities are in cd/klm of the luminaire's lamps: all of its lamp sets are
+//!   fitted, so they are scaled by the sum of the sets' fluxes ([`LdtInfo::lamp_sets`] keeps
+//!   each set). [`Photometry::to_ies`] writes any data as LM-63, [`Photometry::to_ldt`] writes
+//!   EULUMDAT data back as EULUMDAT, losslessly.
 //!
 //! # The photometric frame
 //! One right-handed frame serves every photometric type. Picture the luminaire hanging from the
