@@ -1,6 +1,6 @@
 //! EULUMDAT input: a valid header is kept half the time and the fuzzer's bytes replace the
 //! rest, so it gets past the fixed-layout header. Whatever parses must answer queries with
-//! finite numbers and convert to LM-63.
+//! finite numbers, convert to LM-63 and write back as EULUMDAT unchanged.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;
@@ -25,5 +25,9 @@ fuzz_target!(|data: &[u8]| {
         assert!(p.intensity([0.2, 0.1, -1.0]).is_finite());
         let written = p.to_ies(IesVersion::Lm63_2002);
         Photometry::parse(written.as_bytes()).expect("written LM-63 parses");
+        if let Some(ldt) = p.to_ldt() {
+            let q = Photometry::parse(ldt.as_bytes()).expect("written EULUMDAT parses");
+            assert!(q == p, "EULUMDAT written back differs");
+        }
     }
 });

@@ -11,8 +11,10 @@
 //!   tolerance for one backend pair (none is skipped: a gap only widens a tolerance);
 //! - [`compare`]: every stage of two bakes through `luxbake_backends::image_diff`, writing the
 //!   expected / actual / difference PNGs of a failure under [`output_dir`];
-//! - [`open`]: a backend by [`BackendKind`] (`luxbake_backends`), skipped without a driver
-//!   outside CI and failed under CI (`luxbake::ci`): a GPU test skipped in CI is a failure.
+//! - [`Tally`]: opens a backend by [`BackendKind`] (`luxbake_backends`), skipped without a
+//!   driver outside CI and failed under CI (`luxbake::ci`): a GPU test skipped in CI is a
+//!   failure; and counts what a test compared: a test that compared nothing must have skipped
+//!   a backend.
 //!
 //! The comparisons run in `tests/cross_backend.rs` (cpu-vs-glow, cpu-vs-wgpu, glow-vs-wgpu on
 //! `chairs_01`, `floor`, `sphere`) and the closed-form checks on every GPU backend in
@@ -209,12 +211,73 @@ pub fn output_dir() -> PathBuf {
 
 /// Opens `kind` for `test`; without its driver `None` after [`luxbake::ci::skip_or_fail`]
 /// (which fails the test under CI). A driver that fails to open fails the test.
-pub fn open(kind: BackendKind, test: &str) -> Option<AnyBackend> {
+fn open(kind: BackendKind, test: &str) -> Option<AnyBackend> {
     luxbake::ci::or_skip(
         test,
         luxbake_backends::open(kind),
         OpenError::is_driver_missing,
     )
+}
+
+/// What one test compared, and which backends it skipped through [`Tally::open`]: a test either
+/// compares something or says which backends it skipped (outside CI only; in CI a skip is a
+/// failure). [`Tally::finish`] checks it, so a machine without drivers cannot pass a test that
+/// compared nothing in silence.
+#[derive(Debug)]
+pub struct Tally {
+    test: String,
+    compared: usize,
+    skipped: Vec<BackendKind>,
+}
+
+impl Tally {
+    /// An empty tally for `test`.
+    pub fn new(test: impl Into<String>) -> Tally {
+        Tally {
+            test: test.into(),
+            compared: 0,
+            skipped: Vec::new(),
+        }
+    }
+
+    /// Opens `kind` for this test; without its driver `None` after
+    /// [`luxbake::ci::skip_or_fail`] (which fails the test under CI), recording the skip. A
+    /// driver that fails to open fails the test.
+    pub fn open(&mut self, kind: BackendKind) -> Option<AnyBackend> {
+        let opened = open(kind, &self.test);
+        if opened.is_none() && !self.skipped.contains(&kind) {
+            self.skipped.push(kind);
+        }
+        opened
+    }
+
+    /// Counts `cases` compared cases (backend pairs, passes, closed forms: the test's unit).
+    pub fn compared(&mut self, cases: usize) {
+        self.compared += cases;
+    }
+
+    /// Prints what was compared and skipped.
+    ///
+    /// # Panics
+    /// When nothing was compared and no backend was skipped.
+    pub fn finish(self) {
+        let skipped: Vec<&str> = self.skipped.iter().map(|b| b.name()).collect();
+        if skipped.is_empty() {
+            println!("{}: {} cases compared", self.test, self.compared);
+        } else {
+            println!(
+                "{}: {} cases compared; skipped without a driver: {} (see above)",
+                self.test,
+                self.compared,
+                skipped.join(", ")
+            );
+        }
+        assert!(
+            self.compared > 0 || !skipped.is_empty(),
+            "{}: compared nothing, and skipped no backend",
+            self.test
+        );
+    }
 }
 
 /// Two backends compared: `expected` is the reference of the pair.
@@ -342,5 +405,18 @@ mod tests {
         for c in SCENES {
             assert!(Scene::builtin_names().contains(&c.scene), "{}", c.scene);
         }
+    }
+
+    #[test]
+    fn a_tally_that_compared_something_passes() {
+        let mut tally = Tally::new("t");
+        tally.compared(2);
+        tally.finish();
+    }
+
+    #[test]
+    #[should_panic(expected = "t: compared nothing, and skipped no backend")]
+    fn a_tally_that_compared_nothing_and_skipped_nothing_fails() {
+        Tally::new("t").finish();
     }
 }

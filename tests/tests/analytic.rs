@@ -2,7 +2,9 @@
 //! compared): the floor under an isotropic lamp within 0.5 %, the closed sphere's
 //! inter-reflection series `E = (I/R²)·Σ_{i≤k} ρ^i` within 1 % (paper method), and at the
 //! converged method's default preset CIE 171:2006 test case 5.8 within 2 % and the closed
-//! sphere's whole series within 1 %, for ρ up to 0.95. Each test prints the errors it measured.
+//! sphere's whole series within 1 %, for ρ up to 0.95. Each test prints the errors it measured,
+//! and compares something on at least one backend or says which it skipped
+//! ([`luxbake_tests::Tally`]).
 //! (The CPU backend's own checks live in the core crate.)
 
 use std::sync::Arc;
@@ -14,6 +16,7 @@ use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::{closed_forms, meshes};
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
+use luxbake_tests::Tally;
 
 const I0: f64 = 1000.0;
 const GPU: [BackendKind; 2] = [BackendKind::Glow, BackendKind::Wgpu];
@@ -68,10 +71,11 @@ impl Err {
     }
 }
 
-fn run(backend: BackendKind, test: &str, scene: &Scene) -> Option<BakeOutput> {
-    let mut b = luxbake_tests::open(backend, test)?;
+/// Bakes `scene` on `backend`, or `None` when the backend is skipped (recorded in `tally`).
+fn run(tally: &mut Tally, backend: BackendKind, scene: &Scene) -> Option<BakeOutput> {
+    let mut b = tally.open(backend)?;
     let out = bake(&mut b, scene, &scene.settings, &mut |_| {})
-        .unwrap_or_else(|e| panic!("{test}: {backend} bake: {e}"));
+        .unwrap_or_else(|e| panic!("{backend} bake: {e}"));
     for m in &out.maps {
         for stage in m.stages.iter().flatten() {
             assert!(
@@ -93,8 +97,9 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
         Arc::new(Photometry::isotropic(I0)),
         [0.0, h as f32, 0.0],
     )];
+    let mut tally = Tally::new("floor_inverse_square_cosine");
     for backend in GPU {
-        let Some(out) = run(backend, "floor_inverse_square_cosine", &scene) else {
+        let Some(out) = run(&mut tally, backend, &scene) else {
             continue;
         };
         let g = rasterize(&scene, &out.layout);
@@ -117,12 +122,15 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
         );
         assert!(err.n > 10_000, "{}", backend.name());
         assert!(err.max < 0.005, "{}: {err:?}", backend.name());
+        tally.compared(1);
     }
+    tally.finish();
 }
 
 #[test]
 fn closed_sphere_interreflection_series_on_every_gpu_backend() {
     let (r, rho) = (1.0f64, 0.5f64);
+    let mut tally = Tally::new("closed_sphere_interreflection_series");
     for backend in GPU {
         for k in 0..=3u32 {
             let density = 12.0 / r as f32;
@@ -142,7 +150,7 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
                 )],
                 settings: settings(density, k, 16),
             };
-            let Some(out) = run(backend, "closed_sphere_interreflection_series", &scene) else {
+            let Some(out) = run(&mut tally, backend, &scene) else {
                 break;
             };
             assert_eq!(out.report.bounces_run, k);
@@ -162,8 +170,10 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
             );
             assert!(err.n > 1000, "{}", backend.name());
             assert!(err.max < 0.01, "{} k={k}: {err:?}", backend.name());
+            tally.compared(1);
         }
     }
+    tally.finish();
 }
 
 /// Mean over the valid texels of every map of `f(total, direct)` (green channel).
@@ -184,7 +194,7 @@ fn map_mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> f64 {
 
 #[test]
 fn cie_171_5_8_and_the_closed_sphere_converge_on_every_gpu_backend() {
-    let mut compared = 0;
+    let mut tally = Tally::new("cie_171_5_8_and_the_closed_sphere_converge");
     for backend in GPU {
         for rho in [0.5f32, 0.8, 0.95] {
             let settings = Settings {
@@ -192,8 +202,8 @@ fn cie_171_5_8_and_the_closed_sphere_converge_on_every_gpu_backend() {
                 ..Settings::default()
             };
             let (cube, want) = closed_forms::cie_171_5_8(rho, settings);
-            let Some(out) = run(backend, "cie_171_5_8", &cube) else {
-                return;
+            let Some(out) = run(&mut tally, backend, &cube) else {
+                break;
             };
             let indirect = map_mean(&out, |e, d| e - d);
             println!(
@@ -209,8 +219,8 @@ fn cie_171_5_8_and_the_closed_sphere_converge_on_every_gpu_backend() {
                 ..Settings::default()
             };
             let (sphere, want) = closed_forms::closed_sphere(1.0, rho, I0, settings);
-            let Some(out) = run(backend, "closed_sphere_converged", &sphere) else {
-                return;
+            let Some(out) = run(&mut tally, backend, &sphere) else {
+                break;
             };
             let worst = map_mean(&out, |e, _| (e / want - 1.0).abs());
             println!(
@@ -219,8 +229,8 @@ fn cie_171_5_8_and_the_closed_sphere_converge_on_every_gpu_backend() {
                 100.0 * worst
             );
             assert!(worst < 0.01, "{}", backend.name());
-            compared += 2;
+            tally.compared(2);
         }
     }
-    assert_eq!(compared, 12);
+    tally.finish();
 }

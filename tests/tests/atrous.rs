@@ -15,7 +15,7 @@ use luxbake::scene::BvhMode;
 use luxbake_backends::BackendKind;
 use luxbake_backends::image_diff::diff;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
-use luxbake_tests::open;
+use luxbake_tests::Tally;
 
 const SIZE: [u32; 2] = [48, 40];
 const LAYERS: u32 = 2;
@@ -188,9 +188,10 @@ fn the_denoiser_passes_agree_across_backends() {
     let test = "atrous::the_denoiser_passes_agree_across_backends";
     let inp = input();
     let steps = atrous_steps(&AtrousConfig::new(5, H));
+    let mut tally = Tally::new(test);
     let mut results = Vec::new();
     for b in BackendKind::ALL {
-        let Some(mut opened) = open(b, test) else {
+        let Some(mut opened) = tally.open(b) else {
             continue;
         };
         let out = run(&mut opened, &inp, &steps).map_err(|e| e.to_string());
@@ -209,7 +210,6 @@ fn the_denoiser_passes_agree_across_backends() {
         .filter(|(a, b)| b[3] > 0.5 && a[..3] != b[..3])
         .count();
     assert!(changed > 1000, "{changed} texels changed");
-    let mut compared = 0;
     for (b, out) in &results[1..] {
         for (k, (program, _)) in steps.iter().enumerate() {
             let mut texels = 0;
@@ -245,10 +245,7 @@ fn the_denoiser_passes_agree_across_backends() {
                 program.label()
             );
         }
-        compared += 1;
+        tally.compared(1);
     }
-    println!("{test}: {compared} backends compared with the CPU");
-    if luxbake::ci::ci_requires_everything() {
-        assert_eq!(compared, 2);
-    }
+    tally.finish();
 }

@@ -3,35 +3,38 @@
 //! `chairs_01` and `sphere` (converged method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
-//! fails in CI.
+//! fails in CI. Each test compares at least one backend pair, or says which backends it
+//! skipped ([`luxbake_tests::Tally`]).
 
 use luxbake::bake::bake;
 use luxbake::graph::Figure5;
 use luxbake::scene::Scene;
 use luxbake_backends::BackendKind;
-use luxbake_tests::{Pair, SCENES, SceneCase, compare, open};
+use luxbake_tests::{Pair, SCENES, SceneCase, Tally, compare};
 
 fn run(case: &SceneCase) {
     let test = format!("cross_backend::{}", case.name());
+    let mut tally = Tally::new(&test);
     let settings = case.settings();
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     let mut outputs = Vec::new();
     for b in BackendKind::ALL {
-        if let Some(mut opened) = open(b, &test) {
+        if let Some(mut opened) = tally.open(b) {
             let out = bake(&mut opened, &scene, &settings, &mut |_| {})
                 .unwrap_or_else(|e| panic!("{test}: {b} bake failed: {e}"));
             outputs.push((b, out));
         }
     }
     let mut failures = Vec::new();
-    let mut compared = 0;
     for pair in Pair::ALL {
         let find = |b: BackendKind| outputs.iter().find(|(k, _)| *k == b).map(|(_, o)| o);
         let (Some(e), Some(a)) = (find(pair.expected), find(pair.actual)) else {
             continue;
         };
-        compared += 1;
         let (reports, f) = compare(pair, case, e, a);
+        let texels: usize = reports.iter().map(|r| r.stats.texels).sum();
+        assert!(texels > 0, "{test}: {} compared no texel", pair.name());
+        tally.compared(1);
         for r in &reports {
             println!(
                 "{:<13} {:<9} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}  (tol {:.0e} / {:.0e})",
@@ -49,7 +52,7 @@ fn run(case: &SceneCase) {
         }
         failures.extend(f);
     }
-    println!("{test}: {compared} backend pairs compared");
+    tally.finish();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 

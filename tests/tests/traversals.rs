@@ -6,7 +6,7 @@ use luxbake::graph::Figure5;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
 use luxbake_backends::BackendKind;
 use luxbake_backends::image_diff::{Tolerance, diff, write_failure_images};
-use luxbake_tests::{open, output_dir};
+use luxbake_tests::{Tally, output_dir};
 
 /// Every traversal finds the same closest hit (the same triangle, bit-identical `t` and
 /// barycentrics) except at exact ties in `t` between triangles sharing an edge, where the
@@ -32,10 +32,10 @@ fn mtbvh_tbvh_and_brute_force_give_the_same_images() {
         ..Settings::paper()
     };
     let scene = Scene::builtin_with_settings("chairs_01", base.clone()).expect("chairs_01");
+    let mut tally = Tally::new("mtbvh_tbvh_and_brute_force_give_the_same_images");
     let mut failures = Vec::new();
     for backend in [BackendKind::Glow, BackendKind::Wgpu] {
-        let Some(mut opened) = open(backend, "mtbvh_tbvh_and_brute_force_give_the_same_images")
-        else {
+        let Some(mut opened) = tally.open(backend) else {
             continue;
         };
         let outs: Vec<(BvhMode, BakeOutput)> = [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None]
@@ -87,7 +87,10 @@ fn mtbvh_tbvh_and_brute_force_give_the_same_images() {
                 "{}: {mode:?} vs Mtbvh: {identical} of {total} texels bit-identical",
                 backend.name()
             );
+            assert!(total > 0, "{}: {mode:?} compared no texel", backend.name());
+            tally.compared(1);
         }
     }
+    tally.finish();
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

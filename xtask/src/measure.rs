@@ -8,7 +8,10 @@
 //! at its light-map UV (the masked rule of `luxbake::map`). Printed as CSV:
 //! `x,y,z,direct_lux,indirect_lux,total_lux` — the Rec. 709 luminance of the RGB illuminance
 //! (each channel's value for a white lamp); `indirect = total − direct`, both blurred alike.
-//! A point on no baked surface is an error naming its row.
+//! Lux are printed as the shortest decimal that reads back as the same f32 (the maps'
+//! precision), so every magnitude keeps its significant digits: a scene at 1000 × scale
+//! (E ≈ 2·10⁻⁵ lx) as well as one in metres. A point on no baked surface is an error naming
+//! its row.
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
@@ -211,13 +214,25 @@ pub fn measure_points(
     Ok(rows)
 }
 
+/// Lux as printed: the shortest decimal that reads back as the same f32 (see the module docs).
+fn lux(v: f64) -> String {
+    (v as f32).to_string()
+}
+
+/// The CSV of `rows`: the header, then one line per point (see the module docs).
+pub fn csv(rows: &[Row]) -> String {
+    let mut out = String::from("x,y,z,direct_lux,indirect_lux,total_lux\n");
+    for (p, e) in rows {
+        let [d, i, t] = e.map(lux);
+        out += &format!("{},{},{},{d},{i},{t}\n", p[0], p[1], p[2]);
+    }
+    out
+}
+
 /// Runs the measurement and prints the CSV; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
     let rows = measure(&args.dir, &args.points, args.tolerance)?;
-    println!("x,y,z,direct_lux,indirect_lux,total_lux");
-    for (p, [d, i, t]) in rows {
-        println!("{},{},{},{d:.6},{i:.6},{t:.6}", p[0], p[1], p[2]);
-    }
+    print!("{}", csv(&rows));
     Ok(())
 }
 
@@ -237,6 +252,31 @@ mod tests {
         );
         assert!(parse_points("1,2,nan\n").is_err());
         assert!(parse_points("").expect("empty").is_empty());
+    }
+
+    #[test]
+    fn lux_keep_their_significant_digits_at_every_magnitude() {
+        // The floor's closed form at 1000 × scale (E ≈ 2·10⁻⁵ lx), in metres, and extremes.
+        let values = [2.345_678e-5f32, 1.5e-9, 0.0, 0.123_456_7, 12_345.67, 3.0e7];
+        let rows: Vec<Row> = values
+            .iter()
+            .map(|&v| ([1.5, 0.0, -2.0], [f64::from(v); 3]))
+            .collect();
+        let text = csv(&rows);
+        let mut lines = text.lines();
+        assert_eq!(
+            lines.next(),
+            Some("x,y,z,direct_lux,indirect_lux,total_lux")
+        );
+        for (line, v) in lines.zip(values) {
+            let fields: Vec<&str> = line.split(',').collect();
+            assert_eq!(fields[..3], ["1.5", "0", "-2"]);
+            for f in &fields[3..] {
+                assert_eq!(f.parse::<f32>(), Ok(v), "{line}");
+                assert!(!f.contains('e'), "{line}");
+            }
+        }
+        assert_eq!(lux(2.345_678e-5), "0.00002345678");
     }
 
     #[test]

@@ -15,14 +15,15 @@ use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
 use luxbake_assets::{ImportOptions, Limits, Model, UvSource, export, import};
 use luxbake_ies::Photometry;
 
-fn models_dir() -> Option<PathBuf> {
+/// `../shared/models`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test` under
+/// CI).
+fn models_dir(test: &str) -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
     if d.is_dir() {
-        Some(d)
-    } else {
-        eprintln!("skipping: test models not found at {}", d.display());
-        None
+        return Some(d);
     }
+    luxbake::ci::skip_or_fail(test, &format!("test models not found at {}", d.display()));
+    None
 }
 
 fn settings() -> Settings {
@@ -96,7 +97,9 @@ fn temp_dir(name: &str) -> PathBuf {
 
 #[test]
 fn each_model_loads_bakes_exports_and_reimports() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("each_model_loads_bakes_exports_and_reimports") else {
+        return;
+    };
     let s = settings();
     let cases: [(&str, usize, bool); 4] = [
         ("SheenChair/SheenChair.glb", 39_936, true),
@@ -198,7 +201,9 @@ fn each_model_loads_bakes_exports_and_reimports() {
 
 #[test]
 fn generated_uvs_do_not_overlap_and_keep_the_padding() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("generated_uvs_do_not_overlap_and_keep_the_padding") else {
+        return;
+    };
     let s = settings();
     let pad = uv::padding_texels(s.blur);
     let mut checked = 0;
@@ -346,7 +351,9 @@ fn bad_gltf_gives_clear_errors() {
 
 #[test]
 fn truncated_model_files_never_panic() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("truncated_model_files_never_panic") else {
+        return;
+    };
     for file in [
         "SheenChair/SheenChair.glb",
         "GlamVelvetSofa/GlamVelvetSofa.glb",
@@ -417,7 +424,9 @@ fn furnished_room(dir: &Path, s: &Settings) -> Scene {
 
 #[test]
 fn furnished_room_bakes_the_same_on_glow_and_cpu() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("furnished_room_bakes_the_same_on_glow_and_cpu") else {
+        return;
+    };
     let s = Settings {
         texels_per_metre: 16.0,
         rays: 8,

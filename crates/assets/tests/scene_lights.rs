@@ -13,14 +13,15 @@ use luxbake_assets::{ImportOptions, Limits, SceneLoader, import};
 
 const LAMP_FILE: &str = "LightsPunctualLamp/LightsPunctualLamp.gltf";
 
-fn models_dir() -> Option<PathBuf> {
+/// `../shared/models`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test` under
+/// CI).
+fn models_dir(test: &str) -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
     if d.is_dir() {
-        Some(d)
-    } else {
-        eprintln!("skipping: test models not found at {}", d.display());
-        None
+        return Some(d);
     }
+    luxbake::ci::skip_or_fail(test, &format!("test models not found at {}", d.display()));
+    None
 }
 
 fn loader() -> SceneLoader {
@@ -47,7 +48,9 @@ fn near(a: [f32; 3], b: [f32; 3], tol: f32) -> bool {
 
 #[test]
 fn file_lights_become_lamps_moved_by_the_object() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("file_lights_become_lamps_moved_by_the_object") else {
+        return;
+    };
     let model = import(&dir.join(LAMP_FILE), &ImportOptions::default()).expect("import");
     assert_eq!(model.lights.len(), 5, "the test file has five point lights");
     let object = format!(
@@ -91,7 +94,9 @@ fn file_lights_become_lamps_moved_by_the_object() {
 
 #[test]
 fn bad_light_keys_give_errors_naming_them() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("bad_light_keys_give_errors_naming_them") else {
+        return;
+    };
     for (extra, key) in [
         ("lights = 3", "lights"),
         (
@@ -127,7 +132,9 @@ fn bad_light_keys_give_errors_naming_them() {
 
 #[test]
 fn scaled_objects_keep_their_chart_padding_in_texels() {
-    let Some(dir) = models_dir() else { return };
+    let Some(dir) = models_dir("scaled_objects_keep_their_chart_padding_in_texels") else {
+        return;
+    };
     let s = scene(
         &dir,
         true,

@@ -452,7 +452,7 @@ pub fn bake<B: GpuBackend>(
     let tables: Vec<GpuTable> = scene
         .lamps
         .iter()
-        .map(|l| l.photometry.gpu_table())
+        .map(|l| l.photometry.gpu_table_tilted(l.tilt_deg()))
         .collect();
     let lamps: Vec<LampParams> = scene
         .lamps

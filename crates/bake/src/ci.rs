@@ -8,7 +8,9 @@
 //! Every test that needs a driver goes through [`skip_or_fail`] (directly or through
 //! [`or_skip`]): the backends' own tests, the cross-backend harness and the browser check.
 //! This module names no backend; each backend's error type says which of its errors mean
-//! "no driver".
+//! "no driver". Tests that read the shared test data (`../shared`, beside the repository) go
+//! through it too when `../shared` is missing; `luxbake-ies` and `luxbake-bvh`, which do not
+//! depend on this crate, apply the same rule in their own test code.
 
 use std::fmt::Display;
 

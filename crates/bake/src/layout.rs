@@ -6,6 +6,13 @@
 //! the map as `ceil(extent · texels_per_metre · texel_scale)` texels per axis (at least 1), so
 //! every receiver is sampled at the same density (times its `texel_scale`) whatever its size.
 //!
+//! # Limits
+//! The density itself is only required to be finite and positive, so a scene modelled at any
+//! scale bakes at the same texel count. What is limited is what the bake allocates: the maps
+//! may need at most [`Layout::MAX_TEXELS`] texels, and so may the texture array they are
+//! packed in (checked before anything of that size is allocated); each map fits the
+//! backend's maximum texture size and the layers its maximum layer count.
+//!
 //! # Texture arrays (paper §3.3)
 //! All maps live in one texture array whose layer size is the largest map's width × the
 //! largest map's height. Maps are not rescaled to the layer: each map occupies a
@@ -28,6 +35,20 @@ pub enum LayoutError {
     /// The texel density is not a finite positive number.
     #[error("texels_per_metre must be finite and > 0, got {0}")]
     InvalidDensity(f32),
+    /// The light maps, or the texture array they are packed in, need more texels than
+    /// [`Layout::MAX_TEXELS`].
+    #[error(
+        "the light maps need {texels} texels, over the limit of {limit} texels; lower \
+         texels_per_metre to at most {suggested_density}"
+    )]
+    TooManyTexels {
+        /// Texels needed: the maps' total, or the texture array's (layers × layer size).
+        texels: u64,
+        /// The limit, [`Layout::MAX_TEXELS`].
+        limit: u64,
+        /// A density at which the maps' total would fit.
+        suggested_density: f32,
+    },
     /// An object's texel scale is not a finite positive number.
     #[error("object `{object}`: texel_scale must be finite and > 0, got {value}")]
     InvalidTexelScale {
@@ -111,8 +132,14 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// Most texels of all light maps together, and of the texture array holding them
+    /// (2²⁶ ≈ 67 million: 1 GiB per RGBA32F texture of the bake graph). The built-in scenes
+    /// need about a million at the default density.
+    pub const MAX_TEXELS: u64 = 1 << 26;
+
     /// Lays out the receivers of `scene` at `scene.settings.texels_per_metre`, with maps of at
-    /// most `max_texture_size` texels per side in at most `max_layers` layers.
+    /// most `max_texture_size` texels per side in at most `max_layers` layers, and at most
+    /// [`Layout::MAX_TEXELS`] texels in all.
     pub fn new(
         scene: &Scene,
         max_texture_size: u32,
@@ -122,6 +149,13 @@ impl Layout {
         if !(density.is_finite() && density > 0.0) {
             return Err(LayoutError::InvalidDensity(density));
         }
+        // The maps' total first, before any size is trusted.
+        let mut wanted = 0.0f64;
+        for o in scene.objects.iter().filter(|o| o.receiver) {
+            let [w, h] = wanted_size(o, density)?;
+            wanted += w * h;
+        }
+        check_texels(wanted, wanted, density)?;
         let mut sizes = Vec::with_capacity(scene.objects.len());
         for o in &scene.objects {
             sizes.push(if o.receiver {
@@ -169,11 +203,14 @@ impl Layout {
                 max: max_layers,
             });
         }
-        Ok(Layout {
+        let layout = Layout {
             layer_size,
             layers: needed,
             regions,
-        })
+        };
+        // Packing leaves gaps: the array can be larger than the maps.
+        check_texels(layout.allocated_texels() as f64, wanted, density)?;
+        Ok(layout)
     }
 
     /// Light-map texels the passes compute: the sum of the regions' areas (the paper's
@@ -219,12 +256,24 @@ fn place(shelves: &mut Vec<Shelf>, size: [u32; 2], layer: [u32; 2]) -> Option<[u
     })
 }
 
-/// The light-map size of one object at `texels_per_metre` (times its `texel_scale`).
-pub fn map_size(
-    object: &Object,
-    texels_per_metre: f32,
-    max_texture_size: u32,
-) -> Result<[u32; 2], LayoutError> {
+/// [`LayoutError::TooManyTexels`] when `texels` (of the maps or of the array) exceed
+/// [`Layout::MAX_TEXELS`]; the suggested density scales the maps' total `wanted` to fit.
+fn check_texels(texels: f64, wanted: f64, density: f32) -> Result<(), LayoutError> {
+    let limit = Layout::MAX_TEXELS;
+    if texels <= limit as f64 {
+        return Ok(());
+    }
+    let shrink = (limit as f64 / texels.max(wanted)).sqrt();
+    Err(LayoutError::TooManyTexels {
+        texels: texels.min(u64::MAX as f64) as u64,
+        limit,
+        suggested_density: (f64::from(density) * shrink * 0.999) as f32,
+    })
+}
+
+/// The light-map size of one object at `texels_per_metre` (times its `texel_scale`), in
+/// texels per axis before any limit: at least 1, possibly huge.
+fn wanted_size(object: &Object, texels_per_metre: f32) -> Result<[f64; 2], LayoutError> {
     let scale = object.texel_scale;
     if !(scale.is_finite() && scale > 0.0) {
         return Err(LayoutError::InvalidTexelScale {
@@ -237,10 +286,19 @@ pub fn map_size(
     })?;
     let d = f64::from(texels_per_metre) * f64::from(scale);
     // 1e-4 texel of slack so f32 noise in the UVs does not add a whole row or column.
-    let want = extent.map(|e| (e * d - 1e-4).ceil().max(1.0));
+    Ok(extent.map(|e| (e * d - 1e-4).ceil().max(1.0)))
+}
+
+/// The light-map size of one object at `texels_per_metre` (times its `texel_scale`).
+pub fn map_size(
+    object: &Object,
+    texels_per_metre: f32,
+    max_texture_size: u32,
+) -> Result<[u32; 2], LayoutError> {
+    let want = wanted_size(object, texels_per_metre)?;
     let longest = want[0].max(want[1]);
     if longest > f64::from(max_texture_size) {
-        let suggested = f64::from(max_texture_size) / (extent[0].max(extent[1]) * f64::from(scale));
+        let suggested = f64::from(texels_per_metre) * f64::from(max_texture_size) / longest;
         return Err(LayoutError::MapTooLarge {
             object: object.name.clone(),
             size: want.map(|w| w.min(u64::MAX as f64) as u64),
@@ -451,6 +509,56 @@ mod tests {
         let none = scene(Vec::new(), 64.0);
         let l = Layout::new(&none, 4096, 16).expect("empty");
         assert_eq!((l.layers, l.texel_count()), (0, 0));
+    }
+
+    #[test]
+    fn the_texel_count_is_limited_not_the_density() {
+        let plane = |size| vec![plane_object("p", size, 0.0)];
+        // A square metre at 1 mm texels: a million texels.
+        let fine = Layout::new(&scene(plane([1.0, 1.0]), 1000.0), 16_384, 16).expect("fine");
+        assert_eq!(fine.texel_count(), 1_000_000);
+        // An absurd density is refused before any map is sized, naming the texel count and
+        // the limit; the density it suggests fits.
+        for d in [1e5f32, 1e12, f32::MAX] {
+            let s = scene(plane([1.0, 1.0]), d);
+            match Layout::new(&s, 16_384, 16) {
+                Err(
+                    e @ LayoutError::TooManyTexels {
+                        texels,
+                        limit,
+                        suggested_density,
+                    },
+                ) => {
+                    assert_eq!(limit, Layout::MAX_TEXELS);
+                    assert!(texels > limit, "{d}: {texels}");
+                    let m = e.to_string();
+                    assert!(m.contains(&format!("{texels} texels")), "{m}");
+                    assert!(m.contains(&format!("limit of {limit} texels")), "{m}");
+                    let mut fixed = s.clone();
+                    fixed.settings.texels_per_metre = suggested_density;
+                    let l = Layout::new(&fixed, 16_384, 16).expect("the suggestion fits");
+                    assert!(l.allocated_texels() <= limit, "{d}");
+                }
+                other => panic!("{d}: {other:?}"),
+            }
+        }
+        // Few texels in thin maps, a 16384 × 1 and a 1 × 16384 (the plane stretched along u,
+        // along v), but a texture array of two 16384² layers.
+        let stretched = |name, scale| Object {
+            transform: Transform::from_trs([0.0; 3], [0.0; 3], scale),
+            ..plane_object(name, [1.0, 1.0], 0.0)
+        };
+        let thin = scene(
+            vec![
+                stretched("wide", [16_384.0, 1.0, 1.0]),
+                stretched("tall", [1.0, 1.0, 16_384.0]),
+            ],
+            1.0,
+        );
+        assert!(matches!(
+            Layout::new(&thin, 16_384, 16),
+            Err(LayoutError::TooManyTexels { texels, .. }) if texels == 2 * 16_384 * 16_384
+        ));
     }
 
     #[test]

@@ -431,6 +431,15 @@ impl Lamp {
         [rot(aimed[0]), rot(aimed[1]), zenith].map(|v| v.to_array())
     }
 
+    /// The luminaire's tilt, degrees in [0, 180]: the angle between its photometric nadir
+    /// (`aim`) and world straight down (−Y), at which the bake evaluates the photometry's tilt
+    /// factors (`TILT=INCLUDE` or a tilt file; see `luxbake_ies`, *Multipliers and tilt*).
+    /// `rotation_deg` turns the lamp about its nadir and leaves the tilt unchanged.
+    pub fn tilt_deg(&self) -> f64 {
+        // Row 2 is the zenith, −aim: its +Y component is the cosine of the tilt.
+        self.frame_f64()[2][1].clamp(-1.0, 1.0).acos().to_degrees()
+    }
+
     /// Maps a world direction (any length) to the photometric frame; the result has the same
     /// length. Intensity toward a texel at `p` is `photometry` evaluated at
     /// `to_photometric(p − position)`.
@@ -598,7 +607,7 @@ impl FromStr for BvhMode {
 /// | `rays`             | 1 ..= [`MAX_RAYS`](Settings::MAX_RAYS) (65536)            |
 /// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
 /// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
-/// | `texels_per_metre` | (0, [`MAX_TEXELS_PER_METRE`](Settings::MAX_TEXELS_PER_METRE)] (10000) |
+/// | `texels_per_metre` | finite, > 0; the maps it gives must fit [`Layout::MAX_TEXELS`](crate::layout::Layout::MAX_TEXELS), checked when the layout is sized |
 /// | `higher_rays`      | 1 ..= `MAX_RAYS`                                           |
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
@@ -753,10 +762,8 @@ impl Settings {
     pub const MAX_BOUNCES: u32 = 64;
     /// Largest blur sigma, texels.
     pub const MAX_BLUR_SIGMA: f32 = 64.0;
-    /// Largest [`Settings::higher_stride`].
+    /// Largest [`Settings::stride`] and [`Settings::higher_stride`].
     pub const MAX_STRIDE: u32 = 16;
-    /// Largest texel density, texels per metre.
-    pub const MAX_TEXELS_PER_METRE: f32 = 10_000.0;
 
     /// Checks every setting against the limits in the type's docs; the error names the first
     /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance`, `stride`,
@@ -827,12 +834,12 @@ impl Settings {
                 format!("{e}; expected a positive relative standard error"),
             );
         }
+        // No upper bound: the texel count it gives is limited where the layout is sized.
         let d = self.texels_per_metre;
-        if !(d > 0.0 && d <= Settings::MAX_TEXELS_PER_METRE) {
-            let max = Settings::MAX_TEXELS_PER_METRE;
+        if !(d.is_finite() && d > 0.0) {
             return invalid(
                 "texels_per_metre",
-                format!("{d}; expected 0 < texels_per_metre <= {max}"),
+                format!("{d}; expected a finite number > 0"),
             );
         }
         Ok(())
@@ -1027,6 +1034,24 @@ mod tests {
     }
 
     #[test]
+    fn tilt_is_the_angle_between_aim_and_straight_down() {
+        let h = 0.5f32.sqrt();
+        for (aim, rotation, want) in [
+            ([0.0, -1.0, 0.0], 0.0, 0.0),
+            ([0.0, -2.0, 0.0], 70.0, 0.0),
+            ([h, -h, 0.0], 0.0, 45.0),
+            ([0.0, -h, h], 30.0, 45.0),
+            ([0.5, -(0.75f32.sqrt()), 0.0], 0.0, 30.0),
+            ([1.0, 0.0, 0.0], 90.0, 90.0),
+            ([0.0, 1.0, 0.0], 0.0, 180.0),
+            ([0.0, 0.0, 0.0], 0.0, 0.0),
+        ] {
+            let t = lamp(aim, rotation).tilt_deg();
+            assert!((t - want).abs() < 1e-5, "{aim:?} {rotation}: {t}");
+        }
+    }
+
+    #[test]
     fn default_lamp_frame() {
         let l = lamp([0.0, -1.0, 0.0], 0.0);
         assert!(
@@ -1142,6 +1167,9 @@ mod tests {
         let s = Scene::builtin("chairs_01").expect("builtin");
         for f in [1e-3f32, 1e3] {
             let t = s.scaled(f);
+            // At 1/1000 scale: 64 000 texels per metre, as valid as 64.
+            assert_eq!(t.settings.texels_per_metre, 64.0 / f);
+            assert_eq!(t.settings.validate(), Ok(()), "scale {f}");
             let (a, b) = (
                 crate::layout::Layout::new(&s, 4096, 64).expect("layout"),
                 crate::layout::Layout::new(&t, 4096, 64).expect("layout"),
@@ -1203,7 +1231,7 @@ mod tests {
             s.rays = Settings::MAX_RAYS;
             s.bounces = Settings::MAX_BOUNCES;
             s.blur = Blur::Sigma(Settings::MAX_BLUR_SIGMA);
-            s.texels_per_metre = Settings::MAX_TEXELS_PER_METRE;
+            s.texels_per_metre = 1e30;
         };
         assert_eq!(with(&at_the_limits), Ok(()));
         assert_eq!(with(&|s| s.rays = 0), Err("rays"));
@@ -1219,7 +1247,7 @@ mod tests {
                 "{sigma}"
             );
         }
-        for d in [0.0, -1.0, 10_001.0, f32::NAN, f32::INFINITY] {
+        for d in [0.0, -1.0, -1e-30, f32::NAN, f32::INFINITY] {
             assert_eq!(
                 with(&|s| s.texels_per_metre = d),
                 Err("texels_per_metre"),

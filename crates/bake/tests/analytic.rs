@@ -5,8 +5,10 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
+use luxbake::ci::skip_or_fail;
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::layout::Layout;
 use luxbake::map::MapImage;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
@@ -70,16 +72,17 @@ fn assert_finite(out: &BakeOutput) {
     }
 }
 
-fn shared(path: &str) -> Option<PathBuf> {
+/// `path` inside `../shared`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test`
+/// under CI).
+fn shared(test: &str, path: &str) -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared")
         .join(path);
     if p.exists() {
-        Some(p)
-    } else {
-        println!("skipped: {} not found", p.display());
-        None
+        return Some(p);
     }
+    skip_or_fail(test, &format!("{} not found", p.display()));
+    None
 }
 
 /// Relative error statistics.
@@ -154,8 +157,8 @@ fn floor_inverse_square_cosine() {
     assert!(points.max < 0.005, "{points:?}");
 }
 
-fn asym_lamp(position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
-    let path = shared("photometry/synthetic_asym_typeC.ies")?;
+fn asym_lamp(test: &str, position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
+    let path = shared(test, "photometry/synthetic_asym_typeC.ies")?;
     let bytes = std::fs::read(path).expect("read");
     let mut l = Lamp::new(
         "asym",
@@ -180,10 +183,11 @@ fn expected(lamp: &Lamp, frame: &[[f64; 3]; 3], p: [f64; 3]) -> f64 {
 #[test]
 fn floor_type_c_lamp_and_turned_lamp() {
     let h = 2.0f32;
-    let Some(lamp) = asym_lamp([0.0, h, 0.0], 0.0) else {
+    let test = "floor_type_c_lamp_and_turned_lamp";
+    let Some(lamp) = asym_lamp(test, [0.0, h, 0.0], 0.0) else {
         return;
     };
-    let Some(turned) = asym_lamp([0.0, h, 0.0], 90.0) else {
+    let Some(turned) = asym_lamp(test, [0.0, h, 0.0], 90.0) else {
         return;
     };
     let peak = lamp.photometry.max_intensity().0;
@@ -237,6 +241,101 @@ fn floor_type_c_lamp_and_turned_lamp() {
             );
         }
     }
+}
+
+/// 1000 cd in every direction, with tilt factors 1, 0.8 and 0.5 at 0°, 45° and 90°.
+const TILTED_ISOTROPIC_IES: &str = "IESNA:LM-63-2002\n[TEST] tilt\nTILT=INCLUDE\n1\n3\n\
+    0 45 90\n1 0.8 0.5\n1 -1 1 2 1 1 2 0 0 0\n1 1 0\n0 180\n0\n1000 1000\n";
+
+// Test 1d: the tilt factor is taken at the lamp's tilt (the angle between its aim and straight
+// down): an isotropic lamp aimed 30° and 45° off the vertical gives exactly the factor times
+// the light of the same lamp aimed down, and the closed form E = f(tilt)·I·h / d³.
+#[test]
+fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
+    let h = 2.0f64;
+    let photometry = Arc::new(Photometry::parse(TILTED_ISOTROPIC_IES.as_bytes()).expect("parse"));
+    let bake_at = |tilt_deg: f64| {
+        let mut lamp = Lamp::new("tilted", Arc::clone(&photometry), [0.0, h as f32, 0.0]);
+        let t = tilt_deg.to_radians();
+        lamp.aim = [t.sin() as f32, -t.cos() as f32, 0.0];
+        assert!(
+            (lamp.tilt_deg() - tilt_deg).abs() < 1e-4,
+            "{}",
+            lamp.tilt_deg()
+        );
+        let scene = floor_scene(8.0, lamp);
+        let out = run(&scene);
+        assert_finite(&out);
+        let g = gbuffer(&scene, &out);
+        let maps = &out.maps[0];
+        let t: Vec<([f64; 3], [f32; 4])> = texels(&g, maps, maps.illuminance()).collect();
+        t
+    };
+    let down = bake_at(0.0);
+    // 30°: two thirds of the way from 1 (0°) to 0.8 (45°).
+    for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8)] {
+        let tilted = bake_at(tilt);
+        assert_eq!(tilted.len(), down.len());
+        let (mut ratio, mut closed) = (Err::default(), Err::default());
+        for ((p, e), (_, e0)) in tilted.iter().zip(&down) {
+            ratio.add(f64::from(e[0]), factor * f64::from(e0[0]));
+            let r2 = p[0] * p[0] + p[2] * p[2];
+            let dy = h - p[1];
+            closed.add(f64::from(e[0]), factor * I0 * dy / (dy * dy + r2).powf(1.5));
+        }
+        println!(
+            "tilt {tilt}°: factor {factor:.4}, {} texels; against factor × aimed down max {:.2e}, \
+             against the closed form max {:.2e}",
+            ratio.n, ratio.max, closed.max
+        );
+        assert!(ratio.n > 10_000);
+        assert!(ratio.max < 1e-5, "{ratio:?}");
+        assert!(closed.max < 0.005, "{closed:?}");
+    }
+}
+
+// Test 1e: the floor modelled at 1/1000 scale bakes at 16 000 texels per metre: the same
+// layout as at full scale at 16, and E × 10⁶ (the same candela at a thousandth of the
+// distance) in every texel.
+#[test]
+fn a_scene_at_a_thousandth_of_the_scale_bakes_the_same_texels() {
+    let full = floor_scene(16.0, isotropic(I0, [0.0, 2.0, 0.0]));
+    let small = full.scaled(1e-3);
+    assert!(small.settings.texels_per_metre > 10_000.0);
+    let (a, b) = (run(&full), run(&small));
+    assert_finite(&b);
+    assert_eq!(a.layout, b.layout);
+    let mut err = Err::default();
+    let (ea, eb) = (a.maps[0].illuminance(), b.maps[0].illuminance());
+    for (x, y) in ea.texels.chunks_exact(4).zip(eb.texels.chunks_exact(4)) {
+        assert_eq!(x[3], y[3], "the same texels are valid");
+        if x[3] > 0.5 {
+            err.add(f64::from(y[0]), 1e6 * f64::from(x[0]));
+        }
+    }
+    println!(
+        "1/1000 scale: {} texels laid out, {} compared, max relative deviation from E × 10⁶ {:.2e}",
+        b.layout.texel_count(),
+        err.n,
+        err.max
+    );
+    assert!(err.n > 10_000);
+    assert!(err.max < 1e-4, "{err:?}");
+}
+
+// Test 1f: an absurd density stops the bake with an error naming the texel count and the
+// limit, before anything of that size is allocated.
+#[test]
+fn an_absurd_density_is_an_error_not_an_allocation() {
+    let scene = floor_scene(1e9, isotropic(I0, [0.0, 2.0, 0.0]));
+    let e = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {})
+        .expect_err("too many texels");
+    let m = e.to_string();
+    assert!(
+        m.contains(&format!("limit of {} texels", Layout::MAX_TEXELS))
+            && m.contains("texels_per_metre"),
+        "{m}"
+    );
 }
 
 fn fine_sphere_scene(radius: f32, albedo: f32, bounces: u32) -> Scene {

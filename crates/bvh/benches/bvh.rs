@@ -3,7 +3,7 @@
 //! a procedural room with 10 box chairs (2376 triangles), GlamVelvetSofa and SheenChair.
 //!
 //! `cargo bench -p luxbake-bvh` (the two models are skipped with a message when `../shared`
-//! is absent).
+//! is absent, unless `CI` is set).
 //!
 //! Times are the benchmark thread's **CPU time** (`CLOCK_THREAD_CPUTIME_ID` on Unix, wall time
 //! elsewhere), not wall time, so the figures stay meaningful on a machine shared with other

@@ -1,4 +1,5 @@
-//! The real models in `../shared/models` (skipped with a message when absent) and the
+//! The real models in `../shared/models` (skipped with a message when absent, failed when
+//! absent under CI) and the
 //! procedural room with ten chairs: every
 //! traversal agrees with brute force, obvhs's own traversal agrees on the hit distance, and
 //! our SAH cost is compared with obvhs's trees under the same cost constants.

@@ -12,7 +12,8 @@ use std::f64::consts::{PI, TAU};
 ///   nadir, the last row zenith.
 /// * `width` columns over C (from +X toward +Y): column `i` ↔ C = 2π·i/width; C wraps at 2π.
 /// * `values[j * width + i]`, row-major, row 0 first; candela with every multiplier applied
-///   (as [`Photometry::intensity`]).
+///   (as [`Photometry::intensity`], or [`Photometry::intensity_tilted`] for
+///   [`Photometry::gpu_table_tilted`]).
 ///
 /// # Sampling ([`GpuTable::sample`], mirror it line for line in GLSL/WGSL)
 /// ```text
@@ -83,12 +84,19 @@ fn common_step(angles: &[f64], span: u64) -> Option<u64> {
 impl Photometry {
     /// A resampled table for shaders; see [`GpuTable`].
     pub fn gpu_table(&self) -> GpuTable {
-        GpuTable::from_photometry(self)
+        self.gpu_table_tilted(0.0)
+    }
+
+    /// [`Photometry::gpu_table`] for the luminaire installed at a tilt of `tilt_deg`: every
+    /// value carries the tilt factor at that angle (see the crate docs, *Multipliers and
+    /// tilt*).
+    pub fn gpu_table_tilted(&self, tilt_deg: f64) -> GpuTable {
+        GpuTable::from_photometry(self, tilt_deg)
     }
 }
 
 impl GpuTable {
-    fn from_photometry(p: &Photometry) -> GpuTable {
+    fn from_photometry(p: &Photometry, tilt_deg: f64) -> GpuTable {
         let s = p.sphere();
         let (height, width) = match s.axis {
             Axis::Z => {
@@ -106,14 +114,17 @@ impl GpuTable {
             }
             Axis::Y => (361, 720),
         };
+        let factor = p.tilt().factor(tilt_deg);
         let mut values = Vec::with_capacity(height as usize * width as usize);
         for j in 0..height {
             let gamma = PI * f64::from(j) / f64::from(height - 1);
             for i in 0..width {
                 let c = TAU * f64::from(i) / f64::from(width);
                 let v = match s.axis {
-                    Axis::Z => s.eval(gamma, c) * p.tilt0,
-                    Axis::Y => p.intensity(crate::sphere::direction(Axis::Z, gamma, c)),
+                    Axis::Z => s.eval(gamma, c) * factor,
+                    Axis::Y => {
+                        p.intensity_tilted(crate::sphere::direction(Axis::Z, gamma, c), tilt_deg)
+                    }
                 };
                 values.push(v as f32);
             }

@@ -7,6 +7,11 @@
 //! flux (lm), colour, CRI, watts; 10 direct ratios; Mc C angles; Ng γ angles; intensities in
 //! cd/klm, Ng per stored C plane. Stored planes by Isym: 0 all Mc; 1 one; 2 C0–C180 (Mc/2+1);
 //! 3 C90–C270 (Mc/2+1); 4 C0–C90 (Mc/4+1).
+//!
+//! Several lamp sets are one luminaire with all of them fitted: the intensities are per
+//! 1000 lm of the total flux of every set, and the header's lamps, lumens and watts are the
+//! sums over the sets. A negative lamp count (absolute photometry) must be negative in every
+//! set.
 
 use crate::model::{Format, Keyword, LampSet, LdtInfo, PhotometricType, Tilt, Units, Warning};
 use crate::photometry::Parts;
@@ -114,8 +119,23 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     )?;
     let n_sets = n_sets as usize;
     let mut counts = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
-        counts.push(f.integer("number of lamps", -1_000_000, 1_000_000)?.0);
+    for k in 0..n_sets {
+        let (count, line) = f.integer("number of lamps", -1_000_000, 1_000_000)?;
+        // A negative count means absolute photometry, for the whole luminaire: every set
+        // must say the same.
+        if k > 0 && (count < 0) != (counts[0] < 0) {
+            return Err(IesError::OutOfRange {
+                line,
+                what: format!("number of lamps of lamp set {}", k + 1),
+                value: count as f64,
+                expected: format!(
+                    "the sign of lamp set 1 ({}): negative counts (absolute photometry) \
+                     in every set or in none",
+                    counts[0]
+                ),
+            });
+        }
+        counts.push(count);
     }
     let mut types = Vec::with_capacity(n_sets);
     for _ in 0..n_sets {
@@ -268,9 +288,28 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         });
     }
 
-    let set = &lamp_sets[0];
-    let absolute = set.count < 0;
-    let lamp_count = set.count.unsigned_abs().max(1).min(u64::from(u32::MAX)) as u32;
+    // The intensities are in cd/klm of the flux of every lamp fitted: the sum over the sets.
+    let absolute = lamp_sets[0].count < 0;
+    let lamps: u64 = lamp_sets.iter().map(|s| s.count.unsigned_abs()).sum();
+    let lamp_count = lamps.clamp(1, u64::from(u32::MAX)) as u32;
+    let total_flux: f64 = lamp_sets.iter().map(|s| s.flux).sum();
+    let total_watts: f64 = lamp_sets.iter().map(|s| s.watts).sum();
+    for (what, total) in [("flux", total_flux), ("wattage", total_watts)] {
+        if !total.is_finite() {
+            return Err(IesError::OutOfRange {
+                line: l_sets,
+                what: format!("total {what} of the lamp sets"),
+                value: total,
+                expected: "a finite sum".into(),
+            });
+        }
+    }
+    let lamp_types: Vec<&str> = lamp_sets
+        .iter()
+        .map(|s| s.lamp_type.as_str())
+        .filter(|t| !t.is_empty())
+        .collect();
+    let lamp_types = lamp_types.join("\n");
     let conversion = if nums[11] > 0.0 { nums[11] } else { 1.0 };
     let mut keywords = Vec::new();
     for (key, value) in [
@@ -278,7 +317,7 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         ("MANUFAC", company),
         ("LUMCAT", texts[2]),
         ("LUMINAIRE", texts[1]),
-        ("LAMP", set.lamp_type.as_str()),
+        ("LAMP", lamp_types.as_str()),
         ("ISSUEDATE", texts[4]),
     ] {
         if !value.is_empty() {
@@ -301,6 +340,7 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         symmetry_indicator: isym as u8,
         c_planes: mc,
         c_step: dc,
+        c_angles,
         gamma_count: ng,
         gamma_step: dg,
         report_number: texts[0].to_owned(),
@@ -323,14 +363,14 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         keywords,
         tilt: Tilt::None,
         lamp_count,
-        lumens_per_lamp: (!absolute).then(|| set.flux / f64::from(lamp_count)),
-        candela_multiplier: conversion * set.flux / 1000.0,
+        lumens_per_lamp: (!absolute).then(|| total_flux / f64::from(lamp_count)),
+        candela_multiplier: conversion * total_flux / 1000.0,
         photometric_type: PhotometricType::C,
         units: Units::Meters,
         dimensions,
         ballast_factor: 1.0,
         ballast_lamp_factor: 1.0,
-        input_watts: set.watts,
+        input_watts: total_watts,
         vertical_angles: gammas,
         horizontal_angles: horizontal,
         candela,

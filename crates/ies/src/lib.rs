@@ -20,6 +20,10 @@
 //!   API in **degrees** (file angles) or as direction vectors.
 //! * Every file is expanded once, at load, to a full-sphere grid; queries never look at the
 //!   symmetry again.
+//! * EULUMDAT intensities are in cd/klm of the luminaire's lamps: all of its lamp sets are
+//!   fitted, so they are scaled by the sum of the sets' fluxes ([`LdtInfo::lamp_sets`] keeps
+//!   each set). [`Photometry::to_ies`] writes any data as LM-63, [`Photometry::to_ldt`] writes
+//!   EULUMDAT data back as EULUMDAT, losslessly.
 //!
 //! # The photometric frame
 //! One right-handed frame serves every photometric type. Picture the luminaire hanging from the
@@ -73,7 +77,21 @@
 //! [`Photometry::intensity`] = file value × candela multiplier × ballast factor (× the
 //! ballast-lamp photometric factor for LM-63-1986/1991, where it was still a multiplier) × the
 //! tilt factor at 0° (1 without tilt data; the as-measured orientation).
-//! [`Photometry::intensity_tilted`] uses the factor at any other tilt angle.
+//!
+//! `TILT=INCLUDE` and `TILT=<file>` give the lamp's output as multiplying factors against the
+//! luminaire's **tilt**: the angle in degrees between the luminaire's photometric nadir
+//! (γ = 0°, −Z of the photometric frame) as installed and straight down (gravity). 0° is the
+//! luminaire as measured, aimed straight down; 90° aims it at the horizon, 180° straight up.
+//! The factor is linear between the listed angles and the end value outside them
+//! ([`TiltData::factor`]). The `_tilted` queries ([`Photometry::intensity_tilted`],
+//! [`Photometry::luminous_flux_tilted`], [`Photometry::max_intensity_tilted`],
+//! [`Photometry::gpu_table_tilted`]) apply the factor at a given tilt instead of at 0°.
+//!
+//! The tilt is one unsigned angle whatever the lamp-to-luminaire geometry
+//! ([`TiltData::lamp_geometry`]) and whatever the direction the luminaire leans: LM-63 gives
+//! the factors of geometries 2 and 3 for a tilt in the luminaire's 0° photometric plane, and
+//! this crate applies them to a tilt in any plane. Listed angles below 0° or above 180° are
+//! never reached, so they only matter through the end values.
 //!
 //! # Flux
 //! [`Photometry::luminous_flux`] integrates the interpolated intensity over the sphere exactly:

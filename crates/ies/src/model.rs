@@ -395,7 +395,8 @@ impl std::fmt::Debug for ParseOptions<'_> {
 /// A lamp set of an EULUMDAT file (fields 26a–26f).
 #[derive(Clone, Debug, PartialEq)]
 pub struct LampSet {
-    /// Number of lamps; negative means absolute photometry (the flux is the luminaire's).
+    /// Number of lamps; negative means absolute photometry (the flux is the luminaire's), and
+    /// then it is negative in every set.
     pub count: i64,
     /// Lamp type.
     pub lamp_type: String,
@@ -422,6 +423,9 @@ pub struct LdtInfo {
     pub c_planes: usize,
     /// Distance between C planes Dc, degrees.
     pub c_step: f64,
+    /// All Mc C-plane angles as in the file, degrees; the planes stored for the symmetry are
+    /// [`Photometry::horizontal_angles`](crate::Photometry::horizontal_angles).
+    pub c_angles: Vec<f64>,
     /// Intensities per C plane Ng.
     pub gamma_count: usize,
     /// Distance between γ angles Dg, degrees.
@@ -450,7 +454,8 @@ pub struct LdtInfo {
     pub conversion_factor: f64,
     /// Tilt of the luminaire during measurement, degrees.
     pub measurement_tilt: f64,
-    /// Lamp sets (at least one).
+    /// Lamp sets (at least one), in file order. All are fitted: the photometry uses the sum
+    /// of their lamps, fluxes and wattages.
     pub lamp_sets: Vec<LampSet>,
     /// Direct ratios for room indices k = 0.60 … 5.00.
     pub direct_ratios: [f64; 10],

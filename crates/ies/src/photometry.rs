@@ -38,8 +38,6 @@ pub struct Photometry {
     pub(crate) warnings: Vec<Warning>,
     pub(crate) symmetry: Symmetry,
     pub(crate) sphere: Sphere,
-    /// Tilt factor at 0°, applied by [`Photometry::intensity`].
-    pub(crate) tilt0: f64,
 }
 
 impl PartialEq for Photometry {
@@ -168,7 +166,6 @@ impl Photometry {
             });
         }
         let (symmetry, sphere) = expand(&p, scale)?;
-        let tilt0 = p.tilt.factor(0.0);
         Ok(Photometry {
             format: p.format,
             keywords: p.keywords,
@@ -189,7 +186,6 @@ impl Photometry {
             warnings: p.warnings,
             symmetry,
             sphere,
-            tilt0,
         })
     }
 
@@ -200,7 +196,8 @@ impl Photometry {
         self.format
     }
     /// Keyword lines in file order (`[MORE]` joined). For EULUMDAT files, the header's text
-    /// fields under the LM-63 keywords `TEST`, `MANUFAC`, `LUMCAT`, `LUMINAIRE`, `LAMP`, `ISSUEDATE`.
+    /// fields under the LM-63 keywords `TEST`, `MANUFAC`, `LUMCAT`, `LUMINAIRE`, `LAMP` (the
+    /// lamp type of each set, one line each), `ISSUEDATE`.
     pub fn keywords(&self) -> &[Keyword] {
         &self.keywords
     }
@@ -215,12 +212,13 @@ impl Photometry {
     pub fn tilt(&self) -> &Tilt {
         &self.tilt
     }
-    /// Number of lamps.
+    /// Number of lamps (EULUMDAT: of every lamp set).
     pub fn lamp_count(&self) -> u32 {
         self.lamp_count
     }
     /// Rated lumens per lamp; `None` for absolute photometry (`-1` in the file; EULUMDAT: a
-    /// negative number of lamps).
+    /// negative number of lamps). EULUMDAT: the total flux of every lamp set over the number
+    /// of lamps.
     pub fn lumens_per_lamp(&self) -> Option<f64> {
         self.lumens_per_lamp
     }
@@ -229,8 +227,8 @@ impl Photometry {
     pub fn lumens_header(&self) -> Option<f64> {
         self.lumens_per_lamp.map(|l| l * f64::from(self.lamp_count))
     }
-    /// Candela multiplier (EULUMDAT: conversion factor × lamp flux / 1000, since its values
-    /// are in cd/klm).
+    /// Candela multiplier (EULUMDAT: conversion factor × the total flux of every lamp set
+    /// / 1000, since its values are in cd/klm).
     pub fn candela_multiplier(&self) -> f64 {
         self.candela_multiplier
     }
@@ -248,7 +246,7 @@ impl Photometry {
     pub fn file_generation_type(&self) -> Option<f64> {
         (self.format == Format::Lm63_2019).then_some(self.ballast_lamp_factor)
     }
-    /// Input watts.
+    /// Input watts (EULUMDAT: the sum over the lamp sets).
     pub fn input_watts(&self) -> f64 {
         self.input_watts
     }
@@ -303,11 +301,12 @@ impl Photometry {
     /// LM-63-1986/1991 the ballast-lamp factor) and the tilt factor at 0° are applied. The zero
     /// vector and non-finite input give 0.
     pub fn intensity(&self, dir: [f64; 3]) -> f64 {
-        self.sphere.eval_dir(dir) * self.tilt0
+        self.intensity_tilted(dir, 0.0)
     }
 
-    /// [`Photometry::intensity`] for the luminaire tilted by `tilt_deg`: the tilt factor at
-    /// that angle replaces the factor at 0°.
+    /// [`Photometry::intensity`] for the luminaire installed at a tilt of `tilt_deg` (see the
+    /// crate docs, *Multipliers and tilt*): the tilt factor at that angle replaces the factor
+    /// at 0°.
     pub fn intensity_tilted(&self, dir: [f64; 3], tilt_deg: f64) -> f64 {
         self.sphere.eval_dir(dir) * self.tilt.factor(tilt_deg)
     }
@@ -328,7 +327,12 @@ impl Photometry {
     /// intensity (as [`Photometry::intensity`] returns it). Per grid cell, the bilinear
     /// interpolant times sin θ is integrated in closed form.
     pub fn luminous_flux(&self) -> f64 {
-        self.sphere.integral() * self.tilt0
+        self.luminous_flux_tilted(0.0)
+    }
+
+    /// [`Photometry::luminous_flux`] for the luminaire installed at a tilt of `tilt_deg`.
+    pub fn luminous_flux_tilted(&self, tilt_deg: f64) -> f64 {
+        self.sphere.integral() * self.tilt.factor(tilt_deg)
     }
 
     /// [`Photometry::luminous_flux`] over the header lumens (`None` for absolute photometry or
@@ -343,11 +347,17 @@ impl Photometry {
     /// (Bilinear interpolation peaks at grid nodes, so this is the maximum over all
     /// directions.) An all-dark lamp gives 0 toward nadir.
     pub fn max_intensity(&self) -> (f64, [f64; 3]) {
+        self.max_intensity_tilted(0.0)
+    }
+
+    /// [`Photometry::max_intensity`] for the luminaire installed at a tilt of `tilt_deg`.
+    pub fn max_intensity_tilted(&self, tilt_deg: f64) -> (f64, [f64; 3]) {
         let (v, t, p) = self.sphere.max();
+        let v = v * self.tilt.factor(tilt_deg);
         if v <= 0.0 {
             return (0.0, [0.0, 0.0, -1.0]);
         }
-        (v * self.tilt0, sphere::direction(self.sphere.axis, t, p))
+        (v, sphere::direction(self.sphere.axis, t, p))
     }
 
     pub(crate) fn sphere(&self) -> &Sphere {

@@ -1,8 +1,8 @@
-//! IES LM-63-2002 / LM-63-2019 writer.
+//! Writers: IES LM-63-2002 / LM-63-2019, and EULUMDAT for data read from EULUMDAT.
 
 use crate::Photometry;
 use crate::model::{Format, IesVersion, PhotometricType, Tilt, Units};
-use std::fmt::Write as _;
+use std::fmt::{Display, Write as _};
 
 /// Values per output line.
 const PER_LINE: usize = 10;
@@ -89,5 +89,59 @@ impl Photometry {
             push_list(&mut out, row);
         }
         out
+    }
+
+    /// Writes the photometry as a EULUMDAT file, one field per line, numbers in Rust's
+    /// shortest round-trip form, so `parse(to_ldt()) == self` (warnings aside) with every lamp
+    /// set and every C angle. `None` for data not read from EULUMDAT: LM-63 data has no
+    /// EULUMDAT header to write.
+    pub fn to_ldt(&self) -> Option<String> {
+        let l = self.ldt.as_deref()?;
+        let mut out = String::new();
+        let mut put = |v: &dyn Display| {
+            let _ = writeln!(out, "{v}");
+        };
+        put(&l.company);
+        put(&l.type_indicator);
+        put(&l.symmetry_indicator);
+        put(&l.c_angles.len());
+        put(&l.c_step);
+        put(&self.vertical_angles.len());
+        put(&l.gamma_step);
+        for text in [
+            &l.report_number,
+            &l.luminaire_name,
+            &l.luminaire_number,
+            &l.file_name,
+            &l.date_user,
+        ] {
+            put(text);
+        }
+        let numbers = l.luminaire_size_mm.iter().chain(&l.luminous_area_mm);
+        let numbers = numbers.chain(&l.luminous_height_mm);
+        for v in numbers {
+            put(v);
+        }
+        for v in [
+            l.downward_flux_fraction,
+            l.light_output_ratio,
+            l.conversion_factor,
+            l.measurement_tilt,
+        ] {
+            put(&v);
+        }
+        put(&l.lamp_sets.len());
+        let sets = &l.lamp_sets;
+        sets.iter().for_each(|s| put(&s.count));
+        sets.iter().for_each(|s| put(&s.lamp_type));
+        sets.iter().for_each(|s| put(&s.flux));
+        sets.iter().for_each(|s| put(&s.color));
+        sets.iter().for_each(|s| put(&s.cri));
+        sets.iter().for_each(|s| put(&s.watts));
+        let data = l.direct_ratios.iter().chain(&l.c_angles);
+        for v in data.chain(&self.vertical_angles).chain(&self.candela) {
+            put(v);
+        }
+        Some(out)
     }
 }

@@ -163,6 +163,109 @@ fn file_from_angles(
         )
 }
 
+/// A lamp set: lamps, type, flux, colour, CRI, watts.
+type Set = (i64, String, f64, String, String, f64);
+
+/// A EULUMDAT file: symmetry, C planes, γ angles, stored intensities, header texts and
+/// numbers, lamp sets (one sign for every count).
+#[derive(Debug, Clone)]
+struct Ldt {
+    isym: u8,
+    mc: usize,
+    gammas: Vec<f64>,
+    candela: Vec<f64>,
+    texts: Vec<String>,
+    numbers: Vec<f64>,
+    sets: Vec<Set>,
+}
+
+impl Ldt {
+    fn text(&self) -> String {
+        let dc = 360.0 / self.mc as f64;
+        let mut s = format!(
+            "{}\n1\n{}\n{}\n{dc}\n{}\n5\n",
+            self.texts[0],
+            self.isym,
+            self.mc,
+            self.gammas.len()
+        );
+        for t in &self.texts[1..] {
+            s += &format!("{t}\n");
+        }
+        for v in &self.numbers {
+            s += &format!("{v}\n");
+        }
+        s += &format!("{}\n", self.sets.len());
+        let sets = &self.sets;
+        let field =
+            |f: &dyn Fn(&Set) -> String| sets.iter().map(|x| f(x) + "\n").collect::<String>();
+        s += &field(&|x| x.0.to_string());
+        s += &field(&|x| x.1.clone());
+        s += &field(&|x| x.2.to_string());
+        s += &field(&|x| x.3.clone());
+        s += &field(&|x| x.4.clone());
+        s += &field(&|x| x.5.to_string());
+        for k in 0..10 {
+            s += &format!("{}\n", 0.1 * k as f64);
+        }
+        for i in 0..self.mc {
+            s += &format!("{}\n", i as f64 * dc);
+        }
+        for v in self.gammas.iter().chain(&self.candela) {
+            s += &format!("{v}\n");
+        }
+        s
+    }
+}
+
+/// Header text: never read as the start of an LM-63 file (`TILT`, `IES`).
+fn ldt_text() -> impl Strategy<Value = String> {
+    "[A-Za-z0-9 ./-]{0,16}".prop_filter("not an LM-63 marker", |t| {
+        let up = t.trim().to_ascii_uppercase();
+        !(up.starts_with("TILT") || up.starts_with("IES"))
+    })
+}
+
+fn ldt_file() -> impl Strategy<Value = Ldt> {
+    (0u8..=4, 1usize..5, 2usize..8, 1usize..5, any::<bool>())
+        .prop_flat_map(|(isym, k, ng, n_sets, absolute)| {
+            let mc = 4 * k;
+            let stored = match isym {
+                0 => mc,
+                1 => 1,
+                2 | 3 => mc / 2 + 1,
+                _ => mc / 4 + 1,
+            };
+            let sign = if absolute { -1 } else { 1 };
+            let set = (
+                1i64..5,
+                ldt_text(),
+                0.0f64..1e5,
+                ldt_text(),
+                ldt_text(),
+                0.0f64..500.0,
+            )
+                .prop_map(move |(n, t, f, c, r, w)| (sign * n, t, f, c, r, w));
+            (
+                Just((isym, mc)),
+                angles(ng, 0.0, 180.0),
+                prop::collection::vec(value(), stored * ng),
+                prop::collection::vec(ldt_text(), 6),
+                prop::collection::vec(0.0f64..2000.0, 13),
+                prop::collection::vec(set, n_sets),
+            )
+        })
+        .prop_map(|((isym, mc), gammas, candela, texts, numbers, sets)| Ldt {
+            isym,
+            mc,
+            gammas,
+            candela,
+            texts,
+            numbers,
+            sets,
+        })
+}
+
 fn direction() -> impl Strategy<Value = [f64; 3]> {
     [-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0]
 }
@@ -214,6 +317,26 @@ proptest! {
                 prop_assert_eq!(&p, &q);
             }
         }
+    }
+
+    #[test]
+    fn ldt_writer_round_trips_every_lamp_set(file in ldt_file()) {
+        let text = file.text();
+        let p = Photometry::parse(text.as_bytes()).map_err(|e| TestCaseError::fail(format!("{e}\n{text}")))?;
+        let info = p.ldt().expect("EULUMDAT");
+        prop_assert_eq!(info.lamp_sets.len(), file.sets.len());
+        for (set, (n, t, f, c, r, w)) in info.lamp_sets.iter().zip(&file.sets) {
+            prop_assert_eq!((set.count, &set.lamp_type, set.flux), (*n, &t.trim().to_owned(), *f));
+            prop_assert_eq!((&set.color, &set.cri, set.watts), (&c.trim().to_owned(), &r.trim().to_owned(), *w));
+        }
+        // Intensities in cd/klm of every set's flux, times the conversion factor.
+        let total: f64 = file.sets.iter().map(|s| s.2).sum();
+        let conversion = if file.numbers[11] > 0.0 { file.numbers[11] } else { 1.0 };
+        prop_assert!(close(p.candela_multiplier(), conversion * total / 1000.0));
+        let written = p.to_ldt().expect("read from EULUMDAT");
+        let q = Photometry::parse(written.as_bytes()).map_err(|e| TestCaseError::fail(format!("{e}\n{written}")))?;
+        prop_assert_eq!(&q, &p);
+        prop_assert_eq!(q.to_ldt().expect("EULUMDAT"), written);
     }
 
     #[test]

@@ -283,6 +283,38 @@ fn tilt_include_is_parsed_and_applied() {
     assert_eq!(p.tilt().factor(-5.0), 1.0);
 }
 
+/// Every tilted query scales by the factor interpolated at the tilt: the flux, the peak and
+/// each value of the shaders' table (at 0° the untilted queries).
+#[test]
+fn tilted_queries_scale_by_the_interpolated_factor() {
+    let p = parse(&ies(
+        "IESNA:LM-63-2002\n[TEST] a",
+        TILT_BLOCK,
+        "1 1000 1 3 1 1 2 0 0 0",
+        "0 45 90\n0\n100 60 0",
+    ));
+    let (flux, (peak, peak_dir), table) = (p.luminous_flux(), p.max_intensity(), p.gpu_table());
+    assert_eq!(p.gpu_table_tilted(0.0), table);
+    // 30°: two thirds of the way from 1 to 0.8; 45° a listed angle; 120° past the last one.
+    for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8), (120.0, 0.5)] {
+        assert!(close(p.tilt().factor(tilt), factor, 1e-12), "{tilt}");
+        assert!(close(p.luminous_flux_tilted(tilt), flux * factor, 1e-12));
+        let (m, dir) = p.max_intensity_tilted(tilt);
+        assert!(close(m, peak * factor, 1e-12) && dir == peak_dir);
+        let tilted = p.gpu_table_tilted(tilt);
+        assert_eq!((tilted.width, tilted.height), (table.width, table.height));
+        for (a, b) in tilted.values.iter().zip(&table.values) {
+            assert!((f64::from(*a) - f64::from(*b) * factor).abs() <= 1e-5 * f64::from(*b));
+        }
+        let d = [0.3, 0.1, -0.8];
+        assert!(close(
+            p.intensity_tilted(d, tilt),
+            p.intensity(d) * factor,
+            1e-12
+        ));
+    }
+}
+
 #[test]
 fn tilt_file_needs_a_resolver() {
     let text = ies(
@@ -768,6 +800,83 @@ fn eulumdat_errors() {
         Photometry::parse(truncated.as_bytes()),
         Err(IesError::UnexpectedEof { .. } | IesError::Syntax { .. })
     ));
+}
+
+/// The one lamp set of [`ldt`] (lamps, type, flux, colour, CRI, watts).
+const ONE_SET: &str = "1\n1\nLED\n1000\n3000K\n90\n10\n";
+/// Three lamp sets, field by field: 2 + 1 + 1 lamps, 2600 + 1300 + 600 lm, 64 + 32 + 10 W.
+const THREE_SETS: &str = "3\n2\n1\n1\nT5\nT5\nLED\n2600\n1300\n600\n3000K\n3000K\n4000K\n\
+    80\n80\n90\n64\n32\n10\n";
+
+#[test]
+fn eulumdat_lamp_sets_are_all_fitted() {
+    let one = parse(&ldt(1, 24, 5.0, |_, _| 100.0));
+    let text = ldt(1, 24, 5.0, |_, _| 100.0).replacen(ONE_SET, THREE_SETS, 1);
+    let p = parse(&text);
+    let sets = &p.ldt().unwrap().lamp_sets;
+    assert_eq!(sets.len(), 3);
+    assert_eq!(
+        sets.iter()
+            .map(|s| (
+                s.count,
+                s.lamp_type.as_str(),
+                s.flux,
+                s.color.as_str(),
+                s.watts
+            ))
+            .collect::<Vec<_>>(),
+        [
+            (2, "T5", 2600.0, "3000K", 64.0),
+            (1, "T5", 1300.0, "3000K", 32.0),
+            (1, "LED", 600.0, "4000K", 10.0)
+        ]
+    );
+    assert_eq!(sets[2].cri, "90");
+    // 100 cd/klm of 4500 lm: 450 cd, 4.5 times the one 1000 lm set.
+    assert_eq!(p.candela_multiplier(), 4.5);
+    assert_eq!(p.intensity_at(30.0, 0.0), 450.0);
+    assert!(close(p.luminous_flux(), 4.5 * one.luminous_flux(), 1e-12));
+    assert_eq!((p.lamp_count(), p.lumens_header()), (4, Some(4500.0)));
+    assert_eq!(
+        (p.lumens_per_lamp(), p.input_watts()),
+        (Some(1125.0), 106.0)
+    );
+    assert_eq!(p.keyword("LAMP"), Some("T5\nT5\nLED"));
+    // Written as LM-63: the same intensities, lamps, lumens and watts, every lamp type.
+    let back = parse(&p.to_ies(IesVersion::Lm63_2002));
+    assert_eq!(back.intensity_at(30.0, 0.0), 450.0);
+    assert_eq!((back.lamp_count(), back.lumens_header()), (4, Some(4500.0)));
+    assert_eq!(back.input_watts(), 106.0);
+    assert_eq!(back.keyword("LAMP"), Some("T5\nT5\nLED"));
+    // Absolute photometry: negative counts in every set, the intensities still per klm of
+    // the total flux.
+    let absolute = parse(&text.replacen("3\n2\n1\n1\n", "3\n-2\n-1\n-1\n", 1));
+    assert_eq!(absolute.lumens_per_lamp(), None);
+    assert_eq!(absolute.intensity_at(30.0, 0.0), 450.0);
+}
+
+#[test]
+fn eulumdat_inconsistent_lamp_sets_are_errors() {
+    let text = ldt(1, 24, 5.0, |_, _| 100.0).replacen(ONE_SET, THREE_SETS, 1);
+    let mixed = text.replacen("3\n2\n1\n1\n", "3\n2\n-1\n1\n", 1);
+    match Photometry::parse(mixed.as_bytes()) {
+        Err(e @ IesError::OutOfRange { line: 28, .. }) => {
+            let m = e.to_string();
+            assert!(m.contains("lamp set 2") && m.contains("-1"), "{m}");
+        }
+        other => panic!("{other:?}"),
+    }
+    // Sums that overflow.
+    let huge = text.replacen("\n64\n32\n10\n", "\n1e308\n1e308\n10\n", 1);
+    match Photometry::parse(huge.as_bytes()) {
+        Err(e @ IesError::OutOfRange { line: 26, .. }) => {
+            assert!(e.to_string().contains("total wattage"), "{e}")
+        }
+        other => panic!("{other:?}"),
+    }
+    // Fewer sets than announced: the file ends early or a field is read as the wrong one.
+    let short = ldt(1, 24, 5.0, |_, _| 100.0).replacen("\n1\n1\nLED\n", "\n2\n1\nLED\n", 1);
+    assert!(Photometry::parse(short.as_bytes()).is_err());
 }
 
 // ---------------------------------------------------------------- writer

@@ -362,7 +362,7 @@ mod tests {
             ("quality", Box::new(|r| r.quality = "best".into())),
             ("bounces", Box::new(|r| r.bounces = 99)),
             ("blur_sigma", Box::new(|r| r.blur_sigma = f32::NAN)),
-            ("texels_per_metre", Box::new(|r| r.texels_per_metre = 1e6)),
+            ("texels_per_metre", Box::new(|r| r.texels_per_metre = 0.0)),
             ("multiplier", Box::new(|r| r.lamp.multiplier = -1.0)),
             (
                 "position",

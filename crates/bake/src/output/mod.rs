@@ -18,12 +18,12 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
-//! seed, sampler, stride, higher_rays, higher_stride, refine_rays,
-//! refine_error), `layout` (`layer_size`,
-//! `layers`), `lamps` (name, position, aim, rotation_deg, multiplier, color, max_candela
-//! (file), lumens (integrated × multiplier), used), `objects` (name, index, receiver, and for
-//! receivers `files`, `layer`, `offset`, `size`, `resolution`, plus `transform` {`linear`
-//! (columns), `translation`} for all),
+//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error), `layout`
+//! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
+//! the file's tilt factors are taken at, [`crate::scene::Lamp::tilt_deg`]), multiplier,
+//! color, max_candela (file, at that tilt), lumens (integrated at that tilt × multiplier),
+//! used), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
+//! `size`, `resolution`, plus `transform` {`linear` (columns), `translation`} for all),
 //! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run,
 //! `explicit_bounces` (= bounces_run), `tail_fraction` (the estimated share of the total
 //! illuminance that the converged method added for the bounces it did not run explicitly),
@@ -245,16 +245,18 @@ pub fn write_bake(
         .iter()
         .enumerate()
         .map(|(i, l)| {
-            let (max_cd, _) = l.photometry.max_intensity();
+            let tilt = l.tilt_deg();
+            let (max_cd, _) = l.photometry.max_intensity_tilted(tilt);
             json!({
                 "name": l.name,
                 "position": l.position,
                 "aim": l.aim,
                 "rotation_deg": l.rotation_deg,
+                "tilt_deg": tilt,
                 "multiplier": l.multiplier,
                 "color": l.color,
                 "max_candela": max_cd,
-                "lumens": l.photometry.luminous_flux() * f64::from(l.multiplier),
+                "lumens": l.photometry.luminous_flux_tilted(tilt) * f64::from(l.multiplier),
                 "used": output.lamps_used.contains(&i),
             })
         })

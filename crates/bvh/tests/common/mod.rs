@@ -297,12 +297,6 @@ pub fn build_and_encode(tris: &[Tri]) -> EncodedScene {
     encode(&bvh, tris, &attributes(tris, 7), &EncodeOptions::default()).expect("encode")
 }
 
-/// `../shared/models` from the repository root, if present.
-pub fn models_dir() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    dir.is_dir().then_some(dir)
-}
-
 /// World-space triangles of every mesh instance of the default scene of a `.glb` file.
 pub fn load_glb(path: &std::path::Path) -> Result<Vec<Tri>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -370,15 +364,26 @@ fn transform(m: &[[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
     std::array::from_fn(|r| m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r])
 }
 
-/// The named model's triangles, or `None` (with a printed message) if `../shared` is absent.
+/// The named model of `../shared/models` (repository root), its triangles, or `None` after
+/// printing that the test skips. Under CI (`CI` set to anything but empty, `false` or `0`: the
+/// rule of `luxbake::ci`, which this standalone crate does not depend on) a missing model fails
+/// the test instead.
 pub fn load_model(name: &str) -> Option<Vec<Tri>> {
-    let Some(dir) = models_dir() else {
-        eprintln!("skipping: ../shared/models not found");
-        return None;
-    };
-    let path = dir.join(name).join(format!("{name}.glb"));
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../../shared/models")
+        .join(name)
+        .join(format!("{name}.glb"));
     if !path.is_file() {
-        eprintln!("skipping: {} not found", path.display());
+        let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
+        assert!(
+            !ci,
+            "{} not found; CI is set, so this test may not be skipped",
+            path.display()
+        );
+        eprintln!(
+            "skipping: {} not found; set CI=true to fail instead",
+            path.display()
+        );
         return None;
     }
     Some(load_glb(&path).expect("loading a shared model"))
