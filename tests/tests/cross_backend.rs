@@ -1,6 +1,7 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
-//! `chairs_01` and `sphere` (converged method), with the tolerances of
+//! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
+//! gathers run at reduced resolution, and with refinement), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI. Each test compares at least one backend pair, or says which backends it
@@ -87,6 +88,16 @@ fn sphere_converged_every_stage_agrees_across_backends() {
 }
 
 #[test]
+fn chairs_01_converged_draft_every_stage_agrees_across_backends() {
+    run(&SCENES[6]);
+}
+
+#[test]
+fn chairs_01_converged_refine_every_stage_agrees_across_backends() {
+    run(&SCENES[7]);
+}
+
+#[test]
 fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
     let names: Vec<_> = SCENES.iter().map(SceneCase::name).collect();
     assert_eq!(
@@ -98,6 +109,8 @@ fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
             "chairs_01_paper_sobol",
             "chairs_01_converged",
             "sphere_converged",
+            "chairs_01_converged_draft",
+            "chairs_01_converged_refine",
         ]
     );
 }
