@@ -1,11 +1,12 @@
 //! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
-//! [--tail-tolerance F] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
+//! [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N] [--refine-rays N]
+//! [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
 //! [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into a folder.
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
 //! the converged method's `default` preset. Flags override the scene's `[settings]`:
-//! `--method`/`--quality` choose the preset (rays, bounces, blur, tail tolerance), then the
+//! `--method`/`--quality` choose the preset (rays, strides, bounces, blur, tail tolerance), then the
 //! explicit flags override single values. A progress bar per pass, then a summary table.
 
 use std::path::PathBuf;

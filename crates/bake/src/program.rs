@@ -686,7 +686,8 @@ pub enum Library {
     /// The reduced-resolution gather's grid test ([`coarse`]); for programs reading the slots
     /// `position` and `normal`.
     Coarse,
-    /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, the output).
+    /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, `luxLuminance`, the
+    /// output).
     Common,
     /// The stateless RNG hash ([`crate::rng`], bit-exact).
     Rng,
@@ -696,8 +697,8 @@ pub enum Library {
     Bvh,
     /// Bilinear intensity-table sampling (`luxbake_ies::GpuTable::sample`).
     Ies,
-    /// The denoiser's guide: luminance and whether a tap lies on the centre's surface
-    /// (`cpu::Guide`); for programs reading the slots `src`, `position` and `normal`.
+    /// The denoiser's guide: whether a tap lies on the centre's surface (`cpu::Guide`); for
+    /// programs reading the slots `src`, `position` and `normal`.
     Guide,
 }
 

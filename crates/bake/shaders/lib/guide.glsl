@@ -1,7 +1,6 @@
-// Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide:
-// whether a tap lies on the centre's surface (inside the layer, valid, the
-// centre's object, a normal, within the chart reach). For programs reading the slots src,
-// position and normal.
+// Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide: whether a
+// tap lies on the centre's surface (inside the layer, valid, the centre's object, a normal,
+// within the chart reach). For programs reading the slots src, position and normal.
 
 struct LuxGuide {
     ivec3 c;
