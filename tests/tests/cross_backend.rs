@@ -1,6 +1,7 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
-//! `chairs_01` and `sphere` (converged method), with the tolerances of
+//! `chairs_01` and `sphere` (converged method), and a room with a lamp 0.1 mm from a wall
+//! (paper method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI. Each test compares at least one backend pair, or says which backends it
