@@ -1,7 +1,8 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
 //! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
-//! gathers run at reduced resolution, and with refinement), with the tolerances of
+//! gathers run at reduced resolution, and with refinement), and a room with a lamp 0.1 mm from
+//! a wall (paper method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI. Each test compares at least one backend pair, or says which backends it
@@ -113,4 +114,82 @@ fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
             "chairs_01_converged_refine",
         ]
     );
+}
+
+/// A room with an isotropic 1000 cd lamp 0.1 mm in front of its +X wall (issue 14: the d²
+/// floor and the shadow ray's stop short of the lamp are one rule in every backend): every
+/// stage agrees across backends within the paper method's tolerances.
+#[test]
+fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
+    use std::sync::Arc;
+
+    use luxbake::scene::{Albedo, Lamp, Method, Object, Quality, Sampler, Transform};
+    use luxbake::sources::meshes;
+
+    let case = SceneCase {
+        scene: "lamp_0.1mm_from_wall",
+        method: Method::Paper,
+        sampler: Sampler::Hash,
+        quality: Quality::Default,
+        refine_rays: 0,
+        stages: SCENES[1].stages,
+    };
+    let settings = case.settings();
+    let size = [4.0f32, 2.5, 3.0];
+    let scene = Scene {
+        objects: vec![Object {
+            name: "room".into(),
+            mesh: meshes::room(
+                size,
+                meshes::RoomAlbedo::uniform([0.5; 3]),
+                6.0 / settings.texels_per_metre,
+            ),
+            transform: Transform::IDENTITY,
+            albedo: Albedo::grey(1.0),
+            receiver: true,
+            texel_scale: 1.0,
+        }],
+        lamps: vec![Lamp::new(
+            "isotropic",
+            Arc::new(luxbake_ies::Photometry::isotropic(1000.0)),
+            [size[0] / 2.0 - 1e-4, 1.25, 0.3],
+        )],
+        settings: settings.clone(),
+    };
+    let test = "cross_backend::lamp_0.1mm_from_wall";
+    let mut tally = Tally::new(test);
+    let mut outputs = Vec::new();
+    for b in BackendKind::ALL {
+        if let Some(mut opened) = tally.open(b) {
+            let out = bake(&mut opened, &scene, &settings, &mut |_| {})
+                .unwrap_or_else(|e| panic!("{test}: {b} bake failed: {e}"));
+            outputs.push((b, out));
+        }
+    }
+    let mut failures = Vec::new();
+    for pair in Pair::ALL {
+        let find = |b: BackendKind| outputs.iter().find(|(k, _)| *k == b).map(|(_, o)| o);
+        let (Some(e), Some(a)) = (find(pair.expected), find(pair.actual)) else {
+            continue;
+        };
+        let (reports, f) = compare(pair, &case, e, a);
+        let texels: usize = reports.iter().map(|r| r.stats.texels).sum();
+        assert!(texels > 0, "{test}: {} compared no texel", pair.name());
+        tally.compared(1);
+        for r in &reports {
+            println!(
+                "{:<13} ({}) {:<18} texels {:>6}  rel RMSE {:.2e}  p99 {:.2e}  max {:.2e}",
+                pair.name(),
+                r.stage + 1,
+                Figure5::NAMES[r.stage],
+                r.stats.texels,
+                r.stats.rel_rmse,
+                r.stats.p99,
+                r.stats.max,
+            );
+        }
+        failures.extend(f);
+    }
+    tally.finish();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

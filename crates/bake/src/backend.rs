@@ -73,17 +73,32 @@ pub struct SceneData<'a> {
     pub layer_size: [u32; 2],
     /// Layers of every light-map texture array.
     pub layers: u32,
-    /// Ray-origin offset along the surface normal, world units: the scene's largest absolute
-    /// coordinate × 2^-16 (see [`ray_epsilon`]).
+    /// The size term of the ray-origin offset, world units: the half-extent of the scene's
+    /// geometry × 2^-16 (see [`ray_epsilon`] and [`offset_origin`]). It does not depend on
+    /// where the scene lies or where its lamps are.
     pub ray_epsilon: f32,
 }
 
-/// The ray-origin offset for a scene whose largest absolute coordinate is `max_abs_coord`:
-/// `max_abs_coord × 2^-16` (about 256 ulps of the largest coordinate), at least
-/// `f32::MIN_POSITIVE`. Scale-invariant: a scene in millimetres or kilometres gets the same
-/// relative offset. The passes additionally cap it at a quarter of the distance to the lamp.
-pub fn ray_epsilon(max_abs_coord: f32) -> f32 {
-    let e = max_abs_coord.abs() * (1.0 / 65_536.0);
+/// ULPs per unit of normal component that [`offset_origin`] steps each coordinate: the
+/// texel's position and the triangle's vertices are each rounded to f32 (half an ULP per
+/// coordinate), and `Σ_c |n_c|·⌊4|n_c|⌋ ≥ Σ_c |n_c|` for every unit normal, so the step along
+/// the normal covers that rounding. No more: at 10 km an axis-aligned wall's origin already
+/// moves 4 mm, and a shadow edge on a grazing face moves with it.
+pub const OFFSET_ULPS: f32 = 4.0;
+
+/// Coordinates smaller than this are not stepped in ULP space by [`offset_origin`] (only
+/// the size term moves them): so no step crosses zero or reaches subnormals.
+pub const OFFSET_MIN_MAGNITUDE: f32 = 1e-30;
+
+/// The size term of the ray offset for a scene whose geometry's bounding box has half-extent
+/// `half_extent` (the largest of its three half-sizes; lamps are not geometry):
+/// `half_extent × 2^-16`, at least `f32::MIN_POSITIVE` — for a scene centred on the origin
+/// the same as the former global offset (largest coordinate × 2^-16), but it does not grow
+/// when the scene lies far from the origin or a lamp lies far away. It covers the ray–triangle
+/// test's rounding, which is relative to the distances from the origin to the vertices, and
+/// keeps grazing gather rays clear of neighbouring triangles whose shading normal turns away.
+pub fn ray_epsilon(half_extent: f32) -> f32 {
+    let e = half_extent.abs() * (1.0 / 65_536.0);
     if e.is_finite() && e > f32::MIN_POSITIVE {
         e
     } else if e.is_finite() {
@@ -91,6 +106,41 @@ pub fn ray_epsilon(max_abs_coord: f32) -> f32 {
     } else {
         f32::MAX * (1.0 / 65_536.0)
     }
+}
+
+/// One coordinate of [`offset_origin`].
+#[inline]
+pub fn offset_coordinate(p: f32, n: f32, size: f32) -> f32 {
+    let q = p + n * size;
+    let steps = (OFFSET_ULPS * n) as i32;
+    // NaN, tiny and infinite coordinates are not stepped.
+    if q.is_nan() || q.abs() < OFFSET_MIN_MAGNITUDE || q.is_infinite() {
+        return q;
+    }
+    let bits = q.to_bits() as i32;
+    f32::from_bits(if q < 0.0 {
+        bits.wrapping_sub(steps)
+    } else {
+        bits.wrapping_add(steps)
+    } as u32)
+}
+
+/// The ray origin for a surface point `p` with unit normal `n`: local, so a scene far from
+/// the origin or a lamp far away does not widen it (Wächter & Binder, "A Fast and Robust
+/// Method for Avoiding Self-Intersection", Ray Tracing Gems ch. 6, with an additive size
+/// term). Per coordinate `c`: `q = p_c + n_c·size` (`size` = [`SceneData::ray_epsilon`],
+/// the surface-size term), then `q` is stepped `trunc(OFFSET_ULPS·n_c)` ULPs away from or
+/// toward zero along `n_c` in integer space (its bits ± the steps): it covers the rounding of
+/// `p` and of the vertices, which grows with the coordinate's own magnitude. Coordinates
+/// below [`OFFSET_MIN_MAGNITUDE`], and infinities, are not stepped. Every backend computes
+/// it with the same operations (GLSL `floatBitsToInt`, WGSL `bitcast`).
+#[inline]
+pub fn offset_origin(p: [f32; 3], n: [f32; 3], size: f32) -> [f32; 3] {
+    [
+        offset_coordinate(p[0], n[0], size),
+        offset_coordinate(p[1], n[1], size),
+        offset_coordinate(p[2], n[2], size),
+    ]
 }
 
 /// One program over one tile: what [`GpuBackend::dispatch`] runs.
@@ -249,6 +299,34 @@ mod tests {
         let mut past = ok;
         past.tile.layer = 2;
         assert!(e(&past, &[target; 2], [8, 4]).contains("does not fit"));
+    }
+
+    #[test]
+    fn the_offset_is_local_and_moves_along_the_normal() {
+        let size = ray_epsilon(4.0);
+        // Near the origin the size term dominates.
+        let o = offset_origin([0.5, 0.0, -0.5], [0.0, 1.0, 0.0], size);
+        assert_eq!((o[0], o[2]), (0.5, -0.5));
+        assert!(o[1] > 0.0 && o[1] < 1.01 * size, "{o:?}");
+        // 10 km out, a wall facing +x (and one facing -x at -10 km) moves 4 ULPs of 10⁴
+        // (about 4 mm), and only along x; the floor at y = 0 moves by the size term alone.
+        for (x, nx) in [(10_000.0f32, 1.0f32), (-10_000.0, -1.0), (10_000.0, -1.0)] {
+            let o = offset_origin([x, 1.0, 10_000.0], [nx, 0.0, 0.0], size);
+            let moved = (o[0] - x) * nx;
+            assert!(moved > 0.0 && moved < 0.01, "{x} {nx}: {o:?}");
+            assert_eq!((o[1], o[2]), (1.0, 10_000.0));
+        }
+        let o = offset_origin([10_000.0, 0.0, 10_000.0], [0.0, 1.0, 0.0], size);
+        assert!(o[1] > 0.0 && o[1] < 1.01 * size, "{o:?}");
+        // A tilted normal moves every coordinate it has a component along, the right way.
+        let n = [0.6, -0.8, 0.0];
+        let p = [-3.0, 2.0, 7.0];
+        let o = offset_origin(p, n, size);
+        assert!(o[0] > p[0] && o[1] < p[1] && o[2] == p[2], "{o:?}");
+        // Tiny and non-finite coordinates stay finite or pass through.
+        assert!(offset_origin([1e-35, 0.0, 0.0], [1.0, 0.0, 0.0], size)[0] > 0.0);
+        assert!(offset_coordinate(f32::INFINITY, 1.0, size).is_infinite());
+        assert!(offset_coordinate(f32::NAN, 1.0, size).is_nan());
     }
 
     #[test]

@@ -376,6 +376,39 @@ fn energy(layers: &[Vec<f32>]) -> f64 {
         .sum()
 }
 
+/// The shift that moves a scene lying far from the world origin next to it, or `None` for a
+/// scene around the origin. A light map does not depend on where the room stands, but f32
+/// coordinates far out are coarse (1 mm at 10 km), so [`bake`] bakes the scene moved by
+/// `−shift`: the centre of the objects' world bounding box (lamps are not geometry), rounded
+/// to a multiple of the power of two `g ≥` the box's half-extent, so that moving an f32
+/// translation or lamp position by it is exact where the result is near the origin. `None`
+/// when no centre coordinate is beyond the half-extent (the box holds the origin, or nearly):
+/// such scenes bake exactly as given.
+pub fn recentring_shift(scene: &Scene) -> Option<[f64; 3]> {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for o in &scene.objects {
+        for p in &o.mesh.positions {
+            let w = o.transform.point_f64(p.map(f64::from));
+            for c in 0..3 {
+                if w[c].is_finite() {
+                    lo[c] = lo[c].min(w[c]);
+                    hi[c] = hi[c].max(w[c]);
+                }
+            }
+        }
+    }
+    let half = (0..3).map(|c| 0.5 * (hi[c] - lo[c])).fold(0.0f64, f64::max);
+    let centre: [f64; 3] = std::array::from_fn(|c| 0.5 * (hi[c] + lo[c]));
+    if !(half.is_finite() && centre.iter().all(|c| c.is_finite()))
+        || centre.iter().all(|c| c.abs() <= half)
+    {
+        return None;
+    }
+    let g = 2f64.powi(half.max(1e-30).log2().ceil() as i32);
+    Some(centre.map(|c| (c / g).round() * g))
+}
+
 /// Bakes `scene` with `settings` on `backend` (see the module docs). `settings` replaces
 /// `scene.settings` (texel density, rays, bounces, blur, traversal, seed).
 pub fn bake<B: GpuBackend>(
@@ -403,6 +436,14 @@ pub fn bake<B: GpuBackend>(
             ..scene.clone()
         };
         &local
+    };
+    let recentred;
+    let scene = match recentring_shift(scene) {
+        Some(shift) => {
+            recentred = scene.translated(shift.map(|c| -c));
+            &recentred
+        }
+        None => scene,
     };
     let mut setup = Vec::new();
     let mut skipped = Vec::new();
@@ -490,16 +531,21 @@ pub fn bake<B: GpuBackend>(
         }
     }
 
-    // Ray offset from the scene's largest coordinate.
-    let max_abs = triangles
-        .iter()
-        .flat_map(|t| t.iter())
-        .chain(scene.lamps.iter().map(|l| &l.position))
-        .flat_map(|p| p.iter())
-        .fold(
-            0.0f32,
-            |m, &c| if c.is_finite() { m.max(c.abs()) } else { m },
-        );
+    // The ray offset's size term from the extent of the scene's geometry (not from where the
+    // scene or its lamps lie: backend::offset_origin adds the position's own ULPs).
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for v in triangles.iter().flatten() {
+        for c in 0..3 {
+            if v[c].is_finite() {
+                lo[c] = lo[c].min(v[c]);
+                hi[c] = hi[c].max(v[c]);
+            }
+        }
+    }
+    let half_extent = (0..3)
+        .map(|c| 0.5 * (hi[c] - lo[c]))
+        .fold(0.0f32, |m, e| if e.is_finite() { m.max(e) } else { m });
 
     let mut graph = BakeGraph::build(&GraphConfig {
         layer_size: layout.layer_size,
@@ -538,7 +584,7 @@ pub fn bake<B: GpuBackend>(
             regions: &layout.regions,
             layer_size: layout.layer_size,
             layers: layout.layers,
-            ray_epsilon: ray_epsilon(max_abs),
+            ray_epsilon: ray_epsilon(half_extent),
         })
         .map_err(be)?;
     setup.push(("upload", t.elapsed().as_secs_f64()));

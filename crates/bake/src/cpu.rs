@@ -10,11 +10,15 @@
 //! - **Direct**: for each listed lamp with position `L`, `to = L − p`, `d² = |to|²`,
 //!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.
 //!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
-//!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o = p + n̂·ε` with
-//!   `ε = min(SceneData::ray_epsilon, d/4)`, direction `L − o` (unnormalised), any hit with
-//!   `t ∈ (0, 1 − ε/|L − o|)`: occluded lamps contribute 0. Else
-//!   `E += I·cos θ / max(d², ε_s²)`, `ε_s = SceneData::ray_epsilon` (a lamp closer to a texel
-//!   than the scene's epsilon counts as that far: finite, never a division by zero).
+//!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o₀ = offset(p, n̂)`
+//!   ([`offset_origin`](crate::backend::offset_origin), size term `SceneData::ray_epsilon`),
+//!   `δ² = |o₀ − p|²`; when the lamp is nearer than four offsets (`16δ² > d²`) the origin is
+//!   `p + n̂·(d/4)` instead, else `o₀`. Direction `L − o` (unnormalised), any hit with
+//!   `t ∈ (0, 1 − s/|L − o|)`, `s = min(|offset(L, −ω) − L|, d/4)` (the lamp's own offset
+//!   toward the texel: the ray stops short of a lamp mounted on a surface): occluded lamps
+//!   contribute 0. Else `E += I·cos θ / max(d², δ²)` (**the d² floor**, one rule in every
+//!   backend: a lamp nearer to a texel than the texel's own ray offset counts as that far:
+//!   finite, never a division by zero).
 //!   Output `(E, 1)`; invalid texels `(0, 0, 0, 0)`.
 //! - **Copy**: `a`.
 //! - **Blur** (axis, σ): radius `R = min(⌈3σ⌉, 64)` texels along the axis; taps `k ∈ [−R, R]`
@@ -29,7 +33,7 @@
 //!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)` (the hash sampler) or
 //!   [`rng::sobol2`]`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
 //!   `r = √u₀`, `φ = 2π·u₁`, local `(r cos φ, r sin φ, √(1 − u₀))` in the orthonormal basis
-//!   of Duff et al. (2017) built from n̂. Closest hit from `p + n̂·ε` (t ∈ (0, ∞)). A hit counts when the hit object has a
+//!   of Duff et al. (2017) built from n̂. Closest hit from `offset(p, n̂)` (t ∈ (0, ∞)). A hit counts when the hit object has a
 //!   region and the ray meets the front of the surface (interpolated shading normal `n_h`,
 //!   `n_h·dir < 0`); then it adds the reflected map `a` looked up at the hit's light-map UV in
 //!   the hit object's region by [`map::sample_masked`](crate::map::sample_masked). Back faces,
@@ -79,7 +83,9 @@ use luxbake_bvh::{EncodedScene, Ray, Traversal};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
-use crate::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, Limits, SceneData};
+use crate::backend::{
+    DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, Limits, SceneData, offset_origin,
+};
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::map::sample_masked;
@@ -310,16 +316,28 @@ fn direct_texel(
         if intensity.is_nan() || intensity <= 0.0 {
             continue;
         }
-        let eps = scene.ray_epsilon.min(0.25 * d);
-        let o = mad(p, n, eps);
+        let o0 = offset_origin(p, n, scene.ray_epsilon);
+        let off = sub(o0, p);
+        let off2 = dot(off, off);
+        let o = if 16.0 * off2 > d2 {
+            mad(p, n, 0.25 * d)
+        } else {
+            o0
+        };
         let dir = sub(lamp.position, o);
         let len = dot(dir, dir).sqrt();
-        let t_max = 1.0 - eps / len;
+        let back = [-w[0], -w[1], -w[2]];
+        let lamp_off = sub(
+            offset_origin(lamp.position, back, scene.ray_epsilon),
+            lamp.position,
+        );
+        let stop = dot(lamp_off, lamp_off).sqrt().min(0.25 * d);
+        let t_max = 1.0 - stop / len;
         if len > 0.0 && t_max > 0.0 && scene.bvh.any_hit(&Ray { origin: o, dir }, 0.0, t_max, trav)
         {
             continue;
         }
-        let k = intensity * cos / d2.max(scene.ray_epsilon * scene.ray_epsilon);
+        let k = intensity * cos / d2.max(off2);
         for (ec, sc) in e.iter_mut().zip(lamp.scale) {
             *ec += k * sc;
         }
@@ -402,7 +420,7 @@ fn gather_texel(
     if rays == 0 {
         return [0.0, 0.0, 0.0, 1.0];
     }
-    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
     let sum = gather_rays(
         scene,
         reflected,
@@ -542,7 +560,7 @@ fn refine_texel(
     if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
         return first;
     }
-    let o = mad(xyz(pos), n, scene.ray_epsilon);
+    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
     let sum = gather_rays(
         scene,
         reflected,

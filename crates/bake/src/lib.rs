@@ -52,11 +52,14 @@
 //! - **Direct**: `E = I(ω)·multiplier·colour·cos θ / d²` per lamp, `I` the lamp's intensity in
 //!   candela toward the texel (its IES table, bilinear, in the lamp's photometric frame), θ the
 //!   angle between the surface normal and the direction to the lamp, `d` the distance, times a
-//!   shadow ray (any hit between texel and lamp). Ray origins are offset along the normal by
-//!   an epsilon proportional to the scene's size ([`backend::ray_epsilon`]) and capped at a
-//!   quarter of the lamp distance, so scenes in millimetres or kilometres, lamps 1 mm from a
-//!   wall and grazing angles all work; `d²` is floored at ε² and every map value is guarded
-//!   (no NaN or infinity is ever stored).
+//!   shadow ray (any hit between texel and lamp). Ray origins are offset locally
+//!   ([`backend::offset_origin`]): a size term from the extent of the scene's geometry
+//!   ([`backend::ray_epsilon`]) plus a few ULPs of the texel's own coordinates, and at most a
+//!   quarter of the lamp distance, so scenes in millimetres or kilometres, far from the origin
+//!   or with lamps far away, lamps 1 mm from a wall and grazing angles all work; `d²` is
+//!   floored at the texel's offset squared (the same rule in every backend) and every map value
+//!   is guarded (no NaN or infinity is ever stored). A scene far from the origin is baked moved
+//!   next to it ([`bake::recentring_shift`]): the maps do not depend on where it stands.
 //! - **Indirect**: per texel, N cosine-weighted hemisphere rays; at each closest hit the hit
 //!   object's reflected map is read (masked bilinear, [`map`]) at the hit's light-map UV.
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face

@@ -908,6 +908,21 @@ impl Scene {
         s
     }
 
+    /// The same scene moved by `offset` metres: object translations and lamp positions (in
+    /// f64, rounded once to f32). Every light map keeps its size and every texel its place
+    /// on the surface; illuminances stay the same up to the f32 rounding of far coordinates.
+    pub fn translated(&self, offset: [f64; 3]) -> Scene {
+        let mut s = self.clone();
+        let add = |v: [f32; 3]| std::array::from_fn(|c| (f64::from(v[c]) + offset[c]) as f32);
+        for o in &mut s.objects {
+            o.transform.translation = add(o.transform.translation);
+        }
+        for l in &mut s.lamps {
+            l.position = add(l.position);
+        }
+        s
+    }
+
     /// Total number of triangles over all objects.
     pub fn triangle_count(&self) -> usize {
         self.objects.iter().map(|o| o.mesh.triangle_count()).sum()

@@ -40,16 +40,20 @@ void main() {
         if (!(intensity > 0.0)) {
             continue;
         }
-        float eps = min(u_ray_epsilon, 0.25 * d);
-        vec3 origin = p + n * eps;
+        vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
+        vec3 off = o0 - p;
+        float off2 = luxDot(off, off);
+        vec3 origin = 16.0 * off2 > d2 ? p + n * (0.25 * d) : o0;
         vec3 dir = lampPos - origin;
         float len = sqrt(luxDot(dir, dir));
-        float tMax = 1.0 - eps / len;
+        vec3 lampOff = luxOffsetOrigin(lampPos, back, u_ray_epsilon) - lampPos;
+        float stopShort = min(sqrt(luxDot(lampOff, lampOff)), 0.25 * d);
+        float tMax = 1.0 - stopShort / len;
         vec3 hit;
         if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
             continue;
         }
-        float k = intensity * cosTheta / max(d2, eps * eps);
+        float k = intensity * cosTheta / max(d2, off2);
         e += k * luxLamp(li, 4).rgb;
     }
     o_color = vec4(luxGuard3(e), 1.0);

@@ -44,16 +44,23 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         if (!(intensity > 0.0)) {
             continue;
         }
-        let eps = min(lux_scene.ray_epsilon, 0.25 * d);
-        let origin = p + n * eps;
+        let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
+        let off = o0 - p;
+        let off2 = lux_dot(off, off);
+        var origin = o0;
+        if (16.0 * off2 > d2) {
+            origin = p + n * (0.25 * d);
+        }
         let dir = lamp_pos - origin;
         let len = sqrt(lux_dot(dir, dir));
-        let t_max = 1.0 - eps / len;
+        let lamp_off = lux_offset_origin(lamp_pos, back, lux_scene.ray_epsilon) - lamp_pos;
+        let stop_short = min(sqrt(lux_dot(lamp_off, lamp_off)), 0.25 * d);
+        let t_max = 1.0 - stop_short / len;
         var hit: vec3<f32>;
         if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
             continue;
         }
-        let k = intensity * cos_theta / max(d2, eps * eps);
+        let k = intensity * cos_theta / max(d2, off2);
         e += k * lamp.scale.xyz;
     }
     lux_store(c, vec4<f32>(lux_guard3(e), 1.0));

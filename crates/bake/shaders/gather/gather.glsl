@@ -19,7 +19,7 @@ void main() {
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
-    vec3 origin = pos.xyz + n * u_ray_epsilon;
+    vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
     vec3 sum = luxGatherSum(origin, n, texel, 0u, rays, u_sampler, u_bounce, u_seed);
     float inv = 1.0 / float(rays);
     o_color = vec4(luxGuard3(sum * inv), 1.0);

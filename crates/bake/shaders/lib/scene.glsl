@@ -15,3 +15,21 @@ vec4 luxLamp(int lamp, int row) {
 // u_regions: one column per object id: row 0 (layer, offset.x, offset.y, receiver ? 1 : 0),
 // row 1 (width, height, 0, 0); non-receivers (receiver = 0) reflect nothing.
 uniform highp sampler2DArray u_regions;
+
+// backend::offset_coordinate / offset_origin: the ray origin for surface point p with unit
+// normal n (Wächter & Binder, Ray Tracing Gems ch. 6, plus the size term u_ray_epsilon):
+// p + n * size, then each coordinate stepped trunc(4 * n) ULPs along n in integer space.
+float luxOffsetCoordinate(float p, float n, float size) {
+    float q = p + n * size;
+    int steps = int(4.0 * n);
+    if (!(abs(q) >= 1e-30) || isinf(q)) {
+        return q;
+    }
+    int bits = floatBitsToInt(q);
+    return intBitsToFloat(q < 0.0 ? bits - steps : bits + steps);
+}
+
+vec3 luxOffsetOrigin(vec3 p, vec3 n, float size) {
+    return vec3(luxOffsetCoordinate(p.x, n.x, size), luxOffsetCoordinate(p.y, n.y, size),
+                luxOffsetCoordinate(p.z, n.z, size));
+}

@@ -36,3 +36,24 @@ struct LuxLamp {
 }
 
 @group(1) @binding(6) var<storage, read> lux_lamps: array<LuxLamp>;
+
+// backend::offset_coordinate / offset_origin: the ray origin for surface point p with unit
+// normal n (Wächter & Binder, Ray Tracing Gems ch. 6, plus the size term ray_epsilon):
+// p + n * size, then each coordinate stepped trunc(4 * n) ULPs along n in integer space.
+fn lux_offset_coordinate(p: f32, n: f32, size: f32) -> f32 {
+    let q = p + n * size;
+    let steps = i32(4.0 * n);
+    if (!(abs(q) >= 1e-30) || !lux_finite(q)) {
+        return q;
+    }
+    let bits = bitcast<i32>(q);
+    if (q < 0.0) {
+        return bitcast<f32>(bits - steps);
+    }
+    return bitcast<f32>(bits + steps);
+}
+
+fn lux_offset_origin(p: vec3<f32>, n: vec3<f32>, size: f32) -> vec3<f32> {
+    return vec3<f32>(lux_offset_coordinate(p.x, n.x, size), lux_offset_coordinate(p.y, n.y, size),
+                     lux_offset_coordinate(p.z, n.z, size));
+}

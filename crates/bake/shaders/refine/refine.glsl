@@ -25,7 +25,7 @@ void main() {
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
-    vec3 origin = pos.xyz + n * u_ray_epsilon;
+    vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
     vec3 sum = luxGatherSum(origin, n, texel, u_first_rays, u_rays, u_sampler, u_bounce, u_seed);
     float total = float(u_first_rays + u_rays);
     vec3 m = float(u_first_rays) * first.rgb + sum;

@@ -31,7 +31,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
                                 lux_tile.layer, u32(c.x), u32(c.y));
-    let origin = pos.xyz + n * lux_scene.ray_epsilon;
+    let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     let sum = lux_gather_sum(origin, n, texel, lux_pass.first_rays, rays, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed);
     let total = f32(lux_pass.first_rays + rays);
