@@ -22,7 +22,8 @@ use clap::Parser;
 use luxbake::scene::{Object, Scene, Settings, Transform};
 use luxbake::sources::meshes::{self, RoomAlbedo};
 use luxbake_bvh::{
-    BuildOptions, Bvh, EncodeOptions, EncodedScene, Ray, Traversal, TriangleAttributes, encode,
+    BuildOptions, Bvh, EncodeOptions, EncodedScene, Ray, Traversal, TriangleAttributes, WideBvh,
+    encode,
 };
 use serde_json::json;
 
@@ -201,6 +202,7 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
 /// or 0 / 1 for occluded (any hit); `u32::MAX` for a miss.
 enum Tracer<'a> {
     Mtbvh(&'a EncodedScene),
+    Wide(&'a WideBvh, &'a EncodedScene),
     #[cfg(embree)]
     Embree(&'a embree::Embree),
 }
@@ -209,6 +211,7 @@ impl Tracer<'_> {
     fn name(&self) -> &'static str {
         match self {
             Tracer::Mtbvh(_) => "luxbake mtbvh",
+            Tracer::Wide(..) => "luxbake wide",
             #[cfg(embree)]
             Tracer::Embree(_) => "embree",
         }
@@ -224,6 +227,15 @@ impl Tracer<'_> {
                     u32::from(s.any_hit(&ray, 0.0, t_max, Traversal::Mtbvh))
                 } else {
                     s.closest_hit(&ray, 0.0, t_max, Traversal::Mtbvh)
+                        .map_or(MISS, |h| s.triangle_order[h.triangle as usize])
+                }
+            }
+            Tracer::Wide(w, s) => {
+                let ray = Ray { origin, dir };
+                if any_hit {
+                    u32::from(w.any_hit(&ray, 0.0, t_max))
+                } else {
+                    w.closest_hit(&ray, 0.0, t_max)
                         .map_or(MISS, |h| s.triangle_order[h.triangle as usize])
                 }
             }
@@ -319,8 +331,10 @@ fn run(args: &Args) -> Result<serde_json::Value, String> {
         .map_err(|e| e.to_string())?;
         #[cfg(embree)]
         let embree = embree::Embree::new(&tris)?;
+        let wide = WideBvh::from_encoded(&encoded);
         let tracers = [
             Tracer::Mtbvh(&encoded),
+            Tracer::Wide(&wide, &encoded),
             #[cfg(embree)]
             Tracer::Embree(&embree),
         ];
