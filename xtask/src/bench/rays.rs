@@ -5,8 +5,8 @@
 //! so that xtask never links Embree: its build script links Debian's `libembree3` when
 //! `libembree-dev` is installed, and otherwise it reports "Embree not available" and measures
 //! luxbake alone. This command builds and runs it (release profile), then writes the table:
-//! rays/s per thread for each scene × ray set × traversal, and the ratios against Embree and
-//! against the encoded MTBVH traversal.
+//! rays/s per thread for each scene × ray set × traversal (the wide BVH, the encoded MTBVH,
+//! Embree), and the wide BVH's ratios against Embree and against the MTBVH.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -90,7 +90,9 @@ fn markdown(report: &Value) -> String {
     );
     let _ = writeln!(
         md,
-        "Machine: {}, load average {}. One thread; M rays/s of thread CPU time, median of {} rounds.",
+        "Machine: {}, load average {}. One thread; M rays/s of thread CPU time, median of {} rounds. \
+         `agree`: fraction of rays with the same result (hit triangle, or occluded) as the encoded \
+         MTBVH traversal; ties between coincident triangles count as disagreements.",
         machine(),
         load_average(),
         report["runs"]
@@ -109,33 +111,38 @@ fn markdown(report: &Value) -> String {
             );
         }
     }
-    let tracers = ["luxbake mtbvh", "embree"];
+    let tracers = ["luxbake wide", "luxbake mtbvh", "embree"];
     let _ = writeln!(
         md,
-        "| scene | triangles | rays | query | mtbvh | embree | mtbvh / embree | agree (embree vs mtbvh) |"
+        "| scene | triangles | rays | query | wide | mtbvh | embree | wide / embree | wide / mtbvh | agree wide | agree embree |"
     );
-    let _ = writeln!(md, "|---|---:|---|---|---:|---:|---:|---:|");
+    let _ = writeln!(md, "|---|---:|---|---|---:|---:|---:|---:|---:|---:|---:|");
     for scene in report["scenes"].as_array().into_iter().flatten() {
         for set in scene["sets"].as_array().into_iter().flatten() {
             let results = set["results"].as_array().map_or(&[][..], Vec::as_slice);
             let rates = tracers.map(|t| rate(results, t));
             let cell = |r: Option<f64>| r.map_or("–".into(), |r| format!("{:.2}", r * 1e-6));
-            let agree = results
-                .iter()
-                .find(|r| r["tracer"] == "embree")
-                .and_then(|r| r["agree"].as_f64())
-                .map_or("–".into(), |a| format!("{:.4}", a));
+            let agree = |tracer: &str| {
+                results
+                    .iter()
+                    .find(|r| r["tracer"] == tracer)
+                    .and_then(|r| r["agree"].as_f64())
+                    .map_or("–".into(), |a| format!("{a:.4}"))
+            };
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 scene["scene"].as_str().unwrap_or("?"),
                 scene["triangles"],
                 set["set"].as_str().unwrap_or("?"),
                 set["query"].as_str().unwrap_or("?"),
                 cell(rates[0]),
                 cell(rates[1]),
+                cell(rates[2]),
+                ratio(rates[0], rates[2]),
                 ratio(rates[0], rates[1]),
-                agree,
+                agree("luxbake wide"),
+                agree("embree"),
             );
         }
     }
@@ -158,14 +165,19 @@ mod tests {
                 "sets": [{
                     "set": "random",
                     "query": "closest hit",
-                    "results": [{ "tracer": "luxbake mtbvh", "rays_per_s": 2.5e6, "agree": 1.0 }],
+                    "results": [
+                        { "tracer": "luxbake mtbvh", "rays_per_s": 2.5e6, "agree": 1.0 },
+                        { "tracer": "luxbake wide", "rays_per_s": 5.0e6, "agree": 1.0 },
+                    ],
                 }],
             }],
         });
         let md = markdown(&report);
         assert!(md.contains("Embree not available: luxbake alone."), "{md}");
         assert!(
-            md.contains("| chairs_05 | 1212 | random | closest hit | 2.50 | – | – | – |"),
+            md.contains(
+                "| chairs_05 | 1212 | random | closest hit | 5.00 | 2.50 | – | – | 2.00× | 1.0000 | – |"
+            ),
             "{md}"
         );
         let with = serde_json::json!({
@@ -174,10 +186,14 @@ mod tests {
             "scenes": [{ "scene": "s", "triangles": 1, "sets": [{ "set": "shadow", "query": "any hit",
                 "results": [
                     { "tracer": "luxbake mtbvh", "rays_per_s": 3.0e6, "agree": 1.0 },
+                    { "tracer": "luxbake wide", "rays_per_s": 6.0e6, "agree": 0.9995 },
                     { "tracer": "embree", "rays_per_s": 12.0e6, "agree": 0.999 },
                 ] }] }],
         });
         let md = markdown(&with);
-        assert!(md.contains("| 3.00 | 12.00 | 0.25× | 0.9990 |"), "{md}");
+        assert!(
+            md.contains("| 6.00 | 3.00 | 12.00 | 0.50× | 2.00× | 0.9995 | 0.9990 |"),
+            "{md}"
+        );
     }
 }
