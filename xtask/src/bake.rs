@@ -61,7 +61,8 @@ pub struct Args {
     /// Blur sigma in texels, or `none`.
     #[arg(long)]
     blur: Option<Blur>,
-    /// Ray traversal: mtbvh, tbvh or none (brute force).
+    /// Ray traversal: wide (the default; the CPU backend's 4-wide BVH, the MTBVH on GPU
+    /// backends), mtbvh, tbvh or none (brute force).
     #[arg(long)]
     bvh: Option<BvhMode>,
     /// Seed of the random-number hash.

@@ -23,6 +23,8 @@
 //!   slopes, hash / Sobol ratios.
 //! - `bench grain` ([`grain`]): the grain of the box room's floor, ceiling and walls per preset
 //!   against a 4096-ray reference: relative standard deviation and bias of `E / E_ref`.
+//! - `bench rays` ([`rays`]): single-thread rays/s of luxbake's CPU traversals against Embree 3
+//!   on the same triangles and rays (built-in scenes and the shared glTF room).
 //!
 //! Output: Markdown + JSON (+ SVG) named `<what>-<UTC date>-<machine>.*`, where the machine is
 //! the CPU model string; the renderer strings of the GPU backends are inside. Full runs write to
@@ -43,6 +45,7 @@ use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
 mod grain;
+mod rays;
 mod refcheck;
 mod sampling;
 mod scaling;
@@ -97,6 +100,9 @@ enum What {
     Sampling(sampling::Args),
     /// Grain of flat, evenly lit surfaces per preset against a 4096-ray reference.
     Grain(grain::Args),
+    /// Single-thread ray throughput of luxbake's CPU traversals against Embree 3 (same
+    /// triangles, same rays; luxbake alone where Embree is not installed).
+    Rays(rays::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -114,6 +120,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         Some(What::Refcheck(r)) => refcheck::run(r, &out),
         Some(What::Sampling(s)) => sampling::run(s, args.quick, &out),
         Some(What::Grain(g)) => grain::run(g, args.quick, &out),
+        Some(What::Rays(r)) => rays::run(r, args.quick, args.runs, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)

@@ -208,10 +208,11 @@ impl BvhTextures {
         })
     }
 
-    /// The sampler bindings `bvh.glsl` declares for `traversal`.
+    /// The sampler bindings `bvh.glsl` declares for `traversal` (its encoded form,
+    /// [`BvhMode::encoded`]).
     pub(crate) fn samplers(&self, traversal: BvhMode) -> Vec<(&'static str, &TextureArray)> {
-        let links = match traversal {
-            BvhMode::Mtbvh => &self.links,
+        let links = match traversal.encoded() {
+            BvhMode::Wide | BvhMode::Mtbvh => &self.links,
             BvhMode::Tbvh => &self.tbvh_links,
             BvhMode::None => return vec![("u_triangles", &self.triangles)],
         };

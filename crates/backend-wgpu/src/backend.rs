@@ -499,7 +499,7 @@ impl GpuBackend for WgpuBackend {
                 entries: &entries,
             })
         })?;
-        let scene_group = match call.bvh {
+        let scene_group = match call.bvh.encoded() {
             BvhMode::Mtbvh => &gpu_scene.mtbvh,
             _ => &gpu_scene.tbvh,
         };

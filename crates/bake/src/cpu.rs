@@ -1,7 +1,10 @@
 //! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
-//! through [`EncodedScene`]'s CPU traversal of the *encoded textures* — the same data the
-//! shaders read. Everything is `f32` and written as a fragment shader would be, one texel at a
-//! time, so that it is the oracle every GPU backend is diffed against.
+//! through the 4-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
+//! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
+//! traversal of the *encoded textures* — the same data the shaders read. Both use the same
+//! watertight triangle test and agree up to ties. Everything is `f32` and written as a fragment
+//! shader would be, one texel at a time, so that it is the oracle every GPU backend is diffed
+//! against.
 //!
 //! # Pass semantics (what every backend must compute)
 //! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
@@ -79,7 +82,7 @@
 
 use std::f32::consts::PI;
 
-use luxbake_bvh::{EncodedScene, Ray, Traversal};
+use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, WideBvh};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
@@ -155,6 +158,7 @@ pub struct CpuTexture(usize);
 #[derive(Debug, Clone)]
 pub struct CpuScene {
     bvh: EncodedScene,
+    wide: WideBvh,
     lamps: Vec<LampParams>,
     tables: Vec<GpuTable>,
     regions: Vec<Option<Region>>,
@@ -245,11 +249,39 @@ pub fn cosine_direction(n: [f32; 3], u: [f32; 2]) -> [f32; 3] {
     ]
 }
 
-fn traversal(mode: BvhMode) -> Traversal {
+/// The structure rays are traced through.
+#[derive(Clone, Copy, Debug)]
+enum Trav {
+    /// The wide BVH ([`CpuScene::wide`]).
+    Wide,
+    /// A traversal of the encoded textures.
+    Encoded(Traversal),
+}
+
+fn traversal(mode: BvhMode) -> Trav {
     match mode {
-        BvhMode::Mtbvh => Traversal::Mtbvh,
-        BvhMode::Tbvh => Traversal::Tbvh,
-        BvhMode::None => Traversal::BruteForce,
+        BvhMode::Wide => Trav::Wide,
+        BvhMode::Mtbvh => Trav::Encoded(Traversal::Mtbvh),
+        BvhMode::Tbvh => Trav::Encoded(Traversal::Tbvh),
+        BvhMode::None => Trav::Encoded(Traversal::BruteForce),
+    }
+}
+
+impl CpuScene {
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32, trav: Trav) -> Option<Hit> {
+        match trav {
+            Trav::Wide => self.wide.closest_hit(ray, t_min, t_max),
+            Trav::Encoded(t) => self.bvh.closest_hit(ray, t_min, t_max, t),
+        }
+    }
+
+    #[inline]
+    fn any_hit(&self, ray: &Ray, t_min: f32, t_max: f32, trav: Trav) -> bool {
+        match trav {
+            Trav::Wide => self.wide.any_hit(ray, t_min, t_max),
+            Trav::Encoded(t) => self.bvh.any_hit(ray, t_min, t_max, t),
+        }
     }
 }
 
@@ -285,7 +317,7 @@ fn xyz(t: [f32; 4]) -> [f32; 3] {
 fn direct_texel(
     scene: &CpuScene,
     params: DirectParams,
-    trav: Traversal,
+    trav: Trav,
     pos: [f32; 4],
     nrm: [f32; 4],
 ) -> [f32; 4] {
@@ -333,8 +365,7 @@ fn direct_texel(
         );
         let stop = dot(lamp_off, lamp_off).sqrt().min(0.25 * d);
         let t_max = 1.0 - stop / len;
-        if len > 0.0 && t_max > 0.0 && scene.bvh.any_hit(&Ray { origin: o, dir }, 0.0, t_max, trav)
-        {
+        if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin: o, dir }, 0.0, t_max, trav) {
             continue;
         }
         let k = intensity * cos / d2.max(off2);
@@ -351,7 +382,7 @@ fn direct_texel(
 fn gather_rays(
     scene: &CpuScene,
     reflected: View<'_>,
-    trav: Traversal,
+    trav: Trav,
     sampler: rng::Sampler,
     texel: u32,
     rays: std::ops::Range<u32>,
@@ -363,10 +394,7 @@ fn gather_rays(
     let mut sum = [0.0f32; 3];
     for s in rays {
         let dir = cosine_direction(n, sampler.uniform2(texel, s, bounce, seed));
-        let Some(hit) = scene
-            .bvh
-            .closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav)
-        else {
+        let Some(hit) = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav) else {
             continue;
         };
         let attr = scene.bvh.triangle_attributes(hit.triangle);
@@ -403,7 +431,7 @@ fn gather_rays(
 fn gather_texel(
     scene: &CpuScene,
     [pos_map, nrm_map, reflected]: [View<'_>; 3],
-    trav: Traversal,
+    trav: Trav,
     params: GatherParams,
     layer: u32,
     x: u32,
@@ -541,7 +569,7 @@ fn upsample_texel(
 fn refine_texel(
     scene: &CpuScene,
     [pos_map, nrm_map, reflected, first_map, variance]: [View<'_>; 5],
-    trav: Traversal,
+    trav: Trav,
     params: RefineParams,
     layer: u32,
     x: u32,
@@ -933,6 +961,7 @@ impl GpuBackend for CpuBackend {
         }
         Ok(CpuScene {
             bvh: scene.bvh.clone(),
+            wide: WideBvh::from_encoded(scene.bvh),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
             regions: scene.regions.to_vec(),
@@ -1023,7 +1052,7 @@ fn texel(
     call: &Dispatch<'_, CpuTexture, CpuScene>,
     params: Params,
     v: &[View<'_>],
-    trav: Traversal,
+    trav: Trav,
     layer: u32,
     x: u32,
     y: u32,
@@ -1123,6 +1152,7 @@ mod tests {
         let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         CpuScene {
+            wide: WideBvh::from_encoded(&enc),
             bvh: enc,
             lamps: vec![LampParams {
                 position: lamp,
@@ -1158,7 +1188,7 @@ mod tests {
             ([0.0, -1e-3, 0.0], false),
         ] {
             let scene = one_triangle_scene(lamp);
-            let e = direct_texel(&scene, ONE_LAMP, Traversal::BruteForce, p, n);
+            let e = direct_texel(&scene, ONE_LAMP, Trav::Encoded(Traversal::BruteForce), p, n);
             assert!(
                 e.iter().all(|v| v.is_finite() && *v >= 0.0),
                 "{lamp:?}: {e:?}"
@@ -1175,7 +1205,7 @@ mod tests {
         let e = direct_texel(
             &one_triangle_scene([0.0, 1e-3, 0.0]),
             ONE_LAMP,
-            Traversal::Mtbvh,
+            Trav::Wide,
             p,
             n,
         );

@@ -562,6 +562,10 @@ impl fmt::Display for Blur {
 /// Which ray-traversal structure the ray-casting passes use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BvhMode {
+    /// The default: on the CPU backend a 4-wide BVH with SSE box tests collapsed from the same
+    /// SAH tree ([`luxbake_bvh::WideBvh`]); the GPU backends, which walk the encoded textures,
+    /// use the MTBVH for it ([`BvhMode::encoded`]). Same hits as the MTBVH except for ties.
+    Wide,
     /// Six link orders, one per dominant ray direction (Hachisuka 2015).
     Mtbvh,
     /// One threaded depth-first link order (Simonsen et al. 2005).
@@ -574,23 +578,34 @@ impl BvhMode {
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
+            BvhMode::Wide => "wide",
             BvhMode::Mtbvh => "mtbvh",
             BvhMode::Tbvh => "tbvh",
             BvhMode::None => "none",
+        }
+    }
+
+    /// The traversal of the encoded textures that stands for this mode on a backend that only
+    /// has those (the shaders): [`BvhMode::Wide`] is the MTBVH, the others are themselves.
+    pub fn encoded(self) -> BvhMode {
+        match self {
+            BvhMode::Wide => BvhMode::Mtbvh,
+            m => m,
         }
     }
 }
 
 impl FromStr for BvhMode {
     type Err = String;
-    /// `mtbvh`, `tbvh` or `none` (case-insensitive).
+    /// `wide`, `mtbvh`, `tbvh` or `none` (case-insensitive).
     fn from_str(s: &str) -> Result<BvhMode, String> {
         match s.trim().to_ascii_lowercase().as_str() {
+            "wide" => Ok(BvhMode::Wide),
             "mtbvh" => Ok(BvhMode::Mtbvh),
             "tbvh" => Ok(BvhMode::Tbvh),
             "none" => Ok(BvhMode::None),
             _ => Err(format!(
-                "expected \"mtbvh\", \"tbvh\" or \"none\", got `{s}`"
+                "expected \"wide\", \"mtbvh\", \"tbvh\" or \"none\", got `{s}`"
             )),
         }
     }
@@ -685,7 +700,7 @@ impl Settings {
             blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
             tail_tolerance: 0.01,
             texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
-            bvh: BvhMode::Mtbvh,
+            bvh: BvhMode::Wide,
             seed: 0,
             sampler: Sampler::Hash,
             stride: 1,
@@ -1205,7 +1220,7 @@ mod tests {
         assert_eq!((s.rays, s.bounces, s.seed), (4, 3, 0));
         assert_eq!((s.method, s.blur), (Method::Paper, Blur::Sigma(2.0)));
         assert_eq!(s.texels_per_metre, 64.0);
-        assert_eq!((s.bvh, s.sampler), (BvhMode::Mtbvh, Sampler::Hash));
+        assert_eq!((s.bvh, s.sampler), (BvhMode::Wide, Sampler::Hash));
         assert_eq!(Settings::default(), Settings::preset(Quality::Default));
         assert_eq!(Settings::default().sampler, Sampler::Sobol);
         for q in [Quality::Draft, Quality::Default, Quality::Final] {
@@ -1227,8 +1242,9 @@ mod tests {
         assert_eq!("1.5".parse::<Blur>(), Ok(Blur::Sigma(1.5)));
         assert!("-1".parse::<Blur>().is_err() && "x".parse::<Blur>().is_err());
         assert!("inf".parse::<Blur>().is_err());
-        for b in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
+        for b in [BvhMode::Wide, BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
             assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
+            assert_ne!(b.encoded(), BvhMode::Wide);
         }
         assert!("bvh".parse::<BvhMode>().is_err());
     }

@@ -62,20 +62,21 @@ pub enum BvhStorage {
     Textures,
 }
 
-/// The traversal id a program is compiled for: 0 MTBVH, 1 TBVH, 2 brute force.
+/// The traversal id a program is compiled for: 0 MTBVH (also for [`BvhMode::Wide`]), 1 TBVH,
+/// 2 brute force.
 pub fn traversal_id(bvh: BvhMode) -> i32 {
-    match bvh {
-        BvhMode::Mtbvh => 0,
+    match bvh.encoded() {
+        BvhMode::Wide | BvhMode::Mtbvh => 0,
         BvhMode::Tbvh => 1,
         BvhMode::None => 2,
     }
 }
 
-/// The traversal a program is compiled for: the pass's, or brute force (none) for programs
-/// that cast no rays.
+/// The traversal a program is compiled for: the pass's encoded traversal
+/// ([`BvhMode::encoded`]), or brute force (none) for programs that cast no rays.
 pub fn program_traversal(program: Program, bvh: BvhMode) -> BvhMode {
     if program.traces_rays() {
-        bvh
+        bvh.encoded()
     } else {
         BvhMode::None
     }

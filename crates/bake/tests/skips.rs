@@ -69,7 +69,7 @@ fn tiny_scenes_use_brute_force_and_non_receivers_get_no_map() {
     assert!(out.report.skipped.iter().any(|s| matches!(
         s,
         Skipped::Bvh {
-            requested: BvhMode::Mtbvh,
+            requested: BvhMode::Wide,
             triangles: 2
         }
     )));

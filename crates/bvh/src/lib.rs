@@ -14,6 +14,8 @@
 //! 4. [`EncodedScene::closest_hit`] / [`EncodedScene::any_hit`] walk the *encoded texels* on the
 //!    CPU, written to mirror the GLSL ES 3.00 shader line for line. They are the oracle for every
 //!    shader: a shader bug can be reproduced here.
+//! 5. [`WideBvh::from_encoded`] collapses the same tree into a 4-wide BVH (SSE box tests) for
+//!    fast CPU traversal with the same triangle and slab tests: the CPU backend's default.
 //!
 //! ```
 //! use luxbake_bvh::{encode, BuildOptions, Bvh, EncodeOptions, Ray, Traversal, TriangleAttributes};
@@ -114,6 +116,7 @@ mod encode;
 pub mod layout;
 mod links;
 mod traverse;
+mod wide;
 
 pub use build::{BuildOptions, Bvh, Node, NodeKind, sah_cost};
 pub use encode::{EncodeOptions, EncodedNode, EncodedScene, TextureSize, encode, texture_size};
@@ -121,6 +124,7 @@ pub use links::{ChildOrder, Link};
 pub use traverse::{
     Hit, LinkTexture, Ray, Traversal, TraversalStats, WatertightRay, dominant_direction,
 };
+pub use wide::WideBvh;
 
 /// Per-triangle shading data carried into the triangle data textures.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]

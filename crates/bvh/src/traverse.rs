@@ -97,7 +97,7 @@ fn select(c: bool, a: f32, b: f32) -> f32 {
 /// the slab test's safe inverse direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WatertightRay {
-    origin: [f32; 3],
+    pub(crate) origin: [f32; 3],
     /// Permuted axes: `kz` = dominant axis, `kx`, `ky` the others (swapped if `dir[kz] < 0`,
     /// preserving the winding).
     kx: usize,
@@ -107,9 +107,9 @@ pub struct WatertightRay {
     sy: f32,
     sz: f32,
     /// `1 / dir` per axis, with 1 in place of near-zero components.
-    inv: [f32; 3],
+    pub(crate) inv: [f32; 3],
     /// Whether the axis is (numerically) parallel: `|dir| < PARALLEL_EPSILON`.
-    parallel: [bool; 3],
+    pub(crate) parallel: [bool; 3],
 }
 
 impl WatertightRay {

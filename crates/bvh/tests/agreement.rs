@@ -1,10 +1,10 @@
-//! TBVH, MTBVH (by direction and each of the six orders forced) and brute force agree on
-//! seeded random scenes and rays.
+//! TBVH, MTBVH (by direction and each of the six orders forced), the wide BVH and brute force
+//! agree on seeded random scenes and rays (the seed is in every failure message).
 
 mod common;
 
 use common::{Rng, build_and_encode, check_agreement, random_scene};
-use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, encode};
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, WideBvh, encode};
 use proptest::prelude::*;
 
 /// Random rays; half of them aimed at a point of a random triangle (sometimes exactly at a
@@ -66,9 +66,10 @@ fn check_seed(seed: u64, options: &BuildOptions) -> Result<usize, String> {
         &EncodeOptions::default(),
     )
     .map_err(|e| format!("seed {seed}: {e}"))?;
+    let wide = WideBvh::from_encoded(&scene);
     let mut hits = 0;
     for (i, (ray, t_min, t_max)) in random_rays(&mut rng, &tris, 128).iter().enumerate() {
-        let hit = check_agreement(&scene, ray, *t_min, *t_max)
+        let hit = check_agreement(&scene, &wide, ray, *t_min, *t_max)
             .map_err(|e| format!("seed {seed}, ray {i} {ray:?} ({t_min}, {t_max}): {e}"))?;
         hits += usize::from(hit.is_some());
     }
@@ -105,9 +106,10 @@ fn dense_scene_agrees() {
     let mut rng = Rng::new(7);
     let tris = random_scene(&mut rng, 3000);
     let scene = build_and_encode(&tris);
+    let wide = WideBvh::from_encoded(&scene);
     let mut hits = 0;
     for (i, (ray, t_min, t_max)) in random_rays(&mut rng, &tris, 2000).iter().enumerate() {
-        let hit = check_agreement(&scene, ray, *t_min, *t_max)
+        let hit = check_agreement(&scene, &wide, ray, *t_min, *t_max)
             .unwrap_or_else(|e| panic!("ray {i} {ray:?}: {e}"));
         hits += usize::from(hit.is_some());
     }

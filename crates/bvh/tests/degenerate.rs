@@ -5,7 +5,7 @@ mod common;
 use common::{Rng, attributes, build_and_encode, check_agreement};
 use luxbake_bvh::{
     BuildOptions, Bvh, BvhError, EncodeOptions, NodeKind, Ray, Traversal, TriangleAttributes,
-    encode, layout,
+    WideBvh, encode, layout,
 };
 
 const ALL: [Traversal; 3] = [Traversal::Mtbvh, Traversal::Tbvh, Traversal::BruteForce];
@@ -148,7 +148,14 @@ fn duplicates_and_all_in_one_point() {
         let hit = scene.closest_hit(&r, 0.0, f32::INFINITY, t).expect("hit");
         assert_eq!(hit.t, 1.0);
     }
-    check_agreement(&scene, &r, 0.0, f32::INFINITY).expect("agreement");
+    check_agreement(
+        &scene,
+        &WideBvh::from_encoded(&scene),
+        &r,
+        0.0,
+        f32::INFINITY,
+    )
+    .expect("agreement");
 
     let point = vec![[[0.5f32; 3]; 3]; 777];
     let bvh = Bvh::build(&point, &options).expect("build");
@@ -192,9 +199,15 @@ fn all_coplanar() {
             d,
         );
         hits += usize::from(
-            check_agreement(&scene, &r, 0.0, f32::INFINITY)
-                .expect("agreement")
-                .is_some(),
+            check_agreement(
+                &scene,
+                &WideBvh::from_encoded(&scene),
+                &r,
+                0.0,
+                f32::INFINITY,
+            )
+            .expect("agreement")
+            .is_some(),
         );
     }
     assert!(hits > 200, "{hits}");
@@ -392,9 +405,15 @@ fn texture_capacity_boundary() {
     assert_eq!(scene.node_size, [6, 6]);
     assert_eq!(scene.tri_size, [4, 4]);
     let r = ray([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]);
-    check_agreement(&scene, &r, 0.0, f32::INFINITY)
-        .expect("agreement")
-        .expect("hit");
+    check_agreement(
+        &scene,
+        &WideBvh::from_encoded(&scene),
+        &r,
+        0.0,
+        f32::INFINITY,
+    )
+    .expect("agreement")
+    .expect("hit");
     // 31 nodes need 6×6 at least: 5×5 = 25 is too small.
     match encode(
         &bvh,
@@ -486,7 +505,8 @@ fn slab_test_handles_signed_zero_directions() {
 
 /// Corrupt texel data (NaN, huge, negative, out-of-range links and ranges, wrong sizes) never
 /// panics and always terminates: reads outside the textures give zeros, the walk is bounded by
-/// `node_count` steps and triangle ranges are clamped.
+/// `node_count` steps and triangle ranges are clamped; the wide BVH collapsed from such data
+/// takes every binary node at most once.
 #[test]
 fn corrupt_encodings_do_not_panic() {
     let mut rng = Rng::new(8);
@@ -535,6 +555,11 @@ fn corrupt_encodings_do_not_panic() {
             assert!(hit.is_none_or(|h| h.triangle < s.triangle_count));
             s.any_hit(&r, 0.0, f32::INFINITY, t);
         }
+        let wide = WideBvh::from_encoded(&s);
+        assert!(wide.node_count() <= s.node_count.max(1) as usize);
+        let hit = wide.closest_hit(&r, 0.0, f32::INFINITY);
+        assert!(hit.is_none_or(|h| h.triangle < s.triangle_count));
+        wide.any_hit(&r, 0.0, f32::INFINITY);
         for i in 0..s.node_count.min(100) {
             s.node(i);
             s.link(i, Some(rng.below(8) as u32));

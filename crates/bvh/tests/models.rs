@@ -31,6 +31,7 @@ fn check_scene(name: &str, tris: &[common::Tri]) {
         &EncodeOptions::default(),
     )
     .expect("encode");
+    let wide = luxbake_bvh::WideBvh::from_encoded(&scene);
 
     let otris = common::obvhs_triangles(tris);
     let medium = common::obvhs_build(&otris, common::obvhs_params(false, options.max_leaf_size));
@@ -56,7 +57,7 @@ fn check_scene(name: &str, tris: &[common::Tri]) {
     let (mut hits, mut obvhs_hits) = (0, 0);
     for (i, ray) in rays.iter().enumerate() {
         let t_max = if i % 3 == 0 { 0.5 } else { f32::INFINITY };
-        let hit = check_agreement(&scene, ray, 0.0, t_max)
+        let hit = check_agreement(&scene, &wide, ray, 0.0, t_max)
             .unwrap_or_else(|e| panic!("{name}: ray {i} {ray:?}: {e}"));
         hits += usize::from(hit.is_some());
         // obvhs uses Möller–Trumbore: same distance up to rounding, except for rays that

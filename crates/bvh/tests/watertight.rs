@@ -4,7 +4,7 @@
 mod common;
 
 use common::{Rng, Tri, build_and_encode, check_agreement, tessellated_box, uv_sphere};
-use luxbake_bvh::{EncodedScene, Ray, Traversal};
+use luxbake_bvh::{EncodedScene, Ray, Traversal, WideBvh};
 
 const ALL: [Traversal; 3] = [Traversal::Mtbvh, Traversal::Tbvh, Traversal::BruteForce];
 
@@ -32,6 +32,7 @@ fn assert_no_escape(
     targets: &[[f32; 3]],
     what: &str,
 ) -> usize {
+    let wide = WideBvh::from_encoded(scene);
     let mut rays = 0;
     for (i, target) in targets.iter().enumerate() {
         let dir = [
@@ -56,8 +57,19 @@ fn assert_no_escape(
                 "{what}: any-hit escaped"
             );
         }
+        let hit = wide.closest_hit(&ray, 0.0, f32::INFINITY);
+        let hit = hit.unwrap_or_else(|| panic!("{what}: wide ray {ray:?} escaped"));
+        assert!(
+            (hit.t - 1.0).abs() < 1e-4,
+            "{what}: wide {ray:?} t = {}",
+            hit.t
+        );
+        assert!(
+            wide.any_hit(&ray, 0.0, f32::INFINITY),
+            "{what}: wide any-hit escaped"
+        );
         if i % 8 == 0 {
-            check_agreement(scene, &ray, 0.0, f32::INFINITY)
+            check_agreement(scene, &wide, &ray, 0.0, f32::INFINITY)
                 .unwrap_or_else(|e| panic!("{what}: {e}"));
         }
         rays += 1;

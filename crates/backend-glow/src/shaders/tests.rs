@@ -134,7 +134,7 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
     let t_max = 1.0e30f32;
     for traversal in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
         let cpu_mode = match traversal {
-            BvhMode::Mtbvh => luxbake_bvh::Traversal::Mtbvh,
+            BvhMode::Wide | BvhMode::Mtbvh => luxbake_bvh::Traversal::Mtbvh,
             BvhMode::Tbvh => luxbake_bvh::Traversal::Tbvh,
             BvhMode::None => luxbake_bvh::Traversal::BruteForce,
         };

@@ -14,7 +14,7 @@
 //! bounces = 1                 # indirect bounces, 0..=64
 //! blur = 2.0                  # Gaussian sigma in texels (0 < sigma <= 64), or "none"
 //! texels_per_metre = 64.0     # light-map density, finite and > 0 (the maps: at most 2^26 texels)
-//! bvh = "mtbvh"               # "mtbvh", "tbvh" or "none"
+//! bvh = "mtbvh"               # "wide" (default; CPU), "mtbvh", "tbvh" or "none"
 //! seed = 0                    # 0..=4294967295
 //! backend = "cpu"             # "cpu", "glow" or "wgpu" (see `preferred_backend`)
 //!

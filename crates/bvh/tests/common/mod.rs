@@ -390,9 +390,11 @@ pub fn load_model(name: &str) -> Option<Vec<Tri>> {
 }
 
 /// Every way of walking the encoding: brute force, TBVH, MTBVH by direction and each of the
-/// six MTBVH link layers forced for every ray.
+/// six MTBVH link layers forced for every ray; and the wide BVH collapsed from it (`wide`,
+/// [`luxbake_bvh::WideBvh::from_encoded`] of `scene`).
 pub fn check_agreement(
     scene: &EncodedScene,
+    wide: &luxbake_bvh::WideBvh,
     ray: &luxbake_bvh::Ray,
     t_min: f32,
     t_max: f32,
@@ -414,10 +416,12 @@ pub fn check_agreement(
             "MTBVH",
             scene.closest_hit(ray, t_min, t_max, Traversal::Mtbvh),
         ),
+        ("wide", wide.closest_hit(ray, t_min, t_max)),
     ];
     let mut any = vec![
         ("TBVH", scene.any_hit(ray, t_min, t_max, Traversal::Tbvh)),
         ("MTBVH", scene.any_hit(ray, t_min, t_max, Traversal::Mtbvh)),
+        ("wide", wide.any_hit(ray, t_min, t_max)),
     ];
     const LAYERS: [&str; 6] = ["+x", "-x", "+y", "-y", "+z", "-z"];
     for (d, name) in LAYERS.iter().enumerate() {
