@@ -294,18 +294,31 @@ struct View<'a> {
 }
 
 impl View<'_> {
+    /// The offset of texel `(x, y)` of `layer` in the data, if it is inside.
     #[inline]
-    fn fetch(&self, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        if x >= self.size[0] || y >= self.size[1] || layer >= self.layers {
-            return [0.0; 4];
-        }
-        let i = 4
-            * ((layer as usize * self.size[1] as usize + y as usize) * self.size[0] as usize
-                + x as usize);
-        match self.data.get(i..i + 4) {
+    fn index(&self, layer: u32, x: u32, y: u32) -> Option<usize> {
+        (x < self.size[0] && y < self.size[1] && layer < self.layers).then(|| {
+            4 * ((layer as usize * self.size[1] as usize + y as usize) * self.size[0] as usize
+                + x as usize)
+        })
+    }
+
+    /// The texel at `index` (of [`View::index`] of a view of the same size), 0 outside.
+    #[inline]
+    fn at(&self, index: Option<usize>) -> [f32; 4] {
+        match index.and_then(|i| self.data.get(i..i + 4)) {
             Some(t) => [t[0], t[1], t[2], t[3]],
             None => [0.0; 4],
         }
+    }
+
+    #[inline]
+    fn fetch(&self, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        self.at(self.index(layer, x, y))
+    }
+
+    fn same_shape(&self, other: &View<'_>) -> bool {
+        self.size == other.size && self.layers == other.layers
     }
 }
 
@@ -689,6 +702,7 @@ struct Guide<'a> {
     object: f32,
     reach2: f32,
     reach_min2: f32,
+    same_shape: bool,
 }
 
 impl<'a> Guide<'a> {
@@ -717,6 +731,7 @@ impl<'a> Guide<'a> {
             object: nc[3],
             reach2: reach[1] * reach[1],
             reach_min2: reach[0] * reach[0],
+            same_shape: src.same_shape(&pos) && src.same_shape(&nrm),
         })
     }
 
@@ -728,15 +743,26 @@ impl<'a> Guide<'a> {
             return None;
         }
         let (tx, ty) = (tx as u32, ty as u32);
-        let t = self.src.fetch(self.layer, tx, ty);
+        // One offset for the three maps when they have one shape (every dispatch's do).
+        let (is, ip, inr) = if self.same_shape {
+            let i = self.src.index(self.layer, tx, ty);
+            (i, i, i)
+        } else {
+            (
+                self.src.index(self.layer, tx, ty),
+                self.pos.index(self.layer, tx, ty),
+                self.nrm.index(self.layer, tx, ty),
+            )
+        };
+        let t = self.src.at(is);
         if t[3] <= 0.5 {
             return None;
         }
-        let nt = self.nrm.fetch(self.layer, tx, ty);
+        let nt = self.nrm.at(inr);
         if nt[3] != self.object {
             return None;
         }
-        let d = sub(xyz(self.pos.fetch(self.layer, tx, ty)), self.p);
+        let d = sub(xyz(self.pos.at(ip)), self.p);
         let d2 = dot(d, d);
         let o2 = (offset[0] * offset[0] + offset[1] * offset[1]) as f32;
         let m = (offset[0].abs().max(offset[1].abs()) - 2).max(0);
@@ -779,9 +805,8 @@ fn variance_texel(
     // With the centre, for the denoiser (a lone outlier raises its own estimate, so it is
     // smoothed); without it, for refinement (whose decision must not depend on the centre's
     // own noise).
-    let with_centre = window_variance(&window, params.min_pairs);
+    let [with_centre, without_centre] = window_variances(&window, params.min_pairs);
     window[12] = None;
-    let without_centre = window_variance(&window, params.min_pairs);
     // The window's mean luminance without the centre: what refinement compares the noise with.
     let (mut sum, mut n) = (0.0f32, 0u32);
     for l in window.iter().flatten() {
@@ -792,31 +817,42 @@ fn variance_texel(
     [with_centre, mean, without_centre, 1.0]
 }
 
-/// The variance estimate of a 5×5 window of luminances (`None`: not on the surface): the
-/// smallest over [`VARIANCE_DIRECTIONS`] with enough pairs, else 0 (see the module docs).
-fn window_variance(window: &[Option<f32>; 25], min_pairs: u32) -> f32 {
-    let mut best: Option<f32> = None;
+/// The variance estimates of a 5×5 window of luminances (`None`: not on the surface), with
+/// and without its centre: per estimate the smallest over [`VARIANCE_DIRECTIONS`] with enough
+/// pairs, else 0 (see the module docs). One pass over the pairs; each estimate sums its pairs
+/// in the same order as a pass of its own would.
+fn window_variances(window: &[Option<f32>; 25], min_pairs: u32) -> [f32; 2] {
+    let mut best: [Option<f32>; 2] = [None; 2];
     for d in VARIANCE_DIRECTIONS {
-        let (mut sum, mut n) = (0.0f32, 0u32);
+        // [with the centre, without it].
+        let (mut sum, mut n) = ([0.0f32; 2], [0u32; 2]);
         for k in 0..25i64 {
             let (i, j) = (k % 5 + d[0], k / 5 + d[1]);
             if !(0..5).contains(&i) || !(0..5).contains(&j) {
                 continue;
             }
-            if let (Some(a), Some(b)) = (window[k as usize], window[(j * 5 + i) as usize]) {
-                let diff = b - a;
-                sum += diff * diff;
-                n += 1;
+            let b = j * 5 + i;
+            if let (Some(va), Some(vb)) = (window[k as usize], window[b as usize]) {
+                let diff = vb - va;
+                let d2 = diff * diff;
+                sum[0] += d2;
+                n[0] += 1;
+                if k != 12 && b != 12 {
+                    sum[1] += d2;
+                    n[1] += 1;
+                }
             }
         }
-        if n >= min_pairs && n > 0 {
-            let v = sum / (2 * n) as f32;
-            if best.is_none_or(|b| v < b) {
-                best = Some(v);
+        for e in 0..2 {
+            if n[e] >= min_pairs && n[e] > 0 {
+                let v = sum[e] / (2 * n[e]) as f32;
+                if best[e].is_none_or(|b| v < b) {
+                    best[e] = Some(v);
+                }
             }
         }
     }
-    guard(best.unwrap_or(0.0))
+    best.map(|b| guard(b.unwrap_or(0.0)))
 }
 
 /// One à-trous iteration at one texel (see the module docs).

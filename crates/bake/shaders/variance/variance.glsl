@@ -9,7 +9,7 @@
 // Parameters (program::VarianceParams): u_reach = the chart test's farthest distance per
 // texel of offset, metres; u_min_pairs.
 
-// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variance).
+// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
 float luxWindowVariance(float lum[25], bool ok[25]) {
     ivec2 dirs[4] = ivec2[4](ivec2(1, 0), ivec2(0, 1), ivec2(1, 1), ivec2(1, -1));
     bool found = false;

@@ -7,7 +7,7 @@
 // then with the centre left out -- refinement's decision must not depend on the centre's own
 // noise -- the mean luminance of the taps and their variance, 1).
 
-// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variance).
+// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
 fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
     let dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
                                    vec2<i32>(1, -1));
