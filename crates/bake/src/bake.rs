@@ -708,6 +708,10 @@ pub fn bake<B: GpuBackend>(
                         b_weight: series.tail_factor() as f32,
                         ..CombineParams::SUM
                     });
+                    // The running sum of the last bounce run (two textures alternate).
+                    if let Some(&sum) = graph.sum_after.get(k as usize - 1) {
+                        graph.passes[tail].reads[0] = sum;
+                    }
                 }
                 index = graph.finish_passes.0;
             }

@@ -269,8 +269,12 @@ pub struct BakeGraph {
     /// (tail, combine, × albedo); empty for [`Method::Paper`].
     pub finish_passes: (usize, usize),
     /// [`Method::Converged`]: the combine that adds the tail, `sum + f · delta`; the driver sets
-    /// `f` when it stops.
+    /// `f` when it stops, and points its `sum` at [`BakeGraph::sum_after`] of the last bounce
+    /// run.
     pub tail_pass: Option<usize>,
+    /// [`Method::Converged`]: the texture holding the sum of the increments after bounce `k`
+    /// (entry `k − 1`; two textures alternate); empty for [`Method::Paper`].
+    pub sum_after: Vec<TexId>,
 }
 
 /// Builds a [`BakeGraph`]: textures are added on demand, passes appended in order.
@@ -568,6 +572,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         ],
     };
     let mut bounce_passes = Vec::new();
+    let mut sum_after = Vec::new();
     let (mut illuminance, mut exitance) = (direct, reflected_direct);
     let (mut delta_tex, mut tail_pass) = (None, None);
     let first_finish;
@@ -576,7 +581,16 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         let reflected = b.texture("reflected");
         let delta = b.texture("delta");
         let scratch = b.texture("scratch");
-        let sum = b.texture("indirect_sum");
+        // The running sum alternates between two textures (no copy per bounce).
+        let sums = [
+            b.texture("indirect_sum"),
+            if config.bounces > 1 {
+                b.texture("indirect_sum_b")
+            } else {
+                // Unused: one bounce only ever writes the first.
+                delta
+            },
+        ];
         let denoise = AtrousConfig {
             texel_size: config.texel_size,
             ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
@@ -647,6 +661,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     sampling,
                 ),
             }
+            let sum = sums[(k as usize - 1) % 2];
             if k == 1 {
                 b.pass(
                     PassKind::Copy,
@@ -657,16 +672,16 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     Params::None,
                 );
             } else {
-                combine_stage(&mut b, sum, delta, scratch, k);
                 b.pass(
-                    PassKind::Copy,
+                    PassKind::Combine,
                     "accumulate",
-                    vec![scratch],
+                    vec![sums[k as usize % 2], delta],
                     vec![sum],
                     k,
-                    Params::None,
+                    Params::Combine(CombineParams::SUM),
                 );
             }
+            sum_after.push(sum);
             albedo_stage(&mut b, g, delta, reflected, k, "albedo_delta");
             bounce_passes.push((first, b.passes.len()));
         }
@@ -676,7 +691,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         b.pass(
             PassKind::Combine,
             "tail",
-            vec![sum, delta],
+            vec![sum_after[sum_after.len() - 1], delta],
             vec![scratch],
             config.bounces,
             Params::Combine(CombineParams {
@@ -732,6 +747,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         method: Method::Converged,
         delta: delta_tex,
         tail_pass,
+        sum_after,
     }
 }
 
@@ -846,6 +862,7 @@ impl BakeGraph {
             delta: None,
             finish_passes: (end, end),
             tail_pass: None,
+            sum_after: Vec::new(),
         }
     }
 
@@ -1063,6 +1080,12 @@ mod tests {
                 }
                 let tail = g.tail_pass.expect("tail");
                 assert_eq!(tail, g.finish_passes.0);
+                // The running sum alternates between two textures; the tail reads the last.
+                assert_eq!(g.sum_after.len(), bounces as usize);
+                for w in g.sum_after.windows(2) {
+                    assert_ne!(w[0], w[1]);
+                }
+                assert_eq!(Some(&g.passes[tail].reads[0]), g.sum_after.last());
                 assert_eq!(g.passes[tail].reads[1], g.delta.expect("delta"));
                 let labels: Vec<_> = g.passes[g.finish_passes.0..]
                     .iter()
