@@ -718,7 +718,7 @@ impl Settings {
     ///
     /// | preset | rays (stride) | later bounces: rays (stride) | most bounces | tail tolerance | σ (iterations) |
     /// |---|--:|--:|--:|--:|--:|
-    /// | draft | 16 (4) | 8 (8) | 3 | 5 % | none |
+    /// | draft | 8 (4) | 4 (8) | 3 | 5 % | none |
     /// | default | 6 (1) | 4 (2) | 32 | 1 % | 1 (3) |
     /// | final | 128 (1) | 16 (1) | 32 | 0.2 % | 2 (4) |
     ///
@@ -735,9 +735,9 @@ impl Settings {
         };
         match quality {
             Quality::Draft => Settings {
-                rays: 16,
+                rays: 8,
                 stride: 4,
-                higher_rays: 8,
+                higher_rays: 4,
                 higher_stride: 8,
                 bounces: 3,
                 tail_tolerance: 0.05,
