@@ -107,7 +107,7 @@ fn written_maps_are_dilated_into_their_padding() {
 
 /// Two 1 m × 1 m up-facing charts of one object, side by side in the light map `padding`
 /// texels apart (at 64 texels per metre): chart A under an isotropic lamp, chart B 3 m away
-/// under a black non-receiving board that hides the lamp. Nothing reaches B — direct light is
+/// under a black non-receiving board (facing down) that hides the lamp. Nothing reaches B — direct light is
 /// blocked, the board reflects nothing and A is coplanar — so its exact illuminance is 0.
 fn two_charts(padding: f32, settings: Settings) -> Scene {
     let p = f64::from(padding / settings.texels_per_metre);
@@ -131,7 +131,9 @@ fn two_charts(padding: f32, settings: Settings) -> Scene {
     let board = Object {
         name: "board".into(),
         mesh: meshes::plane([3.0, 2.0], 0.1),
-        transform: Transform::from_trs([3.5, 0.5, 0.0], [0.0; 3], [1.0; 3]),
+        // Facing down, so B sees its front (a texel that sees mostly back faces is made
+        // invalid: luxbake::validity).
+        transform: Transform::from_trs([3.5, 0.5, 0.0], [180.0, 0.0, 0.0], [1.0; 3]),
         albedo: Albedo::grey(0.0),
         receiver: false,
         texel_scale: 1.0,
