@@ -39,8 +39,8 @@ impl Scene {
 
     /// A built-in scene with the given settings; the procedural meshes' chart padding is
     /// sized for `settings.texels_per_metre` and `settings.blur`
-    /// ([`chart_padding_texels`](crate::layout::chart_padding_texels); use this rather than
-    /// changing the density or a wider blur on a [`Scene::builtin`] afterwards).
+    /// ([`chart_padding_texels`]); use this rather than setting a higher density or a wider
+    /// blur on a [`Scene::builtin`] afterwards.
     pub fn builtin_with_settings(name: &str, settings: Settings) -> Result<Scene, SceneError> {
         scene(name, settings)
     }
