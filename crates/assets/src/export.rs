@@ -162,47 +162,6 @@ impl Bin {
     }
 }
 
-/// Fills empty texels (alpha 0) from valid neighbours, `passes` times.
-fn dilate(map: &MapImage, passes: u32) -> MapImage {
-    let mut m = map.clone();
-    let (w, h) = (m.width as i64, m.height as i64);
-    for _ in 0..passes {
-        let prev = m.clone();
-        let mut changed = false;
-        for y in 0..h {
-            for x in 0..w {
-                if prev.texel(x as u32, y as u32)[3] > 0.5 {
-                    continue;
-                }
-                let (mut sum, mut n) = ([0.0f32; 3], 0.0f32);
-                for (dx, dy) in [(-1, 0), (1, 0), (0, -1), (0, 1)] {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx >= 0 && ny >= 0 && nx < w && ny < h {
-                        let t = prev.texel(nx as u32, ny as u32);
-                        if t[3] > 0.5 {
-                            for k in 0..3 {
-                                sum[k] += t[k];
-                            }
-                            n += 1.0;
-                        }
-                    }
-                }
-                if n > 0.0 {
-                    let i = 4 * (y * w + x) as usize;
-                    if let Some(t) = m.texels.get_mut(i..i + 4) {
-                        t.copy_from_slice(&[sum[0] / n, sum[1] / n, sum[2] / n, 1.0]);
-                        changed = true;
-                    }
-                }
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    m
-}
-
 /// The scene-wide PNG scale: the 99th percentile of valid illuminance channels (≥ 1e-6).
 fn lux_per_unit(output: &BakeOutput) -> f32 {
     let mut v: Vec<f32> = output
@@ -220,8 +179,18 @@ fn lux_per_unit(output: &BakeOutput) -> f32 {
     p.max(1e-6)
 }
 
-fn lightmap_png(map: &MapImage, scale: f32, path: &Path) -> Result<Vec<u8>, AssetError> {
-    let filled = dilate(map, 16);
+/// Least rounds of dilation of the exported light maps (more where the chart padding is wider).
+const MIN_DILATION_PASSES: u32 = 16;
+
+/// The light map as an sRGB PNG, dilated into its padding as the bake's own maps are
+/// ([`MapImage::dilated`]).
+fn lightmap_png(
+    map: &MapImage,
+    scale: f32,
+    passes: u32,
+    path: &Path,
+) -> Result<Vec<u8>, AssetError> {
+    let filled = map.dilated(passes.max(MIN_DILATION_PASSES));
     let mut rgb = Vec::with_capacity(3 * filled.width as usize * filled.height as usize);
     for y in 0..filled.height {
         for x in 0..filled.width {
@@ -322,7 +291,8 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
             && let Some(maps) = out.maps.iter().find(|mp| mp.object == oi)
         {
             let lm = maps.illuminance();
-            let png = lightmap_png(lm, scale, path)?;
+            let passes = luxbake::output::dilation_passes(&out.settings);
+            let png = lightmap_png(lm, scale, passes, path)?;
             let view = bin.view(&png, None);
             images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": format!("{}_lightmap", o.name) }));
             textures.push(

@@ -92,14 +92,11 @@ pub struct UnwrapOptions {
     pub scale: [f32; 3],
 }
 
-/// Chart padding for a blur: `2 + ⌈3σ⌉` texels (the blur's reach plus one texel each side
-/// for conservative rasterisation), 2 without blur.
+/// Chart padding for a blur, texels: the rule of the built-in meshes,
+/// [`luxbake::layout::chart_padding_texels`] (`max(4, 2 + ⌈3σ⌉)`: the paper blur's reach plus
+/// one texel each side for conservative rasterisation, at least 4).
 pub fn padding_texels(blur: Blur) -> f32 {
-    match blur {
-        Blur::None => 2.0,
-        Blur::Sigma(s) if s.is_finite() && s > 0.0 => 2.0 + (3.0 * s).ceil().min(64.0),
-        Blur::Sigma(_) => 2.0,
-    }
+    luxbake::layout::chart_padding_texels(blur)
 }
 
 /// The result of [`unwrap`]: a re-indexed mesh (vertices split along chart seams).
@@ -902,7 +899,7 @@ mod tests {
 
     #[test]
     fn padding_follows_the_blur() {
-        assert_eq!(padding_texels(Blur::None), 2.0);
+        assert_eq!(padding_texels(Blur::None), 4.0);
         assert_eq!(padding_texels(Blur::Sigma(2.0)), 8.0);
         assert_eq!(padding_texels(Blur::Sigma(0.4)), 4.0);
     }

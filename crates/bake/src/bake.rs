@@ -24,7 +24,7 @@ use std::fmt;
 // std's clock panics (the bake runs in a browser in `luxbake-viewer`).
 use web_time::Instant;
 
-use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
+use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, Traversal, encode};
 use luxbake_ies::GpuTable;
 
 use crate::backend::{Dispatch, GpuBackend, LampParams, SceneData, ray_epsilon};
@@ -35,6 +35,7 @@ use crate::map::MapImage;
 use crate::program::{CombineParams, Params, TilePlan};
 use crate::scene::{BvhMode, Method, Scene, Settings};
 use crate::series::Series;
+use crate::validity;
 
 /// Bounces stop once one adds less than this fraction of the total illuminance.
 pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
@@ -77,7 +78,7 @@ pub enum BakeError<E: std::error::Error + 'static> {
 /// Progress events of a bake, in order.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Progress<'a> {
-    /// A set-up step starts ("layout", "rasterise", "bvh", "upload", "read back").
+    /// A set-up step starts ("layout", "rasterise", "bvh", "unocclude", "upload", "read back").
     Setup(&'a str),
     /// Pass `index` of `count` starts.
     PassStart {
@@ -464,7 +465,7 @@ pub fn bake<B: GpuBackend>(
 
     progress(&Progress::Setup("rasterise"));
     let t = Instant::now();
-    let gbuffer = rasterize(scene, &layout);
+    let mut gbuffer = rasterize(scene, &layout);
     setup.push(("rasterise", t.elapsed().as_secs_f64()));
 
     progress(&Progress::Setup("bvh"));
@@ -488,6 +489,36 @@ pub fn bake<B: GpuBackend>(
         });
         bvh_mode = BvhMode::None;
     }
+
+    // The ray offset's size term from the extent of the scene's geometry (not from where the
+    // scene or its lamps lie: backend::offset_origin adds the position's own ULPs).
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for v in triangles.iter().flatten() {
+        for c in 0..3 {
+            if v[c].is_finite() {
+                lo[c] = lo[c].min(v[c]);
+                hi[c] = hi[c].max(v[c]);
+            }
+        }
+    }
+    let half_extent = (0..3)
+        .map(|c| 0.5 * (hi[c] - lo[c]))
+        .fold(0.0f32, |m, e| if e.is_finite() { m.max(e) } else { m });
+
+    // Texels inside geometry: moved out or made empty, for every backend (crate::validity),
+    // always with the MTBVH so the G-buffer does not depend on the bvh setting (traversals
+    // differ at exact ties).
+    progress(&Progress::Setup("unocclude"));
+    let t = Instant::now();
+    validity::unocclude(
+        &mut gbuffer,
+        scene,
+        &encoded,
+        Traversal::Mtbvh,
+        ray_epsilon(half_extent),
+    );
+    setup.push(("unocclude", t.elapsed().as_secs_f64()));
 
     // Lamps, their tables, and which of them reach anything.
     let tables: Vec<GpuTable> = scene
@@ -530,22 +561,6 @@ pub fn bake<B: GpuBackend>(
             }
         }
     }
-
-    // The ray offset's size term from the extent of the scene's geometry (not from where the
-    // scene or its lamps lie: backend::offset_origin adds the position's own ULPs).
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for v in triangles.iter().flatten() {
-        for c in 0..3 {
-            if v[c].is_finite() {
-                lo[c] = lo[c].min(v[c]);
-                hi[c] = hi[c].max(v[c]);
-            }
-        }
-    }
-    let half_extent = (0..3)
-        .map(|c| 0.5 * (hi[c] - lo[c]))
-        .fold(0.0f32, |m, e| if e.is_finite() { m.max(e) } else { m });
 
     let mut graph = BakeGraph::build(&GraphConfig {
         layer_size: layout.layer_size,

@@ -22,6 +22,9 @@
 //!
 //! Empty texels are all zeros.
 //!
+//! After rasterising, the bake moves texels that lie inside geometry out of it or makes them
+//! empty ([`crate::validity`]), before any backend uploads the G-buffer.
+//!
 //! # Conservative coverage
 //! Every texel that a triangle's UV footprint overlaps with positive area gets valid data,
 //! not only the texels whose centre lies inside a triangle, so the light passes sample the

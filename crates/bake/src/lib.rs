@@ -103,6 +103,7 @@ pub mod scene;
 pub mod series;
 pub mod shader;
 pub mod sources;
+pub mod validity;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{BakeError, BakeOutput, BakeReport, Progress, bake};

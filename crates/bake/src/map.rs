@@ -58,6 +58,61 @@ impl MapImage {
         )
     }
 
+    /// The map with its empty texels (alpha ≤ ½) filled from the nearest valid texel, for
+    /// engines that sample light maps bilinearly and with mipmaps: `passes` rounds of
+    /// 8-neighbour dilation, so every empty texel within `passes` texels (Chebyshev distance)
+    /// of a valid one takes the RGB of a valid texel at the least such distance. In each round
+    /// an unfilled texel copies its first filled neighbour in the order left, right, up, down,
+    /// then the diagonals up-left, up-right, down-left, down-right (deterministic). Alpha is
+    /// kept as it was, so the mask stays recoverable; texels farther away stay as they were.
+    pub fn dilated(&self, passes: u32) -> MapImage {
+        const ORDER: [(i64, i64); 8] = [
+            (-1, 0),
+            (1, 0),
+            (0, -1),
+            (0, 1),
+            (-1, -1),
+            (1, -1),
+            (-1, 1),
+            (1, 1),
+        ];
+        let mut out = self.clone();
+        let (w, h) = (i64::from(self.width), i64::from(self.height));
+        let mut filled: Vec<bool> = self.texels.chunks_exact(4).map(|t| t[3] > 0.5).collect();
+        let mut todo: Vec<usize> = (0..filled.len()).filter(|&i| !filled[i]).collect();
+        for _ in 0..passes {
+            let mut fills = Vec::new();
+            todo.retain(|&i| {
+                let (x, y) = ((i as i64) % w, (i as i64) / w);
+                let from = ORDER.iter().find_map(|&(dx, dy)| {
+                    let (nx, ny) = (x + dx, y + dy);
+                    let j = (ny * w + nx) as usize;
+                    (nx >= 0 && ny >= 0 && nx < w && ny < h && filled[j]).then_some(j)
+                });
+                match from {
+                    Some(j) => {
+                        fills.push((i, j));
+                        false
+                    }
+                    None => true,
+                }
+            });
+            if fills.is_empty() {
+                break;
+            }
+            for &(i, j) in &fills {
+                let rgb = [
+                    out.texels[4 * j],
+                    out.texels[4 * j + 1],
+                    out.texels[4 * j + 2],
+                ];
+                out.texels[4 * i..4 * i + 3].copy_from_slice(&rgb);
+                filled[i] = true;
+            }
+        }
+        out
+    }
+
     /// Iterator over the RGB of the valid texels.
     pub fn valid_rgb(&self) -> impl Iterator<Item = [f32; 3]> + '_ {
         self.texels
@@ -149,6 +204,48 @@ mod tests {
         let empty = image(&[(1.0, false)], 1);
         assert_eq!(empty.sample([0.5, 0.5]), [0.0; 3]);
         assert_eq!(MapImage::zeros(0, 0).sample([0.5, 0.5]), [0.0; 3]);
+    }
+
+    /// Every empty texel within the dilation's reach holds the RGB of a valid texel at its
+    /// least Chebyshev distance from the valid ones; alpha is untouched.
+    #[test]
+    fn dilation_copies_the_nearest_valid_texel() {
+        let (w, h) = (9u32, 7u32);
+        let mut m = MapImage::zeros(w, h);
+        for (x, y, v) in [(2u32, 2u32, 1.0f32), (3, 2, 2.0), (6, 4, 5.0)] {
+            let i = 4 * (y * w + x) as usize;
+            m.texels[i..i + 4].copy_from_slice(&[v, 2.0 * v, 3.0 * v, 1.0]);
+        }
+        let d = m.dilated(2);
+        let valid: Vec<(i64, i64, [f32; 4])> = (0..h)
+            .flat_map(|y| (0..w).map(move |x| (x, y)))
+            .filter(|&(x, y)| m.is_valid(x, y))
+            .map(|(x, y)| (i64::from(x), i64::from(y), m.texel(x, y)))
+            .collect();
+        for y in 0..h {
+            for x in 0..w {
+                let (t, o) = (d.texel(x, y), m.texel(x, y));
+                assert_eq!(t[3], o[3], "alpha kept at ({x}, {y})");
+                let dist = |&(vx, vy, _): &(i64, i64, [f32; 4])| {
+                    (vx - i64::from(x)).abs().max((vy - i64::from(y)).abs())
+                };
+                let nearest = valid.iter().map(dist).min().expect("valid texels");
+                if nearest > 2 {
+                    assert_eq!(t, o, "beyond the reach at ({x}, {y})");
+                    continue;
+                }
+                assert!(
+                    valid
+                        .iter()
+                        .any(|v| dist(v) == nearest && v.2[..3] == t[..3]),
+                    "({x}, {y}) holds {t:?}"
+                );
+            }
+        }
+        assert_eq!(d.texel(0, 0), [1.0, 2.0, 3.0, 0.0]);
+        assert_eq!(d.texel(8, 6), [5.0, 10.0, 15.0, 0.0]);
+        assert_eq!(MapImage::zeros(0, 0).dilated(3), MapImage::zeros(0, 0));
+        assert_eq!(MapImage::zeros(2, 2).dilated(3), MapImage::zeros(2, 2));
     }
 
     #[test]

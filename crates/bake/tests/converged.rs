@@ -79,7 +79,7 @@ fn closed_sphere_converges_to_the_whole_series() {
 /// receiver and reflects nothing), so the total illuminance is the direct light's closed
 /// form `I·h/d³` outside the shadow and 0 inside.
 fn shadow_edge_scene(settings: Settings) -> Scene {
-    let padding = builtin::padding_m(settings.texels_per_metre, 1.0);
+    let padding = builtin::padding_m(&settings, 1.0);
     let object = |name: &str, size: f32, y: f32, albedo: f32, receiver: bool| Object {
         name: name.into(),
         mesh: meshes::plane([size; 2], padding),

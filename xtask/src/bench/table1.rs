@@ -66,7 +66,7 @@ struct Stats {
     cpu: Summary,
     /// Median wall seconds per pass group.
     groups: BTreeMap<&'static str, f64>,
-    /// Median seconds per setup step (layout, rasterise, bvh).
+    /// Median seconds per setup step (layout, rasterise, bvh, unocclude).
     setup: BTreeMap<&'static str, f64>,
 }
 
@@ -224,7 +224,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
     let _ = writeln!(
         md,
         "| scene | backend | bvh | texels | triangles | rays cast | runs | wall ms | CPU ms | M rays/s | \
-         direct | gather | blur | other | ×ref | setup: layout+raster ms | BVH build ms | paper ms |"
+         direct | gather | blur | other | ×ref | setup: layout+raster+unocclude ms | BVH build ms | paper ms |"
     );
     let _ = writeln!(
         md,
@@ -275,7 +275,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
                     g("blur"),
                     g("other"),
                     ratio,
-                    ms(st("layout") + st("rasterise")),
+                    ms(st("layout") + st("rasterise") + st("unocclude")),
                     ms(st("bvh")),
                     paper
                 );

@@ -15,6 +15,15 @@
 //! EXRs are single-part, scan-line, ZIP-compressed, 32-bit float RGBA, the object's region
 //! only (its light-map UV square), row 0 at the top (light-map v = 0).
 //!
+//! # Dilation
+//! The light maps — the three EXRs and `<name>.png` — are dilated into their chart padding
+//! ([`MapImage::dilated`], [`dilation_passes`] rounds): every empty texel within the padding
+//! holds the RGB of the nearest valid texel, so an engine can sample them bilinearly and with
+//! mipmaps without pulling in black. The EXRs' alpha stays the texel mask (1 valid, 0
+//! padding), so the baked texels remain recoverable; `cargo xtask measure` and
+//! [`MapImage::sample`] use it. The PNG has no alpha. The diagnostic pictures
+//! (`_false_color.png`, grey where no texel is valid, and `_stages.png`) are not dilated.
+//!
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
@@ -39,7 +48,7 @@ use serde_json::{Value, json};
 
 use crate::bake::{BakeOutput, ObjectMaps};
 use crate::map::MapImage;
-use crate::scene::{Blur, Scene};
+use crate::scene::{Blur, Scene, Settings};
 use picture::{Picture, albedo_picture, exposure, false_color, false_color_range, strip, tone_map};
 
 /// Errors writing or reading bake files.
@@ -223,7 +232,8 @@ pub fn write_bake(
                 stems.insert(stem.clone());
             }
             let files = object_files(&stem);
-            write_object(dir, maps, &files, exp, (lo, hi))?;
+            let passes = dilation_passes(&output.settings);
+            write_object(dir, maps, &files, exp, (lo, hi), passes)?;
             let r = maps.region;
             entry["files"] = Value::Object(
                 files
@@ -317,12 +327,20 @@ pub fn write_bake(
     Ok(manifest)
 }
 
+/// Rounds of [`MapImage::dilated`] for the written maps of a bake with `settings`: the chart
+/// padding ([`chart_padding_texels`](crate::layout::chart_padding_texels)), so every texel of
+/// the padding between and around charts is filled.
+pub fn dilation_passes(settings: &Settings) -> u32 {
+    crate::layout::chart_padding_texels(settings.blur).ceil() as u32
+}
+
 fn write_object(
     dir: &Path,
     maps: &ObjectMaps,
     files: &[(&'static str, String); 6],
     exp: f32,
     (lo, hi): (f32, f32),
+    passes: u32,
 ) -> Result<(), OutputError> {
     let with_path = |p: PathBuf| {
         move |e: OutputError| match e {
@@ -331,7 +349,7 @@ fn write_object(
             other => other,
         }
     };
-    let exrs = [maps.illuminance(), maps.exitance(), maps.direct()];
+    let exrs = [maps.illuminance(), maps.exitance(), maps.direct()].map(|m| m.dilated(passes));
     for (map, (_, name)) in exrs.iter().zip(files.iter()) {
         let path = dir.join(name);
         let bytes = encode_exr(map).map_err(with_path(path.clone()))?;
@@ -347,8 +365,11 @@ fn write_object(
             }
         })
     });
+    // The PNG has no mask: the dilated exitance, every texel shown (unfilled ones are 0).
+    let mut exitance = exrs[1].clone();
+    exitance.texels.chunks_exact_mut(4).for_each(|t| t[3] = 1.0);
     let pictures = [
-        tone_map(maps.exitance(), exp),
+        tone_map(&exitance, exp),
         false_color(maps.illuminance(), lo, hi),
         strip(&stages, w, h),
     ];

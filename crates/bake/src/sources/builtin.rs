@@ -26,6 +26,7 @@ use std::sync::{Arc, OnceLock};
 
 use luxbake_ies::Photometry;
 
+use crate::layout::chart_padding_texels;
 use crate::scene::{Albedo, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform};
 use crate::sources::meshes::{self, RoomAlbedo};
 
@@ -37,8 +38,9 @@ impl Scene {
     }
 
     /// A built-in scene with the given settings; the procedural meshes' chart padding is
-    /// sized for `settings.texels_per_metre` (use this rather than changing the density of a
-    /// [`Scene::builtin`] afterwards).
+    /// sized for `settings.texels_per_metre` and `settings.blur`
+    /// ([`chart_padding_texels`]); use this rather than setting a higher density or a wider
+    /// blur on a [`Scene::builtin`] afterwards.
     pub fn builtin_with_settings(name: &str, settings: Settings) -> Result<Scene, SceneError> {
         scene(name, settings)
     }
@@ -76,8 +78,6 @@ pub const SOFA_ALBEDO: [f32; 3] = [0.20, 0.28, 0.50];
 pub const CHAIR_TEXEL_SCALE: f32 = 2.8;
 /// Texel-density multiplier of the built-in sofa: its map is close to the paper's 512².
 pub const SOFA_TEXEL_SCALE: f32 = 1.9;
-/// Chart padding of the procedural meshes, texels at the object's density.
-pub const CHART_PADDING_TEXELS: f32 = 4.0;
 /// Distance of the downlight's photometric centre below the ceiling, metres.
 pub const LAMP_BELOW_CEILING: f32 = 0.05;
 
@@ -142,11 +142,12 @@ pub fn isotropic_lamp(candela: f64, position: [f32; 3]) -> Lamp {
     )
 }
 
-/// Chart padding in metres for an object at `texels_per_metre × texel_scale`.
-pub fn padding_m(texels_per_metre: f32, texel_scale: f32) -> f32 {
-    let d = texels_per_metre * texel_scale;
+/// Chart padding in metres for an object at `settings.texels_per_metre × texel_scale`:
+/// [`chart_padding_texels`]`(settings.blur)` texels.
+pub fn padding_m(settings: &Settings, texel_scale: f32) -> f32 {
+    let d = settings.texels_per_metre * texel_scale;
     if d.is_finite() && d > 0.0 {
-        CHART_PADDING_TEXELS / d
+        chart_padding_texels(settings.blur) / d
     } else {
         0.0
     }
@@ -168,11 +169,7 @@ fn object(name: impl Into<String>, mesh: Mesh, transform: Transform, albedo: [f3
 
 /// The room object of the furnished scenes.
 fn room(settings: &Settings) -> Object {
-    let mesh = meshes::room(
-        ROOM_SIZE,
-        ROOM_ALBEDO,
-        padding_m(settings.texels_per_metre, 1.0),
-    );
+    let mesh = meshes::room(ROOM_SIZE, ROOM_ALBEDO, padding_m(settings, 1.0));
     object("room", mesh, Transform::IDENTITY, [1.0; 3])
 }
 
@@ -190,7 +187,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
     let (objects, lamps) = match name {
         "chairs_01" | "chairs_03" | "chairs_05" | "chairs_10" => {
             let count: usize = name[7..].parse().unwrap_or(1);
-            let chair = meshes::chair(padding_m(settings.texels_per_metre, CHAIR_TEXEL_SCALE));
+            let chair = meshes::chair(padding_m(&settings, CHAIR_TEXEL_SCALE));
             let mut objects = vec![room(&settings)];
             for (i, p) in CHAIR_PLACEMENTS.iter().take(count).enumerate() {
                 let mut o = object(
@@ -207,7 +204,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
         "sofa_01" => {
             let mut sofa = object(
                 "sofa",
-                meshes::sofa(padding_m(settings.texels_per_metre, SOFA_TEXEL_SCALE)),
+                meshes::sofa(padding_m(&settings, SOFA_TEXEL_SCALE)),
                 placed(SOFA_PLACEMENT),
                 SOFA_ALBEDO,
             );
@@ -218,7 +215,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
             )
         }
         "floor" => {
-            let mesh = meshes::plane([FLOOR_SIZE; 2], padding_m(settings.texels_per_metre, 1.0));
+            let mesh = meshes::plane([FLOOR_SIZE; 2], padding_m(&settings, 1.0));
             (
                 vec![object(
                     "floor",
@@ -237,7 +234,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
                 SPHERE_RADIUS,
                 meshes::SPHERE_SEGMENTS,
                 true,
-                padding_m(settings.texels_per_metre, 1.0),
+                padding_m(&settings, 1.0),
             );
             (
                 vec![object(
@@ -379,7 +376,7 @@ mod tests {
             texels_per_metre: 16.0,
             ..Settings::default()
         };
-        let s = Scene::builtin_with_settings("chairs_01", coarse).expect("builtin");
+        let s = Scene::builtin_with_settings("chairs_01", coarse.clone()).expect("builtin");
         let d = Scene::builtin("chairs_01").expect("builtin");
         let l = crate::layout::Layout::new(&s, 4096, 8).expect("layout");
         let r = l.regions[1].expect("chair");
@@ -387,12 +384,22 @@ mod tests {
             .expect("layout")
             .regions[1]
             .expect("chair");
-        // A quarter of the density, but padding stays 4 texels: more than a quarter the size.
+        // A quarter of the density, but padding stays 5 texels: more than a quarter the size.
         assert!(
             r.size[0] * 4 > rd.size[0] && r.size[0] * 3 < rd.size[0],
             "{r:?} vs {rd:?}"
         );
-        assert_eq!(padding_m(16.0, 2.0), CHART_PADDING_TEXELS / 32.0);
-        assert_eq!(padding_m(0.0, 1.0), 0.0);
+        assert_eq!(Settings::default().blur, crate::scene::Blur::Sigma(1.0));
+        assert_eq!(padding_m(&coarse, 2.0), 5.0 / 32.0);
+        let paper = Settings {
+            texels_per_metre: 16.0,
+            ..Settings::paper()
+        };
+        assert_eq!(padding_m(&paper, 2.0), 8.0 / 32.0);
+        let none = Settings {
+            texels_per_metre: 0.0,
+            ..Settings::default()
+        };
+        assert_eq!(padding_m(&none, 1.0), 0.0);
     }
 }

@@ -9,7 +9,7 @@
 //! the rectangle's border), and the rectangle is mapped onto [0, 1]² (u and v scaled
 //! separately, so one metre of surface spans the same number of texels along u and v once the
 //! layout sizes the rectangle). Pass `padding` = (padding in texels) / (texels per metre); the
-//! built-in scenes use [`crate::sources::builtin::CHART_PADDING_TEXELS`] texels.
+//! built-in scenes use [`crate::layout::chart_padding_texels`] texels.
 //!
 //! Shared positions along chart seams are computed from the same inputs in the same order, so
 //! closed meshes are watertight bit for bit (a ray cannot leak through a seam).

@@ -744,7 +744,7 @@ impl Cx<'_> {
                 _ => 1.0,
             },
         };
-        let padding = builtin::padding_m(settings.texels_per_metre, texel_scale);
+        let padding = builtin::padding_m(settings, texel_scale);
         let albedo = raw
             .albedo
             .as_ref()

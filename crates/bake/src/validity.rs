@@ -1,0 +1,226 @@
+//! Texel validity: texels inside geometry (the floor under a chair leg or a sofa's base, a
+//! wall behind furniture that touches it) are moved out of the occluder, or else made empty.
+//!
+//! # Decision: on the CPU, at G-buffer time, for every backend
+//! [`unocclude`] runs once after the G-buffer is rasterised and the BVH encoded, before any
+//! backend uploads the G-buffer, so glow, wgpu and the CPU backend see the same valid texels
+//! and the same positions (as they see one rasteriser's output; [`crate::gbuffer`]).
+//!
+//! # The rule (Unity's back-face tolerance with Godot's unocclude)
+//! For every valid texel at position `p` with unit normal `n` (its object at density
+//! `texels_per_metre × texel_scale`, texel size `s` metres):
+//! 1. **Test.** [`TEST_RAYS`] cosine-weighted directions about `n` (the hash sampler of
+//!    [`crate::rng`], texel index as for the gather, pass [`RNG_PASS`], seed 0: fixed per
+//!    texel and bake) are cast from `p` offset as the gather offsets it
+//!    ([`offset_origin`]). A hit is a back face when the triangle's geometric normal (its
+//!    counter-clockwise winding) points along the ray. The texel is **occluded** when more than
+//!    [`BACK_FACE_TOLERANCE`] of the rays hit a back face within [`TEST_REACH_TEXELS`]` · s`
+//!    (the test stops once the answer is known). The short reach keeps the test cheap and
+//!    local: texels deep under a large closed object (farther than the reach from its walls)
+//!    stay valid and dark, as they are.
+//! 2. **Unocclude.** For an occluded texel, [`PUSH_DIRECTIONS`] directions in its tangent
+//!    plane (every 45°, from the basis of [`crate::cpu::basis`]) are cast from the offset
+//!    origin up to `s` (a texel: how far conservative rasterisation reaches past a chart edge).
+//!    The nearest back-face hit `t` gives the candidate `p + d·(t + margin)`, `margin =
+//!    `[`PUSH_MARGIN`]` · s` (half a texel: past the occluder's wall, on the same plane, and
+//!    far enough from it that gather rays do not meet its edges at exact ties). If the test
+//!    of step 1 passes there, the texel keeps that position (normal and albedo unchanged).
+//! 3. Otherwise the texel is made **empty** (position, normal and albedo all zero, as texels
+//!    no chart covers): no pass computes it, the filters and the gather's masked look-up skip
+//!    it, and the written maps fill it by dilation where it lies within the padding's reach of
+//!    a valid texel ([`crate::output`]).
+//!
+//! Only receivers' texels are tested; non-receivers still occlude. As with Unity's back-face
+//! tolerance, a texel that mostly sees the back of one-sided geometry (under a single-sided
+//! plane facing up, behind a wall of an open model, or anywhere in a mesh with inverted
+//! winding) is made empty too.
+
+use luxbake_bvh::{EncodedScene, Ray, Traversal};
+use rayon::prelude::*;
+
+use crate::backend::offset_origin;
+use crate::cpu::{basis, cosine_direction};
+use crate::gbuffer::GBuffer;
+use crate::rng;
+use crate::scene::Scene;
+
+/// Rays of the back-face test per texel.
+pub const TEST_RAYS: u32 = 16;
+/// How far the test rays look, in texels of the object's density.
+pub const TEST_REACH_TEXELS: f32 = 32.0;
+/// Largest fraction of back-face hits of a valid texel.
+pub const BACK_FACE_TOLERANCE: f32 = 0.5;
+/// Tangent directions tried when pushing a texel out of its occluder.
+pub const PUSH_DIRECTIONS: u32 = 8;
+/// How far past the occluder's wall a pushed texel lands, in texels.
+pub const PUSH_MARGIN: f32 = 0.5;
+/// The RNG pass of the test's directions (no bake pass uses it).
+pub const RNG_PASS: u32 = 0xF00D;
+
+/// What [`unocclude`] did.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Unoccluded {
+    /// Valid texels tested.
+    pub tested: u64,
+    /// Texels moved out of an occluder.
+    pub moved: u64,
+    /// Texels made empty.
+    pub removed: u64,
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
+}
+
+fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+/// The distance to the first hit along `dir` from `o` within `t_max`, and whether it is a back
+/// face.
+fn first_hit(
+    bvh: &EncodedScene,
+    trav: Traversal,
+    o: [f32; 3],
+    dir: [f32; 3],
+    t_max: f32,
+) -> Option<(f32, bool)> {
+    let hit = bvh.closest_hit(&Ray { origin: o, dir }, 0.0, t_max, trav)?;
+    let [a, b, c] = bvh.triangle_positions(hit.triangle);
+    let ng = cross(sub(b, a), sub(c, a));
+    Some((hit.t, dot(ng, dir) > 0.0))
+}
+
+/// Whether more than [`BACK_FACE_TOLERANCE`] of the test rays from `p` hit a back face within
+/// `reach`. Stops as soon as the answer is known (an open texel needs half the rays).
+fn occluded(
+    bvh: &EncodedScene,
+    trav: Traversal,
+    texel: u32,
+    (p, n): ([f32; 3], [f32; 3]),
+    eps: f32,
+    reach: f32,
+) -> bool {
+    let o = offset_origin(p, n, eps);
+    let limit = (BACK_FACE_TOLERANCE * TEST_RAYS as f32).floor() as u32;
+    let (mut back, mut other) = (0u32, 0u32);
+    for s in 0..TEST_RAYS {
+        let dir = cosine_direction(n, rng::uniform2(texel, s, RNG_PASS, 0));
+        if let Some((_, true)) = first_hit(bvh, trav, o, dir, reach) {
+            back += 1;
+            if back > limit {
+                return true;
+            }
+        } else {
+            other += 1;
+            if other >= TEST_RAYS - limit {
+                return false;
+            }
+        }
+    }
+    false
+}
+
+/// The outcome for one texel.
+enum Outcome {
+    Keep,
+    Move([f32; 3]),
+    Remove,
+}
+
+/// Tests every valid texel of `g` and moves or removes the occluded ones (module docs).
+/// `eps` is the ray offset's size term ([`crate::backend::ray_epsilon`]).
+pub fn unocclude(
+    g: &mut GBuffer,
+    scene: &Scene,
+    bvh: &EncodedScene,
+    trav: Traversal,
+    eps: f32,
+) -> Unoccluded {
+    let (w, h) = (g.layer_size[0], g.layer_size[1]);
+    let texels = g.layers as usize * w as usize * h as usize;
+    let density = scene.settings.texels_per_metre;
+    let outcomes: Vec<(usize, Outcome)> = (0..texels)
+        .into_par_iter()
+        .filter(|&i| g.position[4 * i + 3] > 0.5)
+        .map(|i| {
+            let pw = &g.position[4 * i..4 * i + 4];
+            let nw = &g.normal[4 * i..4 * i + 4];
+            let p = [pw[0], pw[1], pw[2]];
+            let n = [nw[0], nw[1], nw[2]];
+            let len = dot(n, n).sqrt();
+            if !(len > 0.0 && len.is_finite()) {
+                return (i, Outcome::Keep);
+            }
+            let n = n.map(|c| c / len);
+            let (x, y) = (
+                (i % w as usize) as u32,
+                ((i / w as usize) % h as usize) as u32,
+            );
+            let layer = (i / (w as usize * h as usize)) as u32;
+            let texel = rng::texel_index(g.layer_size, layer, x, y);
+            let scale = scene
+                .objects
+                .get(nw[3] as usize)
+                .map_or(1.0, |o| o.texel_scale);
+            let s = 1.0 / (density * scale);
+            if !(s.is_finite() && s > 0.0) {
+                return (i, Outcome::Keep);
+            }
+            let reach = TEST_REACH_TEXELS * s;
+            if !occluded(bvh, trav, texel, (p, n), eps, reach) {
+                return (i, Outcome::Keep);
+            }
+            let (t, b) = basis(n);
+            let o = offset_origin(p, n, eps);
+            let nearest = (0..PUSH_DIRECTIONS)
+                .filter_map(|k| {
+                    let a = k as f32 * std::f32::consts::TAU / PUSH_DIRECTIONS as f32;
+                    let (sa, ca) = a.sin_cos();
+                    let d = [0, 1, 2].map(|c| ca * t[c] + sa * b[c]);
+                    match first_hit(bvh, trav, o, d, s) {
+                        Some((hit, true)) => Some((hit, d)),
+                        _ => None,
+                    }
+                })
+                .min_by(|a, b| a.0.total_cmp(&b.0));
+            if let Some((hit, d)) = nearest {
+                let step = hit + PUSH_MARGIN * s;
+                let q = [0, 1, 2].map(|c| p[c] + d[c] * step);
+                if !occluded(bvh, trav, texel, (q, n), eps, reach) {
+                    return (i, Outcome::Move(q));
+                }
+            }
+            (i, Outcome::Remove)
+        })
+        .filter(|(_, o)| !matches!(o, Outcome::Keep))
+        .collect();
+    let mut stats = Unoccluded {
+        tested: g.valid_texels(),
+        ..Unoccluded::default()
+    };
+    for (i, outcome) in outcomes {
+        match outcome {
+            Outcome::Keep => {}
+            Outcome::Move(q) => {
+                g.position[4 * i..4 * i + 3].copy_from_slice(&q);
+                stats.moved += 1;
+            }
+            Outcome::Remove => {
+                for a in [&mut g.position, &mut g.normal, &mut g.albedo] {
+                    a[4 * i..4 * i + 4].fill(0.0);
+                }
+                stats.removed += 1;
+            }
+        }
+    }
+    stats
+}

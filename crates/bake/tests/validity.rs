@@ -1,0 +1,204 @@
+//! Texel validity (issue 14, item 1): floor texels inside chair legs and sofa feet are moved
+//! out of them or made empty, and the floor next to a contact is not darker than the floor a
+//! few texels further out.
+
+use luxbake::backend::ray_epsilon;
+use luxbake::bake::bake;
+use luxbake::cpu::CpuBackend;
+use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::layout::Layout;
+use luxbake::scene::{Scene, Settings};
+use luxbake::validity::unocclude;
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Traversal, encode};
+
+/// World xz corners of the floor contacts (chair legs, sofa feet) of a built-in scene.
+fn contacts(scene: &Scene) -> Vec<[[f32; 2]; 4]> {
+    let mut out = Vec::new();
+    for o in &scene.objects {
+        let (half, centres): (f32, Vec<[f32; 2]>) = if o.name.starts_with("chair") {
+            let (lx, lz) = (0.19, 0.18);
+            (0.0175, vec![[-lx, lz], [lx, lz], [-lx, -lz], [lx, -lz]])
+        } else if o.name == "sofa" {
+            (
+                0.03,
+                vec![[-0.92, 0.36], [0.92, 0.36], [-0.92, -0.38], [0.92, -0.38]],
+            )
+        } else {
+            continue;
+        };
+        for [x, z] in centres {
+            let corners =
+                [[-half, -half], [half, -half], [half, half], [-half, half]].map(|[a, b]| {
+                    let w = o.transform.point([x + a, 0.0, z + b]);
+                    [w[0], w[2]]
+                });
+            out.push(corners);
+        }
+    }
+    out
+}
+
+/// Signed distance (approximate outside the corners) from `p` to a convex quad: < 0 inside.
+fn signed_distance(p: [f32; 2], q: &[[f32; 2]; 4]) -> f32 {
+    let c = [
+        0.25 * q.iter().map(|v| v[0]).sum::<f32>(),
+        0.25 * q.iter().map(|v| v[1]).sum::<f32>(),
+    ];
+    (0..4)
+        .map(|i| {
+            let (a, b) = (q[i], q[(i + 1) % 4]);
+            let e = [b[0] - a[0], b[1] - a[1]];
+            let len = (e[0] * e[0] + e[1] * e[1]).sqrt();
+            let mut n = [e[1] / len, -e[0] / len];
+            if n[0] * (c[0] - a[0]) + n[1] * (c[1] - a[1]) > 0.0 {
+                n = [-n[0], -n[1]];
+            }
+            n[0] * (p[0] - a[0]) + n[1] * (p[1] - a[1])
+        })
+        .fold(f32::NEG_INFINITY, f32::max)
+}
+
+/// The distance from `p` to the nearest contact (< 0 inside one).
+fn contact_distance(p: [f32; 2], quads: &[[[f32; 2]; 4]]) -> f32 {
+    quads
+        .iter()
+        .map(|q| signed_distance(p, q))
+        .fold(f32::INFINITY, f32::min)
+}
+
+/// The room's floor texels of `g`: flat index, world xz.
+fn floor_texels(g: &GBuffer) -> Vec<(usize, [f32; 2])> {
+    (0..g.position.len() / 4)
+        .filter(|&i| {
+            let (p, n) = (&g.position[4 * i..4 * i + 4], &g.normal[4 * i..4 * i + 4]);
+            p[3] > 0.5 && n[3] == 0.0 && n[1] > 0.99 && p[1].abs() < 1e-4
+        })
+        .map(|i| (i, [g.position[4 * i], g.position[4 * i + 2]]))
+        .collect()
+}
+
+fn settings() -> Settings {
+    Settings {
+        rays: 8,
+        bounces: 1,
+        ..Settings::paper()
+    }
+}
+
+#[test]
+fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
+    for name in ["chairs_01", "sofa_01"] {
+        let scene = Scene::builtin_with_settings(name, settings()).expect("builtin");
+        let layout = Layout::new(&scene, 16_384, 64).expect("layout");
+        let before = rasterize(&scene, &layout);
+        let mut after = before.clone();
+        let (tris, attrs) = scene.world_triangles();
+        let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
+        let encoded = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
+        let stats = unocclude(
+            &mut after,
+            &scene,
+            &encoded,
+            Traversal::Mtbvh,
+            ray_epsilon(2.5),
+        );
+        let quads = contacts(&scene);
+        let s = 1.0 / scene.settings.texels_per_metre;
+        let (mut inside, mut deep, mut moved) = (0, 0, 0);
+        for (i, p) in floor_texels(&before) {
+            let d = contact_distance(p, &quads);
+            if d < 0.0 {
+                inside += 1;
+            }
+            let valid = after.position[4 * i + 3] > 0.5;
+            // Only texels at a contact go: the open floor keeps every texel.
+            assert!(valid || d < s, "{name}: open floor texel removed at {p:?}");
+            if d < -s {
+                deep += 1;
+                assert!(
+                    !valid,
+                    "{name}: texel deep inside a contact ({d} m) stays valid"
+                );
+            }
+            if valid {
+                let q = [after.position[4 * i], after.position[4 * i + 2]];
+                let dq = contact_distance(q, &quads);
+                assert!(
+                    dq >= -1e-6,
+                    "{name}: valid texel at {q:?}, {dq} m inside a contact"
+                );
+                moved += usize::from(q != p);
+            }
+        }
+        eprintln!(
+            "{name}: {} texels tested, {} moved, {} removed; floor: {inside} inside contacts \
+             ({deep} deeper than a texel), {moved} moved out",
+            stats.tested, stats.moved, stats.removed
+        );
+        assert!(inside > 0 && moved > 0, "{name}");
+        // The chairs' 3.5 cm legs are about 2 texels wide; the sofa's 6 cm feet have texels
+        // deeper inside than one texel, which cannot be pushed out.
+        assert!(name != "sofa_01" || deep > 0, "{name}");
+    }
+}
+
+/// In the bake, no floor texel deeper than a texel inside a leg or foot stays valid (the sofa
+/// had 16 before), and around the chairs' legs the floor within 2 texels is within noise of
+/// the floor 2–5 texels out (mean ratio 0.940; 0.887 before, when texels inside the legs read
+/// dark and were blurred out). Figures for 8 rays, 1 bounce, the paper's σ 2 blur, CPU. The
+/// sofa's feet stand under its plinth 8 cm above the floor, so the floor near them is
+/// darker for real (ratio 0.652; 0.603 before) and only the first check applies there.
+#[test]
+fn the_floor_at_a_contact_is_not_darker_than_next_to_it() {
+    for name in ["chairs_01", "sofa_01"] {
+        let scene = Scene::builtin_with_settings(name, settings()).expect("builtin");
+        let out = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {}).expect("bake");
+        let g = rasterize(&scene, &out.layout);
+        let room = out.maps.iter().find(|m| m.object == 0).expect("room");
+        let r = room.region;
+        let e = room.illuminance();
+        let quads = contacts(&scene);
+        let s = 1.0 / scene.settings.texels_per_metre;
+        let (w, h) = (g.layer_size[0] as usize, g.layer_size[1] as usize);
+        let (mut near, mut far, mut lit_inside) = (Vec::new(), Vec::new(), 0);
+        for (i, p) in floor_texels(&g) {
+            let (x, y) = (i % w, (i / w) % h);
+            let (lx, ly) = (
+                (x - r.offset[0] as usize) as u32,
+                (y - r.offset[1] as usize) as u32,
+            );
+            let t = e.texel(lx, ly);
+            let d = contact_distance(p, &quads);
+            if d < 0.0 {
+                lit_inside += usize::from(t[3] > 0.5 && d < -s);
+                continue;
+            }
+            if t[3] <= 0.5 {
+                continue;
+            }
+            let v = 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
+            if d <= 2.0 * s {
+                near.push(v);
+            } else if d <= 5.0 * s {
+                far.push(v);
+            }
+        }
+        let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
+        let (mn, mf) = (mean(&near), mean(&far));
+        eprintln!(
+            "{name}: floor within 2 texels of a contact {mn:.2} lx ({} texels), 2-5 texels \
+             {mf:.2} lx ({}), ratio {:.3}; valid texels deeper than a texel inside: {lit_inside}",
+            near.len(),
+            far.len(),
+            mn / mf
+        );
+        assert_eq!(lit_inside, 0, "{name}");
+        assert!(near.len() > 20 && far.len() > 20, "{name}");
+        if name == "chairs_01" {
+            assert!(
+                mn > 0.92 * mf,
+                "{name}: {mn} lx at contacts vs {mf} lx next to them"
+            );
+        }
+    }
+}
