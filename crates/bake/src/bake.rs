@@ -24,7 +24,7 @@ use std::fmt;
 // std's clock panics (the bake runs in a browser in `luxbake-viewer`).
 use web_time::Instant;
 
-use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, Traversal, encode};
+use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
 use luxbake_ies::GpuTable;
 
 use crate::backend::{Dispatch, GpuBackend, LampParams, SceneData, ray_epsilon};
@@ -506,18 +506,10 @@ pub fn bake<B: GpuBackend>(
         .map(|c| 0.5 * (hi[c] - lo[c]))
         .fold(0.0f32, |m, e| if e.is_finite() { m.max(e) } else { m });
 
-    // Texels inside geometry: moved out or made empty, for every backend (crate::validity),
-    // always with the MTBVH so the G-buffer does not depend on the bvh setting (traversals
-    // differ at exact ties).
+    // Texels inside geometry: moved out or made empty, for every backend (crate::validity).
     progress(&Progress::Setup("unocclude"));
     let t = Instant::now();
-    validity::unocclude(
-        &mut gbuffer,
-        scene,
-        &encoded,
-        Traversal::Mtbvh,
-        ray_epsilon(half_extent),
-    );
+    validity::unocclude(&mut gbuffer, scene, &encoded, ray_epsilon(half_extent));
     setup.push(("unocclude", t.elapsed().as_secs_f64()));
 
     // Lamps, their tables, and which of them reach anything.

@@ -35,7 +35,7 @@
 //! plane facing up, behind a wall of an open model, or anywhere in a mesh with inverted
 //! winding) is made empty too.
 
-use luxbake_bvh::{EncodedScene, Ray, Traversal};
+use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use rayon::prelude::*;
 
 use crate::backend::offset_origin;
@@ -45,7 +45,7 @@ use crate::rng;
 use crate::scene::Scene;
 
 /// Rays of the back-face test per texel.
-pub const TEST_RAYS: u32 = 16;
+pub const TEST_RAYS: u32 = 8;
 /// How far the test rays look, in texels of the object's density.
 pub const TEST_REACH_TEXELS: f32 = 32.0;
 /// Largest fraction of back-face hits of a valid texel.
@@ -87,13 +87,12 @@ fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
 /// The distance to the first hit along `dir` from `o` within `t_max`, and whether it is a back
 /// face.
 fn first_hit(
-    bvh: &EncodedScene,
-    trav: Traversal,
+    (bvh, wide): (&EncodedScene, &WideBvh),
     o: [f32; 3],
     dir: [f32; 3],
     t_max: f32,
 ) -> Option<(f32, bool)> {
-    let hit = bvh.closest_hit(&Ray { origin: o, dir }, 0.0, t_max, trav)?;
+    let hit = wide.closest_hit(&Ray { origin: o, dir }, 0.0, t_max)?;
     let [a, b, c] = bvh.triangle_positions(hit.triangle);
     let ng = cross(sub(b, a), sub(c, a));
     Some((hit.t, dot(ng, dir) > 0.0))
@@ -102,8 +101,7 @@ fn first_hit(
 /// Whether more than [`BACK_FACE_TOLERANCE`] of the test rays from `p` hit a back face within
 /// `reach`. Stops as soon as the answer is known (an open texel needs half the rays).
 fn occluded(
-    bvh: &EncodedScene,
-    trav: Traversal,
+    bvh: (&EncodedScene, &WideBvh),
     texel: u32,
     (p, n): ([f32; 3], [f32; 3]),
     eps: f32,
@@ -114,7 +112,7 @@ fn occluded(
     let (mut back, mut other) = (0u32, 0u32);
     for s in 0..TEST_RAYS {
         let dir = cosine_direction(n, rng::uniform2(texel, s, RNG_PASS, 0));
-        if let Some((_, true)) = first_hit(bvh, trav, o, dir, reach) {
+        if let Some((_, true)) = first_hit(bvh, o, dir, reach) {
             back += 1;
             if back > limit {
                 return true;
@@ -138,13 +136,11 @@ enum Outcome {
 
 /// Tests every valid texel of `g` and moves or removes the occluded ones (module docs).
 /// `eps` is the ray offset's size term ([`crate::backend::ray_epsilon`]).
-pub fn unocclude(
-    g: &mut GBuffer,
-    scene: &Scene,
-    bvh: &EncodedScene,
-    trav: Traversal,
-    eps: f32,
-) -> Unoccluded {
+pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &EncodedScene, eps: f32) -> Unoccluded {
+    // Always the 4-wide BVH (the fastest CPU traversal), whatever the bake's `bvh` setting, so
+    // the G-buffer does not depend on it (traversals differ only at exact ties).
+    let wide = WideBvh::from_encoded(bvh);
+    let bvh = (bvh, &wide);
     let (w, h) = (g.layer_size[0], g.layer_size[1]);
     let texels = g.layers as usize * w as usize * h as usize;
     let density = scene.settings.texels_per_metre;
@@ -176,7 +172,7 @@ pub fn unocclude(
                 return (i, Outcome::Keep);
             }
             let reach = TEST_REACH_TEXELS * s;
-            if !occluded(bvh, trav, texel, (p, n), eps, reach) {
+            if !occluded(bvh, texel, (p, n), eps, reach) {
                 return (i, Outcome::Keep);
             }
             let (t, b) = basis(n);
@@ -186,7 +182,7 @@ pub fn unocclude(
                     let a = k as f32 * std::f32::consts::TAU / PUSH_DIRECTIONS as f32;
                     let (sa, ca) = a.sin_cos();
                     let d = [0, 1, 2].map(|c| ca * t[c] + sa * b[c]);
-                    match first_hit(bvh, trav, o, d, s) {
+                    match first_hit(bvh, o, d, s) {
                         Some((hit, true)) => Some((hit, d)),
                         _ => None,
                     }
@@ -195,7 +191,7 @@ pub fn unocclude(
             if let Some((hit, d)) = nearest {
                 let step = hit + PUSH_MARGIN * s;
                 let q = [0, 1, 2].map(|c| p[c] + d[c] * step);
-                if !occluded(bvh, trav, texel, (q, n), eps, reach) {
+                if !occluded(bvh, texel, (q, n), eps, reach) {
                     return (i, Outcome::Move(q));
                 }
             }

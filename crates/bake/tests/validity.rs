@@ -9,7 +9,7 @@ use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::scene::{Scene, Settings};
 use luxbake::validity::unocclude;
-use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Traversal, encode};
+use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, encode};
 
 /// World xz corners of the floor contacts (chair legs, sofa feet) of a built-in scene.
 fn contacts(scene: &Scene) -> Vec<[[f32; 2]; 4]> {
@@ -95,13 +95,7 @@ fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
         let (tris, attrs) = scene.world_triangles();
         let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
         let encoded = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
-        let stats = unocclude(
-            &mut after,
-            &scene,
-            &encoded,
-            Traversal::Mtbvh,
-            ray_epsilon(2.5),
-        );
+        let stats = unocclude(&mut after, &scene, &encoded, ray_epsilon(2.5));
         let quads = contacts(&scene);
         let s = 1.0 / scene.settings.texels_per_metre;
         let (mut inside, mut deep, mut moved) = (0, 0, 0);
