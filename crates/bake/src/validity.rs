@@ -9,10 +9,10 @@
 //! # The rule (Unity's back-face tolerance with Godot's unocclude)
 //! For every valid texel at position `p` with unit normal `n` (its object at density
 //! `texels_per_metre × texel_scale`, texel size `s` metres):
-//! 1. **Test.** [`TEST_RAYS`] cosine-weighted directions about `n` (the hash sampler of
-//!    [`crate::rng`], texel index as for the gather, pass [`RNG_PASS`], seed 0: fixed per
-//!    texel and bake) are cast from `p` offset as the gather offsets it
-//!    ([`offset_origin`]). A hit is a back face when the triangle's geometric normal (its
+//! 1. **Test.** [`TEST_RAYS`] cosine-weighted directions about `n` (Malley's method by
+//!    rejection from the hash sampler of [`crate::rng`], texel index as for the gather, pass
+//!    [`RNG_PASS`], seed 0: fixed per texel and bake, identical in native and wasm32 builds)
+//!    are cast from `p` offset as the gather offsets it ([`offset_origin`]). A hit is a back face when the triangle's geometric normal (its
 //!    counter-clockwise winding) points along the ray. The texel is **occluded** when more than
 //!    [`BACK_FACE_TOLERANCE`] of the rays hit a back face within [`TEST_REACH_TEXELS`]` · s`
 //!    (the test stops once the answer is known). The short reach keeps the test cheap and
@@ -39,7 +39,7 @@ use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use rayon::prelude::*;
 
 use crate::backend::offset_origin;
-use crate::cpu::{basis, cosine_direction};
+use crate::cpu::basis;
 use crate::gbuffer::GBuffer;
 use crate::rng;
 use crate::scene::Scene;
@@ -50,8 +50,25 @@ pub const TEST_RAYS: u32 = 8;
 pub const TEST_REACH_TEXELS: f32 = 32.0;
 /// Largest fraction of back-face hits of a valid texel.
 pub const BACK_FACE_TOLERANCE: f32 = 0.5;
-/// Tangent directions tried when pushing a texel out of its occluder.
-pub const PUSH_DIRECTIONS: u32 = 8;
+/// Tangent directions tried when pushing a texel out of its occluder: every 45°, as
+/// `(cos, sin)` constants (no `sin`/`cos` call, whose last bit differs between the native and
+/// the wasm32 maths libraries: the G-buffer is computed on either).
+pub const PUSH_DIRECTIONS: [[f32; 2]; 8] = {
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    [
+        [1.0, 0.0],
+        [h, h],
+        [0.0, 1.0],
+        [-h, h],
+        [-1.0, 0.0],
+        [-h, -h],
+        [0.0, -1.0],
+        [h, -h],
+    ]
+};
+/// Draws per test direction before it falls back to the normal (a draw is kept with
+/// probability π/4: all 16 miss with probability 2·10⁻¹¹).
+pub const DISK_DRAWS: u32 = 16;
 /// How far past the occluder's wall a pushed texel lands, in texels.
 pub const PUSH_MARGIN: f32 = 0.5;
 /// The RNG pass of the test's directions (no bake pass uses it).
@@ -111,7 +128,7 @@ fn occluded(
     let limit = (BACK_FACE_TOLERANCE * TEST_RAYS as f32).floor() as u32;
     let (mut back, mut other) = (0u32, 0u32);
     for s in 0..TEST_RAYS {
-        let dir = cosine_direction(n, rng::uniform2(texel, s, RNG_PASS, 0));
+        let dir = test_direction(n, texel, s);
         if let Some((_, true)) = first_hit(bvh, o, dir, reach) {
             back += 1;
             if back > limit {
@@ -125,6 +142,24 @@ fn occluded(
         }
     }
     false
+}
+
+/// Test ray `s` of `texel`: cosine-weighted about the unit normal `n` by Malley's method, a
+/// uniform point of the unit disk (rejection from the square, draws of the hash sampler at
+/// indices `s·DISK_DRAWS + j`) lifted onto the hemisphere. Only multiplications, additions
+/// and a square root, so native and wasm32 builds draw the same directions bit for bit.
+fn test_direction(n: [f32; 3], texel: u32, s: u32) -> [f32; 3] {
+    let (t, b) = basis(n);
+    for j in 0..DISK_DRAWS {
+        let [u0, u1] = rng::uniform2(texel, s * DISK_DRAWS + j, RNG_PASS, 0);
+        let (x, y) = (2.0 * u0 - 1.0, 2.0 * u1 - 1.0);
+        let r2 = x * x + y * y;
+        if r2 < 1.0 {
+            let z = (1.0 - r2).sqrt();
+            return [0, 1, 2].map(|c| x * t[c] + y * b[c] + z * n[c]);
+        }
+    }
+    n
 }
 
 /// The outcome for one texel.
@@ -177,10 +212,9 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &EncodedScene, eps: f32) -
             }
             let (t, b) = basis(n);
             let o = offset_origin(p, n, eps);
-            let nearest = (0..PUSH_DIRECTIONS)
-                .filter_map(|k| {
-                    let a = k as f32 * std::f32::consts::TAU / PUSH_DIRECTIONS as f32;
-                    let (sa, ca) = a.sin_cos();
+            let nearest = PUSH_DIRECTIONS
+                .iter()
+                .filter_map(|&[ca, sa]| {
                     let d = [0, 1, 2].map(|c| ca * t[c] + sa * b[c]);
                     match first_hit(bvh, o, d, s) {
                         Some((hit, true)) => Some((hit, d)),
