@@ -3,7 +3,7 @@
 //! - The default scene (or the first, or every root node when there is none) is walked from
 //!   its roots; node matrices or TRS are composed, positions and normals moved into the
 //!   file's frame (normals by the inverse transpose; mirroring nodes flip the winding).
-//! - Every primitive becomes a [`Part`]: `TRIANGLES` as is, `TRIANGLE_STRIP` and
+//! - Every primitive becomes a [`Part`](crate::Part): `TRIANGLES` as is, `TRIANGLE_STRIP` and
 //!   `TRIANGLE_FAN` converted to a list (with a warning), points and lines left out (with a
 //!   warning). Primitives whose material is `alphaMode: BLEND` or has
 //!   `KHR_materials_transmission` (glass, lamp shades) are left out with a warning: `luxbake`
@@ -12,7 +12,7 @@
 //!   JPEG, decoded to linear); `KHR_texture_transform` is applied to the material UVs and its
 //!   `texCoord` override honoured. Sampler wrap modes are not read (textures repeat).
 //! - Light-map UVs: `TEXCOORD_1` when present and accepted by [`crate::uv::check`], else
-//!   generated ([`crate::model`] documents both paths).
+//!   generated ([`UvSource`](crate::UvSource) records which).
 //! - `KHR_lights_punctual` point and spot lights become [`Light`]s (intensity in candela, the
 //!   node's −Z as the spot direction); directional lights are left out with a warning.
 //! - Accessors are read by our own checked reader (every offset, stride and count is

@@ -14,7 +14,7 @@
 //!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.
 //!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
 //!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o₀ = offset(p, n̂)`
-//!   ([`offset_origin`](crate::backend::offset_origin), size term `SceneData::ray_epsilon`),
+//!   ([`offset_origin`], size term `SceneData::ray_epsilon`),
 //!   `δ² = |o₀ − p|²`; when the lamp is nearer than four offsets (`16δ² > d²`) the origin is
 //!   `p + n̂·(d/4)` instead, else `o₀`. Direction `L − o` (unnormalised), any hit with
 //!   `t ∈ (0, 1 − s/|L − o|)`, `s = min(|offset(L, −ω) − L|, d/4)` (the lamp's own offset

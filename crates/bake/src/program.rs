@@ -786,8 +786,8 @@ pub enum Program {
 ///
 /// A grid texel's rays stand for its cell of `stride²` texels; an orphan lies in a strip
 /// narrower than the grid (a chair leg's chart, a chart's corner) and stands for itself, so it
-/// gets [`orphan_rays`]`(rays, stride)` = ⌈rays / stride⌉: still more rays per texel of
-/// surface than the grid's `rays / stride²`.
+/// gets [`orphan_rays`](coarse::orphan_rays)`(rays, stride)` = ⌈rays / stride⌉: still more
+/// rays per texel of surface than the grid's `rays / stride²`.
 pub mod coarse {
     /// Rays of an orphan of a gather of `rays` rays per grid texel at `stride`.
     pub fn orphan_rays(rays: u32, stride: u32) -> u32 {
