@@ -7,10 +7,10 @@
 //! runs the end-to-end test in headless Chromium.
 //!
 //! ## Threads
-//! The bake runs in a module Web Worker ([`web::Baker`], on an `OffscreenCanvas` WebGL2
-//! context) so that the page stays interactive during a bake; the worker reports every pass
+//! The bake runs in a module Web Worker (`web::Baker`, wasm32 only, on an `OffscreenCanvas`
+//! WebGL2 context) so that the page stays interactive during a bake; the worker reports every pass
 //! start, tile and pass time, and sends the final maps back. The page's thread owns the
-//! display context ([`web::Viewer`]). Both build the same [`luxbake::scene::Scene`] from the
+//! display context (`web::Viewer`). Both build the same [`luxbake::scene::Scene`] from the
 //! same [`BakeRequest`] ([`build_scene`]).
 //!
 //! ## What is displayed
