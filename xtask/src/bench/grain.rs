@@ -56,7 +56,7 @@ const KINDS: [&str; 3] = ["floor", "ceiling", "walls"];
 
 /// Per receiver map, the valid texels and their surface kind (index into [`KINDS`]) by the
 /// G-buffer normal.
-fn surface_texels(scene: &Scene, out: &BakeOutput) -> Vec<(usize, u32, u32, usize)> {
+pub(super) fn surface_texels(scene: &Scene, out: &BakeOutput) -> Vec<(usize, u32, u32, usize)> {
     let g = rasterize(scene, &out.layout);
     let mut texels = Vec::new();
     for (m, maps) in out.maps.iter().enumerate() {

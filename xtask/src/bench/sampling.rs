@@ -19,7 +19,6 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use luxbake::bake::BakeOutput;
-use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
@@ -53,22 +52,14 @@ fn scene_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
 }
 
-/// The floor texels: per receiver map, the texel coordinates whose G-buffer normal points up.
+/// The floor texels: per receiver map, the texel coordinates whose G-buffer normal points up
+/// (the floor kind of [`super::grain::surface_texels`]).
 fn floor_texels(scene: &Scene, out: &BakeOutput) -> Vec<(usize, u32, u32)> {
-    let g = rasterize(scene, &out.layout);
-    let mut texels = Vec::new();
-    for (m, maps) in out.maps.iter().enumerate() {
-        let r = maps.region;
-        for y in 0..r.size[1] {
-            for x in 0..r.size[0] {
-                let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
-                if g.position[i + 3] > 0.5 && g.normal[i + 1] > 0.9 {
-                    texels.push((m, x, y));
-                }
-            }
-        }
-    }
-    texels
+    super::grain::surface_texels(scene, out)
+        .into_iter()
+        .filter(|t| t.3 == 0)
+        .map(|(m, x, y, _)| (m, x, y))
+        .collect()
 }
 
 /// The indirect illuminance (lux, photometric Y) of `out` at `texels`.
