@@ -95,7 +95,7 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
     scene.lamps = vec![Lamp::new(
         "iso",
         Arc::new(Photometry::isotropic(I0)),
-        [0.0, h as f32, 0.0],
+        [0.0, f64::from(h as f32), 0.0],
     )];
     let mut tally = Tally::new("floor_inverse_square_cosine");
     for backend in GPU {

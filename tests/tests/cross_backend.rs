@@ -159,7 +159,7 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
         lamps: vec![Lamp::new(
             "isotropic",
             Arc::new(luxbake_ies::Photometry::isotropic(1000.0)),
-            [size[0] / 2.0 - 1e-4, 1.25, 0.3],
+            [f64::from(size[0] / 2.0 - 1e-4), 1.25, 0.3],
         )],
         settings: settings.clone(),
     };

@@ -214,13 +214,19 @@ fn stem(path: &Path) -> String {
         .unwrap_or_else(|| "scene".into())
 }
 
-fn matrix(o: &Object) -> Vec<f32> {
+/// The node's column-major matrix: the linear part's f32 values, and the f64 translation so
+/// that a room kilometres out keeps its millimetres in the JSON.
+fn matrix(o: &Object) -> Vec<serde_json::Value> {
     let l = &o.transform.linear;
     let t = o.transform.translation;
-    vec![
-        l[0][0], l[0][1], l[0][2], 0.0, l[1][0], l[1][1], l[1][2], 0.0, l[2][0], l[2][1], l[2][2],
-        0.0, t[0], t[1], t[2], 1.0,
-    ]
+    let mut m: Vec<serde_json::Value> = Vec::with_capacity(16);
+    for col in l {
+        m.extend(col.iter().map(|&v| json!(v)));
+        m.push(json!(0.0));
+    }
+    m.extend(t.iter().map(|&v| json!(v)));
+    m.push(json!(1.0));
+    m
 }
 
 fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Encoded, AssetError> {

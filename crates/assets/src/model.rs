@@ -108,7 +108,7 @@ impl Light {
     /// at `position`, aimed along `direction`, tinted by `color`.
     pub fn to_lamp(&self, photometry: Option<Arc<Photometry>>) -> Lamp {
         let p = photometry.unwrap_or_else(|| Arc::new(self.photometry()));
-        let mut lamp = Lamp::new(self.name.clone(), p, self.position);
+        let mut lamp = Lamp::new(self.name.clone(), p, self.position.map(f64::from));
         lamp.aim = self.direction;
         lamp.color = self.color;
         lamp

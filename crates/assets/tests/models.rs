@@ -78,7 +78,7 @@ fn floor(s: &Settings, y: f32) -> Object {
     Object {
         name: "ground_plane".into(),
         mesh: meshes::plane([6.0, 6.0], 4.0 / s.texels_per_metre),
-        transform: Transform::from_trs([0.0, y, 0.0], [0.0; 3], [1.0; 3]),
+        transform: Transform::from_trs([0.0, f64::from(y), 0.0], [0.0; 3], [1.0; 3]),
         albedo: Albedo::grey(0.5),
         receiver: true,
         texel_scale: 1.0,
@@ -133,7 +133,7 @@ fn each_model_loads_bakes_exports_and_reimports() {
             vec![Lamp::new(
                 "iso",
                 Arc::new(Photometry::isotropic(200.0)),
-                top,
+                top.map(f64::from),
             )]
         } else {
             model.lights.iter().map(|l| l.to_lamp(None)).collect()
@@ -402,7 +402,7 @@ fn furnished_room(dir: &Path, s: &Settings) -> Scene {
         receiver: true,
         texel_scale: 1.0,
     }];
-    for (i, x) in [-1.5f32, 0.0, 1.5].iter().enumerate() {
+    for (i, x) in [-1.5f64, 0.0, 1.5].iter().enumerate() {
         let t = Transform::from_trs([*x, 0.0, 1.2], [0.0, 180.0, 0.0], [1.0; 3]);
         objs.extend(objects(&chair, t, &format!("chair{i}_")));
     }

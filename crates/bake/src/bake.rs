@@ -523,7 +523,7 @@ pub fn bake<B: GpuBackend>(
         .iter()
         .enumerate()
         .map(|(i, l)| LampParams {
-            position: l.position,
+            position: l.position.map(|c| c as f32),
             world_to_photometric: l.world_to_photometric_matrix(),
             scale: l.color.map(|c| c * l.multiplier),
             table: i as u32,

@@ -60,6 +60,8 @@
 //!   floored at the texel's offset squared (the same rule in every backend) and every map value
 //!   is guarded (no NaN or infinity is ever stored). A scene far from the origin is baked moved
 //!   next to it ([`bake::recentring_shift`]): the maps do not depend on where it stands.
+//!   Object translations and lamp positions are f64 (scene-file numbers are kept as read), so
+//!   a room placed at 10 km keeps its millimetres and bakes exactly like the room at the origin.
 //! - **Indirect**: per texel, N cosine-weighted hemisphere rays; at each closest hit the hit
 //!   object's reflected map is read (masked bilinear, [`map`]) at the hit's light-map UV.
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face

@@ -254,8 +254,10 @@ impl Albedo {
 pub struct Transform {
     /// Columns of the 3×3 linear part.
     pub linear: [[f32; 3]; 3],
-    /// Translation, metres.
-    pub translation: [f32; 3],
+    /// Translation, metres, in double precision so that a room placed kilometres from the
+    /// origin keeps its millimetres (f32 has a 1 mm step at 10 km): [`crate::bake::bake`]
+    /// moves such a scene next to the origin before anything is rounded to f32.
+    pub translation: [f64; 3],
 }
 
 impl Transform {
@@ -270,7 +272,7 @@ impl Transform {
     /// (right-handed: positive angles turn counter-clockwise looking down the axis toward the
     /// origin), then translate.
     pub fn from_trs(
-        translation: [f32; 3],
+        translation: [f64; 3],
         rotation_deg_xyz: [f32; 3],
         scale: [f32; 3],
     ) -> Transform {
@@ -291,8 +293,7 @@ impl Transform {
 
     /// [`Transform::point`] in double precision.
     pub fn point_f64(&self, p: [f64; 3]) -> [f64; 3] {
-        let translation = Vec3::from(self.translation).as_dvec3();
-        (self.linear_f64() * DVec3::from(p) + translation).to_array()
+        (self.linear_f64() * DVec3::from(p) + DVec3::from(self.translation)).to_array()
     }
 
     /// The linear part in double precision.
@@ -366,8 +367,8 @@ pub struct Lamp {
     pub name: String,
     /// The luminous intensity distribution (candela), including its multipliers.
     pub photometry: Arc<Photometry>,
-    /// Photometric centre, metres, world.
-    pub position: [f32; 3],
+    /// Photometric centre, metres, world; double precision like [`Transform::translation`].
+    pub position: [f64; 3],
     /// World direction of the photometric nadir (default `[0, -1, 0]`), need not be unit length.
     pub aim: [f32; 3],
     /// Turn of the C0 plane about the aim axis, degrees: right-handed about the photometric
@@ -382,7 +383,7 @@ pub struct Lamp {
 
 impl Lamp {
     /// A lamp with the default frame (aim straight down, no rotation), multiplier 1, white.
-    pub fn new(name: impl Into<String>, photometry: Arc<Photometry>, position: [f32; 3]) -> Lamp {
+    pub fn new(name: impl Into<String>, photometry: Arc<Photometry>, position: [f64; 3]) -> Lamp {
         Lamp {
             name: name.into(),
             photometry,
@@ -912,23 +913,25 @@ impl Scene {
     pub fn scaled(&self, factor: f32) -> Scene {
         let mut s = self.clone();
         let scale = |v: [f32; 3]| (Vec3::from(v) * factor).to_array();
+        let scale_f64 = |v: [f64; 3]| v.map(|c| c * f64::from(factor));
         for o in &mut s.objects {
             o.transform.linear = o.transform.linear.map(scale);
-            o.transform.translation = scale(o.transform.translation);
+            o.transform.translation = scale_f64(o.transform.translation);
         }
         for l in &mut s.lamps {
-            l.position = scale(l.position);
+            l.position = scale_f64(l.position);
         }
         s.settings.texels_per_metre /= factor;
         s
     }
 
-    /// The same scene moved by `offset` metres: object translations and lamp positions (in
-    /// f64, rounded once to f32). Every light map keeps its size and every texel its place
-    /// on the surface; illuminances stay the same up to the f32 rounding of far coordinates.
+    /// The same scene moved by `offset` metres: object translations and lamp positions (f64).
+    /// Every light map keeps its size and every texel its place on the surface; moved back
+    /// by [`crate::bake::bake`]'s re-centring, a scene at 10 km bakes like the original
+    /// (the sums are exact while the offset and the coordinates fit f64's 53 bits together).
     pub fn translated(&self, offset: [f64; 3]) -> Scene {
         let mut s = self.clone();
-        let add = |v: [f32; 3]| std::array::from_fn(|c| (f64::from(v[c]) + offset[c]) as f32);
+        let add = |v: [f64; 3]| std::array::from_fn(|c| v[c] + offset[c]);
         for o in &mut s.objects {
             o.transform.translation = add(o.transform.translation);
         }
@@ -1210,7 +1213,10 @@ mod tests {
             for k in 0..3 {
                 assert!((q[k] - p[k] * f).abs() <= 1e-5 * f.max(1.0), "{p:?} {q:?}");
             }
-            assert_eq!(t.lamps[0].position, s.lamps[0].position.map(|v| v * f));
+            assert_eq!(
+                t.lamps[0].position,
+                s.lamps[0].position.map(|v| v * f64::from(f))
+            );
         }
     }
 

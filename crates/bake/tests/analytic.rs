@@ -114,7 +114,11 @@ fn floor_scene(density: f32, lamp: Lamp) -> Scene {
 }
 
 fn isotropic(cd: f64, position: [f32; 3]) -> Lamp {
-    Lamp::new("iso", Arc::new(Photometry::isotropic(cd)), position)
+    Lamp::new(
+        "iso",
+        Arc::new(Photometry::isotropic(cd)),
+        position.map(f64::from),
+    )
 }
 
 // Test 1a: E(r) = I·h / (h² + r²)^{3/2} on the floor, at every texel and at 20 points.
@@ -163,7 +167,7 @@ fn asym_lamp(test: &str, position: [f32; 3], rotation_deg: f32) -> Option<Lamp> 
     let mut l = Lamp::new(
         "asym",
         Arc::new(Photometry::parse(&bytes).expect("parse")),
-        position,
+        position.map(f64::from),
     );
     l.rotation_deg = rotation_deg;
     Some(l)
@@ -255,7 +259,11 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
     let h = 2.0f64;
     let photometry = Arc::new(Photometry::parse(TILTED_ISOTROPIC_IES.as_bytes()).expect("parse"));
     let bake_at = |tilt_deg: f64| {
-        let mut lamp = Lamp::new("tilted", Arc::clone(&photometry), [0.0, h as f32, 0.0]);
+        let mut lamp = Lamp::new(
+            "tilted",
+            Arc::clone(&photometry),
+            [0.0, f64::from(h as f32), 0.0],
+        );
         let t = tilt_deg.to_radians();
         lamp.aim = [t.sin() as f32, -t.cos() as f32, 0.0];
         assert!(
@@ -517,7 +525,7 @@ fn scaled_scenes_scale_as_inverse_square() {
     for s in [1e-3f32, 1e3] {
         let mut scene = base.clone();
         scene.objects[0].transform = Transform::from_trs([0.0; 3], [0.0; 3], [s; 3]);
-        scene.lamps[0].position = [0.0, h * s, 0.0];
+        scene.lamps[0].position = [0.0, f64::from(h * s), 0.0];
         scene.settings.texels_per_metre = 4.0 / s;
         let out = run(&scene);
         assert_finite(&out);
@@ -673,7 +681,7 @@ fn gather_matches_form_factor_quadrature() {
         name: name.into(),
         mesh: meshes::plane([size; 2], pad),
         transform: Transform::from_trs(
-            [0.0, y, 0.0],
+            [0.0, f64::from(y), 0.0],
             [if flip { 180.0 } else { 0.0 }, 0.0, 0.0],
             [1.0; 3],
         ),

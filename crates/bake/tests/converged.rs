@@ -83,7 +83,7 @@ fn shadow_edge_scene(settings: Settings) -> Scene {
     let object = |name: &str, size: f32, y: f32, albedo: f32, receiver: bool| Object {
         name: name.into(),
         mesh: meshes::plane([size; 2], padding),
-        transform: Transform::from_trs([0.0, y, 0.0], [0.0; 3], [1.0; 3]),
+        transform: Transform::from_trs([0.0, f64::from(y), 0.0], [0.0; 3], [1.0; 3]),
         albedo: Albedo::grey(albedo),
         receiver,
         texel_scale: 1.0,

@@ -136,61 +136,93 @@ fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
     }
 }
 
+/// Mean illuminance of the floor within 2 texels of a contact and 2–5 texels out (with their
+/// texel counts), and the valid floor texels deeper than a texel inside a contact.
+fn floor_near_contacts(scene: &Scene, out: &luxbake::bake::BakeOutput) -> [f64; 5] {
+    let g = rasterize(scene, &out.layout);
+    let room = out.maps.iter().find(|m| m.object == 0).expect("room");
+    let r = room.region;
+    let e = room.illuminance();
+    let quads = contacts(scene);
+    let s = 1.0 / scene.settings.texels_per_metre;
+    let (w, h) = (g.layer_size[0] as usize, g.layer_size[1] as usize);
+    let (mut near, mut far, mut lit_inside) = (Vec::new(), Vec::new(), 0);
+    for (i, p) in floor_texels(&g) {
+        let (x, y) = (i % w, (i / w) % h);
+        let (lx, ly) = (
+            (x - r.offset[0] as usize) as u32,
+            (y - r.offset[1] as usize) as u32,
+        );
+        let t = e.texel(lx, ly);
+        let d = contact_distance(p, &quads);
+        if d < 0.0 {
+            lit_inside += usize::from(t[3] > 0.5 && d < -s);
+            continue;
+        }
+        if t[3] <= 0.5 {
+            continue;
+        }
+        let v = 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
+        if d <= 2.0 * s {
+            near.push(v);
+        } else if d <= 5.0 * s {
+            far.push(v);
+        }
+    }
+    let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len().max(1) as f64;
+    [
+        mean(&near),
+        mean(&far),
+        near.len() as f64,
+        far.len() as f64,
+        lit_inside as f64,
+    ]
+}
+
 /// In the bake, no floor texel deeper than a texel inside a leg or foot stays valid (the sofa
-/// had 16 before), and around the chairs' legs the floor within 2 texels is within noise of
-/// the floor 2–5 texels out (mean ratio 0.940; 0.887 before, when texels inside the legs read
-/// dark and were blurred out). Figures for 8 rays, 1 bounce, the paper's σ 2 blur, CPU. The
-/// sofa's feet stand under its plinth 8 cm above the floor, so the floor near them is
-/// darker for real (ratio 0.652; 0.603 before) and only the first check applies there.
+/// had 16 before), and the floor within 2 texels of a contact is, relative to the floor 2–5
+/// texels out, at least as bright as in an unblurred 64-ray bake of the same scene (which no
+/// filter can darken) up to noise. Around the chairs' legs the ratio is 0.940 against 0.955
+/// unblurred (0.887 before, when texels inside the legs read dark and were blurred in). The
+/// sofa's feet stand under its plinth 8 cm above the floor, so the floor near them is darker
+/// for real: 0.480 unblurred; the paper's σ 2 blur lightens it to 0.652 (0.603 before the
+/// validity pass), it does not darken it. Figures for 8 rays, 1 bounce, CPU.
 #[test]
 fn the_floor_at_a_contact_is_not_darker_than_next_to_it() {
     for name in ["chairs_01", "sofa_01"] {
         let scene = Scene::builtin_with_settings(name, settings()).expect("builtin");
         let out = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {}).expect("bake");
-        let g = rasterize(&scene, &out.layout);
-        let room = out.maps.iter().find(|m| m.object == 0).expect("room");
-        let r = room.region;
-        let e = room.illuminance();
-        let quads = contacts(&scene);
-        let s = 1.0 / scene.settings.texels_per_metre;
-        let (w, h) = (g.layer_size[0] as usize, g.layer_size[1] as usize);
-        let (mut near, mut far, mut lit_inside) = (Vec::new(), Vec::new(), 0);
-        for (i, p) in floor_texels(&g) {
-            let (x, y) = (i % w, (i / w) % h);
-            let (lx, ly) = (
-                (x - r.offset[0] as usize) as u32,
-                (y - r.offset[1] as usize) as u32,
-            );
-            let t = e.texel(lx, ly);
-            let d = contact_distance(p, &quads);
-            if d < 0.0 {
-                lit_inside += usize::from(t[3] > 0.5 && d < -s);
-                continue;
-            }
-            if t[3] <= 0.5 {
-                continue;
-            }
-            let v = 0.2126 * t[0] + 0.7152 * t[1] + 0.0722 * t[2];
-            if d <= 2.0 * s {
-                near.push(v);
-            } else if d <= 5.0 * s {
-                far.push(v);
-            }
-        }
-        let mean = |v: &[f32]| v.iter().map(|&x| f64::from(x)).sum::<f64>() / v.len() as f64;
-        let (mn, mf) = (mean(&near), mean(&far));
+        let reference_settings = Settings {
+            rays: 64,
+            blur: luxbake::scene::Blur::None,
+            ..scene.settings
+        };
+        let reference = bake(
+            &mut CpuBackend::new(),
+            &scene,
+            &reference_settings,
+            &mut |_| {},
+        )
+        .expect("bake");
+        let [mn, mf, n_near, n_far, lit_inside] = floor_near_contacts(&scene, &out);
+        let [rn, rf, ..] = floor_near_contacts(&scene, &reference);
+        let (ratio, reference_ratio) = (mn / mf, rn / rf);
         eprintln!(
-            "{name}: floor within 2 texels of a contact {mn:.2} lx ({} texels), 2-5 texels \
-             {mf:.2} lx ({}), ratio {:.3}; valid texels deeper than a texel inside: {lit_inside}",
-            near.len(),
-            far.len(),
-            mn / mf
+            "{name}: floor within 2 texels of a contact {mn:.2} lx ({n_near} texels), 2-5 \
+             texels {mf:.2} lx ({n_far}), ratio {ratio:.3} (unblurred 64 rays: {rn:.2} / \
+             {rf:.2} = {reference_ratio:.3}); valid texels deeper than a texel inside: \
+             {lit_inside}"
         );
-        assert_eq!(lit_inside, 0, "{name}");
-        assert!(near.len() > 20 && far.len() > 20, "{name}");
+        assert_eq!(lit_inside, 0.0, "{name}");
+        assert!(n_near > 20.0 && n_far > 20.0, "{name}");
+        // Noise of 8-ray means over the few dozen texels near the contacts: a few per cent.
+        assert!(
+            ratio > reference_ratio - 0.05,
+            "{name}: contact ratio {ratio} vs {reference_ratio} unblurred"
+        );
         if name == "chairs_01" {
             assert!(
-                mn > 0.92 * mf,
+                ratio > 0.92,
                 "{name}: {mn} lx at contacts vs {mf} lx next to them"
             );
         }

@@ -273,7 +273,7 @@ fn furnished_room(models: &Path) -> Result<Scene, String> {
         Transform::IDENTITY,
     )];
     for (i, x) in [-1.5f32, 0.0, 1.5].iter().enumerate() {
-        let t = Transform::from_trs([*x, 0.0, 1.2], [0.0, 180.0, 0.0], [1.0; 3]);
+        let t = Transform::from_trs([f64::from(*x), 0.0, 1.2], [0.0, 180.0, 0.0], [1.0; 3]);
         for p in &chair.parts {
             objects.push(object(format!("chair{i}_{}", p.name), p.mesh.clone(), t));
         }

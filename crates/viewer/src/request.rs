@@ -261,7 +261,9 @@ pub fn build_scene(request: &BakeRequest, lamp_file: Option<&[u8]>) -> Result<Sc
     let default_position = scene
         .lamps
         .first()
-        .map_or([0.0, ROOM_SIZE[1] - 0.05, 0.0], |l| l.position);
+        .map_or([0.0, ROOM_SIZE[1] - 0.05, 0.0], |l| {
+            l.position.map(|c| c as f32)
+        });
     let position = spec.position.unwrap_or(default_position);
     let half = [ROOM_SIZE[0] / 2.0, ROOM_SIZE[1], ROOM_SIZE[2] / 2.0];
     let inside = (0..3).all(|i| {
@@ -277,7 +279,11 @@ pub fn build_scene(request: &BakeRequest, lamp_file: Option<&[u8]>) -> Result<Sc
             ),
         });
     }
-    let mut lamp = Lamp::new(spec.source.clone(), Arc::new(photometry), position);
+    let mut lamp = Lamp::new(
+        spec.source.clone(),
+        Arc::new(photometry),
+        position.map(f64::from),
+    );
     lamp.aim = spec.aim();
     lamp.rotation_deg = spec.rotation_deg;
     lamp.multiplier = spec.multiplier;
@@ -297,7 +303,7 @@ mod tests {
         assert_eq!(scene.lamps.len(), 1);
         let lamp = &scene.lamps[0];
         assert_eq!(lamp.aim, [0.0, -1.0, 0.0]);
-        assert!((lamp.position[1] - (ROOM_SIZE[1] - 0.05)).abs() < 1e-6);
+        assert!((lamp.position[1] - f64::from(ROOM_SIZE[1] - 0.05)).abs() < 1e-6);
         assert_eq!(scene.settings.texels_per_metre, 32.0);
         let preset = Settings::default();
         assert_eq!(

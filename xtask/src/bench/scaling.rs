@@ -31,7 +31,7 @@ fn with_triangles(base: &Scene, target: usize) -> Scene {
             name: format!("occluder_{i}"),
             transform: Transform {
                 linear,
-                translation: [f(a, -2.0, 2.0), f(c, 0.3, 2.2), f(b, -1.6, 1.6)],
+                translation: [f(a, -2.0, 2.0), f(c, 0.3, 2.2), f(b, -1.6, 1.6)].map(f64::from),
             },
             receiver: false,
             ..chair.clone()

@@ -129,12 +129,12 @@ pub fn default_photometry() -> Result<Arc<Photometry>, SceneError> {
 }
 
 /// The default downlight at `position`, aimed straight down.
-pub fn default_lamp(position: [f32; 3]) -> Result<Lamp, SceneError> {
+pub fn default_lamp(position: [f64; 3]) -> Result<Lamp, SceneError> {
     Ok(Lamp::new("downlight", default_photometry()?, position))
 }
 
 /// An isotropic lamp of `candela` in every direction at `position`.
-pub fn isotropic_lamp(candela: f64, position: [f32; 3]) -> Lamp {
+pub fn isotropic_lamp(candela: f64, position: [f64; 3]) -> Lamp {
     Lamp::new(
         format!("isotropic {candela} cd"),
         Arc::new(Photometry::isotropic(candela)),
@@ -175,7 +175,7 @@ fn room(settings: &Settings) -> Object {
 
 fn placed(placement: [f32; 3]) -> Transform {
     Transform::from_trs(
-        [placement[0], 0.0, placement[1]],
+        [f64::from(placement[0]), 0.0, f64::from(placement[1])],
         [0.0, placement[2], 0.0],
         [1.0; 3],
     )
@@ -183,7 +183,7 @@ fn placed(placement: [f32; 3]) -> Transform {
 
 /// Builds the built-in scene `name` with `settings`.
 pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
-    let ceiling_lamp = [0.0, ROOM_SIZE[1] - LAMP_BELOW_CEILING, 0.0];
+    let ceiling_lamp = [0.0, f64::from(ROOM_SIZE[1] - LAMP_BELOW_CEILING), 0.0];
     let (objects, lamps) = match name {
         "chairs_01" | "chairs_03" | "chairs_05" | "chairs_10" => {
             let count: usize = name[7..].parse().unwrap_or(1);
@@ -225,7 +225,7 @@ pub fn scene(name: &str, settings: Settings) -> Result<Scene, SceneError> {
                 )],
                 vec![isotropic_lamp(
                     ISOTROPIC_CANDELA,
-                    [0.0, FLOOR_LAMP_HEIGHT, 0.0],
+                    [0.0, f64::from(FLOOR_LAMP_HEIGHT), 0.0],
                 )],
             )
         }
@@ -317,7 +317,7 @@ mod tests {
         for name in ["chairs_10", "sofa_01"] {
             let s = Scene::builtin(name).expect("builtin");
             let room = bounds(&s.objects[0]);
-            let lamp = s.lamps[0].position;
+            let lamp = s.lamps[0].position.map(|c| c as f32);
             let furniture: Vec<_> = s.objects[1..].iter().map(bounds).collect();
             for (i, b) in furniture.iter().enumerate() {
                 for k in 0..3 {
@@ -353,7 +353,10 @@ mod tests {
         let s = Scene::builtin("floor").expect("floor");
         let b = bounds(&s.objects[0]);
         assert_eq!(b, [[-10.0, 0.0, -10.0], [10.0, 0.0, 10.0]]);
-        assert_eq!(s.lamps[0].position, [0.0, FLOOR_LAMP_HEIGHT, 0.0]);
+        assert_eq!(
+            s.lamps[0].position,
+            [0.0, f64::from(FLOOR_LAMP_HEIGHT), 0.0]
+        );
         assert_eq!(
             s.lamps[0].photometry.intensity([0.3, 0.4, -0.5]),
             ISOTROPIC_CANDELA

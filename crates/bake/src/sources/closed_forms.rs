@@ -49,7 +49,7 @@ pub fn cie_171_5_8(rho: f32, settings: Settings) -> (Scene, f64) {
         lamps: vec![Lamp::new(
             "source",
             Arc::new(Photometry::isotropic(CIE_5_8_FLUX / (4.0 * PI))),
-            [0.0, edge / 2.0, 0.0],
+            [0.0, f64::from(edge) / 2.0, 0.0],
         )],
         settings,
     };

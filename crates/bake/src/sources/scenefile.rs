@@ -517,7 +517,7 @@ impl Cx<'_> {
         let key = |k: &str| format!("lamp[{i}].{k}");
         let ies = raw.ies.as_deref().unwrap_or("builtin:downlight");
         let photometry = self.photometry(&key("ies"), ies)?;
-        let position = self.finite3(&key("position"), raw.position)?;
+        let position = self.finite3_f64(&key("position"), raw.position)?;
         let mut lamp = Lamp::new(
             raw.name.unwrap_or_else(|| format!("lamp_{i}")),
             photometry,
@@ -918,7 +918,7 @@ impl Cx<'_> {
         };
 
         let position = match raw.position {
-            Some(p) => self.finite3(&key("position"), p)?,
+            Some(p) => self.finite3_f64(&key("position"), p)?,
             None => [0.0; 3],
         };
         let rotation = match raw.rotation_deg {
@@ -976,7 +976,7 @@ impl Cx<'_> {
             .into_iter()
             .map(|mut l| {
                 l.name = format!("{name}/{}", l.name);
-                l.position = transform.point(l.position);
+                l.position = transform.point_f64(l.position);
                 let m = &transform.linear;
                 let a = l.aim;
                 let aim: [f32; 3] =
@@ -1029,8 +1029,13 @@ impl Cx<'_> {
     }
 
     fn finite3(&self, key: &str, v: [f64; 3]) -> Result<[f32; 3], SceneError> {
+        Ok(self.finite3_f64(key, v)?.map(|c| c as f32))
+    }
+
+    /// [`Self::finite3`] kept in double precision (world placements).
+    fn finite3_f64(&self, key: &str, v: [f64; 3]) -> Result<[f64; 3], SceneError> {
         if v.iter().all(|c| c.is_finite() && c.abs() <= 1e9) {
-            Ok(v.map(|c| c as f32))
+            Ok(v)
         } else {
             Err(self.invalid(key, format!("{v:?}; expected three finite numbers")))
         }
@@ -1653,7 +1658,11 @@ mod tests {
         assert_eq!(s.lamps.len(), 1, "no [[lamp]]: the file's light alone");
         let l = &s.lamps[0];
         let near = |a: [f32; 3], b: [f32; 3]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5);
-        assert!(near(l.position, [1.0, 2.0, 2.0]), "{:?}", l.position);
+        assert!(
+            near(l.position.map(|c| c as f32), [1.0, 2.0, 2.0]),
+            "{:?}",
+            l.position
+        );
         // −Z turned 90° about +Y is −X; unit length despite the scale.
         assert!(near(l.aim, [-1.0, 0.0, 0.0]), "{:?}", l.aim);
         assert_eq!((l.multiplier, l.name.as_str()), (3.0, "lamp/bulb"));

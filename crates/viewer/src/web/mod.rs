@@ -321,7 +321,10 @@ impl Viewer {
         }
         self.meshes = meshes;
         self.maps = new_maps;
-        self.lamp = scene.lamps.first().map_or(self.lamp, |l| l.position);
+        self.lamp = scene
+            .lamps
+            .first()
+            .map_or(self.lamp, |l| l.position.map(|c| c as f32));
         self.upload().map_err(js_err)
     }
 
