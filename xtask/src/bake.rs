@@ -89,6 +89,9 @@ pub struct Args {
     /// Converged: the relative standard error per texel that refinement aims at.
     #[arg(long)]
     refine_error: Option<f32>,
+    /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
+    #[arg(long)]
+    lamp_paths: Option<u32>,
 }
 
 impl Args {
@@ -127,6 +130,9 @@ impl Args {
         }
         if let Some(v) = self.refine_rays {
             s.refine_rays = v;
+        }
+        if let Some(v) = self.lamp_paths {
+            s.lamp_paths = v;
         }
         if let Some(v) = self.refine_error {
             s.refine_error = v;

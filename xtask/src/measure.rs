@@ -85,6 +85,9 @@ fn settings_from(manifest: &Value) -> Result<Settings, String> {
     if let Some(v) = s["stride"].as_u64() {
         out.stride = v as u32;
     }
+    if let Some(v) = s["lamp_paths"].as_u64() {
+        out.lamp_paths = v as u32;
+    }
     if let Some(v) = s["higher_rays"].as_u64() {
         out.higher_rays = v as u32;
     }

@@ -24,13 +24,14 @@ use std::fmt;
 // std's clock panics (the bake runs in a browser in `luxbake-viewer`).
 use web_time::Instant;
 
-use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
+use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, WideBvh, encode};
 use luxbake_ies::GpuTable;
 
 use crate::backend::{Dispatch, GpuBackend, LampParams, SceneData, ray_epsilon};
 use crate::gbuffer::{GBuffer, rasterize};
 use crate::graph::{BakeGraph, GraphConfig, GraphError, PassKind, TexId};
 use crate::layout::{Layout, LayoutError, Region};
+use crate::lightpaths::{self, LampPaths};
 use crate::map::MapImage;
 use crate::program::{CombineParams, Params, TilePlan};
 use crate::scene::{BvhMode, Method, Scene, Settings};
@@ -78,7 +79,8 @@ pub enum BakeError<E: std::error::Error + 'static> {
 /// Progress events of a bake, in order.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Progress<'a> {
-    /// A set-up step starts ("layout", "rasterise", "bvh", "unocclude", "upload", "read back").
+    /// A set-up step starts ("layout", "rasterise", "bvh", "unocclude", "lamp paths", "upload",
+    /// "read back").
     Setup(&'a str),
     /// Pass `index` of `count` starts.
     PassStart {
@@ -156,6 +158,13 @@ pub enum Skipped {
         /// Relative energy the last bounce run added.
         added: f32,
     },
+    /// [`Settings::lamp_paths`] were asked for but not combined with the first bounce: it is
+    /// gathered at reduced resolution or refined (the weights need every texel gathered with
+    /// one ray count), or the bake has no bounce or no lamp that lights anything.
+    LampPaths {
+        /// Why.
+        reason: &'static str,
+    },
     /// Brute-force traversal replaced the requested BVH.
     Bvh {
         /// The requested traversal.
@@ -181,6 +190,7 @@ impl fmt::Display for Skipped {
                 from - 1,
                 added * 100.0
             ),
+            Skipped::LampPaths { reason } => write!(f, "lamp paths: not used, {reason}"),
             Skipped::Bvh {
                 requested,
                 triangles,
@@ -554,6 +564,48 @@ pub fn bake<B: GpuBackend>(
         }
     }
 
+    // The direct pass evaluates the uploaded lamps: only those that light something.
+    let used_lamps: Vec<LampParams> = lamps_used.iter().map(|&l| lamps[l]).collect();
+
+    // First-bounce lamp paths, for every backend (crate::lightpaths).
+    let paths_off = if settings.method != Method::Converged || settings.lamp_paths == 0 {
+        None
+    } else if settings.bounces == 0 {
+        Some("no bounce")
+    } else if settings.stride > 1 {
+        Some("the first bounce is gathered at reduced resolution (stride > 1)")
+    } else if settings.refine_rays > 0 {
+        Some("the first bounce is refined (refine_rays > 0)")
+    } else if used_lamps.is_empty() {
+        Some("no lamp lights anything")
+    } else {
+        None
+    };
+    let with_paths =
+        settings.method == Method::Converged && settings.lamp_paths > 0 && paths_off.is_none();
+    if let Some(reason) = paths_off {
+        skipped.push(Skipped::LampPaths { reason });
+    }
+    let mut connected = None;
+    let mut density_scale = 0.0;
+    if with_paths {
+        progress(&Progress::Setup("lamp paths"));
+        let t = Instant::now();
+        let wide = WideBvh::from_encoded(&encoded);
+        let geometry = lightpaths::Geometry {
+            encoded: &encoded,
+            wide: &wide,
+            regions: &layout.regions,
+            gbuffer: &gbuffer,
+            eps: ray_epsilon(half_extent),
+        };
+        let pool = LampPaths::trace(&geometry, &used_lamps, &tables, settings.seed);
+        density_scale = pool.density_scale;
+        connected =
+            Some(pool.connect(&geometry, settings.rays, settings.lamp_paths, settings.seed));
+        setup.push(("lamp paths", t.elapsed().as_secs_f64()));
+    }
+
     let mut graph = BakeGraph::build(&GraphConfig {
         layer_size: layout.layer_size,
         layers: layout.layers,
@@ -570,10 +622,13 @@ pub fn bake<B: GpuBackend>(
         higher_stride: settings.higher_stride,
         refine: Some((settings.refine_rays, settings.refine_error)),
         texel_size: receiver_texel_sizes(scene, settings.texels_per_metre),
+        lamp_paths: if with_paths {
+            (settings.lamp_paths, density_scale)
+        } else {
+            (0, 0.0)
+        },
     });
     graph.validate()?;
-    // The direct pass evaluates the uploaded lamps: only those that light something.
-    let used_lamps: Vec<LampParams> = lamps_used.iter().map(|&l| lamps[l]).collect();
 
     progress(&Progress::Setup("upload"));
     let t = Instant::now();
@@ -625,7 +680,13 @@ pub fn bake<B: GpuBackend>(
         });
         let t = Instant::now();
         if pass.kind == PassKind::GBuffer {
-            let sources = [&gbuffer.position, &gbuffer.normal, &gbuffer.albedo];
+            let empty = Vec::new();
+            let sources = [
+                &gbuffer.position,
+                &gbuffer.normal,
+                &gbuffer.albedo,
+                connected.as_ref().unwrap_or(&empty),
+            ];
             for (w, src) in pass.writes.iter().zip(sources) {
                 for l in 0..layout.layers as usize {
                     let slice = src

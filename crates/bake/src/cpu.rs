@@ -91,6 +91,7 @@ use crate::backend::{
 };
 use crate::graph::TexDesc;
 use crate::layout::Region;
+use crate::lightpaths;
 use crate::map::sample_masked;
 use crate::program::{
     AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, Params, Program,
@@ -403,6 +404,7 @@ fn gather_rays(
     seed: u32,
     o: [f32; 3],
     n: [f32; 3],
+    mis: Mis,
 ) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
     for s in rays {
@@ -430,11 +432,52 @@ fn gather_rays(
             region.size,
             uv,
         );
+        let weight = if mis.lamp_paths == 0 {
+            1.0
+        } else {
+            // The balance heuristic against the lamp paths (crate::lightpaths).
+            let ny = normalize(nh).unwrap_or([0.0; 3]);
+            let y = [0, 1, 2].map(|c| o[c] + hit.t * dir[c]);
+            let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
+            let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
+            lightpaths::gather_weight(
+                mis.rays,
+                mis.lamp_paths,
+                mis.density_scale,
+                lamp_density,
+                hit.t,
+                dot(n, dir),
+                -dot(ny, dir),
+            )
+        };
         for c in 0..3 {
-            sum[c] += m[c];
+            sum[c] += weight * m[c];
         }
     }
     sum
+}
+
+/// The gather's multiple-importance-sampling weights ([`crate::lightpaths`]): none when
+/// `lamp_paths` is 0.
+#[derive(Debug, Clone, Copy)]
+struct Mis {
+    /// Rays per texel of the gather (`N_C`).
+    rays: u32,
+    /// Lamp paths per texel (`K`).
+    lamp_paths: u32,
+    /// [`crate::lightpaths::LampPaths::density_scale`].
+    density_scale: f32,
+    /// Uploaded lamps the density sums over.
+    lamp_count: u32,
+}
+
+impl Mis {
+    const NONE: Mis = Mis {
+        rays: 0,
+        lamp_paths: 0,
+        density_scale: 0.0,
+        lamp_count: 0,
+    };
 }
 
 /// The gathered indirect illuminance at one texel (see the module docs); with
@@ -443,7 +486,7 @@ fn gather_rays(
 #[allow(clippy::too_many_arguments)]
 fn gather_texel(
     scene: &CpuScene,
-    [pos_map, nrm_map, reflected]: [View<'_>; 3],
+    [pos_map, nrm_map, reflected, connected]: [View<'_>; 4],
     trav: Trav,
     params: GatherParams,
     layer: u32,
@@ -473,12 +516,23 @@ fn gather_texel(
         params.seed,
         o,
         n,
+        Mis {
+            rays,
+            lamp_paths: params.lamp_paths,
+            density_scale: params.density_scale,
+            lamp_count: params.lamp_count,
+        },
     );
     let inv = 1.0 / rays as f32;
+    let c = if params.lamp_paths > 0 {
+        connected.fetch(layer, x, y)
+    } else {
+        [0.0; 4]
+    };
     [
-        guard(sum[0] * inv),
-        guard(sum[1] * inv),
-        guard(sum[2] * inv),
+        guard(sum[0] * inv + c[0]),
+        guard(sum[1] * inv + c[1]),
+        guard(sum[2] * inv + c[2]),
         1.0,
     ]
 }
@@ -613,6 +667,7 @@ fn refine_texel(
         params.seed,
         o,
         n,
+        Mis::NONE,
     );
     let total = (params.first_rays + params.rays) as f32;
     let k = params.first_rays as f32;
@@ -1125,7 +1180,7 @@ fn texel(
                 a[3],
             ]
         }
-        Params::Gather(p) => gather_texel(scene, [v[0], v[1], v[2]], trav, p, layer, x, y),
+        Params::Gather(p) => gather_texel(scene, [v[0], v[1], v[2], v[3]], trav, p, layer, x, y),
         Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
         Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
         Params::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),

@@ -175,6 +175,9 @@ pub struct GBufferTex {
     pub normal: TexId,
     /// Albedo, w = coverage.
     pub albedo: TexId,
+    /// The lamp paths' part of the first bounce ([`crate::lightpaths::LampPaths::connect`]),
+    /// when the bake has lamp paths ([`GraphConfig::lamp_paths`]).
+    pub connected: Option<TexId>,
 }
 
 /// The textures of the paper's Figure 5, numbered as there; `None` where the graph has no
@@ -236,6 +239,11 @@ pub struct GraphConfig {
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
     /// metres (the à-trous filter's chart test, [`AtrousConfig::texel_size`]).
     pub texel_size: [f32; 2],
+    /// [`Method::Converged`] with a first bounce at stride 1 and no refinement: lamp paths per
+    /// texel combined with the first gather ([`crate::lightpaths`]) and their
+    /// [`density_scale`](crate::lightpaths::LampPaths::density_scale); 0: none. With lamp
+    /// paths the G-buffer upload writes a fourth texture, [`GBufferTex::connected`].
+    pub lamp_paths: (u32, f32),
 }
 
 /// The bake's textures and passes, in execution order.
@@ -333,17 +341,20 @@ impl Builder {
 }
 
 /// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output.
-fn gbuffer_stage(b: &mut Builder) -> GBufferTex {
+fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
     let g = GBufferTex {
         position: b.texture("gbuffer_position"),
         normal: b.texture("gbuffer_normal"),
         albedo: b.texture("gbuffer_albedo"),
+        connected: lamp_paths.then(|| b.texture("lamp_paths")),
     };
+    let mut writes = vec![g.position, g.normal, g.albedo];
+    writes.extend(g.connected);
     b.pass(
         PassKind::GBuffer,
         "gbuffer",
         Vec::new(),
-        vec![g.position, g.normal, g.albedo],
+        writes,
         0,
         Params::None,
     );
@@ -432,6 +443,9 @@ struct GatherSampling {
     /// Grid stride (1: every texel) and its chart reach, metres.
     stride: u32,
     reach: f32,
+    /// Lamp paths combined with this gather, their density scale and the uploaded lamps
+    /// ([`GatherParams::lamp_paths`]); 0 paths: none.
+    lamp_paths: (u32, f32, u32),
 }
 
 /// Stage (5): one bounce of indirect light gathered from `reflected` into `indirect`; a
@@ -444,10 +458,16 @@ fn gather_stage(
     sampling: GatherSampling,
 ) {
     let reduced = sampling.stride > 1;
+    let (paths, density_scale, lamps) = sampling.lamp_paths;
+    // Without lamp paths the `connected` slot is not read: `reflected` stands in for it.
+    let connected = match g.connected {
+        Some(c) if paths > 0 => c,
+        _ => reflected,
+    };
     b.pass(
         PassKind::Gather { bounce },
         "gather",
-        vec![g.position, g.normal, reflected],
+        vec![g.position, g.normal, reflected, connected],
         vec![if reduced { coarse } else { indirect }],
         bounce,
         Params::Gather(GatherParams {
@@ -458,6 +478,9 @@ fn gather_stage(
             stride: sampling.stride.max(1),
             reach: sampling.reach,
             orphan_rays: coarse::orphan_rays(sampling.rays, sampling.stride),
+            lamp_paths: if g.connected.is_some() { paths } else { 0 },
+            density_scale,
+            lamp_count: lamps,
             ..GatherParams::default()
         }),
     );
@@ -554,7 +577,10 @@ fn denoise_stage(
 /// The converged pipeline ([`Method::Converged`], see the module docs).
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder::new(config);
-    let g = gbuffer_stage(&mut b);
+    let refine = config.refine.filter(|&(rays, _)| rays > 0);
+    let lamp_paths =
+        config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
+    let g = gbuffer_stage(&mut b, lamp_paths);
     let direct = direct_stage(&mut b, g, config.lamp_count);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
     let reflected_direct = b.texture("reflected_direct");
@@ -595,7 +621,6 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             texel_size: config.texel_size,
             ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
         };
-        let refine = config.refine.filter(|&(rays, _)| rays > 0);
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
             .then(|| b.texture("coarse"));
@@ -616,6 +641,11 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     config.higher_stride
                 },
                 reach: denoise.reach(),
+                lamp_paths: if k == 1 {
+                    (config.lamp_paths.0, config.lamp_paths.1, config.lamp_count)
+                } else {
+                    (0, 0.0, 0)
+                },
             };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
@@ -758,7 +788,7 @@ impl BakeGraph {
             return build_converged(config);
         }
         let mut b = Builder::new(config);
-        let g = gbuffer_stage(&mut b);
+        let g = gbuffer_stage(&mut b, false);
         let direct = direct_stage(&mut b, g, config.lamp_count);
         let direct_blurred = b.texture("direct_blurred");
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
@@ -817,6 +847,7 @@ impl BakeGraph {
                     sampler: config.sampler,
                     stride: 1,
                     reach: 0.0,
+                    lamp_paths: (0, 0.0, 0),
                 };
                 gather_stage(&mut b, g, [reflected, indirect, indirect], k, sampling);
                 combine_stage(&mut b, direct, indirect, combined, k);
@@ -885,9 +916,12 @@ impl BakeGraph {
             };
             match p.kind.program() {
                 None => {
-                    if !p.reads.is_empty() || p.writes.len() != 3 || p.params != Params::None {
+                    let uploads = 3 + usize::from(self.gbuffer.connected.is_some());
+                    if !p.reads.is_empty() || p.writes.len() != uploads || p.params != Params::None
+                    {
                         return Err(fail(
-                            "the G-buffer upload reads nothing, writes three textures and takes \
+                            "the G-buffer upload reads nothing, writes three textures (four with \
+                             lamp paths) and takes \
                              no parameters"
                                 .into(),
                         ));
@@ -976,6 +1010,7 @@ mod tests {
             refine: None,
             texel_size: [1.0 / 64.0; 2],
             sampler: Sampler::Sobol,
+            lamp_paths: (0, 0.0),
         }
     }
 
@@ -1200,6 +1235,54 @@ mod tests {
     }
 
     #[test]
+    fn lamp_paths_are_uploaded_and_read_by_the_first_gather_only() {
+        let config = GraphConfig {
+            method: Method::Converged,
+            lamp_paths: (4, 0.5),
+            ..config(3, Blur::Sigma(1.0))
+        };
+        let g = BakeGraph::build(&config);
+        g.validate().expect("valid");
+        let connected = g.gbuffer.connected.expect("lamp paths uploaded");
+        assert_eq!(g.passes[0].writes.len(), 4);
+        assert_eq!(g.passes[0].writes[3], connected);
+        let gathers: Vec<&PassDesc> = g
+            .passes
+            .iter()
+            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+            .collect();
+        assert_eq!(gathers.len(), 3);
+        for p in &gathers {
+            let Params::Gather(gp) = p.params else {
+                panic!("gather parameters");
+            };
+            if p.bounce == 1 {
+                assert_eq!(p.reads[3], connected);
+                assert_eq!(
+                    (gp.lamp_paths, gp.density_scale, gp.lamp_count),
+                    (4, 0.5, 2)
+                );
+            } else {
+                assert_ne!(p.reads[3], connected);
+                assert_eq!(gp.lamp_paths, 0);
+            }
+        }
+        // Refinement or a reduced first bounce: no lamp paths.
+        for other in [
+            GraphConfig {
+                refine: Some((8, 0.1)),
+                ..config.clone()
+            },
+            GraphConfig {
+                stride: 2,
+                ..config.clone()
+            },
+        ] {
+            assert_eq!(BakeGraph::build(&other).gbuffer.connected, None);
+        }
+    }
+
+    #[test]
     fn reads_and_writes_follow_the_documented_conventions() {
         let g = BakeGraph::build(&config(1, Blur::Sigma(2.0)));
         let gb = g.gbuffer;
@@ -1221,7 +1304,11 @@ mod tests {
         assert_eq!(rw[3], (vec![f[2], gb.normal], vec![tmp]));
         assert_eq!(rw[4], (vec![tmp, gb.normal], vec![f[2]]));
         assert_eq!(rw[5], (vec![f[2], gb.albedo], vec![f[3]]));
-        assert_eq!(rw[6], (vec![gb.position, gb.normal, f[3]], vec![f[4]]));
+        // Without lamp paths the gather's `connected` slot holds `reflected` (never read).
+        assert_eq!(
+            rw[6],
+            (vec![gb.position, gb.normal, f[3], f[3]], vec![f[4]])
+        );
         assert_eq!(rw[7], (vec![f[1], f[4]], vec![f[5]]));
         assert_eq!(rw[8], (vec![f[5]], vec![f[6]]));
         assert_eq!(rw[9], (vec![f[6], gb.normal], vec![tmp]));

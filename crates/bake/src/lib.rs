@@ -68,7 +68,9 @@
 //!   hits (the ray meets the side the shading normal points away from), misses and hits on
 //!   non-receivers contribute 0. The directions come from the stateless random numbers of
 //!   [`rng`]: the paper's independent hash per ray, or a per-texel scrambled Sobol sequence
-//!   whose error falls faster with N ([`scene::Settings::sampler`]).
+//!   whose error falls faster with N ([`scene::Settings::sampler`]). The converged method's
+//!   first bounce also connects each texel to points lit by the lamps and weights both
+//!   estimates by multiple importance sampling ([`lightpaths`], [`scene::Settings::lamp_paths`]).
 //! - **Bounces**: `ind_k = gather(ρ × blur(direct + ind_{k−1}))`, `ind_0 = 0`, and
 //!   `combined = direct + ind_k`: a Jacobi iteration. For a closed sphere of albedo ρ with an
 //!   isotropic lamp of intensity I at its centre it gives `E = (I/R²)·Σ_{i=0..k} ρ^i`.
@@ -95,6 +97,7 @@ pub mod cpu;
 pub mod gbuffer;
 pub mod graph;
 pub mod layout;
+pub mod lightpaths;
 pub mod map;
 pub mod output;
 pub mod pack;

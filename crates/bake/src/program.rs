@@ -263,8 +263,19 @@ param_block! {
         /// Rays of an orphan ([`coarse`]): it stands for itself, not for a grid cell of
         /// `stride²` texels, so [`coarse::orphan_rays`] gives it fewer than a grid texel.
         orphan_rays: u32,
+        /// Lamp paths per texel combined with this gather ([`crate::lightpaths`]; the first
+        /// bounce at stride 1 only): each hit's exitance is weighted by the balance heuristic
+        /// and the slot `connected` (their part, uploaded) is added. 0: plain gather, the
+        /// slot is not read.
+        lamp_paths: u32,
+        /// [`crate::lightpaths::LampPaths::density_scale`].
+        density_scale: f32,
+        /// Lamps uploaded (the density of [`crate::lightpaths::density`] sums over them).
+        lamp_count: u32,
         /// Padding.
         pad0: u32,
+        /// Padding.
+        pad1: u32,
     }
 }
 
@@ -864,10 +875,10 @@ const SIGNATURES: [Signature; 10] = [
     },
     Signature {
         program: Program::Gather,
-        reads: &["position", "normal", "reflected"],
+        reads: &["position", "normal", "reflected", "connected"],
         scene: SceneNeeds {
             bvh: true,
-            lamps: false,
+            lamps: true,
             regions: true,
         },
         params: GatherParams::FIELDS,
@@ -877,6 +888,7 @@ const SIGNATURES: [Signature; 10] = [
             Library::Rng,
             Library::Scene,
             Library::Bvh,
+            Library::Ies,
             Library::Gather,
             Library::Coarse,
         ],
@@ -926,9 +938,11 @@ const SIGNATURES: [Signature; 10] = [
     Signature {
         program: Program::Refine,
         reads: &["position", "normal", "reflected", "first", "variance"],
+        // The lamps and their tables: the shared gather loop can weight against lamp paths
+        // (the refine pass never does: lamp paths require no refinement).
         scene: SceneNeeds {
             bvh: true,
-            lamps: false,
+            lamps: true,
             regions: true,
         },
         params: RefineParams::FIELDS,
@@ -938,6 +952,7 @@ const SIGNATURES: [Signature; 10] = [
             Library::Rng,
             Library::Scene,
             Library::Bvh,
+            Library::Ies,
             Library::Gather,
         ],
         glsl: pass_files!("refine").0,

@@ -2,7 +2,9 @@
 // exitance seen along lux_pass.rays cosine-weighted rays (cpu::gather_texel, operation for
 // operation). With lux_pass.stride > 1 only the coarse grid's texels (lux_pass.rays) and its
 // orphans (lux_pass.orphan_rays) are gathered (coarse.wgsl); the others are written as 0 for
-// the upsample pass to fill.
+// the upsample pass to fill. With lux_pass.lamp_paths > 0 each hit is weighted against the
+// lamp paths, whose part (lux_connected, computed on the CPU: lightpaths::LampPaths::connect)
+// is added.
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -28,7 +30,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                                 lux_tile.layer, u32(c.x), u32(c.y));
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     let sum = lux_gather_sum(origin, n, texel, 0u, rays, lux_pass.sampler, lux_pass.bounce,
-                             lux_pass.seed);
+                             lux_pass.seed, lux_pass.lamp_paths, rays, lux_pass.density_scale,
+                             lux_pass.lamp_count);
     let inv = 1.0 / f32(rays);
-    lux_store(c, vec4<f32>(lux_guard3(sum * inv), 1.0));
+    var paths = vec3<f32>(0.0);
+    if (lux_pass.lamp_paths > 0u) {
+        paths = textureLoad(lux_connected, c, layer, 0).rgb;
+    }
+    lux_store(c, vec4<f32>(lux_guard3(sum * inv + paths), 1.0));
 }

@@ -58,10 +58,55 @@ vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
     return vec3(0.0);
 }
 
+// lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
+// n) over the first `lamps` uploaded lamps, the lamp paths' density proxy.
+float luxLampDensity(vec3 y, vec3 n, int lamps) {
+    float sum = 0.0;
+    for (int li = 0; li < lamps; ++li) {
+        vec4 l0 = luxLamp(li, 0);
+        vec3 to = l0.xyz - y;
+        float d2 = luxDot(to, to);
+        float d = sqrt(d2);
+        if (!(d > 0.0 && luxFinite(d))) {
+            continue;
+        }
+        vec3 w = vec3(to.x / d, to.y / d, to.z / d);
+        float c = luxDot(n, w);
+        if (!(c > 0.0)) {
+            continue;
+        }
+        vec3 back = -w;
+        vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
+                                luxDot(luxLamp(li, 3).xyz, back));
+        float intensity = luxIesSample(int(l0.w), ivec2(luxLamp(li, 5).yz), photometric);
+        if (!(intensity > 0.0)) {
+            continue;
+        }
+        sum += luxLuminance(luxLamp(li, 4).rgb) * (intensity * c / d2);
+    }
+    return sum;
+}
+
+// lightpaths::gather_weight: the balance heuristic of a gather hit against `k` lamp paths.
+float luxGatherWeight(uint rays, uint k, float scale, float density, float r, float cx, float cy) {
+    if (k == 0u) {
+        return 1.0;
+    }
+    float v = 3.14159265358979 * float(k) * (scale * density) * (r * r);
+    if (!(v > 0.0)) {
+        return 1.0;
+    }
+    float g = float(rays) * (cx * cy);
+    float d = g + v;
+    return luxFinite(d) ? g / d : 0.0;
+}
+
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `firstRay .. firstRay + count`
-// of the texel's sequence, cast from `origin` around the unit normal `n`.
+// of the texel's sequence, cast from `origin` around the unit normal `n`, each weighted against
+// `lampPaths` lamp paths of a gather of `misRays` rays (lightpaths; 0: weight 1).
 vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
-                  uint samplerId, uint bounce, uint seed) {
+                  uint samplerId, uint bounce, uint seed, uint lampPaths, uint misRays,
+                  float densityScale, int lamps) {
     float infinity = uintBitsToFloat(0x7f800000u);
     int objects = textureSize(u_regions, 0).x;
     vec3 sum = vec3(0.0);
@@ -97,7 +142,20 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
         vec4 uv01 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_UV01_LAYER), 0);
         vec2 uv = vec2(w0 * uv01.x + u * uv01.z + v * uv2Object.x,
                        w0 * uv01.y + u * uv01.w + v * uv2Object.y);
-        sum += luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+        vec3 m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+        float weight = 1.0;
+        if (lampPaths > 0u) {
+            vec3 ny;
+            if (!luxNormalize(nh, ny)) {
+                ny = vec3(0.0);
+            }
+            vec3 y = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                          origin.z + hit.x * dir.z);
+            float density = luxLampDensity(y, ny, lamps);
+            weight = luxGatherWeight(misRays, lampPaths, densityScale, density, hit.x,
+                                     luxDot(n, dir), -luxDot(ny, dir));
+        }
+        sum += weight * m;
     }
     return sum;
 }

@@ -58,10 +58,60 @@ fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f3
     return vec3<f32>(0.0);
 }
 
+// lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
+// n) over the first `lamps` uploaded lamps, the lamp paths' density proxy.
+fn lux_lamp_density(y: vec3<f32>, n: vec3<f32>, lamps: u32) -> f32 {
+    var sum = 0.0;
+    let count = min(lamps, arrayLength(&lux_lamps));
+    for (var li = 0u; li < count; li++) {
+        let lamp = lux_lamps[li];
+        let to = lamp.position.xyz - y;
+        let d2 = lux_dot(to, to);
+        let d = sqrt(d2);
+        if (!(d > 0.0 && lux_finite(d))) {
+            continue;
+        }
+        let w = vec3<f32>(to.x / d, to.y / d, to.z / d);
+        let c = lux_dot(n, w);
+        if (!(c > 0.0)) {
+            continue;
+        }
+        let back = -w;
+        let photometric = vec3<f32>(lux_dot(lamp.m0.xyz, back), lux_dot(lamp.m1.xyz, back),
+                                    lux_dot(lamp.m2.xyz, back));
+        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), photometric);
+        if (!(intensity > 0.0)) {
+            continue;
+        }
+        sum += lux_luminance(lamp.scale.xyz) * (intensity * c / d2);
+    }
+    return sum;
+}
+
+// lightpaths::gather_weight: the balance heuristic of a gather hit against `k` lamp paths.
+fn lux_gather_weight(rays: u32, k: u32, scale: f32, density: f32, r: f32, cx: f32,
+                     cy: f32) -> f32 {
+    if (k == 0u) {
+        return 1.0;
+    }
+    let v = 3.14159265358979 * f32(k) * (scale * density) * (r * r);
+    if (!(v > 0.0)) {
+        return 1.0;
+    }
+    let g = f32(rays) * (cx * cy);
+    let d = g + v;
+    if (lux_finite(d)) {
+        return g / d;
+    }
+    return 0.0;
+}
+
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `first_ray .. first_ray + count`
-// of the texel's sequence, cast from `origin` around the unit normal `n`.
+// of the texel's sequence, cast from `origin` around the unit normal `n`, each weighted against
+// `lamp_paths` lamp paths of a gather of `mis_rays` rays (lightpaths; 0: weight 1).
 fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, count: u32,
-                  sampler_id: u32, bounce: u32, seed: u32) -> vec3<f32> {
+                  sampler_id: u32, bounce: u32, seed: u32, lamp_paths: u32, mis_rays: u32,
+                  density_scale: f32, lamps: u32) -> vec3<f32> {
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = first_ray; s < first_ray + count; s++) {
@@ -96,8 +146,21 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, c
         let uv01 = lux_triangle_at(tc, LUX_TRI_UV01_LAYER);
         let uv = vec2<f32>(w0 * uv01.x + u * uv01.z + v * uv2_object.x,
                            w0 * uv01.y + u * uv01.w + v * uv2_object.y);
-        sum += lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
-                                 uv);
+        let m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
+                                  uv);
+        var weight = 1.0;
+        if (lamp_paths > 0u) {
+            var ny: vec3<f32>;
+            if (!lux_normalize(nh, &ny)) {
+                ny = vec3<f32>(0.0);
+            }
+            let y = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                              origin.z + hit.x * dir.z);
+            let density = lux_lamp_density(y, ny, lamps);
+            weight = lux_gather_weight(mis_rays, lamp_paths, density_scale, density, hit.x,
+                                       lux_dot(n, dir), -lux_dot(ny, dir));
+        }
+        sum += weight * m;
     }
     return sum;
 }

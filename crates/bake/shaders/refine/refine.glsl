@@ -26,7 +26,8 @@ void main() {
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
-    vec3 sum = luxGatherSum(origin, n, texel, u_first_rays, u_rays, u_sampler, u_bounce, u_seed);
+    vec3 sum = luxGatherSum(origin, n, texel, u_first_rays, u_rays, u_sampler, u_bounce, u_seed,
+                            0u, 0u, 0.0, 0);
     float total = float(u_first_rays + u_rays);
     vec3 m = float(u_first_rays) * first.rgb + sum;
     o_color = vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);

@@ -33,7 +33,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                                 lux_tile.layer, u32(c.x), u32(c.y));
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     let sum = lux_gather_sum(origin, n, texel, lux_pass.first_rays, rays, lux_pass.sampler,
-                             lux_pass.bounce, lux_pass.seed);
+                             lux_pass.bounce, lux_pass.seed, 0u, 0u, 0.0, 0u);
     let total = f32(lux_pass.first_rays + rays);
     let m = f32(lux_pass.first_rays) * first.rgb + sum;
     lux_store(c, vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0));

@@ -27,7 +27,7 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
-//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error), `layout`
+//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
 //! the file's tilt factors are taken at, [`crate::scene::Lamp::tilt_deg`]), multiplier,
 //! color, max_candela (file, at that tilt), lumens (integrated at that tilt × multiplier),
@@ -290,6 +290,7 @@ pub fn write_bake(
             "sampler": s.sampler.name(),
             "stride": s.stride,
             "higher_rays": s.higher_rays,
+            "lamp_paths": s.lamp_paths,
             "higher_stride": s.higher_stride,
             "refine_rays": s.refine_rays,
             "refine_error": s.refine_error,

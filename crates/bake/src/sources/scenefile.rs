@@ -116,6 +116,7 @@ struct RawSettings {
     sampler: Option<String>,
     stride: Option<u32>,
     higher_rays: Option<u32>,
+    lamp_paths: Option<u32>,
     higher_stride: Option<u32>,
     refine_rays: Option<u32>,
     refine_error: Option<f64>,
@@ -463,6 +464,9 @@ impl Cx<'_> {
         }
         if let Some(v) = raw.stride {
             s.stride = v;
+        }
+        if let Some(v) = raw.lamp_paths {
+            s.lamp_paths = v;
         }
         if let Some(v) = raw.higher_rays {
             s.higher_rays = v;

@@ -1,0 +1,619 @@
+//! Lamp paths: the first bounce sampled from the lamps as well as from the texel, combined by
+//! multiple importance sampling (Veach & Guibas 1995, the balance heuristic).
+//!
+//! # Why
+//! The first bounce gathers the exitance `M = ρ·E_direct` of the surfaces a texel sees. A lamp
+//! close to a surface (a pendant under the ceiling, a wall washer) lights a small patch
+//! brightly, and that patch carries much of the room's first-bounce light: a cosine-weighted
+//! gather of a few rays finds it rarely, so the first bounce is grainy where the texel sees it
+//! from afar (measured on the box room of `cargo xtask bench grain`: 34 % relative standard
+//! deviation of the walls' total illuminance at 6 rays per texel). Paths started at the lamps
+//! land where the light is, in proportion to it.
+//!
+//! # The estimator
+//! With `y` a surface point, `G(x, y) = cos θₓ cos θ_y / r²` and `f(y) = M(y)·G/π`, the first
+//! bounce at texel `x` is `E₁(x) = ∫ f(y)·V(x, y) dA_y`. Two strategies sample `y`:
+//! - **gather** (`N_C` cosine-weighted rays, [`crate::cpu`]'s gather): area density
+//!   `p_C(y) = cos θₓ cos θ_y / (π r²)`, estimate `f/p_C = M(y)`;
+//! - **lamp paths** (`K` per texel): a shared pool of [`POOL_SIZE`] rays leaves the lamps, each
+//!   lamp and direction drawn in proportion to a bound of its intensity ([`Emitter`]); the
+//!   receivers' front faces they hit first are the paths' points. A texel connects to `K` of
+//!   them (stratified through the pool, [`CONNECT_PASS`]) with a shadow ray. The area density
+//!   of a point is `p_V(y) = Σ_l q_l(ω_ly)·cos θ_ly / d_ly² · V_l(y) / P_hit`, `q_l` the
+//!   emission density per solid angle and `P_hit` the fraction of rays that found a receiver,
+//!   and its estimate is `f/p_V = ρ(y)·E_direct(y)·G/(π·p_V)` with `E_direct` evaluated
+//!   exactly at `y` (the tables as the direct pass samples them, shadow rays to other lamps).
+//!
+//! Each sample is weighted by the balance heuristic, `w_s = N_s p̃_s / (N_C p̃_C + K p̃_V)`.
+//! The weights only have to sum to one for every `y` (they do: both strategies evaluate the
+//! same functions), so `p̃_V` need not be exact: it is the lamps' unshadowed illuminance
+//! at `y`, luminance-weighted, times one constant ([`density`], [`LampPaths::density_scale`]),
+//! computable on the GPU at a gather hit. A point that no lamp path can reach has no direct
+//! light, so the gather alone may count it with a weight below one without losing anything.
+//! The result is unbiased up to what the gather already approximates (the direct light map's
+//! texel-size interpolation, and shading normals in `cos θ_y`).
+//!
+//! The gather multiplies each hit's exitance by its weight (in every backend, the same
+//! operations); the lamp-path part, `C(x) = Σ_k p̃_V cos θₓ cos θ_y ρE/p_V / (π K p̃_V r² +
+//! N_C cos θₓ cos θ_y)`, is computed here on the CPU, once per bake, for every backend (like
+//! [`crate::validity`]), uploaded and added by the gather. Both are finite as `r → 0`.
+//!
+//! # Determinism
+//! Pool directions come from the Sobol sampler (texel 0, sample `i`, pass [`EMIT_PASS`]) and
+//! the hash sampler, in f64 (whose last-bit differences between maths libraries do not reach
+//! the rounded f32 results); texels pick their paths with the hash sampler (pass
+//! [`CONNECT_PASS`]). Traversal is the 4-wide BVH.
+
+// `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders these functions mirror.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use luxbake_bvh::{EncodedScene, Ray, WideBvh};
+use luxbake_ies::GpuTable;
+use rayon::prelude::*;
+
+use crate::backend::{LampParams, offset_origin};
+use crate::gbuffer::GBuffer;
+use crate::layout::Region;
+use crate::map::sample_masked;
+use crate::rng;
+
+/// Rays that leave the lamps per bake.
+pub const POOL_SIZE: u32 = 1 << 18;
+/// The RNG pass of the pool's directions (no bake pass uses it).
+pub const EMIT_PASS: u32 = 0x1A11;
+/// The RNG pass of a texel's choice of paths.
+pub const CONNECT_PASS: u32 = 0x1A12;
+
+/// Photometric luminance of linear RGB (as the shaders' `luxLuminance`).
+fn luminance(c: [f32; 3]) -> f32 {
+    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+}
+
+fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
+    let len = dot(v, v).sqrt();
+    (len > 0.0 && len.is_finite()).then(|| v.map(|c| c / len))
+}
+
+/// The MIS density proxy's lamp sum at surface point `y` with unit normal `n`: the
+/// luminance-weighted illuminance of the lamps without shadows,
+/// `Σ_l lum(scale_l)·I_l(ω)·cos θ / d²`. Mirrored operation for operation by the gather
+/// shaders' `luxLampDensity`; multiplied by [`LampPaths::density_scale`] it is `p̃_V(y)`.
+pub fn density(lamps: &[LampParams], tables: &[GpuTable], y: [f32; 3], n: [f32; 3]) -> f32 {
+    let mut sum = 0.0f32;
+    for l in lamps {
+        let to = [0, 1, 2].map(|c| l.position[c] - y[c]);
+        let d2 = dot(to, to);
+        let d = d2.sqrt();
+        if !(d > 0.0 && d.is_finite()) {
+            continue;
+        }
+        let w = to.map(|c| c / d);
+        let cos = dot(n, w);
+        if !(cos > 0.0) {
+            continue;
+        }
+        let back = w.map(|c| -c);
+        let m = &l.world_to_photometric;
+        let photometric = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+        let intensity = tables
+            .get(l.table as usize)
+            .map_or(0.0, |t| t.sample(photometric));
+        if !(intensity > 0.0) {
+            continue;
+        }
+        sum += luminance(l.scale) * (intensity * cos / d2);
+    }
+    sum
+}
+
+/// One lamp's emission cells: the table's (γ, C) cells, each with the largest of its four
+/// corner values (a bound of the bilinear intensity inside it).
+struct LampCells {
+    /// World-to-photometric rows (f64).
+    rows: [[f64; 3]; 3],
+    /// Luminance of the lamp's scale.
+    lum: f64,
+    width: u32,
+    height: u32,
+    /// Per cell `(row j, column i)`, `j < height − 1`: the corner maximum, candela.
+    max: Vec<f64>,
+}
+
+impl LampCells {
+    fn cell_of(&self, photometric: [f64; 3]) -> Option<usize> {
+        let [x, y, z] = photometric;
+        let len = (x * x + y * y + z * z).sqrt();
+        if !(len > 0.0 && len.is_finite()) {
+            return None;
+        }
+        let gamma = (-z / len).clamp(-1.0, 1.0).acos();
+        let mut c = y.atan2(x);
+        if c < 0.0 {
+            c += std::f64::consts::TAU;
+        }
+        let rows = self.height - 1;
+        let j = ((gamma / std::f64::consts::PI * f64::from(rows)).floor() as u32).min(rows - 1);
+        let i = ((c / std::f64::consts::TAU * f64::from(self.width)).floor() as u32)
+            .min(self.width - 1);
+        Some(j as usize * self.width as usize + i as usize)
+    }
+}
+
+/// The emission distribution of the pool: every lamp's cells in one cumulative table, each
+/// weighted by `lum(scale)·max·Ω` (Ω the cell's solid angle); directions are uniform in
+/// solid angle inside a cell, so the density per solid angle is `lum·max / total`.
+struct Emitter {
+    lamps: Vec<LampCells>,
+    /// Cumulative weights over every lamp's cells, in lamp order.
+    cdf: Vec<f64>,
+    /// `(lamp, cell)` of each entry of `cdf`.
+    cells: Vec<(u32, u32)>,
+    total: f64,
+}
+
+impl Emitter {
+    fn new(lamps: &[LampParams], tables: &[GpuTable]) -> Emitter {
+        let mut out = Emitter {
+            lamps: Vec::new(),
+            cdf: Vec::new(),
+            cells: Vec::new(),
+            total: 0.0,
+        };
+        for (li, l) in lamps.iter().enumerate() {
+            let Some(t) = tables.get(l.table as usize) else {
+                continue;
+            };
+            let (width, height) = (t.width, t.height);
+            let lum = f64::from(luminance(l.scale));
+            if width == 0 || height < 2 || !(lum > 0.0 && lum.is_finite()) {
+                out.lamps.push(LampCells {
+                    rows: [[0.0; 3]; 3],
+                    lum: 0.0,
+                    width: width.max(1),
+                    height: height.max(2),
+                    max: Vec::new(),
+                });
+                continue;
+            }
+            let at = |j: u32, i: u32| {
+                f64::from(
+                    t.values
+                        .get(j as usize * width as usize + (i % width) as usize)
+                        .copied()
+                        .unwrap_or(0.0),
+                )
+            };
+            let mut max = Vec::with_capacity((height as usize - 1) * width as usize);
+            for j in 0..height - 1 {
+                let (g0, g1) = (
+                    std::f64::consts::PI * f64::from(j) / f64::from(height - 1),
+                    std::f64::consts::PI * f64::from(j + 1) / f64::from(height - 1),
+                );
+                let omega = (g0.cos() - g1.cos()) * std::f64::consts::TAU / f64::from(width);
+                for i in 0..width {
+                    let m = [at(j, i), at(j, i + 1), at(j + 1, i), at(j + 1, i + 1)]
+                        .into_iter()
+                        .fold(0.0f64, f64::max);
+                    let m = if m.is_finite() { m } else { 0.0 };
+                    max.push(m);
+                    let w = lum * m * omega;
+                    if w > 0.0 {
+                        out.total += w;
+                        out.cdf.push(out.total);
+                        out.cells.push((li as u32, j * width + i));
+                    }
+                }
+            }
+            out.lamps.push(LampCells {
+                rows: l.world_to_photometric.map(|r| r.map(f64::from)),
+                lum,
+                width,
+                height,
+                max,
+            });
+        }
+        out
+    }
+
+    /// Lamp and world direction of pool ray `i`.
+    fn sample(&self, i: u32, seed: u32) -> Option<(usize, [f64; 3])> {
+        if !(self.total > 0.0) {
+            return None;
+        }
+        let [u0, u1] = rng::sobol2(0, i, EMIT_PASS, seed);
+        let [h0, _] = rng::uniform2(i, 0, EMIT_PASS, seed);
+        let target = f64::from(u0) * self.total;
+        let k = self
+            .cdf
+            .partition_point(|&c| c <= target)
+            .min(self.cdf.len() - 1);
+        let (li, cell) = self.cells[k];
+        let lamp = &self.lamps[li as usize];
+        let (j, col) = (cell / lamp.width, cell % lamp.width);
+        let rows = f64::from(lamp.height - 1);
+        let (c0, c1) = (
+            (std::f64::consts::PI * f64::from(j) / rows).cos(),
+            (std::f64::consts::PI * f64::from(j + 1) / rows).cos(),
+        );
+        let cos_g = c0 + f64::from(h0) * (c1 - c0);
+        let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
+        let c = std::f64::consts::TAU * (f64::from(col) + f64::from(u1)) / f64::from(lamp.width);
+        let d = [sin_g * c.cos(), sin_g * c.sin(), -cos_g];
+        // photometric = M · world, M orthonormal: world = Mᵀ · photometric.
+        let r = &lamp.rows;
+        let world = [0, 1, 2].map(|k| r[0][k] * d[0] + r[1][k] * d[1] + r[2][k] * d[2]);
+        Some((li as usize, world))
+    }
+
+    /// Emission density per solid angle of lamp `li` toward world direction `w` (unit, from
+    /// the lamp), lamp choice included.
+    fn density(&self, li: usize, w: [f64; 3]) -> f64 {
+        let Some(lamp) = self.lamps.get(li) else {
+            return 0.0;
+        };
+        let r = &lamp.rows;
+        let p = [0, 1, 2].map(|k| r[k][0] * w[0] + r[k][1] * w[1] + r[k][2] * w[2]);
+        lamp.cell_of(p)
+            .and_then(|c| lamp.max.get(c))
+            .map_or(0.0, |m| lamp.lum * m / self.total)
+    }
+}
+
+/// One point lit by a lamp path.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LampPath {
+    /// World position.
+    pub position: [f32; 3],
+    /// Unit shading normal (front face, toward the lamp).
+    pub normal: [f32; 3],
+    /// `ρ(y)·E_direct(y) / p_V(y)`, per channel: the point's contribution before the texel's
+    /// geometry term and weight.
+    pub power: [f32; 3],
+    /// [`density`] at the point (times [`LampPaths::density_scale`]: `p̃_V`).
+    pub density: f32,
+}
+
+/// The pool of a bake: the points its lamp paths found.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LampPaths {
+    /// Points with light to pass on, in pool order.
+    pub paths: Vec<LampPath>,
+    /// `1 / (total · P_hit)`: turns [`density`] into the density of a pool point per unit
+    /// area, up to the proxy's approximation (the weights need only be consistent).
+    pub density_scale: f32,
+}
+
+/// Ray origin offsets and the triangle/region data the pool and the connections need.
+pub struct Geometry<'a> {
+    /// The encoded scene (triangle attributes).
+    pub encoded: &'a EncodedScene,
+    /// Its 4-wide BVH.
+    pub wide: &'a WideBvh,
+    /// Per object its light-map region (`None`: reflects nothing).
+    pub regions: &'a [Option<Region>],
+    /// The G-buffer after [`crate::validity::unocclude`] (albedo at a path's point).
+    pub gbuffer: &'a GBuffer,
+    /// The size term of ray offsets ([`crate::backend::ray_epsilon`]).
+    pub eps: f32,
+}
+
+impl LampPaths {
+    /// Casts [`POOL_SIZE`] rays from `lamps` (the direct pass's lamps and tables) and keeps
+    /// the receivers' front faces they hit with light to pass on.
+    pub fn trace(g: &Geometry<'_>, lamps: &[LampParams], tables: &[GpuTable], seed: u32) -> Self {
+        let emitter = Emitter::new(lamps, tables);
+        if !(emitter.total > 0.0) {
+            return LampPaths::default();
+        }
+        let found: Vec<Option<LampPath>> = (0..POOL_SIZE)
+            .into_par_iter()
+            .map(|i| {
+                let (li, w) = emitter.sample(i, seed)?;
+                let lamp = &lamps[li];
+                let dir = w.map(|c| c as f32);
+                let ray = Ray {
+                    origin: lamp.position,
+                    dir,
+                };
+                let hit = g.wide.closest_hit(&ray, 0.0, f32::INFINITY)?;
+                let attr = g.encoded.triangle_attributes(hit.triangle);
+                let region = (*g.regions.get(attr.object as usize)?)?;
+                let w0 = 1.0 - hit.u - hit.v;
+                let n = normalize([0, 1, 2].map(|c| {
+                    w0 * attr.normals[0][c]
+                        + hit.u * attr.normals[1][c]
+                        + hit.v * attr.normals[2][c]
+                }))?;
+                if !(dot(n, dir) < 0.0) {
+                    return None;
+                }
+                let y = [0, 1, 2]
+                    .map(|c| (f64::from(lamp.position[c]) + f64::from(hit.t) * w[c]) as f32);
+                let uv = [0, 1]
+                    .map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
+                let gb = g.gbuffer;
+                let albedo = sample_masked(
+                    |x, yy| {
+                        let k = gb.index(region.layer, x, yy);
+                        let a = &gb.albedo[k..k + 4];
+                        [a[0], a[1], a[2], gb.position[k + 3]]
+                    },
+                    region.offset,
+                    region.size,
+                    uv,
+                );
+                if albedo.iter().all(|&a| !(a > 0.0)) {
+                    return None;
+                }
+                // E_direct and the pool's density at y, over every lamp that sees it.
+                let mut e = [0.0f64; 3];
+                let mut p = 0.0f64;
+                let o = offset_origin(y, n, g.eps);
+                for (lj, l) in lamps.iter().enumerate() {
+                    let to = [0, 1, 2].map(|c| f64::from(l.position[c]) - f64::from(y[c]));
+                    let d2 = to.iter().map(|c| c * c).sum::<f64>();
+                    let d = d2.sqrt();
+                    if !(d > 0.0 && d.is_finite()) {
+                        continue;
+                    }
+                    let wl = to.map(|c| c / d);
+                    let cos =
+                        f64::from(n[0]) * wl[0] + f64::from(n[1]) * wl[1] + f64::from(n[2]) * wl[2];
+                    if !(cos > 0.0) {
+                        continue;
+                    }
+                    if lj != li {
+                        let sd = [0, 1, 2].map(|c| l.position[c] - o[c]);
+                        let len = dot(sd, sd).sqrt();
+                        if !(len > 0.0) {
+                            continue;
+                        }
+                        let ray = Ray {
+                            origin: o,
+                            dir: sd.map(|c| c / len),
+                        };
+                        if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
+                            continue;
+                        }
+                    }
+                    let back = wl.map(|c| (-c) as f32);
+                    let m = &l.world_to_photometric;
+                    let photometric = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+                    let intensity = tables
+                        .get(l.table as usize)
+                        .map_or(0.0, |t| f64::from(t.sample(photometric)));
+                    let k = cos / d2;
+                    for (ec, sc) in e.iter_mut().zip(l.scale) {
+                        *ec += f64::from(sc) * intensity * k;
+                    }
+                    p += emitter.density(lj, wl.map(|c| -c)) * k;
+                }
+                if !(p > 0.0 && p.is_finite()) {
+                    return None;
+                }
+                let power: [f32; 3] = [0, 1, 2].map(|c| (f64::from(albedo[c]) * e[c] / p) as f32);
+                if !power.iter().all(|v| v.is_finite()) || power.iter().all(|&v| !(v > 0.0)) {
+                    return None;
+                }
+                Some(LampPath {
+                    position: y,
+                    normal: n,
+                    power,
+                    density: density(lamps, tables, y, n),
+                })
+            })
+            .collect();
+        let paths: Vec<LampPath> = found.into_iter().flatten().collect();
+        if paths.is_empty() {
+            return LampPaths::default();
+        }
+        // Picking uniformly among the points found: density p_V / P_hit, P_hit = found / POOL.
+        let p_hit = paths.len() as f64 / f64::from(POOL_SIZE);
+        let scale = 1.0 / (emitter.total * p_hit);
+        let paths = paths
+            .into_iter()
+            .map(|mut p| {
+                p.power = p.power.map(|v| (f64::from(v) * p_hit) as f32);
+                p
+            })
+            .collect();
+        LampPaths {
+            paths,
+            density_scale: scale as f32,
+        }
+    }
+
+    /// The lamp-path part `C(x)` of the first bounce at every valid texel of `gbuffer` (RGBA,
+    /// alpha 1 on valid texels, laid out as the G-buffer's arrays), for a gather of `rays`
+    /// rays per texel and `k` connections per texel (see the module docs).
+    pub fn connect(&self, g: &Geometry<'_>, rays: u32, k: u32, seed: u32) -> Vec<f32> {
+        let gb = g.gbuffer;
+        let mut out = vec![0.0f32; gb.position.len()];
+        let count = self.paths.len();
+        if count == 0 || k == 0 {
+            for (o, p) in out.chunks_exact_mut(4).zip(gb.position.chunks_exact(4)) {
+                o[3] = if p[3] > 0.5 { 1.0 } else { 0.0 };
+            }
+            return out;
+        }
+        let (w, h) = (gb.layer_size[0] as usize, gb.layer_size[1] as usize);
+        let nc = rays as f32;
+        let kf = k as f32;
+        out.par_chunks_exact_mut(4).enumerate().for_each(|(i, o)| {
+            let pw = &gb.position[4 * i..4 * i + 4];
+            if pw[3] <= 0.5 {
+                return;
+            }
+            o[3] = 1.0;
+            let nw = &gb.normal[4 * i..4 * i + 4];
+            let Some(n) = normalize([nw[0], nw[1], nw[2]]) else {
+                return;
+            };
+            let x = [pw[0], pw[1], pw[2]];
+            let (tx, ty, layer) = ((i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32);
+            let texel = rng::texel_index(gb.layer_size, layer, tx, ty);
+            let origin = offset_origin(x, n, g.eps);
+            let mut sum = [0.0f32; 3];
+            for s in 0..k {
+                // Independent picks: paths at evenly spaced pool indices would be Sobol points
+                // sharing their leading bits, all from one spot of one lamp.
+                let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, seed);
+                let j = ((u * count as f32) as usize).min(count - 1);
+                let path = &self.paths[j];
+                let to = [0, 1, 2].map(|c| path.position[c] - x[c]);
+                let r2 = dot(to, to);
+                let r = r2.sqrt();
+                if !(r > 0.0 && r.is_finite()) {
+                    continue;
+                }
+                let wdir = to.map(|c| c / r);
+                let cx = dot(n, wdir);
+                let cy = -dot(path.normal, wdir);
+                if !(cx > 0.0 && cy > 0.0) {
+                    continue;
+                }
+                let target = offset_origin(path.position, path.normal, g.eps);
+                let sd = [0, 1, 2].map(|c| target[c] - origin[c]);
+                let len = dot(sd, sd).sqrt();
+                if !(len > 0.0) {
+                    continue;
+                }
+                let ray = Ray {
+                    origin,
+                    dir: sd.map(|c| c / len),
+                };
+                if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
+                    continue;
+                }
+                let pv = path.density * self.density_scale;
+                let geometry = cx * cy;
+                let denominator = std::f32::consts::PI * kf * pv * r2 + nc * geometry;
+                if !(denominator > 0.0) {
+                    continue;
+                }
+                let f = pv * geometry / denominator;
+                for (sc, pc) in sum.iter_mut().zip(path.power) {
+                    *sc += f * pc;
+                }
+            }
+            for c in 0..3 {
+                o[c] = if sum[c].is_finite() { sum[c] } else { 0.0 };
+            }
+        });
+        out
+    }
+}
+
+/// The gather's balance-heuristic weight of a hit at distance `r` with cosines `cx` (texel)
+/// and `cy` (hit), `lamp_density` = [`density`] at the hit: `N_C cx cy / (N_C cx cy + π K p̃_V
+/// r²)`; 1 without lamp paths. Mirrored by the shaders' `luxGatherWeight`.
+pub fn gather_weight(
+    rays: u32,
+    k: u32,
+    density_scale: f32,
+    lamp_density: f32,
+    r: f32,
+    cx: f32,
+    cy: f32,
+) -> f32 {
+    if k == 0 {
+        return 1.0;
+    }
+    let v = std::f32::consts::PI * k as f32 * (density_scale * lamp_density) * (r * r);
+    if !(v > 0.0) {
+        return 1.0;
+    }
+    let g = rays as f32 * (cx * cy);
+    let d = g + v;
+    if d.is_finite() { g / d } else { 0.0 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use luxbake_ies::Photometry;
+
+    fn isotropic(cd: f64, position: [f32; 3]) -> (LampParams, GpuTable) {
+        let lamp = LampParams {
+            position,
+            world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            scale: [1.0; 3],
+            table: 0,
+        };
+        (lamp, Photometry::isotropic(cd).gpu_table())
+    }
+
+    #[test]
+    fn the_density_is_the_unshadowed_illuminance() {
+        let (lamp, table) = isotropic(100.0, [0.0, 2.0, 0.0]);
+        let d = density(
+            &[lamp],
+            std::slice::from_ref(&table),
+            [0.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+        );
+        assert!((d - 25.0).abs() < 1e-4, "{d}");
+        let d = density(
+            &[lamp],
+            std::slice::from_ref(&table),
+            [1.5, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+        );
+        let want = 100.0 * 2.0 / 2.5f32.powi(3);
+        assert!((d / want - 1.0).abs() < 1e-5, "{d} vs {want}");
+        // Facing away: nothing.
+        assert_eq!(density(&[lamp], &[table], [0.0; 3], [0.0, -1.0, 0.0]), 0.0);
+    }
+
+    #[test]
+    fn the_two_strategies_weights_sum_to_one() {
+        // The gather's weight of a hit and the lamp path's weight of the same point.
+        for (density, r, cx, cy) in [
+            (1.0f32, 0.5f32, 0.9f32, 0.3f32),
+            (50.0, 2.0, 0.1, 0.99),
+            (1e-3, 1e-3, 0.5, 0.5),
+        ] {
+            let (rays, k, scale) = (4u32, 12u32, 0.02f32);
+            let wc = gather_weight(rays, k, scale, density, r, cx, cy);
+            let pv = density * scale;
+            let wv = k as f32 * pv
+                / (k as f32 * pv + rays as f32 * cx * cy / (std::f32::consts::PI * r * r));
+            assert!((wc + wv - 1.0).abs() < 1e-5, "{wc} + {wv}");
+        }
+        assert_eq!(gather_weight(4, 0, 1.0, 1.0, 1.0, 1.0, 1.0), 1.0);
+        assert_eq!(gather_weight(4, 8, 1.0, 0.0, 1.0, 1.0, 1.0), 1.0);
+    }
+
+    #[test]
+    fn emission_follows_the_intensity_bound() {
+        // A lamp lighting only its lower hemisphere (nadir −Z in its frame): no pool ray goes up.
+        let p = Photometry::from_grid(
+            luxbake_ies::PhotometricType::C,
+            vec![0.0, 45.0, 90.0, 135.0, 180.0],
+            vec![0.0],
+            vec![100.0, 80.0, 0.0, 0.0, 0.0],
+        )
+        .expect("grid");
+        let lamp = LampParams {
+            position: [0.0; 3],
+            world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            scale: [1.0; 3],
+            table: 0,
+        };
+        let e = Emitter::new(&[lamp], &[p.gpu_table()]);
+        let mut down = 0;
+        for i in 0..4096 {
+            let (_, w) = e.sample(i, 0).expect("sample");
+            assert!(w[2] <= 1e-9, "{w:?}");
+            down += usize::from(w[2] < -0.7);
+            // The density is positive where rays go, and integrates the bound.
+            assert!(e.density(0, w) > 0.0);
+        }
+        // Most of the bound lies within 45° of nadir.
+        assert!(down > 2000, "{down}");
+    }
+}
