@@ -148,9 +148,25 @@ pub struct Run {
 }
 
 impl Run {
-    /// Wall seconds of all passes (asset load, layout, rasterisation, BVH build excluded).
+    /// Wall seconds of all passes and of the lamp paths' set-up (light transport computed
+    /// before the passes, on the CPU for every backend: `luxbake::lightpaths`); asset load,
+    /// layout, rasterisation, BVH build and unocclude excluded.
     pub fn wall(&self) -> f64 {
-        self.out.report.passes.iter().map(|p| p.seconds).sum()
+        let paths: f64 = self
+            .out
+            .report
+            .setup
+            .iter()
+            .filter(|(step, _)| *step == "lamp paths")
+            .map(|(_, s)| s)
+            .sum();
+        self.out
+            .report
+            .passes
+            .iter()
+            .map(|p| p.seconds)
+            .sum::<f64>()
+            + paths
     }
 
     /// Process CPU seconds of all passes.

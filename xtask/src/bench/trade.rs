@@ -17,8 +17,8 @@
 //! `Y = 0.2126 R + 0.7152 G + 0.0722 B` in lux. Errors: RMSE, mean relative error (|Δ| over
 //! `max(reference, 1 % of the mean reference)`, so dark corners do not dominate) and the 95th
 //! percentile of |Δ|. That measures self-consistency only: the 4-bounce bake itself is biased
-//! low against Radiance (reported in the header). Time: the passes' wall time (no layout,
-//! rasterisation or BVH build).
+//! low against Radiance (reported in the header). Time: the passes' wall time plus the lamp
+//! paths' set-up (`Run::wall`; no layout, rasterisation or BVH build).
 //!
 //! Bakes with the base's bounce count are also compared with a reference of that bounce count
 //! (`same-bounce` columns): that isolates noise, resolution and blur from the bias of stopping
