@@ -16,7 +16,7 @@
 //! - **gather** (`N_C` cosine-weighted rays, [`crate::cpu`]'s gather): area density
 //!   `p_C(y) = cos θₓ cos θ_y / (π r²)`, estimate `f/p_C = M(y)`;
 //! - **lamp paths** (`K` per texel): a shared pool of [`POOL_SIZE`] rays leaves the lamps, each
-//!   lamp and direction drawn in proportion to a bound of its intensity ([`Emitter`]); the
+//!   lamp and direction drawn in proportion to a bound of its intensity table; the
 //!   receivers' front faces they hit first are the paths' points. A texel connects to `K` of
 //!   them (stratified through the pool, [`CONNECT_PASS`]) with a shadow ray. The area density
 //!   of a point is `p_V(y) = Σ_l q_l(ω_ly)·cos θ_ly / d_ly² · V_l(y) / P_hit`, `q_l` the
