@@ -18,7 +18,7 @@
 //! - **lamp paths** (`K` per texel): a shared pool of [`POOL_SIZE`] rays leaves the lamps, each
 //!   lamp and direction drawn in proportion to a bound of its intensity table; the
 //!   receivers' front faces they hit first are the paths' points. A texel connects to `K` of
-//!   them (stratified through the pool, [`CONNECT_PASS`]) with a shadow ray. The area density
+//!   them (independent picks, [`CONNECT_PASS`]) with a shadow ray. The area density
 //!   of a point is `p_V(y) = Σ_l q_l(ω_ly)·cos θ_ly / d_ly² · V_l(y) / P_hit`, `q_l` the
 //!   emission density per solid angle and `P_hit` the fraction of rays that found a receiver,
 //!   and its estimate is `f/p_V = ρ(y)·E_direct(y)·G/(π·p_V)` with `E_direct` evaluated
