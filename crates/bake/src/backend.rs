@@ -57,6 +57,59 @@ pub struct LampParams {
     pub table: u32,
 }
 
+/// A lamp seen unshadowed from a surface point ([`lamp_toward`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LampView {
+    /// Distance squared to the lamp.
+    pub d2: f32,
+    /// Distance.
+    pub d: f32,
+    /// Unit direction from the point toward the lamp.
+    pub w: [f32; 3],
+    /// Cosine between the surface normal and `w`.
+    pub cos: f32,
+    /// Intensity toward the point, candela, before the lamp's scale.
+    pub intensity: f32,
+}
+
+/// `lamp` seen unshadowed from surface point `p` with unit normal `n`: `None` when the lamp
+/// stands at `p`, behind the surface or dark toward it. Shared by the direct pass and the lamp
+/// paths' density ([`crate::lightpaths::density`]); the shaders' `luxLampToward` /
+/// `lux_lamp_toward` mirror it operation for operation.
+pub fn lamp_toward(
+    lamp: &LampParams,
+    tables: &[GpuTable],
+    p: [f32; 3],
+    n: [f32; 3],
+) -> Option<LampView> {
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let table = tables.get(lamp.table as usize)?;
+    let to = [0, 1, 2].map(|c| lamp.position[c] - p[c]);
+    let d2 = dot(to, to);
+    let d = d2.sqrt();
+    if !(d > 0.0 && d.is_finite()) {
+        return None;
+    }
+    let w = [to[0] / d, to[1] / d, to[2] / d];
+    let cos = dot(n, w);
+    if cos.is_nan() || cos <= 0.0 {
+        return None;
+    }
+    let back = [-w[0], -w[1], -w[2]];
+    let m = &lamp.world_to_photometric;
+    let intensity = table.sample([dot(m[0], back), dot(m[1], back), dot(m[2], back)]);
+    if intensity.is_nan() || intensity <= 0.0 {
+        return None;
+    }
+    Some(LampView {
+        d2,
+        d,
+        w,
+        cos,
+        intensity,
+    })
+}
+
 /// The static scene data of a bake, uploaded once before the first pass.
 #[derive(Debug, Clone, Copy)]
 pub struct SceneData<'a> {

@@ -87,7 +87,8 @@ use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
 use crate::backend::{
-    DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, Limits, SceneData, offset_origin,
+    DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, LampView, Limits, SceneData, lamp_toward,
+    offset_origin,
 };
 use crate::graph::TexDesc;
 use crate::layout::Region;
@@ -216,12 +217,6 @@ fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
     (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
 }
 
-/// `M · v` for a matrix given by rows.
-#[inline]
-fn mat_vec(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
-    [dot(m[0], v), dot(m[1], v), dot(m[2], v)]
-}
-
 /// Orthonormal basis `(t, b)` around unit `n` (Duff et al. 2017, "Building an Orthonormal
 /// Basis, Revisited").
 #[inline]
@@ -344,24 +339,16 @@ fn direct_texel(
     };
     let mut e = [0.0f32; 3];
     for lamp in scene.lamps.iter().take(params.lamp_count as usize) {
-        let Some(table) = scene.tables.get(lamp.table as usize) else {
+        let Some(LampView {
+            d2,
+            d,
+            w,
+            cos,
+            intensity,
+        }) = lamp_toward(lamp, &scene.tables, p, n)
+        else {
             continue;
         };
-        let to = sub(lamp.position, p);
-        let d2 = dot(to, to);
-        let d = d2.sqrt();
-        if !(d > 0.0 && d.is_finite()) {
-            continue;
-        }
-        let w = [to[0] / d, to[1] / d, to[2] / d];
-        let cos = dot(n, w);
-        if cos.is_nan() || cos <= 0.0 {
-            continue;
-        }
-        let intensity = table.sample(mat_vec(&lamp.world_to_photometric, [-w[0], -w[1], -w[2]]));
-        if intensity.is_nan() || intensity <= 0.0 {
-            continue;
-        }
         let o0 = offset_origin(p, n, scene.ray_epsilon);
         let off = sub(o0, p);
         let off2 = dot(off, off);

@@ -51,7 +51,7 @@ use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
-use crate::backend::{LampParams, offset_origin};
+use crate::backend::{LampParams, lamp_toward, offset_origin};
 use crate::gbuffer::GBuffer;
 use crate::layout::Region;
 use crate::map::sample_masked;
@@ -85,27 +85,9 @@ fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
 pub fn density(lamps: &[LampParams], tables: &[GpuTable], y: [f32; 3], n: [f32; 3]) -> f32 {
     let mut sum = 0.0f32;
     for l in lamps {
-        let to = [0, 1, 2].map(|c| l.position[c] - y[c]);
-        let d2 = dot(to, to);
-        let d = d2.sqrt();
-        if !(d > 0.0 && d.is_finite()) {
-            continue;
+        if let Some(v) = lamp_toward(l, tables, y, n) {
+            sum += luminance(l.scale) * (v.intensity * v.cos / v.d2);
         }
-        let w = to.map(|c| c / d);
-        let cos = dot(n, w);
-        if !(cos > 0.0) {
-            continue;
-        }
-        let back = w.map(|c| -c);
-        let m = &l.world_to_photometric;
-        let photometric = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
-        let intensity = tables
-            .get(l.table as usize)
-            .map_or(0.0, |t| t.sample(photometric));
-        if !(intensity > 0.0) {
-            continue;
-        }
-        sum += luminance(l.scale) * (intensity * cos / d2);
     }
     sum
 }

@@ -19,27 +19,16 @@ void main() {
     }
     vec3 e = vec3(0.0);
     for (int li = 0; li < int(u_lamp_count); ++li) {
-        vec4 l0 = luxLamp(li, 0);
-        vec3 lampPos = l0.xyz;
-        int table = int(l0.w);
-        vec3 to = lampPos - p;
-        float d2 = luxDot(to, to);
-        float d = sqrt(d2);
-        if (!(d > 0.0 && luxFinite(d))) {
-            continue;
-        }
-        vec3 w = vec3(to.x / d, to.y / d, to.z / d);
-        float cosTheta = luxDot(n, w);
-        if (!(cosTheta > 0.0)) {
+        vec3 lampPos = luxLamp(li, 0).xyz;
+        float d2;
+        float d;
+        vec3 w;
+        float cosTheta;
+        float intensity;
+        if (!luxLampToward(li, p, n, d2, d, w, cosTheta, intensity)) {
             continue;
         }
         vec3 back = -w;
-        vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
-                                luxDot(luxLamp(li, 3).xyz, back));
-        float intensity = luxIesSample(table, ivec2(luxLamp(li, 5).yz), photometric);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
         vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
         vec3 off = o0 - p;
         float off2 = luxDot(off, off);

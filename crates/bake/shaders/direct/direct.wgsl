@@ -26,24 +26,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var li = 0u; li < count; li++) {
         let lamp = lux_lamps[li];
         let lamp_pos = lamp.position.xyz;
-        let to = lamp_pos - p;
-        let d2 = lux_dot(to, to);
-        let d = sqrt(d2);
-        if (!(d > 0.0 && lux_finite(d))) {
+        let view = lux_lamp_toward(li, p, n);
+        if (!view.valid) {
             continue;
         }
-        let w = vec3<f32>(to.x / d, to.y / d, to.z / d);
-        let cos_theta = lux_dot(n, w);
-        if (!(cos_theta > 0.0)) {
-            continue;
-        }
-        let back = -w;
-        let photometric = vec3<f32>(lux_dot(lamp.m0.xyz, back), lux_dot(lamp.m1.xyz, back),
-                                    lux_dot(lamp.m2.xyz, back));
-        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), photometric);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
+        let d2 = view.d2;
+        let d = view.d;
+        let cos_theta = view.cos_theta;
+        let intensity = view.intensity;
+        let back = -view.w;
         let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
         let off = o0 - p;
         let off2 = lux_dot(off, off);

@@ -63,26 +63,14 @@ vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
 float luxLampDensity(vec3 y, vec3 n, int lamps) {
     float sum = 0.0;
     for (int li = 0; li < lamps; ++li) {
-        vec4 l0 = luxLamp(li, 0);
-        vec3 to = l0.xyz - y;
-        float d2 = luxDot(to, to);
-        float d = sqrt(d2);
-        if (!(d > 0.0 && luxFinite(d))) {
-            continue;
+        float d2;
+        float d;
+        vec3 w;
+        float c;
+        float intensity;
+        if (luxLampToward(li, y, n, d2, d, w, c, intensity)) {
+            sum += luxLuminance(luxLamp(li, 4).rgb) * (intensity * c / d2);
         }
-        vec3 w = vec3(to.x / d, to.y / d, to.z / d);
-        float c = luxDot(n, w);
-        if (!(c > 0.0)) {
-            continue;
-        }
-        vec3 back = -w;
-        vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
-                                luxDot(luxLamp(li, 3).xyz, back));
-        float intensity = luxIesSample(int(l0.w), ivec2(luxLamp(li, 5).yz), photometric);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
-        sum += luxLuminance(luxLamp(li, 4).rgb) * (intensity * c / d2);
     }
     return sum;
 }

@@ -64,26 +64,10 @@ fn lux_lamp_density(y: vec3<f32>, n: vec3<f32>, lamps: u32) -> f32 {
     var sum = 0.0;
     let count = min(lamps, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
-        let lamp = lux_lamps[li];
-        let to = lamp.position.xyz - y;
-        let d2 = lux_dot(to, to);
-        let d = sqrt(d2);
-        if (!(d > 0.0 && lux_finite(d))) {
-            continue;
+        let v = lux_lamp_toward(li, y, n);
+        if (v.valid) {
+            sum += lux_luminance(lux_lamps[li].scale.xyz) * (v.intensity * v.cos_theta / v.d2);
         }
-        let w = vec3<f32>(to.x / d, to.y / d, to.z / d);
-        let c = lux_dot(n, w);
-        if (!(c > 0.0)) {
-            continue;
-        }
-        let back = -w;
-        let photometric = vec3<f32>(lux_dot(lamp.m0.xyz, back), lux_dot(lamp.m1.xyz, back),
-                                    lux_dot(lamp.m2.xyz, back));
-        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), photometric);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
-        sum += lux_luminance(lamp.scale.xyz) * (intensity * c / d2);
     }
     return sum;
 }
