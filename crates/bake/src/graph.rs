@@ -993,6 +993,14 @@ pub struct GraphError {
 mod tests {
     use super::*;
 
+    /// The graph's gather passes, in order.
+    fn gather_passes(g: &BakeGraph) -> Vec<&PassDesc> {
+        g.passes
+            .iter()
+            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+            .collect()
+    }
+
     fn config(bounces: u32, blur: Blur) -> GraphConfig {
         GraphConfig {
             layer_size: [64, 32],
@@ -1246,11 +1254,7 @@ mod tests {
         let connected = g.gbuffer.connected.expect("lamp paths uploaded");
         assert_eq!(g.passes[0].writes.len(), 4);
         assert_eq!(g.passes[0].writes[3], connected);
-        let gathers: Vec<&PassDesc> = g
-            .passes
-            .iter()
-            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
-            .collect();
+        let gathers = gather_passes(&g);
         assert_eq!(gathers.len(), 3);
         for p in &gathers {
             let Params::Gather(gp) = p.params else {
@@ -1365,11 +1369,7 @@ mod tests {
         let g = BakeGraph::build(&config(3, Blur::None));
         assert_eq!(g.bounce_passes.len(), 3);
         let f = g.figure5.stages.map(|s| s.expect("stage"));
-        let gathers: Vec<&PassDesc> = g
-            .passes
-            .iter()
-            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
-            .collect();
+        let gathers = gather_passes(&g);
         assert_eq!(gathers.len(), 3);
         // Bounce 1 gathers the reflected direct map, later bounces the reflected combined one;
         // all write the same indirect texture.
