@@ -599,7 +599,8 @@ pub fn bake<B: GpuBackend>(
             gbuffer: &gbuffer,
             eps: ray_epsilon(half_extent),
         };
-        let pool = LampPaths::trace(&geometry, &used_lamps, &tables, settings.seed);
+        let size = lightpaths::pool_size(gbuffer.valid_texels(), settings.lamp_paths);
+        let pool = LampPaths::trace(&geometry, &used_lamps, &tables, size, settings.seed);
         density_scale = pool.density_scale;
         connected =
             Some(pool.connect(&geometry, settings.rays, settings.lamp_paths, settings.seed));
