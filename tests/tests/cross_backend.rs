@@ -1,8 +1,9 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
 //! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
-//! gathers run at reduced resolution, and with refinement), and a room with a lamp 0.1 mm from
-//! a wall (paper method), with the tolerances of
+//! gathers run at reduced resolution, and with refinement), `chairs_01` with a second lamp
+//! (converged, lamp paths weighted over both lamps), and a room with a lamp 0.1 mm from a wall
+//! (paper method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI. Each test compares at least one backend pair, or says which backends it
@@ -163,5 +164,38 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
         )],
         settings: settings.clone(),
     };
+    run_scene(&case, &scene);
+}
+
+/// `chairs_01` with a second lamp (an isotropic 60 cd lamp in a corner) at the converged
+/// `default` preset: the gather's lamp-path weights sum the density over both uploaded lamps
+/// (`luxLampDensity` / `lux_lamp_density` against `lightpaths::density`), and every stage
+/// agrees across backends within the converged method's tolerances.
+#[test]
+fn chairs_01_with_two_lamps_and_lamp_paths_agrees_across_backends() {
+    use std::sync::Arc;
+
+    use luxbake::scene::{Lamp, Method, Quality, Sampler};
+
+    let case = SceneCase {
+        scene: "chairs_01_two_lamps",
+        method: Method::Converged,
+        sampler: Sampler::Sobol,
+        quality: Quality::Default,
+        refine_rays: 0,
+        stages: SCENES[4].stages,
+    };
+    assert_eq!(
+        (SCENES[4].scene, SCENES[4].method, SCENES[4].quality),
+        ("chairs_01", Method::Converged, Quality::Default)
+    );
+    let settings = case.settings();
+    assert!(settings.lamp_paths > 0, "{settings:?}");
+    let mut scene = Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01");
+    scene.lamps.push(Lamp::new(
+        "corner",
+        Arc::new(luxbake_ies::Photometry::isotropic(60.0)),
+        [2.2, 2.2, -1.7],
+    ));
     run_scene(&case, &scene);
 }
