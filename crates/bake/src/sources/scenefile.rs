@@ -1122,6 +1122,19 @@ mod tests {
     }
 
     #[test]
+    fn lamp_paths_are_a_setting_with_its_limit() {
+        let s = parse(&text("lamp_paths = 5", LAMP, OBJECT)).expect("parses");
+        assert_eq!(s.settings.lamp_paths, 5);
+        let s = parse(&text("lamp_paths = 0", LAMP, OBJECT)).expect("parses");
+        assert_eq!(s.settings.lamp_paths, 0);
+        let e = err(&text("lamp_paths = 5000", LAMP, OBJECT));
+        assert!(
+            e.contains("settings.lamp_paths") && e.contains("5000"),
+            "{e}"
+        );
+    }
+
+    #[test]
     fn minimal_scene_and_defaults() {
         let s = parse(&text("", LAMP, OBJECT)).expect("parses");
         assert_eq!(s.settings, Settings::default());
