@@ -20,7 +20,7 @@ const $ = (id) => document.getElementById(id);
 // State the end-to-end test reads (cargo xtask npm --check).
 const example = {
   state: 'loading', errors: [], progress: [], bakes: 0, timings: null, result: null,
-  THREE, Luxbake,
+  THREE, Luxbake, GLTFLoader,
 };
 window.luxbakeExample = example;
 function fail(err) {
