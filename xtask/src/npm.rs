@@ -23,8 +23,9 @@
 //!    naming a missing accessor with a `scene` error naming the accessor, an out-of-range
 //!    setting with a `setting` error naming it;
 //! 5. an `AbortSignal` fired during a bake rejects it within a second;
-//! 6. two more bakes on the same baker (after the abort) succeed and agree with the native
-//!    bake again;
+//! 6. more bakes on the same baker succeed and agree with the native bake again: one after
+//!    the abort, one after a bake whose WebGL2 context was lost mid-bake (`WEBGL_lose_context`),
+//!    which rejects with `contextLost` instead of hanging;
 //! 7. a model without light-map UVs ([`CHECK_UNWRAPPED`]) gets them generated in the browser
 //!    as natively (maps within the same tolerances), and `applyToThree` rebuilds each of its
 //!    meshes with `uv1` and a light map on channel 1;
@@ -654,8 +655,9 @@ fn run_checks(
         return Err(format!("an abort did not reject within a second: {got}"));
     }
 
-    // 6. Two more bakes on the same baker (after the abort: a new worker and context).
-    for round in 2..=3 {
+    // 6. More bakes on the same baker: after the abort (a new worker and context), and after
+    //    a context lost mid-bake (an error, not a hang; the next bake gets a new context).
+    let again = |round: u32| -> Result<(), String> {
         let script = bake_js(&format!(
             "ex.baker.bake({{...settings, lamps, scene: ex.sceneBytes}}).then(r => {{ window.__bake{round} = r; \
              done({{ok: true, bake: r.timings.bake}}); }}, e => done({{kind: e.kind, message: e.message}}));"
@@ -672,7 +674,29 @@ fn run_checks(
             "bake {round} on the same baker: {:.2} s, agrees with the native bake",
             got["bake"].as_f64().unwrap_or(f64::NAN)
         );
+        Ok(())
+    };
+    again(2)?;
+    let script = bake_js(
+        "await ex.baker._loseContextDuringNextBake(2); const t0 = performance.now(); \
+         ex.baker.bake({...settings, lamps, scene: ex.sceneBytes}).then(() => done({resolved: true}), \
+           e => done({kind: e.kind, message: e.message, ms: performance.now() - t0}));",
+    );
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e)}}));"
+    ))?;
+    println!(
+        "context lost during pass 2: rejects with `{}` after {:.0} ms: {}",
+        got["kind"],
+        got["ms"].as_f64().unwrap_or(f64::NAN),
+        got["message"]
+    );
+    if got["kind"] != json!("contextLost") {
+        return Err(format!(
+            "a lost context did not reject with `contextLost`: {got}"
+        ));
     }
+    again(3)?;
     let record = json!({
         "scene": "chairs_01.glb", "lamp": "rw_7.IES", "settings": settings, "renderer": renderer,
         "texels": report["texels"], "browser_bake_s": bake, "browser_call_s": timings["call"],

@@ -219,6 +219,12 @@ export class Luxbake {
     return m.lux;
   }
 
+  /** @internal For tests: the next bake loses its WebGL2 context when pass `pass` starts. */
+  async _loseContextDuringNextBake(pass) {
+    await this.#ensureWorker();
+    await this.#request({ type: 'test:loseContext', pass });
+  }
+
   /** @internal */
   _release(result) {
     this.#results.delete(result);

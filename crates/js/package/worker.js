@@ -28,6 +28,11 @@ onmessage = async (e) => {
     baker.release(m.bakeId);
     return;
   }
+  if (m.type === 'test:loseContext') {
+    baker.loseContextDuringNextBake(m.pass);
+    postMessage({ type: 'done', id: m.id });
+    return;
+  }
   try {
     if (m.type === 'bake') {
       const result = baker.bake(new Uint8Array(m.gltf.buffer ?? m.gltf), m.options, m.photometry, (event) => {

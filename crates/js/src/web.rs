@@ -83,6 +83,29 @@ pub struct Baker {
     renderer: String,
     kept: HashMap<u32, Kept>,
     next_id: u32,
+    /// For tests: lose the context (`WEBGL_lose_context`) when this pass of the next bake
+    /// starts.
+    lose_at_pass: Option<usize>,
+}
+
+/// Loses `canvas`'s WebGL2 context through `WEBGL_lose_context` (as a GPU reset would);
+/// whether the extension was there.
+fn lose_context(canvas: &OffscreenCanvas) -> bool {
+    let Some(gl) = canvas
+        .get_context("webgl2")
+        .ok()
+        .flatten()
+        .and_then(|c| c.dyn_into::<WebGl2RenderingContext>().ok())
+    else {
+        return false;
+    };
+    let Ok(Some(ext)) = gl.get_extension("WEBGL_lose_context") else {
+        return false;
+    };
+    js_sys::Reflect::get(&ext, &"loseContext".into())
+        .ok()
+        .and_then(|f| f.dyn_into::<js_sys::Function>().ok())
+        .is_some_and(|f| f.call0(&ext).is_ok())
 }
 
 fn new_context() -> Result<(OffscreenCanvas, GlContext), JsBakeError> {
@@ -110,6 +133,7 @@ impl Baker {
             renderer,
             kept: HashMap::new(),
             next_id: 1,
+            lose_at_pass: None,
         })
     }
 
@@ -127,6 +151,13 @@ impl Baker {
             .flatten()
             .and_then(|c| c.dyn_into::<WebGl2RenderingContext>().ok())
             .is_none_or(|gl| gl.is_context_lost())
+    }
+
+    /// For tests: the next bake loses its WebGL2 context (`WEBGL_lose_context`) when pass
+    /// `pass` starts, as a GPU reset would; that bake then fails with `contextLost`.
+    #[wasm_bindgen(js_name = loseContextDuringNextBake)]
+    pub fn lose_context_during_next_bake(&mut self, pass: usize) {
+        self.lose_at_pass = Some(pass);
     }
 
     /// Bakes `gltf` (GLB or glTF JSON bytes) with `options_json` ([`BakeOptions`]) and one
@@ -193,6 +224,8 @@ impl Baker {
         let mut backend = GlowBackend::new(ctx).map_err(|e| JsBakeError::Gpu(e.to_string()))?;
         let mut last = 0.0f64;
         let mut passes_seen = false;
+        let lose_at = self.lose_at_pass.take();
+        let canvas = &self.canvas;
         let mut send = |mut event: serde_json::Value, fraction: f64| {
             last = last.max(fraction);
             event["fraction"] = json!(last);
@@ -211,6 +244,9 @@ impl Baker {
                 bounce,
             } => {
                 passes_seen = true;
+                if lose_at == Some(*index) {
+                    lose_context(canvas);
+                }
                 let f = 0.02 + 0.96 * *index as f64 / (*count).max(1) as f64;
                 send(
                     json!({"phase": "pass", "index": index, "count": count, "label": label,
