@@ -140,7 +140,13 @@ export class Luxbake {
     const run = () => this.#bake(options);
     const result = this.#queue.then(run, run);
     this.#queue = result.catch(() => {});
-    return result;
+    const signal = options?.signal;
+    if (!signal) return result;
+    // A bake still waiting for the one before it rejects at once too (it then never starts).
+    return Promise.race([result, new Promise((_, reject) => {
+      if (signal.aborted) reject(aborted(signal));
+      else signal.addEventListener('abort', () => reject(aborted(signal)), { once: true });
+    })]);
   }
 
   async #bake(options = {}) {
