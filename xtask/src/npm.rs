@@ -16,7 +16,8 @@
 //!    ([`CHECK_LAMP`]) at [`CHECK_SETTINGS`]; its light maps agree with a native glow bake of
 //!    the same request ([`luxbake_js::build_scene`] on the same bytes) within the tolerance
 //!    table of the viewer's check ([`crate::web::TOLERANCES`]);
-//! 2. its progress events never go back and end at 1;
+//! 2. `measure` gives the native maps' lux at four world points (NaN for the one in the air);
+//!    its progress events never go back and end at 1;
 //! 3. a screenshot shows a lit pool on the floor under the lamp, brighter than the floor
 //!    corners ([`crate::web::check_lit_floor`]);
 //! 4. a malformed IES file rejects with a `lamp` error naming its line, a glTF primitive
@@ -266,7 +267,19 @@ fn pack(out: &Path) -> Result<Option<PathBuf>, String> {
 struct Native {
     maps: Vec<(usize, String, [u32; 2], MapImage, MapImage)>,
     seconds: f64,
+    /// Lux at [`MEASURE_POINTS`] ([`luxbake_js::measure`] on the native maps).
+    measured: Vec<f64>,
 }
+
+/// World points the check measures in the browser and natively: the floor under the lamp, a
+/// floor point near a corner, the middle of the −X wall (the room is 5 × 2.6 × 4 m), a point in
+/// the air (on no surface: NaN).
+const MEASURE_POINTS: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [2.0, 0.0, 1.5],
+    [-2.5, 1.3, 0.0],
+    [0.0, 1.3, 0.0],
+];
 
 fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     for (what, p) in [
@@ -403,7 +416,19 @@ fn native_bake(
             )
         })
         .collect();
-    Ok(Some(Native { maps, seconds }))
+    let raw: Vec<_> = out
+        .maps
+        .iter()
+        .map(|m| (m.object, m.illuminance()))
+        .collect();
+    let tolerance = options.measure_tolerance.unwrap_or(0.01);
+    let measured = luxbake_js::measure(scene, &raw, MEASURE_POINTS.as_flattened(), tolerance)
+        .map_err(|e| e.to_string())?;
+    Ok(Some(Native {
+        maps,
+        seconds,
+        measured,
+    }))
 }
 
 /// Polls `expr` until it is true.
@@ -545,6 +570,34 @@ fn run_checks(
     let first = read_maps(s, "window.luxbakeExample.result")?;
     let texels = compare(&first, native)?;
     println!("light maps agree with the native glow bake ({texels} texel comparisons)");
+
+    // measure(): lux at world points as natively (NaN off the surfaces).
+    let got = s.script(&format!(
+        "window.luxbakeExample.result.measure({}).then(l => done(Array.from(l, v => Number.isNaN(v) ? null : v)), \
+         e => done({{kind: e.kind, message: e.message}}))",
+        json!(MEASURE_POINTS)
+    ))?;
+    let lux: Vec<Option<f64>> = got
+        .as_array()
+        .ok_or(format!("measure() failed: {got}"))?
+        .iter()
+        .map(Value::as_f64)
+        .collect();
+    println!(
+        "measure {MEASURE_POINTS:?}: browser {lux:?} lx, native {:?} lx",
+        native.measured
+    );
+    let agree = lux.len() == native.measured.len()
+        && lux.iter().zip(&native.measured).all(|(b, n)| match b {
+            Some(b) => (b - n).abs() <= 1e-3 * n.abs().max(1.0),
+            None => n.is_nan(),
+        });
+    if !agree || lux.iter().filter(|v| v.is_some_and(|v| v > 0.0)).count() < 3 {
+        return Err(format!(
+            "measure() does not agree with the native maps: {lux:?} vs {:?}",
+            native.measured
+        ));
+    }
 
     // 2. Progress events in order, ending at 1.
     let progress: Vec<f64> = s
