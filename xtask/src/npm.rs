@@ -29,7 +29,8 @@
 //!    which rejects with `contextLost` instead of hanging;
 //! 7. a model without light-map UVs ([`CHECK_UNWRAPPED`]) gets them generated in the browser
 //!    as natively (maps within the same tolerances), and `applyToThree` rebuilds each of its
-//!    meshes with `uv1` and a light map on channel 1;
+//!    meshes with `uv1` and a light map on channel 1 — given the `GLTFLoader` result, given
+//!    only its scene (matching by name), and applied a second time;
 //! 8. after `dispose()` a bake rejects with `disposed`; the page logged no error.
 //!
 //! Bake and first-frame times are printed and written to `<target dir>/npm-check/report.json`.
@@ -773,7 +774,10 @@ fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result
          const applied = r.applyToThree(gltf, ex.THREE); \
          const meshes = []; gltf.scene.traverse(o => {{ if (o.isMesh) meshes.push(o); }}); \
          window.__sofa = r; \
-         done({{generated: r.objects.map(o => o.generatedUvs), applied, meshes: meshes.map(m => ({{ \
+         const fresh = await new ex.GLTFLoader().parseAsync(bytes.slice(0), ''); \
+         const byName = r.applyToThree(fresh.scene, ex.THREE); \
+         const again = r.applyToThree(gltf, ex.THREE); \
+         done({{generated: r.objects.map(o => o.generatedUvs), applied, byName, again, meshes: meshes.map(m => ({{ \
            vertices: m.geometry.attributes.position.count, uv1: m.geometry.attributes.uv1?.count ?? 0, \
            index: m.geometry.index?.count ?? 0, lightMap: !!m.material.lightMap, \
            channel: m.material.lightMap?.channel }}))}});"
@@ -796,6 +800,8 @@ fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result
         || !generated.iter().all(|g| g == &json!(true))
         || got["applied"]["applied"].as_u64() != Some(generated.len() as u64)
         || got["applied"]["unmatched"] != json!([])
+        || got["byName"] != got["applied"]
+        || got["again"] != got["applied"]
         || meshes.len() != generated.len()
         || !rebuilt
     {
