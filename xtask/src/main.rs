@@ -11,6 +11,7 @@ mod ies;
 #[cfg(test)]
 mod import_cycles;
 mod measure;
+mod npm;
 mod web;
 
 /// luxbake project commands.
@@ -34,6 +35,9 @@ enum Command {
     ExportScene(export::Args),
     /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
     Measure(measure::Args),
+    /// Build the `luxbake` npm package into `target/npm/` and pack it (`--check`: install it
+    /// with three.js in a scratch project and test it in headless Chromium).
+    Npm(npm::Args),
     /// Build the browser viewer and serve it on 127.0.0.1 (`--check`: end-to-end test in
     /// headless Chromium).
     Web(web::Args),
@@ -47,6 +51,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::ExportScene(args) => export::run(&args),
         Command::Measure(args) => measure::run(&args),
+        Command::Npm(args) => npm::run(&args),
         Command::Web(args) => web::run(&args),
     };
     match result {

@@ -87,13 +87,13 @@ pub fn run(args: &Args) -> Result<(), String> {
     Ok(())
 }
 
-fn workspace_root() -> PathBuf {
+pub(crate) fn workspace_root() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .map_or_else(|| PathBuf::from("."), Path::to_path_buf)
 }
 
-fn target_dir(root: &Path) -> PathBuf {
+pub(crate) fn target_dir(root: &Path) -> PathBuf {
     std::env::var_os("CARGO_TARGET_DIR").map_or_else(|| root.join("target"), PathBuf::from)
 }
 
@@ -114,7 +114,7 @@ fn locked_wasm_bindgen(root: &Path) -> Result<String, String> {
     Err("Cargo.lock has no wasm-bindgen".into())
 }
 
-fn run_cmd(cmd: &mut Command) -> Result<(), String> {
+pub(crate) fn run_cmd(cmd: &mut Command) -> Result<(), String> {
     let status = cmd.status().map_err(|e| format!("running {cmd:?}: {e}"))?;
     if status.success() {
         Ok(())
@@ -123,8 +123,8 @@ fn run_cmd(cmd: &mut Command) -> Result<(), String> {
     }
 }
 
-/// Builds the wasm module, runs wasm-bindgen and copies the page; returns the page folder.
-fn build(root: &Path) -> Result<PathBuf, String> {
+/// Fails unless the `wasm-bindgen` CLI is exactly the version `Cargo.lock` pins.
+pub(crate) fn require_wasm_bindgen(root: &Path) -> Result<(), String> {
     let version = locked_wasm_bindgen(root)?;
     let installed = Command::new("wasm-bindgen")
         .arg("--version")
@@ -142,6 +142,12 @@ fn build(root: &Path) -> Result<PathBuf, String> {
             }
         ));
     }
+    Ok(())
+}
+
+/// Builds the wasm module, runs wasm-bindgen and copies the page; returns the page folder.
+fn build(root: &Path) -> Result<PathBuf, String> {
+    require_wasm_bindgen(root)?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     run_cmd(Command::new(cargo).current_dir(root).args([
         "build",
@@ -181,7 +187,7 @@ fn content_type(path: &Path) -> &'static str {
 }
 
 /// Serves `dist` forever: GET only, no directory listing, no `..`.
-fn serve(listener: &TcpListener, dist: &Path) {
+pub(crate) fn serve(listener: &TcpListener, dist: &Path) {
     for stream in listener.incoming().flatten() {
         let dist = dist.to_path_buf();
         std::thread::spawn(move || {
@@ -238,7 +244,12 @@ fn respond(mut stream: TcpStream, dist: &Path) -> std::io::Result<()> {
 // ---------------------------------------------------------------- WebDriver (HTTP + JSON)
 
 /// One HTTP request to chromedriver; returns the JSON body's `value`.
-fn webdriver(port: u16, method: &str, path: &str, body: Option<&Value>) -> Result<Value, String> {
+pub(crate) fn webdriver(
+    port: u16,
+    method: &str,
+    path: &str,
+    body: Option<&Value>,
+) -> Result<Value, String> {
     let mut stream =
         TcpStream::connect(("127.0.0.1", port)).map_err(|e| format!("chromedriver: {e}"))?;
     let body = body.map(Value::to_string).unwrap_or_default();
@@ -315,18 +326,18 @@ fn dechunk(mut s: &str) -> String {
     out
 }
 
-struct Session {
-    port: u16,
-    id: String,
+pub(crate) struct Session {
+    pub(crate) port: u16,
+    pub(crate) id: String,
 }
 
 impl Session {
-    fn path(&self, p: &str) -> String {
+    pub(crate) fn path(&self, p: &str) -> String {
         format!("/session/{}{p}", self.id)
     }
 
     /// Runs `script` (an async function body ending in `done(value)`) and returns `value`.
-    fn script(&self, script: &str) -> Result<Value, String> {
+    pub(crate) fn script(&self, script: &str) -> Result<Value, String> {
         let body = format!("const done = arguments[arguments.length - 1]; {script}");
         webdriver(
             self.port,
@@ -336,7 +347,7 @@ impl Session {
         )
     }
 
-    fn eval(&self, expr: &str) -> Result<Value, String> {
+    pub(crate) fn eval(&self, expr: &str) -> Result<Value, String> {
         webdriver(
             self.port,
             "POST",
@@ -346,14 +357,14 @@ impl Session {
     }
 
     /// Polls `expr` until it is true.
-    fn wait_for(&self, expr: &str, limit: Duration) -> Result<(), String> {
+    pub(crate) fn wait_for(&self, expr: &str, limit: Duration) -> Result<(), String> {
         let start = Instant::now();
         loop {
             if self.eval(expr)? == Value::Bool(true) {
                 return Ok(());
             }
             if start.elapsed() > limit {
-                let errors = self.eval("window.luxbake && window.luxbake.errors")?;
+                let errors = self.eval("(window.luxbake || window.luxbakeExample || {}).errors")?;
                 let status = self.eval("document.getElementById('status').textContent")?;
                 return Err(format!(
                     "timed out after {limit:?} waiting for `{expr}`; status: {status}; errors: {errors}"
@@ -364,10 +375,10 @@ impl Session {
     }
 }
 
-struct Driver {
-    child: Child,
-    session: Option<Session>,
-    port: u16,
+pub(crate) struct Driver {
+    pub(crate) child: Child,
+    pub(crate) session: Option<Session>,
+    pub(crate) port: u16,
 }
 
 impl Drop for Driver {
@@ -380,7 +391,7 @@ impl Drop for Driver {
     }
 }
 
-fn free_port() -> Result<u16, String> {
+pub(crate) fn free_port() -> Result<u16, String> {
     TcpListener::bind("127.0.0.1:0")
         .and_then(|l| l.local_addr())
         .map(|a| a.port())
@@ -435,25 +446,8 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     std::thread::spawn(move || serve(&listener, &served));
 
     // chromedriver + Chromium on SwiftShader.
-    let port = free_port()?;
-    let child = Command::new(&args.chromedriver)
-        .arg(format!("--port={port}"))
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .map_err(|e| format!("starting chromedriver: {e}"))?;
-    let mut driver = Driver {
-        child,
-        session: None,
-        port,
-    };
-    let start = Instant::now();
-    while webdriver(port, "GET", "/status", None).is_err() {
-        if start.elapsed() > Duration::from_secs(30) {
-            return Err("chromedriver did not start within 30 s".into());
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    }
+    let mut driver = start_driver(&args.chromedriver)?;
+    let port = driver.port;
     let profile = out_dir.join(format!("chromium-profile-{}", std::process::id()));
     driver.session = Some(open_session(port, &args.chromium, &profile, &[])?);
     let session = driver.session.as_ref().ok_or("no session")?;
@@ -490,8 +484,32 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Starts `chromedriver` on a free port and waits until it answers.
+pub(crate) fn start_driver(chromedriver: &Path) -> Result<Driver, String> {
+    let port = free_port()?;
+    let child = Command::new(chromedriver)
+        .arg(format!("--port={port}"))
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(|e| format!("starting chromedriver: {e}"))?;
+    let driver = Driver {
+        child,
+        session: None,
+        port,
+    };
+    let start = Instant::now();
+    while webdriver(port, "GET", "/status", None).is_err() {
+        if start.elapsed() > Duration::from_secs(30) {
+            return Err("chromedriver did not start within 30 s".into());
+        }
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    Ok(driver)
+}
+
 /// A WebDriver session of Chromium on SwiftShader with a fresh profile in `profile`.
-fn open_session(
+pub(crate) fn open_session(
     port: u16,
     chromium: &Path,
     profile: &Path,
@@ -691,7 +709,7 @@ fn run_checks(
     Ok(())
 }
 
-fn map_from_json(v: &Value, width: u32, height: u32) -> Result<MapImage, String> {
+pub(crate) fn map_from_json(v: &Value, width: u32, height: u32) -> Result<MapImage, String> {
     let texels: Vec<f32> = v
         .as_array()
         .ok_or("map is not an array")?
@@ -774,13 +792,43 @@ fn compare_maps(back: &Value, native: &luxbake::BakeOutput) -> Result<(), String
     }
 }
 
-fn luma(rgb: &[u8]) -> f64 {
+pub(crate) fn luma(rgb: &[u8]) -> f64 {
     0.2126 * f64::from(rgb[0]) + 0.7152 * f64::from(rgb[1]) + 0.0722 * f64::from(rgb[2])
 }
 
 /// The screenshot is not blank: the floor under the lamp (projected by the page's camera) is
 /// clearly brighter than the floor corners in view, and the image has contrast.
 fn check_screenshot(s: &Session, png: &[u8], path: &Path) -> Result<(), String> {
+    let lamp: Vec<f64> = s
+        .eval("window.luxbake.lastBake.request.lamp.position || [0, 2.55, 0]")?
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_f64).collect())
+        .unwrap_or_default();
+    let (lx, lz) = (
+        lamp.first().copied().unwrap_or(0.0) as f32,
+        lamp.get(2).copied().unwrap_or(0.0) as f32,
+    );
+    let project = |p: [f32; 3]| -> Result<Option<(f64, f64)>, String> {
+        let v = s.eval(&format!(
+            "window.luxbake.screenPoint({}, {}, {})",
+            p[0], p[1], p[2]
+        ))?;
+        Ok(v.as_array()
+            .and_then(|a| Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?))))
+    };
+    check_lit_floor(png, path, [lx, lz], &project)
+}
+
+/// A screenshot of a built-in room (floor at y = 0, [`luxbake::sources::builtin::ROOM_SIZE`])
+/// shows light: the floor under the lamp at `lamp_xz` (pixel position from `project`, `None`
+/// when out of view) is clearly brighter than the floor corners in view, and the image has
+/// contrast.
+pub(crate) fn check_lit_floor(
+    png: &[u8],
+    path: &Path,
+    [lx, lz]: [f32; 2],
+    project: &dyn Fn([f32; 3]) -> Result<Option<(f64, f64)>, String>,
+) -> Result<(), String> {
     let decoder = png::Decoder::new(std::io::Cursor::new(png));
     let mut reader = decoder
         .read_info()
@@ -810,23 +858,8 @@ fn check_screenshot(s: &Session, png: &[u8], path: &Path) -> Result<(), String> 
         Some(sum / n)
     };
     let at = |p: [f32; 3]| -> Result<Option<f64>, String> {
-        let v = s.eval(&format!(
-            "window.luxbake.screenPoint({}, {}, {})",
-            p[0], p[1], p[2]
-        ))?;
-        Ok(v.as_array()
-            .and_then(|a| Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?)))
-            .and_then(|(x, y)| pixel(x, y)))
+        Ok(project(p)?.and_then(|(x, y)| pixel(x, y)))
     };
-    let lamp: Vec<f64> = s
-        .eval("window.luxbake.lastBake.request.lamp.position || [0, 2.55, 0]")?
-        .as_array()
-        .map(|a| a.iter().filter_map(Value::as_f64).collect())
-        .unwrap_or_default();
-    let (lx, lz) = (
-        lamp.first().copied().unwrap_or(0.0) as f32,
-        lamp.get(2).copied().unwrap_or(0.0) as f32,
-    );
     let under = at([lx, 0.0, lz])?.ok_or("the floor under the lamp is not in view")?;
     let room = luxbake::sources::builtin::ROOM_SIZE;
     let (hx, hz) = (room[0] / 2.0 - 0.15, room[2] / 2.0 - 0.15);
@@ -861,7 +894,7 @@ fn check_screenshot(s: &Session, png: &[u8], path: &Path) -> Result<(), String> 
     Ok(())
 }
 
-fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
+pub(crate) fn base64_decode(text: &str) -> Result<Vec<u8>, String> {
     let value = |c: u8| -> Option<u32> {
         Some(match c {
             b'A'..=b'Z' => c - b'A',

@@ -29,7 +29,7 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use luxbake::scene::{Albedo, AlbedoTexture};
 
-use crate::model::{self, Light, LightKind, Model, RawPart};
+use crate::model::{self, GltfSource, Light, LightKind, Model, RawPart};
 use crate::{AssetError, ImportOptions, Limits};
 
 /// Extensions this reader understands (a file may require them).
@@ -215,7 +215,12 @@ pub fn import_bytes(
                 } else {
                     node_name.clone()
                 };
-                if let Some(raw) = cx.primitive(&prim, &world, &label)? {
+                if let Some(mut raw) = cx.primitive(&prim, &world, &label)? {
+                    raw.gltf = Some(GltfSource {
+                        node: node.index(),
+                        mesh: mesh.index(),
+                        primitive: prim.index(),
+                    });
                     raws.push(raw);
                 }
             }
@@ -533,6 +538,7 @@ impl Cx<'_> {
             indices,
             albedo: Some(Albedo { factor, texture }),
             stretch_lightmap: false,
+            gltf: None,
         }))
     }
 

@@ -47,7 +47,7 @@ use std::path::Path;
 pub use error::AssetError;
 pub use loader::SceneLoader;
 pub use luxbake::scene::{Albedo, Mesh};
-pub use model::{Light, LightKind, Model, Part, UvSource};
+pub use model::{GltfSource, Light, LightKind, Model, Part, UvSource};
 pub use options::{ImportOptions, Limits};
 
 /// Reads a model file, choosing the reader by extension (`.gltf`, `.glb`, `.obj`).

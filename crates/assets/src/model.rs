@@ -37,6 +37,25 @@ pub struct Part {
     pub albedo: Albedo,
     /// Where the light-map UVs came from.
     pub uv_source: UvSource,
+    /// The glTF node, mesh and primitive the part was read from (`None` for OBJ files), so
+    /// that an engine that loaded the same file can find the part's mesh (three.js's
+    /// `GLTFLoader` records these indices in `parser.associations`).
+    pub gltf: Option<GltfSource>,
+    /// For generated UVs ([`UvSource::Generated`]): the vertex of the file each vertex of
+    /// [`Part::mesh`] was copied from (the unwrapper splits vertices at chart seams, and the
+    /// triangles are renumbered); `None` when the vertices are the file's own, in its order.
+    pub source_vertex: Option<Vec<u32>>,
+}
+
+/// Indices of a part's origin in its glTF file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GltfSource {
+    /// Index of the node (in the file's `nodes`) that instantiates the mesh.
+    pub node: usize,
+    /// Index of the mesh (in `meshes`).
+    pub mesh: usize,
+    /// Index of the primitive within the mesh.
+    pub primitive: usize,
 }
 
 /// The kind of a punctual light.
@@ -148,6 +167,8 @@ pub(crate) struct RawPart {
     /// The light-map UVs are this part's corner of an atlas shared with other parts: map
     /// their bounding box onto [0, 1]².
     pub stretch_lightmap: bool,
+    /// Where in a glTF file the part came from.
+    pub gltf: Option<GltfSource>,
 }
 
 /// Makes names unique by appending `_2`, `_3`, ...
@@ -265,6 +286,8 @@ pub(crate) fn finish(
                         mesh,
                         albedo,
                         uv_source: UvSource::Own,
+                        gltf: raw.gltf,
+                        source_vertex: None,
                     });
                 }
                 Err(issue) => rejected = Some(issue),
@@ -307,6 +330,8 @@ pub(crate) fn finish(
             charts: u.charts,
             rejected,
         },
+        gltf: raw.gltf,
+        source_vertex: Some(u.source_vertex),
     })
 }
 

@@ -176,6 +176,7 @@ pub fn import_bytes(
             indices,
             albedo: Some(albedo),
             stretch_lightmap: false,
+            gltf: None,
         };
         parts.push(model::finish(raw, path, options, &mut warnings)?);
     }

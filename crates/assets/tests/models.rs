@@ -12,7 +12,7 @@ use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes::{self, RoomAlbedo};
 use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
-use luxbake_assets::{ImportOptions, Limits, Model, UvSource, export, import};
+use luxbake_assets::{GltfSource, ImportOptions, Limits, Model, UvSource, export, import};
 use luxbake_ies::Photometry;
 
 /// `../shared/models`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test` under
@@ -233,6 +233,64 @@ fn generated_uvs_do_not_overlap_and_keep_the_padding() {
         }
     }
     assert!(checked >= 10);
+}
+
+#[test]
+fn parts_name_their_gltf_origin_and_the_file_vertex_of_each_vertex() {
+    let Some(dir) = models_dir("parts_name_their_gltf_origin_and_the_file_vertex_of_each_vertex")
+    else {
+        return;
+    };
+    // GlamVelvetSofa: nodes 0..3 each instantiate mesh i (one primitive), no TEXCOORD_1; its
+    // POSITION accessors hold 342, 2092 and 684 vertices.
+    let model = import(
+        &dir.join("GlamVelvetSofa/GlamVelvetSofa.glb"),
+        &options(&settings()),
+    )
+    .expect("import");
+    let counts = [342, 2092, 684];
+    assert_eq!(model.parts.len(), 3);
+    for (i, part) in model.parts.iter().enumerate() {
+        assert_eq!(
+            part.gltf,
+            Some(GltfSource {
+                node: i,
+                mesh: i,
+                primitive: 0
+            }),
+            "{}",
+            part.name
+        );
+        assert!(matches!(part.uv_source, UvSource::Generated { .. }));
+        let sv = part
+            .source_vertex
+            .as_ref()
+            .expect("generated UVs name source vertices");
+        assert_eq!(sv.len(), part.mesh.positions.len(), "{}", part.name);
+        assert!(
+            sv.len() >= counts[i],
+            "{}: seams only add vertices",
+            part.name
+        );
+        assert!(
+            sv.iter().all(|&v| (v as usize) < counts[i]),
+            "{}",
+            part.name
+        );
+    }
+    // A file written by the exporter keeps its own UVs and vertices.
+    let out = temp_dir("gltf_origin");
+    let mut room = Scene::builtin("chairs_01").expect("chairs_01");
+    room.lamps.clear();
+    let path = out.join("chairs_01.glb");
+    export::export_scene(&room, &path).expect("export");
+    let model = import(&path, &options(&settings())).expect("reimport");
+    for (i, part) in model.parts.iter().enumerate() {
+        assert_eq!(part.uv_source, UvSource::Own, "{}", part.name);
+        assert_eq!(part.source_vertex, None);
+        assert_eq!(part.gltf.map(|g| (g.mesh, g.primitive)), Some((i, 0)));
+    }
+    let _ = std::fs::remove_dir_all(&out);
 }
 
 /// A minimal glTF with one triangle in a data-URI buffer (positions, then u16 indices).

@@ -395,6 +395,48 @@ impl Lamp {
         }
     }
 
+    /// Checks the lamp's placement and scale as every bake input does: a finite position, a
+    /// finite non-zero aim, a finite rotation, a finite multiplier ≥ 0 and finite colour
+    /// components ≥ 0. The error names the field (`position`, `aim`, `rotation_deg`,
+    /// `multiplier`, `color`).
+    ///
+    /// # Errors
+    /// A [`SettingError`] naming the first field out of range.
+    pub fn validate(&self) -> Result<(), SettingError> {
+        let invalid = |name, reason| Err(SettingError { name, reason });
+        if !self.position.iter().all(|c| c.is_finite()) {
+            return invalid(
+                "position",
+                format!("{:?}; expected finite metres", self.position),
+            );
+        }
+        if !self.aim.iter().all(|c| c.is_finite()) || self.aim.iter().all(|&c| c == 0.0) {
+            return invalid(
+                "aim",
+                format!("{:?}; expected a finite, non-zero direction", self.aim),
+            );
+        }
+        if !self.rotation_deg.is_finite() {
+            return invalid(
+                "rotation_deg",
+                format!("{}; expected finite degrees", self.rotation_deg),
+            );
+        }
+        if !(self.multiplier >= 0.0 && self.multiplier.is_finite()) {
+            return invalid(
+                "multiplier",
+                format!("{}; expected a finite number >= 0", self.multiplier),
+            );
+        }
+        if !self.color.iter().all(|&c| c >= 0.0 && c.is_finite()) {
+            return invalid(
+                "color",
+                format!("{:?}; expected finite components >= 0", self.color),
+            );
+        }
+        Ok(())
+    }
+
     /// The rotation from world directions to the `luxbake-ies` photometric frame (nadir −Z,
     /// C0 +X, C90 +Y), **row-major**: `photometric[r] = Σ_c m[r][c] · world[c]`. Row 0 is the
     /// world direction of C0 (photometric +X), row 1 of C90 (+Y), row 2 of the zenith (+Z,
@@ -1043,6 +1085,25 @@ mod tests {
         l.aim = aim;
         l.rotation_deg = rotation_deg;
         l
+    }
+
+    #[test]
+    fn lamp_validation_names_the_field() {
+        assert_eq!(lamp([0.0, -1.0, 0.0], 0.0).validate(), Ok(()));
+        type Edit = fn(&mut Lamp);
+        let cases: [(&str, Edit); 6] = [
+            ("position", |l| l.position[1] = f32::NAN),
+            ("aim", |l| l.aim = [0.0; 3]),
+            ("aim", |l| l.aim[0] = f32::INFINITY),
+            ("rotation_deg", |l| l.rotation_deg = f32::NAN),
+            ("multiplier", |l| l.multiplier = -1.0),
+            ("color", |l| l.color[2] = -0.5),
+        ];
+        for (name, edit) in cases {
+            let mut l = lamp([0.0, -1.0, 0.0], 0.0);
+            edit(&mut l);
+            assert_eq!(l.validate().map_err(|e| e.name), Err(name));
+        }
     }
 
     #[test]

@@ -528,33 +528,20 @@ impl Cx<'_> {
             position,
         );
         if let Some(aim) = raw.aim {
-            let aim = self.finite3(&key("aim"), aim)?;
-            if aim.iter().all(|&c| c == 0.0) {
-                return Err(self.invalid(key("aim"), "the zero vector has no direction"));
-            }
-            lamp.aim = aim;
+            lamp.aim = self.finite3(&key("aim"), aim)?;
         }
         if let Some(r) = raw.rotation_deg {
             lamp.rotation_deg = self.finite(&key("rotation_deg"), r)?;
         }
         if let Some(m) = raw.multiplier {
-            if !(m >= 0.0 && m.is_finite()) {
-                return Err(self.invalid(
-                    key("multiplier"),
-                    format!("{m}; expected a finite number >= 0"),
-                ));
-            }
             lamp.multiplier = m as f32;
         }
         if let Some(c) = raw.color {
-            if !c.iter().all(|&v| v >= 0.0 && v.is_finite()) {
-                return Err(self.invalid(
-                    key("color"),
-                    format!("{c:?}; expected finite components >= 0"),
-                ));
-            }
             lamp.color = c.map(|v| v as f32);
         }
+        // The ranges every bake input shares (a zero aim, a negative multiplier or colour).
+        lamp.validate()
+            .map_err(|e| self.invalid(key(e.name), e.reason))?;
         Ok(lamp)
     }
 

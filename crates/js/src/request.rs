@@ -1,0 +1,392 @@
+//! What a page asks to bake: a glTF/GLB scene, options as JSON, the lamps' photometric files;
+//! and the scene built from them ([`build_scene`]), natively the same as in the browser.
+//!
+//! Settings come from the CLI's presets ([`Settings::of`]: `method` `converged` with `quality`
+//! `draft`, `default` or `final`, or `method` `paper`), optionally overridden key by key, and
+//! are checked by [`Settings::validate`]; lamps by [`Lamp::validate`]; the scene is read by
+//! [`luxbake_assets::gltf_in::import_bytes`], light-map UVs generated where the file has none
+//! usable, padded for the bake's blur at its density (as `cargo xtask bake` does for scene
+//! files).
+
+use std::path::Path;
+use std::sync::Arc;
+
+use luxbake::scene::{Blur, Lamp, Method, Object, Quality, Scene, Settings, Transform};
+use luxbake_assets::{GltfSource, ImportOptions, UvSource, uv};
+use luxbake_ies::Photometry;
+use serde::Deserialize;
+
+use crate::JsBakeError;
+
+/// The bake options a page sends (JSON, camelCase keys; unknown keys are an error). Every
+/// setting is optional: missing ones take the preset's value.
+#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
+#[serde(default, deny_unknown_fields, rename_all = "camelCase")]
+pub struct BakeOptions {
+    /// `converged` (default) or `paper`.
+    pub method: Option<String>,
+    /// The converged method's preset: `draft`, `default` (default) or `final`.
+    pub quality: Option<String>,
+    /// Gather rays per texel (converged: of the first bounce).
+    pub rays: Option<u32>,
+    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
+    pub bounces: Option<u32>,
+    /// Blur sigma in texels; 0 = no blur.
+    pub blur_sigma: Option<f32>,
+    /// Light-map density, texels per metre.
+    pub texels_per_metre: Option<f32>,
+    /// Seed of the bake's random numbers.
+    pub seed: Option<u32>,
+    /// Largest distance of a `measure` point from a baked surface, metres (default 0.01).
+    pub measure_tolerance: Option<f64>,
+    /// The lamps; their photometric files are passed beside the options, in the same order.
+    pub lamps: Vec<LampOptions>,
+}
+
+/// One lamp of [`BakeOptions`]: where it hangs, where it points, how bright.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct LampOptions {
+    /// Name for reports (default `lamp_<index>`).
+    #[serde(default)]
+    pub name: Option<String>,
+    /// Photometric centre, metres, in the glTF file's frame.
+    pub position: [f32; 3],
+    /// World direction of the photometric nadir (default straight down, `[0, -1, 0]`).
+    #[serde(default)]
+    pub aim: Option<[f32; 3]>,
+    /// Turn of the C0 plane about the aim axis, degrees ([`Lamp::rotation_deg`]).
+    #[serde(default)]
+    pub rotation: f32,
+    /// Dimmer: scalar on every intensity (default 1).
+    #[serde(default)]
+    pub multiplier: Option<f32>,
+    /// Linear RGB tint (default white).
+    #[serde(default)]
+    pub color: Option<[f32; 3]>,
+}
+
+impl BakeOptions {
+    /// Parses options from JSON.
+    ///
+    /// # Errors
+    /// [`JsBakeError::Options`] for malformed JSON, a wrong type or an unknown key.
+    pub fn from_json(text: &str) -> Result<BakeOptions, JsBakeError> {
+        serde_json::from_str(text).map_err(|e| JsBakeError::Options(e.to_string()))
+    }
+
+    /// The bake settings: the preset of `method` and `quality`, overridden by the given keys,
+    /// checked by [`Settings::validate`].
+    ///
+    /// # Errors
+    /// [`JsBakeError::Setting`] naming the first value out of range by its option key.
+    pub fn settings(&self) -> Result<Settings, JsBakeError> {
+        let setting = |name: &str| {
+            let name = name.to_owned();
+            move |reason: String| JsBakeError::Setting { name, reason }
+        };
+        let method: Method = self
+            .method
+            .as_deref()
+            .unwrap_or("converged")
+            .parse()
+            .map_err(setting("method"))?;
+        let quality: Quality = self
+            .quality
+            .as_deref()
+            .unwrap_or("default")
+            .parse()
+            .map_err(setting("quality"))?;
+        let mut s = Settings::of(method, quality);
+        if let Some(r) = self.rays {
+            s.rays = r;
+        }
+        if let Some(b) = self.bounces {
+            s.bounces = b;
+        }
+        if let Some(sigma) = self.blur_sigma {
+            s.blur = if sigma == 0.0 {
+                Blur::None
+            } else {
+                Blur::Sigma(sigma)
+            };
+        }
+        if let Some(d) = self.texels_per_metre {
+            s.texels_per_metre = d;
+        }
+        if let Some(seed) = self.seed {
+            s.seed = seed;
+        }
+        s.validate().map_err(|e| JsBakeError::Setting {
+            name: option_key(e.name).to_owned(),
+            reason: e.reason,
+        })?;
+        Ok(s)
+    }
+}
+
+/// The option key of a [`Settings`] field (its camelCase name; `blur` is `blurSigma`).
+fn option_key(field: &str) -> &str {
+    match field {
+        "blur" => "blurSigma",
+        "texels_per_metre" => "texelsPerMetre",
+        "tail_tolerance" => "tailTolerance",
+        "higher_rays" => "higherRays",
+        "higher_stride" => "higherStride",
+        "refine_rays" => "refineRays",
+        "refine_error" => "refineError",
+        "rotation_deg" => "rotation",
+        other => other,
+    }
+}
+
+/// Where a baked object came from, for the page to find its mesh.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectInfo {
+    /// The glTF node, mesh and primitive.
+    pub gltf: Option<GltfSource>,
+    /// Whether the light-map UVs are the file's own `TEXCOORD_1` (possibly stretched onto the
+    /// unit square) or generated.
+    pub generated_uvs: bool,
+    /// For generated UVs: the file vertex each vertex was copied from.
+    pub source_vertex: Option<Vec<u32>>,
+}
+
+/// A scene ready to bake, with what the page needs to apply the result.
+#[derive(Debug, Clone)]
+pub struct Built {
+    /// The scene: one receiving object per glTF primitive, the requested lamps, the settings.
+    pub scene: Scene,
+    /// Per object of `scene` (same order): where it came from.
+    pub objects: Vec<ObjectInfo>,
+    /// Things that were ignored or converted while reading the file, one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// Builds the scene of a request: `gltf` (glTF JSON with data-URI buffers, or GLB), `options`,
+/// and one photometric file (IES LM-63 or EULUMDAT bytes) per lamp of `options.lamps`.
+///
+/// # Errors
+/// Options or settings out of range, a photometric file that does not parse (the message
+/// names its line), a lamp out of range, a glTF file `luxbake-assets` rejects, no lamp.
+pub fn build_scene(
+    gltf: &[u8],
+    options: &BakeOptions,
+    photometry: &[&[u8]],
+) -> Result<Built, JsBakeError> {
+    let settings = options.settings()?;
+    if options.lamps.is_empty() {
+        return Err(JsBakeError::Options(
+            "`lamps` is empty: a bake needs a lamp".into(),
+        ));
+    }
+    if photometry.len() != options.lamps.len() {
+        return Err(JsBakeError::Options(format!(
+            "{} lamps but {} photometric files",
+            options.lamps.len(),
+            photometry.len()
+        )));
+    }
+    let mut lamps = Vec::with_capacity(options.lamps.len());
+    for (index, (spec, bytes)) in options.lamps.iter().zip(photometry).enumerate() {
+        let name = spec.name.clone().unwrap_or_else(|| format!("lamp_{index}"));
+        let lamp_error = |message: String| JsBakeError::Lamp {
+            index,
+            name: name.clone(),
+            message,
+        };
+        let p = Photometry::parse(bytes).map_err(|e| lamp_error(e.to_string()))?;
+        let mut lamp = Lamp::new(name.clone(), Arc::new(p), spec.position);
+        lamp.aim = spec.aim.unwrap_or([0.0, -1.0, 0.0]);
+        lamp.rotation_deg = spec.rotation;
+        lamp.multiplier = spec.multiplier.unwrap_or(1.0);
+        lamp.color = spec.color.unwrap_or([1.0; 3]);
+        lamp.validate()
+            .map_err(|e| lamp_error(format!("`{}`: {}", option_key(e.name), e.reason)))?;
+        lamps.push(lamp);
+    }
+    let import = ImportOptions {
+        unwrap: uv::UnwrapOptions {
+            texels_per_metre: settings.texels_per_metre,
+            padding_texels: uv::padding_texels(settings.blur),
+            scale: [1.0; 3],
+        },
+        ..ImportOptions::default()
+    };
+    let model = luxbake_assets::gltf_in::import_bytes(gltf, Path::new("scene"), &import)
+        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
+    let mut objects = Vec::with_capacity(model.parts.len());
+    let mut infos = Vec::with_capacity(model.parts.len());
+    for part in model.parts {
+        infos.push(ObjectInfo {
+            gltf: part.gltf,
+            generated_uvs: matches!(part.uv_source, UvSource::Generated { .. }),
+            source_vertex: part.source_vertex,
+        });
+        objects.push(Object {
+            name: part.name,
+            mesh: part.mesh,
+            transform: Transform::IDENTITY,
+            albedo: part.albedo,
+            receiver: true,
+            texel_scale: 1.0,
+        });
+    }
+    let scene = Scene {
+        objects,
+        lamps,
+        settings,
+    };
+    scene
+        .validate()
+        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
+    Ok(Built {
+        scene,
+        objects: infos,
+        warnings: model.warnings,
+    })
+}
+
+/// Illuminance (lux, Rec. 709 luminance of the RGB map: each channel's value for a white lamp)
+/// at world points `xyz` (`3n` numbers, metres), read from `maps` (per object of `scene`, its
+/// total illuminance map) as `cargo xtask measure` reads a bake: the nearest receiving surface
+/// within `tolerance` metres, the map looked up bilinearly (masked) at its light-map UV. A
+/// point on no baked surface gives NaN.
+///
+/// # Errors
+/// [`JsBakeError::Measure`] when `xyz` is not a whole number of finite points.
+pub fn measure(
+    scene: &Scene,
+    maps: &[(usize, &luxbake::map::MapImage)],
+    xyz: &[f64],
+    tolerance: f64,
+) -> Result<Vec<f64>, JsBakeError> {
+    if !xyz.len().is_multiple_of(3) {
+        return Err(JsBakeError::Measure(format!(
+            "{} numbers are not whole x, y, z points",
+            xyz.len()
+        )));
+    }
+    if let Some(i) = xyz.iter().position(|v| !v.is_finite()) {
+        return Err(JsBakeError::Measure(format!(
+            "point {} has a non-finite coordinate",
+            i / 3
+        )));
+    }
+    Ok(xyz
+        .chunks_exact(3)
+        .map(|p| {
+            luxbake::probe::locate(scene, [p[0], p[1], p[2]], tolerance)
+                .and_then(|sp| {
+                    let map = maps.iter().find(|(o, _)| *o == sp.object)?.1;
+                    Some(f64::from(luxbake::output::picture::luminance(
+                        map.sample(sp.uv),
+                    )))
+                })
+                .unwrap_or(f64::NAN)
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const IES: &[u8] = include_bytes!("../../bake/lamps/luxbake_downlight.ies");
+
+    fn options(json: &str) -> BakeOptions {
+        BakeOptions::from_json(json).unwrap()
+    }
+
+    #[test]
+    fn presets_are_the_clis_and_overrides_are_checked_by_the_core() {
+        let draft = options(r#"{"quality":"draft"}"#).settings().unwrap();
+        assert_eq!(draft, Settings::preset(Quality::Draft));
+        let paper = options(r#"{"method":"paper"}"#).settings().unwrap();
+        assert_eq!(paper, Settings::paper());
+        let s = options(r#"{"rays":16,"blurSigma":0,"texelsPerMetre":12}"#)
+            .settings()
+            .unwrap();
+        assert_eq!((s.rays, s.blur, s.texels_per_metre), (16, Blur::None, 12.0));
+        for (json, key) in [
+            (r#"{"rays":0}"#, "rays"),
+            (r#"{"quality":"best"}"#, "quality"),
+            (r#"{"method":"fast"}"#, "method"),
+            (r#"{"texelsPerMetre":0}"#, "texelsPerMetre"),
+            (r#"{"blurSigma":-1}"#, "blurSigma"),
+            (r#"{"bounces":1000}"#, "bounces"),
+        ] {
+            let e = options(json).settings().unwrap_err();
+            assert!(e.to_string().contains(&format!("`{key}`")), "{json}: {e}");
+            assert_eq!(e.kind(), "setting");
+        }
+        let e = BakeOptions::from_json(r#"{"rayz":4}"#).unwrap_err();
+        assert!(e.to_string().contains("rayz"), "{e}");
+    }
+
+    #[test]
+    fn a_malformed_ies_file_names_its_line() {
+        let o = options(r#"{"lamps":[{"name":"pendant","position":[0,2,0]}]}"#);
+        let bad = b"IESNA:LM-63-2002\n[TEST] malformed\nTILT=NONE\n1 1000 1 3 2 1 2 0 0 0\n1 1 10\n0 45 oops\n";
+        let e = build_scene(b"{}", &o, &[bad]).unwrap_err();
+        assert_eq!(e.kind(), "lamp");
+        assert!(
+            e.to_string().contains("pendant") && e.to_string().contains("line 6"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn lamps_out_of_range_and_bad_gltf_are_named() {
+        let o = options(r#"{"lamps":[{"position":[0,2,0],"aim":[0,0,0]}]}"#);
+        let e = build_scene(b"{}", &o, &[IES]).unwrap_err();
+        assert!(e.to_string().contains("`aim`"), "{e}");
+        let o = options(r#"{"lamps":[{"position":[0,2,0],"multiplier":-2}]}"#);
+        let e = build_scene(b"{}", &o, &[IES]).unwrap_err();
+        assert!(e.to_string().contains("`multiplier`"), "{e}");
+        let o = options(r#"{"lamps":[]}"#);
+        assert_eq!(build_scene(b"{}", &o, &[]).unwrap_err().kind(), "options");
+        let o = options(r#"{"lamps":[{"position":[0,2,0]}]}"#);
+        let e = build_scene(b"glTF\x02\0\0\0\x04\0\0\0", &o, &[IES]).unwrap_err();
+        assert_eq!(e.kind(), "scene", "{e}");
+    }
+
+    #[test]
+    fn a_glb_scene_builds_with_its_own_light_map_uvs_and_measures() {
+        let dir = std::env::temp_dir().join(format!("luxbake-js-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let glb = dir.join("chairs_01.glb");
+        let mut builtin = Scene::builtin("chairs_01").unwrap();
+        builtin.lamps.clear();
+        luxbake_assets::export::export_scene(&builtin, &glb).unwrap();
+        let bytes = std::fs::read(&glb).unwrap();
+        let o =
+            options(r#"{"quality":"draft","texelsPerMetre":8,"lamps":[{"position":[0,2.5,0]}]}"#);
+        let built = build_scene(&bytes, &o, &[IES]).unwrap();
+        assert_eq!(built.scene.objects.len(), builtin.objects.len());
+        assert!(
+            built
+                .objects
+                .iter()
+                .all(|i| i.gltf.is_some() && !i.generated_uvs)
+        );
+        let mut backend = luxbake::cpu::CpuBackend::new();
+        let out = luxbake::bake(
+            &mut backend,
+            &built.scene,
+            &built.scene.settings,
+            &mut |_| {},
+        )
+        .unwrap();
+        let maps: Vec<_> = out
+            .maps
+            .iter()
+            .map(|m| (m.object, m.illuminance()))
+            .collect();
+        let lux = measure(&built.scene, &maps, &[0.0, 0.0, 0.5, 0.0, 9.0, 0.0], 0.01).unwrap();
+        assert!(lux[0] > 10.0, "{lux:?}");
+        assert!(lux[1].is_nan(), "{lux:?}");
+        assert!(measure(&built.scene, &maps, &[0.0, 1.0], 0.01).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

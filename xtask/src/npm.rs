@@ -1,0 +1,832 @@
+//! `cargo xtask npm [--check]`: build the `luxbake` npm package (`crates/js`) into
+//! `<target dir>/npm/` and pack it with `npm pack`; or test the packed package end to end.
+//!
+//! Build: `cargo build --release --target wasm32-unknown-unknown -p luxbake-js`, then
+//! `wasm-bindgen --target web` into `npm/wasm/`, then the package's ES modules, TypeScript
+//! declarations and README from `crates/js/package/`, the three.js example with its bundled
+//! photometry (`examples/three/lamps/`) and room (`chairs_01.glb`, written by
+//! [`luxbake_assets::export::export_scene`]), the licences and a `package.json`. `npm pack`
+//! then writes `npm/luxbake-<version>.tgz`, which must stay under [`MAX_PACKAGE_BYTES`].
+//!
+//! `--check` installs the packed `.tgz` and `three` ([`THREE_VERSION`], from the npm registry)
+//! into a scratch project (`<target dir>/npm-check/project/`), serves it, and drives the
+//! package's three.js example in headless Chromium on SwiftShader (the harness of
+//! `cargo xtask web --check`):
+//! 1. the example bakes `chairs_01` (the package's GLB) lit by a manufacturer's IES file
+//!    ([`CHECK_LAMP`]) at [`CHECK_SETTINGS`]; its light maps agree with a native glow bake of
+//!    the same request ([`luxbake_js::build_scene`] on the same bytes) within the tolerance
+//!    table of the viewer's check ([`crate::web::TOLERANCES`]);
+//! 2. `measure` gives the native maps' lux at four world points (NaN for the one in the air);
+//!    its progress events never go back and end at 1;
+//! 3. a screenshot shows a lit pool on the floor under the lamp, brighter than the floor
+//!    corners ([`crate::web::check_lit_floor`]);
+//! 4. a malformed IES file rejects with a `lamp` error naming its line, a glTF primitive
+//!    naming a missing accessor with a `scene` error naming the accessor, an out-of-range
+//!    setting with a `setting` error naming it;
+//! 5. an `AbortSignal` fired during a bake rejects it within a second;
+//! 6. more bakes on the same baker succeed and agree with the native bake again: one after
+//!    the abort, one after a bake whose WebGL2 context was lost mid-bake (`WEBGL_lose_context`),
+//!    which rejects with `contextLost` instead of hanging;
+//! 7. a model without light-map UVs ([`CHECK_UNWRAPPED`]) gets them generated in the browser
+//!    as natively (maps within the same tolerances), and `applyToThree` rebuilds each of its
+//!    meshes with `uv1` and a light map on channel 1 — given the `GLTFLoader` result, given
+//!    only its scene (matching by name), and applied a second time;
+//! 8. after `dispose()` a bake rejects with `disposed`; the page logged no error.
+//!
+//! Bake and first-frame times are printed and written to `<target dir>/npm-check/report.json`.
+//! A missing npm, Chromium, chromedriver, native GL driver or shared photometry skips the check
+//! with a message, except under CI, where it is a failure (`luxbake::ci`'s policy).
+
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+use luxbake::map::MapImage;
+use luxbake_backend_glow::GlowBackend;
+use luxbake_backends::image_diff::diff;
+use luxbake_js::{BakeOptions, build_scene};
+use serde_json::{Value, json};
+
+use crate::web::{
+    self, Session, TOLERANCES, check_lit_floor, map_from_json, open_session, run_cmd, serve,
+    start_driver, target_dir, webdriver, workspace_root,
+};
+
+/// `cargo xtask npm` arguments.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Test the packed package in headless Chromium with three.js from the npm registry.
+    #[arg(long)]
+    check: bool,
+    /// three.js version the check installs.
+    #[arg(long, default_value = THREE_VERSION)]
+    three: String,
+    /// Chromium binary for `--check`.
+    #[arg(long, default_value = "/usr/bin/chromium")]
+    chromium: PathBuf,
+    /// chromedriver binary for `--check`.
+    #[arg(long, default_value = "/usr/bin/chromedriver")]
+    chromedriver: PathBuf,
+}
+
+/// The three.js release the check installs from the npm registry.
+pub const THREE_VERSION: &str = "0.187.0";
+
+/// Largest `npm pack` output accepted.
+pub const MAX_PACKAGE_BYTES: u64 = 5 << 20;
+
+/// The bake settings of the check, in the browser and natively: the viewer check's reduced
+/// density, rays and bounces ([`crate::web::CHECK_REQUEST`]), because SwiftShader runs WebGL2
+/// on the CPU; the converged method's `default` preset otherwise.
+pub const CHECK_SETTINGS: &str =
+    r#"{"texelsPerMetre":12,"rays":16,"bounces":1,"blurSigma":2,"seed":7}"#;
+
+/// The check's lamp: a manufacturer's IES file from the shared test data (a recessed LED
+/// downlight, 532 lm, rotationally symmetric, its peak straight down: a lit pool under it).
+pub const CHECK_LAMP: &str = "../shared/photometry/real-world/rw_7.IES";
+
+/// A model without `TEXCOORD_1` (three primitives with material UVs only), for the generated
+/// light-map UVs: Khronos' GlamVelvetSofa from the shared test data.
+pub const CHECK_UNWRAPPED: &str = "../shared/models/GlamVelvetSofa/GlamVelvetSofa.glb";
+
+/// Bundled photometry of the example: `(file in the repository, name in the package)`.
+const EXAMPLE_LAMPS: [(&str, &str); 3] = [
+    (
+        "crates/bake/lamps/luxbake_downlight.ies",
+        "luxbake_downlight.ies",
+    ),
+    (
+        "crates/viewer/lamps/synthetic_cosine_typeC.ies",
+        "synthetic_cosine_typeC.ies",
+    ),
+    (
+        "crates/viewer/lamps/synthetic_asym_typeC.ies",
+        "synthetic_asym_typeC.ies",
+    ),
+];
+
+/// The package's files (`package.json`'s `files`).
+const PACKAGE_FILES: [&str; 8] = [
+    "index.js",
+    "index.d.ts",
+    "worker.js",
+    "wasm/",
+    "examples/",
+    "README.md",
+    "LICENSE-MIT",
+    "LICENSE-APACHE",
+];
+
+/// Runs the command.
+pub fn run(args: &Args) -> Result<(), String> {
+    let root = workspace_root();
+    let out = build(&root)?;
+    let Some(tgz) = pack(&out)? else {
+        return Ok(());
+    };
+    if args.check {
+        check(args, &root, &tgz)?;
+    }
+    Ok(())
+}
+
+fn copy_dir(from: &Path, to: &Path) -> Result<(), String> {
+    std::fs::create_dir_all(to).map_err(|e| format!("{}: {e}", to.display()))?;
+    for entry in std::fs::read_dir(from).map_err(|e| format!("{}: {e}", from.display()))? {
+        let entry = entry.map_err(|e| e.to_string())?;
+        let dest = to.join(entry.file_name());
+        if entry.path().is_dir() {
+            copy_dir(&entry.path(), &dest)?;
+        } else {
+            std::fs::copy(entry.path(), &dest).map_err(|e| format!("{}: {e}", dest.display()))?;
+        }
+    }
+    Ok(())
+}
+
+/// Builds the package into `<target dir>/npm/` (emptied first); returns that folder.
+fn build(root: &Path) -> Result<PathBuf, String> {
+    web::require_wasm_bindgen(root)?;
+    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
+    run_cmd(Command::new(cargo).current_dir(root).args([
+        "build",
+        "--release",
+        "--target",
+        "wasm32-unknown-unknown",
+        "-p",
+        "luxbake-js",
+    ]))?;
+    let target = target_dir(root);
+    let out = target.join("npm");
+    match std::fs::remove_dir_all(&out) {
+        Ok(()) => {}
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+        Err(e) => return Err(format!("{}: {e}", out.display())),
+    }
+    run_cmd(
+        Command::new("wasm-bindgen")
+            .args(["--target", "web", "--no-typescript", "--out-dir"])
+            .arg(out.join("wasm"))
+            .arg(target.join("wasm32-unknown-unknown/release/luxbake_js.wasm")),
+    )?;
+    copy_dir(&root.join("crates/js/package"), &out)?;
+    let example = out.join("examples/three");
+    let lamps = example.join("lamps");
+    std::fs::create_dir_all(&lamps).map_err(|e| format!("{}: {e}", lamps.display()))?;
+    for (from, name) in EXAMPLE_LAMPS {
+        std::fs::copy(root.join(from), lamps.join(name)).map_err(|e| format!("{from}: {e}"))?;
+    }
+    let mut room = luxbake::scene::Scene::builtin("chairs_01").map_err(|e| e.to_string())?;
+    // The example's lamps come from its picker; the file is the furnished room only.
+    room.lamps.clear();
+    luxbake_assets::export::export_scene(&room, &example.join("chairs_01.glb"))
+        .map_err(|e| e.to_string())?;
+    for licence in ["LICENSE-MIT", "LICENSE-APACHE"] {
+        std::fs::copy(root.join(licence), out.join(licence))
+            .map_err(|e| format!("{licence}: {e}"))?;
+    }
+    let package = json!({
+        "name": "luxbake",
+        "version": env!("CARGO_PKG_VERSION"),
+        "description": "Bake physically based light maps (lux) of a glTF room lit by real lamps (IES, EULUMDAT) in the browser with WebGL2, and show them in three.js",
+        "type": "module",
+        "main": "./index.js",
+        "module": "./index.js",
+        "types": "./index.d.ts",
+        "exports": {
+            ".": {"types": "./index.d.ts", "default": "./index.js"},
+            "./package.json": "./package.json"
+        },
+        "files": PACKAGE_FILES,
+        "sideEffects": false,
+        "keywords": ["lightmap", "light-map", "ies", "eulumdat", "photometry", "gltf", "three.js", "webgl2", "wasm"],
+        "license": "MIT OR Apache-2.0",
+        "repository": env!("CARGO_PKG_REPOSITORY"),
+    });
+    let text = serde_json::to_string_pretty(&package).map_err(|e| e.to_string())?;
+    std::fs::write(out.join("package.json"), text + "\n").map_err(|e| e.to_string())?;
+    println!("package: {}", out.display());
+    Ok(out)
+}
+
+/// Whether `npm` runs; outside CI a missing one skips (with a message).
+fn npm_available(what: &str) -> bool {
+    if Command::new("npm")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
+    {
+        return true;
+    }
+    luxbake::ci::skip_or_fail(what, &"npm not found (apt-get install nodejs npm)");
+    false
+}
+
+/// `npm pack` in `out`; returns the `.tgz`, or `None` when npm is missing outside CI.
+fn pack(out: &Path) -> Result<Option<PathBuf>, String> {
+    if !npm_available("npm pack") {
+        return Ok(None);
+    }
+    let output = Command::new("npm")
+        .args(["pack", "--json", "--loglevel=error"])
+        .current_dir(out)
+        .output()
+        .map_err(|e| format!("running npm pack: {e}"))?;
+    if !output.status.success() {
+        return Err(format!(
+            "npm pack failed: {}",
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    let report: Value =
+        serde_json::from_slice(&output.stdout).map_err(|e| format!("npm pack --json: {e}"))?;
+    let entry = &report[0];
+    let name = entry["filename"].as_str().ok_or("npm pack named no file")?;
+    let tgz = out.join(name);
+    let size = std::fs::metadata(&tgz)
+        .map_err(|e| format!("{}: {e}", tgz.display()))?
+        .len();
+    println!(
+        "packed: {} ({:.2} MB; {} files, {:.2} MB unpacked)",
+        tgz.display(),
+        size as f64 / 1e6,
+        entry["entryCount"],
+        entry["unpackedSize"].as_f64().unwrap_or(f64::NAN) / 1e6
+    );
+    if size > MAX_PACKAGE_BYTES {
+        return Err(format!(
+            "the package is {size} bytes, over the limit of {MAX_PACKAGE_BYTES}"
+        ));
+    }
+    Ok(Some(tgz))
+}
+
+// ---------------------------------------------------------------- the check
+
+/// The native glow bake of the check's request: light maps dilated as the package sends them.
+struct Native {
+    maps: Vec<(usize, String, [u32; 2], MapImage, MapImage)>,
+    seconds: f64,
+    /// Lux at [`MEASURE_POINTS`] ([`luxbake_js::measure`] on the native maps).
+    measured: Vec<f64>,
+}
+
+/// World points the check measures in the browser and natively: the floor under the lamp, a
+/// floor point near a corner, the middle of the −X wall (the room is 5 × 2.6 × 4 m), a point in
+/// the air (on no surface: NaN).
+const MEASURE_POINTS: [[f64; 3]; 4] = [
+    [0.0, 0.0, 0.0],
+    [2.0, 0.0, 1.5],
+    [-2.5, 1.3, 0.0],
+    [0.0, 1.3, 0.0],
+];
+
+fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
+    for (what, p) in [
+        ("Chromium", &args.chromium),
+        ("chromedriver", &args.chromedriver),
+    ] {
+        if !p.is_file() {
+            let msg = format!(
+                "{what} not found at {} (apt-get install chromium chromium-driver)",
+                p.display()
+            );
+            luxbake::ci::skip_or_fail("npm check", &msg);
+            return Ok(());
+        }
+    }
+    let (lamp_path, sofa_path) = (root.join(CHECK_LAMP), root.join(CHECK_UNWRAPPED));
+    let (Ok(lamp), Ok(sofa)) = (std::fs::read(&lamp_path), std::fs::read(&sofa_path)) else {
+        let msg = format!(
+            "{} or {} is missing (shared test data)",
+            lamp_path.display(),
+            sofa_path.display()
+        );
+        luxbake::ci::skip_or_fail("npm check", &msg);
+        return Ok(());
+    };
+    let dir = target_dir(root).join("npm-check");
+    let project = dir.join("project");
+    let _ = std::fs::remove_dir_all(&project);
+    std::fs::create_dir_all(&project).map_err(|e| format!("{}: {e}", project.display()))?;
+    std::fs::write(
+        project.join("package.json"),
+        "{\"name\": \"luxbake-npm-check\", \"private\": true, \"type\": \"module\"}\n",
+    )
+    .map_err(|e| e.to_string())?;
+    let t = Instant::now();
+    run_cmd(
+        Command::new("npm")
+            .args(["install", "--no-audit", "--no-fund", "--loglevel=error"])
+            .arg(tgz)
+            .arg(format!("three@{}", args.three))
+            .current_dir(&project),
+    )?;
+    println!(
+        "npm install of the package and three@{} in {:.1} s",
+        args.three,
+        t.elapsed().as_secs_f64()
+    );
+    std::fs::write(project.join("lamp.ies"), &lamp).map_err(|e| e.to_string())?;
+    std::fs::write(project.join("sofa.glb"), &sofa).map_err(|e| e.to_string())?;
+
+    // The request: the package's room, the builtin lamp position of chairs_01.
+    let glb_path = project.join("node_modules/luxbake/examples/three/chairs_01.glb");
+    let glb = std::fs::read(&glb_path).map_err(|e| format!("{}: {e}", glb_path.display()))?;
+    let position = luxbake::scene::Scene::builtin("chairs_01")
+        .map_err(|e| e.to_string())?
+        .lamps
+        .first()
+        .map(|l| l.position)
+        .ok_or("chairs_01 has no lamp")?;
+    let mut settings: Value = serde_json::from_str(CHECK_SETTINGS).map_err(|e| e.to_string())?;
+    settings["lamps"] = json!([{"name": "rw_7.IES", "position": position}]);
+    let Some(native) = native_bake("chairs_01.glb", &glb, &settings, &lamp)? else {
+        return Ok(());
+    };
+    // 64 rays: the sofa's feet see indirect light only, from under the sofa, where a gather
+    // ray that grazes an edge in one driver and not the other moves a texel by its 1/rays
+    // share (with 16 rays the feet's relative RMSE was 1.3e-3, over the table's 1e-3).
+    let mut sofa_settings = settings.clone();
+    sofa_settings["rays"] = json!(64);
+    sofa_settings["lamps"] = json!([{"name": "rw_7.IES", "position": [0.0, 2.0, 0.0]}]);
+    let Some(sofa_native) = native_bake("GlamVelvetSofa.glb", &sofa, &sofa_settings, &lamp)? else {
+        return Ok(());
+    };
+
+    // Page server and Chromium.
+    let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
+    let page_port = listener.local_addr().map_err(|e| e.to_string())?.port();
+    let served = project.clone();
+    std::thread::spawn(move || serve(&listener, &served));
+    let mut driver = start_driver(&args.chromedriver)?;
+    let profile = dir.join(format!("chromium-profile-{}", std::process::id()));
+    driver.session = Some(open_session(driver.port, &args.chromium, &profile, &[])?);
+    let s = driver.session.as_ref().ok_or("no session")?;
+    let result = run_checks(s, page_port, &settings, &native, &dir)
+        .and_then(|()| check_generated_uvs(s, &sofa_settings, &sofa_native))
+        .and_then(|()| check_dispose(s));
+    if let Some(s) = driver.session.take() {
+        let _ = webdriver(driver.port, "DELETE", &s.path(""), None);
+    }
+    drop(driver);
+    let _ = std::fs::remove_dir_all(&profile);
+    result?;
+    println!("npm check passed");
+    Ok(())
+}
+
+fn native_bake(
+    name: &str,
+    glb: &[u8],
+    settings: &Value,
+    lamp: &[u8],
+) -> Result<Option<Native>, String> {
+    let options = BakeOptions::from_json(&settings.to_string()).map_err(|e| e.to_string())?;
+    let built = build_scene(glb, &options, &[lamp]).map_err(|e| e.to_string())?;
+    let scene = &built.scene;
+    let mut backend = match GlowBackend::headless() {
+        Ok(b) => b,
+        Err(e) if e.is_driver_missing() => {
+            luxbake::ci::skip_or_fail("npm check", &format!("native glow: {e}"));
+            return Ok(None);
+        }
+        Err(e) => return Err(format!("native glow: {e}")),
+    };
+    let t = Instant::now();
+    let out = luxbake::bake(&mut backend, scene, &scene.settings, &mut |_| {})
+        .map_err(|e| format!("native glow bake: {e}"))?;
+    let seconds = t.elapsed().as_secs_f64();
+    println!(
+        "native glow bake of {name} with rw_7.IES: {} texels, {} objects in {seconds:.2} s",
+        out.report.texels,
+        out.maps.len()
+    );
+    let passes = luxbake::output::dilation_passes(&scene.settings);
+    let maps = out
+        .maps
+        .iter()
+        .map(|m| {
+            (
+                m.object,
+                m.name.clone(),
+                m.region.size,
+                m.illuminance().dilated(passes),
+                m.direct().dilated(passes),
+            )
+        })
+        .collect();
+    let raw: Vec<_> = out
+        .maps
+        .iter()
+        .map(|m| (m.object, m.illuminance()))
+        .collect();
+    let tolerance = options.measure_tolerance.unwrap_or(0.01);
+    let measured = luxbake_js::measure(scene, &raw, MEASURE_POINTS.as_flattened(), tolerance)
+        .map_err(|e| e.to_string())?;
+    Ok(Some(Native {
+        maps,
+        seconds,
+        measured,
+    }))
+}
+
+/// Polls `expr` until it is true.
+fn wait(s: &Session, expr: &str, limit: Duration) -> Result<(), String> {
+    s.wait_for(expr, limit)
+}
+
+/// The maps of a result held by the page in `expr` (a `BakeResult`), as JSON.
+fn read_maps(s: &Session, expr: &str) -> Result<Value, String> {
+    let text = s.eval(&format!(
+        "JSON.stringify(({expr}).objects.map(o => ({{object: o.object, name: o.name, \
+         width: o.width, height: o.height, illuminance: Array.from(o.illuminance), \
+         direct: Array.from(o.direct)}})))"
+    ))?;
+    serde_json::from_str(text.as_str().ok_or("no maps")?).map_err(|e| format!("maps JSON: {e}"))
+}
+
+/// Compares the page's maps with the native bake per object and stage; returns the number of
+/// texels compared (a comparison of nothing is a failure).
+fn compare(browser: &Value, native: &Native) -> Result<usize, String> {
+    let objects = browser.as_array().ok_or("maps are not an array")?;
+    if objects.is_empty() || objects.len() != native.maps.len() {
+        return Err(format!(
+            "the browser baked {} objects, natively {}",
+            objects.len(),
+            native.maps.len()
+        ));
+    }
+    let mut failures = Vec::new();
+    let mut texels = 0;
+    for o in objects {
+        let object = o["object"].as_u64().unwrap_or(u64::MAX) as usize;
+        let (_, name, size, illuminance, direct) = native
+            .maps
+            .iter()
+            .find(|m| m.0 == object)
+            .ok_or_else(|| format!("object {object} was not baked natively"))?;
+        let (w, h) = (
+            o["width"].as_u64().unwrap_or(0) as u32,
+            o["height"].as_u64().unwrap_or(0) as u32,
+        );
+        if [w, h] != *size || o["name"].as_str() != Some(name.as_str()) {
+            return Err(format!(
+                "object {object}: browser `{}` {w}×{h}, native `{name}` {size:?}",
+                o["name"]
+            ));
+        }
+        for (stage, expected) in [("illuminance", illuminance), ("direct", direct)] {
+            let tol = TOLERANCES
+                .iter()
+                .find(|(s, _)| *s == stage)
+                .map(|(_, t)| *t)
+                .ok_or("no tolerance")?;
+            let actual = map_from_json(&o[stage], w, h)?;
+            let d = diff(expected, &actual);
+            let ok = d.within(tol);
+            texels += d.texels;
+            println!(
+                "  {name:<10} {stage:<12} {:>6} texels  rel RMSE {:.2e} (≤ {:.0e})  p99 {:.2e} (≤ {:.0e})  masks {}  {}",
+                d.texels,
+                d.rel_rmse,
+                tol.rel_rmse,
+                d.p99,
+                tol.p99,
+                d.mask_mismatches,
+                if ok { "ok" } else { "FAIL" }
+            );
+            if !ok {
+                failures.push(format!("{name} {stage}"));
+            }
+        }
+    }
+    if !failures.is_empty() {
+        return Err(format!(
+            "the package's light maps differ from the native glow bake: {}",
+            failures.join(", ")
+        ));
+    }
+    if texels == 0 {
+        return Err("no texel was compared".into());
+    }
+    Ok(texels)
+}
+
+fn run_checks(
+    s: &Session,
+    page_port: u16,
+    settings: &Value,
+    native: &Native,
+    dir: &Path,
+) -> Result<(), String> {
+    let position = settings["lamps"][0]["position"].clone();
+    let p = |i: usize| position[i].as_f64().unwrap_or(f64::NAN);
+    let mut url = format!(
+        "http://127.0.0.1:{page_port}/node_modules/luxbake/examples/three/index.html?lamp=/lamp.ies&autobake=1&x={}&y={}&z={}",
+        p(0),
+        p(1),
+        p(2)
+    );
+    for key in ["texelsPerMetre", "rays", "bounces", "blurSigma", "seed"] {
+        url.push_str(&format!("&{key}={}", settings[key]));
+    }
+    webdriver(
+        s.port,
+        "POST",
+        &s.path("/url"),
+        Some(&json!({ "url": url })),
+    )?;
+
+    // 1. The example bakes; its maps agree with the native bake.
+    let t = Instant::now();
+    wait(
+        s,
+        "window.luxbakeExample && ['baked', 'error', 'fatal'].includes(window.luxbakeExample.state)",
+        Duration::from_secs(900),
+    )?;
+    let state = s.eval("window.luxbakeExample.state")?;
+    let errors = s.eval("window.luxbakeExample.errors")?;
+    if state != json!("baked") {
+        let status = s.eval("document.getElementById('status').textContent")?;
+        return Err(format!(
+            "the example did not bake: state {state}, errors {errors}, status {status}"
+        ));
+    }
+    let timings = s.eval("window.luxbakeExample.timings")?;
+    let renderer = s.eval("window.luxbakeExample.baker.renderer")?;
+    let report = s.eval("window.luxbakeExample.result.report")?;
+    let bake = timings["bake"].as_f64().unwrap_or(f64::NAN);
+    let first_frame = timings["firstFrame"].as_f64().unwrap_or(f64::NAN);
+    println!(
+        "browser bake of chairs_01.glb with rw_7.IES: {} texels, bake {bake:.2} s (bake() call {:.2} s), \
+         first frame {first_frame:.3} s; native glow {:.2} s ({:.1}×); page load + bake waited {:.1} s; {renderer}",
+        report["texels"],
+        timings["call"].as_f64().unwrap_or(f64::NAN),
+        native.seconds,
+        bake / native.seconds,
+        t.elapsed().as_secs_f64()
+    );
+    let first = read_maps(s, "window.luxbakeExample.result")?;
+    let texels = compare(&first, native)?;
+    println!("light maps agree with the native glow bake ({texels} texel comparisons)");
+
+    // measure(): lux at world points as natively (NaN off the surfaces).
+    let got = s.script(&format!(
+        "window.luxbakeExample.result.measure({}).then(l => done(Array.from(l, v => Number.isNaN(v) ? null : v)), \
+         e => done({{kind: e.kind, message: e.message}}))",
+        json!(MEASURE_POINTS)
+    ))?;
+    let lux: Vec<Option<f64>> = got
+        .as_array()
+        .ok_or(format!("measure() failed: {got}"))?
+        .iter()
+        .map(Value::as_f64)
+        .collect();
+    println!(
+        "measure {MEASURE_POINTS:?}: browser {lux:?} lx, native {:?} lx",
+        native.measured
+    );
+    let agree = lux.len() == native.measured.len()
+        && lux.iter().zip(&native.measured).all(|(b, n)| match b {
+            Some(b) => (b - n).abs() <= 1e-3 * n.abs().max(1.0),
+            None => n.is_nan(),
+        });
+    if !agree || lux.iter().filter(|v| v.is_some_and(|v| v > 0.0)).count() < 3 {
+        return Err(format!(
+            "measure() does not agree with the native maps: {lux:?} vs {:?}",
+            native.measured
+        ));
+    }
+
+    // 2. Progress events in order, ending at 1.
+    let progress: Vec<f64> = s
+        .eval("window.luxbakeExample.progress")?
+        .as_array()
+        .map(|a| a.iter().filter_map(Value::as_f64).collect())
+        .unwrap_or_default();
+    let ordered = progress.windows(2).all(|w| w[0] <= w[1]);
+    println!(
+        "progress: {} events, first {:?}, last {:?}",
+        progress.len(),
+        progress.first(),
+        progress.last()
+    );
+    if progress.len() < 3 || !ordered || progress.last() != Some(&1.0) || progress[0] >= 0.5 {
+        return Err(format!(
+            "progress events out of order or not ending at 1: {progress:?}"
+        ));
+    }
+
+    // 3. Screenshot: a lit pool under the lamp, darker floor corners.
+    let shot = webdriver(s.port, "GET", &s.path("/screenshot"), None)?;
+    let png = web::base64_decode(shot.as_str().ok_or("no screenshot")?)?;
+    let shot_path = dir.join("screenshot.png");
+    std::fs::write(&shot_path, &png).map_err(|e| e.to_string())?;
+    let project = |q: [f32; 3]| -> Result<Option<(f64, f64)>, String> {
+        let v = s.eval(&format!(
+            "window.luxbakeExample.screenPoint({}, {}, {})",
+            q[0], q[1], q[2]
+        ))?;
+        Ok(v.as_array()
+            .and_then(|a| Some((a.first()?.as_f64()?, a.get(1)?.as_f64()?))))
+    };
+    check_lit_floor(&png, &shot_path, [p(0) as f32, p(2) as f32], &project)?;
+    println!("screenshot: {}", shot_path.display());
+
+    // 4. Bad input rejects with a typed error naming what was wrong.
+    let bake_js = |extra: &str| {
+        format!(
+            "const ex = window.luxbakeExample; \
+             const lamp = await (await fetch('/lamp.ies')).arrayBuffer(); \
+             const settings = {settings}; \
+             const lamps = settings.lamps.map(l => ({{...l, photometry: lamp}})); \
+             delete settings.lamps; {extra}"
+        )
+    };
+    let cases = [
+        (
+            "malformed IES",
+            "ex.baker.bake({...settings, scene: ex.sceneBytes, lamps: [{...lamps[0], name: 'malformed.ies', \
+             photometry: 'IESNA:LM-63-2002\\n[TEST] malformed\\nTILT=NONE\\n1 1000 1 3 2 1 2 0 0 0\\n1 1 10\\n0 45 oops\\n'}]})",
+            "lamp",
+            &["malformed.ies", "line 6"][..],
+        ),
+        (
+            "glTF naming a missing accessor",
+            "ex.baker.bake({...settings, lamps, scene: new TextEncoder().encode(JSON.stringify({asset: {version: '2.0'}, \
+             meshes: [{primitives: [{attributes: {POSITION: 3}}]}], nodes: [{mesh: 0}], scenes: [{nodes: [0]}], scene: 0}))})",
+            "scene",
+            &["accessor 3"][..],
+        ),
+        (
+            "rays out of range",
+            "ex.baker.bake({...settings, rays: 0, lamps, scene: ex.sceneBytes})",
+            "setting",
+            &["`rays`"][..],
+        ),
+    ];
+    for (what, call, kind, words) in cases {
+        let script = bake_js(&format!(
+            "{call}.then(() => done({{resolved: true}}), e => done({{name: e.name, kind: e.kind, message: e.message}}));"
+        ));
+        let got = s.script(&format!(
+            "(async () => {{ {script} }})().catch(e => done({{thrown: String(e)}}));"
+        ))?;
+        let message = got["message"].as_str().unwrap_or("");
+        println!(
+            "{what}: rejects with {} `{}`: {message}",
+            got["name"], got["kind"]
+        );
+        if got["name"] != json!("LuxbakeError")
+            || got["kind"] != json!(kind)
+            || !words.iter().all(|w| message.contains(w))
+        {
+            return Err(format!(
+                "{what}: expected a LuxbakeError of kind `{kind}` naming {words:?}, got {got}"
+            ));
+        }
+    }
+
+    // 5. Abort during a bake rejects within a second.
+    let script = bake_js(
+        "const ctl = new AbortController(); let t0; \
+         ex.baker.bake({...settings, lamps, scene: ex.sceneBytes, signal: ctl.signal, onProgress: e => { \
+           if (e.phase === 'pass' && t0 === undefined) { t0 = performance.now(); ctl.abort(); } }}) \
+         .then(() => done({resolved: true}), e => done({kind: e.kind, message: e.message, \
+           ms: t0 === undefined ? null : performance.now() - t0}));",
+    );
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e)}}));"
+    ))?;
+    let ms = got["ms"].as_f64().unwrap_or(f64::INFINITY);
+    println!(
+        "abort during a pass: rejects with `{}` after {ms:.0} ms",
+        got["kind"]
+    );
+    if got["kind"] != json!("aborted") || ms > 1000.0 {
+        return Err(format!("an abort did not reject within a second: {got}"));
+    }
+
+    // 6. More bakes on the same baker: after the abort (a new worker and context), and after
+    //    a context lost mid-bake (an error, not a hang; the next bake gets a new context).
+    let again = |round: u32| -> Result<(), String> {
+        let script = bake_js(&format!(
+            "ex.baker.bake({{...settings, lamps, scene: ex.sceneBytes}}).then(r => {{ window.__bake{round} = r; \
+             done({{ok: true, bake: r.timings.bake}}); }}, e => done({{kind: e.kind, message: e.message}}));"
+        ));
+        let got = s.script(&format!(
+            "(async () => {{ {script} }})().catch(e => done({{thrown: String(e)}}));"
+        ))?;
+        if got["ok"] != json!(true) {
+            return Err(format!("bake {round} on the same baker failed: {got}"));
+        }
+        let maps = read_maps(s, &format!("window.__bake{round}"))?;
+        compare(&maps, native)?;
+        println!(
+            "bake {round} on the same baker: {:.2} s, agrees with the native bake",
+            got["bake"].as_f64().unwrap_or(f64::NAN)
+        );
+        Ok(())
+    };
+    again(2)?;
+    let script = bake_js(
+        "await ex.baker._loseContextDuringNextBake(2); const t0 = performance.now(); \
+         ex.baker.bake({...settings, lamps, scene: ex.sceneBytes}).then(() => done({resolved: true}), \
+           e => done({kind: e.kind, message: e.message, ms: performance.now() - t0}));",
+    );
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e)}}));"
+    ))?;
+    println!(
+        "context lost during pass 2: rejects with `{}` after {:.0} ms: {}",
+        got["kind"],
+        got["ms"].as_f64().unwrap_or(f64::NAN),
+        got["message"]
+    );
+    if got["kind"] != json!("contextLost") {
+        return Err(format!(
+            "a lost context did not reject with `contextLost`: {got}"
+        ));
+    }
+    again(3)?;
+    let record = json!({
+        "scene": "chairs_01.glb", "lamp": "rw_7.IES", "settings": settings, "renderer": renderer,
+        "texels": report["texels"], "browser_bake_s": bake, "browser_call_s": timings["call"],
+        "first_frame_s": first_frame, "native_glow_bake_s": native.seconds,
+    });
+    std::fs::write(dir.join("report.json"), record.to_string()).map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+/// 7. A model without light-map UVs: the browser generates them as natively (same maps within
+///    the tolerances), and `applyToThree` rebuilds every mesh's geometry with them.
+fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result<(), String> {
+    let script = format!(
+        "const ex = window.luxbakeExample; \
+         const lamp = await (await fetch('/lamp.ies')).arrayBuffer(); \
+         const bytes = await (await fetch('/sofa.glb')).arrayBuffer(); \
+         const settings = {settings}; \
+         const lamps = settings.lamps.map(l => ({{...l, photometry: lamp}})); delete settings.lamps; \
+         const r = await ex.baker.bake({{...settings, lamps, scene: bytes}}); \
+         const gltf = await new ex.GLTFLoader().parseAsync(bytes.slice(0), ''); \
+         const applied = r.applyToThree(gltf, ex.THREE); \
+         const meshes = []; gltf.scene.traverse(o => {{ if (o.isMesh) meshes.push(o); }}); \
+         window.__sofa = r; \
+         const fresh = await new ex.GLTFLoader().parseAsync(bytes.slice(0), ''); \
+         const byName = r.applyToThree(fresh.scene, ex.THREE); \
+         const again = r.applyToThree(gltf, ex.THREE); \
+         done({{generated: r.objects.map(o => o.generatedUvs), applied, byName, again, meshes: meshes.map(m => ({{ \
+           vertices: m.geometry.attributes.position.count, uv1: m.geometry.attributes.uv1?.count ?? 0, \
+           index: m.geometry.index?.count ?? 0, lightMap: !!m.material.lightMap, \
+           channel: m.material.lightMap?.channel }}))}});"
+    );
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
+    ))?;
+    println!("generated UVs (GlamVelvetSofa.glb): {got}");
+    let generated = got["generated"]
+        .as_array()
+        .ok_or(format!("no bake: {got}"))?;
+    let meshes = got["meshes"].as_array().ok_or("no meshes")?;
+    let rebuilt = meshes.iter().all(|m| {
+        m["uv1"] == m["vertices"]
+            && m["index"].as_u64().is_some_and(|n| n > 0)
+            && m["lightMap"] == json!(true)
+            && m["channel"] == json!(1)
+    });
+    if generated.is_empty()
+        || !generated.iter().all(|g| g == &json!(true))
+        || got["applied"]["applied"].as_u64() != Some(generated.len() as u64)
+        || got["applied"]["unmatched"] != json!([])
+        || got["byName"] != got["applied"]
+        || got["again"] != got["applied"]
+        || meshes.len() != generated.len()
+        || !rebuilt
+    {
+        return Err(format!(
+            "generated light-map UVs were not applied to every mesh: {got}"
+        ));
+    }
+    let maps = read_maps(s, "window.__sofa")?;
+    compare(&maps, native)?;
+    println!("generated UVs: maps agree with the native bake; every mesh rebuilt with uv1");
+    Ok(())
+}
+
+/// 8. After `dispose()` a bake rejects with `disposed`, and the page logged no error.
+fn check_dispose(s: &Session) -> Result<(), String> {
+    let got = s.script(
+        "const ex = window.luxbakeExample; ex.baker.dispose(); \
+         ex.baker.bake({scene: ex.sceneBytes, lamps: []}).then(() => done('resolved'), e => done(e.kind));",
+    )?;
+    if got != json!("disposed") {
+        return Err(format!("a bake after dispose() gave {got}, not `disposed`"));
+    }
+    let errors = s.eval("window.luxbakeExample.errors")?;
+    if errors.as_array().is_some_and(|e| !e.is_empty()) {
+        return Err(format!("the example reported errors: {errors}"));
+    }
+    Ok(())
+}
