@@ -1092,7 +1092,7 @@ mod tests {
         assert_eq!(lamp([0.0, -1.0, 0.0], 0.0).validate(), Ok(()));
         type Edit = fn(&mut Lamp);
         let cases: [(&str, Edit); 6] = [
-            ("position", |l| l.position[1] = f32::NAN),
+            ("position", |l| l.position[1] = f64::NAN),
             ("aim", |l| l.aim = [0.0; 3]),
             ("aim", |l| l.aim[0] = f32::INFINITY),
             ("rotation_deg", |l| l.rotation_deg = f32::NAN),

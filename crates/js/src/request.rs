@@ -51,7 +51,7 @@ pub struct LampOptions {
     #[serde(default)]
     pub name: Option<String>,
     /// Photometric centre, metres, in the glTF file's frame.
-    pub position: [f32; 3],
+    pub position: [f64; 3],
     /// World direction of the photometric nadir (default straight down, `[0, -1, 0]`).
     #[serde(default)]
     pub aim: Option<[f32; 3]>,
