@@ -708,6 +708,9 @@ pub enum Library {
     Bvh,
     /// Bilinear intensity-table sampling (`luxbake_ies::GpuTable::sample`).
     Ies,
+    /// A lamp seen unshadowed from a surface point ([`crate::backend::lamp_toward`]); after
+    /// [`Library::Scene`] and [`Library::Ies`].
+    Lamp,
     /// The denoiser's guide: whether a tap lies on the centre's surface (`cpu::Guide`); for
     /// programs reading the slots `src`, `position` and `normal`.
     Guide,
@@ -839,7 +842,13 @@ const SIGNATURES: [Signature; 10] = [
         },
         params: DirectParams::FIELDS,
         params_wgsl: DirectParams::WGSL_NAME,
-        libraries: &[Library::Common, Library::Scene, Library::Bvh, Library::Ies],
+        libraries: &[
+            Library::Common,
+            Library::Scene,
+            Library::Bvh,
+            Library::Ies,
+            Library::Lamp,
+        ],
         glsl: pass_files!("direct").0,
         wgsl: pass_files!("direct").1,
     },
@@ -889,6 +898,7 @@ const SIGNATURES: [Signature; 10] = [
             Library::Scene,
             Library::Bvh,
             Library::Ies,
+            Library::Lamp,
             Library::Gather,
             Library::Coarse,
         ],
@@ -953,6 +963,7 @@ const SIGNATURES: [Signature; 10] = [
             Library::Scene,
             Library::Bvh,
             Library::Ies,
+            Library::Lamp,
             Library::Gather,
         ],
         glsl: pass_files!("refine").0,

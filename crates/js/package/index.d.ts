@@ -70,6 +70,8 @@ export interface BakeOptions {
   blurSigma?: number;
   texelsPerMetre?: number;
   seed?: number;
+  /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
+  lampPaths?: number;
   /** Largest distance of a measure() point from a baked surface, metres (default 0.01). */
   measureTolerance?: number;
   onProgress?: (event: ProgressEvent) => void;

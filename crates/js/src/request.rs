@@ -37,6 +37,8 @@ pub struct BakeOptions {
     pub texels_per_metre: Option<f32>,
     /// Seed of the bake's random numbers.
     pub seed: Option<u32>,
+    /// Converged: lamp paths per texel of the first bounce (0 = the gather alone).
+    pub lamp_paths: Option<u32>,
     /// Largest distance of a `measure` point from a baked surface, metres (default 0.01).
     pub measure_tolerance: Option<f64>,
     /// The lamps; their photometric files are passed beside the options, in the same order.
@@ -117,6 +119,9 @@ impl BakeOptions {
         if let Some(seed) = self.seed {
             s.seed = seed;
         }
+        if let Some(k) = self.lamp_paths {
+            s.lamp_paths = k;
+        }
         s.validate().map_err(|e| JsBakeError::Setting {
             name: option_key(e.name).to_owned(),
             reason: e.reason,
@@ -135,6 +140,7 @@ fn option_key(field: &str) -> &str {
         "higher_stride" => "higherStride",
         "refine_rays" => "refineRays",
         "refine_error" => "refineError",
+        "lamp_paths" => "lampPaths",
         "rotation_deg" => "rotation",
         other => other,
     }
@@ -308,7 +314,10 @@ mod tests {
             .settings()
             .unwrap();
         assert_eq!((s.rays, s.blur, s.texels_per_metre), (16, Blur::None, 12.0));
+        let s = options(r#"{"lampPaths":3}"#).settings().unwrap();
+        assert_eq!(s.lamp_paths, 3);
         for (json, key) in [
+            (r#"{"lampPaths":5000}"#, "lampPaths"),
             (r#"{"rays":0}"#, "rays"),
             (r#"{"quality":"best"}"#, "quality"),
             (r#"{"method":"fast"}"#, "method"),
