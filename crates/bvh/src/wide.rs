@@ -5,9 +5,13 @@
 //! ray is tested against all four with SSE on x86_64 (baseline SSE2, no run-time detection) and
 //! with a plain loop over the lanes elsewhere. Children come from the binary tree by repeatedly
 //! opening the inner child of largest surface area until there are four; leaves keep their
-//! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]) and every
-//! triangle is tested with the same watertight test ([`WatertightRay::hits_triangle`]) as the
-//! encoded traversal. The slab test computes the encoded one's entry and exit distances bit for
+//! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]). A leaf's
+//! triangles are copied into packets of four, structure of arrays, stored contiguously, and a
+//! packet's four triangles are tested at once with the arithmetic of the encoded traversal's
+//! watertight test ([`WatertightRay::hits_triangle`]) lane by lane, the same operations in the
+//! same order, so each lane's hit and its `t`, `u`, `v` are the scalar test's bit for bit; of
+//! the lanes hit, the nearest wins and ties go to the lower lane, which is the triangle the
+//! scalar loop over the leaf (strict `t < closest`) keeps. The slab test computes the encoded one's entry and exit distances bit for
 //! bit ([`WatertightRay::hits_box`], the same slack and parallel-axis rule), so a box is
 //! accepted exactly when the encoded traversal would accept it against the same `t_max` (one
 //! exception: where a plane distance overflows to ±∞, the encoded test accepts the box through
@@ -53,7 +57,42 @@ const EMPTY_NODE: Node = Node {
     count: [0; LANES],
 };
 
-/// A pending child: node index or `LEAF | first`, its triangle count, its entry distance.
+/// Up to four triangles of one leaf, structure of arrays: tested together.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(16))]
+struct Packet {
+    /// Row `3·vertex + axis` (p0.x, p0.y, p0.z, p1.x, …, p2.z), one lane per triangle. Unused
+    /// lanes hold a zero-area triangle at the origin, which never hits: its three sheared
+    /// vertices are equal, so every edge function is `x·y − y·x` = 0 exactly and `det` is 0.
+    p: [[f32; LANES]; 9],
+    /// Encoded triangle index per lane (`u32::MAX` for unused lanes).
+    index: [u32; LANES],
+}
+
+impl Packet {
+    fn new(triangles: &[(u32, [[f32; 3]; 3])]) -> Packet {
+        let mut packet = Packet {
+            p: [[0.0; LANES]; 9],
+            index: [u32::MAX; LANES],
+        };
+        for (lane, (index, p)) in triangles.iter().take(LANES).enumerate() {
+            packet.index[lane] = *index;
+            for (v, vertex) in p.iter().enumerate() {
+                for (a, &c) in vertex.iter().enumerate() {
+                    packet.p[3 * v + a][lane] = c;
+                }
+            }
+        }
+        packet
+    }
+
+    #[cfg(test)]
+    fn triangle(&self, lane: usize) -> [[f32; 3]; 3] {
+        std::array::from_fn(|v| std::array::from_fn(|a| self.p[3 * v + a][lane]))
+    }
+}
+
+/// A pending child: node index or `LEAF | first packet`, its packet count, its entry distance.
 #[derive(Clone, Copy, Debug, Default)]
 struct Entry {
     child: u32,
@@ -79,7 +118,8 @@ struct Entry {
 #[derive(Clone, Debug, PartialEq)]
 pub struct WideBvh {
     nodes: Vec<Node>,
-    triangles: Vec<[[f32; 3]; 3]>,
+    /// The leaves' triangles, a leaf's packets contiguous, in the encoded order.
+    packets: Vec<Packet>,
     /// Stack entries a traversal may need: 3 per level below the root, plus one.
     stack_size: usize,
 }
@@ -122,20 +162,18 @@ impl Binary<'_> {
 
 impl WideBvh {
     /// Collapses the encoded scene's binary tree (read back from its bounds and TBVH link
-    /// textures) into a 4-wide tree and copies its triangle positions.
+    /// textures) into a 4-wide tree and copies its leaves' triangle positions into packets.
     ///
     /// Never panics, even for corrupt encodings: inconsistent links end a subtree and
     /// triangle ranges are clamped to `0 .. triangle_count`.
     pub fn from_encoded(scene: &EncodedScene) -> WideBvh {
-        let triangles: Vec<[[f32; 3]; 3]> = (0..scene.triangle_count)
-            .map(|t| scene.triangle_positions(t))
-            .collect();
+        let mut packets = Vec::new();
         let mut nodes = vec![EMPTY_NODE];
         let mut max_depth = 1usize;
         if scene.node_count == 0 {
             return WideBvh {
                 nodes,
-                triangles,
+                packets,
                 stack_size: 1,
             };
         }
@@ -183,15 +221,21 @@ impl WideBvh {
                     work.push((k, index, depth + 1));
                 } else {
                     let end = n.end_tri.min(scene.triangle_count);
-                    let first = n.first_tri.min(end).min(LEAF - 1);
-                    nodes[slot].child[lane] = LEAF | first;
-                    nodes[slot].count[lane] = end - first;
+                    let first = n.first_tri.min(end);
+                    let tris: Vec<(u32, [[f32; 3]; 3])> = (first..end)
+                        .map(|t| (t, scene.triangle_positions(t)))
+                        .collect();
+                    let start = packets.len();
+                    packets.extend(tris.chunks(LANES).map(Packet::new));
+                    let start = u32::try_from(start).unwrap_or(u32::MAX).min(LEAF - 1);
+                    nodes[slot].child[lane] = LEAF | start;
+                    nodes[slot].count[lane] = (packets.len() - start as usize) as u32;
                 }
             }
         }
         WideBvh {
             nodes,
-            triangles,
+            packets,
             stack_size: 3 * max_depth + 1,
         }
     }
@@ -233,6 +277,7 @@ impl WideBvh {
         stack: &mut [Entry],
     ) -> Option<Hit> {
         let q = BoxRay::new(r);
+        let tri = PacketRay::new(r);
         let mut closest = t_max;
         let mut best: Option<(u32, f32, f32)> = None;
         stack[0] = Entry {
@@ -249,14 +294,23 @@ impl WideBvh {
             }
             if e.child & LEAF != 0 {
                 let first = (e.child & !LEAF) as usize;
-                let tris = self.triangles.get(first..first + e.count as usize);
-                for (k, p) in tris.into_iter().flatten().enumerate() {
-                    if let Some((t, u, v)) = r.hits_triangle(p[0], p[1], p[2], t_min, closest) {
-                        closest = t;
-                        best = Some(((first + k) as u32, u, v));
-                        if any {
-                            return hit(best, closest);
+                let packets = self.packets.get(first..first + e.count as usize);
+                for packet in packets.into_iter().flatten() {
+                    let h = tri.hits(packet, t_min, closest);
+                    if h.mask == 0 {
+                        continue;
+                    }
+                    // The nearest lane hit; ties keep the lower lane (the earlier triangle).
+                    let mut lane = h.mask.trailing_zeros() as usize;
+                    for l in lane + 1..LANES {
+                        if h.mask & (1 << l) != 0 && h.t[l] < h.t[lane] {
+                            lane = l;
                         }
+                    }
+                    closest = h.t[lane];
+                    best = Some((packet.index[lane], h.u[lane], h.v[lane]));
+                    if any {
+                        return hit(best, closest);
                     }
                 }
                 continue;
@@ -296,6 +350,156 @@ impl WideBvh {
 
 fn hit(best: Option<(u32, f32, f32)>, t: f32) -> Option<Hit> {
     best.map(|(triangle, u, v)| Hit { t, triangle, u, v })
+}
+
+/// The lanes of a [`Packet`] a ray hits, with their `t`, `u`, `v` (unspecified in other lanes).
+struct PacketHits {
+    mask: u32,
+    t: [f32; LANES],
+    u: [f32; LANES],
+    v: [f32; LANES],
+}
+
+/// The watertight test's per-ray constants ([`WatertightRay`]) in the form the packet test
+/// reads them: the packet rows of the permuted axes and the origin in that order.
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+struct PacketRay {
+    /// Axes `kx`, `ky`, `kz`.
+    axis: [usize; 3],
+    /// Origin along `kx`, `ky`, `kz`.
+    origin: [f32; 3],
+    sx: f32,
+    sy: f32,
+    sz: f32,
+    /// The ray, for the portable test.
+    #[cfg(any(test, not(target_arch = "x86_64")))]
+    ray: WatertightRay,
+}
+
+impl PacketRay {
+    fn new(r: &WatertightRay) -> PacketRay {
+        let axis = [r.kx, r.ky, r.kz];
+        PacketRay {
+            axis,
+            origin: axis.map(|a| r.origin[a]),
+            sx: r.sx,
+            sy: r.sy,
+            sz: r.sz,
+            #[cfg(any(test, not(target_arch = "x86_64")))]
+            ray: *r,
+        }
+    }
+
+    /// Each lane's [`WatertightRay::hits_triangle`] against `(t_min, t_max)`, four at once:
+    /// the same operations in the same order (`a = p0 − origin`; `ax = a[kx] − sx·a[kz]`, …;
+    /// `u = cx·by − cy·bx`, `v = ax·cy − ay·cx`, `w = bx·ay − by·ax`; the sign test; `det =
+    /// u + v + w`; `t = (u·az + v·bz + w·cz) / det`; `t_min < t < t_max`; barycentrics `v /
+    /// det`, `w / det`), each one correctly rounded in SSE as in scalar code, so every lane's
+    /// result is the scalar one bit for bit.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn hits(&self, packet: &Packet, t_min: f32, t_max: f32) -> PacketHits {
+        use std::arch::x86_64::*;
+        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the loads read the 16-byte
+        // aligned `[f32; 4]` rows of a `Packet` (16-byte aligned, rows at multiples of 16).
+        unsafe {
+            let row = |i: usize| _mm_load_ps(packet.p[i].as_ptr());
+            let [ox, oy, oz] = self.origin.map(|o| _mm_set1_ps(o));
+            let (sx, sy, sz) = (
+                _mm_set1_ps(self.sx),
+                _mm_set1_ps(self.sy),
+                _mm_set1_ps(self.sz),
+            );
+            let [kx, ky, kz] = self.axis;
+            // (p − origin) sheared: (x − sx·z, y − sy·z, sz·z) along the permuted axes.
+            let vertex = |v: usize| {
+                let dx = _mm_sub_ps(row(3 * v + kx), ox);
+                let dy = _mm_sub_ps(row(3 * v + ky), oy);
+                let dz = _mm_sub_ps(row(3 * v + kz), oz);
+                (
+                    _mm_sub_ps(dx, _mm_mul_ps(sx, dz)),
+                    _mm_sub_ps(dy, _mm_mul_ps(sy, dz)),
+                    _mm_mul_ps(sz, dz),
+                )
+            };
+            let (ax, ay, az) = vertex(0);
+            let (bx, by, bz) = vertex(1);
+            let (cx, cy, cz) = vertex(2);
+            let u = _mm_sub_ps(_mm_mul_ps(cx, by), _mm_mul_ps(cy, bx));
+            let v = _mm_sub_ps(_mm_mul_ps(ax, cy), _mm_mul_ps(ay, cx));
+            let w = _mm_sub_ps(_mm_mul_ps(bx, ay), _mm_mul_ps(by, ax));
+            let zero = _mm_setzero_ps();
+            let negative = _mm_or_ps(
+                _mm_or_ps(_mm_cmplt_ps(u, zero), _mm_cmplt_ps(v, zero)),
+                _mm_cmplt_ps(w, zero),
+            );
+            let positive = _mm_or_ps(
+                _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
+                _mm_cmpgt_ps(w, zero),
+            );
+            let det = _mm_add_ps(_mm_add_ps(u, v), w);
+            let t = _mm_div_ps(
+                _mm_add_ps(
+                    _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
+                    _mm_mul_ps(w, cz),
+                ),
+                det,
+            );
+            // `cmpneq` is true for NaN, as `det == 0.0` is false; the `t` comparisons reject
+            // NaN as `!(t > t_min && t < t_max)` does.
+            let accept = _mm_andnot_ps(
+                _mm_and_ps(negative, positive),
+                _mm_and_ps(
+                    _mm_cmpneq_ps(det, zero),
+                    _mm_and_ps(
+                        _mm_cmpgt_ps(t, _mm_set1_ps(t_min)),
+                        _mm_cmplt_ps(t, _mm_set1_ps(t_max)),
+                    ),
+                ),
+            );
+            let mut hits = PacketHits {
+                mask: _mm_movemask_ps(accept) as u32,
+                t: [0.0; LANES],
+                u: [0.0; LANES],
+                v: [0.0; LANES],
+            };
+            if hits.mask != 0 {
+                _mm_storeu_ps(hits.t.as_mut_ptr(), t);
+                _mm_storeu_ps(hits.u.as_mut_ptr(), _mm_div_ps(v, det));
+                _mm_storeu_ps(hits.v.as_mut_ptr(), _mm_div_ps(w, det));
+            }
+            hits
+        }
+    }
+
+    /// The portable form of the SSE test above: [`WatertightRay::hits_triangle`] lane by lane
+    /// (also the reference the tests compare the SSE form with).
+    #[cfg(any(test, not(target_arch = "x86_64")))]
+    fn hits_scalar(&self, packet: &Packet, t_min: f32, t_max: f32) -> PacketHits {
+        let mut hits = PacketHits {
+            mask: 0,
+            t: [0.0; LANES],
+            u: [0.0; LANES],
+            v: [0.0; LANES],
+        };
+        for lane in 0..LANES {
+            let p: [[f32; 3]; 3] =
+                std::array::from_fn(|v| std::array::from_fn(|a| packet.p[3 * v + a][lane]));
+            if let Some((t, u, v)) = self.ray.hits_triangle(p[0], p[1], p[2], t_min, t_max) {
+                hits.mask |= 1 << lane;
+                hits.t[lane] = t;
+                hits.u[lane] = u;
+                hits.v[lane] = v;
+            }
+        }
+        hits
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    #[inline(always)]
+    fn hits(&self, packet: &Packet, t_min: f32, t_max: f32) -> PacketHits {
+        self.hits_scalar(packet, t_min, t_max)
+    }
 }
 
 /// The slab-test form of a ray for wide nodes: per axis the origin, the inverse direction
@@ -485,5 +689,109 @@ mod tests {
             }
         }
         assert_eq!(checked, 8 * 4 * 8 * 8 * 2 * 3);
+    }
+
+    /// SplitMix64, for seeded test data.
+    struct Rng(u64);
+
+    impl Rng {
+        fn next(&mut self) -> u64 {
+            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = self.0;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^ (z >> 31)
+        }
+
+        /// Uniform in `[lo, hi)`, on a coarse grid a quarter of the time (exact ties, shared
+        /// coordinates, axis-aligned edges).
+        fn coord(&mut self, lo: f32, hi: f32) -> f32 {
+            let x = (self.next() >> 40) as f32 / (1u64 << 24) as f32;
+            if self.next().is_multiple_of(4) {
+                lo + ((x * 8.0).floor() / 8.0) * (hi - lo)
+            } else {
+                lo + x * (hi - lo)
+            }
+        }
+    }
+
+    /// The SSE packet test equals the scalar watertight test lane by lane, bit for bit (mask,
+    /// `t`, `u`, `v`), on seeded random packets: triangles sharing vertices and edges, zero-area
+    /// ones, unused lanes, rays aimed at vertices and edges, axis-aligned and negative
+    /// directions, and a range of `t_max`.
+    #[test]
+    fn packet_test_matches_the_scalar_watertight_test() {
+        let mut lanes_hit = 0;
+        for seed in 0..400u64 {
+            let mut rng = Rng(seed);
+            let v: Vec<[f32; 3]> = (0..6)
+                .map(|_| std::array::from_fn(|_| rng.coord(-1.0, 1.0)))
+                .collect();
+            let used = 1 + (rng.next() % 4) as usize;
+            let tris: Vec<(u32, [[f32; 3]; 3])> = (0..used)
+                .map(|i| {
+                    let mut p = [0, 1, 2].map(|_| v[(rng.next() % 6) as usize]);
+                    if rng.next().is_multiple_of(3) {
+                        // A fresh triangle rather than one on the shared vertices.
+                        p = [0, 1, 2].map(|_| std::array::from_fn(|_| rng.coord(-1.0, 1.0)));
+                    }
+                    (i as u32 + 10, p)
+                })
+                .collect();
+            let packet = Packet::new(&tris);
+            for lane in used..LANES {
+                assert_eq!(packet.index[lane], u32::MAX);
+            }
+            for k in 0..64 {
+                let origin: [f32; 3] = std::array::from_fn(|_| rng.coord(-2.0, 2.0));
+                let mut dir: [f32; 3] = std::array::from_fn(|_| rng.coord(-1.0, 1.0));
+                match k % 4 {
+                    0 => {
+                        // At a vertex or an edge midpoint of a lane.
+                        let p = tris[(rng.next() as usize) % used].1;
+                        let (i, j) = ((rng.next() % 3) as usize, (rng.next() % 3) as usize);
+                        dir = std::array::from_fn(|a| 0.5 * (p[i][a] + p[j][a]) - origin[a]);
+                    }
+                    1 => {
+                        let a = (rng.next() % 3) as usize;
+                        dir = [0.0; 3];
+                        dir[a] = if rng.next().is_multiple_of(2) {
+                            1.0
+                        } else {
+                            -1.0
+                        };
+                    }
+                    _ => {}
+                }
+                let ray = Ray { origin, dir };
+                let Some(r) = WatertightRay::new(&ray) else {
+                    continue;
+                };
+                let q = PacketRay::new(&r);
+                for (t_min, t_max) in [(0.0, f32::INFINITY), (0.0, 1.0), (0.5, 2.0), (-1.0, 0.0)] {
+                    let simd = q.hits(&packet, t_min, t_max);
+                    let scalar = q.hits_scalar(&packet, t_min, t_max);
+                    let msg = format!("seed {seed}, ray {k} {ray:?}, t in ({t_min}, {t_max})");
+                    assert_eq!(simd.mask, scalar.mask, "{msg}");
+                    lanes_hit += simd.mask.count_ones();
+                    for lane in 0..LANES {
+                        if simd.mask & (1 << lane) != 0 {
+                            let bits = |h: &PacketHits| {
+                                [h.t[lane], h.u[lane], h.v[lane]].map(f32::to_bits)
+                            };
+                            assert_eq!(bits(&simd), bits(&scalar), "{msg}, lane {lane}");
+                            let p = packet.triangle(lane);
+                            assert_eq!(
+                                r.hits_triangle(p[0], p[1], p[2], t_min, t_max)
+                                    .map(|(t, u, v)| [t, u, v].map(f32::to_bits)),
+                                Some(bits(&simd)),
+                                "{msg}, lane {lane}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        assert!(lanes_hit > 10_000, "only {lanes_hit} lanes hit");
     }
 }
