@@ -114,6 +114,7 @@ pub struct WatertightRay {
 
 impl WatertightRay {
     /// Sets up `ray`. Returns `None` if its direction is zero or it has a non-finite component.
+    #[inline]
     pub fn new(ray: &Ray) -> Option<WatertightRay> {
         let d = ray.dir;
         let finite = d.iter().chain(&ray.origin).all(|c| c.is_finite());

@@ -31,6 +31,8 @@ const LANES: usize = 4;
 const LEAF: u32 = 1 << 31;
 /// Stack entries kept on the thread's stack; deeper trees use a heap stack.
 const INLINE_STACK: usize = 64;
+/// The inline stack of shallower trees (most scenes of a few thousand triangles).
+const SMALL_STACK: usize = 32;
 
 /// One wide node: four child boxes, structure of arrays.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -260,8 +262,13 @@ impl WideBvh {
             .is_some()
     }
 
+    /// Runs `f` with a stack of at least `stack_size` entries: the smallest of two inline
+    /// sizes that fits (each ray zeroes its stack, so small scenes clear less), else the heap.
+    #[inline(always)]
     fn with_stack<T>(&self, f: impl FnOnce(&mut [Entry]) -> T) -> T {
-        if self.stack_size <= INLINE_STACK {
+        if self.stack_size <= SMALL_STACK {
+            f(&mut [Entry::default(); SMALL_STACK])
+        } else if self.stack_size <= INLINE_STACK {
             f(&mut [Entry::default(); INLINE_STACK])
         } else {
             f(&mut vec![Entry::default(); self.stack_size])
