@@ -5,8 +5,10 @@
 //! ray is tested against all four with SSE on x86_64 (baseline SSE2, no run-time detection) and
 //! with a plain loop over the lanes elsewhere. Children come from the binary tree by repeatedly
 //! opening the inner child of largest surface area until there are four; leaves keep their
-//! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]). A leaf's
-//! triangles are copied into packets of four, structure of arrays, stored contiguously, and a
+//! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]), and a child
+//! whose subtree holds at most four triangles becomes one leaf (its box bounds them all, so
+//! every triangle a ray can hit is still tested). A leaf's triangles are copied into packets
+//! of four, structure of arrays, stored contiguously, and a
 //! packet's four triangles are tested at once with the arithmetic of the encoded traversal's
 //! watertight test ([`WatertightRay::hits_triangle`]) lane by lane, the same operations in the
 //! same order, so each lane's hit and its `t`, `u`, `v` are the scalar test's bit for bit; of
@@ -155,6 +157,37 @@ impl Binary<'_> {
         }
     }
 
+    /// The triangles of the subtree under inner node `i`, leaf ranges in tree order (the
+    /// encoded order), when it holds at most [`LANES`] triangles in at most `2·LANES` nodes:
+    /// such a subtree becomes one leaf lane, its triangles one packet, and is marked taken.
+    fn small_subtree(&mut self, i: u32) -> Option<Vec<u32>> {
+        let mut tris = Vec::new();
+        let mut seen = Vec::new();
+        let mut todo = vec![i];
+        while let Some(k) = todo.pop() {
+            seen.push(k);
+            if seen.len() > 2 * LANES {
+                return None;
+            }
+            match self.children(k) {
+                Some((l, r)) => todo.extend([r, l]),
+                None => {
+                    let n = self.scene.node(k);
+                    let end = n.end_tri.min(self.scene.triangle_count);
+                    let first = n.first_tri.min(end);
+                    if tris.len() + (end - first) as usize > LANES {
+                        return None;
+                    }
+                    tris.extend(first..end);
+                }
+            }
+        }
+        for k in seen {
+            self.take(k);
+        }
+        Some(tris)
+    }
+
     fn half_area(&self, i: u32) -> f32 {
         let n = self.scene.node(i);
         let d = [0, 1, 2].map(|a| (n.max[a] - n.min[a]).max(0.0));
@@ -216,15 +249,15 @@ impl WideBvh {
                     nodes[slot].planes[a][lane] = n.min[a];
                     nodes[slot].planes[a + 3][lane] = n.max[a];
                 }
-                if binary.children(k).is_some() {
-                    let index = nodes.len();
-                    nodes.push(EMPTY_NODE);
-                    nodes[slot].child[lane] = index as u32;
-                    work.push((k, index, depth + 1));
+                let leaf: Option<Vec<u32>> = if binary.children(k).is_some() {
+                    binary.small_subtree(k)
                 } else {
                     let end = n.end_tri.min(scene.triangle_count);
-                    let first = n.first_tri.min(end);
-                    let tris: Vec<(u32, [[f32; 3]; 3])> = (first..end)
+                    Some((n.first_tri.min(end)..end).collect())
+                };
+                if let Some(leaf) = leaf {
+                    let tris: Vec<(u32, [[f32; 3]; 3])> = leaf
+                        .into_iter()
                         .map(|t| (t, scene.triangle_positions(t)))
                         .collect();
                     let start = packets.len();
@@ -232,6 +265,11 @@ impl WideBvh {
                     let start = u32::try_from(start).unwrap_or(u32::MAX).min(LEAF - 1);
                     nodes[slot].child[lane] = LEAF | start;
                     nodes[slot].count[lane] = (packets.len() - start as usize) as u32;
+                } else {
+                    let index = nodes.len();
+                    nodes.push(EMPTY_NODE);
+                    nodes[slot].child[lane] = index as u32;
+                    work.push((k, index, depth + 1));
                 }
             }
         }
@@ -800,5 +838,40 @@ mod tests {
             }
         }
         assert!(lanes_hit > 10_000, "only {lanes_hit} lanes hit");
+    }
+
+    /// Subtrees of at most four triangles become one leaf: with one triangle per binary leaf,
+    /// packets still hold several triangles, and every triangle is in exactly one lane.
+    #[test]
+    fn small_subtrees_share_a_packet() {
+        use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
+        let mut rng = Rng(5);
+        let tris: Vec<[[f32; 3]; 3]> = (0..300)
+            .map(|_| {
+                let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
+                [0, 1, 2].map(|_| std::array::from_fn(|a| c[a] + rng.coord(-0.3, 0.3)))
+            })
+            .collect();
+        let options = BuildOptions {
+            max_leaf_size: 1,
+            ..BuildOptions::default()
+        };
+        let bvh = Bvh::build(&tris, &options).expect("build");
+        let attributes = vec![TriangleAttributes::default(); tris.len()];
+        let scene = encode(&bvh, &tris, &attributes, &EncodeOptions::default()).expect("encode");
+        let wide = WideBvh::from_encoded(&scene);
+        let mut seen = vec![0u32; tris.len()];
+        for packet in &wide.packets {
+            for &i in packet.index.iter().filter(|&&i| i != u32::MAX) {
+                seen[i as usize] += 1;
+            }
+        }
+        assert!(seen.iter().all(|&n| n == 1), "{seen:?}");
+        assert!(
+            wide.packets.len() < tris.len() / 2,
+            "{} packets for {} triangles",
+            wide.packets.len(),
+            tris.len()
+        );
     }
 }
