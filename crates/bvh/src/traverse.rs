@@ -100,12 +100,12 @@ pub struct WatertightRay {
     pub(crate) origin: [f32; 3],
     /// Permuted axes: `kz` = dominant axis, `kx`, `ky` the others (swapped if `dir[kz] < 0`,
     /// preserving the winding).
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub(crate) kx: usize,
+    pub(crate) ky: usize,
+    pub(crate) kz: usize,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
+    pub(crate) sz: f32,
     /// `1 / dir` per axis, with 1 in place of near-zero components.
     pub(crate) inv: [f32; 3],
     /// Whether the axis is (numerically) parallel: `|dir| < PARALLEL_EPSILON`.
@@ -114,6 +114,7 @@ pub struct WatertightRay {
 
 impl WatertightRay {
     /// Sets up `ray`. Returns `None` if its direction is zero or it has a non-finite component.
+    #[inline]
     pub fn new(ray: &Ray) -> Option<WatertightRay> {
         let d = ray.dir;
         let finite = d.iter().chain(&ray.origin).all(|c| c.is_finite());
