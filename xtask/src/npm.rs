@@ -147,29 +147,13 @@ fn copy_dir(from: &Path, to: &Path) -> Result<(), String> {
 
 /// Builds the package into `<target dir>/npm/` (emptied first); returns that folder.
 fn build(root: &Path) -> Result<PathBuf, String> {
-    web::require_wasm_bindgen(root)?;
-    let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
-    run_cmd(Command::new(cargo).current_dir(root).args([
-        "build",
-        "--release",
-        "--target",
-        "wasm32-unknown-unknown",
-        "-p",
-        "luxbake-js",
-    ]))?;
-    let target = target_dir(root);
-    let out = target.join("npm");
+    let out = target_dir(root).join("npm");
     match std::fs::remove_dir_all(&out) {
         Ok(()) => {}
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
         Err(e) => return Err(format!("{}: {e}", out.display())),
     }
-    run_cmd(
-        Command::new("wasm-bindgen")
-            .args(["--target", "web", "--no-typescript", "--out-dir"])
-            .arg(out.join("wasm"))
-            .arg(target.join("wasm32-unknown-unknown/release/luxbake_js.wasm")),
-    )?;
+    web::build_wasm(root, "luxbake-js", &out.join("wasm"))?;
     copy_dir(&root.join("crates/js/package"), &out)?;
     let example = out.join("examples/three");
     let lamps = example.join("lamps");
@@ -283,18 +267,8 @@ const MEASURE_POINTS: [[f64; 3]; 4] = [
 ];
 
 fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
-    for (what, p) in [
-        ("Chromium", &args.chromium),
-        ("chromedriver", &args.chromedriver),
-    ] {
-        if !p.is_file() {
-            let msg = format!(
-                "{what} not found at {} (apt-get install chromium chromium-driver)",
-                p.display()
-            );
-            luxbake::ci::skip_or_fail("npm check", &msg);
-            return Ok(());
-        }
+    if !web::browser_present(&args.chromium, &args.chromedriver, "npm check") {
+        return Ok(());
     }
     let (lamp_path, sofa_path) = (root.join(CHECK_LAMP), root.join(CHECK_UNWRAPPED));
     let (Ok(lamp), Ok(sofa)) = (std::fs::read(&lamp_path), std::fs::read(&sofa_path)) else {
@@ -485,19 +459,8 @@ fn compare(browser: &Value, native: &Native) -> Result<usize, String> {
                 .ok_or("no tolerance")?;
             let actual = map_from_json(&o[stage], w, h)?;
             let d = diff(expected, &actual);
-            let ok = d.within(tol);
             texels += d.texels;
-            println!(
-                "  {name:<10} {stage:<12} {:>6} texels  rel RMSE {:.2e} (≤ {:.0e})  p99 {:.2e} (≤ {:.0e})  masks {}  {}",
-                d.texels,
-                d.rel_rmse,
-                tol.rel_rmse,
-                d.p99,
-                tol.p99,
-                d.mask_mismatches,
-                if ok { "ok" } else { "FAIL" }
-            );
-            if !ok {
+            if !web::report_diff(name, stage, &d, tol) {
                 failures.push(format!("{name} {stage}"));
             }
         }

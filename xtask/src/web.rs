@@ -31,7 +31,7 @@ use std::time::{Duration, Instant};
 
 use luxbake::map::MapImage;
 use luxbake_backend_glow::GlowBackend;
-use luxbake_backends::image_diff::{Tolerance, diff};
+use luxbake_backends::image_diff::{DiffStats, Tolerance, diff};
 use luxbake_viewer::{BakeRequest, build_scene};
 use serde_json::{Value, json};
 
@@ -145,8 +145,9 @@ pub(crate) fn require_wasm_bindgen(root: &Path) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds the wasm module, runs wasm-bindgen and copies the page; returns the page folder.
-fn build(root: &Path) -> Result<PathBuf, String> {
+/// Builds crate `package` for wasm32 in release and runs wasm-bindgen (`--target web`) on it
+/// into `out_dir` (the viewer's page and the npm package share this).
+pub(crate) fn build_wasm(root: &Path, package: &str, out_dir: &Path) -> Result<(), String> {
     require_wasm_bindgen(root)?;
     let cargo = std::env::var_os("CARGO").unwrap_or_else(|| "cargo".into());
     run_cmd(Command::new(cargo).current_dir(root).args([
@@ -155,17 +156,23 @@ fn build(root: &Path) -> Result<PathBuf, String> {
         "--target",
         "wasm32-unknown-unknown",
         "-p",
-        "luxbake-viewer",
+        package,
     ]))?;
-    let target = target_dir(root);
-    let wasm = target.join("wasm32-unknown-unknown/release/luxbake_viewer.wasm");
-    let dist = target.join("web-dist");
+    let wasm = target_dir(root)
+        .join("wasm32-unknown-unknown/release")
+        .join(format!("{}.wasm", package.replace('-', "_")));
     run_cmd(
         Command::new("wasm-bindgen")
             .args(["--target", "web", "--no-typescript", "--out-dir"])
-            .arg(dist.join("pkg"))
+            .arg(out_dir)
             .arg(&wasm),
-    )?;
+    )
+}
+
+/// Builds the wasm module, runs wasm-bindgen and copies the page; returns the page folder.
+fn build(root: &Path) -> Result<PathBuf, String> {
+    let dist = target_dir(root).join("web-dist");
+    build_wasm(root, "luxbake-viewer", &dist.join("pkg"))?;
     let web = root.join("crates/viewer/web");
     for entry in std::fs::read_dir(&web).map_err(|e| format!("{}: {e}", web.display()))? {
         let entry = entry.map_err(|e| e.to_string())?;
@@ -400,19 +407,25 @@ pub(crate) fn free_port() -> Result<u16, String> {
 
 // ---------------------------------------------------------------- the check
 
-fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
-    for (what, p) in [
-        ("Chromium", &args.chromium),
-        ("chromedriver", &args.chromedriver),
-    ] {
+/// Whether Chromium and chromedriver are there; if not, check `check` skips with a message
+/// (fails under `CI=true`: [`luxbake::ci::skip_or_fail`]).
+pub(crate) fn browser_present(chromium: &Path, chromedriver: &Path, check: &str) -> bool {
+    for (what, p) in [("Chromium", chromium), ("chromedriver", chromedriver)] {
         if !p.is_file() {
             let msg = format!(
                 "{what} not found at {} (apt-get install chromium chromium-driver)",
                 p.display()
             );
-            luxbake::ci::skip_or_fail("web check", &msg);
-            return Ok(());
+            luxbake::ci::skip_or_fail(check, &msg);
+            return false;
         }
+    }
+    true
+}
+
+fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
+    if !browser_present(&args.chromium, &args.chromedriver, "web check") {
+        return Ok(());
     }
     let out_dir = target_dir(root).join("web-check");
     std::fs::create_dir_all(&out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
@@ -709,6 +722,23 @@ fn run_checks(
     Ok(())
 }
 
+/// Prints one map comparison (object, stage, texels, errors against `tol`); whether it is
+/// within `tol`.
+pub(crate) fn report_diff(name: &str, stage: &str, d: &DiffStats, tol: Tolerance) -> bool {
+    let ok = d.within(tol);
+    println!(
+        "  {name:<10} {stage:<12} {:>6} texels  rel RMSE {:.2e} (≤ {:.0e})  p99 {:.2e} (≤ {:.0e})  masks {}  {}",
+        d.texels,
+        d.rel_rmse,
+        tol.rel_rmse,
+        d.p99,
+        tol.p99,
+        d.mask_mismatches,
+        if ok { "ok" } else { "FAIL" }
+    );
+    ok
+}
+
 pub(crate) fn map_from_json(v: &Value, width: u32, height: u32) -> Result<MapImage, String> {
     let texels: Vec<f32> = v
         .as_array()
@@ -764,20 +794,7 @@ fn compare_maps(back: &Value, native: &luxbake::BakeOutput) -> Result<(), String
             };
             let actual = map_from_json(&m[stage], w, h)?;
             let d = diff(expected, &actual);
-            let ok = d.within(tol);
-            println!(
-                "  {:<10} {:<12} {:>6} texels  rel RMSE {:.2e} (≤ {:.0e})  p99 {:.2e} (≤ {:.0e})  masks {}  {}",
-                n.name,
-                stage,
-                d.texels,
-                d.rel_rmse,
-                tol.rel_rmse,
-                d.p99,
-                tol.p99,
-                d.mask_mismatches,
-                if ok { "ok" } else { "FAIL" }
-            );
-            if !ok {
+            if !report_diff(&n.name, stage, &d, tol) {
                 failures.push(format!("{} {stage}", n.name));
             }
         }
