@@ -180,6 +180,7 @@ fn all_coplanar() {
         })
         .collect();
     let scene = build_and_encode(&tris);
+    let wide = WideBvh::from_encoded(&scene);
     let mut hits = 0;
     for _ in 0..2000 {
         let mut d = rng.direction();
@@ -199,15 +200,9 @@ fn all_coplanar() {
             d,
         );
         hits += usize::from(
-            check_agreement(
-                &scene,
-                &WideBvh::from_encoded(&scene),
-                &r,
-                0.0,
-                f32::INFINITY,
-            )
-            .expect("agreement")
-            .is_some(),
+            check_agreement(&scene, &wide, &r, 0.0, f32::INFINITY)
+                .expect("agreement")
+                .is_some(),
         );
     }
     assert!(hits > 200, "{hits}");
