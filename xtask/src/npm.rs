@@ -406,11 +406,6 @@ fn native_bake(
     }))
 }
 
-/// Polls `expr` until it is true.
-fn wait(s: &Session, expr: &str, limit: Duration) -> Result<(), String> {
-    s.wait_for(expr, limit)
-}
-
 /// The maps of a result held by the page in `expr` (a `BakeResult`), as JSON.
 fn read_maps(s: &Session, expr: &str) -> Result<Value, String> {
     let text = s.eval(&format!(
@@ -495,17 +490,11 @@ fn run_checks(
     for key in ["texelsPerMetre", "rays", "bounces", "blurSigma", "seed"] {
         url.push_str(&format!("&{key}={}", settings[key]));
     }
-    webdriver(
-        s.port,
-        "POST",
-        &s.path("/url"),
-        Some(&json!({ "url": url })),
-    )?;
+    s.navigate(&url)?;
 
     // 1. The example bakes; its maps agree with the native bake.
     let t = Instant::now();
-    wait(
-        s,
+    s.wait_for(
         "window.luxbakeExample && ['baked', 'error', 'fatal'].includes(window.luxbakeExample.state)",
         Duration::from_secs(900),
     )?;

@@ -364,6 +364,17 @@ impl Session {
     }
 
     /// Polls `expr` until it is true.
+    /// Opens `url` in the session's tab.
+    pub(crate) fn navigate(&self, url: &str) -> Result<(), String> {
+        webdriver(
+            self.port,
+            "POST",
+            &self.path("/url"),
+            Some(&json!({ "url": url })),
+        )
+        .map(|_| ())
+    }
+
     pub(crate) fn wait_for(&self, expr: &str, limit: Duration) -> Result<(), String> {
         let start = Instant::now();
         loop {
@@ -480,7 +491,7 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     )?);
     let s = driver.session.as_ref().ok_or("no session")?;
     let url = format!("http://127.0.0.1:{page_port}/?scene=chairs_01");
-    webdriver(port, "POST", &s.path("/url"), Some(&json!({ "url": url })))?;
+    s.navigate(&url)?;
     s.wait_for(
         "window.luxbake && window.luxbake.state === 'fatal'",
         Duration::from_secs(60),
@@ -577,12 +588,7 @@ fn run_checks(
         request.blur_sigma,
         request.seed
     );
-    webdriver(
-        s.port,
-        "POST",
-        &s.path("/url"),
-        Some(&json!({ "url": url })),
-    )?;
+    s.navigate(&url)?;
     let t = Instant::now();
     s.wait_for(
         "window.luxbake && (window.luxbake.bakeCount >= 1 || window.luxbake.state === 'fatal' || window.luxbake.state === 'error')",
