@@ -107,9 +107,11 @@ fn a_room_ten_kilometres_out_bakes_like_the_room_at_the_origin() {
     let (shadow_home, n) = floor_near_chair(&home, &reference, [0.0; 3], 0.12);
     let (open_home, m) = floor_near_chair(&home, &reference, [0.0; 3], 0.6);
     assert!(n >= 4 && m > n, "{n} {m} floor texels near the chair");
-    for (name, scene, origin) in [
-        ("room at (10 km, 0, 10 km)", &far, FAR),
-        ("a 1 cd lamp 10 km away", &lamp_far_away, [0.0; 3]),
+    // The room itself is moved back exactly: (10 km, 0, 10 km) is a multiple of the
+    // re-centring grid, so its maps are the origin's bit for bit.
+    for (name, scene, origin, exact) in [
+        ("room at (10 km, 0, 10 km)", &far, FAR, true),
+        ("a 1 cd lamp 10 km away", &lamp_far_away, [0.0; 3], false),
     ] {
         let out = run(scene);
         let (shadow, _) = floor_near_chair(scene, &out, origin, 0.12);
@@ -140,11 +142,11 @@ fn a_room_ten_kilometres_out_bakes_like_the_room_at_the_origin() {
             "{name}: direct {direct:?}"
         );
         assert!(combined.0 <= 1e-3, "{name}: combined {combined:?}");
+        if exact {
+            assert_eq!(direct.0, 0.0, "{name}: direct {direct:?}");
+            assert_eq!(combined.0, 0.0, "{name}: combined {combined:?}");
+        }
     }
-    // Exactly: the shift (10 km, 0, 10 km) is a multiple of the re-centring grid.
-    let far_out = run(&far);
-    assert_eq!(difference(&reference, &far_out, 1).0, 0.0);
-    assert_eq!(difference(&reference, &far_out, 6).0, 0.0);
 }
 
 /// A shift that is not a multiple of the re-centring grid (10 km plus 0.3 m, −7.77 km): the
