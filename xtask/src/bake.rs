@@ -61,7 +61,7 @@ pub struct Args {
     /// Blur sigma in texels, or `none`.
     #[arg(long)]
     blur: Option<Blur>,
-    /// Ray traversal: wide (the default; the CPU backend's 4-wide BVH, the MTBVH on GPU
+    /// Ray traversal: wide (the default; the CPU backend's 8-wide BVH, the MTBVH on GPU
     /// backends), mtbvh, tbvh or none (brute force).
     #[arg(long)]
     bvh: Option<BvhMode>,

@@ -1,5 +1,5 @@
 //! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
-//! through the 4-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
+//! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
 //! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
 //! traversal of the *encoded textures* — the same data the shaders read. Both use the same
 //! watertight triangle test and agree up to ties. Everything is `f32` and written as a fragment

@@ -42,7 +42,7 @@
 //! Pool directions come from the Sobol sampler (texel 0, sample `i`, pass [`EMIT_PASS`]) and
 //! the hash sampler, in f64 (whose last-bit differences between maths libraries do not reach
 //! the rounded f32 results); texels pick their paths with the hash sampler (pass
-//! [`CONNECT_PASS`]). Traversal is the 4-wide BVH.
+//! [`CONNECT_PASS`]). Traversal is the 8-wide BVH.
 
 // `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders these functions mirror.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -289,7 +289,7 @@ pub struct LampPaths {
 pub struct Geometry<'a> {
     /// The encoded scene (triangle attributes).
     pub encoded: &'a EncodedScene,
-    /// Its 4-wide BVH.
+    /// Its 8-wide BVH.
     pub wide: &'a WideBvh,
     /// Per object its light-map region (`None`: reflects nothing).
     pub regions: &'a [Option<Region>],

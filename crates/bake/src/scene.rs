@@ -605,9 +605,10 @@ impl fmt::Display for Blur {
 /// Which ray-traversal structure the ray-casting passes use.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum BvhMode {
-    /// The default: on the CPU backend a 4-wide BVH with SSE box tests collapsed from the same
-    /// SAH tree ([`luxbake_bvh::WideBvh`]); the GPU backends, which walk the encoded textures,
-    /// use the MTBVH for it ([`BvhMode::encoded`]). Same hits as the MTBVH except for ties.
+    /// The default: on the CPU backend an 8-wide BVH with AVX (else SSE) box tests collapsed
+    /// from the same SAH tree ([`luxbake_bvh::WideBvh`]); the GPU backends, which walk the
+    /// encoded textures, use the MTBVH for it ([`BvhMode::encoded`]). Same hits as the MTBVH
+    /// except for ties.
     Wide,
     /// Six link orders, one per dominant ray direction (Hachisuka 2015).
     Mtbvh,

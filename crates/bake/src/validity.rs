@@ -172,7 +172,7 @@ enum Outcome {
 /// Tests every valid texel of `g` and moves or removes the occluded ones (module docs).
 /// `eps` is the ray offset's size term ([`crate::backend::ray_epsilon`]).
 pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &EncodedScene, eps: f32) -> Unoccluded {
-    // Always the 4-wide BVH (the fastest CPU traversal), whatever the bake's `bvh` setting, so
+    // Always the 8-wide BVH (the fastest CPU traversal), whatever the bake's `bvh` setting, so
     // the G-buffer does not depend on it (traversals differ only at exact ties).
     let wide = WideBvh::from_encoded(bvh);
     let bvh = (bvh, &wide);

@@ -14,9 +14,9 @@
 //! 4. [`EncodedScene::closest_hit`] / [`EncodedScene::any_hit`] walk the *encoded texels* on the
 //!    CPU, written to mirror the GLSL ES 3.00 shader line for line. They are the oracle for every
 //!    shader: a shader bug can be reproduced here.
-//! 5. [`WideBvh::from_encoded`] collapses the same tree into a 4-wide BVH (SSE box tests, and
-//!    SSE tests of four leaf triangles at once) for fast CPU traversal with the same triangle
-//!    and slab arithmetic: the CPU backend's default.
+//! 5. [`WideBvh::from_encoded`] collapses the same tree into an 8-wide BVH (AVX box tests where
+//!    the CPU has them, else SSE, and SSE tests of four leaf triangles at once) for fast CPU
+//!    traversal with the same triangle and slab arithmetic: the CPU backend's default.
 //!
 //! ```
 //! use luxbake_bvh::{encode, BuildOptions, Bvh, EncodeOptions, Ray, Traversal, TriangleAttributes};

@@ -1,14 +1,20 @@
-//! A 4-wide BVH for fast CPU traversal, collapsed from the canonical SAH tree of an
+//! An 8-wide BVH for fast CPU traversal, collapsed from the canonical SAH tree of an
 //! [`EncodedScene`].
 //!
-//! Each wide node holds the boxes of up to four children in structure-of-arrays form, so one
-//! ray is tested against all four with SSE on x86_64 (baseline SSE2, no run-time detection) and
-//! with a plain loop over the lanes elsewhere. Children come from the binary tree by repeatedly
-//! opening the inner child of largest surface area until there are four; leaves keep their
+//! Each wide node holds the boxes of up to eight children in structure-of-arrays form, so one
+//! ray is tested against all eight at once: with 256-bit AVX where the CPU has it (detected at
+//! run time when the tree is built; the whole traversal is compiled twice, once for AVX), as
+//! two 128-bit SSE halves on other x86_64 CPUs (baseline SSE2), and with a plain loop over the
+//! lanes elsewhere; all three compute the same per-lane arithmetic, so they accept the same
+//! boxes with the same entry distances bit for bit. Children come from the binary tree by
+//! repeatedly opening the inner child of largest surface area until there are eight; leaves
+//! keep their
 //! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]), and a child
 //! whose subtree holds at most four triangles becomes one leaf (its box bounds them all, so
-//! every triangle a ray can hit is still tested). A leaf's triangles are copied into packets
-//! of four, structure of arrays, stored contiguously, and a
+//! every triangle a ray can hit is still tested). A node's leaf lanes are packed into packets
+//! of four triangles, structure of arrays, stored contiguously: a lane of at most four
+//! triangles lies in one packet, which it may share with sibling lanes (their triangles are
+//! tested too, harmlessly), so packets are full where the SAH tree has small leaves. A
 //! packet's four triangles are tested at once with the arithmetic of the encoded traversal's
 //! watertight test ([`WatertightRay::hits_triangle`]) lane by lane, the same operations in the
 //! same order, so each lane's hit and its `t`, `u`, `v` are the scalar test's bit for bit; of
@@ -20,45 +26,80 @@
 //! a NaN and this one rejects it; the ray cannot reach such a box at a finite `t`): the closest
 //! hit agrees with [`EncodedScene::closest_hit`] except where two triangles tie.
 //!
-//! The traversal keeps a stack of the children a ray hit, nearest on top, each with its entry
-//! distance, and drops entries that start beyond the closest hit found so far.
+//! The closest-hit traversal visits the nearest child a ray hit next and keeps the others on a
+//! stack, nearer ones on top, each with its entry distance; it drops entries that start beyond
+//! the closest hit found so far. The any-hit (shadow) traversal stops at the first triangle
+//! hit, so it does not sort: it visits leaf children before inner ones. The stack is not
+//! initialised (only entries written are read), and pushed children are prefetched.
+
+use std::mem::MaybeUninit;
 
 use crate::encode::EncodedScene;
 use crate::layout;
 use crate::traverse::{Hit, Ray, WatertightRay};
 
-/// Lanes (children) per wide node.
+/// Children (lanes) per wide node.
+const WIDTH: usize = 8;
+/// Triangles (lanes) per leaf packet.
 const LANES: usize = 4;
 /// Child tag of a leaf lane: `LEAF | first triangle`.
 const LEAF: u32 = 1 << 31;
 /// Stack entries kept on the thread's stack; deeper trees use a heap stack.
-const INLINE_STACK: usize = 64;
+const INLINE_STACK: usize = 128;
 /// The inline stack of shallower trees (most scenes of a few thousand triangles).
-const SMALL_STACK: usize = 32;
+const SMALL_STACK: usize = 48;
 
-/// One wide node: four child boxes, structure of arrays.
+/// One wide node: eight child boxes, structure of arrays (256 bytes, four cache lines).
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 struct Node {
     /// Per lane: min x, min y, min z, max x, max y, max z. Empty lanes have min +∞, max −∞.
-    planes: [[f32; LANES]; 6],
-    /// Inner child: its node index. Leaf child: `LEAF | first triangle`.
-    child: [u32; LANES],
-    /// Triangles of a leaf child (0 for inner children and empty lanes).
-    count: [u32; LANES],
+    planes: [[f32; WIDTH]; 6],
+    /// Inner child: its node index. Leaf child: `LEAF | first packet`.
+    child: [u32; WIDTH],
+    /// Packets of a leaf child (0 for inner children and empty lanes).
+    count: [u32; WIDTH],
+}
+
+impl Node {
+    /// The lanes whose child is a leaf (bit per lane): the sign bits of `child` (`LEAF`).
+    #[inline(always)]
+    fn leaf_mask(&self) -> u32 {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            // SAFETY: SSE is part of the x86_64 baseline; the loads read the 16-byte aligned
+            // halves of `child` (at offset 192 of a 64-byte aligned `Node`).
+            unsafe {
+                let lo = _mm_load_ps(self.child.as_ptr().cast());
+                let hi = _mm_load_ps(self.child.as_ptr().add(4).cast());
+                (_mm_movemask_ps(lo) | (_mm_movemask_ps(hi) << 4)) as u32
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let mut mask = 0;
+            for (lane, &c) in self.child.iter().enumerate() {
+                if c & LEAF != 0 {
+                    mask |= 1 << lane;
+                }
+            }
+            mask
+        }
+    }
 }
 
 const EMPTY_NODE: Node = Node {
     planes: [
-        [f32::INFINITY; LANES],
-        [f32::INFINITY; LANES],
-        [f32::INFINITY; LANES],
-        [f32::NEG_INFINITY; LANES],
-        [f32::NEG_INFINITY; LANES],
-        [f32::NEG_INFINITY; LANES],
+        [f32::INFINITY; WIDTH],
+        [f32::INFINITY; WIDTH],
+        [f32::INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
+        [f32::NEG_INFINITY; WIDTH],
     ],
-    child: [LEAF; LANES],
-    count: [0; LANES],
+    child: [LEAF; WIDTH],
+    count: [0; WIDTH],
 };
 
 /// Up to four triangles of one leaf, structure of arrays: tested together.
@@ -104,7 +145,7 @@ struct Entry {
     t: f32,
 }
 
-/// The 4-wide BVH of an [`EncodedScene`] and its triangle positions (encoded order).
+/// The 8-wide BVH of an [`EncodedScene`] and its triangle positions (encoded order).
 ///
 /// ```
 /// use luxbake_bvh::{encode, BuildOptions, Bvh, EncodeOptions, Ray, Traversal, TriangleAttributes, WideBvh};
@@ -124,8 +165,10 @@ pub struct WideBvh {
     nodes: Vec<Node>,
     /// The leaves' triangles, a leaf's packets contiguous, in the encoded order.
     packets: Vec<Packet>,
-    /// Stack entries a traversal may need: 3 per level below the root, plus one.
+    /// Stack entries a traversal may need: `WIDTH − 1` per level below the root, plus one.
     stack_size: usize,
+    /// Whether this CPU has AVX (the traversal's 256-bit form); detected when the tree is built.
+    avx: bool,
 }
 
 /// The binary tree read back from the encoded textures.
@@ -197,7 +240,7 @@ impl Binary<'_> {
 
 impl WideBvh {
     /// Collapses the encoded scene's binary tree (read back from its bounds and TBVH link
-    /// textures) into a 4-wide tree and copies its leaves' triangle positions into packets.
+    /// textures) into an 8-wide tree and copies its leaves' triangle positions into packets.
     ///
     /// Never panics, even for corrupt encodings: inconsistent links end a subtree and
     /// triangle ranges are clamped to `0 .. triangle_count`.
@@ -210,6 +253,7 @@ impl WideBvh {
                 nodes,
                 packets,
                 stack_size: 1,
+                avx: avx_available(),
             };
         }
         let mut binary = Binary {
@@ -229,7 +273,7 @@ impl WideBvh {
                 }
                 None => vec![b],
             };
-            while kids.len() < LANES {
+            while kids.len() < WIDTH {
                 let widest = kids
                     .iter()
                     .enumerate()
@@ -243,6 +287,8 @@ impl WideBvh {
                 kids[j] = l;
                 kids.insert(j + 1, r);
             }
+            // The node's leaf lanes and their triangles, packed into packets below.
+            let mut leaves: Vec<(usize, Vec<u32>)> = Vec::new();
             for (lane, &k) in kids.iter().enumerate() {
                 let n = scene.node(k);
                 for a in 0..3 {
@@ -256,15 +302,7 @@ impl WideBvh {
                     Some((n.first_tri.min(end)..end).collect())
                 };
                 if let Some(leaf) = leaf {
-                    let tris: Vec<(u32, [[f32; 3]; 3])> = leaf
-                        .into_iter()
-                        .map(|t| (t, scene.triangle_positions(t)))
-                        .collect();
-                    let start = packets.len();
-                    packets.extend(tris.chunks(LANES).map(Packet::new));
-                    let start = u32::try_from(start).unwrap_or(u32::MAX).min(LEAF - 1);
-                    nodes[slot].child[lane] = LEAF | start;
-                    nodes[slot].count[lane] = (packets.len() - start as usize) as u32;
+                    leaves.push((lane, leaf));
                 } else {
                     let index = nodes.len();
                     nodes.push(EMPTY_NODE);
@@ -272,11 +310,28 @@ impl WideBvh {
                     work.push((k, index, depth + 1));
                 }
             }
+            let base = packets.len();
+            let (packed, lanes) = pack_leaves(&leaves);
+            for (lane, first, count) in lanes {
+                let start = u32::try_from(base + first)
+                    .unwrap_or(u32::MAX)
+                    .min(LEAF - 1);
+                nodes[slot].child[lane] = LEAF | start;
+                nodes[slot].count[lane] = count as u32;
+            }
+            for chunk in packed {
+                let tris: Vec<(u32, [[f32; 3]; 3])> = chunk
+                    .into_iter()
+                    .map(|t| (t, scene.triangle_positions(t)))
+                    .collect();
+                packets.push(Packet::new(&tris));
+            }
         }
         WideBvh {
             nodes,
             packets,
-            stack_size: 3 * max_depth + 1,
+            stack_size: (WIDTH - 1) * max_depth + 1,
+            avx: avx_available(),
         }
     }
 
@@ -289,75 +344,103 @@ impl WideBvh {
     /// triangle indices, the same `t`, `u`, `v` bit for bit for the same triangle). Rays with a
     /// zero or non-finite direction never hit.
     pub fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
-        self.with_stack(|stack| self.walk(ray, t_min, t_max, false, stack))
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the CPU reports AVX (`avx_available`).
+            return unsafe { self.walk_avx::<false>(ray, t_min, t_max) };
+        }
+        self.walk::<false, false>(ray, t_min, t_max)
     }
 
     /// Whether any triangle is hit with `t` in `(t_min, t_max)` (the shadow-ray query).
     pub fn any_hit(&self, ray: &Ray, t_min: f32, t_max: f32) -> bool {
-        self.with_stack(|stack| self.walk(ray, t_min, t_max, true, stack))
-            .is_some()
-    }
-
-    /// Runs `f` with a stack of at least `stack_size` entries: the smallest of two inline
-    /// sizes that fits (each ray zeroes its stack, so small scenes clear less), else the heap.
-    #[inline(always)]
-    fn with_stack<T>(&self, f: impl FnOnce(&mut [Entry]) -> T) -> T {
-        if self.stack_size <= SMALL_STACK {
-            f(&mut [Entry::default(); SMALL_STACK])
-        } else if self.stack_size <= INLINE_STACK {
-            f(&mut [Entry::default(); INLINE_STACK])
-        } else {
-            f(&mut vec![Entry::default(); self.stack_size])
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the CPU reports AVX (`avx_available`).
+            return unsafe { self.walk_avx::<true>(ray, t_min, t_max) }.is_some();
         }
+        self.walk::<false, true>(ray, t_min, t_max).is_some()
     }
 
-    /// The traversal. It sets the ray up itself, so that the per-ray constants stay in
-    /// registers: set up by the caller, they were read back from its stack with vector loads
-    /// over fresh scalar stores, where `perf` put ~8 % of this function's samples.
-    fn walk(
+    /// The traversal compiled with AVX enabled (its box test is one 256-bit test per node, and
+    /// the rest of the walk is VEX-encoded).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn walk_avx<const ANY: bool>(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<Hit> {
+        self.walk::<true, ANY>(ray, t_min, t_max)
+    }
+
+    /// Runs the walk with a stack of at least `stack_size` entries: the smaller of two inline
+    /// sizes that fits, else the heap. The stack is not initialised (the walk reads only the
+    /// entries it wrote), so a ray costs nothing for the stack's size.
+    #[inline(always)]
+    fn walk<const AVX: bool, const ANY: bool>(
         &self,
         ray: &Ray,
         t_min: f32,
         t_max: f32,
-        any: bool,
-        stack: &mut [Entry],
+    ) -> Option<Hit> {
+        if self.stack_size <= SMALL_STACK {
+            let mut stack = [MaybeUninit::uninit(); SMALL_STACK];
+            self.walk_with::<AVX, ANY>(ray, t_min, t_max, &mut stack)
+        } else if self.stack_size <= INLINE_STACK {
+            let mut stack = [MaybeUninit::uninit(); INLINE_STACK];
+            self.walk_with::<AVX, ANY>(ray, t_min, t_max, &mut stack)
+        } else {
+            let mut stack = vec![MaybeUninit::uninit(); self.stack_size];
+            self.walk_with::<AVX, ANY>(ray, t_min, t_max, &mut stack)
+        }
+    }
+
+    /// The traversal (`AVX`: the 256-bit box test; `ANY`: stop at the first hit, children
+    /// pushed unsorted). It sets the ray up itself, so that the per-ray constants stay in
+    /// registers: set up by the caller, they were read back from its stack with vector loads
+    /// over fresh scalar stores, where `perf` put ~8 % of this function's samples.
+    #[inline(always)]
+    fn walk_with<const AVX: bool, const ANY: bool>(
+        &self,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+        stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
         let r = WatertightRay::new(ray)?;
         let q = BoxRay::new(&r);
         let tri = PacketRay::new(&r);
         let mut closest = t_max;
         let mut best: Option<(u32, f32, f32)> = None;
-        stack[0] = Entry {
+        // The entry to visit next without a round trip through the stack (the nearest child
+        // hit), then the stack's entries `0 .. top`, all initialised.
+        let mut next = Some(Entry {
             child: 0,
             count: 0,
             t: t_min,
-        };
-        let mut top = 1usize;
-        while top > 0 {
-            top -= 1;
-            let e = stack[top];
-            if e.t > closest {
-                continue;
-            }
+        });
+        let mut top = 0usize;
+        loop {
+            let e = match next.take() {
+                Some(e) => e,
+                None if top == 0 => break,
+                None => {
+                    top -= 1;
+                    // SAFETY: `top` < the count of entries written (see above).
+                    let e = unsafe { stack.get_unchecked(top).assume_init() };
+                    if e.t > closest {
+                        continue;
+                    }
+                    e
+                }
+            };
             if e.child & LEAF != 0 {
                 let first = (e.child & !LEAF) as usize;
                 let packets = self.packets.get(first..first + e.count as usize);
                 for packet in packets.into_iter().flatten() {
-                    let h = tri.hits(packet, t_min, closest);
-                    if h.mask == 0 {
-                        continue;
-                    }
-                    // The nearest lane hit; ties keep the lower lane (the earlier triangle).
-                    let mut lane = h.mask.trailing_zeros() as usize;
-                    for l in lane + 1..LANES {
-                        if h.mask & (1 << l) != 0 && h.t[l] < h.t[lane] {
-                            lane = l;
+                    if let Some((lane, t, u, v)) = tri.nearest(packet, t_min, closest) {
+                        closest = t;
+                        best = Some((packet.index[lane], u, v));
+                        if ANY {
+                            return hit(best, closest);
                         }
-                    }
-                    closest = h.t[lane];
-                    best = Some((packet.index[lane], h.u[lane], h.v[lane]));
-                    if any {
-                        return hit(best, closest);
                     }
                 }
                 continue;
@@ -365,33 +448,160 @@ impl WideBvh {
             let Some(node) = self.nodes.get(e.child as usize) else {
                 continue;
             };
-            let (mask, near) = q.hits(node, t_min, closest);
-            // Push the hit lanes farthest first, so the nearest is on top.
-            let mut order = [0usize; LANES];
-            let mut n = 0;
-            for lane in 0..LANES {
-                if mask & (1 << lane) != 0 {
-                    let mut j = n;
-                    while j > 0 && near[order[j - 1]] < near[lane] {
-                        order[j] = order[j - 1];
-                        j -= 1;
+            let (mut mask, near) = q.hits::<AVX>(node, t_min, closest);
+            if ANY {
+                // Inner children first, leaves last: the leaves are popped first, and a
+                // triangle hit ends the walk.
+                let leaves = node.leaf_mask();
+                let mut last = None;
+                for group in [mask & !leaves, mask & leaves] {
+                    let mut group = group;
+                    while group != 0 {
+                        let lane = group.trailing_zeros() as usize;
+                        group &= group - 1;
+                        if let Some(prev) = last.replace(lane)
+                            && let Some(slot) = stack.get_mut(top)
+                        {
+                            slot.write(Entry {
+                                child: node.child[prev],
+                                count: node.count[prev],
+                                t: near[prev],
+                            });
+                            self.prefetch(node.child[prev]);
+                            top += 1;
+                        }
                     }
-                    order[j] = lane;
-                    n += 1;
                 }
+                next = last.map(|lane| Entry {
+                    child: node.child[lane],
+                    count: node.count[lane],
+                    t: near[lane],
+                });
+                continue;
             }
-            for &lane in &order[..n] {
-                if let Some(slot) = stack.get_mut(top) {
-                    *slot = Entry {
+            if mask & (mask.wrapping_sub(1)) == 0 {
+                // At most one lane: visit it next.
+                if mask != 0 {
+                    let lane = mask.trailing_zeros() as usize;
+                    next = Some(Entry {
                         child: node.child[lane],
                         count: node.count[lane],
                         t: near[lane],
-                    };
+                    });
+                }
+                continue;
+            }
+            // Push the hit lanes farthest first; the nearest is visited next.
+            let mut order = [0u8; WIDTH];
+            let mut n = 0;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
+                let mut j = n;
+                while j > 0 && near[order[j - 1] as usize] < near[lane] {
+                    order[j] = order[j - 1];
+                    j -= 1;
+                }
+                order[j] = lane as u8;
+                n += 1;
+            }
+            let entry = |lane: usize| Entry {
+                child: node.child[lane],
+                count: node.count[lane],
+                t: near[lane],
+            };
+            for &lane in &order[..n - 1] {
+                if let Some(slot) = stack.get_mut(top) {
+                    slot.write(entry(lane as usize));
+                    self.prefetch(node.child[lane as usize]);
                     top += 1;
                 }
             }
+            next = Some(entry(order[n - 1] as usize));
         }
         hit(best, closest)
+    }
+}
+
+impl WideBvh {
+    /// Asks the cache for the first lines of a pushed child (its node, or its first packet).
+    #[inline(always)]
+    fn prefetch(&self, child: u32) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::x86_64::*;
+            let p: *const i8 = if child & LEAF != 0 {
+                match self.packets.get((child & !LEAF) as usize) {
+                    Some(p) => (p as *const Packet).cast(),
+                    None => return,
+                }
+            } else {
+                match self.nodes.get(child as usize) {
+                    Some(n) => (n as *const Node).cast(),
+                    None => return,
+                }
+            };
+            // SAFETY: a prefetch never faults; `p` and the lines after it lie in one object.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.add(64));
+                _mm_prefetch::<_MM_HINT_T0>(p.add(128));
+            }
+        }
+        // The portable form has no prefetch.
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = child;
+    }
+}
+
+/// A leaf lane's packets: (lane, first packet, packet count).
+type LanePackets = (usize, usize, usize);
+
+/// Packs one node's leaf lanes (lane, triangles) into packets of at most [`LANES`] triangles.
+/// A lane with more triangles gets packets of its own, filled in order (the last may have room
+/// left); the other lanes, largest first, go into the first packet with room for all of their
+/// triangles (first fit decreasing), so such a lane lies in one packet, which it may share with
+/// sibling lanes: a ray that enters it also tests their triangles, which is harmless (each hit
+/// is a real hit) and fills SIMD lanes that would otherwise be empty. Returns the packets'
+/// triangles and, per lane, its first packet (index into them) and packet count.
+fn pack_leaves(leaves: &[(usize, Vec<u32>)]) -> (Vec<Vec<u32>>, Vec<LanePackets>) {
+    let mut packets: Vec<Vec<u32>> = Vec::new();
+    let mut lanes = Vec::with_capacity(leaves.len());
+    for (lane, tris) in leaves.iter().filter(|(_, t)| t.len() > LANES) {
+        let first = packets.len();
+        packets.extend(tris.chunks(LANES).map(<[u32]>::to_vec));
+        lanes.push((*lane, first, packets.len() - first));
+    }
+    let mut small: Vec<&(usize, Vec<u32>)> =
+        leaves.iter().filter(|(_, t)| t.len() <= LANES).collect();
+    small.sort_by_key(|(lane, t)| (std::cmp::Reverse(t.len()), *lane));
+    for (lane, tris) in small {
+        if tris.is_empty() {
+            lanes.push((*lane, 0, 0));
+            continue;
+        }
+        let at = match packets.iter().position(|p| p.len() + tris.len() <= LANES) {
+            Some(i) => i,
+            None => {
+                packets.push(Vec::new());
+                packets.len() - 1
+            }
+        };
+        packets[at].extend_from_slice(tris);
+        lanes.push((*lane, at, 1));
+    }
+    (packets, lanes)
+}
+
+/// Whether the traversal may use AVX on this CPU.
+fn avx_available() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -399,12 +609,29 @@ fn hit(best: Option<(u32, f32, f32)>, t: f32) -> Option<Hit> {
     best.map(|(triangle, u, v)| Hit { t, triangle, u, v })
 }
 
-/// The lanes of a [`Packet`] a ray hits, with their `t`, `u`, `v` (unspecified in other lanes).
+/// The lanes of a [`Packet`] a ray hits, with their `t`, `u`, `v` (unspecified in other lanes):
+/// the portable packet test's result.
+#[cfg(any(test, not(target_arch = "x86_64")))]
 struct PacketHits {
     mask: u32,
     t: [f32; LANES],
     u: [f32; LANES],
     v: [f32; LANES],
+}
+
+#[cfg(any(test, not(target_arch = "x86_64")))]
+impl PacketHits {
+    /// The nearest lane hit and its `t`, `u`, `v`; ties keep the lower lane (the earlier
+    /// triangle), as the scalar loop over a leaf with a strict `t < closest` does.
+    fn nearest(&self) -> Option<(usize, f32, f32, f32)> {
+        let mut lane = None::<usize>;
+        for l in 0..LANES {
+            if self.mask & (1 << l) != 0 && lane.is_none_or(|k| self.t[l] < self.t[k]) {
+                lane = Some(l);
+            }
+        }
+        lane.map(|l| (l, self.t[l], self.u[l], self.v[l]))
+    }
 }
 
 /// The watertight test's per-ray constants ([`WatertightRay`]) in the form the packet test
@@ -442,10 +669,11 @@ impl PacketRay {
     /// `u = cx·by − cy·bx`, `v = ax·cy − ay·cx`, `w = bx·ay − by·ax`; the sign test; `det =
     /// u + v + w`; `t = (u·az + v·bz + w·cz) / det`; `t_min < t < t_max`; barycentrics `v /
     /// det`, `w / det`), each one correctly rounded in SSE as in scalar code, so every lane's
-    /// result is the scalar one bit for bit.
+    /// result is the scalar one bit for bit. Returns the nearest lane hit (ties: the lower
+    /// lane) with its `t`, `u`, `v`: [`PacketHits::nearest`] of the lane-by-lane results.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn hits(&self, packet: &Packet, t_min: f32, t_max: f32) -> PacketHits {
+    fn nearest(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
         use std::arch::x86_64::*;
         // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the loads read the 16-byte
         // aligned `[f32; 4]` rows of a `Packet` (16-byte aligned, rows at multiples of 16).
@@ -484,6 +712,12 @@ impl PacketRay {
                 _mm_or_ps(_mm_cmpgt_ps(u, zero), _mm_cmpgt_ps(v, zero)),
                 _mm_cmpgt_ps(w, zero),
             );
+            // Lanes whose edge functions differ in sign miss; when that is all of them (most
+            // packets a ray reaches), `det`, `t` and the division are not needed.
+            let mixed = _mm_and_ps(negative, positive);
+            if _mm_movemask_ps(mixed) == 0xf {
+                return None;
+            }
             let det = _mm_add_ps(_mm_add_ps(u, v), w);
             let t = _mm_div_ps(
                 _mm_add_ps(
@@ -495,7 +729,7 @@ impl PacketRay {
             // `cmpneq` is true for NaN, as `det == 0.0` is false; the `t` comparisons reject
             // NaN as `!(t > t_min && t < t_max)` does.
             let accept = _mm_andnot_ps(
-                _mm_and_ps(negative, positive),
+                mixed,
                 _mm_and_ps(
                     _mm_cmpneq_ps(det, zero),
                     _mm_and_ps(
@@ -504,18 +738,27 @@ impl PacketRay {
                     ),
                 ),
             );
-            let mut hits = PacketHits {
-                mask: _mm_movemask_ps(accept) as u32,
-                t: [0.0; LANES],
-                u: [0.0; LANES],
-                v: [0.0; LANES],
-            };
-            if hits.mask != 0 {
-                _mm_storeu_ps(hits.t.as_mut_ptr(), t);
-                _mm_storeu_ps(hits.u.as_mut_ptr(), _mm_div_ps(v, det));
-                _mm_storeu_ps(hits.v.as_mut_ptr(), _mm_div_ps(w, det));
+            if _mm_movemask_ps(accept) == 0 {
+                return None;
             }
-            hits
+            // The smallest accepted `t` (others +∞), and the lowest lane holding it.
+            let far = _mm_andnot_ps(accept, _mm_set1_ps(f32::INFINITY));
+            let tm = _mm_or_ps(_mm_and_ps(accept, t), far);
+            let m = _mm_min_ps(tm, _mm_shuffle_ps::<0b10_11_00_01>(tm, tm));
+            let m = _mm_min_ps(m, _mm_shuffle_ps::<0b01_00_11_10>(m, m));
+            let nearest = _mm_movemask_ps(_mm_and_ps(accept, _mm_cmpeq_ps(tm, m)));
+            let lane = nearest.trailing_zeros() as usize;
+            let mut ts = [0.0f32; LANES];
+            let mut vs = [0.0f32; LANES];
+            let mut ws = [0.0f32; LANES];
+            let mut dets = [0.0f32; LANES];
+            _mm_storeu_ps(ts.as_mut_ptr(), t);
+            _mm_storeu_ps(vs.as_mut_ptr(), v);
+            _mm_storeu_ps(ws.as_mut_ptr(), w);
+            _mm_storeu_ps(dets.as_mut_ptr(), det);
+            // The lane's own `t` (a −0 / +0 tie keeps the lower lane's sign) and its
+            // barycentrics: one correctly rounded division each, as in the scalar test.
+            Some((lane, ts[lane], vs[lane] / dets[lane], ws[lane] / dets[lane]))
         }
     }
 
@@ -544,8 +787,8 @@ impl PacketRay {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn hits(&self, packet: &Packet, t_min: f32, t_max: f32) -> PacketHits {
-        self.hits_scalar(packet, t_min, t_max)
+    fn nearest(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        self.hits_scalar(packet, t_min, t_max).nearest()
     }
 }
 
@@ -586,53 +829,119 @@ impl BoxRay {
     /// so such an axis constrains nothing when the origin is in the slab and rejects the box
     /// otherwise, as the encoded test's ±`BIG` does. An entry at +∞ or an exit at −∞ (empty
     /// lanes, overflow) turns into NaN with the slack and rejects the lane.
-    #[cfg(target_arch = "x86_64")]
+    ///
+    /// `AVX` selects the 256-bit form, which only a caller compiled with AVX may ask for.
     #[inline(always)]
-    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; LANES]) {
-        use std::arch::x86_64::*;
-        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the loads read the 16-byte
-        // aligned `[f32; 4]` rows of a `Node` (64-byte aligned, rows at multiples of 16).
-        unsafe {
-            let row = |i: usize| _mm_load_ps(node.planes[i].as_ptr());
-            let mut near = _mm_set1_ps(f32::NEG_INFINITY);
-            let mut far = _mm_set1_ps(f32::INFINITY);
-            for a in 0..3 {
-                let o = _mm_set1_ps(self.origin[a]);
-                let inv = _mm_set1_ps(self.inv[a]);
-                let tn = _mm_mul_ps(_mm_sub_ps(row(self.near[a]), o), inv);
-                let tf = _mm_mul_ps(_mm_sub_ps(row(self.far[a]), o), inv);
-                near = _mm_max_ps(tn, near);
-                far = _mm_min_ps(tf, far);
+    fn hits<const AVX: bool>(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; WIDTH]) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if AVX {
+                // SAFETY: only `WideBvh::walk_avx`, compiled with AVX and called only where the
+                // CPU has it, instantiates the walk with `AVX`.
+                unsafe { self.hits_avx(node, t_min, t_max) }
+            } else {
+                self.hits_sse(node, t_min, t_max)
             }
-            let big = _mm_set1_ps(layout::BIG);
-            near = _mm_max_ps(near, _mm_sub_ps(_mm_setzero_ps(), big));
-            far = _mm_min_ps(far, big);
-            let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
-            let slack = _mm_set1_ps(layout::BOX_SLACK);
-            let t_near = _mm_max_ps(
-                _mm_set1_ps(t_min),
-                _mm_sub_ps(near, _mm_mul_ps(_mm_and_ps(near, abs), slack)),
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.hits_scalar(node, t_min, t_max)
+        }
+    }
+
+    /// The test with 256-bit AVX: all eight lanes at once.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn hits_avx(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; WIDTH]) {
+        use std::arch::x86_64::*;
+        // SAFETY: the loads read the 32-byte aligned `[f32; 8]` rows of a `Node` (64-byte
+        // aligned, rows at multiples of 32); this function runs only where AVX is available.
+        unsafe {
+            let mut near = _mm256_set1_ps(f32::NEG_INFINITY);
+            let mut far = _mm256_set1_ps(f32::INFINITY);
+            for a in 0..3 {
+                let o = _mm256_set1_ps(self.origin[a]);
+                let inv = _mm256_set1_ps(self.inv[a]);
+                let rn = _mm256_load_ps(node.planes[self.near[a]].as_ptr());
+                let rf = _mm256_load_ps(node.planes[self.far[a]].as_ptr());
+                let tn = _mm256_mul_ps(_mm256_sub_ps(rn, o), inv);
+                let tf = _mm256_mul_ps(_mm256_sub_ps(rf, o), inv);
+                near = _mm256_max_ps(tn, near);
+                far = _mm256_min_ps(tf, far);
+            }
+            let big = _mm256_set1_ps(layout::BIG);
+            near = _mm256_max_ps(near, _mm256_sub_ps(_mm256_setzero_ps(), big));
+            far = _mm256_min_ps(far, big);
+            let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+            let slack = _mm256_set1_ps(layout::BOX_SLACK);
+            let t_near = _mm256_max_ps(
+                _mm256_set1_ps(t_min),
+                _mm256_sub_ps(near, _mm256_mul_ps(_mm256_and_ps(near, abs), slack)),
             );
-            let t_far = _mm_min_ps(
-                _mm_set1_ps(t_max),
-                _mm_add_ps(far, _mm_mul_ps(_mm_and_ps(far, abs), slack)),
+            let t_far = _mm256_min_ps(
+                _mm256_set1_ps(t_max),
+                _mm256_add_ps(far, _mm256_mul_ps(_mm256_and_ps(far, abs), slack)),
             );
-            let mask = _mm_movemask_ps(_mm_cmple_ps(t_near, t_far)) as u32;
-            let mut out = [0.0f32; LANES];
-            _mm_storeu_ps(out.as_mut_ptr(), t_near);
+            // Ordered `<=`: false for NaN, as SSE's `cmple`.
+            let mask = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t_near, t_far)) as u32;
+            let mut out = [0.0f32; WIDTH];
+            _mm256_storeu_ps(out.as_mut_ptr(), t_near);
             (mask, out)
         }
     }
 
-    /// The portable form of the SSE test above, lane by lane (also the reference the tests
-    /// compare the SSE form with).
+    /// The test with 128-bit SSE (x86_64 baseline), four lanes at a time.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn hits_sse(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; WIDTH]) {
+        use std::arch::x86_64::*;
+        let mut mask = 0;
+        let mut out = [0.0f32; WIDTH];
+        for half in 0..WIDTH / 4 {
+            // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the loads read 16-byte
+            // aligned quarters of the `[f32; 8]` rows of a `Node` (64-byte aligned, rows at
+            // multiples of 32).
+            unsafe {
+                let row = |i: usize| _mm_load_ps(node.planes[i].as_ptr().add(4 * half));
+                let mut near = _mm_set1_ps(f32::NEG_INFINITY);
+                let mut far = _mm_set1_ps(f32::INFINITY);
+                for a in 0..3 {
+                    let o = _mm_set1_ps(self.origin[a]);
+                    let inv = _mm_set1_ps(self.inv[a]);
+                    let tn = _mm_mul_ps(_mm_sub_ps(row(self.near[a]), o), inv);
+                    let tf = _mm_mul_ps(_mm_sub_ps(row(self.far[a]), o), inv);
+                    near = _mm_max_ps(tn, near);
+                    far = _mm_min_ps(tf, far);
+                }
+                let big = _mm_set1_ps(layout::BIG);
+                near = _mm_max_ps(near, _mm_sub_ps(_mm_setzero_ps(), big));
+                far = _mm_min_ps(far, big);
+                let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
+                let slack = _mm_set1_ps(layout::BOX_SLACK);
+                let t_near = _mm_max_ps(
+                    _mm_set1_ps(t_min),
+                    _mm_sub_ps(near, _mm_mul_ps(_mm_and_ps(near, abs), slack)),
+                );
+                let t_far = _mm_min_ps(
+                    _mm_set1_ps(t_max),
+                    _mm_add_ps(far, _mm_mul_ps(_mm_and_ps(far, abs), slack)),
+                );
+                mask |= (_mm_movemask_ps(_mm_cmple_ps(t_near, t_far)) as u32) << (4 * half);
+                _mm_storeu_ps(out.as_mut_ptr().add(4 * half), t_near);
+            }
+        }
+        (mask, out)
+    }
+
+    /// The portable form of the SIMD tests above, lane by lane (also the reference the tests
+    /// compare them with).
     #[cfg(any(test, not(target_arch = "x86_64")))]
-    fn hits_scalar(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; LANES]) {
+    fn hits_scalar(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; WIDTH]) {
         // `_mm_max_ps(a, b)` / `_mm_min_ps(a, b)`: `b` unless `a` compares greater / less.
         let max = |a: f32, b: f32| if a > b { a } else { b };
         let min = |a: f32, b: f32| if a < b { a } else { b };
         let mut mask = 0;
-        let mut out = [0.0f32; LANES];
+        let mut out = [0.0f32; WIDTH];
         for (lane, out) in out.iter_mut().enumerate() {
             let mut near = f32::NEG_INFINITY;
             let mut far = f32::INFINITY;
@@ -653,12 +962,6 @@ impl BoxRay {
         }
         (mask, out)
     }
-
-    #[cfg(not(target_arch = "x86_64"))]
-    #[inline(always)]
-    fn hits(&self, node: &Node, t_min: f32, t_max: f32) -> (u32, [f32; LANES]) {
-        self.hits_scalar(node, t_min, t_max)
-    }
 }
 
 #[cfg(test)]
@@ -676,14 +979,19 @@ mod tests {
         n
     }
 
-    /// The SSE slab test, its scalar form and the encoded traversal's `hits_box` agree on
-    /// every lane, for parallel axes, origins on a plane, empty lanes and shrinking `t_max`.
+    /// The AVX and SSE slab tests, their scalar form and the encoded traversal's `hits_box`
+    /// agree on every lane, for parallel axes, origins on a plane, boxes behind the origin,
+    /// point boxes, empty lanes and shrinking `t_max`.
     #[test]
     fn box_test_matches_the_encoded_slab_test() {
         let boxes = [
             ([0.0, 0.0, 0.0], [1.0, 1.0, 1.0]),
             ([2.0, -1.0, 0.5], [3.0, 1.0, 0.5]),
             ([-1e30, 0.25, -4.0], [1e30, 0.25, 4.0]),
+            ([-1.0, -1.0, -1.0], [-0.5, -0.5, 2.0]),
+            ([0.25, 0.25, 0.5], [0.25, 0.25, 0.5]),
+            ([-2.0, -2.0, 0.5], [3.0, 3.0, 0.5]),
+            ([1e20, 0.0, 0.0], [2e20, 1.0, 1.0]),
         ];
         let node = node_with(&boxes);
         let coords = [-2.0f32, -0.0, 0.0, 0.25, 0.5, 1.0, 2.5, 1e20];
@@ -707,15 +1015,20 @@ mod tests {
                                     .iter()
                                     .any(|d| (f32::MIN_POSITIVE..1e-20).contains(&d.abs()));
                             for (t_min, t_max) in [(0.0, f32::INFINITY), (0.0, 0.6), (-1.0, 1e-3)] {
-                                let (mask, near) = q.hits(&node, t_min, t_max);
-                                assert_eq!(
-                                    (mask, near.map(f32::to_bits)),
-                                    {
-                                        let (m, n) = q.hits_scalar(&node, t_min, t_max);
-                                        (m, n.map(f32::to_bits))
-                                    },
-                                    "{ray:?}"
-                                );
+                                let (mask, near) = q.hits_scalar(&node, t_min, t_max);
+                                #[cfg(target_arch = "x86_64")]
+                                {
+                                    let bits =
+                                        |(m, n): (u32, [f32; WIDTH])| (m, n.map(f32::to_bits));
+                                    let scalar = bits((mask, near));
+                                    let sse = bits(q.hits_sse(&node, t_min, t_max));
+                                    assert_eq!(sse, scalar, "SSE {ray:?}");
+                                    if avx_available() {
+                                        // SAFETY: this CPU has AVX.
+                                        let avx = bits(unsafe { q.hits_avx(&node, t_min, t_max) });
+                                        assert_eq!(avx, scalar, "AVX {ray:?}");
+                                    }
+                                }
                                 for (lane, (lo, hi)) in boxes.iter().enumerate() {
                                     let wide = mask & (1 << lane) != 0;
                                     let encoded = r.hits_box(*lo, *hi, t_min, t_max);
@@ -816,23 +1129,35 @@ mod tests {
                 };
                 let q = PacketRay::new(&r);
                 for (t_min, t_max) in [(0.0, f32::INFINITY), (0.0, 1.0), (0.5, 2.0), (-1.0, 0.0)] {
-                    let simd = q.hits(&packet, t_min, t_max);
                     let scalar = q.hits_scalar(&packet, t_min, t_max);
                     let msg = format!("seed {seed}, ray {k} {ray:?}, t in ({t_min}, {t_max})");
-                    assert_eq!(simd.mask, scalar.mask, "{msg}");
-                    lanes_hit += simd.mask.count_ones();
+                    let bits = |h: Option<(usize, f32, f32, f32)>| {
+                        h.map(|(lane, t, u, v)| (lane, [t, u, v].map(f32::to_bits)))
+                    };
+                    assert_eq!(
+                        bits(q.nearest(&packet, t_min, t_max)),
+                        bits(scalar.nearest()),
+                        "{msg}"
+                    );
+                    lanes_hit += scalar.mask.count_ones();
                     for lane in 0..LANES {
-                        if simd.mask & (1 << lane) != 0 {
-                            let bits = |h: &PacketHits| {
-                                [h.t[lane], h.u[lane], h.v[lane]].map(f32::to_bits)
-                            };
-                            assert_eq!(bits(&simd), bits(&scalar), "{msg}, lane {lane}");
-                            let p = packet.triangle(lane);
+                        let p = packet.triangle(lane);
+                        let expected = r.hits_triangle(p[0], p[1], p[2], t_min, t_max);
+                        assert_eq!(scalar.mask & (1 << lane) != 0, expected.is_some(), "{msg}");
+                        if let Some((t, u, v)) = expected {
                             assert_eq!(
-                                r.hits_triangle(p[0], p[1], p[2], t_min, t_max)
-                                    .map(|(t, u, v)| [t, u, v].map(f32::to_bits)),
-                                Some(bits(&simd)),
+                                [scalar.t[lane], scalar.u[lane], scalar.v[lane]].map(f32::to_bits),
+                                [t, u, v].map(f32::to_bits),
                                 "{msg}, lane {lane}"
+                            );
+                        }
+                        if scalar.mask == 1 << lane {
+                            // A packet hit in one lane only: the SIMD test returns that lane's
+                            // own `t`, `u`, `v`.
+                            assert_eq!(
+                                bits(q.nearest(&packet, t_min, t_max)),
+                                bits(expected.map(|(t, u, v)| (lane, t, u, v))),
+                                "{msg}"
                             );
                         }
                     }
@@ -842,8 +1167,64 @@ mod tests {
         assert!(lanes_hit > 10_000, "only {lanes_hit} lanes hit");
     }
 
-    /// Subtrees of at most four triangles become one leaf: with one triangle per binary leaf,
-    /// packets still hold several triangles, and every triangle is in exactly one lane.
+    /// The SSE walk and the public queries (the AVX walk where the CPU has it) return the same
+    /// hits bit for bit, and the nearest `t` of a brute-force loop over the triangles, on a
+    /// seeded scene deep enough for several levels of 8-wide nodes.
+    #[test]
+    fn avx_and_sse_walks_agree_with_brute_force() {
+        use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
+        let mut rng = Rng(11);
+        let tris: Vec<[[f32; 3]; 3]> = (0..3000)
+            .map(|_| {
+                let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
+                [0, 1, 2].map(|_| std::array::from_fn(|a| c[a] + rng.coord(-0.4, 0.4)))
+            })
+            .collect();
+        let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("build");
+        let attributes = vec![TriangleAttributes::default(); tris.len()];
+        let scene = encode(&bvh, &tris, &attributes, &EncodeOptions::default()).expect("encode");
+        let wide = WideBvh::from_encoded(&scene);
+        assert!(wide.node_count() > 9, "{} nodes", wide.node_count());
+        let positions: Vec<[[f32; 3]; 3]> = (0..scene.triangle_count)
+            .map(|t| scene.triangle_positions(t))
+            .collect();
+        let bits = |h: Option<Hit>| h.map(|h| (h.triangle, [h.t, h.u, h.v].map(f32::to_bits)));
+        let mut hits = 0;
+        for k in 0..2000 {
+            let origin: [f32; 3] = std::array::from_fn(|_| rng.coord(-1.0, 11.0));
+            let dir: [f32; 3] = std::array::from_fn(|_| rng.coord(-1.0, 1.0));
+            let ray = Ray { origin, dir };
+            let Some(r) = WatertightRay::new(&ray) else {
+                continue;
+            };
+            let t_max = if k % 2 == 0 { f32::INFINITY } else { 0.5 };
+            let sse = wide.walk::<false, false>(&ray, 0.0, t_max);
+            assert_eq!(
+                bits(sse),
+                bits(wide.closest_hit(&ray, 0.0, t_max)),
+                "ray {k}"
+            );
+            let brute = positions
+                .iter()
+                .filter_map(|p| r.hits_triangle(p[0], p[1], p[2], 0.0, t_max))
+                .map(|(t, _, _)| t)
+                .reduce(f32::min);
+            assert_eq!(
+                sse.map(|h| h.t.to_bits()),
+                brute.map(f32::to_bits),
+                "ray {k}"
+            );
+            let any = wide.walk::<false, true>(&ray, 0.0, t_max).is_some();
+            assert_eq!(any, brute.is_some(), "ray {k}");
+            assert_eq!(wide.any_hit(&ray, 0.0, t_max), any, "ray {k}");
+            hits += usize::from(any);
+        }
+        assert!((200..1800).contains(&hits), "{hits} of 2000 rays hit");
+    }
+
+    /// Subtrees of at most four triangles become one leaf, and a node's small leaves share
+    /// packets: with one triangle per binary leaf, packets still hold several triangles, and
+    /// every triangle is in exactly one packet lane.
     #[test]
     fn small_subtrees_share_a_packet() {
         use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
