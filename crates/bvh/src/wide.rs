@@ -491,6 +491,25 @@ impl WideBvh {
                 }
                 continue;
             }
+            let entry = |lane: usize| Entry {
+                child: node.child[lane],
+                count: node.count[lane],
+                t: near[lane],
+            };
+            if (mask & (mask - 1)).count_ones() == 1 {
+                // Two lanes (the most common case after one): push the farther, visit the
+                // nearer next; on equal distances the lower lane is visited first.
+                let a = mask.trailing_zeros() as usize;
+                let b = (mask & (mask - 1)).trailing_zeros() as usize;
+                let (first, second) = if near[b] < near[a] { (b, a) } else { (a, b) };
+                if let Some(slot) = stack.get_mut(top) {
+                    slot.write(entry(second));
+                    self.prefetch(node.child[second]);
+                    top += 1;
+                }
+                next = Some(entry(first));
+                continue;
+            }
             // Push the hit lanes farthest first; the nearest is visited next.
             let mut order = [0u8; WIDTH];
             let mut n = 0;
@@ -505,11 +524,6 @@ impl WideBvh {
                 order[j] = lane as u8;
                 n += 1;
             }
-            let entry = |lane: usize| Entry {
-                child: node.child[lane],
-                count: node.count[lane],
-                t: near[lane],
-            };
             for &lane in &order[..n - 1] {
                 if let Some(slot) = stack.get_mut(top) {
                     slot.write(entry(lane as usize));
