@@ -733,13 +733,22 @@ impl PacketRay {
                 return None;
             }
             let det = _mm_add_ps(_mm_add_ps(u, v), w);
-            let t = _mm_div_ps(
-                _mm_add_ps(
-                    _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
-                    _mm_mul_ps(w, cz),
-                ),
-                det,
+            let num = _mm_add_ps(
+                _mm_add_ps(_mm_mul_ps(u, az), _mm_mul_ps(v, bz)),
+                _mm_mul_ps(w, cz),
             );
+            if t_min >= 0.0 {
+                // An accepted `t = num / det > t_min ≥ 0` needs `num` and `det` non-zero, not
+                // NaN and of one sign. Where no lane can pass (the triangle a ray leaves from,
+                // behind its origin), the division is skipped; lanes that can still go on to
+                // the exact test below.
+                let signs_differ = _mm_movemask_ps(_mm_xor_ps(num, det));
+                let never = _mm_movemask_ps(_mm_or_ps(mixed, _mm_cmpeq_ps(num, zero)));
+                if (signs_differ | never) == 0xf {
+                    return None;
+                }
+            }
+            let t = _mm_div_ps(num, det);
             // `cmpneq` is true for NaN, as `det == 0.0` is false; the `t` comparisons reject
             // NaN as `!(t > t_min && t < t_max)` does.
             let accept = _mm_andnot_ps(
