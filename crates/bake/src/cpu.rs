@@ -82,7 +82,7 @@
 
 use std::f32::consts::PI;
 
-use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, WideBvh};
+use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, TriangleAttributes, WideBvh};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
@@ -93,7 +93,7 @@ use crate::backend::{
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::lightpaths;
-use crate::map::sample_masked;
+use crate::map::{bilinear_footprint, masked_blend};
 use crate::program::{
     AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, MAX_BLUR_RADIUS,
     Params, Program, RefineParams, UpsampleParams, VarianceParams, coarse,
@@ -161,6 +161,9 @@ pub struct CpuTexture(usize);
 pub struct CpuScene {
     bvh: EncodedScene,
     wide: WideBvh,
+    /// [`EncodedScene::triangle_attributes`] of every encoded triangle, decoded once at upload
+    /// so that a gather hit reads them from an array.
+    attributes: Vec<TriangleAttributes>,
     lamps: Vec<LampParams>,
     tables: Vec<GpuTable>,
     regions: Vec<Option<Region>>,
@@ -269,6 +272,15 @@ impl CpuScene {
         match trav {
             Trav::Wide => self.wide.closest_hit(ray, t_min, t_max),
             Trav::Encoded(t) => self.bvh.closest_hit(ray, t_min, t_max, t),
+        }
+    }
+
+    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`]).
+    #[inline]
+    fn attributes(&self, t: u32) -> TriangleAttributes {
+        match self.attributes.get(t as usize) {
+            Some(a) => *a,
+            None => self.bvh.triangle_attributes(t),
         }
     }
 
@@ -399,7 +411,7 @@ fn gather_rays(
         let Some(hit) = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav) else {
             continue;
         };
-        let attr = scene.bvh.triangle_attributes(hit.triangle);
+        let attr = scene.attributes(hit.triangle);
         let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
             continue;
         };
@@ -413,12 +425,14 @@ fn gather_rays(
         }
         let uv =
             [0, 1].map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
-        let m = sample_masked(
-            |x, y| reflected.fetch(region.layer, x, y),
-            region.offset,
-            region.size,
-            uv,
-        );
+        // map::sample_masked, reading the region's texels straight from the view.
+        let m = match bilinear_footprint(region.size, uv) {
+            Some(corners) => masked_blend(corners.map(|([x, y], w)| {
+                let (x, y) = (region.offset[0] + x, region.offset[1] + y);
+                (reflected.fetch(region.layer, x, y), w)
+            })),
+            None => [0.0; 3],
+        };
         let weight = if mis.lamp_paths == 0 {
             1.0
         } else {
@@ -1119,6 +1133,9 @@ impl GpuBackend for CpuBackend {
         Ok(CpuScene {
             bvh: scene.bvh.clone(),
             wide: WideBvh::from_encoded(scene.bvh),
+            attributes: (0..scene.bvh.triangle_count)
+                .map(|t| scene.bvh.triangle_attributes(t))
+                .collect(),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
             regions: scene.regions.to_vec(),
@@ -1321,6 +1338,9 @@ mod tests {
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         CpuScene {
             wide: WideBvh::from_encoded(&enc),
+            attributes: (0..enc.triangle_count)
+                .map(|t| enc.triangle_attributes(t))
+                .collect(),
             bvh: enc,
             lamps: vec![LampParams {
                 position: lamp,
