@@ -213,9 +213,10 @@ fn mad(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
 }
 
-/// `v / |v|`, or `None` for a zero or non-finite vector.
+/// `v / |v|`, or `None` for a zero or non-finite vector: the normalisation of every pass here
+/// (`n̂` in the module docs), `|v|` the square root of `v·v` summed left to right.
 #[inline]
-fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
+pub fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
     let l = dot(v, v).sqrt();
     (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
 }
