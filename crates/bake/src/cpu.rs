@@ -2,9 +2,12 @@
 //! through the 4-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
 //! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
 //! traversal of the *encoded textures* — the same data the shaders read. Both use the same
-//! watertight triangle test and agree up to ties. Everything is `f32` and written as a fragment
-//! shader would be, one texel at a time, so that it is the oracle every GPU backend is diffed
-//! against.
+//! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
+//! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
+//! diffed against. Two passes share work across texels without changing a bit of the result:
+//! the gather traces a row's rays before it fetches their look-ups (so that the look-ups'
+//! cache misses overlap) and then sums each texel's rays in order; the blur computes its tap
+//! weights and the normalised normals once per dispatch.
 //!
 //! # Pass semantics (what every backend must compute)
 //! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
@@ -390,73 +393,153 @@ fn direct_texel(
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
 }
 
-/// The sum of the reflected exitance seen along rays `first .. first + count` of a texel's
-/// sequence, cast from `o` around the unit normal `n` (see the module docs).
-#[allow(clippy::too_many_arguments)]
-fn gather_rays(
-    scene: &CpuScene,
-    reflected: View<'_>,
-    trav: Trav,
-    sampler: rng::Sampler,
+/// A gather ray that met the front of a receiver: what its contribution needs.
+#[derive(Clone, Copy)]
+struct GatherHit {
+    /// The ray's direction.
+    dir: [f32; 3],
+    /// Its hit distance.
+    t: f32,
+    /// The interpolated shading normal at the hit.
+    nh: [f32; 3],
+    /// The look-up's four texels ([`View::index`] in the reflected map) with their weights;
+    /// `None`: the look-up is zero.
+    corners: Option<[(Option<usize>, f32); 4]>,
+}
+
+/// One texel's gather rays: samples `rays` of its sequence ([`rng::texel_index`] `texel`),
+/// cast from `o` around the unit normal `n`.
+struct GatherTexel {
     texel: u32,
     rays: std::ops::Range<u32>,
-    bounce: u32,
-    seed: u32,
     o: [f32; 3],
     n: [f32; 3],
     mis: Mis,
-) -> [f32; 3] {
-    let mut sum = [0.0f32; 3];
-    for s in rays {
-        let dir = cosine_direction(n, sampler.uniform2(texel, s, bounce, seed));
-        let Some(hit) = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav) else {
-            continue;
-        };
-        let attr = scene.attributes(hit.triangle);
-        let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
-            continue;
-        };
-        let w0 = 1.0 - hit.u - hit.v;
-        let nh = [0, 1, 2].map(|c| {
-            w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]
-        });
-        let facing = dot(nh, dir);
-        if facing.is_nan() || facing >= 0.0 {
-            continue;
-        }
-        let uv =
-            [0, 1].map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
-        // map::sample_masked, reading the region's texels straight from the view.
-        let m = match bilinear_footprint(region.size, uv) {
-            Some(corners) => masked_blend(corners.map(|([x, y], w)| {
-                let (x, y) = (region.offset[0] + x, region.offset[1] + y);
-                (reflected.fetch(region.layer, x, y), w)
-            })),
-            None => [0.0; 3],
-        };
-        let weight = if mis.lamp_paths == 0 {
-            1.0
-        } else {
-            // The balance heuristic against the lamp paths (crate::lightpaths).
-            let ny = normalize(nh).unwrap_or([0.0; 3]);
-            let y = [0, 1, 2].map(|c| o[c] + hit.t * dir[c]);
-            let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
-            let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
-            lightpaths::gather_weight(
-                mis.rays,
-                mis.lamp_paths,
-                mis.density_scale,
-                lamp_density,
-                hit.t,
-                dot(n, dir),
-                -dot(ny, dir),
-            )
-        };
-        for c in 0..3 {
-            sum[c] += weight * m[c];
+}
+
+/// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
+/// module docs). All texels' rays are traced first, then all their look-ups fetch their
+/// texels — independent loads whose cache misses overlap, instead of each stalling the next
+/// ray's traversal —, then each texel's contributions are added in ray order, as one ray at a
+/// time would.
+fn gather_sums(
+    scene: &CpuScene,
+    reflected: View<'_>,
+    trav: Trav,
+    [sampler_id, bounce, seed]: [u32; 3],
+    texels: &[GatherTexel],
+) -> Vec<[f32; 3]> {
+    let sampler = rng::Sampler::from_id(sampler_id);
+    let mut hits = Vec::with_capacity(texels.iter().map(|t| t.rays.len()).sum());
+    for t in texels {
+        for s in t.rays.clone() {
+            let u = sampler.uniform2(t.texel, s, bounce, seed);
+            hits.push(gather_hit(scene, reflected, trav, u, t.o, t.n));
         }
     }
-    sum
+    let fetched: Vec<[[f32; 4]; 4]> = hits
+        .iter()
+        .map(|hit| match hit {
+            Some(GatherHit {
+                corners: Some(c), ..
+            }) => [
+                reflected.at(c[0].0),
+                reflected.at(c[1].0),
+                reflected.at(c[2].0),
+                reflected.at(c[3].0),
+            ],
+            _ => [[0.0; 4]; 4],
+        })
+        .collect();
+    let mut rest = hits.iter().zip(&fetched);
+    texels
+        .iter()
+        .map(|t| {
+            let mut sum = [0.0f32; 3];
+            for (hit, texels) in rest.by_ref().take(t.rays.len()) {
+                let Some(hit) = hit else {
+                    continue;
+                };
+                let m = hit.corners.map_or([0.0; 3], |c| {
+                    masked_blend([
+                        (texels[0], c[0].1),
+                        (texels[1], c[1].1),
+                        (texels[2], c[2].1),
+                        (texels[3], c[3].1),
+                    ])
+                });
+                let weight = gather_weight(scene, hit, t);
+                for c in 0..3 {
+                    sum[c] += weight * m[c];
+                }
+            }
+            sum
+        })
+        .collect()
+}
+
+/// The weight of a gather hit of texel `t`: 1, or with lamp paths the balance heuristic
+/// against them ([`crate::lightpaths`]).
+#[inline]
+fn gather_weight(scene: &CpuScene, hit: &GatherHit, t: &GatherTexel) -> f32 {
+    let mis = t.mis;
+    if mis.lamp_paths == 0 {
+        return 1.0;
+    }
+    let (dir, nh) = (hit.dir, hit.nh);
+    let ny = normalize(nh).unwrap_or([0.0; 3]);
+    let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
+    let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
+    let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
+    lightpaths::gather_weight(
+        mis.rays,
+        mis.lamp_paths,
+        mis.density_scale,
+        lamp_density,
+        hit.t,
+        dot(t.n, dir),
+        -dot(ny, dir),
+    )
+}
+
+/// Traces the gather ray of sample `u` from `o` about `n`; when it meets the front of a
+/// receiver, what its contribution needs, with where the texels of its look-up lie in
+/// `reflected` (see the module docs); `None` adds nothing.
+#[inline]
+fn gather_hit(
+    scene: &CpuScene,
+    reflected: View<'_>,
+    trav: Trav,
+    u: [f32; 2],
+    o: [f32; 3],
+    n: [f32; 3],
+) -> Option<GatherHit> {
+    let dir = cosine_direction(n, u);
+    let hit = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav)?;
+    let attr = scene.attributes(hit.triangle);
+    let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
+        return None;
+    };
+    let w0 = 1.0 - hit.u - hit.v;
+    let nh = [0, 1, 2]
+        .map(|c| w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]);
+    let facing = dot(nh, dir);
+    if facing.is_nan() || facing >= 0.0 {
+        return None;
+    }
+    let uv = [0, 1].map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
+    let corners = bilinear_footprint(region.size, uv).map(|corners| {
+        corners.map(|([x, y], w)| {
+            let (x, y) = (region.offset[0] + x, region.offset[1] + y);
+            (reflected.index(region.layer, x, y), w)
+        })
+    });
+    Some(GatherHit {
+        dir,
+        t: hit.t,
+        nh,
+        corners,
+    })
 }
 
 /// The gather's multiple-importance-sampling weights ([`crate::lightpaths`]): none when
@@ -482,61 +565,68 @@ impl Mis {
     };
 }
 
-/// The gathered indirect illuminance at one texel (see the module docs); with
-/// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered
-/// ([`coarse_rays`]), the others written as 0 for [`upsample_texel`].
+/// The gathered indirect illuminance at texels `x0 ..` of row `y` (`out`: RGBA per texel; see
+/// the module docs), their rays traced together ([`gather_sums`]); with
+/// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered ([`coarse_rays`]),
+/// the others written as 0 for [`upsample_texel`].
 #[allow(clippy::too_many_arguments)]
-fn gather_texel(
+fn gather_row(
     scene: &CpuScene,
     [pos_map, nrm_map, reflected, connected]: [View<'_>; 4],
     trav: Trav,
     params: GatherParams,
     layer: u32,
-    x: u32,
+    x0: u32,
     y: u32,
-) -> [f32; 4] {
-    let pos = pos_map.fetch(layer, x, y);
-    if pos[3] <= 0.5 {
-        return [0.0; 4];
+    out: &mut [f32],
+) {
+    let mut texels = Vec::new();
+    let mut at = Vec::new();
+    for (i, texel) in out.chunks_exact_mut(4).enumerate() {
+        let x = x0 + i as u32;
+        let pos = pos_map.fetch(layer, x, y);
+        if pos[3] <= 0.5 {
+            texel.copy_from_slice(&[0.0; 4]);
+            continue;
+        }
+        texel.copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+        let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
+            continue;
+        };
+        let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
+        if rays == 0 {
+            continue;
+        }
+        texels.push(GatherTexel {
+            texel: rng::texel_index(scene.layer_size, layer, x, y),
+            rays: 0..rays,
+            o: offset_origin(xyz(pos), n, scene.ray_epsilon),
+            n,
+            mis: Mis {
+                rays,
+                lamp_paths: params.lamp_paths,
+                density_scale: params.density_scale,
+                lamp_count: params.lamp_count,
+            },
+        });
+        at.push(i);
     }
-    let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
-        return [0.0, 0.0, 0.0, 1.0];
-    };
-    let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
-    if rays == 0 {
-        return [0.0, 0.0, 0.0, 1.0];
+    let sampler = [params.sampler, params.bounce, params.seed];
+    let sums = gather_sums(scene, reflected, trav, sampler, &texels);
+    for ((t, sum), i) in texels.iter().zip(sums).zip(at) {
+        let inv = 1.0 / t.rays.len() as f32;
+        let c = if params.lamp_paths > 0 {
+            connected.fetch(layer, x0 + i as u32, y)
+        } else {
+            [0.0; 4]
+        };
+        out[4 * i..4 * i + 4].copy_from_slice(&[
+            guard(sum[0] * inv + c[0]),
+            guard(sum[1] * inv + c[1]),
+            guard(sum[2] * inv + c[2]),
+            1.0,
+        ]);
     }
-    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
-    let sum = gather_rays(
-        scene,
-        reflected,
-        trav,
-        rng::Sampler::from_id(params.sampler),
-        rng::texel_index(scene.layer_size, layer, x, y),
-        0..rays,
-        params.bounce,
-        params.seed,
-        o,
-        n,
-        Mis {
-            rays,
-            lamp_paths: params.lamp_paths,
-            density_scale: params.density_scale,
-            lamp_count: params.lamp_count,
-        },
-    );
-    let inv = 1.0 / rays as f32;
-    let c = if params.lamp_paths > 0 {
-        connected.fetch(layer, x, y)
-    } else {
-        [0.0; 4]
-    };
-    [
-        guard(sum[0] * inv + c[0]),
-        guard(sum[1] * inv + c[1]),
-        guard(sum[2] * inv + c[2]),
-        1.0,
-    ]
 }
 
 /// The weights of texel `(x, y)`'s grid-cell corners that lie on its surface
@@ -657,20 +747,17 @@ fn refine_texel(
     if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
         return first;
     }
-    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
-    let sum = gather_rays(
-        scene,
-        reflected,
-        trav,
-        rng::Sampler::from_id(params.sampler),
-        rng::texel_index(scene.layer_size, layer, x, y),
-        params.first_rays..params.first_rays + params.rays,
-        params.bounce,
-        params.seed,
-        o,
+    let texel = GatherTexel {
+        texel: rng::texel_index(scene.layer_size, layer, x, y),
+        rays: params.first_rays..params.first_rays + params.rays,
+        o: offset_origin(xyz(pos), n, scene.ray_epsilon),
         n,
-        Mis::NONE,
-    );
+        mis: Mis::NONE,
+    };
+    let sampler = [params.sampler, params.bounce, params.seed];
+    let [sum] = gather_sums(scene, reflected, trav, sampler, &[texel])[..] else {
+        return first;
+    };
     let total = (params.first_rays + params.rays) as f32;
     let k = params.first_rays as f32;
     [
@@ -1222,12 +1309,19 @@ fn run_tile(
         .enumerate()
         .for_each(|(r, row)| {
             let y = t.y0 + r as u32;
-            for x in t.x0..t.x0 + t.width {
+            let texels = &mut row[4 * t.x0 as usize..4 * (t.x0 + t.width) as usize];
+            if let (Params::Gather(p), [pos, nrm, reflected, connected, ..]) = (params, views) {
+                // The row's rays together (gather_sums).
+                let views = [*pos, *nrm, *reflected, *connected];
+                gather_row(call.scene, views, trav, p, t.layer, t.x0, y, texels);
+                return;
+            }
+            for (x, out) in (t.x0..).zip(texels.chunks_exact_mut(4)) {
                 let v = match &blur {
                     Some(kernel) => kernel.texel(views[0], t.layer, x, y),
                     None => texel(call, params, views, trav, t.layer, x, y),
                 };
-                row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
+                out.copy_from_slice(&v);
             }
         });
 }
@@ -1275,7 +1369,20 @@ fn texel(
                 a[3],
             ]
         }
-        Params::Gather(p) => gather_texel(scene, [v[0], v[1], v[2], v[3]], trav, p, layer, x, y),
+        Params::Gather(p) => {
+            let mut out = [0.0; 4];
+            gather_row(
+                scene,
+                [v[0], v[1], v[2], v[3]],
+                trav,
+                p,
+                layer,
+                x,
+                y,
+                &mut out,
+            );
+            out
+        }
         Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
         Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
         Params::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
