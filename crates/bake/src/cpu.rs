@@ -872,7 +872,8 @@ impl BlurKernel {
                 continue;
             };
             // NaN (a normal that cannot be normalised) fails the test.
-            if nt[3] != object || !(dot(n0, xyz(nt)) >= BLUR_NORMAL_COS) {
+            let cos = dot(n0, xyz(nt));
+            if nt[3] != object || cos.is_nan() || cos < BLUR_NORMAL_COS {
                 continue;
             }
             for c in 0..3 {

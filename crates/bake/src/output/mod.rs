@@ -570,7 +570,7 @@ mod tests {
             }
         }
         let bytes = encode_png(&p).expect("png");
-        let mut reader = png::Decoder::new(Cursor::new(bytes))
+        let mut reader = png::Decoder::new(std::io::Cursor::new(bytes))
             .read_info()
             .expect("header");
         let mut rgb = vec![0; reader.output_buffer_size().expect("size")];
