@@ -35,7 +35,7 @@ use luxbake::{GpuBackend, Limits};
 use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use serde_json::json;
 
-use crate::thread_seconds;
+use crate::clock::thread_seconds;
 
 /// What the recorder keeps of the uploaded scene.
 struct Uploaded {
