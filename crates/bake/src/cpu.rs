@@ -98,8 +98,8 @@ use crate::layout::Region;
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::program::{
-    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, MAX_BLUR_RADIUS,
-    Params, Program, RefineParams, UpsampleParams, VarianceParams, coarse,
+    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams,
+    MAX_BLUR_RADIUS, Params, Program, RefineParams, UpsampleParams, VarianceParams, coarse,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -418,7 +418,7 @@ struct GatherTexel {
 }
 
 /// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
-/// module docs). All texels' rays are traced first, then all their look-ups fetch their
+/// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. All texels' rays are traced first, then all their look-ups fetch their
 /// texels — independent loads whose cache misses overlap, instead of each stalling the next
 /// ray's traversal —, then each texel's contributions are added in ray order, as one ray at a
 /// time would.
@@ -894,8 +894,9 @@ impl BlurKernel {
     }
 }
 
-/// One axis of the masked Gaussian at one texel, with a kernel of its own ([`run_tile`]
-/// prepares one per dispatch instead).
+/// One axis of the masked Gaussian at one texel, with a kernel of its own (dispatches prepare
+/// one per tile).
+#[cfg(test)]
 fn blur_texel(
     src: View<'_>,
     nrm: View<'_>,
@@ -1281,6 +1282,29 @@ impl GpuBackend for CpuBackend {
     }
 }
 
+/// What a dispatch runs per row of its tile, prepared once per dispatch.
+enum RowWork {
+    /// The gather: a row's rays traced together ([`gather_row`]).
+    Gather(GatherParams),
+    /// The blur, its weights and normals prepared for the tile.
+    Blur(BlurKernel),
+    /// Any other program, texel by texel.
+    Texels(TexelProgram),
+}
+
+/// The programs a dispatch computes texel by texel ([`texel`]), with their parameter blocks.
+#[derive(Clone, Copy)]
+enum TexelProgram {
+    Direct(DirectParams),
+    Copy,
+    AlbedoMul,
+    Combine(CombineParams),
+    Variance(VarianceParams),
+    Atrous(AtrousParams),
+    Upsample(UpsampleParams),
+    Refine(RefineParams),
+}
+
 /// Runs one dispatch: the tile's rows in parallel.
 fn run_tile(
     call: &Dispatch<'_, CpuTexture, CpuScene>,
@@ -1294,14 +1318,23 @@ fn run_tile(
         return;
     }
     let trav = traversal(call.bvh);
-    let params = Params::decode(call.program, call.params);
-    // The blur's weights and normals, once for the tile (texel() would prepare them per texel).
-    let blur = match (params, views.get(1)) {
-        (Params::Blur(p), Some(&nrm)) => {
+    let work = match Params::decode(call.program, call.params) {
+        Params::Gather(p) => RowWork::Gather(p),
+        Params::Blur(p) => {
             let rect = [t.x0, t.y0, t.x0 + t.width, t.y0 + t.height];
-            Some(BlurKernel::new(p, nrm, t.layer, rect))
+            RowWork::Blur(BlurKernel::new(p, views[1], t.layer, rect))
         }
-        _ => None,
+        Params::Direct(p) => RowWork::Texels(TexelProgram::Direct(p)),
+        Params::None if call.program == Program::AlbedoMul => {
+            RowWork::Texels(TexelProgram::AlbedoMul)
+        }
+        // Copy, the one other program without parameters.
+        Params::None => RowWork::Texels(TexelProgram::Copy),
+        Params::Combine(p) => RowWork::Texels(TexelProgram::Combine(p)),
+        Params::Variance(p) => RowWork::Texels(TexelProgram::Variance(p)),
+        Params::Atrous(p) => RowWork::Texels(TexelProgram::Atrous(p)),
+        Params::Upsample(p) => RowWork::Texels(TexelProgram::Upsample(p)),
+        Params::Refine(p) => RowWork::Texels(TexelProgram::Refine(p)),
     };
     let start = (t.layer as usize * desc.size[1] as usize + t.y0 as usize) * row_floats;
     let end = start + t.height as usize * row_floats;
@@ -1311,43 +1344,47 @@ fn run_tile(
         .for_each(|(r, row)| {
             let y = t.y0 + r as u32;
             let texels = &mut row[4 * t.x0 as usize..4 * (t.x0 + t.width) as usize];
-            if let (Params::Gather(p), [pos, nrm, reflected, connected, ..]) = (params, views) {
-                // The row's rays together (gather_sums).
-                let views = [*pos, *nrm, *reflected, *connected];
-                gather_row(call.scene, views, trav, p, t.layer, t.x0, y, texels);
-                return;
-            }
-            for (x, out) in (t.x0..).zip(texels.chunks_exact_mut(4)) {
-                let v = match &blur {
-                    Some(kernel) => kernel.texel(views[0], t.layer, x, y),
-                    None => texel(call, params, views, trav, t.layer, x, y),
-                };
-                out.copy_from_slice(&v);
+            let each = |f: &dyn Fn(u32) -> [f32; 4], texels: &mut [f32]| {
+                for (x, out) in (t.x0..).zip(texels.chunks_exact_mut(4)) {
+                    out.copy_from_slice(&f(x));
+                }
+            };
+            match &work {
+                RowWork::Gather(p) => {
+                    let v = [views[0], views[1], views[2], views[3]];
+                    gather_row(call.scene, v, trav, *p, t.layer, t.x0, y, texels);
+                }
+                RowWork::Blur(kernel) => each(&|x| kernel.texel(views[0], t.layer, x, y), texels),
+                RowWork::Texels(p) => {
+                    each(
+                        &|x| texel(call.scene, *p, views, trav, t.layer, x, y),
+                        texels,
+                    );
+                }
             }
         });
 }
 
-/// One texel of one program; `params` is the program's block, decoded once per dispatch.
+/// One texel of a program computed texel by texel.
 #[inline]
 fn texel(
-    call: &Dispatch<'_, CpuTexture, CpuScene>,
-    params: Params,
+    scene: &CpuScene,
+    program: TexelProgram,
     v: &[View<'_>],
     trav: Trav,
     layer: u32,
     x: u32,
     y: u32,
 ) -> [f32; 4] {
-    let scene = call.scene;
-    match params {
-        Params::Direct(p) => direct_texel(
+    match program {
+        TexelProgram::Direct(p) => direct_texel(
             scene,
             p,
             trav,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
-        Params::None if call.program == Program::AlbedoMul => {
+        TexelProgram::AlbedoMul => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -1357,10 +1394,8 @@ fn texel(
                 a[3],
             ]
         }
-        // Copy, the one other program without parameters.
-        Params::None => v[0].fetch(layer, x, y),
-        Params::Blur(p) => blur_texel(v[0], v[1], p, layer, x, y),
-        Params::Combine(w) => {
+        TexelProgram::Copy => v[0].fetch(layer, x, y),
+        TexelProgram::Combine(w) => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -1370,24 +1405,10 @@ fn texel(
                 a[3],
             ]
         }
-        Params::Gather(p) => {
-            let mut out = [0.0; 4];
-            gather_row(
-                scene,
-                [v[0], v[1], v[2], v[3]],
-                trav,
-                p,
-                layer,
-                x,
-                y,
-                &mut out,
-            );
-            out
-        }
-        Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
-        Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
-        Params::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
-        Params::Refine(p) => {
+        TexelProgram::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
+        TexelProgram::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
+        TexelProgram::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
+        TexelProgram::Refine(p) => {
             refine_texel(scene, [v[0], v[1], v[2], v[3], v[4]], trav, p, layer, x, y)
         }
     }
