@@ -857,6 +857,13 @@ impl BlurKernel {
         let (n0, object) = (xyz(nc), nc[3]);
         let radius = (self.weights.len() / 2) as i64;
         let (w, h) = (i64::from(src.size[0]), i64::from(src.size[1]));
+        // The layer's texels: every tap inside the layer is inside these.
+        let Some(layer_texels) = src.index(layer, 0, 0).and_then(|start| {
+            let len = 4 * src.size[0] as usize * src.size[1] as usize;
+            src.data.get(start..start + len)
+        }) else {
+            return centre;
+        };
         let mut sum = [0.0f32; 3];
         let mut wsum = 0.0f32;
         for (k, &wk) in (-radius..=radius).zip(&self.weights) {
@@ -864,7 +871,8 @@ impl BlurKernel {
             if tx < 0 || ty < 0 || tx >= w || ty >= h {
                 continue;
             }
-            let t = src.fetch(layer, tx as u32, ty as u32);
+            let i = 4 * (ty * w + tx) as usize;
+            let t = &layer_texels[i..i + 4];
             if t[3] <= 0.5 {
                 continue;
             }
