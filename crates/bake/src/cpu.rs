@@ -1366,25 +1366,29 @@ fn run_tile(
         .for_each(|(r, row)| {
             let y = t.y0 + r as u32;
             let texels = &mut row[4 * t.x0 as usize..4 * (t.x0 + t.width) as usize];
-            let each = |f: &dyn Fn(u32) -> [f32; 4], texels: &mut [f32]| {
-                for (x, out) in (t.x0..).zip(texels.chunks_exact_mut(4)) {
-                    out.copy_from_slice(&f(x));
-                }
-            };
             match &work {
                 RowWork::Gather(p) => {
                     let v = [views[0], views[1], views[2], views[3]];
                     gather_row(call.scene, v, trav, *p, t.layer, t.x0, y, texels);
                 }
-                RowWork::Blur(kernel) => each(&|x| kernel.texel(views[0], t.layer, x, y), texels),
+                RowWork::Blur(kernel) => {
+                    each_texel(t.x0, texels, |x| kernel.texel(views[0], t.layer, x, y));
+                }
                 RowWork::Texels(p) => {
-                    each(
-                        &|x| texel(call.scene, *p, views, trav, t.layer, x, y),
-                        texels,
-                    );
+                    each_texel(t.x0, texels, |x| {
+                        texel(call.scene, *p, views, trav, t.layer, x, y)
+                    });
                 }
             }
         });
+}
+
+/// Fills the RGBA texels `x0 ..` of a row with `f(x)`.
+#[inline]
+fn each_texel(x0: u32, texels: &mut [f32], f: impl Fn(u32) -> [f32; 4]) {
+    for (x, out) in (x0..).zip(texels.chunks_exact_mut(4)) {
+        out.copy_from_slice(&f(x));
+    }
 }
 
 /// One texel of a program computed texel by texel.
