@@ -26,6 +26,7 @@ use web_time::Instant;
 
 use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, WideBvh, encode};
 use luxbake_ies::GpuTable;
+use rayon::prelude::*;
 
 use crate::backend::{Dispatch, GpuBackend, LampParams, SceneData, ray_epsilon};
 use crate::gbuffer::{GBuffer, rasterize};
@@ -812,21 +813,24 @@ pub fn bake<B: GpuBackend>(
 
     progress(&Progress::Setup("read back"));
     let t = Instant::now();
-    let mut stage_layers: Vec<Option<Vec<Vec<f32>>>> = Vec::with_capacity(8);
-    for s in graph.figure5.stages {
-        stage_layers.push(match s {
-            Some(tex) => Some(read_all(backend, tex).map_err(be)?),
-            None => None,
-        });
+    // One stage at a time: its layers read back, every object's region cropped (in
+    // parallel), the layers dropped before the next stage's are read.
+    let mut stages: Vec<[Option<MapImage>; 8]> = vec![Default::default(); layout.regions.len()];
+    for (i, stage) in graph.figure5.stages.iter().enumerate() {
+        let Some(tex) = stage else { continue };
+        let layers = read_all(backend, *tex).map_err(be)?;
+        let crops: Vec<Option<MapImage>> = layout
+            .regions
+            .par_iter()
+            .map(|r| r.as_ref().map(|r| crop(&layers, layout.layer_size, r)))
+            .collect();
+        for (object, map) in stages.iter_mut().zip(crops) {
+            object[i] = map;
+        }
     }
     let mut maps = Vec::new();
-    for (o, region) in layout.regions.iter().enumerate() {
+    for ((o, region), stages) in layout.regions.iter().enumerate().zip(stages) {
         let Some(region) = region else { continue };
-        let stages: [Option<MapImage>; 8] = std::array::from_fn(|i| {
-            stage_layers[i]
-                .as_ref()
-                .map(|layers| crop(layers, layout.layer_size, region))
-        });
         maps.push(ObjectMaps {
             object: o,
             name: scene

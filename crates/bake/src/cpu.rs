@@ -2,9 +2,12 @@
 //! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
 //! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
 //! traversal of the *encoded textures* — the same data the shaders read. Both use the same
-//! watertight triangle test and agree up to ties. Everything is `f32` and written as a fragment
-//! shader would be, one texel at a time, so that it is the oracle every GPU backend is diffed
-//! against.
+//! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
+//! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
+//! diffed against. Two passes share work across texels without changing a bit of the result:
+//! the gather traces a row's rays before it fetches their look-ups (so that the look-ups'
+//! cache misses overlap) and then sums each texel's rays in order; the blur computes its tap
+//! weights and the normalised normals once per dispatch.
 //!
 //! # Pass semantics (what every backend must compute)
 //! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
@@ -82,7 +85,7 @@
 
 use std::f32::consts::PI;
 
-use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, WideBvh};
+use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, TriangleAttributes, WideBvh};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
@@ -93,10 +96,10 @@ use crate::backend::{
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::lightpaths;
-use crate::map::sample_masked;
+use crate::map::{bilinear_footprint, masked_blend};
 use crate::program::{
-    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, DirectParams, GatherParams, Params, Program,
-    RefineParams, UpsampleParams, VarianceParams, coarse,
+    AtrousParams, B3, BLUR_NORMAL_COS, BlurParams, CombineParams, DirectParams, GatherParams,
+    MAX_BLUR_RADIUS, Params, Program, RefineParams, UpsampleParams, VarianceParams, coarse,
 };
 use crate::rng;
 use crate::scene::BvhMode;
@@ -161,6 +164,9 @@ pub struct CpuTexture(usize);
 pub struct CpuScene {
     bvh: EncodedScene,
     wide: WideBvh,
+    /// [`EncodedScene::triangle_attributes`] of every encoded triangle, decoded once at upload
+    /// so that a gather hit reads them from an array.
+    attributes: Vec<TriangleAttributes>,
     lamps: Vec<LampParams>,
     tables: Vec<GpuTable>,
     regions: Vec<Option<Region>>,
@@ -210,9 +216,10 @@ fn mad(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
     [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
 }
 
-/// `v / |v|`, or `None` for a zero or non-finite vector.
+/// `v / |v|`, or `None` for a zero or non-finite vector: the normalisation of every pass here
+/// (`n̂` in the module docs), `|v|` the square root of `v·v` summed left to right.
 #[inline]
-fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
+pub fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
     let l = dot(v, v).sqrt();
     (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
 }
@@ -269,6 +276,15 @@ impl CpuScene {
         match trav {
             Trav::Wide => self.wide.closest_hit(ray, t_min, t_max),
             Trav::Encoded(t) => self.bvh.closest_hit(ray, t_min, t_max, t),
+        }
+    }
+
+    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`]).
+    #[inline]
+    fn attributes(&self, t: u32) -> TriangleAttributes {
+        match self.attributes.get(t as usize) {
+            Some(a) => *a,
+            None => self.bvh.triangle_attributes(t),
         }
     }
 
@@ -377,71 +393,167 @@ fn direct_texel(
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
 }
 
-/// The sum of the reflected exitance seen along rays `first .. first + count` of a texel's
-/// sequence, cast from `o` around the unit normal `n` (see the module docs).
-#[allow(clippy::too_many_arguments)]
-fn gather_rays(
-    scene: &CpuScene,
-    reflected: View<'_>,
-    trav: Trav,
-    sampler: rng::Sampler,
+/// A gather ray that met the front of a receiver: what its contribution needs.
+#[derive(Clone, Copy)]
+struct GatherHit {
+    /// The ray's direction.
+    dir: [f32; 3],
+    /// Its hit distance.
+    t: f32,
+    /// The interpolated shading normal at the hit.
+    nh: [f32; 3],
+    /// The look-up's four texels ([`View::index`] in the reflected map) with their weights;
+    /// `None`: the look-up is zero.
+    corners: Option<[(Option<usize>, f32); 4]>,
+}
+
+/// One texel's gather rays: samples `rays` of its sequence ([`rng::texel_index`] `texel`),
+/// cast from `o` around the unit normal `n`.
+struct GatherTexel {
     texel: u32,
     rays: std::ops::Range<u32>,
-    bounce: u32,
-    seed: u32,
     o: [f32; 3],
     n: [f32; 3],
     mis: Mis,
-) -> [f32; 3] {
-    let mut sum = [0.0f32; 3];
-    for s in rays {
-        let dir = cosine_direction(n, sampler.uniform2(texel, s, bounce, seed));
-        let Some(hit) = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav) else {
-            continue;
-        };
-        let attr = scene.bvh.triangle_attributes(hit.triangle);
-        let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
-            continue;
-        };
-        let w0 = 1.0 - hit.u - hit.v;
-        let nh = [0, 1, 2].map(|c| {
-            w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]
-        });
-        let facing = dot(nh, dir);
-        if facing.is_nan() || facing >= 0.0 {
-            continue;
-        }
-        let uv =
-            [0, 1].map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
-        let m = sample_masked(
-            |x, y| reflected.fetch(region.layer, x, y),
-            region.offset,
-            region.size,
-            uv,
-        );
-        let weight = if mis.lamp_paths == 0 {
-            1.0
-        } else {
-            // The balance heuristic against the lamp paths (crate::lightpaths).
-            let ny = normalize(nh).unwrap_or([0.0; 3]);
-            let y = [0, 1, 2].map(|c| o[c] + hit.t * dir[c]);
-            let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
-            let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
-            lightpaths::gather_weight(
-                mis.rays,
-                mis.lamp_paths,
-                mis.density_scale,
-                lamp_density,
-                hit.t,
-                dot(n, dir),
-                -dot(ny, dir),
-            )
-        };
-        for c in 0..3 {
-            sum[c] += weight * m[c];
+}
+
+/// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
+/// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. All texels' rays are traced first, then all their look-ups fetch their
+/// texels — independent loads whose cache misses overlap, instead of each stalling the next
+/// ray's traversal —, then each texel's contributions are added in ray order, as one ray at a
+/// time would.
+fn gather_sums(
+    scene: &CpuScene,
+    reflected: View<'_>,
+    trav: Trav,
+    [sampler_id, bounce, seed]: [u32; 3],
+    texels: &[GatherTexel],
+) -> Vec<[f32; 3]> {
+    let sampler = rng::Sampler::from_id(sampler_id);
+    let mut hits = Vec::with_capacity(texels.iter().map(|t| t.rays.len()).sum());
+    for t in texels {
+        for s in t.rays.clone() {
+            let u = sampler.uniform2(t.texel, s, bounce, seed);
+            hits.push(gather_hit(scene, reflected, trav, u, t.o, t.n));
         }
     }
-    sum
+    let fetched: Vec<[[f32; 4]; 4]> = hits
+        .iter()
+        .map(|hit| match hit {
+            Some(GatherHit {
+                corners: Some(c), ..
+            }) => [
+                reflected.at(c[0].0),
+                reflected.at(c[1].0),
+                reflected.at(c[2].0),
+                reflected.at(c[3].0),
+            ],
+            _ => [[0.0; 4]; 4],
+        })
+        .collect();
+    let mut rest = hits.iter().zip(&fetched);
+    texels
+        .iter()
+        .map(|t| {
+            let mut sum = [0.0f32; 3];
+            for (hit, texels) in rest.by_ref().take(t.rays.len()) {
+                let Some(hit) = hit else {
+                    continue;
+                };
+                let m = hit.corners.map_or([0.0; 3], |c| {
+                    masked_blend([
+                        (texels[0], c[0].1),
+                        (texels[1], c[1].1),
+                        (texels[2], c[2].1),
+                        (texels[3], c[3].1),
+                    ])
+                });
+                let weight = gather_weight(scene, hit, t);
+                for c in 0..3 {
+                    sum[c] += weight * m[c];
+                }
+            }
+            sum
+        })
+        .collect()
+}
+
+/// The weight of a gather hit of texel `t`: 1, or with lamp paths the balance heuristic
+/// against them ([`crate::lightpaths`]).
+#[inline]
+fn gather_weight(scene: &CpuScene, hit: &GatherHit, t: &GatherTexel) -> f32 {
+    let mis = t.mis;
+    if mis.lamp_paths == 0 {
+        return 1.0;
+    }
+    let (dir, nh) = (hit.dir, hit.nh);
+    let ny = normalize(nh).unwrap_or([0.0; 3]);
+    let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
+    let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
+    let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
+    lightpaths::gather_weight(
+        mis.rays,
+        mis.lamp_paths,
+        mis.density_scale,
+        lamp_density,
+        hit.t,
+        dot(t.n, dir),
+        -dot(ny, dir),
+    )
+}
+
+/// Traces the gather ray of sample `u` from `o` about `n`; when it meets the front of a
+/// receiver, what its contribution needs, with where the texels of its look-up lie in
+/// `reflected` (see the module docs); `None` adds nothing.
+#[inline]
+fn gather_hit(
+    scene: &CpuScene,
+    reflected: View<'_>,
+    trav: Trav,
+    u: [f32; 2],
+    o: [f32; 3],
+    n: [f32; 3],
+) -> Option<GatherHit> {
+    let dir = cosine_direction(n, u);
+    let hit = scene.closest_hit(&Ray { origin: o, dir }, 0.0, f32::INFINITY, trav)?;
+    let attr = scene.attributes(hit.triangle);
+    let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
+        return None;
+    };
+    // Written out per component (no array::map closures, which the dev profile does not
+    // always inline on this hot path); the same expressions.
+    let w0 = 1.0 - hit.u - hit.v;
+    let [n0, n1, n2] = attr.normals;
+    let nh = [
+        w0 * n0[0] + hit.u * n1[0] + hit.v * n2[0],
+        w0 * n0[1] + hit.u * n1[1] + hit.v * n2[1],
+        w0 * n0[2] + hit.u * n1[2] + hit.v * n2[2],
+    ];
+    let facing = dot(nh, dir);
+    if facing.is_nan() || facing >= 0.0 {
+        return None;
+    }
+    let [uv0, uv1, uv2] = attr.uvs;
+    let uv = [
+        w0 * uv0[0] + hit.u * uv1[0] + hit.v * uv2[0],
+        w0 * uv0[1] + hit.u * uv1[1] + hit.v * uv2[1],
+    ];
+    let corners = bilinear_footprint(region.size, uv).map(|c| {
+        let [ox, oy] = region.offset;
+        let index = |k: usize| reflected.index(region.layer, ox + c[k].0[0], oy + c[k].0[1]);
+        [
+            (index(0), c[0].1),
+            (index(1), c[1].1),
+            (index(2), c[2].1),
+            (index(3), c[3].1),
+        ]
+    });
+    Some(GatherHit {
+        dir,
+        t: hit.t,
+        nh,
+        corners,
+    })
 }
 
 /// The gather's multiple-importance-sampling weights ([`crate::lightpaths`]): none when
@@ -467,61 +579,68 @@ impl Mis {
     };
 }
 
-/// The gathered indirect illuminance at one texel (see the module docs); with
-/// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered
-/// ([`coarse_rays`]), the others written as 0 for [`upsample_texel`].
+/// The gathered indirect illuminance at texels `x0 ..` of row `y` (`out`: RGBA per texel; see
+/// the module docs), their rays traced together ([`gather_sums`]); with
+/// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered ([`coarse_rays`]),
+/// the others written as 0 for [`upsample_texel`].
 #[allow(clippy::too_many_arguments)]
-fn gather_texel(
+fn gather_row(
     scene: &CpuScene,
     [pos_map, nrm_map, reflected, connected]: [View<'_>; 4],
     trav: Trav,
     params: GatherParams,
     layer: u32,
-    x: u32,
+    x0: u32,
     y: u32,
-) -> [f32; 4] {
-    let pos = pos_map.fetch(layer, x, y);
-    if pos[3] <= 0.5 {
-        return [0.0; 4];
+    out: &mut [f32],
+) {
+    let mut texels = Vec::new();
+    let mut at = Vec::new();
+    for (i, texel) in out.chunks_exact_mut(4).enumerate() {
+        let x = x0 + i as u32;
+        let pos = pos_map.fetch(layer, x, y);
+        if pos[3] <= 0.5 {
+            texel.copy_from_slice(&[0.0; 4]);
+            continue;
+        }
+        texel.copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
+        let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
+            continue;
+        };
+        let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
+        if rays == 0 {
+            continue;
+        }
+        texels.push(GatherTexel {
+            texel: rng::texel_index(scene.layer_size, layer, x, y),
+            rays: 0..rays,
+            o: offset_origin(xyz(pos), n, scene.ray_epsilon),
+            n,
+            mis: Mis {
+                rays,
+                lamp_paths: params.lamp_paths,
+                density_scale: params.density_scale,
+                lamp_count: params.lamp_count,
+            },
+        });
+        at.push(i);
     }
-    let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
-        return [0.0, 0.0, 0.0, 1.0];
-    };
-    let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
-    if rays == 0 {
-        return [0.0, 0.0, 0.0, 1.0];
+    let sampler = [params.sampler, params.bounce, params.seed];
+    let sums = gather_sums(scene, reflected, trav, sampler, &texels);
+    for ((t, sum), i) in texels.iter().zip(sums).zip(at) {
+        let inv = 1.0 / t.rays.len() as f32;
+        let c = if params.lamp_paths > 0 {
+            connected.fetch(layer, x0 + i as u32, y)
+        } else {
+            [0.0; 4]
+        };
+        out[4 * i..4 * i + 4].copy_from_slice(&[
+            guard(sum[0] * inv + c[0]),
+            guard(sum[1] * inv + c[1]),
+            guard(sum[2] * inv + c[2]),
+            1.0,
+        ]);
     }
-    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
-    let sum = gather_rays(
-        scene,
-        reflected,
-        trav,
-        rng::Sampler::from_id(params.sampler),
-        rng::texel_index(scene.layer_size, layer, x, y),
-        0..rays,
-        params.bounce,
-        params.seed,
-        o,
-        n,
-        Mis {
-            rays,
-            lamp_paths: params.lamp_paths,
-            density_scale: params.density_scale,
-            lamp_count: params.lamp_count,
-        },
-    );
-    let inv = 1.0 / rays as f32;
-    let c = if params.lamp_paths > 0 {
-        connected.fetch(layer, x, y)
-    } else {
-        [0.0; 4]
-    };
-    [
-        guard(sum[0] * inv + c[0]),
-        guard(sum[1] * inv + c[1]),
-        guard(sum[2] * inv + c[2]),
-        1.0,
-    ]
 }
 
 /// The weights of texel `(x, y)`'s grid-cell corners that lie on its surface
@@ -642,20 +761,17 @@ fn refine_texel(
     if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
         return first;
     }
-    let o = offset_origin(xyz(pos), n, scene.ray_epsilon);
-    let sum = gather_rays(
-        scene,
-        reflected,
-        trav,
-        rng::Sampler::from_id(params.sampler),
-        rng::texel_index(scene.layer_size, layer, x, y),
-        params.first_rays..params.first_rays + params.rays,
-        params.bounce,
-        params.seed,
-        o,
+    let texel = GatherTexel {
+        texel: rng::texel_index(scene.layer_size, layer, x, y),
+        rays: params.first_rays..params.first_rays + params.rays,
+        o: offset_origin(xyz(pos), n, scene.ray_epsilon),
         n,
-        Mis::NONE,
-    );
+        mis: Mis::NONE,
+    };
+    let sampler = [params.sampler, params.bounce, params.seed];
+    let [sum] = gather_sums(scene, reflected, trav, sampler, &[texel])[..] else {
+        return first;
+    };
     let total = (params.first_rays + params.rays) as f32;
     let k = params.first_rays as f32;
     [
@@ -666,7 +782,143 @@ fn refine_texel(
     ]
 }
 
-/// One axis of the masked Gaussian at one texel (see the module docs).
+/// One axis of the masked Gaussian (see the module docs), prepared once per dispatch: the tap
+/// weights and the normalised normals of every texel the dispatch's taps can reach, so that a
+/// tap costs a look-up instead of an `exp` and a normalisation. Each weight and normal is
+/// computed by the same expression as per tap, so the result is the same bit for bit.
+struct BlurKernel {
+    /// Texel step along the axis.
+    step: [i64; 2],
+    /// `exp(k²·inv)` of tap `k ∈ [−R, R]` at index `k + R`, `R` the radius clamped to
+    /// [`MAX_BLUR_RADIUS`] (empty for a negative radius: no taps).
+    weights: Vec<f32>,
+    /// Texel of the layer at `normals[0]`.
+    origin: [i64; 2],
+    /// Columns of `normals`.
+    columns: i64,
+    /// Per texel of the reachable rectangle, row by row: the normal normalised by
+    /// [`normalize`] (NaN where it cannot be), w = the object index.
+    normals: Vec<[f32; 4]>,
+}
+
+impl BlurKernel {
+    /// The kernel of a blur with `params` over the centres `x ∈ [x0, x1)`, `y ∈ [y0, y1)` of
+    /// `layer`, whose normals `nrm` holds.
+    fn new(params: BlurParams, nrm: View<'_>, layer: u32, [x0, y0, x1, y1]: [u32; 4]) -> Self {
+        let radius = params.radius.min(MAX_BLUR_RADIUS);
+        let weights = (-radius..=radius)
+            .map(|k| ((k * k) as f32 * params.inv).exp())
+            .collect();
+        let step = [i64::from(params.step_x), i64::from(params.step_y)];
+        let reach = |s: i64| i64::from(radius.max(0)) * s.abs();
+        let (w, h) = (i64::from(nrm.size[0]), i64::from(nrm.size[1]));
+        let origin = [
+            (i64::from(x0) - reach(step[0])).clamp(0, w),
+            (i64::from(y0) - reach(step[1])).clamp(0, h),
+        ];
+        let end = [
+            (i64::from(x1) + reach(step[0])).clamp(origin[0], w),
+            (i64::from(y1) + reach(step[1])).clamp(origin[1], h),
+        ];
+        let columns = end[0] - origin[0];
+        let mut normals = vec![[0.0f32; 4]; (columns * (end[1] - origin[1])) as usize];
+        if columns > 0 {
+            normals
+                .par_chunks_mut(columns as usize)
+                .enumerate()
+                .for_each(|(r, row)| {
+                    let y = (origin[1] + r as i64) as u32;
+                    for (i, n) in row.iter_mut().enumerate() {
+                        let t = nrm.fetch(layer, (origin[0] + i as i64) as u32, y);
+                        let [a, b, c] = normalize(xyz(t)).unwrap_or([f32::NAN; 3]);
+                        *n = [a, b, c, t[3]];
+                    }
+                });
+        }
+        BlurKernel {
+            step,
+            weights,
+            origin,
+            columns,
+            normals,
+        }
+    }
+
+    /// The prepared normal of texel `(x, y)`, if it is in the reachable rectangle.
+    #[inline]
+    fn normal(&self, x: i64, y: i64) -> Option<[f32; 4]> {
+        let (i, j) = (x - self.origin[0], y - self.origin[1]);
+        if i < 0 || j < 0 || i >= self.columns {
+            return None;
+        }
+        self.normals.get((j * self.columns + i) as usize).copied()
+    }
+
+    /// The blurred value of texel `(x, y)` of `src` (a centre of [`BlurKernel::new`]'s).
+    fn texel(&self, src: View<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        let centre = src.fetch(layer, x, y);
+        if centre[3] <= 0.5 {
+            return [0.0; 4];
+        }
+        let (x, y) = (i64::from(x), i64::from(y));
+        let Some(nc) = self.normal(x, y) else {
+            return centre;
+        };
+        // A normal that cannot be normalised is NaN.
+        if nc[0].is_nan() {
+            return centre;
+        }
+        let (n0, object) = (xyz(nc), nc[3]);
+        let radius = (self.weights.len() / 2) as i64;
+        let (w, h) = (i64::from(src.size[0]), i64::from(src.size[1]));
+        // The layer's texels: every tap inside the layer is inside these.
+        let Some(layer_texels) = src.index(layer, 0, 0).and_then(|start| {
+            let len = 4 * src.size[0] as usize * src.size[1] as usize;
+            src.data.get(start..start + len)
+        }) else {
+            return centre;
+        };
+        let mut sum = [0.0f32; 3];
+        let mut wsum = 0.0f32;
+        for (k, &wk) in (-radius..=radius).zip(&self.weights) {
+            let (tx, ty) = (x + k * self.step[0], y + k * self.step[1]);
+            if tx < 0 || ty < 0 || tx >= w || ty >= h {
+                continue;
+            }
+            let i = 4 * (ty * w + tx) as usize;
+            let t = &layer_texels[i..i + 4];
+            if t[3] <= 0.5 {
+                continue;
+            }
+            let Some(nt) = self.normal(tx, ty) else {
+                continue;
+            };
+            // NaN (a normal that cannot be normalised) fails the test.
+            let cos = dot(n0, xyz(nt));
+            if nt[3] != object || cos.is_nan() || cos < BLUR_NORMAL_COS {
+                continue;
+            }
+            for c in 0..3 {
+                sum[c] += wk * t[c];
+            }
+            wsum += wk;
+        }
+        if wsum > 0.0 {
+            [
+                guard(sum[0] / wsum),
+                guard(sum[1] / wsum),
+                guard(sum[2] / wsum),
+                1.0,
+            ]
+        } else {
+            centre
+        }
+    }
+}
+
+/// One axis of the masked Gaussian at one texel, with a kernel of its own (dispatches prepare
+/// one per tile).
+#[cfg(test)]
 fn blur_texel(
     src: View<'_>,
     nrm: View<'_>,
@@ -675,54 +927,7 @@ fn blur_texel(
     x: u32,
     y: u32,
 ) -> [f32; 4] {
-    let centre = src.fetch(layer, x, y);
-    if centre[3] <= 0.5 {
-        return [0.0; 4];
-    }
-    let nc = nrm.fetch(layer, x, y);
-    let object = nc[3];
-    let Some(n0) = normalize(xyz(nc)) else {
-        return centre;
-    };
-    let radius = params.radius;
-    let inv = params.inv;
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
-    for k in -radius..=radius {
-        let tx = i64::from(x) + i64::from(k) * i64::from(params.step_x);
-        let ty = i64::from(y) + i64::from(k) * i64::from(params.step_y);
-        if tx < 0 || ty < 0 || tx >= i64::from(src.size[0]) || ty >= i64::from(src.size[1]) {
-            continue;
-        }
-        let (tx, ty) = (tx as u32, ty as u32);
-        let t = src.fetch(layer, tx, ty);
-        if t[3] <= 0.5 {
-            continue;
-        }
-        let nt = nrm.fetch(layer, tx, ty);
-        if nt[3] != object {
-            continue;
-        }
-        match normalize(xyz(nt)) {
-            Some(n1) if dot(n0, n1) >= BLUR_NORMAL_COS => {}
-            _ => continue,
-        }
-        let w = ((k * k) as f32 * inv).exp();
-        for c in 0..3 {
-            sum[c] += w * t[c];
-        }
-        wsum += w;
-    }
-    if wsum > 0.0 {
-        [
-            guard(sum[0] / wsum),
-            guard(sum[1] / wsum),
-            guard(sum[2] / wsum),
-            1.0,
-        ]
-    } else {
-        centre
-    }
+    BlurKernel::new(params, nrm, layer, [x, y, x + 1, y + 1]).texel(src, layer, x, y)
 }
 
 /// Rec. 709 luminance, left to right.
@@ -1040,6 +1245,9 @@ impl GpuBackend for CpuBackend {
         Ok(CpuScene {
             bvh: scene.bvh.clone(),
             wide: WideBvh::from_encoded(scene.bvh),
+            attributes: (0..scene.bvh.triangle_count)
+                .map(|t| scene.bvh.triangle_attributes(t))
+                .collect(),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
             regions: scene.regions.to_vec(),
@@ -1096,6 +1304,29 @@ impl GpuBackend for CpuBackend {
     }
 }
 
+/// What a dispatch runs per row of its tile, prepared once per dispatch.
+enum RowWork {
+    /// The gather: a row's rays traced together ([`gather_row`]).
+    Gather(GatherParams),
+    /// The blur, its weights and normals prepared for the tile.
+    Blur(BlurKernel),
+    /// Any other program, texel by texel.
+    Texels(TexelProgram),
+}
+
+/// The programs a dispatch computes texel by texel ([`texel`]), with their parameter blocks.
+#[derive(Clone, Copy)]
+enum TexelProgram {
+    Direct(DirectParams),
+    Copy,
+    AlbedoMul,
+    Combine(CombineParams),
+    Variance(VarianceParams),
+    Atrous(AtrousParams),
+    Upsample(UpsampleParams),
+    Refine(RefineParams),
+}
+
 /// Runs one dispatch: the tile's rows in parallel.
 fn run_tile(
     call: &Dispatch<'_, CpuTexture, CpuScene>,
@@ -1109,7 +1340,24 @@ fn run_tile(
         return;
     }
     let trav = traversal(call.bvh);
-    let params = Params::decode(call.program, call.params);
+    let work = match Params::decode(call.program, call.params) {
+        Params::Gather(p) => RowWork::Gather(p),
+        Params::Blur(p) => {
+            let rect = [t.x0, t.y0, t.x0 + t.width, t.y0 + t.height];
+            RowWork::Blur(BlurKernel::new(p, views[1], t.layer, rect))
+        }
+        Params::Direct(p) => RowWork::Texels(TexelProgram::Direct(p)),
+        Params::None if call.program == Program::AlbedoMul => {
+            RowWork::Texels(TexelProgram::AlbedoMul)
+        }
+        // Copy, the one other program without parameters.
+        Params::None => RowWork::Texels(TexelProgram::Copy),
+        Params::Combine(p) => RowWork::Texels(TexelProgram::Combine(p)),
+        Params::Variance(p) => RowWork::Texels(TexelProgram::Variance(p)),
+        Params::Atrous(p) => RowWork::Texels(TexelProgram::Atrous(p)),
+        Params::Upsample(p) => RowWork::Texels(TexelProgram::Upsample(p)),
+        Params::Refine(p) => RowWork::Texels(TexelProgram::Refine(p)),
+    };
     let start = (t.layer as usize * desc.size[1] as usize + t.y0 as usize) * row_floats;
     let end = start + t.height as usize * row_floats;
     out[start..end]
@@ -1117,34 +1365,52 @@ fn run_tile(
         .enumerate()
         .for_each(|(r, row)| {
             let y = t.y0 + r as u32;
-            for x in t.x0..t.x0 + t.width {
-                let v = texel(call, params, views, trav, t.layer, x, y);
-                row[4 * x as usize..4 * x as usize + 4].copy_from_slice(&v);
+            let texels = &mut row[4 * t.x0 as usize..4 * (t.x0 + t.width) as usize];
+            match &work {
+                RowWork::Gather(p) => {
+                    let v = [views[0], views[1], views[2], views[3]];
+                    gather_row(call.scene, v, trav, *p, t.layer, t.x0, y, texels);
+                }
+                RowWork::Blur(kernel) => {
+                    each_texel(t.x0, texels, |x| kernel.texel(views[0], t.layer, x, y));
+                }
+                RowWork::Texels(p) => {
+                    each_texel(t.x0, texels, |x| {
+                        texel(call.scene, *p, views, trav, t.layer, x, y)
+                    });
+                }
             }
         });
 }
 
-/// One texel of one program; `params` is the program's block, decoded once per dispatch.
+/// Fills the RGBA texels `x0 ..` of a row with `f(x)`.
+#[inline]
+fn each_texel(x0: u32, texels: &mut [f32], f: impl Fn(u32) -> [f32; 4]) {
+    for (x, out) in (x0..).zip(texels.chunks_exact_mut(4)) {
+        out.copy_from_slice(&f(x));
+    }
+}
+
+/// One texel of a program computed texel by texel.
 #[inline]
 fn texel(
-    call: &Dispatch<'_, CpuTexture, CpuScene>,
-    params: Params,
+    scene: &CpuScene,
+    program: TexelProgram,
     v: &[View<'_>],
     trav: Trav,
     layer: u32,
     x: u32,
     y: u32,
 ) -> [f32; 4] {
-    let scene = call.scene;
-    match params {
-        Params::Direct(p) => direct_texel(
+    match program {
+        TexelProgram::Direct(p) => direct_texel(
             scene,
             p,
             trav,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         ),
-        Params::None if call.program == Program::AlbedoMul => {
+        TexelProgram::AlbedoMul => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -1154,10 +1420,8 @@ fn texel(
                 a[3],
             ]
         }
-        // Copy, the one other program without parameters.
-        Params::None => v[0].fetch(layer, x, y),
-        Params::Blur(p) => blur_texel(v[0], v[1], p, layer, x, y),
-        Params::Combine(w) => {
+        TexelProgram::Copy => v[0].fetch(layer, x, y),
+        TexelProgram::Combine(w) => {
             let a = v[0].fetch(layer, x, y);
             let b = v[1].fetch(layer, x, y);
             [
@@ -1167,11 +1431,10 @@ fn texel(
                 a[3],
             ]
         }
-        Params::Gather(p) => gather_texel(scene, [v[0], v[1], v[2], v[3]], trav, p, layer, x, y),
-        Params::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
-        Params::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
-        Params::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
-        Params::Refine(p) => {
+        TexelProgram::Variance(p) => variance_texel(v[0], v[1], v[2], p, layer, x, y),
+        TexelProgram::Atrous(p) => atrous_texel(v[0], v[1], v[2], v[3], p, layer, x, y),
+        TexelProgram::Upsample(p) => upsample_texel([v[0], v[1], v[2]], p, layer, x, y),
+        TexelProgram::Refine(p) => {
             refine_texel(scene, [v[0], v[1], v[2], v[3], v[4]], trav, p, layer, x, y)
         }
     }
@@ -1231,6 +1494,9 @@ mod tests {
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         CpuScene {
             wide: WideBvh::from_encoded(&enc),
+            attributes: (0..enc.triangle_count)
+                .map(|t| enc.triangle_attributes(t))
+                .collect(),
             bvh: enc,
             lamps: vec![LampParams {
                 position: lamp,

@@ -130,8 +130,23 @@ pub fn sample_masked(
     size: [u32; 2],
     uv: [f32; 2],
 ) -> [f32; 3] {
+    match bilinear_footprint(size, uv) {
+        Some(corners) => {
+            masked_blend(corners.map(|([x, y], w)| (fetch(offset[0] + x, offset[1] + y), w)))
+        }
+        None => [0.0; 3],
+    }
+}
+
+/// The four texels a masked bilinear look-up of `uv` in a rectangle of `size` reads, relative
+/// to the rectangle, with their bilinear weights, in the order `(x0, y0)`, `(x1, y0)`,
+/// `(x0, y1)`, `(x1, y1)`; `None` when the look-up is zero whatever the texels (an empty
+/// rectangle or a non-finite UV). [`sample_masked`] is [`masked_blend`] of these; the gather
+/// pass fetches them for several rays before it blends them.
+#[inline]
+pub(crate) fn bilinear_footprint(size: [u32; 2], uv: [f32; 2]) -> Option<[([u32; 2], f32); 4]> {
     if size[0] == 0 || size[1] == 0 || !uv[0].is_finite() || !uv[1].is_finite() {
-        return [0.0; 3];
+        return None;
     }
     let fx = (uv[0] * size[0] as f32 - 0.5).clamp(0.0, (size[0] - 1) as f32);
     let fy = (uv[1] * size[1] as f32 - 0.5).clamp(0.0, (size[1] - 1) as f32);
@@ -142,15 +157,22 @@ pub fn sample_masked(
     let y0 = y0 as u32;
     let x1 = (x0 + 1).min(size[0] - 1);
     let y1 = (y0 + 1).min(size[1] - 1);
+    Some([
+        ([x0, y0], (1.0 - tx) * (1.0 - ty)),
+        ([x1, y0], tx * (1.0 - ty)),
+        ([x0, y1], (1.0 - tx) * ty),
+        ([x1, y1], tx * ty),
+    ])
+}
+
+/// The masked blend of a [`bilinear_footprint`]'s texels (RGBA, alpha the mask) with their
+/// weights: the valid texels' weighted mean, in the footprint's order, or zero when none is
+/// valid.
+#[inline]
+pub(crate) fn masked_blend(corners: [([f32; 4], f32); 4]) -> [f32; 3] {
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (x, y, w) in [
-        (x0, y0, (1.0 - tx) * (1.0 - ty)),
-        (x1, y0, tx * (1.0 - ty)),
-        (x0, y1, (1.0 - tx) * ty),
-        (x1, y1, tx * ty),
-    ] {
-        let t = fetch(offset[0] + x, offset[1] + y);
+    for (t, w) in corners {
         if t[3] > 0.5 {
             sum[0] += w * t[0];
             sum[1] += w * t[1];

@@ -10,6 +10,9 @@
 //!   epsilon along a random side of its normal, direction cosine-weighted about that side;
 //! - `shadow` (any hit): from a `gather` origin to a point uniform in the bounds, `t < 1`.
 //!
+//! Bake level (`--bake-gather`, `gather` module): the paper-method bake's gather rays per
+//! second against the same rays traced alone, on one thread.
+//!
 //! Rates are rays per second of the measuring thread's CPU time (`CLOCK_THREAD_CPUTIME_ID`),
 //! the median over `--runs` rounds in which the tracers alternate, so that load from other
 //! processes on a shared machine hits them alike. `agree` is the fraction of rays whose result
@@ -27,8 +30,12 @@ use luxbake_bvh::{
 };
 use serde_json::json;
 
+use clock::thread_seconds;
+
+mod clock;
 #[cfg(embree)]
 mod embree;
+mod gather;
 
 #[derive(Parser)]
 struct Args {
@@ -44,6 +51,10 @@ struct Args {
     /// The shared glTF models (SheenChair/, GlamVelvetSofa/).
     #[arg(long, default_value = "../shared/models")]
     models: PathBuf,
+    /// Built-in scenes, comma separated, whose paper-method bake measures the gather's
+    /// overhead over pure traversal of the same rays (`gather` module); empty: none.
+    #[arg(long, value_delimiter = ',', default_value = "chairs_05")]
+    bake_gather: Vec<String>,
 }
 
 fn main() {
@@ -55,20 +66,6 @@ fn main() {
             std::process::exit(1);
         }
     }
-}
-
-/// CPU time of the calling thread, seconds.
-fn thread_seconds() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: `ts` is a valid, writable timespec; the clock id is a constant libc knows.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    if rc != 0 {
-        return 0.0;
-    }
-    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
 /// SplitMix64: a small seeded generator for the rays.
@@ -401,11 +398,17 @@ fn run(args: &Args) -> Result<serde_json::Value, String> {
         }
         scenes.push(json!({ "scene": name, "triangles": tris.len(), "sets": sets }));
     }
+    let mut bake_gather = Vec::new();
+    for name in args.bake_gather.iter().filter(|n| !n.is_empty()) {
+        eprintln!("{name}: bake-level gather, {} rounds", args.runs.max(1));
+        bake_gather.push(gather::measure(name, args.runs)?);
+    }
     Ok(json!({
         "embree": EMBREE.ok(),
         "embree_missing": EMBREE.err(),
         "threads": 1,
         "runs": args.runs,
         "scenes": scenes,
+        "bake_gather": bake_gather,
     }))
 }

@@ -6,7 +6,10 @@
 //! `libembree-dev` is installed, and otherwise it reports "Embree not available" and measures
 //! luxbake alone. This command builds and runs it (release profile), then writes the table:
 //! rays/s per thread for each scene × ray set × traversal (the wide BVH, the encoded MTBVH,
-//! Embree), and the wide BVH's ratios against Embree and against the MTBVH.
+//! Embree), and the wide BVH's ratios against Embree and against the MTBVH. Then the bake
+//! level (`--bake-gather`): the paper-method bake's first-bounce gather rays/s on one thread
+//! against the same rays traced alone with the wide BVH (the bench's `gather` module), their
+//! ratio and the overhead `1 − ratio`.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -29,6 +32,10 @@ pub struct Args {
     /// The shared glTF models.
     #[arg(long, default_value = "../shared/models")]
     models: String,
+    /// Built-in scenes, comma separated, whose paper-method bake measures the gather's overhead
+    /// over pure traversal of the same rays (empty: none).
+    #[arg(long, default_value = "chairs_05")]
+    bake_gather: String,
 }
 
 /// Runs the study.
@@ -49,6 +56,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         .arg(format!("--rays={rays}"))
         .arg(format!("--runs={runs}"))
         .arg(format!("--models={}", args.models))
+        .arg(format!("--bake-gather={}", args.bake_gather))
         .stderr(std::process::Stdio::inherit())
         .output()
         .map_err(|e| format!("running luxbake-bench-embree: {e}"))?;
@@ -146,7 +154,55 @@ fn markdown(report: &Value) -> String {
             );
         }
     }
+    bake_gather(&mut md, report);
     md
+}
+
+/// The bake-level gather table, if the report has one.
+fn bake_gather(md: &mut String, report: &Value) {
+    let rows = report["bake_gather"]
+        .as_array()
+        .map_or(&[][..], Vec::as_slice);
+    if rows.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "\n## Bake-level gather\n\n\
+         The paper-method bake (`cargo xtask bake --method paper`) on one thread: the first \
+         bounce's gather rays per second of its dispatches' thread CPU time (G-buffer fetches, \
+         directions, closest hits, hit shading, masked look-ups) against the same rays traced \
+         alone with the wide BVH's closest hit, in the same order; medians of {} rounds. \
+         `reproduced`: texels whose gather the rebuilt rays reproduce bit for bit.\n",
+        report["runs"]
+    );
+    let _ = writeln!(
+        md,
+        "| scene | rays | bake | traversal | bake / traversal | overhead | reproduced | all bounces, bake |"
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---:|---:|---:|");
+    for r in rows {
+        let m = |k: &str| {
+            r[k].as_f64()
+                .map_or("–".into(), |v| format!("{:.2}", v * 1e-6))
+        };
+        let ratio = r["ratio"].as_f64();
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} of {} | {} |",
+            r["scene"].as_str().unwrap_or("?"),
+            r["rays"],
+            m("bake_rays_per_s"),
+            m("traversal_rays_per_s"),
+            ratio.map_or("–".into(), |v| format!("{v:.2}×")),
+            ratio.map_or("–".into(), |v| format!("{:.0} %", (1.0 - v) * 100.0)),
+            r["checked_texels"].as_u64().unwrap_or(0)
+                - r["mismatched_texels"].as_u64().unwrap_or(0),
+            r["checked_texels"],
+            m("all_bounces_rays_per_s"),
+        );
+    }
+    let _ = writeln!(md, "\nRates in M rays/s.");
 }
 
 #[cfg(test)]
@@ -193,6 +249,25 @@ mod tests {
         let md = markdown(&with);
         assert!(
             md.contains("| 6.00 | 3.00 | 12.00 | 0.50× | 2.00× | 0.9995 | 0.9990 |"),
+            "{md}"
+        );
+        assert!(!md.contains("Bake-level gather"), "{md}");
+        let gather = serde_json::json!({
+            "embree": null,
+            "runs": 3,
+            "scenes": [],
+            "bake_gather": [{
+                "scene": "chairs_05", "rays": 2335776,
+                "bake_rays_per_s": 3.5e6, "traversal_rays_per_s": 7.0e6, "ratio": 0.5,
+                "checked_texels": 583944, "mismatched_texels": 0,
+                "all_bounces_rays_per_s": 3.6e6,
+            }],
+        });
+        let md = markdown(&gather);
+        assert!(
+            md.contains(
+                "| chairs_05 | 2335776 | 3.50 | 7.00 | 0.50× | 50 % | 583944 of 583944 | 3.60 |"
+            ),
             "{md}"
         );
     }
