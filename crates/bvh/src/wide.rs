@@ -29,8 +29,9 @@
 //! The closest-hit traversal visits the nearest child a ray hit next and keeps the others on a
 //! stack, nearer ones on top, each with its entry distance; it drops entries that start beyond
 //! the closest hit found so far. The any-hit (shadow) traversal stops at the first triangle
-//! hit, so it does not sort: it visits leaf children before inner ones. The stack is not
-//! initialised (only entries written are read), and pushed children are prefetched.
+//! hit, so it does not sort: it visits the first leaf child hit, then the inner children, then
+//! the other leaves. The stack is not initialised (only entries written are read), and pushed
+//! children are prefetched.
 
 use std::mem::MaybeUninit;
 
@@ -450,29 +451,30 @@ impl WideBvh {
             };
             let (mut mask, near) = q.hits::<AVX>(node, t_min, closest);
             if ANY {
-                // Inner children first, leaves last: the leaves are popped first, and a
-                // triangle hit ends the walk.
+                // No sort (a triangle hit ends the walk): the first leaf child hit is visited
+                // next, the inner children hit are pushed last so they come after it, then the
+                // other leaves (measured 1.00-1.04x against visiting every leaf first).
                 let leaves = node.leaf_mask();
-                let mut last = None;
-                for group in [mask & !leaves, mask & leaves] {
+                let mut first = None;
+                for group in [mask & leaves, mask & !leaves] {
                     let mut group = group;
                     while group != 0 {
                         let lane = group.trailing_zeros() as usize;
                         group &= group - 1;
-                        if let Some(prev) = last.replace(lane)
-                            && let Some(slot) = stack.get_mut(top)
-                        {
+                        if first.is_none() {
+                            first = Some(lane);
+                        } else if let Some(slot) = stack.get_mut(top) {
                             slot.write(Entry {
-                                child: node.child[prev],
-                                count: node.count[prev],
-                                t: near[prev],
+                                child: node.child[lane],
+                                count: node.count[lane],
+                                t: near[lane],
                             });
-                            self.prefetch(node.child[prev]);
+                            self.prefetch(node.child[lane]);
                             top += 1;
                         }
                     }
                 }
-                next = last.map(|lane| Entry {
+                next = first.map(|lane| Entry {
                     child: node.child[lane],
                     count: node.count[lane],
                     t: near[lane],
