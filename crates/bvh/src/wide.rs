@@ -43,12 +43,10 @@ use crate::traverse::{Hit, Ray, WatertightRay};
 const WIDTH: usize = 8;
 /// Triangles (lanes) per leaf packet.
 const LANES: usize = 4;
-/// Child tag of a leaf lane: `LEAF | first triangle`.
+/// Child tag of a leaf lane: `LEAF | first packet`.
 const LEAF: u32 = 1 << 31;
 /// Stack entries kept on the thread's stack; deeper trees use a heap stack.
 const INLINE_STACK: usize = 128;
-/// The inline stack of shallower trees (most scenes of a few thousand triangles).
-const SMALL_STACK: usize = 48;
 
 /// One wide node: eight child boxes, structure of arrays (256 bytes, four cache lines).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -371,9 +369,9 @@ impl WideBvh {
         self.walk::<true, ANY>(ray, t_min, t_max)
     }
 
-    /// Runs the walk with a stack of at least `stack_size` entries: the smaller of two inline
-    /// sizes that fits, else the heap. The stack is not initialised (the walk reads only the
-    /// entries it wrote), so a ray costs nothing for the stack's size.
+    /// Runs the walk with a stack of at least `stack_size` entries: on the thread's stack when
+    /// [`INLINE_STACK`] entries are enough, else on the heap. The stack is not initialised (the
+    /// walk reads only the entries it wrote), so a ray costs nothing for the stack's size.
     #[inline(always)]
     fn walk<const AVX: bool, const ANY: bool>(
         &self,
@@ -381,10 +379,7 @@ impl WideBvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        if self.stack_size <= SMALL_STACK {
-            let mut stack = [MaybeUninit::uninit(); SMALL_STACK];
-            self.walk_with::<AVX, ANY>(ray, t_min, t_max, &mut stack)
-        } else if self.stack_size <= INLINE_STACK {
+        if self.stack_size <= INLINE_STACK {
             let mut stack = [MaybeUninit::uninit(); INLINE_STACK];
             self.walk_with::<AVX, ANY>(ray, t_min, t_max, &mut stack)
         } else {
