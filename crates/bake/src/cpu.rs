@@ -418,10 +418,11 @@ struct GatherTexel {
 }
 
 /// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
-/// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. All texels' rays are traced first, then all their look-ups fetch their
-/// texels — independent loads whose cache misses overlap, instead of each stalling the next
-/// ray's traversal —, then each texel's contributions are added in ray order, as one ray at a
-/// time would.
+/// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. All texels'
+/// rays are traced first (each hit prefetching its look-up's rows), then all their look-ups
+/// fetch their texels — independent loads whose cache misses overlap, instead of each
+/// stalling the next ray's traversal; fetching inside the summing loop measured 0.97× —, then
+/// each texel's contributions are added in ray order, as one ray at a time would.
 fn gather_sums(
     scene: &CpuScene,
     reflected: View<'_>,
