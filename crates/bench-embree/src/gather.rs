@@ -380,6 +380,14 @@ pub fn measure(name: &str, runs: usize) -> Result<serde_json::Value, String> {
             rec.rays.len()
         ));
     }
+    // Rays that do not reproduce the bake's gather are not "the same rays": no ratio then.
+    if rec.texels == 0 || rec.mismatches > 0 {
+        return Err(format!(
+            "{name}: the rebuilt rays reproduce {} of {} texels' gathers",
+            rec.texels - rec.mismatches,
+            rec.texels
+        ));
+    }
     let rays = rec.rays.len() as f64;
     let bake_rate = rays / median(bake_s.clone());
     let trace_rate = rays / median(trace_s.clone());
