@@ -150,11 +150,10 @@ pub(crate) fn bilinear_footprint(size: [u32; 2], uv: [f32; 2]) -> Option<[([u32;
     }
     let fx = (uv[0] * size[0] as f32 - 0.5).clamp(0.0, (size[0] - 1) as f32);
     let fy = (uv[1] * size[1] as f32 - 0.5).clamp(0.0, (size[1] - 1) as f32);
-    let x0 = fx.floor();
-    let y0 = fy.floor();
-    let (tx, ty) = (fx - x0, fy - y0);
-    let x0 = x0 as u32;
-    let y0 = y0 as u32;
+    // `fx` and `fy` are finite and in `[0, size - 1]`: truncation is their floor, exactly
+    // (and not a call to `floorf`, which x86_64's baseline has no instruction for).
+    let (x0, y0) = (fx as u32, fy as u32);
+    let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
     let x1 = (x0 + 1).min(size[0] - 1);
     let y1 = (y0 + 1).min(size[1] - 1);
     Some([

@@ -81,6 +81,7 @@
 //! [`Sampler::id`] generated into their prefix ([`crate::shader`]).
 
 use std::fmt;
+use std::ops::Range;
 use std::str::FromStr;
 
 /// The PCG-RXS-M-XS 32-bit permutation used as a hash (see the module docs).
@@ -190,6 +191,92 @@ impl FromStr for Sampler {
     }
 }
 
+/// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
+/// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per
+/// texel. For the hash sampler that is `pcg(sample + pcg(pass + pcg(seed)))` per sample of a
+/// range, leaving two [`pcg`]s per draw instead of six; for the Sobol sampler the texel's key
+/// ([`TexelDraws`]).
+#[derive(Debug, Clone)]
+pub struct PassDraws {
+    sampler: Sampler,
+    pass: u32,
+    seed: u32,
+    /// The first sample of `sample_keys`.
+    first: u32,
+    /// Hash sampler: `pcg(sample + pcg(pass + pcg(seed)))` of samples `first ..`.
+    sample_keys: Vec<u32>,
+}
+
+impl PassDraws {
+    /// The draws of `sampler` in `pass` with `seed`; samples in `samples` draw fastest.
+    pub fn new(sampler: Sampler, pass: u32, seed: u32, samples: Range<u32>) -> PassDraws {
+        let first = samples.start;
+        let sample_keys = match sampler {
+            Sampler::Hash => {
+                let p = pcg(pass.wrapping_add(pcg(seed)));
+                samples.map(|s| pcg(s.wrapping_add(p))).collect()
+            }
+            Sampler::Sobol => Vec::new(),
+        };
+        PassDraws {
+            sampler,
+            pass,
+            seed,
+            first,
+            sample_keys,
+        }
+    }
+
+    /// The draws of `texel`.
+    #[inline]
+    pub fn texel(&self, texel: u32) -> TexelDraws<'_> {
+        let key = match self.sampler {
+            Sampler::Hash => 0,
+            Sampler::Sobol => hash(texel, 0, self.pass, self.seed),
+        };
+        TexelDraws {
+            pass: self,
+            texel,
+            key,
+        }
+    }
+}
+
+/// One texel's draws in one pass ([`PassDraws::texel`]).
+#[derive(Debug, Clone, Copy)]
+pub struct TexelDraws<'a> {
+    pass: &'a PassDraws,
+    texel: u32,
+    /// Sobol sampler: the texel's `key` (see the module docs); unused by the hash.
+    key: u32,
+}
+
+impl TexelDraws<'_> {
+    /// [`Sampler::uniform2`]`(texel, sample, pass, seed)`.
+    #[inline(always)]
+    pub fn uniform2(&self, sample: u32) -> [f32; 2] {
+        let d = self.pass;
+        match d.sampler {
+            Sampler::Hash => match d.sample_keys.get(sample.wrapping_sub(d.first) as usize) {
+                Some(&k) => {
+                    let h = pcg(self.texel.wrapping_add(k));
+                    [unit_f32(h), unit_f32(pcg(h))]
+                }
+                None => uniform2(self.texel, sample, d.pass, d.seed),
+            },
+            Sampler::Sobol => {
+                let i = owen(sample, self.key);
+                let kx = pcg(self.key);
+                let ky = pcg(kx);
+                [
+                    unit_f32(laine_karras(i, kx).reverse_bits()),
+                    unit_f32(laine_karras(pascal(i), ky).reverse_bits()),
+                ]
+            }
+        }
+    }
+}
+
 /// `pascal(x)`: `x` times Pascal's triangle mod 2 (see the module docs); `reverse(pascal(i))`
 /// is Sobol's dimension 1 of index `i`.
 #[inline]
@@ -243,6 +330,28 @@ pub fn sobol2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pass_draws_equal_the_samplers_draws() {
+        for sampler in Sampler::ALL {
+            for (pass, seed) in [(0, 0), (1, 7), (3, u32::MAX), (u32::MAX, 12_345)] {
+                let draws = PassDraws::new(sampler, pass, seed, 2..6);
+                for texel in [0, 1, 999, 1 << 20, u32::MAX] {
+                    let t = draws.texel(texel);
+                    // Samples outside the 4 precomputed ones take the direct path.
+                    for sample in (0..9).chain([1 << 16, u32::MAX]) {
+                        let want = sampler.uniform2(texel, sample, pass, seed);
+                        let got = t.uniform2(sample);
+                        assert_eq!(
+                            got.map(f32::to_bits),
+                            want.map(f32::to_bits),
+                            "{sampler} texel {texel} sample {sample} pass {pass} seed {seed}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 
     // Reference values computed independently (Python, arbitrary-precision integers mod 2^32).
     #[test]
