@@ -518,48 +518,115 @@ fn gather_sums(
     let end = texels.iter().map(|t| t.rays.end).max().unwrap_or(0);
     let sampler = rng::Sampler::from_id(sampler_id);
     let draws = rng::PassDraws::new(sampler, bounce, seed, first..end);
-    let count = texels.iter().map(|t| t.rays.len()).sum();
-    let mut dirs = Vec::with_capacity(count);
-    for t in texels {
-        let d = draws.texel(t.texel);
-        let mut s = t.rays.start;
-        while t.rays.end - s >= 4 {
-            let u = [0, 1, 2, 3].map(|i| d.uniform2(s + i));
-            dirs.extend(t.frame.cosine_directions4(u));
-            s += 4;
-        }
-        dirs.extend((s..t.rays.end).map(|s| t.frame.cosine_direction(d.uniform2(s))));
+    // Chunks of texels with about CHUNK_RAYS rays (at least one texel each), software
+    // pipelined: chunk k's rays are traced and their look-ups prefetched, then chunk k - 1's
+    // look-ups fetched and summed, so that a whole chunk's traversal lies between a look-up's
+    // prefetch and its fetch.
+    let mut sums = Vec::with_capacity(texels.len());
+    let (mut ahead, mut behind) = (GatherChunk::default(), GatherChunk::default());
+    let mut rest = texels;
+    let mut pending: &[GatherTexel] = &[];
+    while !rest.is_empty() {
+        let mut rays = 0;
+        let n = rest
+            .iter()
+            .position(|t| {
+                rays += t.rays.len();
+                rays > CHUNK_RAYS
+            })
+            .unwrap_or(rest.len())
+            .max(1);
+        let (chunk, tail) = rest.split_at(n);
+        ahead.trace(scene, reflected, trav, &draws, chunk);
+        behind.sum(scene, reflected, pending, &mut sums);
+        std::mem::swap(&mut ahead, &mut behind);
+        pending = chunk;
+        rest = tail;
     }
-    let mut traced = Vec::with_capacity(count);
-    let mut rest = dirs.iter();
-    for t in texels {
-        for &dir in rest.by_ref().take(t.rays.len()) {
-            let ray = Ray { origin: t.o, dir };
-            traced.push(scene.closest_hit(&ray, 0.0, f32::INFINITY, trav));
+    behind.sum(scene, reflected, pending, &mut sums);
+    sums
+}
+
+/// The rays of one chunk of [`gather_sums`]: few enough that the chunk's buffers and
+/// prefetched look-up rows (about 250 bytes a ray) stay in a core's L2 cache.
+const CHUNK_RAYS: usize = 1024;
+
+/// One chunk's stage buffers in [`gather_sums`], reused from chunk to chunk.
+#[derive(Default)]
+struct GatherChunk {
+    dirs: Vec<[f32; 3]>,
+    traced: Vec<Option<Hit>>,
+    lookups: Vec<Option<Lookup>>,
+}
+
+impl GatherChunk {
+    /// The first stages over `texels`' rays: directions, closest hits, shading and look-up
+    /// footprints (prefetched).
+    fn trace(
+        &mut self,
+        scene: &CpuScene,
+        reflected: View<'_>,
+        trav: Trav,
+        draws: &rng::PassDraws,
+        texels: &[GatherTexel],
+    ) {
+        let GatherChunk {
+            dirs,
+            traced,
+            lookups,
+        } = self;
+        dirs.clear();
+        for t in texels {
+            let d = draws.texel(t.texel);
+            let mut s = t.rays.start;
+            while t.rays.end - s >= 4 {
+                let u = [0, 1, 2, 3].map(|i| d.uniform2(s + i));
+                dirs.extend(t.frame.cosine_directions4(u));
+                s += 4;
+            }
+            dirs.extend((s..t.rays.end).map(|s| t.frame.cosine_direction(d.uniform2(s))));
         }
-    }
-    let lookups: Vec<Option<Lookup>> = traced
-        .iter()
-        .zip(&dirs)
-        .map(|(hit, &dir)| {
+        traced.clear();
+        let mut rest = dirs.iter();
+        for t in texels {
+            for &dir in rest.by_ref().take(t.rays.len()) {
+                let ray = Ray { origin: t.o, dir };
+                traced.push(scene.closest_hit(&ray, 0.0, f32::INFINITY, trav));
+            }
+        }
+        lookups.clear();
+        lookups.extend(traced.iter().zip(dirs.iter()).map(|(hit, &dir)| {
             hit.as_ref()
                 .and_then(|hit| gather_lookup(scene, reflected, hit, dir))
-        })
-        .collect();
-    let fetched: Vec<[[f32; 4]; 4]> = lookups
-        .iter()
-        .map(|lookup| match lookup {
-            Some(Lookup {
-                texels,
-                weights: Some(_),
-            }) => texels.map(|i| reflected.at_offset(i)),
-            _ => [[0.0; 4]; 4],
-        })
-        .collect();
-    let mut rest = lookups.iter().zip(&fetched).zip(traced.iter().zip(&dirs));
-    texels
-        .iter()
-        .map(|t| {
+        }));
+    }
+
+    /// The last stages over `texels` (those of the last [`GatherChunk::trace`]): the
+    /// look-ups' texels, then each texel's sum, pushed to `sums`.
+    fn sum(
+        &self,
+        scene: &CpuScene,
+        reflected: View<'_>,
+        texels: &[GatherTexel],
+        sums: &mut Vec<[f32; 3]>,
+    ) {
+        let fetched: Vec<[[f32; 4]; 4]> = self
+            .lookups
+            .iter()
+            .map(|lookup| match lookup {
+                Some(Lookup {
+                    texels,
+                    weights: Some(_),
+                }) => texels.map(|i| reflected.at_offset(i)),
+                _ => [[0.0; 4]; 4],
+            })
+            .collect();
+        let mut rest = self
+            .lookups
+            .iter()
+            .zip(&fetched)
+            .zip(self.traced.iter().zip(&self.dirs));
+        sums.extend(texels.iter().map(|t| {
             let mut sum = [0.0f32; 3];
             for ((lookup, texels), (hit, &dir)) in rest.by_ref().take(t.rays.len()) {
                 let (Some(lookup), Some(hit)) = (lookup, hit) else {
@@ -579,8 +646,8 @@ fn gather_sums(
                 }
             }
             sum
-        })
-        .collect()
+        }));
+    }
 }
 
 /// The interpolated shading normal of `hit` on a triangle with `attr`.
