@@ -194,7 +194,7 @@ impl FromStr for Sampler {
 /// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
 /// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per
 /// texel. For the hash sampler that is `pcg(sample + pcg(pass + pcg(seed)))` per sample of a
-/// range, leaving two [`pcg`]s per draw instead of six; for the Sobol sampler the texel's key
+/// range, leaving two [`pcg`]s per draw instead of five; for the Sobol sampler the texel's key
 /// ([`TexelDraws`]).
 #[derive(Debug, Clone)]
 pub struct PassDraws {
