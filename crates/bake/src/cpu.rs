@@ -501,12 +501,13 @@ struct GatherTexel {
 
 /// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
 /// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. The rays
-/// are processed as a stream, one stage at a time over all of them: their directions, their
-/// closest hits, the hits' shading and look-up footprints (each prefetching the look-up's
-/// rows), the look-ups' texels — independent loads whose cache misses overlap, instead of each
-/// stalling the next ray's traversal; fetching inside the summing loop measured 0.97× — and
-/// last each texel's contributions, added in ray order as one ray at a time would. Each stage
-/// is a short loop that keeps its own code and data hot (issue 15 measures the stages).
+/// are processed as a stream, in chunks of about `CHUNK_RAYS`, one stage at a time over a
+/// chunk: their directions, their closest hits, the hits' shading and look-up footprints
+/// (each prefetching the look-up's rows), then — after the next chunk's traversal — the
+/// look-ups' texels (independent loads whose cache misses overlap, instead of each stalling
+/// the next ray's traversal) and last each texel's contributions, added in ray order as one
+/// ray at a time would. Each stage is a short loop that keeps its own code and data hot
+/// (docs/performance.md, issue 15, measures the stages and the alternatives).
 fn gather_sums(
     scene: &CpuScene,
     reflected: View<'_>,
