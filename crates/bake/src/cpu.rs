@@ -5,8 +5,9 @@
 //! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
 //! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
 //! diffed against. Two passes share work across texels without changing a bit of the result:
-//! the gather traces a row's rays before it fetches their look-ups (so that the look-ups'
-//! cache misses overlap) and then sums each texel's rays in order; the blur computes its tap
+//! the gather takes a row's rays through its stages in chunks, tracing a chunk before it
+//! fetches the previous chunk's look-ups (so that the look-ups' cache misses overlap), and then
+//! sums each texel's rays in order ([`gather_sums`]); the blur computes its tap
 //! weights and the normalised normals once per dispatch.
 //!
 //! # Pass semantics (what every backend must compute)
@@ -243,7 +244,7 @@ pub fn basis(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
 /// `sin 2πr ≈ r·P(r²)` (degree 7), `cos 2πr ≈ Q(r²)` (degree 8) are rotated by `k` quarter
 /// turns. Coefficients: least squares on Chebyshev nodes of `[-1/8, 1/8]` (relative error of
 /// the sine ≤ 1.3·10⁻⁷, absolute error of the cosine ≤ 7·10⁻⁸ in `f32`, checked in the tests
-/// against `f64`). `|u|` up to 2^21 turns keeps the split exact; non-finite `u` gives NaN.
+/// against `f64`). `|u|` up to 2^20 turns keeps the split exact; non-finite `u` gives NaN.
 #[inline]
 pub fn sin_cos_turns(u: f32) -> (f32, f32) {
     // 1.5·2^23: adding and subtracting it rounds `4u` to the nearest integer (ties to even).
@@ -357,7 +358,8 @@ impl CpuScene {
         }
     }
 
-    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`]).
+    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`]; from
+    /// [`decode_attributes`]' array for every triangle of the scene).
     #[inline]
     fn attributes(&self, t: u32) -> TriangleAttributes {
         match self.attributes.get(t as usize) {
@@ -373,6 +375,14 @@ impl CpuScene {
             Trav::Encoded(t) => self.bvh.any_hit(ray, t_min, t_max, t),
         }
     }
+}
+
+/// Every encoded triangle's attributes ([`EncodedScene::triangle_attributes`]), decoded once
+/// at upload so that a gather hit reads them from an array.
+fn decode_attributes(bvh: &EncodedScene) -> Vec<TriangleAttributes> {
+    (0..bvh.triangle_count)
+        .map(|t| bvh.triangle_attributes(t))
+        .collect()
 }
 
 /// Read access to one RGBA32F texture array.
@@ -416,6 +426,7 @@ impl View<'_> {
     fn fetch(&self, layer: u32, x: u32, y: u32) -> [f32; 4] {
         self.at(self.index(layer, x, y))
     }
+
     fn same_shape(&self, other: &View<'_>) -> bool {
         self.size == other.size && self.layers == other.layers
     }
@@ -490,7 +501,7 @@ struct Lookup {
 }
 
 /// One texel's gather rays: samples `rays` of its sequence ([`rng::texel_index`] `texel`),
-/// cast from `o` around the unit normal `n`.
+/// cast from `o` around the unit normal of `frame`.
 struct GatherTexel {
     texel: u32,
     rays: std::ops::Range<u32>,
@@ -558,6 +569,7 @@ struct GatherChunk {
     dirs: Vec<[f32; 3]>,
     traced: Vec<Option<Hit>>,
     lookups: Vec<Option<Lookup>>,
+    fetched: Vec<[[f32; 4]; 4]>,
 }
 
 impl GatherChunk {
@@ -575,6 +587,7 @@ impl GatherChunk {
             dirs,
             traced,
             lookups,
+            ..
         } = self;
         dirs.clear();
         for t in texels {
@@ -605,28 +618,30 @@ impl GatherChunk {
     /// The last stages over `texels` (those of the last [`GatherChunk::trace`]): the
     /// look-ups' texels, then each texel's sum, pushed to `sums`.
     fn sum(
-        &self,
+        &mut self,
         scene: &CpuScene,
         reflected: View<'_>,
         texels: &[GatherTexel],
         sums: &mut Vec<[f32; 3]>,
     ) {
-        let fetched: Vec<[[f32; 4]; 4]> = self
-            .lookups
+        let GatherChunk {
+            dirs,
+            traced,
+            lookups,
+            fetched,
+        } = self;
+        fetched.clear();
+        fetched.extend(lookups.iter().map(|lookup| match lookup {
+            Some(Lookup {
+                texels,
+                weights: Some(_),
+            }) => texels.map(|i| reflected.at_offset(i)),
+            _ => [[0.0; 4]; 4],
+        }));
+        let mut rest = lookups
             .iter()
-            .map(|lookup| match lookup {
-                Some(Lookup {
-                    texels,
-                    weights: Some(_),
-                }) => texels.map(|i| reflected.at_offset(i)),
-                _ => [[0.0; 4]; 4],
-            })
-            .collect();
-        let mut rest = self
-            .lookups
-            .iter()
-            .zip(&fetched)
-            .zip(self.traced.iter().zip(&self.dirs));
+            .zip(fetched.iter())
+            .zip(traced.iter().zip(dirs.iter()));
         sums.extend(texels.iter().map(|t| {
             let mut sum = [0.0f32; 3];
             for ((lookup, texels), (hit, &dir)) in rest.by_ref().take(t.rays.len()) {
@@ -725,8 +740,8 @@ fn gather_lookup(
             .index(region.layer, ox + x, oy + y)
             .unwrap_or(usize::MAX)
     });
-    // The look-up's two rows, asked for now: the look-ups come after the row's traversal and
-    // their texels are usually not cached (the maps are megabytes).
+    // The look-up's two rows, asked for now: the look-ups are fetched after the next chunk's
+    // traversal and their texels are usually not cached (the maps are megabytes).
     prefetch(reflected.data, texels[0]);
     prefetch(reflected.data, texels[2]);
     Some(Lookup {
@@ -1439,9 +1454,7 @@ impl GpuBackend for CpuBackend {
         Ok(CpuScene {
             bvh: scene.bvh.clone(),
             wide: WideBvh::from_encoded(scene.bvh),
-            attributes: (0..scene.bvh.triangle_count)
-                .map(|t| scene.bvh.triangle_attributes(t))
-                .collect(),
+            attributes: decode_attributes(scene.bvh),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
             regions: scene.regions.to_vec(),
@@ -1756,9 +1769,7 @@ mod tests {
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         CpuScene {
             wide: WideBvh::from_encoded(&enc),
-            attributes: (0..enc.triangle_count)
-                .map(|t| enc.triangle_attributes(t))
-                .collect(),
+            attributes: decode_attributes(&enc),
             bvh: enc,
             lamps: vec![LampParams {
                 position: lamp,

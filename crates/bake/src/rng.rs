@@ -119,7 +119,12 @@ pub fn unit_f32(h: u32) -> f32 {
 /// The two uniforms `(u0, u1)` of one draw of the hash sampler (see the module docs).
 #[inline]
 pub fn uniform2(texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
-    let h = hash(texel, sample, pass, seed);
+    hash_uniforms(hash(texel, sample, pass, seed))
+}
+
+/// The hash sampler's `(unit(h), unit(pcg(h)))` of a draw's hash `h`.
+#[inline]
+fn hash_uniforms(h: u32) -> [f32; 2] {
     [unit_f32(h), unit_f32(pcg(h))]
 }
 
@@ -194,8 +199,8 @@ impl FromStr for Sampler {
 /// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
 /// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per
 /// texel. For the hash sampler that is `pcg(sample + pcg(pass + pcg(seed)))` per sample of a
-/// range, leaving two [`pcg`]s per draw instead of five; for the Sobol sampler the texel's key
-/// ([`TexelDraws`]).
+/// range, leaving two [`pcg`]s per draw instead of five; for the Sobol sampler the texel's
+/// keys ([`TexelDraws`]).
 #[derive(Debug, Clone)]
 pub struct PassDraws {
     sampler: Sampler,
@@ -230,14 +235,14 @@ impl PassDraws {
     /// The draws of `texel`.
     #[inline]
     pub fn texel(&self, texel: u32) -> TexelDraws<'_> {
-        let key = match self.sampler {
-            Sampler::Hash => 0,
-            Sampler::Sobol => hash(texel, 0, self.pass, self.seed),
+        let keys = match self.sampler {
+            Sampler::Hash => [0; 3],
+            Sampler::Sobol => sobol_keys(texel, self.pass, self.seed),
         };
         TexelDraws {
             pass: self,
             texel,
-            key,
+            keys,
         }
     }
 }
@@ -247,8 +252,8 @@ impl PassDraws {
 pub struct TexelDraws<'a> {
     pass: &'a PassDraws,
     texel: u32,
-    /// Sobol sampler: the texel's `key` (see the module docs); unused by the hash.
-    key: u32,
+    /// Sobol sampler: the texel's [`sobol_keys`]; unused by the hash.
+    keys: [u32; 3],
 }
 
 impl TexelDraws<'_> {
@@ -258,21 +263,10 @@ impl TexelDraws<'_> {
         let d = self.pass;
         match d.sampler {
             Sampler::Hash => match d.sample_keys.get(sample.wrapping_sub(d.first) as usize) {
-                Some(&k) => {
-                    let h = pcg(self.texel.wrapping_add(k));
-                    [unit_f32(h), unit_f32(pcg(h))]
-                }
+                Some(&k) => hash_uniforms(pcg(self.texel.wrapping_add(k))),
                 None => uniform2(self.texel, sample, d.pass, d.seed),
             },
-            Sampler::Sobol => {
-                let i = owen(sample, self.key);
-                let kx = pcg(self.key);
-                let ky = pcg(kx);
-                [
-                    unit_f32(laine_karras(i, kx).reverse_bits()),
-                    unit_f32(laine_karras(pascal(i), ky).reverse_bits()),
-                ]
-            }
+            Sampler::Sobol => sobol2_keyed(sample, self.keys).map(unit_f32),
         }
     }
 }
@@ -311,10 +305,21 @@ pub const fn owen(x: u32, key: u32) -> u32 {
 /// (before [`unit_f32`]; see the module docs).
 #[inline]
 pub const fn sobol2_bits(texel: u32, sample: u32, pass: u32, seed: u32) -> [u32; 2] {
+    sobol2_keyed(sample, sobol_keys(texel, pass, seed))
+}
+
+/// A texel's Sobol keys in a pass: `[key, pcg(key), pcg(pcg(key))]` (see the module docs).
+#[inline]
+const fn sobol_keys(texel: u32, pass: u32, seed: u32) -> [u32; 3] {
     let key = hash(texel, 0, pass, seed);
-    let i = owen(sample, key);
     let kx = pcg(key);
-    let ky = pcg(kx);
+    [key, kx, pcg(kx)]
+}
+
+/// [`sobol2_bits`] of ray `sample` from its texel's [`sobol_keys`].
+#[inline]
+const fn sobol2_keyed(sample: u32, [key, kx, ky]: [u32; 3]) -> [u32; 2] {
+    let i = owen(sample, key);
     [
         laine_karras(i, kx).reverse_bits(),
         laine_karras(pascal(i), ky).reverse_bits(),
