@@ -7,7 +7,7 @@
 //! diffed against. Two passes share work across texels without changing a bit of the result:
 //! the gather takes a row's rays through its stages in chunks, tracing a chunk before it
 //! fetches the previous chunk's look-ups (so that the look-ups' cache misses overlap), and then
-//! sums each texel's rays in order ([`gather_sums`]); the blur computes its tap
+//! sums each texel's rays in order (`gather_sums`); the blur computes its tap
 //! weights and the normalised normals once per dispatch.
 //!
 //! # Pass semantics (what every backend must compute)
