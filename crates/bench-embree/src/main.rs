@@ -195,8 +195,11 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
     ]
 }
 
-/// A traversal under test. `trace` returns the input index of the hit triangle (closest hit)
-/// or 0 / 1 for occluded (any hit); `u32::MAX` for a miss.
+/// A traversal under test. `trace` returns the tracer's own index of the hit triangle (closest
+/// hit: the encoded order for luxbake's traversals, the input order for Embree) or 0 / 1 for
+/// occluded (any hit); `u32::MAX` for a miss: what each returns to its caller, so that the
+/// timed loop measures no mapping. `input_index` maps a closest hit's index to the input order,
+/// for `agree`.
 enum Tracer<'a> {
     Mtbvh(&'a EncodedScene),
     Wide(&'a WideBvh, &'a EncodedScene),
@@ -214,6 +217,19 @@ impl Tracer<'_> {
         }
     }
 
+    /// The input index of a closest hit `trace` returned (misses and any-hit results as they
+    /// are).
+    fn input_index(&self, traced: u32, any_hit: bool) -> u32 {
+        match self {
+            Tracer::Mtbvh(s) | Tracer::Wide(_, s) if !any_hit => s
+                .triangle_order
+                .get(traced as usize)
+                .copied()
+                .unwrap_or(traced),
+            _ => traced,
+        }
+    }
+
     #[inline]
     fn trace(&self, (origin, dir, t_max): Query, any_hit: bool) -> u32 {
         const MISS: u32 = u32::MAX;
@@ -224,16 +240,15 @@ impl Tracer<'_> {
                     u32::from(s.any_hit(&ray, 0.0, t_max, Traversal::Mtbvh))
                 } else {
                     s.closest_hit(&ray, 0.0, t_max, Traversal::Mtbvh)
-                        .map_or(MISS, |h| s.triangle_order[h.triangle as usize])
+                        .map_or(MISS, |h| h.triangle)
                 }
             }
-            Tracer::Wide(w, s) => {
+            Tracer::Wide(w, _) => {
                 let ray = Ray { origin, dir };
                 if any_hit {
                     u32::from(w.any_hit(&ray, 0.0, t_max))
                 } else {
-                    w.closest_hit(&ray, 0.0, t_max)
-                        .map_or(MISS, |h| s.triangle_order[h.triangle as usize])
+                    w.closest_hit(&ray, 0.0, t_max).map_or(MISS, |h| h.triangle)
                 }
             }
             #[cfg(embree)]
@@ -335,13 +350,18 @@ fn run(args: &Args) -> Result<serde_json::Value, String> {
             #[cfg(embree)]
             Tracer::Embree(&embree),
         ];
-        eprintln!("{name}: {} triangles", tris.len());
+        eprintln!(
+            "{name}: {} triangles, {} wide nodes, {} packets",
+            tris.len(),
+            wide.node_count(),
+            wide.packet_count()
+        );
         let mut sets = Vec::new();
         for set in ray_sets(&tris, args.rays) {
             let reference: Vec<u32> = set
                 .rays
                 .iter()
-                .map(|&q| tracers[0].trace(q, set.any_hit))
+                .map(|&q| tracers[0].input_index(tracers[0].trace(q, set.any_hit), set.any_hit))
                 .collect();
             let mut times = vec![Vec::new(); tracers.len()];
             for _ in 0..args.runs.max(1) {
@@ -366,7 +386,9 @@ fn run(args: &Args) -> Result<serde_json::Value, String> {
                         .rays
                         .iter()
                         .zip(&reference)
-                        .filter(|&(&q, &r)| tracer.trace(q, set.any_hit) == r)
+                        .filter(|&(&q, &r)| {
+                            tracer.input_index(tracer.trace(q, set.any_hit), set.any_hit) == r
+                        })
                         .count() as f64
                         / set.rays.len().max(1) as f64;
                     let hits = reference

@@ -8,13 +8,15 @@
 //! lanes elsewhere; all three compute the same per-lane arithmetic, so they accept the same
 //! boxes with the same entry distances bit for bit. Children come from the binary tree by
 //! repeatedly opening the inner child of largest surface area until there are eight; leaves
-//! keep their
-//! triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]), and a child
-//! whose subtree holds at most four triangles becomes one leaf (its box bounds them all, so
-//! every triangle a ray can hit is still tested). A node's leaf lanes are packed into packets
-//! of four triangles, structure of arrays, stored contiguously: a lane of at most four
-//! triangles lies in one packet, which it may share with sibling lanes (their triangles are
-//! tested too, harmlessly), so packets are full where the SAH tree has small leaves. A
+//! keep their triangle ranges, so triangle indices are the encoded ones ([`Hit::triangle`]),
+//! and a child whose subtree holds at most eight triangles becomes one leaf (its box bounds
+//! them all, so every triangle a ray can hit is still tested; a node for such a subtree had
+//! two or three lanes: on the furnished room, leaves of up to eight instead of four halved
+//! the wide nodes, 12 726 to 7 042, and sped its gather and shadow rays by 4–5 %). A node's
+//! leaf lanes are packed into packets of four triangles, structure of arrays, stored
+//! contiguously: a lane of at most four triangles lies in one packet, which it may share with
+//! sibling lanes (their triangles are tested too, harmlessly), so packets are full where the
+//! SAH tree has small leaves; a larger lane has two packets of its own. A
 //! packet's four triangles are tested at once with the arithmetic of the encoded traversal's
 //! watertight test ([`WatertightRay::hits_triangle`]) lane by lane, the same operations in the
 //! same order, so each lane's hit and its `t`, `u`, `v` are the scalar test's bit for bit; of
@@ -43,6 +45,8 @@ use crate::traverse::{Hit, Ray, WatertightRay};
 const WIDTH: usize = 8;
 /// Triangles (lanes) per leaf packet.
 const LANES: usize = 4;
+/// The most triangles a subtree made into one leaf lane holds (two packets).
+const LEAF_TRIANGLES: usize = 2 * LANES;
 /// Child tag of a leaf lane: `LEAF | first packet`.
 const LEAF: u32 = 1 << 31;
 /// Stack entries kept on the thread's stack; deeper trees use a heap stack.
@@ -136,6 +140,15 @@ impl Packet {
     }
 }
 
+/// What the any-hit walk returns for an occluded ray: it stops at the first lane hit without
+/// working out which lane, or its barycentrics.
+const OCCLUDED: Hit = Hit {
+    t: 0.0,
+    triangle: u32::MAX,
+    u: 0.0,
+    v: 0.0,
+};
+
 /// A pending child: node index or `LEAF | first packet`, its packet count, its entry distance.
 #[derive(Clone, Copy, Debug, Default)]
 struct Entry {
@@ -200,15 +213,15 @@ impl Binary<'_> {
     }
 
     /// The triangles of the subtree under inner node `i`, leaf ranges in tree order (the
-    /// encoded order), when it holds at most [`LANES`] triangles in at most `2·LANES` nodes:
-    /// such a subtree becomes one leaf lane, its triangles one packet, and is marked taken.
+    /// encoded order), when it holds at most [`LEAF_TRIANGLES`] triangles in at most twice as
+    /// many nodes: such a subtree becomes one leaf lane, and is marked taken.
     fn small_subtree(&mut self, i: u32) -> Option<Vec<u32>> {
         let mut tris = Vec::new();
         let mut seen = Vec::new();
         let mut todo = vec![i];
         while let Some(k) = todo.pop() {
             seen.push(k);
-            if seen.len() > 2 * LANES {
+            if seen.len() > 2 * LEAF_TRIANGLES {
                 return None;
             }
             match self.children(k) {
@@ -217,7 +230,7 @@ impl Binary<'_> {
                     let n = self.scene.node(k);
                     let end = n.end_tri.min(self.scene.triangle_count);
                     let first = n.first_tri.min(end);
-                    if tris.len() + (end - first) as usize > LANES {
+                    if tris.len() + (end - first) as usize > LEAF_TRIANGLES {
                         return None;
                     }
                     tris.extend(first..end);
@@ -339,6 +352,11 @@ impl WideBvh {
         self.nodes.len()
     }
 
+    /// Number of leaf packets (of up to four triangles each).
+    pub fn packet_count(&self) -> usize {
+        self.packets.len()
+    }
+
     /// The closest hit with `t` in `(t_min, t_max)`, as [`EncodedScene::closest_hit`] (same
     /// triangle indices, the same `t`, `u`, `v` bit for bit for the same triangle). Rays with a
     /// zero or non-finite direction never hit.
@@ -389,9 +407,10 @@ impl WideBvh {
     }
 
     /// The traversal (`AVX`: the 256-bit box test; `ANY`: stop at the first hit, children
-    /// pushed unsorted). It sets the ray up itself, so that the per-ray constants stay in
-    /// registers: set up by the caller, they were read back from its stack with vector loads
-    /// over fresh scalar stores, where `perf` put ~8 % of this function's samples.
+    /// pushed unsorted, and return [`OCCLUDED`] rather than the hit). It sets the ray up
+    /// itself, so that the per-ray constants stay in registers: set up by the caller, they were
+    /// read back from its stack with vector loads over fresh scalar stores, where `perf` put
+    /// ~8 % of this function's samples.
     #[inline(always)]
     fn walk_with<const AVX: bool, const ANY: bool>(
         &self,
@@ -429,14 +448,18 @@ impl WideBvh {
             };
             if e.child & LEAF != 0 {
                 let first = (e.child & !LEAF) as usize;
-                let packets = self.packets.get(first..first + e.count as usize);
-                for packet in packets.into_iter().flatten() {
-                    if let Some((lane, t, u, v)) = tri.nearest(packet, t_min, closest) {
+                let packets = self
+                    .packets
+                    .get(first..first + e.count as usize)
+                    .unwrap_or_default();
+                for packet in packets {
+                    if ANY {
+                        if tri.any(packet, t_min, closest) {
+                            return Some(OCCLUDED);
+                        }
+                    } else if let Some((lane, t, u, v)) = tri.nearest(packet, t_min, closest) {
                         closest = t;
                         best = Some((packet.index[lane], u, v));
-                        if ANY {
-                            return hit(best, closest);
-                        }
                     }
                 }
                 continue;
@@ -645,6 +668,17 @@ impl PacketHits {
     }
 }
 
+/// The SSE packet test's lanes ([`PacketRay::lanes`]): the mask of lanes hit and, per lane,
+/// `t`, the edge functions `v`, `w` and `det` (meaningful in the lanes hit).
+#[cfg(target_arch = "x86_64")]
+struct LaneHits {
+    accept: std::arch::x86_64::__m128,
+    t: std::arch::x86_64::__m128,
+    v: std::arch::x86_64::__m128,
+    w: std::arch::x86_64::__m128,
+    det: std::arch::x86_64::__m128,
+}
+
 /// The watertight test's per-ray constants ([`WatertightRay`]) in the form the packet test
 /// reads them: the packet rows of the permuted axes and the origin in that order.
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -678,13 +712,13 @@ impl PacketRay {
     /// Each lane's [`WatertightRay::hits_triangle`] against `(t_min, t_max)`, four at once:
     /// the same operations in the same order (`a = p0 − origin`; `ax = a[kx] − sx·a[kz]`, …;
     /// `u = cx·by − cy·bx`, `v = ax·cy − ay·cx`, `w = bx·ay − by·ax`; the sign test; `det =
-    /// u + v + w`; `t = (u·az + v·bz + w·cz) / det`; `t_min < t < t_max`; barycentrics `v /
-    /// det`, `w / det`), each one correctly rounded in SSE as in scalar code, so every lane's
-    /// result is the scalar one bit for bit. Returns the nearest lane hit (ties: the lower
-    /// lane) with its `t`, `u`, `v`: [`PacketHits::nearest`] of the lane-by-lane results.
+    /// u + v + w`; `t = (u·az + v·bz + w·cz) / det`; `t_min < t < t_max`), each one correctly
+    /// rounded in SSE as in scalar code, so every lane's result is the scalar one bit for
+    /// bit. `None` when no lane is hit; the barycentrics' divisions are left to
+    /// [`PacketRay::nearest`], which alone needs them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn nearest(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+    fn lanes(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<LaneHits> {
         use std::arch::x86_64::*;
         // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the loads read the 16-byte
         // aligned `[f32; 4]` rows of a `Packet` (16-byte aligned, rows at multiples of 16).
@@ -761,6 +795,33 @@ impl PacketRay {
             if _mm_movemask_ps(accept) == 0 {
                 return None;
             }
+            Some(LaneHits {
+                accept,
+                t,
+                v,
+                w,
+                det,
+            })
+        }
+    }
+
+    /// The nearest lane of `packet` hit (ties: the lower lane) with its `t`, `u`, `v`:
+    /// [`PacketHits::nearest`] of the lane-by-lane results ([`PacketRay::lanes`]), the
+    /// barycentrics `v / det`, `w / det` one correctly rounded division each, as in the scalar
+    /// test.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn nearest(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
+        use std::arch::x86_64::*;
+        let LaneHits {
+            accept,
+            t,
+            v,
+            w,
+            det,
+        } = self.lanes(packet, t_min, t_max)?;
+        // SAFETY: SSE and SSE2 are part of the x86_64 baseline.
+        unsafe {
             // The smallest accepted `t` (others +∞), and the lowest lane holding it.
             let far = _mm_andnot_ps(accept, _mm_set1_ps(f32::INFINITY));
             let tm = _mm_or_ps(_mm_and_ps(accept, t), far);
@@ -776,10 +837,17 @@ impl PacketRay {
             _mm_storeu_ps(vs.as_mut_ptr(), v);
             _mm_storeu_ps(ws.as_mut_ptr(), w);
             _mm_storeu_ps(dets.as_mut_ptr(), det);
-            // The lane's own `t` (a −0 / +0 tie keeps the lower lane's sign) and its
-            // barycentrics: one correctly rounded division each, as in the scalar test.
+            // The lane's own `t` (a −0 / +0 tie keeps the lower lane's sign).
             Some((lane, ts[lane], vs[lane] / dets[lane], ws[lane] / dets[lane]))
         }
+    }
+
+    /// Whether any lane of `packet` is hit ([`PacketRay::lanes`]): the shadow rays' test,
+    /// which needs neither the nearest lane nor barycentrics.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn any(&self, packet: &Packet, t_min: f32, t_max: f32) -> bool {
+        self.lanes(packet, t_min, t_max).is_some()
     }
 
     /// The portable form of the SSE test above: [`WatertightRay::hits_triangle`] lane by lane
@@ -810,7 +878,16 @@ impl PacketRay {
     fn nearest(&self, packet: &Packet, t_min: f32, t_max: f32) -> Option<(usize, f32, f32, f32)> {
         self.hits_scalar(packet, t_min, t_max).nearest()
     }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    #[inline(always)]
+    fn any(&self, packet: &Packet, t_min: f32, t_max: f32) -> bool {
+        self.hits_scalar(packet, t_min, t_max).mask != 0
+    }
 }
+
+// The box tests below leave out the encoded test's clamps to ±`BIG`, exact only for this value.
+const _: () = assert!(layout::BIG == f32::MAX);
 
 /// The slab-test form of a ray for wide nodes: per axis the origin, the inverse direction
 /// (±∞ on parallel axes, [`layout::PARALLEL_EPSILON`]) and which planes are entry and exit.
@@ -843,12 +920,16 @@ impl BoxRay {
 
     /// Which lanes' boxes the ray touches within `[t_min, t_max]` (bit per lane) and each
     /// lane's entry distance. Per lane this is [`WatertightRay::hits_box`]: the entry distance
-    /// is the largest plane distance (at least −[`layout::BIG`]), the exit the smallest (at
-    /// most `BIG`), both widened by [`layout::BOX_SLACK`]. A parallel axis gives ±∞, or NaN
-    /// for an origin on the plane, and `max`/`min` with the NaN first keep the other operand:
-    /// so such an axis constrains nothing when the origin is in the slab and rejects the box
-    /// otherwise, as the encoded test's ±`BIG` does. An entry at +∞ or an exit at −∞ (empty
-    /// lanes, overflow) turns into NaN with the slack and rejects the lane.
+    /// is the largest plane distance, the exit the smallest, both widened by
+    /// [`layout::BOX_SLACK`]. A parallel axis gives ±∞, or NaN for an origin on the plane, and
+    /// `max`/`min` with the NaN first keep the other operand: so such an axis constrains
+    /// nothing when the origin is in the slab and rejects the box otherwise, as the encoded
+    /// test's ±`BIG` does. An entry at +∞ or an exit at −∞ (empty lanes, overflow) turns into
+    /// NaN with the slack and rejects the lane. The encoded test also clamps the entry to at
+    /// least −`BIG` and the exit to at most `BIG`; with `BIG` = `f32::MAX` that changes only
+    /// ∓∞, which the slack then turns back into ∓∞ (`MAX · (1 + BOX_SLACK)` overflows), so
+    /// the clamps are left out here and both tests still give the same entry distance and
+    /// verdict bit for bit.
     ///
     /// `AVX` selects the 256-bit form, which only a caller compiled with AVX may ask for.
     #[inline(always)]
@@ -889,9 +970,6 @@ impl BoxRay {
                 near = _mm256_max_ps(tn, near);
                 far = _mm256_min_ps(tf, far);
             }
-            let big = _mm256_set1_ps(layout::BIG);
-            near = _mm256_max_ps(near, _mm256_sub_ps(_mm256_setzero_ps(), big));
-            far = _mm256_min_ps(far, big);
             let abs = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
             let slack = _mm256_set1_ps(layout::BOX_SLACK);
             let t_near = _mm256_max_ps(
@@ -933,9 +1011,6 @@ impl BoxRay {
                     near = _mm_max_ps(tn, near);
                     far = _mm_min_ps(tf, far);
                 }
-                let big = _mm_set1_ps(layout::BIG);
-                near = _mm_max_ps(near, _mm_sub_ps(_mm_setzero_ps(), big));
-                far = _mm_min_ps(far, big);
                 let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
                 let slack = _mm_set1_ps(layout::BOX_SLACK);
                 let t_near = _mm_max_ps(
@@ -971,8 +1046,6 @@ impl BoxRay {
                 near = max(tn, near);
                 far = min(tf, far);
             }
-            near = max(near, -layout::BIG);
-            far = min(far, layout::BIG);
             let t_near = max(t_min, near - near.abs() * layout::BOX_SLACK);
             let t_far = min(t_max, far + far.abs() * layout::BOX_SLACK);
             if t_near <= t_far {
@@ -1096,7 +1169,7 @@ mod tests {
     }
 
     /// The SSE packet test equals the scalar watertight test lane by lane, bit for bit (mask,
-    /// `t`, `u`, `v`), on seeded random packets: triangles sharing vertices and edges, zero-area
+    /// `t`, `u`, `v`; the any-hit form: whether the mask is non-zero), on seeded random packets: triangles sharing vertices and edges, zero-area
     /// ones, unused lanes, rays aimed at vertices and edges, axis-aligned and negative
     /// directions, and a range of `t_max`.
     #[test]
@@ -1159,6 +1232,7 @@ mod tests {
                         bits(scalar.nearest()),
                         "{msg}"
                     );
+                    assert_eq!(q.any(&packet, t_min, t_max), scalar.mask != 0, "{msg}");
                     lanes_hit += scalar.mask.count_ones();
                     for lane in 0..LANES {
                         let p = packet.triangle(lane);
@@ -1242,7 +1316,7 @@ mod tests {
         assert!((200..1800).contains(&hits), "{hits} of 2000 rays hit");
     }
 
-    /// Subtrees of at most four triangles become one leaf, and a node's small leaves share
+    /// Subtrees of at most eight triangles become one leaf, and a node's small leaves share
     /// packets: with one triangle per binary leaf, packets still hold several triangles, and
     /// every triangle is in exactly one packet lane.
     #[test]
