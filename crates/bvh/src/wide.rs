@@ -682,10 +682,12 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     let (a0, a1, a2) = (dx.abs(), dy.abs(), dz.abs());
     let x_dominates = usize::from(a0 >= a1) & usize::from(a0 >= a2);
     let kz = (1 - x_dominates) * (2 - usize::from(a1 >= a2));
-    let dkz = ray.dir[kz];
-    if dkz == 0.0 {
+    // `dir[kz]` is 0 only where all of `dir` is; it is negative where its sign bit is set
+    // (these signs are known before `kz`, from the vector).
+    if _mm_movemask_ps(_mm_cmpeq_ps(d, _mm_setzero_ps())) & 0b111 == 0b111 {
         return None;
     }
+    let signs = _mm_movemask_ps(d) as usize;
     const AXES: [[i32; 4]; 6] = [
         [1, 2, 0, 3],
         [2, 1, 0, 3],
@@ -694,7 +696,7 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
         [0, 1, 2, 3],
         [1, 0, 2, 3],
     ];
-    let axes = AXES[2 * kz + usize::from(dkz < 0.0)];
+    let axes = AXES[2 * kz + ((signs >> kz) & 1)];
     let (kx, ky) = (axes[0] as usize, axes[1] as usize);
     // SAFETY: an unaligned load of four `i32`s.
     let permutation = unsafe { _mm_loadu_si128(axes.as_ptr().cast()) };
@@ -710,7 +712,8 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     let parallel = _mm_cmplt_ps(_mm_and_ps(d, abs), _mm_set1_ps(layout::PARALLEL_EPSILON));
     let inv = _mm_div_ps(one, _mm_blendv_ps(d, one, parallel));
     let inv = _mm_blendv_ps(inv, _mm_set1_ps(f32::INFINITY), parallel);
-    let negative = _mm_movemask_ps(inv) as usize;
+    // The signs of `inv` (+∞ on parallel axes) without waiting for the division.
+    let negative = _mm_movemask_ps(_mm_andnot_ps(parallel, d)) as usize;
     let mut box_inv = [0.0f32; 4];
     let mut shears = [0.0f32; 4];
     let mut origin = [0.0f32; 4];
