@@ -665,10 +665,21 @@ fn setup(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
 #[inline]
 fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     use std::arch::x86_64::*;
-    let [dx, dy, dz] = ray.dir;
-    let [ox, oy, oz] = ray.origin;
-    let d = _mm_setr_ps(dx, dy, dz, 0.0);
-    let o = _mm_setr_ps(ox, oy, oz, 0.0);
+    // One 4-byte load per component: the callers have usually just stored the ray, component
+    // by component, and a wider load over several fresh stores stalls until they retire (in
+    // the bake's gather this cost more than the vector set-up saved).
+    // (Volatile, as the compiler otherwise merges them into one overlapping 16-byte load.)
+    let vector = |c: &[f32; 3]| {
+        // SAFETY: reads of the three components through references.
+        let [x, y, z] = [0, 1, 2].map(|i| unsafe { std::ptr::read_volatile(&c[i]) });
+        _mm_setr_ps(x, y, z, 0.0)
+    };
+    let d = vector(&ray.dir);
+    let o = vector(&ray.origin);
+    let mut lanes = [0.0f32; 4];
+    // SAFETY: an unaligned store of four floats.
+    unsafe { _mm_storeu_ps(lanes.as_mut_ptr(), d) };
+    let [dx, dy, dz, _] = lanes;
     let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
     let max = _mm_set1_ps(f32::MAX);
     let finite = _mm_and_ps(
