@@ -41,10 +41,7 @@ use std::mem::MaybeUninit;
 
 use crate::encode::EncodedScene;
 use crate::layout;
-use crate::traverse::{Hit, Ray};
-// The scalar set-up, for other targets and as the tests' reference; also named in these docs.
-#[cfg_attr(all(target_arch = "x86_64", not(test)), allow(unused_imports))]
-use crate::traverse::WatertightRay;
+use crate::traverse::{Hit, Ray, WatertightRay};
 
 /// Children (lanes) per wide node.
 const WIDTH: usize = 8;
@@ -425,7 +422,13 @@ impl WideBvh {
         stack: &mut [MaybeUninit<Entry>],
     ) -> Option<Hit> {
         #[cfg(target_arch = "x86_64")]
-        let (q, tri) = setup_sse(ray)?;
+        let (q, tri) = if AVX {
+            // SAFETY: only `WideBvh::walk_avx`, compiled with AVX and called only where the
+            // CPU has it, instantiates the walk with `AVX`.
+            unsafe { setup_avx(ray) }?
+        } else {
+            setup(ray)?
+        };
         #[cfg(not(target_arch = "x86_64"))]
         let (q, tri) = setup(ray)?;
         let mut closest = t_max;
@@ -648,92 +651,109 @@ fn avx_available() -> bool {
 
 /// The walk's per-ray constants: [`WatertightRay::new`] in the forms the box and packet tests
 /// read. `None` for a zero or non-finite direction or a non-finite origin.
-#[cfg(any(test, not(target_arch = "x86_64")))]
 #[inline(always)]
 fn setup(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     let r = WatertightRay::new(ray)?;
     Some((BoxRay::new(&r), PacketRay::new(&r)))
 }
 
-/// [`setup`] with SSE2 vector operations (one division for `sx`, `sy`, `sz`, one for the
-/// inverse direction, the axes from a table without branches): the same values bit for bit
-/// (unit test) in fewer instructions than the scalar form. Baseline x86_64 only, so that it
-/// inlines into every walk, the dev profile's included (a call returns the constants through
-/// memory).
+/// [`setup`] with SSE/AVX vector operations (one division for `sx`, `sy`, `sz`, one for the
+/// inverse direction, the axis permutation as a lane permutation): the same values bit for bit
+/// (unit test), in about half the instructions of the scalar form.
 #[cfg(target_arch = "x86_64")]
-#[inline(always)]
-fn setup_sse(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
+#[target_feature(enable = "avx")]
+#[inline]
+fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     use std::arch::x86_64::*;
     // One 4-byte load per component: the callers have usually just stored the ray, component
     // by component, and a wider load over several fresh stores stalls until they retire (in
-    // the bake's gather this cost more than the vector set-up saved). Volatile, as the
-    // compiler otherwise merges them into one overlapping 16-byte load.
-    // SAFETY: reads of the components through references.
-    let load = |c: &[f32; 3]| [0, 1, 2].map(|i| unsafe { std::ptr::read_volatile(&c[i]) });
-    let dir = load(&ray.dir);
-    let origin = load(&ray.origin);
-    let [dx, dy, dz] = dir;
-    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; the stores write four-float
-    // arrays.
+    // the bake's gather this cost more than the vector set-up saved).
+    // (Volatile, as the compiler otherwise merges them into one overlapping 16-byte load.)
+    let vector = |c: &[f32; 3]| {
+        // SAFETY: reads of the three components through references.
+        let [x, y, z] = [0, 1, 2].map(|i| unsafe { std::ptr::read_volatile(&c[i]) });
+        _mm_setr_ps(x, y, z, 0.0)
+    };
+    let d = vector(&ray.dir);
+    let o = vector(&ray.origin);
+    let mut lanes = [0.0f32; 4];
+    // SAFETY: an unaligned store of four floats.
+    unsafe { _mm_storeu_ps(lanes.as_mut_ptr(), d) };
+    let [dx, dy, dz, _] = lanes;
+    let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
+    let max = _mm_set1_ps(f32::MAX);
+    let finite = _mm_and_ps(
+        _mm_cmple_ps(_mm_and_ps(d, abs), max),
+        _mm_cmple_ps(_mm_and_ps(o, abs), max),
+    );
+    if _mm_movemask_ps(finite) & 0b111 != 0b111 {
+        return None;
+    }
+    // `dominant_axis` and the permuted axes without branches (with branches on the random
+    // axis of a gather ray the set-up mispredicted): kz, then (kx, ky) = (kz + 1, kz + 2)
+    // mod 3, swapped where `dir[kz] < 0`, from a table.
+    let (a0, a1, a2) = (dx.abs(), dy.abs(), dz.abs());
+    let x_dominates = usize::from(a0 >= a1) & usize::from(a0 >= a2);
+    let kz = (1 - x_dominates) * (2 - usize::from(a1 >= a2));
+    // `dir[kz]` is 0 only where all of `dir` is; it is negative where its sign bit is set
+    // (these signs are known before `kz`, from the vector).
+    if _mm_movemask_ps(_mm_cmpeq_ps(d, _mm_setzero_ps())) & 0b111 == 0b111 {
+        return None;
+    }
+    let signs = _mm_movemask_ps(d) as usize;
+    const AXES: [[i32; 4]; 6] = [
+        [1, 2, 0, 3],
+        [2, 1, 0, 3],
+        [2, 0, 1, 3],
+        [0, 2, 1, 3],
+        [0, 1, 2, 3],
+        [1, 0, 2, 3],
+    ];
+    let axes = AXES[2 * kz + ((signs >> kz) & 1)];
+    let (kx, ky) = (axes[0] as usize, axes[1] as usize);
+    // SAFETY: an unaligned load of four `i32`s.
+    let permutation = unsafe { _mm_loadu_si128(axes.as_ptr().cast()) };
+    let dk = _mm_permutevar_ps(d, permutation);
+    let ok = _mm_permutevar_ps(o, permutation);
+    // (d[kx], d[ky], 1) / d[kz]: sx, sy, sz.
+    let one = _mm_set1_ps(1.0);
+    let shear = _mm_div_ps(
+        _mm_blend_ps::<0b1100>(dk, one),
+        _mm_shuffle_ps::<0b10_10_10_10>(dk, dk),
+    );
+    // 1 / dir, with 1 in place of parallel components, then +∞ there for the slab test.
+    let parallel = _mm_cmplt_ps(_mm_and_ps(d, abs), _mm_set1_ps(layout::PARALLEL_EPSILON));
+    let inv = _mm_div_ps(one, _mm_blendv_ps(d, one, parallel));
+    let inv = _mm_blendv_ps(inv, _mm_set1_ps(f32::INFINITY), parallel);
+    // The signs of `inv` (+∞ on parallel axes) without waiting for the division.
+    let negative = _mm_movemask_ps(_mm_andnot_ps(parallel, d)) as usize;
+    let mut box_inv = [0.0f32; 4];
+    let mut shears = [0.0f32; 4];
+    let mut origin = [0.0f32; 4];
+    // SAFETY: unaligned stores into four-float arrays.
     unsafe {
-        let d = _mm_setr_ps(dx, dy, dz, 0.0);
-        let o = _mm_setr_ps(origin[0], origin[1], origin[2], 0.0);
-        let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
-        let max = _mm_set1_ps(f32::MAX);
-        let finite = _mm_and_ps(
-            _mm_cmple_ps(_mm_and_ps(d, abs), max),
-            _mm_cmple_ps(_mm_and_ps(o, abs), max),
-        );
-        if _mm_movemask_ps(finite) & 0b111 != 0b111 {
-            return None;
-        }
-        // `dir[kz]` is 0 only where all of `dir` is; it is negative where its sign bit is set.
-        if _mm_movemask_ps(_mm_cmpeq_ps(d, _mm_setzero_ps())) & 0b111 == 0b111 {
-            return None;
-        }
-        let signs = _mm_movemask_ps(d) as usize;
-        // `dominant_axis` and the permuted axes without branches (with branches on the random
-        // axis of a gather ray the set-up mispredicted): kz, then (kx, ky) = (kz + 1, kz + 2)
-        // mod 3, swapped where `dir[kz] < 0`, from a table.
-        let (a0, a1, a2) = (dx.abs(), dy.abs(), dz.abs());
-        let x_dominates = usize::from(a0 >= a1) & usize::from(a0 >= a2);
-        let kz = (1 - x_dominates) * (2 - usize::from(a1 >= a2));
-        const AXES: [[usize; 2]; 6] = [[1, 2], [2, 1], [2, 0], [0, 2], [0, 1], [1, 0]];
-        let [kx, ky] = AXES[2 * kz + ((signs >> kz) & 1)];
-        let (dkx, dky, dkz) = (dir[kx], dir[ky], dir[kz]);
-        // (d[kx], d[ky], 1) / d[kz]: sx, sy, sz.
-        let one = _mm_set1_ps(1.0);
-        let shear = _mm_div_ps(_mm_setr_ps(dkx, dky, 1.0, 1.0), _mm_set1_ps(dkz));
-        // 1 / dir, with 1 in place of parallel components, then +∞ there for the slab test.
-        let parallel = _mm_cmplt_ps(_mm_and_ps(d, abs), _mm_set1_ps(layout::PARALLEL_EPSILON));
-        let select = |mask, a, b| _mm_or_ps(_mm_and_ps(mask, a), _mm_andnot_ps(mask, b));
-        let inv = _mm_div_ps(one, select(parallel, one, d));
-        let inv = select(parallel, _mm_set1_ps(f32::INFINITY), inv);
-        // The signs of `inv` (+∞ on parallel axes) without waiting for the division.
-        let negative = _mm_movemask_ps(_mm_andnot_ps(parallel, d)) as usize;
-        let mut box_inv = [0.0f32; 4];
-        let mut shears = [0.0f32; 4];
         _mm_storeu_ps(box_inv.as_mut_ptr(), inv);
         _mm_storeu_ps(shears.as_mut_ptr(), shear);
-        let negative = [0, 1, 2].map(|a| (negative >> a) & 1);
-        Some((
-            BoxRay {
-                origin,
-                inv: [box_inv[0], box_inv[1], box_inv[2]],
-                near: [0, 1, 2].map(|a| a + 3 * negative[a]),
-                far: [0, 1, 2].map(|a| a + 3 * (1 - negative[a])),
-            },
-            PacketRay {
-                axis: [kx, ky, kz],
-                origin: [origin[kx], origin[ky], origin[kz]],
-                sx: shears[0],
-                sy: shears[1],
-                sz: shears[2],
-                #[cfg(test)]
-                ray: WatertightRay::new(ray)?,
-            },
-        ))
+        _mm_storeu_ps(origin.as_mut_ptr(), ok);
     }
+    let negative = [0, 1, 2].map(|a| (negative >> a) & 1);
+    Some((
+        BoxRay {
+            origin: ray.origin,
+            inv: [box_inv[0], box_inv[1], box_inv[2]],
+            near: [0, 1, 2].map(|a| a + 3 * negative[a]),
+            far: [0, 1, 2].map(|a| a + 3 * (1 - negative[a])),
+        },
+        PacketRay {
+            axis: [kx, ky, kz],
+            origin: [origin[0], origin[1], origin[2]],
+            sx: shears[0],
+            sy: shears[1],
+            sz: shears[2],
+            #[cfg(test)]
+            ray: WatertightRay::new(ray)?,
+        },
+    ))
 }
 
 /// The closest hit from the walk's best triangle, its barycentrics' numerators and denominator
@@ -818,7 +838,6 @@ struct PacketRay {
 }
 
 impl PacketRay {
-    #[cfg(any(test, not(target_arch = "x86_64")))]
     fn new(r: &WatertightRay) -> PacketRay {
         let axis = [r.kx, r.ky, r.kz];
         PacketRay {
@@ -1037,7 +1056,6 @@ struct BoxRay {
 }
 
 impl BoxRay {
-    #[cfg(any(test, not(target_arch = "x86_64")))]
     fn new(r: &WatertightRay) -> BoxRay {
         // Either sign of ∞ works on a parallel axis: the box is entered at −∞ (or never).
         let inv = [0, 1, 2].map(|a| {
@@ -1456,9 +1474,12 @@ mod tests {
 
     /// The vector set-up equals the scalar one bit for bit (every field of both forms), on
     /// seeded rays with zero, negative-zero, subnormal, tied, huge and non-finite components.
-    #[cfg(target_arch = "x86_64")]
     #[test]
     fn vector_setup_matches_the_scalar_setup() {
+        if !avx_available() {
+            eprintln!("no AVX on this CPU: the vector set-up is not used here");
+            return;
+        }
         let special = [
             0.0,
             -0.0,
@@ -1486,7 +1507,8 @@ mod tests {
                 dir: [c(), c(), c()],
             };
             let scalar = setup(&ray);
-            let vector = setup_sse(&ray);
+            // SAFETY: this CPU has AVX.
+            let vector = unsafe { setup_avx(&ray) };
             let fields = |s: Option<(BoxRay, PacketRay)>| {
                 s.map(|(b, p)| {
                     (
