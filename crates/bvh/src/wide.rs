@@ -13,9 +13,8 @@
 //! them all, so every triangle a ray can hit is still tested). A node for such a subtree had
 //! two to four lanes, so with leaves of at most four triangles most nodes near the bottom
 //! were mostly empty: on the furnished room, leaves of up to 8, 12, 16 and 24 triangles took
-//! the wide nodes from 12 726 to 7 042, 4 967, 3 783 and 2 728 and its gather rays from 0.94
-//! to 0.95, 0.97, 1.00 and 1.00 times Embree's rate, the shared models' scenes unchanged
-//! within noise. A node's leaf lanes are packed into packets of four triangles, structure of
+//! the wide nodes from 12 726 to 7 042, 4 967, 3 783 and 2 728 and its gather rays from 0.89
+//! to 0.94, 0.97, 1.00 and 1.00 times Embree's rate, the other scenes unchanged within noise. A node's leaf lanes are packed into packets of four triangles, structure of
 //! arrays, stored contiguously: a lane of at most four triangles lies in one packet, which it
 //! may share with sibling lanes (their triangles are tested too, harmlessly), so packets are
 //! full where the SAH tree has small leaves; a larger lane has packets of its own. A
