@@ -14,10 +14,11 @@
 //! two to four lanes, so with leaves of at most four triangles most nodes near the bottom
 //! were mostly empty: on the furnished room, leaves of up to 8, 12, 16 and 24 triangles took
 //! the wide nodes from 12 726 to 7 042, 4 967, 3 783 and 2 728 and its gather rays from 0.89
-//! to 0.94, 0.97, 1.00 and 1.00 times Embree's rate, the other scenes unchanged within noise. A node's leaf lanes are packed into packets of four triangles, structure of
-//! arrays, stored contiguously: a lane of at most four triangles lies in one packet, which it
-//! may share with sibling lanes (their triangles are tested too, harmlessly), so packets are
-//! full where the SAH tree has small leaves; a larger lane has packets of its own. A
+//! to 0.94, 0.97, 1.00 and 1.00 times Embree's rate, the other scenes unchanged within noise.
+//! A node's leaf lanes are packed into packets of four triangles, structure of arrays, stored
+//! contiguously: a lane of at most four triangles lies in one packet, which it may share with
+//! sibling lanes (their triangles are tested too, harmlessly), so packets are full where the
+//! SAH tree has small leaves; a larger lane has packets of its own. A
 //! packet's four triangles are tested at once with the arithmetic of the encoded traversal's
 //! watertight test ([`WatertightRay::hits_triangle`]) lane by lane, the same operations in the
 //! same order, so each lane's hit and its `t`, `u`, `v` are the scalar test's bit for bit; of
@@ -668,17 +669,12 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     // by component, and a wider load over several fresh stores stalls until they retire (in
     // the bake's gather this cost more than the vector set-up saved).
     // (Volatile, as the compiler otherwise merges them into one overlapping 16-byte load.)
-    let vector = |c: &[f32; 3]| {
-        // SAFETY: reads of the three components through references.
-        let [x, y, z] = [0, 1, 2].map(|i| unsafe { std::ptr::read_volatile(&c[i]) });
-        _mm_setr_ps(x, y, z, 0.0)
-    };
-    let d = vector(&ray.dir);
-    let o = vector(&ray.origin);
-    let mut lanes = [0.0f32; 4];
-    // SAFETY: an unaligned store of four floats.
-    unsafe { _mm_storeu_ps(lanes.as_mut_ptr(), d) };
-    let [dx, dy, dz, _] = lanes;
+    // SAFETY: reads of the three components through references.
+    let load = |c: &[f32; 3]| [0, 1, 2].map(|i| unsafe { std::ptr::read_volatile(&c[i]) });
+    let [dx, dy, dz] = load(&ray.dir);
+    let origin = load(&ray.origin);
+    let d = _mm_setr_ps(dx, dy, dz, 0.0);
+    let o = _mm_setr_ps(origin[0], origin[1], origin[2], 0.0);
     let abs = _mm_castsi128_ps(_mm_set1_epi32(0x7fff_ffff));
     let max = _mm_set1_ps(f32::MAX);
     let finite = _mm_and_ps(
@@ -728,24 +724,24 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
     let negative = _mm_movemask_ps(_mm_andnot_ps(parallel, d)) as usize;
     let mut box_inv = [0.0f32; 4];
     let mut shears = [0.0f32; 4];
-    let mut origin = [0.0f32; 4];
+    let mut permuted = [0.0f32; 4];
     // SAFETY: unaligned stores into four-float arrays.
     unsafe {
         _mm_storeu_ps(box_inv.as_mut_ptr(), inv);
         _mm_storeu_ps(shears.as_mut_ptr(), shear);
-        _mm_storeu_ps(origin.as_mut_ptr(), ok);
+        _mm_storeu_ps(permuted.as_mut_ptr(), ok);
     }
     let negative = [0, 1, 2].map(|a| (negative >> a) & 1);
     Some((
         BoxRay {
-            origin: ray.origin,
+            origin,
             inv: [box_inv[0], box_inv[1], box_inv[2]],
             near: [0, 1, 2].map(|a| a + 3 * negative[a]),
             far: [0, 1, 2].map(|a| a + 3 * (1 - negative[a])),
         },
         PacketRay {
             axis: [kx, ky, kz],
-            origin: [origin[0], origin[1], origin[2]],
+            origin: [permuted[0], permuted[1], permuted[2]],
             sx: shears[0],
             sy: shears[1],
             sz: shears[2],
