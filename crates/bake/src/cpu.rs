@@ -165,8 +165,8 @@ pub struct CpuScene {
     bvh: EncodedScene,
     wide: WideBvh,
     /// [`EncodedScene::triangle_attributes`] of every encoded triangle, decoded once at upload
-    /// so that a gather hit reads them from an array.
-    attributes: Vec<TriangleAttributes>,
+    /// so that a gather hit reads them from an array, a cache line each.
+    attributes: Vec<HitAttributes>,
     lamps: Vec<LampParams>,
     tables: Vec<GpuTable>,
     regions: Vec<Option<Region>>,
@@ -295,7 +295,7 @@ impl Frame {
     /// [`Frame::cosine_direction`] of four samples, bit for bit: the same operations written
     /// lane by lane over arrays, which the compiler turns into 4-wide SIMD (measured 1.4–1.7×
     /// faster per direction than one at a time on x86_64).
-    #[inline]
+    #[inline(always)]
     pub fn cosine_directions4(&self, u: [[f32; 2]; 4]) -> [[f32; 3]; 4] {
         let Frame { t, b, n } = *self;
         let (mut x, mut y, mut z) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
@@ -358,14 +358,12 @@ impl CpuScene {
         }
     }
 
-    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`]; from
-    /// [`decode_attributes`]' array for every triangle of the scene).
+    /// Encoded triangle `t`'s attributes (those of [`EncodedScene::triangle_attributes`], from
+    /// [`decode_attributes`]' array), in place; `None` past the scene's triangles, which no
+    /// hit names.
     #[inline]
-    fn attributes(&self, t: u32) -> TriangleAttributes {
-        match self.attributes.get(t as usize) {
-            Some(a) => *a,
-            None => self.bvh.triangle_attributes(t),
-        }
+    fn attributes(&self, t: u32) -> Option<&TriangleAttributes> {
+        self.attributes.get(t as usize).map(|a| &a.0)
     }
 
     #[inline]
@@ -379,11 +377,17 @@ impl CpuScene {
 
 /// Every encoded triangle's attributes ([`EncodedScene::triangle_attributes`]), decoded once
 /// at upload so that a gather hit reads them from an array.
-fn decode_attributes(bvh: &EncodedScene) -> Vec<TriangleAttributes> {
+fn decode_attributes(bvh: &EncodedScene) -> Vec<HitAttributes> {
     (0..bvh.triangle_count)
-        .map(|t| bvh.triangle_attributes(t))
+        .map(|t| HitAttributes(bvh.triangle_attributes(t)))
         .collect()
 }
+
+/// A triangle's attributes on a cache line of their own (they are 64 bytes): a gather hit
+/// reads them with one access to the cache, and in place.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+struct HitAttributes(TriangleAttributes);
 
 /// Read access to one RGBA32F texture array.
 #[derive(Clone, Copy)]
@@ -420,6 +424,18 @@ impl View<'_> {
             Some(t) => [t[0], t[1], t[2], t[3]],
             None => [0.0; 4],
         }
+    }
+
+    /// [`View::index`] of `region`'s first texel when all of `region` lies inside the view:
+    /// its texel `(x, y)` is then at `origin + 4x + 4·width·y`, `width` the view's.
+    #[inline]
+    fn rect_origin(&self, region: &Region) -> Option<usize> {
+        let [ox, oy] = region.offset.map(u64::from);
+        let [w, h] = region.size.map(u64::from);
+        let inside = ox + w <= u64::from(self.size[0]) && oy + h <= u64::from(self.size[1]);
+        inside
+            .then(|| self.index(region.layer, region.offset[0], region.offset[1]))
+            .flatten()
     }
 
     #[inline]
@@ -493,11 +509,12 @@ fn direct_texel(
 
 /// A gather ray that met the front of a receiver: where the texels of its masked look-up lie
 /// in the reflected map ([`View::index`], `usize::MAX` for one outside it, which reads 0) and
-/// their weights; `weights` `None`: the look-up is zero.
+/// their weights (`None`: the look-up is zero), and the hit's interpolated shading normal.
 #[derive(Clone, Copy)]
 struct Lookup {
     texels: [usize; 4],
     weights: Option<[f32; 4]>,
+    normal: [f32; 3],
 }
 
 /// One texel's gather rays: samples `rays` of its sequence ([`rng::texel_index`] `texel`),
@@ -511,10 +528,11 @@ struct GatherTexel {
 }
 
 /// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
-/// module docs), the directions drawn with the gather's `[sampler, bounce, seed]`. The rays
-/// are processed as a stream, in chunks of about `CHUNK_RAYS`, one stage at a time over a
-/// chunk: their directions, their closest hits, the hits' shading and look-up footprints
-/// (each prefetching the look-up's rows), then — after the next chunk's traversal — the
+/// module docs), pushed to `sums` (cleared first), the directions drawn with the gather's
+/// `[sampler, bounce, seed]`; `chunks` are the stage buffers, reused from call to call. The
+/// rays are processed as a stream, in chunks of about `CHUNK_RAYS`, one stage at a time over
+/// a chunk: their directions, their closest hits, the hits' shading and look-up footprints
+/// (each prefetching the look-up's texels), then — after the next chunk's traversal — the
 /// look-ups' texels (independent loads whose cache misses overlap, instead of each stalling
 /// the next ray's traversal) and last each texel's contributions, added in ray order as one
 /// ray at a time would. Each stage is a short loop that keeps its own code and data hot
@@ -525,7 +543,9 @@ fn gather_sums(
     trav: Trav,
     [sampler_id, bounce, seed]: [u32; 3],
     texels: &[GatherTexel],
-) -> Vec<[f32; 3]> {
+    [ahead, behind]: &mut [GatherChunk; 2],
+    sums: &mut Vec<[f32; 3]>,
+) {
     let first = texels.iter().map(|t| t.rays.start).min().unwrap_or(0);
     let end = texels.iter().map(|t| t.rays.end).max().unwrap_or(0);
     let sampler = rng::Sampler::from_id(sampler_id);
@@ -534,8 +554,7 @@ fn gather_sums(
     // pipelined: chunk k's rays are traced and their look-ups prefetched, then chunk k - 1's
     // look-ups fetched and summed, so that a whole chunk's traversal lies between a look-up's
     // prefetch and its fetch.
-    let mut sums = Vec::with_capacity(texels.len());
-    let (mut ahead, mut behind) = (GatherChunk::default(), GatherChunk::default());
+    sums.clear();
     let mut rest = texels;
     let mut pending: &[GatherTexel] = &[];
     while !rest.is_empty() {
@@ -550,18 +569,19 @@ fn gather_sums(
             .max(1);
         let (chunk, tail) = rest.split_at(n);
         ahead.trace(scene, reflected, trav, &draws, chunk);
-        behind.sum(scene, reflected, pending, &mut sums);
-        std::mem::swap(&mut ahead, &mut behind);
+        behind.sum(scene, reflected, pending, sums);
+        std::mem::swap(ahead, behind);
         pending = chunk;
         rest = tail;
     }
-    behind.sum(scene, reflected, pending, &mut sums);
-    sums
+    behind.sum(scene, reflected, pending, sums);
 }
 
 /// The rays of one chunk of [`gather_sums`]: few enough that the chunk's buffers and
-/// prefetched look-up rows (about 250 bytes a ray) stay in a core's L2 cache.
-const CHUNK_RAYS: usize = 1024;
+/// prefetched look-up texels (about 330 bytes a ray) stay in a core's L2 cache and mostly in
+/// its L1 (1 024 rays a chunk fetched 1.5 times slower; docs/performance.md, issue 15), enough
+/// that a chunk's traversal (tens of microseconds) hides a prefetch's latency.
+const CHUNK_RAYS: usize = 256;
 
 /// One chunk's stage buffers in [`gather_sums`], reused from chunk to chunk.
 #[derive(Default)]
@@ -589,17 +609,7 @@ impl GatherChunk {
             lookups,
             ..
         } = self;
-        dirs.clear();
-        for t in texels {
-            let d = draws.texel(t.texel);
-            let mut s = t.rays.start;
-            while t.rays.end - s >= 4 {
-                let u = [0, 1, 2, 3].map(|i| d.uniform2(s + i));
-                dirs.extend(t.frame.cosine_directions4(u));
-                s += 4;
-            }
-            dirs.extend((s..t.rays.end).map(|s| t.frame.cosine_direction(d.uniform2(s))));
-        }
+        directions(dirs, draws, texels);
         traced.clear();
         let mut rest = dirs.iter();
         for t in texels {
@@ -633,9 +643,15 @@ impl GatherChunk {
         fetched.clear();
         fetched.extend(lookups.iter().map(|lookup| match lookup {
             Some(Lookup {
-                texels,
+                texels: [a, b, c, d],
                 weights: Some(_),
-            }) => texels.map(|i| reflected.at_offset(i)),
+                ..
+            }) => [
+                reflected.at_offset(*a),
+                reflected.at_offset(*b),
+                reflected.at_offset(*c),
+                reflected.at_offset(*d),
+            ],
             _ => [[0.0; 4]; 4],
         }));
         let mut rest = lookups
@@ -656,13 +672,48 @@ impl GatherChunk {
                         (texels[3], w[3]),
                     ])
                 });
-                let weight = gather_weight(scene, hit, dir, t);
+                let weight = gather_weight(scene, hit, lookup.normal, dir, t);
                 for c in 0..3 {
                     sum[c] += weight * m[c];
                 }
             }
             sum
         }));
+    }
+}
+
+/// The directions of `texels`' rays, in order, pushed to `dirs` (cleared first): with AVX2
+/// where the CPU has it, the same operations bit for bit (integer operations and IEEE
+/// arithmetic, no fused multiply-adds), the hash sampler's draws then four to a vector.
+fn directions(dirs: &mut Vec<[f32; 3]>, draws: &rng::PassDraws, texels: &[GatherTexel]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (just checked).
+        unsafe { directions_avx2(dirs, draws, texels) };
+        return;
+    }
+    directions_inline(dirs, draws, texels);
+}
+
+/// [`directions`] compiled for AVX2.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn directions_avx2(dirs: &mut Vec<[f32; 3]>, draws: &rng::PassDraws, texels: &[GatherTexel]) {
+    directions_inline(dirs, draws, texels);
+}
+
+/// [`directions`] for the instruction set of the caller.
+#[inline(always)]
+fn directions_inline(dirs: &mut Vec<[f32; 3]>, draws: &rng::PassDraws, texels: &[GatherTexel]) {
+    dirs.clear();
+    for t in texels {
+        let d = draws.texel(t.texel);
+        let mut s = t.rays.start;
+        while t.rays.end - s >= 4 {
+            dirs.extend(t.frame.cosine_directions4(d.uniform2x4(s)));
+            s += 4;
+        }
+        dirs.extend((s..t.rays.end).map(|s| t.frame.cosine_direction(d.uniform2(s))));
     }
 }
 
@@ -681,15 +732,14 @@ fn shading_normal(attr: &TriangleAttributes, hit: &Hit) -> [f32; 3] {
 }
 
 /// The weight of texel `t`'s gather ray along `dir` that met `hit` (a front hit of a
-/// receiver): 1, or with lamp paths the balance heuristic against them
-/// ([`crate::lightpaths`]).
+/// receiver, interpolated shading normal `nh`): 1, or with lamp paths the balance heuristic
+/// against them ([`crate::lightpaths`]).
 #[inline]
-fn gather_weight(scene: &CpuScene, hit: &Hit, dir: [f32; 3], t: &GatherTexel) -> f32 {
+fn gather_weight(scene: &CpuScene, hit: &Hit, nh: [f32; 3], dir: [f32; 3], t: &GatherTexel) -> f32 {
     let mis = t.mis;
     if mis.lamp_paths == 0 {
         return 1.0;
     }
-    let nh = shading_normal(&scene.attributes(hit.triangle), hit);
     let ny = normalize(nh).unwrap_or([0.0; 3]);
     let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
     let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
@@ -714,11 +764,12 @@ fn gather_lookup(
     hit: &Hit,
     dir: [f32; 3],
 ) -> Option<Lookup> {
-    let attr = scene.attributes(hit.triangle);
+    let attr = scene.attributes(hit.triangle)?;
     let Some(Some(region)) = scene.regions.get(attr.object as usize) else {
         return None;
     };
-    let facing = dot(shading_normal(&attr, hit), dir);
+    let normal = shading_normal(attr, hit);
+    let facing = dot(normal, dir);
     if facing.is_nan() || facing >= 0.0 {
         return None;
     }
@@ -732,21 +783,37 @@ fn gather_lookup(
         return Some(Lookup {
             texels: [usize::MAX; 4],
             weights: None,
+            normal,
         });
     };
-    let [ox, oy] = region.offset;
-    let texels = c.map(|([x, y], _)| {
-        reflected
-            .index(region.layer, ox + x, oy + y)
-            .unwrap_or(usize::MAX)
-    });
-    // The look-up's two rows, asked for now: the look-ups are fetched after the next chunk's
-    // traversal and their texels are usually not cached (the maps are megabytes).
+    let [(t0, w0), (t1, w1), (t2, w2), (t3, w3)] = c;
+    let texels = match reflected.rect_origin(region) {
+        Some(origin) => {
+            let row = 4 * reflected.size[0] as usize;
+            let at = |[x, y]: [u32; 2]| origin + 4 * x as usize + row * y as usize;
+            [at(t0), at(t1), at(t2), at(t3)]
+        }
+        None => {
+            let [ox, oy] = region.offset;
+            let at = |[x, y]: [u32; 2]| {
+                reflected
+                    .index(region.layer, ox.saturating_add(x), oy.saturating_add(y))
+                    .unwrap_or(usize::MAX)
+            };
+            [at(t0), at(t1), at(t2), at(t3)]
+        }
+    };
+    // The look-up's texels, asked for now: the look-ups are fetched after the next chunk's
+    // traversal and their texels are usually not cached (the maps are megabytes). Each row
+    // of two texels lies on one cache line or straddles two.
     prefetch(reflected.data, texels[0]);
+    prefetch(reflected.data, texels[1]);
     prefetch(reflected.data, texels[2]);
+    prefetch(reflected.data, texels[3]);
     Some(Lookup {
         texels,
-        weights: Some(c.map(|(_, w)| w)),
+        weights: Some([w0, w1, w2, w3]),
+        normal,
     })
 }
 
@@ -788,6 +855,19 @@ impl Mis {
     };
 }
 
+/// The buffers of [`gather_row`], reused from row to row.
+#[derive(Default)]
+struct GatherScratch {
+    /// The row's texels with rays.
+    texels: Vec<GatherTexel>,
+    /// Their columns in the row, from `x0`.
+    at: Vec<usize>,
+    /// The stage buffers of [`gather_sums`].
+    chunks: [GatherChunk; 2],
+    /// Per texel of `texels`, its sum.
+    sums: Vec<[f32; 3]>,
+}
+
 /// The gathered indirect illuminance at texels `x0 ..` of row `y` (`out`: RGBA per texel; see
 /// the module docs), their rays traced together ([`gather_sums`]); with
 /// [`GatherParams::stride`] > 1 only grid texels and orphans are gathered ([`coarse_rays`]),
@@ -802,9 +882,16 @@ fn gather_row(
     x0: u32,
     y: u32,
     out: &mut [f32],
+    scratch: &mut GatherScratch,
 ) {
-    let mut texels = Vec::new();
-    let mut at = Vec::new();
+    let GatherScratch {
+        texels,
+        at,
+        chunks,
+        sums,
+    } = scratch;
+    texels.clear();
+    at.clear();
     for (i, texel) in out.chunks_exact_mut(4).enumerate() {
         let x = x0 + i as u32;
         let pos = pos_map.fetch(layer, x, y);
@@ -835,8 +922,8 @@ fn gather_row(
         at.push(i);
     }
     let sampler = [params.sampler, params.bounce, params.seed];
-    let sums = gather_sums(scene, reflected, trav, sampler, &texels);
-    for ((t, sum), i) in texels.iter().zip(sums).zip(at) {
+    gather_sums(scene, reflected, trav, sampler, texels, chunks, sums);
+    for ((t, sum), &i) in texels.iter().zip(sums.iter()).zip(at.iter()) {
         let inv = 1.0 / t.rays.len() as f32;
         let c = if params.lamp_paths > 0 {
             connected.fetch(layer, x0 + i as u32, y)
@@ -978,7 +1065,18 @@ fn refine_texel(
         mis: Mis::NONE,
     };
     let sampler = [params.sampler, params.bounce, params.seed];
-    let [sum] = gather_sums(scene, reflected, trav, sampler, &[texel])[..] else {
+    let mut sums = Vec::with_capacity(1);
+    let mut chunks = [GatherChunk::default(), GatherChunk::default()];
+    gather_sums(
+        scene,
+        reflected,
+        trav,
+        sampler,
+        &[texel],
+        &mut chunks,
+        &mut sums,
+    );
+    let [sum] = sums[..] else {
         return first;
     };
     let total = (params.first_rays + params.rays) as f32;
@@ -1570,13 +1668,13 @@ fn run_tile(
     out[start..end]
         .par_chunks_mut(row_floats)
         .enumerate()
-        .for_each(|(r, row)| {
+        .for_each_init(GatherScratch::default, |scratch, (r, row)| {
             let y = t.y0 + r as u32;
             let texels = &mut row[4 * t.x0 as usize..4 * (t.x0 + t.width) as usize];
             match &work {
                 RowWork::Gather(p) => {
                     let v = [views[0], views[1], views[2], views[3]];
-                    gather_row(call.scene, v, trav, *p, t.layer, t.x0, y, texels);
+                    gather_row(call.scene, v, trav, *p, t.layer, t.x0, y, texels, scratch);
                 }
                 RowWork::Blur(kernel) => {
                     each_texel(t.x0, texels, |x| kernel.texel(views[0], t.layer, x, y));

@@ -269,6 +269,34 @@ impl TexelDraws<'_> {
             Sampler::Sobol => sobol2_keyed(sample, self.keys).map(unit_f32),
         }
     }
+
+    /// [`TexelDraws::uniform2`] of samples `sample .. sample + 4`, bit for bit. The hash
+    /// sampler's four draws are written lane by lane, so that a caller compiled for a vector
+    /// unit with per-lane shifts and multiplications (AVX2) computes them as one vector.
+    #[inline(always)]
+    pub fn uniform2x4(&self, sample: u32) -> [[f32; 2]; 4] {
+        let d = self.pass;
+        let at = sample.wrapping_sub(d.first) as usize;
+        if let (Sampler::Hash, Some(&[k0, k1, k2, k3])) =
+            (d.sampler, d.sample_keys.get(at..at.saturating_add(4)))
+        {
+            let mut h = [k0, k1, k2, k3];
+            for h in &mut h {
+                *h = pcg(self.texel.wrapping_add(*h));
+            }
+            let mut u = [[0.0f32; 2]; 4];
+            for (u, h) in u.iter_mut().zip(h) {
+                *u = [unit_f32(h), unit_f32(pcg(h))];
+            }
+            return u;
+        }
+        [
+            self.uniform2(sample),
+            self.uniform2(sample.wrapping_add(1)),
+            self.uniform2(sample.wrapping_add(2)),
+            self.uniform2(sample.wrapping_add(3)),
+        ]
+    }
 }
 
 /// `pascal(x)`: `x` times Pascal's triangle mod 2 (see the module docs); `reverse(pascal(i))`
@@ -352,6 +380,17 @@ mod tests {
                             want.map(f32::to_bits),
                             "{sampler} texel {texel} sample {sample} pass {pass} seed {seed}"
                         );
+                        // Four at once: inside, across and past the precomputed samples.
+                        let four = t.uniform2x4(sample);
+                        for (i, got) in (0..4).zip(four) {
+                            let s = sample.wrapping_add(i);
+                            let want = sampler.uniform2(texel, s, pass, seed);
+                            assert_eq!(
+                                got.map(f32::to_bits),
+                                want.map(f32::to_bits),
+                                "{sampler} x4 texel {texel} sample {s} pass {pass} seed {seed}"
+                            );
+                        }
                     }
                 }
             }
