@@ -1882,6 +1882,102 @@ mod tests {
         }
     }
 
+    /// The gather's look-up (footprint, texel indices, prefetch, fetch, masked blend) reads
+    /// what `map::sample_masked` reads, bit for bit, for regions inside the map (the indices
+    /// from the region's first texel) and for regions reaching past its edges or layers (the
+    /// indices texel by texel, texels outside reading 0).
+    #[test]
+    fn a_gather_look_up_is_the_masked_sample_inside_and_across_the_map_edges() {
+        let mut scene = one_triangle_scene([0.0, 1.0, 0.0]);
+        let (size, layers) = ([8u32, 6u32], 2u32);
+        let mut state = 12_345u32;
+        let mut next = || {
+            state = crate::rng::pcg(state);
+            crate::rng::unit_f32(state)
+        };
+        let data: Vec<f32> = (0..4 * size[0] * size[1] * layers)
+            .map(|i| {
+                if i % 4 == 3 {
+                    f32::from(next() > 0.2)
+                } else {
+                    10.0 * next()
+                }
+            })
+            .collect();
+        let map = View {
+            data: &data,
+            size,
+            layers,
+        };
+        let regions = [
+            (0, [0, 0], [8, 6]),
+            (1, [2, 1], [3, 4]),
+            (0, [6, 0], [5, 3]),
+            (1, [1, 4], [3, 5]),
+            (2, [0, 0], [2, 2]),
+            (0, [7, 5], [1, 1]),
+        ];
+        let attr = scene.attributes[0].0;
+        let mut compared = 0;
+        for (layer, offset, rect) in regions {
+            let region = Region {
+                layer,
+                offset,
+                size: rect,
+            };
+            scene.regions = vec![Some(region)];
+            for _ in 0..500 {
+                let (u, v) = (next(), next());
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let hit = Hit {
+                    t: 1.0,
+                    triangle: 0,
+                    u,
+                    v,
+                };
+                let lookup = gather_lookup(&scene, map, &hit, [0.1, -1.0, 0.2])
+                    .expect("a front hit on a receiver");
+                let got = lookup.weights.map_or([0.0; 3], |w| {
+                    let t = lookup.texels.map(|i| map.at_offset(i));
+                    masked_blend([(t[0], w[0]), (t[1], w[1]), (t[2], w[2]), (t[3], w[3])])
+                });
+                let w0 = 1.0 - u - v;
+                let [a, b, c] = attr.uvs;
+                let uv = [
+                    w0 * a[0] + u * b[0] + v * c[0],
+                    w0 * a[1] + u * b[1] + v * c[1],
+                ];
+                let want =
+                    crate::map::sample_masked(|x, y| map.fetch(layer, x, y), offset, rect, uv);
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "region {region:?} uv {uv:?}"
+                );
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 3000);
+        // A region whose offset overflows the texel coordinates reads 0 (no panic).
+        scene.regions = vec![Some(Region {
+            layer: 0,
+            offset: [u32::MAX - 1, 0],
+            size: [4, 4],
+        })];
+        let hit = Hit {
+            t: 1.0,
+            triangle: 0,
+            u: 0.3,
+            v: 0.3,
+        };
+        let lookup = gather_lookup(&scene, map, &hit, [0.0, -1.0, 0.0]).expect("front hit");
+        assert!(lookup.texels.iter().all(|&i| map.at_offset(i) == [0.0; 4]));
+    }
+
     const ONE_LAMP: DirectParams = DirectParams {
         lamp_count: 1,
         pad0: 0,
