@@ -1882,6 +1882,48 @@ mod tests {
         }
     }
 
+    /// The gather's directions (four draws at a time, with AVX2 where the CPU has it) are the
+    /// module docs' per-ray rule bit for bit, `cosine_direction(n̂, uniform2(texel, s, bounce,
+    /// seed))`, for both samplers, ray counts with and without a remainder of four, and
+    /// samples inside and past the pass's precomputed ones.
+    #[test]
+    fn gather_directions_are_the_per_ray_rule_bit_for_bit() {
+        let (pass, seed) = (2, 77);
+        let texels: Vec<GatherTexel> = (0..60u32)
+            .map(|i| {
+                let start = i % 3;
+                let angle = i as f32 * 0.37;
+                let n = normalize([angle.sin(), 0.3 - (i % 2) as f32, angle.cos()]).expect("n");
+                GatherTexel {
+                    texel: i * 1013,
+                    rays: start..start + i % 11,
+                    o: [0.0; 3],
+                    frame: Frame::new(n),
+                    mis: Mis::NONE,
+                }
+            })
+            .collect();
+        let mut dirs = Vec::new();
+        for sampler in rng::Sampler::ALL {
+            let want: Vec<[u32; 3]> = texels
+                .iter()
+                .flat_map(|t| {
+                    t.rays.clone().map(move |s| {
+                        let u = sampler.uniform2(t.texel, s, pass, seed);
+                        cosine_direction(t.frame.n, u).map(f32::to_bits)
+                    })
+                })
+                .collect();
+            assert!(want.len() > 250, "{}", want.len());
+            for precomputed in [0..13, 1..5] {
+                let draws = rng::PassDraws::new(sampler, pass, seed, precomputed.clone());
+                directions(&mut dirs, &draws, &texels);
+                let got: Vec<[u32; 3]> = dirs.iter().map(|d| d.map(f32::to_bits)).collect();
+                assert_eq!(got, want, "{sampler}, samples {precomputed:?} precomputed");
+            }
+        }
+    }
+
     /// The gather's look-up (footprint, texel indices, prefetch, fetch, masked blend) reads
     /// what `map::sample_masked` reads, bit for bit, for regions inside the map (the indices
     /// from the region's first texel) and for regions reaching past its edges or layers (the
