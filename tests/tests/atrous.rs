@@ -9,6 +9,7 @@
 use luxbake::backend::{Dispatch, GpuBackend, SceneData};
 use luxbake::graph::{TexDesc, TexFormat};
 use luxbake::map::MapImage;
+use luxbake::prepare::SceneBvh;
 use luxbake::program::{AtrousConfig, Params, Program, TilePlan, atrous_steps};
 use luxbake::rng;
 use luxbake::scene::BvhMode;
@@ -128,7 +129,7 @@ fn run<B: GpuBackend>(
             backend.upload(&tex[t], l as u32, &data[l * per_layer..(l + 1) * per_layer])?;
         }
     }
-    let bvh = one_triangle();
+    let bvh = SceneBvh::new(one_triangle());
     let scene = backend.upload_scene(&SceneData {
         bvh: &bvh,
         lamps: &[],

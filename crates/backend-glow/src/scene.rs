@@ -98,16 +98,16 @@ impl GpuScene {
         for (what, v) in [
             (
                 "BVH node texture size",
-                scene.bvh.node_size[0].max(scene.bvh.node_size[1]),
+                scene.bvh.encoded.node_size[0].max(scene.bvh.encoded.node_size[1]),
             ),
             (
                 "BVH triangle texture size",
-                scene.bvh.tri_size[0].max(scene.bvh.tri_size[1]),
+                scene.bvh.encoded.tri_size[0].max(scene.bvh.encoded.tri_size[1]),
             ),
         ] {
             checked_size(caps, what, v as usize)?;
         }
-        let bvh = BvhTextures::upload(gl, scene.bvh)?;
+        let bvh = BvhTextures::upload(gl, &scene.bvh.encoded)?;
         let ies = ies_texture(gl, caps, scene.ies_tables)?;
         let n = checked_size(caps, "objects (region texture width)", scene.regions.len())?;
         let mut data = vec![0.0f32; n as usize * 2 * 4];

@@ -228,7 +228,7 @@ impl GpuScene {
                 )));
             }
         }
-        let bvh = BvhData::upload(gpu, scene.bvh, storage_kind)?;
+        let bvh = BvhData::upload(gpu, &scene.bvh.encoded, storage_kind)?;
         let ies = storage(gpu, "ies_tables", bytes_of(&pack::ies_values(scene)))?;
         let regions: Vec<u32> = pack::region_rows(scene.regions)
             .iter()
@@ -248,12 +248,12 @@ impl GpuScene {
         let objects = u32::try_from(scene.regions.len())
             .map_err(|_| WgpuError::InvalidInput("too many objects".into()))?;
         let words: [u32; 12] = [
-            scene.bvh.node_size[0],
-            scene.bvh.node_size[1],
-            scene.bvh.tri_size[0],
-            scene.bvh.tri_size[1],
-            count(scene.bvh.node_count, "node count")? as u32,
-            count(scene.bvh.triangle_count, "triangle count")? as u32,
+            scene.bvh.encoded.node_size[0],
+            scene.bvh.encoded.node_size[1],
+            scene.bvh.encoded.tri_size[0],
+            scene.bvh.encoded.tri_size[1],
+            count(scene.bvh.encoded.node_count, "node count")? as u32,
+            count(scene.bvh.encoded.triangle_count, "triangle count")? as u32,
             count(objects, "object count")? as u32,
             0,
             scene.ray_epsilon.to_bits(),

@@ -15,7 +15,9 @@
 //! semantics — bit for bit where they can be — are defined by the CPU reference backend
 //! ([`crate::cpu`]).
 
-use luxbake_bvh::EncodedScene;
+use std::sync::Arc;
+
+use luxbake_bvh::{EncodedScene, WideBvh};
 use luxbake_ies::GpuTable;
 
 use crate::graph::TexDesc;
@@ -110,11 +112,33 @@ pub fn lamp_toward(
     })
 }
 
+/// The scene's BVH, built once per room: the GPU backends upload `encoded`, the CPU backend
+/// and the host steps walk `wide` (collapsed from the same tree).
+#[derive(Debug, Clone)]
+pub struct SceneBvh {
+    /// The encoded BVH and triangle data (object id = index of the scene's object).
+    pub encoded: Arc<EncodedScene>,
+    /// Its 8-wide form for CPU traversal.
+    pub wide: Arc<WideBvh>,
+}
+
+impl SceneBvh {
+    /// Shares `encoded` and collapses it to its 8-wide form.
+    pub fn new(encoded: EncodedScene) -> SceneBvh {
+        let wide = Arc::new(WideBvh::from_encoded(&encoded));
+        SceneBvh {
+            encoded: Arc::new(encoded),
+            wide,
+        }
+    }
+}
+
 /// The static scene data of a bake, uploaded once before the first pass.
 #[derive(Debug, Clone, Copy)]
 pub struct SceneData<'a> {
-    /// The encoded BVH and triangle data textures (object id = index into `regions`).
-    pub bvh: &'a EncodedScene,
+    /// The BVH, built once per room: the encoded BVH and triangle data textures (object id =
+    /// index into `regions`), and its 8-wide form, which the CPU backend shares.
+    pub bvh: &'a SceneBvh,
     /// The lamps a direct pass evaluates, in order (the driver uploads only the lamps that
     /// light something).
     pub lamps: &'a [LampParams],

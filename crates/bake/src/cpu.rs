@@ -85,6 +85,8 @@
 //! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
 //! NaN or infinity ever reaches a map.
 
+use std::sync::Arc;
+
 use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, TriangleAttributes, WideBvh};
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
@@ -162,8 +164,8 @@ pub struct CpuTexture(usize);
 /// The uploaded scene of the CPU backend (owned copies, as a GPU upload would make).
 #[derive(Debug, Clone)]
 pub struct CpuScene {
-    bvh: EncodedScene,
-    wide: WideBvh,
+    bvh: Arc<EncodedScene>,
+    wide: Arc<WideBvh>,
     /// [`EncodedScene::triangle_attributes`] of every encoded triangle, decoded once at upload
     /// so that a gather hit reads them from an array, a cache line each.
     attributes: Vec<HitAttributes>,
@@ -1550,9 +1552,9 @@ impl GpuBackend for CpuBackend {
             }
         }
         Ok(CpuScene {
-            bvh: scene.bvh.clone(),
-            wide: WideBvh::from_encoded(scene.bvh),
-            attributes: decode_attributes(scene.bvh),
+            bvh: Arc::clone(&scene.bvh.encoded),
+            wide: Arc::clone(&scene.bvh.wide),
+            attributes: decode_attributes(&scene.bvh.encoded),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
             regions: scene.regions.to_vec(),
@@ -1866,9 +1868,9 @@ mod tests {
         let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         CpuScene {
-            wide: WideBvh::from_encoded(&enc),
+            wide: Arc::new(WideBvh::from_encoded(&enc)),
             attributes: decode_attributes(&enc),
-            bvh: enc,
+            bvh: Arc::new(enc),
             lamps: vec![LampParams {
                 position: lamp,
                 world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],

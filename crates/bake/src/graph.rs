@@ -1,14 +1,32 @@
 //! The bake as a pass graph: plain data, no GPU types.
 //!
 //! A [`BakeGraph`] lists the textures of a bake ([`TexDesc`]: every one an RGBA32F texture array
-//! of the layout's layer size and layer count) and the passes that read and write them
-//! ([`PassDesc`]), in execution order. The driver executes the passes one by one in that order,
-//! tile by tile, on a backend; backends never decide the order. The graph is built by small functions, one per stage of the paper's
-//! Figure 4, each declaring what it reads and writes and returning the texture it produced.
+//! of the layout's layer size and layer count) and every pass the bake may run
+//! ([`PassDesc`]), in execution order. The driver ([`crate::bake()`]) runs them in that order,
+//! tile by tile, on a backend; backends never decide the order. The graph is built by small
+//! functions, one per stage of the paper's Figure 4, each declaring what it reads and writes
+//! and returning the texture it produced. The host work before the passes (layout,
+//! rasterising, the BVH, unocclusion, the lamps' reach and paths) is typed too
+//! ([`crate::prepare::HostNode`]).
+//!
+//! # Decisions are data
+//! How many bounces a bake runs is decided while it runs, from a few numbers read back. The
+//! graph says where and how: a pass may carry a [`Check`] (measure the energy of one texture
+//! after it and decide), each pass says when it runs ([`RunWhen`]: always, as part of bounce
+//! `k` unless the bake stopped earlier, or only if the bake stopped at bounce `k`), and a pass
+//! may take a parameter from the decisions ([`Runtime`]: the tail's weight). The driver
+//! executes the graph and never changes it.
+//!
+//! # What a pass depends on
+//! Every pass depends on the room; [`PassDesc::lamps`] says whether it also depends on the
+//! lamps (it computes or reads their light), derived from the reads and writes: the G-buffer
+//! upload does not, the direct pass, the lamp paths and everything reading their light do. A
+//! lamp change re-runs only those.
 //!
 //! # Stages (the paper's Figure 5 numbering)
 //! ```text
 //! GBuffer                      → position, normal, albedo(1)        (uploaded from the rasteriser)
+//! LampPaths                    → connected                          (converged, uploaded)
 //! Direct     position, normal  → direct(2)
 //! Copy       direct            → direct_blurred                     (the paper's "copy for later")
 //! Blur U/V   direct_blurred    → blur_tmp → direct_blurred(3)       (only when blur ≠ none)
@@ -23,7 +41,20 @@
 //! whose fixed point is the inter-reflection series `Σ ρ^i` of a closed diffuse enclosure.
 //! Bounces re-use the same five textures (5–8 and the blur scratch): a gather reads the
 //! reflected map of the previous bounce (8) and writes the indirect map (5), which only the
-//! combine of the same bounce reads, so no pass ever reads the texture it writes.
+//! combine of the same bounce reads, so no pass ever reads the texture it writes. The paper
+//! method ([`Method::Paper`]) checks after each bounce whether it added enough light to go on
+//! ([`Check::PaperBounce`]).
+//!
+//! The converged method ([`Method::Converged`]) reflects the direct light unblurred and
+//! gathers increments:
+//! ```text
+//! per bounce k = 1 ..= bounces:                 (RunWhen::Bounce(k))
+//!   Gather k  reflected increment of k − 1      → delta     (reduced: coarse, then Upsample)
+//!   accumulate sum_(k−1) + delta                → sum_k     (two textures alternate)
+//!   AlbedoMul delta                             → reflected  + Check::ConvergedBounce
+//!   tail k    sum_k + f · delta                 → indirect  (RunWhen::StoppedAt(k), f decided)
+//! once: Variance, Atrous… (denoise indirect), Combine direct + indirect, AlbedoMul
+//! ```
 //!
 //! Every light-map texture carries the texel mask in its alpha channel (1 = a valid texel of a
 //! receiver's chart, 0 = empty), which the blur and the gather's bilinear look-up use.
@@ -31,8 +62,8 @@
 //! # Reads, writes and parameters
 //! Each computed pass runs one [`Program`]; its reads follow the program's
 //! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
-//! the program's parameter block ([`Params`]); the G-buffer upload reads
-//! nothing and writes position, normal and albedo. [`BakeGraph::validate`] checks every pass
+//! the program's parameter block ([`Params`]); the uploads read nothing and write position,
+//! normal and albedo (the G-buffer) or the lamp paths' part of the first bounce. [`BakeGraph::validate`] checks every pass
 //! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;
@@ -124,6 +155,9 @@ pub enum PassKind {
         /// Bounce number, 1-based.
         bounce: u32,
     },
+    /// The lamp paths' part of the first bounce, computed on the host and uploaded
+    /// ([`crate::lightpaths::LampPaths::connect`]).
+    LampPaths,
 }
 
 impl PassKind {
@@ -131,7 +165,7 @@ impl PassKind {
     /// not computed).
     pub fn program(&self) -> Option<Program> {
         Some(match self {
-            PassKind::GBuffer => return None,
+            PassKind::GBuffer | PassKind::LampPaths => return None,
             PassKind::Direct => Program::Direct,
             PassKind::Copy => Program::Copy,
             PassKind::Blur { .. } => Program::Blur,
@@ -164,6 +198,67 @@ pub struct PassDesc {
     pub params: Params,
     /// The traversal of a ray-casting pass.
     pub bvh: BvhMode,
+    /// When the driver runs it.
+    pub when: RunWhen,
+    /// What the driver measures after it, to decide which passes run next.
+    pub then: Option<Check>,
+    /// A parameter the driver sets when it runs the pass, from what a [`Check`] decided.
+    pub runtime: Option<Runtime>,
+    /// Whether it depends on the lamps: it computes or reads (directly or through earlier
+    /// passes) light of the lamps. A pass that does not can be kept when only the lamps
+    /// change; every pass depends on the room.
+    pub lamps: bool,
+}
+
+/// When a pass runs. The graph lists every pass a bake may run; the driver skips, by these
+/// rules, the bounces after the one where it stopped ([`Check`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum RunWhen {
+    /// Always.
+    Always,
+    /// Part of bounce `k`: runs unless the bake stopped at an earlier bounce.
+    Bounce(u32),
+    /// Runs only if the bake stopped at bounce `k` (the converged method's tail of `k`).
+    StoppedAt(u32),
+}
+
+/// What the driver measures after a pass — a sum over the valid texels of one texture, a few
+/// numbers read back — and what it decides with it.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Check {
+    /// The energy of the direct illuminance: the reference of the later checks.
+    DirectEnergy(TexId),
+    /// [`Method::Paper`], end of bounce `bounce`: the energy of the indirect map; the bake
+    /// stops when the bounce added less than [`crate::bake::BOUNCE_ENERGY_THRESHOLD`] of the
+    /// light, or at the last bounce.
+    PaperBounce {
+        /// The bounce that ends.
+        bounce: u32,
+        /// The indirect illuminance after it.
+        indirect: TexId,
+        /// Whether it is the last bounce of the graph.
+        last: bool,
+    },
+    /// [`Method::Converged`], end of bounce `bounce`: the energy of the bounce's increment; the
+    /// bake stops when the series' tail is estimated within the tolerance
+    /// ([`crate::series::Series::converged`]), or at the last bounce, and then sets
+    /// [`Runtime::TailWeight`].
+    ConvergedBounce {
+        /// The bounce that ends.
+        bounce: u32,
+        /// Its increment.
+        delta: TexId,
+        /// Whether it is the last bounce of the graph.
+        last: bool,
+    },
+}
+
+/// A parameter a pass takes from the driver's decisions.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Runtime {
+    /// The combine's `b_weight` is the factor of the series' tail
+    /// ([`crate::series::Series::tail_factor`]) decided by the last [`Check::ConvergedBounce`].
+    TailWeight,
 }
 
 /// The G-buffer textures.
@@ -266,23 +361,10 @@ pub struct BakeGraph {
     pub exitance: TexId,
     /// The blurred direct illuminance (3): `illuminance − this` is the (blurred) indirect part.
     pub direct_blurred: TexId,
-    /// `(first, end)` pass index range of each bounce `k` (entry `k − 1`).
-    pub bounce_passes: Vec<(usize, usize)>,
     /// The pipeline this graph computes.
     pub method: Method,
-    /// [`Method::Converged`]: the filtered indirect increment of the running bounce, whose
-    /// energy decides when to stop and scales the tail.
-    pub delta: Option<TexId>,
-    /// [`Method::Converged`]: `(first, end)` of the passes that run once after the last bounce
-    /// (tail, combine, × albedo); empty for [`Method::Paper`].
-    pub finish_passes: (usize, usize),
-    /// [`Method::Converged`]: the combine that adds the tail, `sum + f · delta`; the driver sets
-    /// `f` when it stops, and points its `sum` at [`BakeGraph::sum_after`] of the last bounce
-    /// run.
-    pub tail_pass: Option<usize>,
-    /// [`Method::Converged`]: the texture holding the sum of the increments after bounce `k`
-    /// (entry `k − 1`; two textures alternate); empty for [`Method::Paper`].
-    pub sum_after: Vec<TexId>,
+    /// Explicit bounces the graph can run.
+    pub bounces: u32,
 }
 
 /// Builds a [`BakeGraph`]: textures are added on demand, passes appended in order.
@@ -293,6 +375,8 @@ struct Builder {
     textures: Vec<TexDesc>,
     passes: Vec<PassDesc>,
     bvh: BvhMode,
+    /// When the passes appended next run.
+    when: RunWhen,
 }
 
 impl Builder {
@@ -304,6 +388,7 @@ impl Builder {
             textures: Vec::new(),
             passes: Vec::new(),
             bvh: config.bvh,
+            when: RunWhen::Always,
         }
     }
 
@@ -336,8 +421,56 @@ impl Builder {
             bounce,
             params,
             bvh: self.bvh,
+            when: self.when,
+            then: None,
+            runtime: None,
+            lamps: false,
         });
     }
+
+    /// The last pass appended.
+    fn last(&mut self) -> &mut PassDesc {
+        self.passes
+            .last_mut()
+            .expect("a check or runtime parameter follows a pass")
+    }
+
+    /// The graph: every pass's [`PassDesc::lamps`] set by following the textures from the
+    /// passes that compute lamp light (the direct pass and the lamp paths).
+    fn finish(mut self, parts: GraphParts) -> BakeGraph {
+        let mut lit = vec![false; self.textures.len()];
+        for p in &mut self.passes {
+            p.lamps = matches!(p.kind, PassKind::Direct | PassKind::LampPaths)
+                || p.reads.iter().any(|r| lit[r.index()]);
+            for w in &p.writes {
+                lit[w.index()] |= p.lamps;
+            }
+        }
+        BakeGraph {
+            textures: self.textures,
+            passes: self.passes,
+            gbuffer: parts.gbuffer,
+            figure5: parts.figure5,
+            direct: parts.direct,
+            illuminance: parts.illuminance,
+            exitance: parts.exitance,
+            direct_blurred: parts.direct_blurred,
+            method: parts.method,
+            bounces: parts.bounces,
+        }
+    }
+}
+
+/// What a graph builder found, besides its textures and passes.
+struct GraphParts {
+    gbuffer: GBufferTex,
+    figure5: Figure5,
+    direct: TexId,
+    illuminance: TexId,
+    exitance: TexId,
+    direct_blurred: TexId,
+    method: Method,
+    bounces: u32,
 }
 
 /// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output.
@@ -348,21 +481,30 @@ fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
         albedo: b.texture("gbuffer_albedo"),
         connected: lamp_paths.then(|| b.texture("lamp_paths")),
     };
-    let mut writes = vec![g.position, g.normal, g.albedo];
-    writes.extend(g.connected);
     b.pass(
         PassKind::GBuffer,
         "gbuffer",
         Vec::new(),
-        writes,
+        vec![g.position, g.normal, g.albedo],
         0,
         Params::None,
     );
+    if let Some(connected) = g.connected {
+        b.pass(
+            PassKind::LampPaths,
+            "lamp_paths",
+            Vec::new(),
+            vec![connected],
+            0,
+            Params::None,
+        );
+    }
     g
 }
 
-/// Stage (2): direct illuminance from the first `lamp_count` uploaded lamps.
-fn direct_stage(b: &mut Builder, g: GBufferTex, lamp_count: u32) -> TexId {
+/// Stage (2): direct illuminance from the first `lamp_count` uploaded lamps; with bounces,
+/// its energy is measured for the bounces' checks.
+fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig) -> TexId {
     let direct = b.texture("direct");
     b.pass(
         PassKind::Direct,
@@ -371,10 +513,13 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, lamp_count: u32) -> TexId {
         vec![direct],
         0,
         Params::Direct(DirectParams {
-            lamp_count,
+            lamp_count: config.lamp_count,
             ..DirectParams::default()
         }),
     );
+    if config.bounces > 0 {
+        b.last().then = Some(Check::DirectEnergy(direct));
+    }
     direct
 }
 
@@ -581,7 +726,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let lamp_paths =
         config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
     let g = gbuffer_stage(&mut b, lamp_paths);
-    let direct = direct_stage(&mut b, g, config.lamp_count);
+    let direct = direct_stage(&mut b, g, config);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
     let reflected_direct = b.texture("reflected_direct");
     albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
@@ -597,11 +742,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             None,
         ],
     };
-    let mut bounce_passes = Vec::new();
-    let mut sum_after = Vec::new();
     let (mut illuminance, mut exitance) = (direct, reflected_direct);
-    let (mut delta_tex, mut tail_pass) = (None, None);
-    let first_finish;
     if config.bounces > 0 {
         // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
         let reflected = b.texture("reflected");
@@ -625,7 +766,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
             .then(|| b.texture("coarse"));
         for k in 1..=config.bounces {
-            let first = b.passes.len();
+            b.when = RunWhen::Bounce(k);
             let source = if k == 1 { reflected_direct } else { reflected };
             let sampling = GatherSampling {
                 rays: if k == 1 {
@@ -711,24 +852,29 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     Params::Combine(CombineParams::SUM),
                 );
             }
-            sum_after.push(sum);
             albedo_stage(&mut b, g, delta, reflected, k, "albedo_delta");
-            bounce_passes.push((first, b.passes.len()));
+            b.last().then = Some(Check::ConvergedBounce {
+                bounce: k,
+                delta,
+                last: k == config.bounces,
+            });
+            // The tail Σ_{j>k} Δ_j ≈ f · Δ_k when the bake stops at bounce k; the driver
+            // decides f ([`Runtime::TailWeight`]).
+            b.when = RunWhen::StoppedAt(k);
+            b.pass(
+                PassKind::Combine,
+                "tail",
+                vec![sum, delta],
+                vec![scratch],
+                k,
+                Params::Combine(CombineParams {
+                    b_weight: 0.0,
+                    ..CombineParams::SUM
+                }),
+            );
+            b.last().runtime = Some(Runtime::TailWeight);
         }
-        first_finish = b.passes.len();
-        // The tail Σ_{j>K} Δ_j ≈ f · Δ_K, f set by the driver when it stops at bounce K.
-        tail_pass = Some(b.passes.len());
-        b.pass(
-            PassKind::Combine,
-            "tail",
-            vec![sum_after[sum_after.len() - 1], delta],
-            vec![scratch],
-            config.bounces,
-            Params::Combine(CombineParams {
-                b_weight: 0.0,
-                ..CombineParams::SUM
-            }),
-        );
+        b.when = RunWhen::Always;
         // The indirect light (explicit bounces and tail) is noisy: denoise it in place,
         // through `delta`, which nothing reads any more.
         if let Some(variance) = variance {
@@ -759,26 +905,17 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         figure5.stages[7] = Some(reflected_combined);
         illuminance = combined;
         exitance = reflected_combined;
-        delta_tex = Some(delta);
-    } else {
-        first_finish = b.passes.len();
     }
-    BakeGraph {
-        finish_passes: (first_finish, b.passes.len()),
-        textures: b.textures,
-        passes: b.passes,
+    b.finish(GraphParts {
         gbuffer: g,
         figure5,
         direct,
         illuminance,
         exitance,
         direct_blurred: direct,
-        bounce_passes,
         method: Method::Converged,
-        delta: delta_tex,
-        tail_pass,
-        sum_after,
-    }
+        bounces: config.bounces,
+    })
 }
 
 impl BakeGraph {
@@ -789,7 +926,7 @@ impl BakeGraph {
         }
         let mut b = Builder::new(config);
         let g = gbuffer_stage(&mut b, false);
-        let direct = direct_stage(&mut b, g, config.lamp_count);
+        let direct = direct_stage(&mut b, g, config);
         let direct_blurred = b.texture("direct_blurred");
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
         // The blur scratch texture exists only when a blur runs.
@@ -828,14 +965,13 @@ impl BakeGraph {
         };
         let mut illuminance = direct_blurred;
         let mut exitance = reflected_direct;
-        let mut bounce_passes = Vec::new();
         if config.bounces > 0 {
             let indirect = b.texture("indirect");
             let combined = b.texture("combined");
             let combined_blurred = b.texture("combined_blurred");
             let reflected_combined = b.texture("reflected_combined");
             for k in 1..=config.bounces {
-                let first = b.passes.len();
+                b.when = RunWhen::Bounce(k);
                 let reflected = if k == 1 {
                     reflected_direct
                 } else {
@@ -869,7 +1005,11 @@ impl BakeGraph {
                     k,
                     "albedo_combined",
                 );
-                bounce_passes.push((first, b.passes.len()));
+                b.last().then = Some(Check::PaperBounce {
+                    bounce: k,
+                    indirect,
+                    last: k == config.bounces,
+                });
             }
             figure5.stages[4] = Some(indirect);
             figure5.stages[5] = Some(combined);
@@ -878,23 +1018,23 @@ impl BakeGraph {
             illuminance = combined_blurred;
             exitance = reflected_combined;
         }
-        let end = b.passes.len();
-        BakeGraph {
-            textures: b.textures,
-            passes: b.passes,
+        b.finish(GraphParts {
             gbuffer: g,
             figure5,
             direct,
             illuminance,
             exitance,
             direct_blurred,
-            bounce_passes,
             method: Method::Paper,
-            delta: None,
-            finish_passes: (end, end),
-            tail_pass: None,
-            sum_after: Vec::new(),
-        }
+            bounces: config.bounces,
+        })
+    }
+
+    /// Every pass of bounce `k` (`RunWhen::Bounce(k)`), in order.
+    pub fn bounce(&self, k: u32) -> impl Iterator<Item = &PassDesc> {
+        self.passes
+            .iter()
+            .filter(move |p| p.when == RunWhen::Bounce(k))
     }
 
     /// The description of texture `id`, if it belongs to this graph.
@@ -916,13 +1056,12 @@ impl BakeGraph {
             };
             match p.kind.program() {
                 None => {
-                    let uploads = 3 + usize::from(self.gbuffer.connected.is_some());
+                    let uploads = if p.kind == PassKind::GBuffer { 3 } else { 1 };
                     if !p.reads.is_empty() || p.writes.len() != uploads || p.params != Params::None
                     {
                         return Err(fail(
-                            "the G-buffer upload reads nothing, writes three textures (four with \
-                             lamp paths) and takes \
-                             no parameters"
+                            "an upload reads nothing, takes no parameters and writes three \
+                             textures (the G-buffer) or one (the lamp paths)"
                                 .into(),
                         ));
                     }
@@ -947,6 +1086,20 @@ impl BakeGraph {
                             program.label()
                         )));
                     }
+                }
+            }
+            if p.runtime == Some(Runtime::TailWeight) && !matches!(p.params, Params::Combine(_)) {
+                return Err(fail("only a combine takes the tail weight".into()));
+            }
+            if let Some(check) = p.then {
+                let (Check::DirectEnergy(t)
+                | Check::PaperBounce { indirect: t, .. }
+                | Check::ConvergedBounce { delta: t, .. }) = check;
+                if self.texture(t).is_none() {
+                    return Err(fail(format!(
+                        "its check reads texture {}, not in the graph",
+                        t.0
+                    )));
                 }
             }
             let first = p.writes.first().and_then(|&w| self.texture(w));
@@ -1001,6 +1154,39 @@ mod tests {
             .collect()
     }
 
+    /// The labels of bounce `k`'s passes (`k` 0-based).
+    fn labels(g: &BakeGraph, k: usize) -> Vec<&'static str> {
+        g.bounce(k as u32 + 1).map(|p| p.label).collect()
+    }
+
+    /// The first pass of bounce `k` (0-based) and those after it.
+    fn bounce_from(g: &BakeGraph, k: usize) -> &[PassDesc] {
+        let first = g
+            .passes
+            .iter()
+            .position(|p| p.when == RunWhen::Bounce(k as u32 + 1))
+            .expect("bounce");
+        &g.passes[first..]
+    }
+
+    /// The converged graph's increment: what its bounce checks measure.
+    fn delta(g: &BakeGraph) -> Option<TexId> {
+        g.passes.iter().find_map(|p| match p.then {
+            Some(Check::ConvergedBounce { delta, .. }) => Some(delta),
+            _ => None,
+        })
+    }
+
+    /// The passes that run once the bounces are done, whenever they stop.
+    fn finish(g: &BakeGraph) -> &[PassDesc] {
+        let end = g
+            .passes
+            .iter()
+            .rposition(|p| p.when != RunWhen::Always)
+            .map_or(0, |i| i + 1);
+        &g.passes[end..]
+    }
+
     fn config(bounces: u32, blur: Blur) -> GraphConfig {
         GraphConfig {
             layer_size: [64, 32],
@@ -1024,10 +1210,6 @@ mod tests {
 
     #[test]
     fn reduced_resolution_gathers_are_upsampled_and_refinement_follows_the_first_gather() {
-        let labels = |g: &BakeGraph, bounce: usize| -> Vec<&'static str> {
-            let (a, b) = g.bounce_passes[bounce];
-            g.passes[a..b].iter().map(|p| p.label).collect()
-        };
         // Stride 2, then 4: every gather writes the grid texture, an upsample fills `delta`.
         let g = BakeGraph::build(&GraphConfig {
             stride: 2,
@@ -1035,7 +1217,7 @@ mod tests {
             ..converged(3, Blur::Sigma(1.0))
         });
         assert_eq!(g.validate(), Ok(()));
-        let delta = g.delta.expect("delta");
+        let increment = delta(&g).expect("delta");
         for k in 0..3 {
             assert_eq!(
                 labels(&g, k)[..2],
@@ -1043,8 +1225,7 @@ mod tests {
                 "bounce {}",
                 k + 1
             );
-            let (a, _) = g.bounce_passes[k];
-            let (gather, up) = (&g.passes[a], &g.passes[a + 1]);
+            let (gather, up) = (&bounce_from(&g, k)[0], &bounce_from(&g, k)[1]);
             let (Params::Gather(gp), Params::Upsample(up_params)) = (gather.params, up.params)
             else {
                 panic!("{:?} {:?}", gather.params, up.params)
@@ -1054,8 +1235,8 @@ mod tests {
             assert_eq!(gp.reach, up_params.reach);
             assert!(gp.reach > 0.0);
             assert_eq!(up.reads[0], gather.writes[0]);
-            assert_ne!(gather.writes[0], delta);
-            assert_eq!(up.writes[0], delta);
+            assert_ne!(gather.writes[0], increment);
+            assert_eq!(up.writes[0], increment);
         }
         // Refinement: gather, its variance, then the refine pass into `delta`; later bounces
         // unchanged.
@@ -1066,15 +1247,16 @@ mod tests {
         assert_eq!(g.validate(), Ok(()));
         assert_eq!(labels(&g, 0)[..3], ["gather", "refine_variance", "refine"]);
         assert_eq!(labels(&g, 1)[0], "gather");
-        let (a, _) = g.bounce_passes[0];
-        let (first, variance, refine) = (&g.passes[a], &g.passes[a + 1], &g.passes[a + 2]);
+        let [first, variance, refine, ..] = bounce_from(&g, 0) else {
+            panic!("bounce 1")
+        };
         let Params::Refine(rp) = refine.params else {
             panic!("{:?}", refine.params)
         };
         assert_eq!((rp.rays, rp.first_rays, rp.max_error), (8, 16, 0.1));
         assert_eq!(variance.reads[0], first.writes[0]);
         assert_eq!(refine.reads[3..], [first.writes[0], variance.writes[0]]);
-        assert_eq!(Some(refine.writes[0]), g.delta);
+        assert_eq!(Some(refine.writes[0]), delta(&g));
         // Refinement needs a gather at every texel: with a stride it is not built (settings
         // reject the combination before).
         let g = BakeGraph::build(&GraphConfig {
@@ -1099,8 +1281,11 @@ mod tests {
                 let g = BakeGraph::build(&converged(bounces, blur));
                 assert_eq!(g.validate(), Ok(()), "{bounces} {blur:?}");
                 assert_eq!(g.method, Method::Converged);
-                assert_eq!(g.bounce_passes.len(), bounces as usize);
-                assert_eq!(g.finish_passes.1, g.passes.len());
+                assert_eq!(g.bounces, bounces);
+                for k in 1..=bounces {
+                    assert!(g.bounce(k).count() > 0, "bounce {k}");
+                }
+                assert_eq!(g.bounce(bounces + 1).count(), 0);
                 // The reported direct light is never blurred.
                 assert_eq!(g.direct_blurred, g.direct);
                 let gathers: Vec<&PassDesc> = g
@@ -1114,36 +1299,59 @@ mod tests {
                     };
                     // The first bounce uses `rays`, later ones `higher_rays`.
                     assert_eq!(gp.rays, if k == 0 { 16 } else { 4 });
-                    assert_eq!(Some(p.writes[0]), g.delta);
+                    assert_eq!(Some(p.writes[0]), delta(&g));
                 }
                 if bounces == 0 {
-                    assert_eq!((g.delta, g.tail_pass), (None, None));
+                    assert_eq!(delta(&g), None);
+                    assert!(g.passes.iter().all(|p| p.runtime.is_none()));
                     assert_eq!(g.illuminance, g.direct);
                     continue;
                 }
-                let tail = g.tail_pass.expect("tail");
-                assert_eq!(tail, g.finish_passes.0);
-                // The running sum alternates between two textures; the tail reads the last.
-                assert_eq!(g.sum_after.len(), bounces as usize);
-                for w in g.sum_after.windows(2) {
+                // Each bounce ends with its check, then its own tail, which runs only if the
+                // bake stops there: the running sum after the bounce (two textures
+                // alternate) plus the tail weight times the increment.
+                let mut sums = Vec::new();
+                for k in 1..=bounces {
+                    let end = g.bounce(k).last().expect("bounce");
+                    assert_eq!(
+                        end.then,
+                        Some(Check::ConvergedBounce {
+                            bounce: k,
+                            delta: delta(&g).expect("delta"),
+                            last: k == bounces
+                        })
+                    );
+                    let tails: Vec<&PassDesc> = g
+                        .passes
+                        .iter()
+                        .filter(|p| p.when == RunWhen::StoppedAt(k))
+                        .collect();
+                    let [tail] = tails[..] else {
+                        panic!("bounce {k}: {tails:?}")
+                    };
+                    assert_eq!(
+                        (tail.label, tail.runtime),
+                        ("tail", Some(Runtime::TailWeight))
+                    );
+                    let accumulate = g.bounce(k).find(|p| p.label == "accumulate");
+                    assert_eq!(Some(tail.reads[0]), accumulate.map(|p| p.writes[0]));
+                    assert_eq!(tail.reads[1], delta(&g).expect("delta"));
+                    sums.push(tail.reads[0]);
+                }
+                for w in sums.windows(2) {
                     assert_ne!(w[0], w[1]);
                 }
-                assert_eq!(Some(&g.passes[tail].reads[0]), g.sum_after.last());
-                assert_eq!(g.passes[tail].reads[1], g.delta.expect("delta"));
-                let labels: Vec<_> = g.passes[g.finish_passes.0..]
-                    .iter()
-                    .map(|p| p.label)
-                    .collect();
-                // After the bounces: the tail, then the variance estimate and four à-trous
+                let labels: Vec<_> = finish(&g).iter().map(|p| p.label).collect();
+                // After the bounces and the tail: the variance estimate and four à-trous
                 // iterations (σ 2) that end back in the indirect map, once; no Gaussian blur.
                 let filter: &[&str] = if blur == Blur::None {
                     &[]
                 } else {
                     &["variance", "atrous", "atrous", "atrous", "atrous"]
                 };
-                let want: Vec<&str> = ["tail"]
-                    .into_iter()
-                    .chain(filter.iter().copied())
+                let want: Vec<&str> = filter
+                    .iter()
+                    .copied()
                     .chain(["combine", "albedo_combined"])
                     .collect();
                 assert_eq!(labels, want);
@@ -1211,7 +1419,16 @@ mod tests {
                 "albedo_combined",
             ]
         );
-        assert_eq!(g.bounce_passes, vec![(6, 12)]);
+        assert_eq!(labels(&g, 0), kinds(&g)[6..12]);
+        assert_eq!(
+            g.passes[11].then,
+            Some(Check::PaperBounce {
+                bounce: 1,
+                indirect: g.figure5.stages[4].expect("indirect"),
+                last: true
+            })
+        );
+        assert_eq!(g.passes[1].then, Some(Check::DirectEnergy(g.direct)));
         // Every texture has the layout's size and is RGBA32F.
         for t in &g.textures {
             assert_eq!(t.size, [64, 32]);
@@ -1252,8 +1469,14 @@ mod tests {
         let g = BakeGraph::build(&config);
         g.validate().expect("valid");
         let connected = g.gbuffer.connected.expect("lamp paths uploaded");
-        assert_eq!(g.passes[0].writes.len(), 4);
-        assert_eq!(g.passes[0].writes[3], connected);
+        assert_eq!(g.passes[0].writes.len(), 3);
+        assert_eq!(
+            (g.passes[1].kind, &g.passes[1].writes),
+            (PassKind::LampPaths, &vec![connected])
+        );
+        // The G-buffer is the room's; the lamp paths and everything after depend on the lamps.
+        assert!(!g.passes[0].lamps);
+        assert!(g.passes[1..].iter().all(|p| p.lamps));
         let gathers = gather_passes(&g);
         assert_eq!(gathers.len(), 3);
         for p in &gathers {
@@ -1367,7 +1590,7 @@ mod tests {
     #[test]
     fn bounces_reuse_textures_and_chain_through_the_reflected_map() {
         let g = BakeGraph::build(&config(3, Blur::None));
-        assert_eq!(g.bounce_passes.len(), 3);
+        assert_eq!(g.bounces, 3);
         let f = g.figure5.stages.map(|s| s.expect("stage"));
         let gathers = gather_passes(&g);
         assert_eq!(gathers.len(), 3);
@@ -1396,13 +1619,15 @@ mod tests {
         assert_eq!(one.textures.len(), g.textures.len());
         assert_eq!(one.passes.len() + 2 * 4, g.passes.len());
         // Each bounce range is gather, combine, copy, albedo.
-        for &(a, e) in &g.bounce_passes {
-            let labels: Vec<_> = g.passes[a..e].iter().map(|p| p.label).collect();
+        for k in 0..3 {
             assert_eq!(
-                labels,
+                labels(&g, k),
                 ["gather", "combine", "copy_combined", "albedo_combined"]
             );
         }
+        // Only the paper method's G-buffer upload does not depend on the lamps.
+        assert!(!g.passes[0].lamps);
+        assert!(g.passes[1..].iter().all(|p| p.lamps));
     }
 
     #[test]
@@ -1447,7 +1672,8 @@ mod tests {
         assert_eq!(g.figure5.stages[4..], [None; 4]);
         assert_eq!(Some(g.illuminance), g.figure5.stages[2]);
         assert_eq!(Some(g.exitance), g.figure5.stages[3]);
-        assert!(g.bounce_passes.is_empty());
+        assert_eq!(g.bounce(1).count(), 0);
+        assert!(g.passes.iter().all(|p| p.then.is_none()));
         // Zero or non-finite sigma means no blur.
         for s in [0.0, f32::NAN, f32::INFINITY] {
             let g = BakeGraph::build(&config(0, Blur::Sigma(s)));

@@ -146,8 +146,9 @@ mod tests {
                 size: [5, 6],
             }),
         ];
+        let bvh = crate::prepare::SceneBvh::new(enc);
         let scene = SceneData {
-            bvh: &enc,
+            bvh: &bvh,
             lamps: &[lamp],
             ies_tables: &tables,
             regions: &regions,

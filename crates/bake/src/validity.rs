@@ -38,9 +38,10 @@
 use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use rayon::prelude::*;
 
-use crate::backend::offset_origin;
+use crate::backend::{SceneBvh, offset_origin};
 use crate::cpu::basis;
 use crate::gbuffer::GBuffer;
+
 use crate::rng;
 use crate::scene::Scene;
 
@@ -171,11 +172,10 @@ enum Outcome {
 
 /// Tests every valid texel of `g` and moves or removes the occluded ones (module docs).
 /// `eps` is the ray offset's size term ([`crate::backend::ray_epsilon`]).
-pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &EncodedScene, eps: f32) -> Unoccluded {
+pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Unoccluded {
     // Always the 8-wide BVH (the fastest CPU traversal), whatever the bake's `bvh` setting, so
     // the G-buffer does not depend on it (traversals differ only at exact ties).
-    let wide = WideBvh::from_encoded(bvh);
-    let bvh = (bvh, &wide);
+    let bvh = (&*bvh.encoded, &*bvh.wide);
     let (w, h) = (g.layer_size[0], g.layer_size[1]);
     let texels = g.layers as usize * w as usize * h as usize;
     let density = scene.settings.texels_per_metre;

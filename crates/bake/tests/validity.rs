@@ -2,7 +2,7 @@
 //! out of them or made empty, and the floor next to a contact is not darker than the floor a
 //! few texels further out.
 
-use luxbake::backend::ray_epsilon;
+use luxbake::backend::{SceneBvh, ray_epsilon};
 use luxbake::bake::bake;
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
@@ -95,7 +95,8 @@ fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
         let (tris, attrs) = scene.world_triangles();
         let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
         let encoded = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
-        let stats = unocclude(&mut after, &scene, &encoded, ray_epsilon(2.5));
+        let bvh = SceneBvh::new(encoded);
+        let stats = unocclude(&mut after, &scene, &bvh, ray_epsilon(2.5));
         let quads = contacts(&scene);
         let s = 1.0 / scene.settings.texels_per_metre;
         let (mut inside, mut deep, mut moved) = (0, 0, 0);

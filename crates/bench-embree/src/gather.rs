@@ -20,6 +20,7 @@
 //! pure-traversal rate. Rates are medians over the rounds; the ratio is bake ÷ traversal.
 
 use std::hint::black_box;
+use std::sync::Arc;
 
 use luxbake::backend::{Dispatch, SceneData, offset_origin};
 use luxbake::cpu::{
@@ -39,8 +40,8 @@ use crate::clock::thread_seconds;
 
 /// What the recorder keeps of the uploaded scene.
 struct Uploaded {
-    encoded: EncodedScene,
-    wide: WideBvh,
+    encoded: Arc<EncodedScene>,
+    wide: Arc<WideBvh>,
     regions: Vec<Option<Region>>,
     layer_size: [u32; 2],
     ray_epsilon: f32,
@@ -266,8 +267,8 @@ impl GpuBackend for Recorder {
 
     fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<CpuScene, CpuError> {
         self.uploaded = Some(Uploaded {
-            encoded: scene.bvh.clone(),
-            wide: WideBvh::from_encoded(scene.bvh),
+            encoded: Arc::clone(&scene.bvh.encoded),
+            wide: Arc::clone(&scene.bvh.wide),
             regions: scene.regions.to_vec(),
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,

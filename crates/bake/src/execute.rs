@@ -1,0 +1,347 @@
+//! Executing a [`BakeGraph`] on a backend, and reading its maps back.
+//!
+//! The driver is generic: it creates the graph's textures, uploads the scene, then runs the
+//! passes in order — an upload, or a program dispatched tile by tile — skipping those whose
+//! [`RunWhen`] the decisions so far rule out. After a pass with a [`Check`] it reads back the
+//! energy of one texture (a sum over its valid texels) and decides: where the bounces stop,
+//! and the tail's weight ([`Runtime::TailWeight`]). The graph itself is never changed.
+
+// `web_time::Instant` is `std::time::Instant` natively and `performance.now()` on wasm32.
+use web_time::Instant;
+
+use rayon::prelude::*;
+
+use crate::backend::{Dispatch, GpuBackend, SceneData};
+use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime};
+use crate::layout::Region;
+use crate::map::MapImage;
+use crate::prepare::{Lamps, Room};
+use crate::program::{CombineParams, Params, TilePlan};
+use crate::report::{ObjectMaps, PassTiming, Progress, Skipped};
+use crate::scene::Settings;
+use crate::series::Series;
+
+/// Bounces stop once one adds less than this fraction of the total illuminance.
+pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
+
+/// What the decisions of a run found.
+#[derive(Debug, Default)]
+pub(crate) struct Decisions {
+    /// The bounce at which the bake stopped.
+    stopped: Option<u32>,
+    /// The tail's weight ([`Runtime::TailWeight`]).
+    tail_weight: f32,
+    /// Energy of the direct light and of the paper method's indirect map so far.
+    direct_energy: f64,
+    previous_indirect: f64,
+    /// The converged method's series of increments.
+    pub(crate) series: Series,
+    /// Explicit bounces run.
+    pub(crate) bounces_run: u32,
+    /// Bounces left out.
+    pub(crate) skipped: Option<Skipped>,
+}
+
+impl Decisions {
+    /// Whether a pass that runs `when` runs after the decisions so far.
+    fn runs(&self, when: RunWhen) -> bool {
+        match when {
+            RunWhen::Always => true,
+            RunWhen::Bounce(k) => self.stopped.is_none_or(|s| k <= s),
+            RunWhen::StoppedAt(k) => self.stopped == Some(k),
+        }
+    }
+
+    /// Decides `check` with the energy `energy` of its texture.
+    fn decide(&mut self, check: Check, energy: f64, settings: &Settings) {
+        match check {
+            Check::DirectEnergy(_) => {
+                self.direct_energy = energy;
+                self.series.direct = energy;
+            }
+            Check::PaperBounce { bounce, last, .. } => {
+                self.bounces_run = bounce;
+                let total = self.direct_energy + energy;
+                let added = if total > 0.0 {
+                    ((energy - self.previous_indirect) / total) as f32
+                } else {
+                    0.0
+                };
+                self.previous_indirect = energy;
+                if !last && added.abs() < BOUNCE_ENERGY_THRESHOLD {
+                    self.stop(bounce, settings.bounces, added);
+                }
+            }
+            Check::ConvergedBounce { bounce, last, .. } => {
+                self.bounces_run = bounce;
+                self.series.increments.push(energy);
+                if last {
+                    self.stopped = Some(bounce);
+                } else if self.series.converged(f64::from(settings.tail_tolerance)) {
+                    self.stop(bounce, settings.bounces, self.series.tail_fraction() as f32);
+                }
+                if self.stopped.is_some() {
+                    self.tail_weight = self.series.tail_factor() as f32;
+                }
+            }
+        }
+    }
+
+    /// Stops after `bounce`; bounces up to `to` are left out.
+    fn stop(&mut self, bounce: u32, to: u32, added: f32) {
+        self.stopped = Some(bounce);
+        self.skipped = Some(Skipped::Bounces {
+            from: bounce + 1,
+            to,
+            added,
+        });
+    }
+
+    /// `pass`'s parameter block with the decided runtime values.
+    fn params(&self, pass: &PassDesc) -> Params {
+        match (pass.runtime, pass.params) {
+            (Some(Runtime::TailWeight), Params::Combine(c)) => Params::Combine(CombineParams {
+                b_weight: self.tail_weight,
+                ..c
+            }),
+            (_, params) => params,
+        }
+    }
+}
+
+/// A graph run on a backend: its textures, timings and decisions.
+pub(crate) struct Run<T> {
+    pub(crate) textures: Vec<T>,
+    pub(crate) passes: Vec<PassTiming>,
+    pub(crate) upload_seconds: f64,
+    pub(crate) decisions: Decisions,
+}
+
+/// Sum of RGB over valid texels of `layers` (read-back layers), f64.
+fn energy(layers: &[Vec<f32>]) -> f64 {
+    layers
+        .iter()
+        .flat_map(|l| l.chunks_exact(4))
+        .filter(|t| t[3] > 0.5)
+        .map(|t| f64::from(t[0]) + f64::from(t[1]) + f64::from(t[2]))
+        .sum()
+}
+
+/// Every layer of `texture`.
+fn read_all<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    texture: &B::Texture,
+) -> Result<Vec<Vec<f32>>, B::Error> {
+    (0..room.layout.layers)
+        .map(|l| backend.read_back(texture, l))
+        .collect()
+}
+
+/// Runs `graph` for `room` lit by `lamps` on `backend` (module docs).
+pub(crate) fn run<B: GpuBackend>(
+    backend: &mut B,
+    (room, lamps): (&Room, &Lamps),
+    graph: &BakeGraph,
+    settings: &Settings,
+    progress: &mut dyn FnMut(&Progress<'_>),
+) -> Result<Run<B::Texture>, B::Error> {
+    progress(&Progress::Setup("upload"));
+    let t = Instant::now();
+    let textures = graph
+        .textures
+        .iter()
+        .map(|d| backend.create_texture(d))
+        .collect::<Result<Vec<_>, _>>()?;
+    let layout = &room.layout;
+    let scene = backend.upload_scene(&SceneData {
+        bvh: &room.bvh,
+        lamps: &lamps.params,
+        ies_tables: &lamps.tables,
+        regions: &layout.regions,
+        layer_size: layout.layer_size,
+        layers: layout.layers,
+        ray_epsilon: room.ray_epsilon,
+    })?;
+    let upload_seconds = t.elapsed().as_secs_f64();
+
+    let layer_floats = 4 * layout.layer_size[0] as usize * layout.layer_size[1] as usize;
+    let mut decisions = Decisions::default();
+    let mut passes = Vec::new();
+    let count = graph.passes.len();
+    for (index, pass) in graph.passes.iter().enumerate() {
+        if !decisions.runs(pass.when) {
+            continue;
+        }
+        progress(&Progress::PassStart {
+            index,
+            count,
+            label: pass.label,
+            bounce: pass.bounce,
+        });
+        let t = Instant::now();
+        let mut report = |fraction| progress(&Progress::PassProgress { index, fraction });
+        let uploads: [&[f32]; 3] = match pass.kind {
+            PassKind::GBuffer => [
+                &room.gbuffer.position,
+                &room.gbuffer.normal,
+                &room.gbuffer.albedo,
+            ],
+            PassKind::LampPaths => [lamps.paths.as_ref().map_or(&[][..], |p| &p.0), &[], &[]],
+            _ => [&[]; 3],
+        };
+        if let (Some(program), Some(write)) = (pass.kind.program(), pass.writes.first()) {
+            // `graph.validate()` checked the slots, the parameter block and the sizes.
+            let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
+            let params = decisions.params(pass).words();
+            let plan = TilePlan::new(
+                layout.layer_size,
+                layout.layers,
+                pass.params.work_per_texel(),
+                backend.tile_work(),
+            );
+            let tiles = plan.len();
+            for (done, tile) in plan.tiles().enumerate() {
+                backend.dispatch(&Dispatch {
+                    label: pass.label,
+                    program,
+                    bvh: pass.bvh,
+                    reads: &reads,
+                    write: &textures[write.index()],
+                    scene: &scene,
+                    params: &params,
+                    tile,
+                })?;
+                report((done as u64 + 1) as f32 / tiles as f32);
+            }
+            if tiles == 0 {
+                report(1.0);
+            }
+        } else {
+            for (w, src) in pass.writes.iter().zip(uploads) {
+                for l in 0..layout.layers as usize {
+                    let slice = src
+                        .get(l * layer_floats..(l + 1) * layer_floats)
+                        .unwrap_or(&[]);
+                    backend.upload(&textures[w.index()], l as u32, slice)?;
+                }
+            }
+            report(1.0);
+        }
+        let seconds = t.elapsed().as_secs_f64();
+        progress(&Progress::PassDone { index, seconds });
+        passes.push(PassTiming {
+            label: pass.label,
+            kind: pass.kind,
+            bounce: pass.bounce,
+            seconds,
+        });
+        if let Some(check) = pass.then {
+            let (Check::DirectEnergy(tex)
+            | Check::PaperBounce { indirect: tex, .. }
+            | Check::ConvergedBounce { delta: tex, .. }) = check;
+            let e = energy(&read_all(backend, room, &textures[tex.index()])?);
+            decisions.decide(check, e, settings);
+        }
+    }
+    Ok(Run {
+        textures,
+        passes,
+        upload_seconds,
+        decisions,
+    })
+}
+
+/// Reads the Figure 5 stages back and crops each receiver's maps, one stage at a time: its
+/// layers read back, every object's region cropped (in parallel), the layers dropped before
+/// the next stage's are read.
+pub(crate) fn collect<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    graph: &BakeGraph,
+    textures: &[B::Texture],
+) -> Result<Vec<ObjectMaps>, B::Error> {
+    let layout = &room.layout;
+    let mut stages: Vec<[Option<MapImage>; 8]> = vec![Default::default(); layout.regions.len()];
+    for (i, stage) in graph.figure5.stages.iter().enumerate() {
+        let Some(tex) = stage else { continue };
+        let layers = read_all(backend, room, &textures[tex.index()])?;
+        let crops: Vec<Option<MapImage>> = layout
+            .regions
+            .par_iter()
+            .map(|r| r.as_ref().map(|r| crop(&layers, layout.layer_size, r)))
+            .collect();
+        for (object, map) in stages.iter_mut().zip(crops) {
+            object[i] = map;
+        }
+    }
+    let mut maps = Vec::new();
+    for ((o, region), stages) in layout.regions.iter().enumerate().zip(stages) {
+        let Some(region) = region else { continue };
+        maps.push(ObjectMaps {
+            object: o,
+            name: room
+                .scene
+                .objects
+                .get(o)
+                .map(|ob| ob.name.clone())
+                .unwrap_or_default(),
+            region: *region,
+            stages,
+        });
+    }
+    Ok(maps)
+}
+
+/// Copies `region` out of read-back layers.
+fn crop(layers: &[Vec<f32>], layer_size: [u32; 2], region: &Region) -> MapImage {
+    let mut m = MapImage::zeros(region.size[0], region.size[1]);
+    let Some(layer) = layers.get(region.layer as usize) else {
+        return m;
+    };
+    let w = region.size[0] as usize;
+    for y in 0..region.size[1] as usize {
+        let src = 4
+            * ((region.offset[1] as usize + y) * layer_size[0] as usize
+                + region.offset[0] as usize);
+        let dst = 4 * y * w;
+        if let (Some(s), Some(d)) = (
+            layer.get(src..src + 4 * w),
+            m.texels.get_mut(dst..dst + 4 * w),
+        ) {
+            d.copy_from_slice(s);
+        }
+    }
+    m
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_stop_skips_the_later_bounces_and_runs_only_its_own_tail() {
+        let mut d = Decisions::default();
+        assert!(d.runs(RunWhen::Bounce(3)) && !d.runs(RunWhen::StoppedAt(1)));
+        d.stop(2, 5, 1e-4);
+        for (when, runs) in [
+            (RunWhen::Always, true),
+            (RunWhen::Bounce(1), true),
+            (RunWhen::Bounce(2), true),
+            (RunWhen::Bounce(3), false),
+            (RunWhen::StoppedAt(1), false),
+            (RunWhen::StoppedAt(2), true),
+            (RunWhen::StoppedAt(3), false),
+        ] {
+            assert_eq!(d.runs(when), runs, "{when:?}");
+        }
+        assert_eq!(
+            d.skipped,
+            Some(Skipped::Bounces {
+                from: 3,
+                to: 5,
+                added: 1e-4
+            })
+        );
+    }
+}

@@ -1,0 +1,251 @@
+//! What a bake reports: progress events, what it left out, timings, and its maps.
+
+use std::fmt;
+
+use crate::graph::{BakeGraph, PassKind};
+use crate::layout::{Layout, Region};
+use crate::map::MapImage;
+use crate::scene::{BvhMode, Settings};
+
+/// Progress events of a bake, in order.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Progress<'a> {
+    /// A set-up step starts ("layout", "rasterise", "bvh", "unocclude", "lamp paths", "upload",
+    /// "read back").
+    Setup(&'a str),
+    /// Pass `index` of `count` starts.
+    PassStart {
+        /// Index in the graph.
+        index: usize,
+        /// Number of passes in the graph.
+        count: usize,
+        /// Pass label.
+        label: &'static str,
+        /// Bounce (0 = direct part).
+        bounce: u32,
+    },
+    /// Fraction (0–1) of the running pass done.
+    PassProgress {
+        /// Index in the graph.
+        index: usize,
+        /// Fraction done.
+        fraction: f32,
+    },
+    /// Pass `index` finished after `seconds`.
+    PassDone {
+        /// Index in the graph.
+        index: usize,
+        /// Wall time, seconds.
+        seconds: f64,
+    },
+}
+
+/// Wall time of one executed pass.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PassTiming {
+    /// Pass label.
+    pub label: &'static str,
+    /// Pass kind.
+    pub kind: PassKind,
+    /// Bounce (0 = direct part).
+    pub bounce: u32,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// Something the bake left out because the scene does not need it.
+#[derive(Debug, Clone, PartialEq)]
+#[non_exhaustive]
+pub enum Skipped {
+    /// A lamp lights no texel (behind or turned away from every receiver, or dark).
+    Lamp {
+        /// Lamp index.
+        lamp: usize,
+        /// Lamp name.
+        name: String,
+    },
+    /// A lamp that is used lights no texel of this receiver.
+    LampObject {
+        /// Lamp index.
+        lamp: usize,
+        /// Object index.
+        object: usize,
+        /// Object name.
+        name: String,
+    },
+    /// An object receives no light map.
+    NonReceiver {
+        /// Object index.
+        object: usize,
+        /// Object name.
+        name: String,
+    },
+    /// Bounces `from ..= to` were not run: bounce `from − 1` added only `added` of the light.
+    Bounces {
+        /// First bounce skipped.
+        from: u32,
+        /// Last bounce skipped.
+        to: u32,
+        /// Relative energy the last bounce run added.
+        added: f32,
+    },
+    /// [`Settings::lamp_paths`] were asked for but not combined with the first bounce: it is
+    /// gathered at reduced resolution or refined (the weights need every texel gathered with
+    /// one ray count), or the bake has no bounce or no lamp that lights anything.
+    LampPaths {
+        /// Why.
+        reason: &'static str,
+    },
+    /// Brute-force traversal replaced the requested BVH.
+    Bvh {
+        /// The requested traversal.
+        requested: BvhMode,
+        /// Triangles in the scene.
+        triangles: usize,
+    },
+}
+
+impl fmt::Display for Skipped {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Skipped::Lamp { lamp, name } => {
+                write!(f, "lamp {lamp} `{name}`: lights no texel, left out")
+            }
+            Skipped::LampObject { lamp, name, .. } => {
+                write!(f, "lamp {lamp}: lights no texel of `{name}`")
+            }
+            Skipped::NonReceiver { name, .. } => write!(f, "`{name}`: non-receiver, no map"),
+            Skipped::Bounces { from, to, added } => write!(
+                f,
+                "bounces {from}..={to}: bounce {} added only {:.3} % of the light",
+                from - 1,
+                added * 100.0
+            ),
+            Skipped::LampPaths { reason } => write!(f, "lamp paths: not used, {reason}"),
+            Skipped::Bvh {
+                requested,
+                triangles,
+            } => write!(
+                f,
+                "BVH `{}`: {triangles} triangles, brute force is cheaper",
+                requested.name()
+            ),
+        }
+    }
+}
+
+/// Statistics and timings of a bake.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BakeReport {
+    /// Backend name.
+    pub backend: &'static str,
+    /// Valid (sampled) light-map texels.
+    pub texels: u64,
+    /// Texels of the receivers' regions (valid or not).
+    pub region_texels: u64,
+    /// Triangles in the scene.
+    pub triangles: usize,
+    /// Shadow rays cast (one per valid texel facing a used lamp with non-zero intensity).
+    pub shadow_rays: u64,
+    /// Gather rays cast (valid texels × rays × bounces run).
+    pub gather_rays: u64,
+    /// Traversal used.
+    pub bvh: BvhMode,
+    /// Explicit bounces run.
+    pub bounces_run: u32,
+    /// [`Method::Converged`]: the estimated tail of the
+    /// inter-reflection series that the explicit bounces left out and the bake added, as a
+    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method.
+    pub tail_fraction: f64,
+    /// [`Method::Converged`]: the bounce ratio λ the tail
+    /// was extrapolated with (`None` before a second bounce or for the paper's method).
+    pub bounce_ratio: Option<f64>,
+    /// Set-up steps and their wall time, seconds.
+    pub setup: Vec<(&'static str, f64)>,
+    /// Every executed pass.
+    pub passes: Vec<PassTiming>,
+    /// What was left out.
+    pub skipped: Vec<Skipped>,
+    /// Whole bake, seconds.
+    pub total_seconds: f64,
+}
+
+/// One object's maps, cropped to its region: the eight stages of the paper's Figure 5.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ObjectMaps {
+    /// Object index.
+    pub object: usize,
+    /// Object name.
+    pub name: String,
+    /// Its region in the texture arrays.
+    pub region: Region,
+    /// Stages (1)–(8) ([`crate::graph::Figure5::NAMES`]); 5–8 are `None` without bounces.
+    pub stages: [Option<MapImage>; 8],
+}
+
+static EMPTY: MapImage = MapImage {
+    width: 0,
+    height: 0,
+    texels: Vec::new(),
+};
+
+impl ObjectMaps {
+    fn stage(&self, i: usize) -> &MapImage {
+        self.stages
+            .get(i)
+            .and_then(Option::as_ref)
+            .unwrap_or(&EMPTY)
+    }
+
+    /// Final illuminance, lux, before albedo: blurred combined (7), or blurred direct (3)
+    /// without bounces.
+    pub fn illuminance(&self) -> &MapImage {
+        if self.stages[6].is_some() {
+            self.stage(6)
+        } else {
+            self.stage(2)
+        }
+    }
+
+    /// Final exitance, lm/m², after albedo: (8), or (4) without bounces.
+    pub fn exitance(&self) -> &MapImage {
+        if self.stages[7].is_some() {
+            self.stage(7)
+        } else {
+            self.stage(3)
+        }
+    }
+
+    /// Blurred direct illuminance (3), lux. `illuminance − direct` is the indirect part,
+    /// blurred the same way (the blur is linear).
+    pub fn direct(&self) -> &MapImage {
+        self.stage(2)
+    }
+
+    /// Unblurred direct illuminance (2), lux.
+    pub fn direct_unblurred(&self) -> &MapImage {
+        self.stage(1)
+    }
+
+    /// Indirect illuminance of the last bounce (5), unblurred, if any.
+    pub fn indirect(&self) -> Option<&MapImage> {
+        self.stages[4].as_ref()
+    }
+}
+
+/// The result of a bake.
+#[derive(Debug, Clone)]
+pub struct BakeOutput {
+    /// The settings baked with.
+    pub settings: Settings,
+    /// The light-map layout.
+    pub layout: Layout,
+    /// The executed graph.
+    pub graph: BakeGraph,
+    /// Per receiver, its maps.
+    pub maps: Vec<ObjectMaps>,
+    /// Lamps used by the direct pass.
+    pub lamps_used: Vec<usize>,
+    /// Statistics and timings.
+    pub report: BakeReport,
+}
