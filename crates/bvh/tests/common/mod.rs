@@ -81,6 +81,23 @@ impl Rng {
     }
 }
 
+/// The property tests' configuration: `cases` cases, or `PROPTEST_CASES` where set (a long
+/// run: `PROPTEST_CASES=20000 cargo test -p luxbake-bvh --test agreement`); failures saved
+/// beside the test's source (`<test>.proptest-regressions`) and replayed first on every run.
+pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(cases);
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: Some(Box::new(
+            proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"),
+        )),
+        ..proptest::test_runner::Config::default()
+    }
+}
+
 /// A random "soup" in [0, 1]³: ordinary triangles of random size, plus some zero-area ones,
 /// exact duplicates, axis-aligned flat ones and shared edges.
 pub fn random_scene(rng: &mut Rng, count: usize) -> Vec<Tri> {
@@ -406,6 +423,29 @@ pub fn check_agreement(
         return Err(format!(
             "brute force any-hit {any_reference} vs closest {reference:?}"
         ));
+    }
+    // The hit lies in its triangle's box (up to rounding): no hit far from its triangle, as
+    // slivers gave before they were encoded unhittable.
+    if let Some(r) = reference {
+        let p = scene.triangle_positions(r.triangle);
+        let outside = (0..3).find(|&k| {
+            let at = f64::from(ray.origin[k]) + f64::from(r.t) * f64::from(ray.dir[k]);
+            let lo = p
+                .iter()
+                .map(|v| f64::from(v[k]))
+                .fold(f64::INFINITY, f64::min);
+            let hi = p
+                .iter()
+                .map(|v| f64::from(v[k]))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let slack = 1e-4 * (1.0 + lo.abs().max(hi.abs()));
+            !(lo - slack <= at && at <= hi + slack)
+        });
+        if let Some(k) = outside {
+            return Err(format!(
+                "brute force hit {r:?} lies outside its triangle {p:?}'s box on axis {k}"
+            ));
+        }
     }
     let mut results = vec![
         (
