@@ -135,6 +135,8 @@ mod encode;
 pub mod layout;
 mod links;
 mod sliver;
+#[doc(hidden)]
+pub mod testing;
 mod traverse;
 mod wide;
 
