@@ -3,6 +3,7 @@
 use crate::build::{Bvh, NodeKind};
 use crate::layout::{self, FLOATS_PER_TEXEL, MAX_EXACT_INTEGER};
 use crate::links::{ChildOrder, Link};
+use crate::sliver::is_sliver;
 use crate::{BvhError, TriangleAttributes};
 
 /// Options for [`encode`].
@@ -109,6 +110,11 @@ pub struct EncodedNode {
 /// Encodes `bvh`, built from `triangles`, with per-triangle `attributes` (input order).
 ///
 /// Deterministic: identical input gives identical (bit-for-bit) textures.
+///
+/// Slivers ([`is_sliver`](crate::is_sliver): triangles whose vertices lie within a few
+/// roundings of a line) are written with all three positions equal to their first vertex, so
+/// that no traversal ever hits them; their attributes, slot and leaf are as for any other
+/// triangle (crate docs, "Slivers").
 ///
 /// # Errors
 /// [`BvhError::TriangleCountMismatch`] / [`BvhError::AttributeCountMismatch`] /
@@ -233,6 +239,8 @@ pub fn encode(
             let at = layer as usize * tri_layer + slot * FLOATS_PER_TEXEL;
             tri_data[at..at + 4].copy_from_slice(&texel);
         };
+        // A sliver is collapsed to its first vertex, so that no traversal ever hits it.
+        let p = if is_sliver(p) { &[p[0]; 3] } else { p };
         put(layout::TRI_P0_LAYER, [p[0][0], p[0][1], p[0][2], 0.0]);
         put(layout::TRI_P1_LAYER, [p[1][0], p[1][1], p[1][2], 0.0]);
         put(layout::TRI_P2_LAYER, [p[2][0], p[2][1], p[2][2], 0.0]);
@@ -344,7 +352,8 @@ impl EncodedScene {
         }
     }
 
-    /// Reads encoded triangle `t`'s vertex positions back, as the traversal does.
+    /// Reads encoded triangle `t`'s vertex positions back, as the traversal does (a sliver's
+    /// are its first vertex three times, see [`encode`]).
     pub fn triangle_positions(&self, t: u32) -> [[f32; 3]; 3] {
         let c = Self::coord_of(t, self.tri_size);
         [

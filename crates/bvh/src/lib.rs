@@ -64,6 +64,24 @@
 //! an edge or a vertex. On the GPU this holds as long as the compiler does not contract the
 //! edge-function products into fused multiply-adds differently for the two triangles.
 //!
+//! ## Slivers
+//! A triangle whose vertices lie on a line up to a few roundings ([`is_sliver`]: height over its
+//! longest edge at most [`SLIVER_HEIGHT_ULPS`] × `f32::EPSILON` × its largest coordinate
+//! magnitude; a vertex that is the `f32` midpoint of the other two, a point, a segment) has no
+//! area to hit, but a ray through or near its line gets edge functions that are all rounding
+//! noise, and when they come out with one sign the watertight test reports a hit at a noise
+//! `t`: on a seeded random scene, 0.12 outside the sliver's box, found by brute force and the
+//! wide BVH and culled by the TBVH/MTBVH boxes (a shadow speck or light leak in a bake).
+//! [`encode`] therefore stores a sliver's positions as its first vertex three times, which the
+//! test rejects exactly (all edge functions `x·y − y·x` = 0, `det` = 0), for every traversal
+//! alike since they all read these texels. The caller sees the same tree, triangle count,
+//! order, leaf ranges and attributes; only [`EncodedScene::triangle_positions`] of a sliver
+//! differs, and it is never hit. Other triangles' hits are unchanged bit for bit; a scene
+//! without slivers encodes exactly as before (the shared models and the procedural room have
+//! none: their thinnest triangles are over 1 000 such units high). On the GPU this relies on
+//! the shader compiler not contracting the edge functions into fused multiply-adds, as
+//! watertightness does.
+//!
 //! ## Traversal and its GLSL ES 3.00 mirror
 //! | Rust here | GLSL ES 3.00 |
 //! |---|---|
@@ -116,12 +134,16 @@ mod build;
 mod encode;
 pub mod layout;
 mod links;
+mod sliver;
+#[doc(hidden)]
+pub mod testing;
 mod traverse;
 mod wide;
 
 pub use build::{BuildOptions, Bvh, Node, NodeKind, sah_cost};
 pub use encode::{EncodeOptions, EncodedNode, EncodedScene, TextureSize, encode, texture_size};
 pub use links::{ChildOrder, Link};
+pub use sliver::{SLIVER_HEIGHT_ULPS, is_sliver};
 pub use traverse::{
     Hit, LinkTexture, Ray, Traversal, TraversalStats, WatertightRay, dominant_direction,
 };

@@ -175,7 +175,11 @@ impl WatertightRay {
 
     /// Watertight ray/triangle test. Returns `(t, u, v)` with `t` in the open interval
     /// `(t_min, t_max)` and `u`, `v` the barycentric weights of `p1`, `p2`. Both faces count;
-    /// zero-area triangles and rays in the triangle's plane never hit.
+    /// a point (three equal vertices), a segment (two) and rays in the triangle's plane whose
+    /// sheared coordinates are exact never hit. Other slivers (collinear vertices,
+    /// [`crate::is_sliver`]) can be reported hit at a meaningless `t` by a ray through their
+    /// line, when the rounding noise of the edge functions has one sign: [`crate::encode`]
+    /// stores them as points.
     pub fn hits_triangle(
         &self,
         p0: [f32; 3],

@@ -1211,6 +1211,7 @@ impl BoxRay {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::SplitMix64;
 
     fn node_with(boxes: &[([f32; 3], [f32; 3])]) -> Node {
         let mut n = EMPTY_NODE;
@@ -1295,22 +1296,18 @@ mod tests {
         assert_eq!(checked, 8 * 4 * 8 * 8 * 2 * 3);
     }
 
-    /// SplitMix64, for seeded test data.
-    struct Rng(u64);
+    /// The crate's SplitMix64, with coordinates on a coarse grid a quarter of the time.
+    struct Rng(SplitMix64);
 
     impl Rng {
         fn next(&mut self) -> u64 {
-            self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-            let mut z = self.0;
-            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-            z ^ (z >> 31)
+            self.0.next_u64()
         }
 
         /// Uniform in `[lo, hi)`, on a coarse grid a quarter of the time (exact ties, shared
         /// coordinates, axis-aligned edges).
         fn coord(&mut self, lo: f32, hi: f32) -> f32 {
-            let x = (self.next() >> 40) as f32 / (1u64 << 24) as f32;
+            let x = self.0.f32();
             if self.next().is_multiple_of(4) {
                 lo + ((x * 8.0).floor() / 8.0) * (hi - lo)
             } else {
@@ -1327,7 +1324,7 @@ mod tests {
     fn packet_test_matches_the_scalar_watertight_test() {
         let mut lanes_hit = 0;
         for seed in 0..400u64 {
-            let mut rng = Rng(seed);
+            let mut rng = Rng(SplitMix64(seed));
             let v: Vec<[f32; 3]> = (0..6)
                 .map(|_| std::array::from_fn(|_| rng.coord(-1.0, 1.0)))
                 .collect();
@@ -1418,7 +1415,7 @@ mod tests {
     #[test]
     fn avx_and_sse_walks_agree_with_brute_force() {
         use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
-        let mut rng = Rng(11);
+        let mut rng = Rng(SplitMix64(11));
         let tris: Vec<[[f32; 3]; 3]> = (0..3000)
             .map(|_| {
                 let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
@@ -1492,7 +1489,7 @@ mod tests {
             f32::INFINITY,
             f32::NAN,
         ];
-        let mut rng = Rng(23);
+        let mut rng = Rng(SplitMix64(23));
         let mut compared = 0;
         for k in 0..20_000 {
             let mut c = || {
@@ -1534,7 +1531,7 @@ mod tests {
     #[test]
     fn small_subtrees_share_a_packet() {
         use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
-        let mut rng = Rng(5);
+        let mut rng = Rng(SplitMix64(5));
         let tris: Vec<[[f32; 3]; 3]> = (0..300)
             .map(|_| {
                 let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));

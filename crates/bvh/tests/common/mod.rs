@@ -4,43 +4,32 @@
 
 use std::path::PathBuf;
 
+use luxbake_bvh::testing::SplitMix64;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
 
 /// A triangle as the crate takes it.
 pub type Tri = [[f32; 3]; 3];
 
-/// SplitMix64: tiny, seedable, good enough for test scenes.
-pub struct Rng(u64);
+/// The crate's SplitMix64 ([`luxbake_bvh::testing::SplitMix64`], its methods through `Deref`)
+/// with the ray directions the tests draw.
+pub struct Rng(SplitMix64);
+
+impl std::ops::Deref for Rng {
+    type Target = SplitMix64;
+    fn deref(&self) -> &SplitMix64 {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Rng {
+    fn deref_mut(&mut self) -> &mut SplitMix64 {
+        &mut self.0
+    }
+}
 
 impl Rng {
     pub fn new(seed: u64) -> Self {
-        Rng(seed)
-    }
-
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    pub fn f32(&mut self) -> f32 {
-        (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32
-    }
-
-    /// Uniform in [lo, hi).
-    pub fn range(&mut self, lo: f32, hi: f32) -> f32 {
-        lo + (hi - lo) * self.f32()
-    }
-
-    pub fn below(&mut self, n: u64) -> u64 {
-        self.next_u64() % n.max(1)
-    }
-
-    pub fn point(&mut self, lo: f32, hi: f32) -> [f32; 3] {
-        [self.range(lo, hi), self.range(lo, hi), self.range(lo, hi)]
+        Rng(SplitMix64::new(seed))
     }
 
     /// A random direction, sometimes axis-aligned with ±0 in the other components.
@@ -78,6 +67,23 @@ impl Rng {
                 }
             },
         }
+    }
+}
+
+/// The property tests' configuration: `cases` cases, or `PROPTEST_CASES` where set (a long
+/// run: `PROPTEST_CASES=20000 cargo test -p luxbake-bvh --test agreement`); failures saved
+/// beside the test's source (`<test>.proptest-regressions`) and replayed first on every run.
+pub fn proptest_config(cases: u32) -> proptest::test_runner::Config {
+    let cases = std::env::var("PROPTEST_CASES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(cases);
+    proptest::test_runner::Config {
+        cases,
+        failure_persistence: Some(Box::new(
+            proptest::test_runner::FileFailurePersistence::WithSource("proptest-regressions"),
+        )),
+        ..proptest::test_runner::Config::default()
     }
 }
 
@@ -406,6 +412,29 @@ pub fn check_agreement(
         return Err(format!(
             "brute force any-hit {any_reference} vs closest {reference:?}"
         ));
+    }
+    // The hit lies in its triangle's box (up to rounding): no hit far from its triangle, as
+    // slivers gave before they were encoded unhittable.
+    if let Some(r) = reference {
+        let p = scene.triangle_positions(r.triangle);
+        let outside = (0..3).find(|&k| {
+            let at = f64::from(ray.origin[k]) + f64::from(r.t) * f64::from(ray.dir[k]);
+            let lo = p
+                .iter()
+                .map(|v| f64::from(v[k]))
+                .fold(f64::INFINITY, f64::min);
+            let hi = p
+                .iter()
+                .map(|v| f64::from(v[k]))
+                .fold(f64::NEG_INFINITY, f64::max);
+            let slack = 1e-4 * (1.0 + lo.abs().max(hi.abs()));
+            !(lo - slack <= at && at <= hi + slack)
+        });
+        if let Some(k) = outside {
+            return Err(format!(
+                "brute force hit {r:?} lies outside its triangle {p:?}'s box on axis {k}"
+            ));
+        }
     }
     let mut results = vec![
         (
