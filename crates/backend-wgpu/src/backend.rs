@@ -641,7 +641,7 @@ impl GpuBackend for WgpuBackend {
 mod tests {
     use super::*;
     use luxbake::bake::{Progress, bake};
-    use luxbake::graph::TexFormat;
+    use luxbake::graph::{PassKind, TexFormat};
     use luxbake::scene::{Blur, Scene, Settings};
 
     /// A backend; without a driver `None` after [`luxbake::ci::skip_or_fail`] (which fails
@@ -760,7 +760,12 @@ mod tests {
                 assert_eq!(f.last(), Some(&1.0), "pass {pass}");
                 assert!(f.windows(2).all(|w| w[0] < w[1]), "pass {pass}: {f:?}");
             }
-            let direct_reports = fractions.iter().filter(|(i, _)| *i == 1).count();
+            let direct = out
+                .graph
+                .passes
+                .iter()
+                .position(|p| p.kind == PassKind::Run(Program::Direct));
+            let direct_reports = fractions.iter().filter(|(i, _)| Some(*i) == direct).count();
             let rows = out.layout.layer_size[1] * out.layout.layers;
             if tile_work == 1 {
                 // One row per tile.

@@ -106,77 +106,27 @@ pub struct TexDesc {
     pub format: TexFormat,
 }
 
-/// Axis of one separable blur pass.
+/// What a pass does: upload data computed on the host, or run a [`Program`] (whose
+/// parameters are the pass's [`PassDesc::params`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum Axis {
-    /// Along texel rows (x, light-map u).
-    U,
-    /// Along texel columns (y, light-map v).
-    V,
-}
-
-/// What a pass computes (see the module docs for its reads and writes).
-#[derive(Debug, Clone, Copy, PartialEq)]
 pub enum PassKind {
     /// The G-buffer: world position (w = 1 valid), normal (w = object index) and albedo
-    /// (w = coverage) per texel, rasterised on the CPU and uploaded.
+    /// (w = coverage) per texel, rasterised on the host and uploaded.
     GBuffer,
-    /// Direct illuminance from the uploaded lamps, with shadow rays.
-    Direct,
-    /// Texel-for-texel copy.
-    Copy,
-    /// One axis of the separable Gaussian, over valid texels of the same object only.
-    Blur {
-        /// Axis of this pass.
-        axis: Axis,
-        /// Standard deviation, texels.
-        sigma: f32,
-    },
-    /// `dst.rgb = src.rgb × albedo.rgb`: illuminance to exitance.
-    AlbedoMul,
-    /// Indirect illuminance: mean reflected exitance over cosine-weighted hemisphere rays.
-    Gather {
-        /// Bounce number, 1-based (also the `pass` input of the RNG hash).
-        bounce: u32,
-    },
-    /// `dst = a_weight · a + b_weight · b` (direct + indirect).
-    Combine,
-    /// The noise variance estimate that guides the à-trous filter.
-    Variance,
-    /// One à-trous iteration of the edge-stopping filter.
-    Atrous {
-        /// Tap spacing, texels (2^iteration).
-        step: i32,
-    },
-    /// Fills the texels a reduced-resolution gather left out.
-    Upsample,
-    /// Progressive refinement of a gather where its variance estimate misses the target.
-    Refine {
-        /// Bounce number, 1-based.
-        bounce: u32,
-    },
     /// The lamp paths' part of the first bounce, computed on the host and uploaded
     /// ([`crate::lightpaths::LampPaths::connect`]).
     LampPaths,
+    /// A computed pass.
+    Run(Program),
 }
 
 impl PassKind {
-    /// The shader program a backend runs for this pass; `None` for the G-buffer (uploaded,
-    /// not computed).
+    /// The shader program a backend runs for this pass; `None` for an upload.
     pub fn program(&self) -> Option<Program> {
-        Some(match self {
-            PassKind::GBuffer | PassKind::LampPaths => return None,
-            PassKind::Direct => Program::Direct,
-            PassKind::Copy => Program::Copy,
-            PassKind::Blur { .. } => Program::Blur,
-            PassKind::AlbedoMul => Program::AlbedoMul,
-            PassKind::Gather { .. } => Program::Gather,
-            PassKind::Combine => Program::Combine,
-            PassKind::Variance => Program::Variance,
-            PassKind::Atrous { .. } => Program::Atrous,
-            PassKind::Upsample => Program::Upsample,
-            PassKind::Refine { .. } => Program::Refine,
-        })
+        match self {
+            PassKind::Run(p) => Some(*p),
+            PassKind::GBuffer | PassKind::LampPaths => None,
+        }
     }
 }
 
@@ -440,7 +390,7 @@ impl Builder {
     fn finish(mut self, parts: GraphParts) -> BakeGraph {
         let mut lit = vec![false; self.textures.len()];
         for p in &mut self.passes {
-            p.lamps = matches!(p.kind, PassKind::Direct | PassKind::LampPaths)
+            p.lamps = matches!(p.kind, PassKind::Run(Program::Direct) | PassKind::LampPaths)
                 || p.reads.iter().any(|r| lit[r.index()]);
             for w in &p.writes {
                 lit[w.index()] |= p.lamps;
@@ -507,7 +457,7 @@ fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
 fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig) -> TexId {
     let direct = b.texture("direct");
     b.pass(
-        PassKind::Direct,
+        PassKind::Run(Program::Direct),
         "direct",
         vec![g.position, g.normal],
         vec![direct],
@@ -536,7 +486,7 @@ fn blur_stage(
     labels: [&'static str; 3],
 ) {
     b.pass(
-        PassKind::Copy,
+        PassKind::Run(Program::Copy),
         labels[0],
         vec![src],
         vec![dst],
@@ -544,12 +494,11 @@ fn blur_stage(
         Params::None,
     );
     if let (Blur::Sigma(sigma), Some(tmp)) = (blur, tmp) {
-        for (axis, step, from, to, label) in [
-            (Axis::U, [1, 0], dst, tmp, labels[1]),
-            (Axis::V, [0, 1], tmp, dst, labels[2]),
-        ] {
+        for (step, from, to, label) in
+            [([1, 0], dst, tmp, labels[1]), ([0, 1], tmp, dst, labels[2])]
+        {
             b.pass(
-                PassKind::Blur { axis, sigma },
+                PassKind::Run(Program::Blur),
                 label,
                 vec![from, g.normal],
                 vec![to],
@@ -570,7 +519,7 @@ fn albedo_stage(
     label: &'static str,
 ) {
     b.pass(
-        PassKind::AlbedoMul,
+        PassKind::Run(Program::AlbedoMul),
         label,
         vec![src, g.albedo],
         vec![dst],
@@ -610,7 +559,7 @@ fn gather_stage(
         _ => reflected,
     };
     b.pass(
-        PassKind::Gather { bounce },
+        PassKind::Run(Program::Gather),
         "gather",
         vec![g.position, g.normal, reflected, connected],
         vec![if reduced { coarse } else { indirect }],
@@ -631,7 +580,7 @@ fn gather_stage(
     );
     if reduced {
         b.pass(
-            PassKind::Upsample,
+            PassKind::Run(Program::Upsample),
             "upsample",
             vec![coarse, g.position, g.normal],
             vec![indirect],
@@ -648,7 +597,7 @@ fn gather_stage(
 /// Stage (6): direct + indirect.
 fn combine_stage(b: &mut Builder, direct: TexId, indirect: TexId, combined: TexId, bounce: u32) {
     b.pass(
-        PassKind::Combine,
+        PassKind::Run(Program::Combine),
         "combine",
         vec![direct, indirect],
         vec![combined],
@@ -685,17 +634,17 @@ fn denoise_stage(
     for (_, params) in atrous_steps(config) {
         match params {
             Params::Variance(_) => b.pass(
-                PassKind::Variance,
+                PassKind::Run(Program::Variance),
                 "variance",
                 vec![noisy, g.position, g.normal],
                 vec![variance],
                 bounce,
                 params,
             ),
-            Params::Atrous(p) => {
+            Params::Atrous(_) => {
                 let target = if current == noisy { scratch } else { noisy };
                 b.pass(
-                    PassKind::Atrous { step: p.step },
+                    PassKind::Run(Program::Atrous),
                     "atrous",
                     vec![current, variance, g.position, g.normal],
                     vec![target],
@@ -709,7 +658,7 @@ fn denoise_stage(
     }
     if current != noisy {
         b.pass(
-            PassKind::Copy,
+            PassKind::Run(Program::Copy),
             "atrous_copy",
             vec![current],
             vec![noisy],
@@ -796,7 +745,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     // estimate, then more rays where the estimate misses the target.
                     gather_stage(&mut b, g, [source, scratch, scratch], k, sampling);
                     b.pass(
-                        PassKind::Variance,
+                        PassKind::Run(Program::Variance),
                         "refine_variance",
                         vec![scratch, g.position, g.normal],
                         vec![variance],
@@ -808,7 +757,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                         }),
                     );
                     b.pass(
-                        PassKind::Refine { bounce: k },
+                        PassKind::Run(Program::Refine),
                         "refine",
                         vec![g.position, g.normal, source, scratch, variance],
                         vec![delta],
@@ -835,7 +784,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             let sum = sums[(k as usize - 1) % 2];
             if k == 1 {
                 b.pass(
-                    PassKind::Copy,
+                    PassKind::Run(Program::Copy),
                     "accumulate",
                     vec![delta],
                     vec![sum],
@@ -844,7 +793,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 );
             } else {
                 b.pass(
-                    PassKind::Combine,
+                    PassKind::Run(Program::Combine),
                     "accumulate",
                     vec![sums[k as usize % 2], delta],
                     vec![sum],
@@ -862,7 +811,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             // decides f ([`Runtime::TailWeight`]).
             b.when = RunWhen::StoppedAt(k);
             b.pass(
-                PassKind::Combine,
+                PassKind::Run(Program::Combine),
                 "tail",
                 vec![sum, delta],
                 vec![scratch],
@@ -1150,7 +1099,7 @@ mod tests {
     fn gather_passes(g: &BakeGraph) -> Vec<&PassDesc> {
         g.passes
             .iter()
-            .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+            .filter(|p| p.kind == PassKind::Run(Program::Gather))
             .collect()
     }
 
@@ -1291,7 +1240,7 @@ mod tests {
                 let gathers: Vec<&PassDesc> = g
                     .passes
                     .iter()
-                    .filter(|p| matches!(p.kind, PassKind::Gather { .. }))
+                    .filter(|p| p.kind == PassKind::Run(Program::Gather))
                     .collect();
                 for (k, p) in gathers.iter().enumerate() {
                     let Params::Gather(gp) = p.params else {
@@ -1357,10 +1306,10 @@ mod tests {
                 assert_eq!(labels, want);
                 let count =
                     |f: fn(&PassKind) -> bool| g.passes.iter().filter(|p| f(&p.kind)).count();
-                assert_eq!(count(|k| matches!(k, PassKind::Blur { .. })), 0);
+                assert_eq!(count(|k| *k == PassKind::Run(Program::Blur)), 0);
                 // Each filter reads an increment (never the direct light).
                 for p in &g.passes {
-                    if matches!(p.kind, PassKind::Variance | PassKind::Atrous { .. }) {
+                    if matches!(p.kind, PassKind::Run(Program::Variance | Program::Atrous)) {
                         assert_ne!(p.reads[0], g.direct);
                     }
                 }
@@ -1394,7 +1343,7 @@ mod tests {
             Program::ALL.iter().map(|p| p.label()).collect();
         assert_eq!(labels.len(), Program::ALL.len());
         for p in &g.passes {
-            let rays = matches!(p.kind, PassKind::Direct | PassKind::Gather { .. });
+            let rays = matches!(p.kind, PassKind::Run(Program::Direct | Program::Gather));
             assert_eq!(p.kind.program().is_some_and(Program::traces_rays), rays);
         }
     }
@@ -1549,7 +1498,7 @@ mod tests {
                 ..DirectParams::default()
             })
         );
-        assert_eq!(g.passes[6].kind, PassKind::Gather { bounce: 1 });
+        assert_eq!(g.passes[6].kind, PassKind::Run(Program::Gather));
         let Params::Gather(gp) = g.passes[6].params else {
             panic!("gather parameters: {:?}", g.passes[6].params);
         };
@@ -1600,12 +1549,7 @@ mod tests {
         assert_eq!(gathers[1].reads[2], f[7]);
         assert_eq!(gathers[2].reads[2], f[7]);
         for (k, p) in gathers.iter().enumerate() {
-            assert_eq!(
-                p.kind,
-                PassKind::Gather {
-                    bounce: k as u32 + 1
-                }
-            );
+            assert_eq!(p.kind, PassKind::Run(Program::Gather));
             assert_eq!(p.bounce, k as u32 + 1);
             assert_eq!(p.writes, vec![f[4]]);
         }
@@ -1613,7 +1557,7 @@ mod tests {
         assert!(
             g.passes
                 .iter()
-                .all(|p| !matches!(p.kind, PassKind::Blur { .. }))
+                .all(|p| p.kind != PassKind::Run(Program::Blur))
         );
         let one = BakeGraph::build(&config(1, Blur::None));
         assert_eq!(one.textures.len(), g.textures.len());

@@ -93,6 +93,7 @@
 pub mod backend;
 pub mod bake;
 pub mod ci;
+pub mod contract;
 pub mod cpu;
 mod execute;
 pub mod gbuffer;
@@ -102,6 +103,7 @@ pub mod lightpaths;
 pub mod map;
 pub mod output;
 pub mod pack;
+pub mod passes;
 pub mod prepare;
 pub mod probe;
 pub mod program;

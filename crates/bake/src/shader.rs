@@ -16,6 +16,11 @@
 //! - WGSL only: the output `lux_out` and the tile `lux_tile` ([`TileParams`]). GLSL draws into
 //!   the bound layer (`u_layer`, `common.glsl`) and restricts rows with the viewport.
 //!
+//! and the generated entry point after it ([`GLSL_ENTRY`], [`WGSL_ENTRY`]): a pass file only
+//! defines the value of one texel, `vec4 luxRun(ivec3 c)` / `fn lux_run(c: vec2<i32>) ->
+//! vec4<f32>`; the entry finds the texel of the invocation, skips those outside the tile and
+//! writes the value.
+//!
 //! The `#version`/precision header of GLSL is the GL backend's (it differs between WebGL2 and
 //! desktop contexts).
 
@@ -194,8 +199,27 @@ pub fn glsl_sources(program: Program) -> Vec<&'static str> {
     let sig = program.signature();
     let mut v: Vec<&'static str> = sig.libraries.iter().map(|&l| glsl_library(l)).collect();
     v.push(program.signature().glsl);
+    v.push(GLSL_ENTRY);
     v
 }
+
+/// The generated GLSL entry point: a pass file defines `vec4 luxRun(ivec3 c)`, the value of
+/// texel `c` (x, y, layer); the fragment shader writes it.
+pub const GLSL_ENTRY: &str = "\nvoid main() {\n    o_color = luxRun(luxTexel());\n}\n";
+
+/// The generated WGSL entry point: a pass file defines `fn lux_run(c: vec2<i32>) -> vec4<f32>`,
+/// the value of texel `c` of the tile's layer; the compute shader skips invocations outside
+/// the tile and stores it.
+pub const WGSL_ENTRY: &str = "
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
+        return;
+    }
+    lux_store(c, lux_run(c));
+}
+";
 
 /// The WGSL declaration of a parameter struct named `name` with `fields`.
 pub fn wgsl_struct(name: &str, fields: &[Field]) -> String {
@@ -248,6 +272,7 @@ pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> Strin
     }
     s.push_str(program.signature().wgsl);
     s.push('\n');
+    s.push_str(WGSL_ENTRY);
     s
 }
 
@@ -315,6 +340,16 @@ mod tests {
             }
             assert!(!pass_glsl.contains("\nuniform "), "{}", p.label());
             assert!(!pass_wgsl.contains("@binding"), "{}", p.label());
+            // The entry points are generated: a pass file defines the texel's value only.
+            assert!(
+                pass_glsl.contains("\nvec4 luxRun(ivec3 c) {\n"),
+                "{}",
+                p.label()
+            );
+            assert!(pass_wgsl.contains("\nfn lux_run(c: vec2<i32>) -> vec4<f32> {\n"));
+            for generated in ["void main()", "o_color", "@compute", "lux_store"] {
+                assert!(!pass_glsl.contains(generated) && !pass_wgsl.contains(generated));
+            }
         }
     }
 }

@@ -1,0 +1,238 @@
+//! The pass contract's vocabulary: what a pass declares about itself, as data.
+//!
+//! A pass ([`crate::passes`]) declares its [`Signature`] — the texture slots it reads, the
+//! scene resources it needs ([`SceneNeeds`]), its parameter block ([`ParamBlock`], defined
+//! with `param_block!`, whose [`Field`]s generate the shaders' declarations) and the shared
+//! shader [`Library`] files it includes. Every dispatch also gets the [`TileParams`] block.
+//! [`crate::program`] re-exports all of it.
+
+use std::fmt;
+
+/// Scalar type of a parameter field (every field is 4 bytes, so `#[repr(C)]`, std140 and WGSL
+/// uniform layouts agree).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Scalar {
+    /// `u32` / `uint`.
+    U32,
+    /// `i32` / `int`.
+    I32,
+    /// `f32` / `float`.
+    F32,
+}
+
+impl Scalar {
+    /// The GLSL ES 3.00 type name.
+    pub fn glsl(self) -> &'static str {
+        match self {
+            Scalar::U32 => "uint",
+            Scalar::I32 => "int",
+            Scalar::F32 => "float",
+        }
+    }
+
+    /// The WGSL type name.
+    pub fn wgsl(self) -> &'static str {
+        match self {
+            Scalar::U32 => "u32",
+            Scalar::I32 => "i32",
+            Scalar::F32 => "f32",
+        }
+    }
+}
+
+/// A Rust scalar that can be a parameter field.
+pub trait ParamScalar: Copy {
+    /// Its [`Scalar`] type.
+    const SCALAR: Scalar;
+    /// Its bits, as a shader reads them.
+    fn to_bits(self) -> u32;
+    /// The value of `bits`.
+    fn from_bits(bits: u32) -> Self;
+}
+
+impl ParamScalar for u32 {
+    const SCALAR: Scalar = Scalar::U32;
+    fn to_bits(self) -> u32 {
+        self
+    }
+    fn from_bits(bits: u32) -> Self {
+        bits
+    }
+}
+
+impl ParamScalar for i32 {
+    const SCALAR: Scalar = Scalar::I32;
+    fn to_bits(self) -> u32 {
+        self as u32
+    }
+    fn from_bits(bits: u32) -> Self {
+        bits as i32
+    }
+}
+
+impl ParamScalar for f32 {
+    const SCALAR: Scalar = Scalar::F32;
+    fn to_bits(self) -> u32 {
+        f32::to_bits(self)
+    }
+    fn from_bits(bits: u32) -> Self {
+        f32::from_bits(bits)
+    }
+}
+
+/// One field of a parameter block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Field {
+    /// Field name: `u_<name>` in GLSL, `<block>.<name>` in WGSL.
+    pub name: &'static str,
+    /// Scalar type.
+    pub ty: Scalar,
+    /// Byte offset in the `#[repr(C)]` struct (and the WGSL uniform struct).
+    pub offset: usize,
+}
+
+impl Field {
+    /// Whether the field only pads the block to 16 bytes (not declared in GLSL).
+    pub fn is_padding(&self) -> bool {
+        self.name.starts_with("pad")
+    }
+}
+
+/// A `#[repr(C)]` uniform parameter block of 4-byte scalars, 16-byte aligned in size.
+pub trait ParamBlock: Copy + fmt::Debug {
+    /// The struct's name in WGSL.
+    const WGSL_NAME: &'static str;
+    /// Its fields in declaration order, offsets included.
+    const FIELDS: &'static [Field];
+    /// The field values as 32-bit words, in order (`FIELDS[i]` at word `i`).
+    fn words(&self) -> Vec<u32>;
+    /// The block from words written by [`words`](Self::words); missing words read as 0.
+    fn from_words(words: &[u32]) -> Self;
+}
+
+macro_rules! param_block {
+    ($(#[$meta:meta])* $name:ident as $wgsl:literal {
+        $($(#[$fmeta:meta])* $field:ident: $ty:ty),* $(,)?
+    }) => {
+        $(#[$meta])*
+        #[repr(C)]
+        #[derive(Debug, Clone, Copy, PartialEq, Default)]
+        pub struct $name {
+            $($(#[$fmeta])* pub $field: $ty),*
+        }
+
+        impl ParamBlock for $name {
+            const WGSL_NAME: &'static str = $wgsl;
+            const FIELDS: &'static [Field] = &[$(Field {
+                name: stringify!($field),
+                ty: <$ty as ParamScalar>::SCALAR,
+                offset: std::mem::offset_of!($name, $field),
+            }),*];
+
+            fn words(&self) -> Vec<u32> {
+                vec![$(ParamScalar::to_bits(self.$field)),*]
+            }
+
+            fn from_words(words: &[u32]) -> Self {
+                let mut it = words.iter().copied();
+                $name {
+                    $($field: <$ty as ParamScalar>::from_bits(it.next().unwrap_or(0))),*
+                }
+            }
+        }
+
+        const _: () = assert!(std::mem::size_of::<$name>() % 16 == 0);
+    };
+}
+
+param_block! {
+    /// The tile one dispatch covers: texels `x0 .. x0 + width`, rows `y0 .. y0 + height` of
+    /// layer `layer`, in a texture array of `layer_w × layer_h` texels per layer.
+    TileParams as "LuxTile" {
+        /// First column.
+        x0: u32,
+        /// First row.
+        y0: u32,
+        /// Columns.
+        width: u32,
+        /// Rows.
+        height: u32,
+        /// Texture-array layer.
+        layer: u32,
+        /// Layer width, texels.
+        layer_w: u32,
+        /// Layer height, texels.
+        layer_h: u32,
+        /// Padding.
+        pad0: u32,
+    }
+}
+
+pub(crate) use param_block;
+
+/// Static scene resources a program reads.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct SceneNeeds {
+    /// The encoded BVH and triangle data (the program casts rays).
+    pub bvh: bool,
+    /// The uploaded lamps and their intensity tables.
+    pub lamps: bool,
+    /// The objects' light-map regions.
+    pub regions: bool,
+}
+
+impl SceneNeeds {
+    /// No scene resource.
+    pub const NONE: SceneNeeds = SceneNeeds {
+        bvh: false,
+        lamps: false,
+        regions: false,
+    };
+}
+
+/// A shared shader library file (one per language in `shaders/lib/`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Library {
+    /// The gather's ray loop: cosine-weighted directions, the masked bilinear look-up of the
+    /// hit's light-map texel (`cpu::gather_rays`); for programs reading the slot `reflected`.
+    Gather,
+    /// The reduced-resolution gather's grid test ([`coarse`]); for programs reading the slots
+    /// `position` and `normal`.
+    Coarse,
+    /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, `luxLuminance`, the
+    /// output).
+    Common,
+    /// The stateless RNG hash ([`crate::rng`], bit-exact).
+    Rng,
+    /// Scene resources: ray epsilon, lamps, regions (WGSL: the scene bind group).
+    Scene,
+    /// BVH traversal over the encoded textures (`luxbake_bvh::traverse`, line for line).
+    Bvh,
+    /// Bilinear intensity-table sampling (`luxbake_ies::GpuTable::sample`).
+    Ies,
+    /// A lamp seen unshadowed from a surface point ([`crate::backend::lamp_toward`]); after
+    /// [`Library::Scene`] and [`Library::Ies`].
+    Lamp,
+    /// The denoiser's guide: whether a tap lies on the centre's surface (`cpu::Guide`); for
+    /// programs reading the slots `src`, `position` and `normal`.
+    Guide,
+}
+
+/// What a program reads and which parameters it takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Signature {
+    /// Slot names of the graph textures read, in `PassDesc::reads` order.
+    pub reads: &'static [&'static str],
+    /// Scene resources read.
+    pub scene: SceneNeeds,
+    /// The parameter block's fields (empty: no block).
+    pub params: &'static [Field],
+    /// The block's name in WGSL (`""` without a block).
+    pub params_wgsl: &'static str,
+    /// Library files included before the pass file, in order.
+    pub libraries: &'static [Library],
+    /// The pass file in GLSL ES 3.00: `shaders/<label>/<label>.glsl`.
+    pub glsl: &'static str,
+    /// The pass file in WGSL: `shaders/<label>/<label>.wgsl`.
+    pub wgsl: &'static str,
+}

@@ -1,0 +1,10 @@
+// Pass "albedo multiply" (paper Figure 4, boxes 4 and 8): illuminance (lux) to exitance
+// (lm/m^2), dst = (src.rgb * albedo.rgb, src.a).
+
+
+fn lux_run(c: vec2<i32>) -> vec4<f32> {
+    let layer = i32(lux_tile.layer);
+    let a = textureLoad(lux_src, c, layer, 0);
+    let b = textureLoad(lux_albedo, c, layer, 0);
+    return vec4<f32>(lux_guard3(a.rgb * b.rgb), a.a);
+}

@@ -1,0 +1,48 @@
+//! Pass `atrous`: the program's signature, its parameter block and its shaders
+//! (atrous.glsl, atrous.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//!
+//! One iteration of the edge-stopping à-trous wavelet filter.
+
+use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+
+param_block! {
+    /// Parameters of one iteration of [`Program::Atrous`](crate::program::Program::Atrous) (edge-stopping à-trous wavelet
+    /// filter; see [`atrous_steps`](crate::program::atrous_steps)).
+    AtrousParams as "LuxAtrousParams" {
+        /// Spacing of the 5×5 taps, texels: `2^i` at iteration `i`.
+        step: i32,
+        /// Farthest a tap on the centre's chart lies per texel of offset, metres
+        /// ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
+        reach: f32,
+        /// Nearest a tap on the centre's chart lies per texel of offset beyond the first two,
+        /// metres ([`AtrousConfig::reach_min`](crate::program::AtrousConfig::reach_min)).
+        reach_min: f32,
+        /// Normal weight `max(0, n̂·n̂ₜ)^(2^normal_log2)`.
+        normal_log2: u32,
+        /// Luminance weight `exp(−Δl² / (variance_scale · σ²))`, σ² the centre's variance
+        /// estimate: `σ_l² · ρᵢ` ([`AtrousConfig::sigma_luminance`](crate::program::AtrousConfig::sigma_luminance), [`b3_noise_factor`](crate::program::b3_noise_factor)).
+        variance_scale: f32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+        /// Padding.
+        pad2: u32,
+    }
+}
+
+/// What the pass reads and which parameters it takes.
+pub const SIGNATURE: Signature = Signature {
+    reads: &["src", "variance", "position", "normal"],
+    scene: SceneNeeds::NONE,
+    params: AtrousParams::FIELDS,
+    params_wgsl: AtrousParams::WGSL_NAME,
+    libraries: &[Library::Common, Library::Guide],
+    glsl: include_str!("atrous.glsl"),
+    wgsl: include_str!("atrous.wgsl"),
+};
+
+/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
+pub fn work(_: &AtrousParams) -> u64 {
+    25
+}

@@ -1,0 +1,36 @@
+//! Pass `blur`: the program's signature, its parameter block and its shaders
+//! (blur.glsl, blur.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//!
+//! One axis of the masked separable Gaussian.
+
+use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+
+param_block! {
+    /// Parameters of [`Program::Blur`](crate::program::Program::Blur) (one axis of the masked Gaussian).
+    BlurParams as "LuxBlurParams" {
+        /// Texel step along the axis: (1, 0) for U.
+        step_x: i32,
+        /// Texel step along the axis: (0, 1) for V.
+        step_y: i32,
+        /// Taps on each side: [`blur_radius`](crate::program::blur_radius)`(σ)`.
+        radius: i32,
+        /// Exponent factor `−1 / (2σ²)`.
+        inv: f32,
+    }
+}
+
+/// What the pass reads and which parameters it takes.
+pub const SIGNATURE: Signature = Signature {
+    reads: &["src", "normal"],
+    scene: SceneNeeds::NONE,
+    params: BlurParams::FIELDS,
+    params_wgsl: BlurParams::WGSL_NAME,
+    libraries: &[Library::Common],
+    glsl: include_str!("blur.glsl"),
+    wgsl: include_str!("blur.wgsl"),
+};
+
+/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
+pub fn work(p: &BlurParams) -> u64 {
+    u64::from(p.radius.unsigned_abs()) * 2 + 1
+}

@@ -1,0 +1,6 @@
+// Pass "copy" (paper Figure 4, box 2 -> 3 and 6 -> 7): texel-for-texel copy.
+
+
+fn lux_run(c: vec2<i32>) -> vec4<f32> {
+    return textureLoad(lux_src, c, i32(lux_tile.layer), 0);
+}

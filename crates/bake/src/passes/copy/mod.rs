@@ -1,0 +1,17 @@
+//! Pass `copy`: the program's signature and its shaders
+//! (copy.glsl, copy.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//!
+//! Texel-for-texel copy.
+
+use crate::contract::{Library, SceneNeeds, Signature};
+
+/// What the pass reads and which parameters it takes.
+pub const SIGNATURE: Signature = Signature {
+    reads: &["src"],
+    scene: SceneNeeds::NONE,
+    params: &[],
+    params_wgsl: "",
+    libraries: &[Library::Common],
+    glsl: include_str!("copy.glsl"),
+    wgsl: include_str!("copy.wgsl"),
+};

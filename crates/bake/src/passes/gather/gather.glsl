@@ -1,0 +1,27 @@
+// Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
+// exitance seen along `u_rays` cosine-weighted rays (cpu::gather_texel, operation for operation).
+// With u_stride > 1 only the coarse grid's texels (u_rays) and its orphans (u_orphan_rays) are
+// gathered (coarse.glsl); the others are written as 0 for the upsample pass to fill. With
+// u_lamp_paths > 0 each hit is weighted against the lamp paths, whose part (u_connected,
+// computed on the CPU: lightpaths::LampPaths::connect) is added.
+
+vec4 luxRun(ivec3 c) {
+    vec4 pos = texelFetch(u_position, c, 0);
+    vec4 nrm = texelFetch(u_normal, c, 0);
+    if (pos.w <= 0.5) {
+        return vec4(0.0);
+    }
+    vec3 n;
+    uint rays = luxCoarseRays(c, u_stride, u_reach, u_rays, u_orphan_rays);
+    if (!luxNormalize(nrm.xyz, n) || rays == 0u) {
+        return vec4(0.0, 0.0, 0.0, 1.0);
+    }
+    uvec3 layerSize = uvec3(textureSize(u_position, 0));
+    uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
+    vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
+    vec3 sum = luxGatherSum(origin, n, texel, 0u, rays, u_sampler, u_bounce, u_seed,
+                            u_lamp_paths, rays, u_density_scale, int(u_lamp_count));
+    float inv = 1.0 / float(rays);
+    vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
+    return vec4(luxGuard3(sum * inv + paths), 1.0);
+}

@@ -1,0 +1,34 @@
+// Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
+// exitance seen along lux_pass.rays cosine-weighted rays (cpu::gather_texel, operation for
+// operation). With lux_pass.stride > 1 only the coarse grid's texels (lux_pass.rays) and its
+// orphans (lux_pass.orphan_rays) are gathered (coarse.wgsl); the others are written as 0 for
+// the upsample pass to fill. With lux_pass.lamp_paths > 0 each hit is weighted against the
+// lamp paths, whose part (lux_connected, computed on the CPU: lightpaths::LampPaths::connect)
+// is added.
+
+fn lux_run(c: vec2<i32>) -> vec4<f32> {
+    let layer = i32(lux_tile.layer);
+    let pos = textureLoad(lux_position, c, layer, 0);
+    let nrm = textureLoad(lux_normal, c, layer, 0);
+    if (pos.w <= 0.5) {
+        return vec4<f32>(0.0);
+    }
+    var n: vec3<f32>;
+    let rays = lux_coarse_rays(c, lux_pass.stride, lux_pass.reach, lux_pass.rays,
+                               lux_pass.orphan_rays);
+    if (!lux_normalize(nrm.xyz, &n) || rays == 0u) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                lux_tile.layer, u32(c.x), u32(c.y));
+    let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
+    let sum = lux_gather_sum(origin, n, texel, 0u, rays, lux_pass.sampler, lux_pass.bounce,
+                             lux_pass.seed, lux_pass.lamp_paths, rays, lux_pass.density_scale,
+                             lux_pass.lamp_count);
+    let inv = 1.0 / f32(rays);
+    var paths = vec3<f32>(0.0);
+    if (lux_pass.lamp_paths > 0u) {
+        paths = textureLoad(lux_connected, c, layer, 0).rgb;
+    }
+    return vec4<f32>(lux_guard3(sum * inv + paths), 1.0);
+}

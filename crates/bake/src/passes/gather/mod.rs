@@ -1,0 +1,72 @@
+//! Pass `gather`: the program's signature, its parameter block and its shaders
+//! (gather.glsl, gather.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//!
+//! One bounce of indirect illuminance.
+
+use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+
+param_block! {
+    /// Parameters of [`Program::Gather`](crate::program::Program::Gather).
+    GatherParams as "LuxGatherParams" {
+        /// Rays per texel.
+        rays: u32,
+        /// Bounce number, 1-based (the `pass` input of the RNG hash).
+        bounce: u32,
+        /// Seed of the RNG hash.
+        seed: u32,
+        /// The direction sampler's id ([`Sampler::id`](crate::rng::Sampler::id)).
+        sampler: u32,
+        /// Reduced resolution: only texels on the grid of every `stride`-th column and row,
+        /// and texels with no such grid texel around them on their surface, are gathered
+        /// ([`coarse`](crate::program::coarse)); [`Program::Upsample`](crate::program::Program::Upsample) fills the rest. 1 (or 0): every texel.
+        stride: u32,
+        /// The chart test of [`coarse`](crate::program::coarse): farthest a grid texel on the centre's surface lies
+        /// per texel of offset, metres ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
+        reach: f32,
+        /// Rays of an orphan ([`coarse`](crate::program::coarse)): it stands for itself, not for a grid cell of
+        /// `stride²` texels, so [`coarse::orphan_rays`](crate::program::coarse::orphan_rays) gives it fewer than a grid texel.
+        orphan_rays: u32,
+        /// Lamp paths per texel combined with this gather ([`crate::lightpaths`]; the first
+        /// bounce at stride 1 only): each hit's exitance is weighted by the balance heuristic
+        /// and the slot `connected` (their part, uploaded) is added. 0: plain gather, the
+        /// slot is not read.
+        lamp_paths: u32,
+        /// [`crate::lightpaths::LampPaths::density_scale`].
+        density_scale: f32,
+        /// Lamps uploaded (the density of [`crate::lightpaths::density`] sums over them).
+        lamp_count: u32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+    }
+}
+
+/// What the pass reads and which parameters it takes.
+pub const SIGNATURE: Signature = Signature {
+    reads: &["position", "normal", "reflected", "connected"],
+    scene: SceneNeeds {
+        bvh: true,
+        lamps: true,
+        regions: true,
+    },
+    params: GatherParams::FIELDS,
+    params_wgsl: GatherParams::WGSL_NAME,
+    libraries: &[
+        Library::Common,
+        Library::Rng,
+        Library::Scene,
+        Library::Bvh,
+        Library::Ies,
+        Library::Lamp,
+        Library::Gather,
+        Library::Coarse,
+    ],
+    glsl: include_str!("gather.glsl"),
+    wgsl: include_str!("gather.wgsl"),
+};
+
+/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
+pub fn work(p: &GatherParams) -> u64 {
+    u64::from(p.rays)
+}

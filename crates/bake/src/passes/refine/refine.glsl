@@ -1,0 +1,30 @@
+// Pass "refine": progressive refinement of the first gather (`u_first`, u_first_rays rays).
+// A texel whose relative standard error, estimated as sqrt(variance) / mean luminance of its
+// 5x5 window from the variance pass over the first gather (not its own luminance: a decision
+// on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays (samples
+// u_first_rays .. u_first_rays + u_rays of its sequence) and the ray-count-weighted mean of
+// both; every other texel keeps the first gather's value (cpu::refine_texel).
+
+vec4 luxRun(ivec3 c) {
+    vec4 pos = texelFetch(u_position, c, 0);
+    vec4 first = texelFetch(u_first, c, 0);
+    if (pos.w <= 0.5) {
+        return vec4(0.0);
+    }
+    vec3 n;
+    if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n) || u_rays == 0u) {
+        return first;
+    }
+    vec4 noise = texelFetch(u_variance, c, 0);
+    if (sqrt(max(noise.z, 0.0)) <= u_max_error * noise.y) {
+        return first;
+    }
+    uvec3 layerSize = uvec3(textureSize(u_position, 0));
+    uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
+    vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
+    vec3 sum = luxGatherSum(origin, n, texel, u_first_rays, u_rays, u_sampler, u_bounce, u_seed,
+                            0u, 0u, 0.0, 0);
+    float total = float(u_first_rays + u_rays);
+    vec3 m = float(u_first_rays) * first.rgb + sum;
+    return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);
+}

@@ -1,0 +1,32 @@
+// Pass "refine": progressive refinement of the first gather (lux_first, first_rays rays). A
+// texel whose relative standard error, estimated as sqrt(variance) / mean luminance of its
+// 5x5 window from the variance pass over the first gather (not its own luminance: a decision
+// on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
+// (samples first_rays .. first_rays + rays of its sequence) and the ray-count-weighted mean of
+// both; every other texel keeps the first gather's value (cpu::refine_texel).
+
+fn lux_run(c: vec2<i32>) -> vec4<f32> {
+    let layer = i32(lux_tile.layer);
+    let pos = textureLoad(lux_position, c, layer, 0);
+    let first = textureLoad(lux_first, c, layer, 0);
+    if (pos.w <= 0.5) {
+        return vec4<f32>(0.0);
+    }
+    var n: vec3<f32>;
+    let rays = lux_pass.rays;
+    if (!lux_normalize(textureLoad(lux_normal, c, layer, 0).xyz, &n) || rays == 0u) {
+        return first;
+    }
+    let noise = textureLoad(lux_variance, c, layer, 0);
+    if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
+        return first;
+    }
+    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                lux_tile.layer, u32(c.x), u32(c.y));
+    let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
+    let sum = lux_gather_sum(origin, n, texel, lux_pass.first_rays, rays, lux_pass.sampler,
+                             lux_pass.bounce, lux_pass.seed, 0u, 0u, 0.0, 0u);
+    let total = f32(lux_pass.first_rays + rays);
+    let m = f32(lux_pass.first_rays) * first.rgb + sum;
+    return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0);
+}

@@ -1,0 +1,42 @@
+//! Pass `variance`: the program's signature, its parameter block and its shaders
+//! (variance.glsl, variance.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//!
+//! Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
+//! edge-stopping), and with the centre left out its mean luminance (green) and variance
+//! (blue), for refinement.
+
+use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+
+param_block! {
+    /// Parameters of [`Program::Variance`](crate::program::Program::Variance): the noise variance of the luminance at a texel,
+    /// estimated from neighbouring texels of its surface (the derivation is in
+    /// [`atrous_steps`](crate::program::atrous_steps)' docs and [`crate::cpu`]).
+    VarianceParams as "LuxVarianceParams" {
+        /// Farthest a tap on the centre's chart lies per texel of offset, metres
+        /// ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
+        reach: f32,
+        /// Fewest texel pairs a direction needs to give an estimate ([`ATROUS_MIN_PAIRS`](crate::program::ATROUS_MIN_PAIRS)).
+        min_pairs: u32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+    }
+}
+
+/// What the pass reads and which parameters it takes.
+pub const SIGNATURE: Signature = Signature {
+    reads: &["src", "position", "normal"],
+    scene: SceneNeeds::NONE,
+    params: VarianceParams::FIELDS,
+    params_wgsl: VarianceParams::WGSL_NAME,
+    libraries: &[Library::Common, Library::Guide],
+    glsl: include_str!("variance.glsl"),
+    wgsl: include_str!("variance.wgsl"),
+};
+
+/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
+pub fn work(_: &VarianceParams) -> u64 {
+    // 25 taps, then 4 directions × 20 pairs.
+    105
+}
