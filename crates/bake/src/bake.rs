@@ -225,10 +225,12 @@ pub struct BakeReport {
     pub bounces_run: u32,
     /// [`Method::Converged`]: the estimated tail of the
     /// inter-reflection series that the explicit bounces left out and the bake added, as a
-    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method.
+    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method and
+    /// without [`Settings::tail`].
     pub tail_fraction: f64,
-    /// [`Method::Converged`]: the bounce ratio λ the tail
-    /// was extrapolated with (`None` before a second bounce or for the paper's method).
+    /// [`Method::Converged`]: the bounce ratio λ of the last two explicit bounces, which the
+    /// tail is extrapolated with when [`Settings::tail`] is on (`None` before a second bounce
+    /// or for the paper's method).
     pub bounce_ratio: Option<f64>,
     /// Set-up steps and their wall time, seconds.
     pub setup: Vec<(&'static str, f64)>,
@@ -765,7 +767,7 @@ pub fn bake<B: GpuBackend>(
                 .increments
                 .push(energy(&read_all(backend, delta).map_err(be)?));
             let last = k as usize == graph.bounce_passes.len();
-            if last || series.converged(f64::from(settings.tail_tolerance)) {
+            if last || (settings.tail && series.converged(f64::from(settings.tail_tolerance))) {
                 if !last {
                     skipped.push(Skipped::Bounces {
                         from: k + 1,
@@ -775,7 +777,11 @@ pub fn bake<B: GpuBackend>(
                 }
                 if let Some(tail) = graph.tail_pass {
                     graph.passes[tail].params = Params::Combine(CombineParams {
-                        b_weight: series.tail_factor() as f32,
+                        b_weight: if settings.tail {
+                            series.tail_factor() as f32
+                        } else {
+                            0.0
+                        },
                         ..CombineParams::SUM
                     });
                     // The running sum of the last bounce run (two textures alternate).
@@ -862,7 +868,7 @@ pub fn bake<B: GpuBackend>(
                         + per(settings.higher_rays, settings.higher_stride) * u64::from(k - 1)
                 }
             },
-        tail_fraction: if graph.delta.is_some() {
+        tail_fraction: if graph.delta.is_some() && settings.tail {
             series.tail_fraction()
         } else {
             0.0
