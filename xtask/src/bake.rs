@@ -1,13 +1,18 @@
 //! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
-//! [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N] [--refine-rays N]
-//! [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none] [--bvh mtbvh|tbvh|none]
-//! [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into a folder.
+//! [--tail true|false] [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N]
+//! [--refine-rays N] [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none]
+//! [--bvh mtbvh|tbvh|none] [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into
+//! a folder.
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
-//! the converged method's `default` preset. Flags override the scene's `[settings]`:
-//! `--method`/`--quality` choose the preset (rays, strides, bounces, blur, tail tolerance), then the
-//! explicit flags override single values. A progress bar per pass, then a summary table.
+//! the converged method's `default` preset. The flags are a [`SettingsPatch`] layered over the
+//! scene file's `[settings]` before its objects are built (so chart padding follows the final
+//! density and blur): preset, then the file's keys, then the flags. `--method`/`--quality`
+//! choose the preset (rays, strides, bounces, tail, blur, tail tolerance; the file's density,
+//! traversal and seed stay), then the explicit flags override single values; `--bounces`
+//! without `--tail true` bakes exactly that many bounces. A progress bar per pass, then a
+//! summary table.
 
 use std::path::PathBuf;
 use std::time::Duration;
@@ -15,8 +20,11 @@ use std::time::Duration;
 use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
 use luxbake::output::write_bake;
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Scene, Settings};
-use luxbake::sources::scenefile::preferred_backend;
+use luxbake::scene::{
+    Blur, BvhMode, Method, Quality, Sampler, Scene, SceneError, SettingError, Settings,
+    SettingsPatch,
+};
+use luxbake::sources::scenefile::{from_file_patched, preferred_backend};
 use luxbake_backends::BackendKind;
 
 /// Arguments of `cargo xtask bake`.
@@ -48,9 +56,14 @@ pub struct Args {
     /// Gather rays per texel per bounce (converged: of the first bounce).
     #[arg(long)]
     rays: Option<u32>,
-    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
+    /// Indirect bounces; 0 = direct light only. Converged: exactly this many, unless
+    /// `--tail true` makes it the most explicit bounces before the tail is added.
     #[arg(long)]
     bounces: Option<u32>,
+    /// Converged: after the explicit bounces, add the extrapolated rest of the
+    /// inter-reflection series (the presets: true; `--bounces` alone: false).
+    #[arg(long)]
+    tail: Option<bool>,
     /// Converged: stop explicit bounces when the estimated tail (or its uncertainty) is under
     /// this fraction of the total.
     #[arg(long)]
@@ -95,69 +108,33 @@ pub struct Args {
 }
 
 impl Args {
-    /// Applies the flags to `s` and checks the result ([`Settings::validate`]); the error
-    /// names the flag.
-    fn apply(&self, s: &mut Settings) -> Result<(), String> {
-        if self.method.is_some() || self.quality.is_some() {
-            let quality = self.quality.unwrap_or(s.quality);
-            let method = match (self.method, self.quality) {
-                (Some(m), _) => m,
-                (None, Some(_)) => Method::Converged,
-                (None, None) => s.method,
-            };
-            let preset = Settings::of(method, quality);
-            *s = Settings {
-                texels_per_metre: s.texels_per_metre,
-                bvh: s.bvh,
-                seed: s.seed,
-                ..preset
-            };
+    /// The settings flags as a patch.
+    fn patch(&self) -> SettingsPatch {
+        SettingsPatch {
+            method: self.method,
+            quality: self.quality,
+            rays: self.rays,
+            bounces: self.bounces,
+            tail: self.tail,
+            blur: self.blur,
+            tail_tolerance: self.tail_tolerance,
+            texels_per_metre: self.texels_per_metre,
+            bvh: self.bvh,
+            seed: self.seed,
+            sampler: self.sampler,
+            stride: self.stride,
+            higher_rays: self.higher_rays,
+            higher_stride: self.higher_stride,
+            refine_rays: self.refine_rays,
+            refine_error: self.refine_error,
+            lamp_paths: self.lamp_paths,
         }
-        if let Some(v) = self.tail_tolerance {
-            s.tail_tolerance = v;
-        }
-        if let Some(v) = self.rays {
-            s.rays = v;
-        }
-        if let Some(v) = self.stride {
-            s.stride = v;
-        }
-        if let Some(v) = self.higher_rays {
-            s.higher_rays = v;
-        }
-        if let Some(v) = self.higher_stride {
-            s.higher_stride = v;
-        }
-        if let Some(v) = self.refine_rays {
-            s.refine_rays = v;
-        }
-        if let Some(v) = self.lamp_paths {
-            s.lamp_paths = v;
-        }
-        if let Some(v) = self.refine_error {
-            s.refine_error = v;
-        }
-        if let Some(v) = self.bounces {
-            s.bounces = v;
-        }
-        if let Some(v) = self.texels_per_metre {
-            s.texels_per_metre = v;
-        }
-        if let Some(v) = self.blur {
-            s.blur = v;
-        }
-        if let Some(v) = self.bvh {
-            s.bvh = v;
-        }
-        if let Some(v) = self.seed {
-            s.seed = v;
-        }
-        if let Some(v) = self.sampler {
-            s.sampler = v;
-        }
-        s.validate()
-            .map_err(|e| format!("--{}: {}", e.name.replace('_', "-"), e.reason))
     }
+}
+
+/// A setting out of range, named by its flag.
+fn flag_error(e: &SettingError) -> String {
+    format!("--{}: {}", e.name.replace('_', "-"), e.reason)
 }
 
 /// The scene the arguments name, with the flags applied, the backend to bake it on (the
@@ -166,10 +143,12 @@ impl Args {
 fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
     match &args.scene_file {
         Some(path) => {
-            let mut scene =
-                Scene::from_toml_file_with(path, &luxbake_assets::SceneLoader::default())
-                    .map_err(|e| e.to_string())?;
-            args.apply(&mut scene.settings)?;
+            let loader = luxbake_assets::SceneLoader::default();
+            let scene =
+                from_file_patched(path, Some(&loader), &args.patch()).map_err(|e| match e {
+                    SceneError::Override(e) => flag_error(&e),
+                    e => e.to_string(),
+                })?;
             let backend = match args.backend {
                 Some(b) => b,
                 None => match preferred_backend(path).map_err(|e| e.to_string())? {
@@ -182,8 +161,7 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
         }
         None => {
             let name = args.scene.as_deref().unwrap_or("chairs_05");
-            let mut settings = Settings::default();
-            args.apply(&mut settings)?;
+            let settings = args.patch().settings().map_err(|e| flag_error(&e))?;
             let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
             let backend = args.backend.unwrap_or(BackendKind::Cpu);
             Ok((scene, backend, format!("builtin:{name}")))
@@ -344,5 +322,63 @@ mod tests {
             (scene.settings.rays, backend, source.as_str()),
             (2, BackendKind::Cpu, "builtin:floor")
         );
+    }
+
+    /// A unit cube without UVs: the mesh loader generates its light-map UVs, padded for the
+    /// density.
+    const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
+        f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
+
+    /// `cargo xtask bake scene.toml --texels-per-metre 32` builds the objects as
+    /// `texels_per_metre = 32` in the file does: chart padding (procedural and the mesh
+    /// loader's) follows the flag.
+    #[test]
+    fn a_density_flag_pads_as_the_file_key_does() {
+        let dir = std::env::temp_dir().join(format!("luxbake-xtask-flags-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        std::fs::write(dir.join("cube.obj"), CUBE_OBJ).expect("write mesh");
+        let file = |name: &str, density: u32| {
+            let path = dir.join(name);
+            let text = format!(
+                "[settings]\ntexels_per_metre = {density}\nbounces = 1\n\
+                 [[lamp]]\nies = \"isotropic:100\"\nposition = [0, 2, 0]\n\
+                 [[object]]\nprimitive = \"room\"\nsize = [4, 2.5, 3]\n\
+                 [[object]]\nbuiltin = \"chair\"\n\
+                 [[object]]\nmesh = \"cube.obj\"\nposition = [1, 0, 0]\n"
+            );
+            std::fs::write(&path, text).expect("write scene");
+            path.display().to_string()
+        };
+        let (coarse, fine) = (file("coarse.toml", 48), file("fine.toml", 32));
+        let load_file = |path: &str, flags: &[&str]| {
+            let cli = Cli::try_parse_from([&["bake", path], flags].concat())
+                .map_err(|e| e.to_string())?;
+            load(&cli.args).map(|(scene, ..)| scene)
+        };
+        let flagged = load_file(&coarse, &["--texels-per-metre", "32"]).expect("flagged");
+        let written = load_file(&fine, &[]).expect("written");
+        assert_eq!(flagged.settings, written.settings);
+        assert_eq!(flagged.objects, written.objects);
+        let layout = |s: &Scene| luxbake::layout::Layout::new(s, 4096, 64).expect("layout");
+        assert_eq!(layout(&flagged), layout(&written));
+        let plain = load_file(&coarse, &[]).expect("plain");
+        for o in [0, 2] {
+            assert_ne!(
+                plain.objects[o].mesh.lightmap_uvs, flagged.objects[o].mesh.lightmap_uvs,
+                "object {o} is padded for the flag's density"
+            );
+        }
+        // Over a file, a flag out of range is named by its flag; `--bounces` alone is exact.
+        let e = load_file(&coarse, &["--rays", "0"]).expect_err("rays 0");
+        assert!(e.starts_with("--rays"), "{e}");
+        let s = load_file(&coarse, &["--bounces", "2"])
+            .expect("bounces")
+            .settings;
+        assert_eq!((s.bounces, s.tail), (2, false));
+        let s = load_file(&coarse, &["--bounces", "2", "--tail", "true"])
+            .expect("tail")
+            .settings;
+        assert_eq!((s.bounces, s.tail), (2, true));
+        std::fs::remove_dir_all(&dir).ok();
     }
 }

@@ -21,7 +21,8 @@ use luxbake::map::MapImage;
 use luxbake::output::picture::luminance;
 use luxbake::output::read_exr;
 use luxbake::probe::{SurfacePoint, locate};
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Scene, Settings};
+use luxbake::scene::{Scene, SettingsPatch};
+use luxbake::sources::scenefile::from_file_patched;
 use serde_json::Value;
 
 /// Arguments of `cargo xtask measure`.
@@ -69,65 +70,45 @@ pub fn parse_points(text: &str) -> Result<Vec<(usize, [f64; 3])>, String> {
     Ok(points)
 }
 
-fn settings_from(manifest: &Value) -> Result<Settings, String> {
-    let s = &manifest["settings"];
+/// The baked settings: the manifest's `settings` hold every key of a settings patch (the
+/// scene file's keys).
+fn baked_settings(manifest: &Value) -> Result<SettingsPatch, String> {
+    let s = manifest["settings"]
+        .as_object()
+        .ok_or("manifest: settings missing")?;
+    for key in ["rays", "bounces", "texels_per_metre", "seed"] {
+        if !s.contains_key(key) {
+            return Err(format!("manifest: settings.{key} missing"));
+        }
+    }
+    let mut entries: Vec<(String, Value)> = s.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
     // Manifests before the converged method have no `method`: they were the paper's.
-    let method: Method = s["method"].as_str().unwrap_or("paper").parse()?;
-    let quality: Quality = s["quality"].as_str().unwrap_or("default").parse()?;
-    let mut out = Settings::of(method, quality);
-    if let Some(t) = s["tail_tolerance"].as_f64() {
-        out.tail_tolerance = t as f32;
+    if !s.contains_key("method") {
+        entries.push(("method".into(), Value::from("paper")));
     }
-    if let Some(b) = s["sampler"].as_str() {
-        out.sampler = b.parse::<Sampler>()?;
-    }
-    // Manifests before reduced-resolution gathers and refinement lack these keys.
-    if let Some(v) = s["stride"].as_u64() {
-        out.stride = v as u32;
-    }
-    if let Some(v) = s["lamp_paths"].as_u64() {
-        out.lamp_paths = v as u32;
-    }
-    if let Some(v) = s["higher_rays"].as_u64() {
-        out.higher_rays = v as u32;
-    }
-    if let Some(v) = s["higher_stride"].as_u64() {
-        out.higher_stride = v as u32;
-    }
-    if let Some(v) = s["refine_rays"].as_u64() {
-        out.refine_rays = v as u32;
-    }
-    if let Some(v) = s["refine_error"].as_f64() {
-        out.refine_error = v as f32;
-    }
-    let num = |key: &str| {
-        s[key]
-            .as_f64()
-            .ok_or_else(|| format!("manifest: settings.{key} missing"))
-    };
-    out.rays = num("rays")? as u32;
-    out.bounces = num("bounces")? as u32;
-    out.texels_per_metre = num("texels_per_metre")? as f32;
-    out.seed = num("seed")? as u32;
-    out.blur = match &s["blur"] {
-        Value::String(t) => t.parse::<Blur>()?,
-        v => Blur::Sigma(v.as_f64().unwrap_or(0.0) as f32),
-    };
-    if let Some(b) = s["bvh"].as_str() {
-        out.bvh = b.parse::<BvhMode>()?;
-    }
-    Ok(out)
+    SettingsPatch::from_entries(&entries)
+        .map_err(|e| format!("manifest: settings.{}: {}", e.key, e.message))
 }
 
+/// The baked scene, built with the baked settings (a scene file's objects too, so their
+/// padding is the bake's when flags overrode the file's density or blur).
 fn rebuild_scene(manifest: &Value) -> Result<Scene, String> {
     let source = manifest["scene"]["source"]
         .as_str()
         .ok_or("manifest: scene.source missing")?;
-    let settings = settings_from(manifest)?;
+    let settings = baked_settings(manifest)?;
     match source.strip_prefix("builtin:") {
-        Some(name) => Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string()),
-        None => Scene::from_toml_file(Path::new(source))
-            .map_err(|e| format!("rebuilding the baked scene: {e}")),
+        Some(name) => {
+            let settings = settings
+                .settings()
+                .map_err(|e| format!("manifest: settings.{}: {}", e.name, e.reason))?;
+            Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())
+        }
+        None => {
+            let loader = luxbake_assets::SceneLoader::default();
+            from_file_patched(Path::new(source), Some(&loader), &settings)
+                .map_err(|e| format!("rebuilding the baked scene: {e}"))
+        }
     }
 }
 
@@ -242,6 +223,7 @@ pub fn run(args: &Args) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use luxbake::scene::{Blur, Settings};
 
     #[test]
     fn points_file_rules() {
@@ -280,6 +262,34 @@ mod tests {
             }
         }
         assert_eq!(lux(2.345_678e-5), "0.00002345678");
+    }
+
+    /// A scene file baked with overrides is rebuilt with them: the same objects (padding).
+    #[test]
+    fn a_scene_file_is_rebuilt_with_the_baked_settings() {
+        use luxbake::bake::bake;
+        use luxbake::cpu::CpuBackend;
+        use luxbake::output::write_bake;
+        let dir = std::env::temp_dir().join(format!("luxbake-rebuild-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("room.toml");
+        let text = "[settings]\ntexels_per_metre = 48\n[[lamp]]\nies = \"isotropic:100\"\n\
+                    position = [0, 2, 0]\n[[object]]\nprimitive = \"room\"\nsize = [2, 2.5, 2]\n";
+        std::fs::write(&path, text).expect("write scene");
+        let overrides = SettingsPatch {
+            texels_per_metre: Some(8.0),
+            rays: Some(1),
+            bounces: Some(0),
+            ..SettingsPatch::default()
+        };
+        let scene = from_file_patched(&path, None, &overrides).expect("scene");
+        let out = bake(&mut CpuBackend::new(), &scene, &scene.settings, &mut |_| {}).expect("bake");
+        let source = path.display().to_string();
+        let manifest = write_bake(&dir.join("out"), &scene, &out, &source).expect("write");
+        let rebuilt = rebuild_scene(&manifest).expect("rebuild");
+        assert_eq!(rebuilt.settings, scene.settings);
+        assert_eq!(rebuilt.objects, scene.objects);
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     #[test]

@@ -192,7 +192,7 @@ pub fn bake_room<B: GpuBackend>(
         triangles: room.triangles,
         shadow_rays: lamps.shadow_rays,
         gather_rays: room.valid_texels * nominal_gather_rays(settings, bounces_run),
-        tail_fraction: if converged {
+        tail_fraction: if converged && settings.tail {
             decisions.series.tail_fraction()
         } else {
             0.0

@@ -75,12 +75,16 @@ impl Decisions {
             Check::ConvergedBounce { bounce, last, .. } => {
                 self.bounces_run = bounce;
                 self.series.increments.push(energy);
+                // Without the tail an explicit count of bounces runs to the last one, and
+                // adds nothing after it.
                 if last {
                     self.stopped = Some(bounce);
-                } else if self.series.converged(f64::from(settings.tail_tolerance)) {
+                } else if settings.tail
+                    && self.series.converged(f64::from(settings.tail_tolerance))
+                {
                     self.stop(bounce, settings.bounces, self.series.tail_fraction() as f32);
                 }
-                if self.stopped.is_some() {
+                if self.stopped.is_some() && settings.tail {
                     self.tail_weight = self.series.tail_factor() as f32;
                 }
             }

@@ -153,12 +153,14 @@ pub struct BakeReport {
     pub bvh: BvhMode,
     /// Explicit bounces run.
     pub bounces_run: u32,
-    /// [`Method::Converged`]: the estimated tail of the
+    /// [`Method::Converged`](crate::scene::Method::Converged): the estimated tail of the
     /// inter-reflection series that the explicit bounces left out and the bake added, as a
-    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method.
+    /// fraction of the total illuminance ([`crate::series`]); 0 for the paper's method and
+    /// without [`Settings::tail`].
     pub tail_fraction: f64,
-    /// [`Method::Converged`]: the bounce ratio λ the tail
-    /// was extrapolated with (`None` before a second bounce or for the paper's method).
+    /// [`Method::Converged`](crate::scene::Method::Converged): the bounce ratio λ of the last two explicit bounces, which the
+    /// tail is extrapolated with when [`Settings::tail`] is on (`None` before a second bounce
+    /// or for the paper's method).
     pub bounce_ratio: Option<f64>,
     /// Set-up steps and their wall time, seconds.
     pub setup: Vec<(&'static str, f64)>,

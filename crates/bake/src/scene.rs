@@ -41,6 +41,8 @@ use std::sync::Arc;
 use glam::{DMat3, DVec3, Vec3};
 use luxbake_bvh::TriangleAttributes;
 use luxbake_ies::Photometry;
+use serde::de::IntoDeserializer;
+use serde::de::value::MapDeserializer;
 
 /// Errors of scene construction, scene files and mesh validation.
 #[derive(Debug, thiserror::Error)]
@@ -82,6 +84,11 @@ pub enum SceneError {
         /// What is wrong and what was expected.
         message: String,
     },
+    /// A setting out of range once a caller's overrides are layered over a scene file's
+    /// `[settings]` ([`crate::sources::scenefile::from_file_patched`]): the caller names the
+    /// setting as its users wrote it (a flag, an option).
+    #[error("{0}")]
+    Override(SettingError),
     /// A photometric file named by a scene file could not be parsed.
     #[error("`{key}`: cannot parse photometric file `{file}`: {source}")]
     Photometry {
@@ -575,6 +582,18 @@ pub enum Blur {
     Sigma(f32),
 }
 
+impl Blur {
+    /// A sigma in texels as a blur: 0 is [`Blur::None`], anything else [`Blur::Sigma`] (which
+    /// [`Settings::validate`] checks).
+    pub fn sigma(sigma: f32) -> Blur {
+        if sigma == 0.0 {
+            Blur::None
+        } else {
+            Blur::Sigma(sigma)
+        }
+    }
+}
+
 impl FromStr for Blur {
     type Err = String;
     /// `"none"` or a sigma in texels (finite, > 0).
@@ -671,7 +690,7 @@ impl FromStr for BvhMode {
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
 /// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 and no refinement only (else reported as skipped) |
-/// | `bvh`, `seed`, `backend` | any value                                           |
+/// | `tail`, `bvh`, `seed`, `backend` | any value                                     |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
     /// The pipeline.
@@ -682,9 +701,15 @@ pub struct Settings {
     /// Gather rays per texel: per bounce ([`Method::Paper`]), or of the first bounce
     /// ([`Method::Converged`]; later bounces use [`Settings::higher_rays`]).
     pub rays: u32,
-    /// Indirect bounces ([`Method::Paper`]), or the most explicit bounces before the tail is
-    /// estimated ([`Method::Converged`]); 0 = direct light only.
+    /// Indirect bounces ([`Method::Paper`]), or the explicit bounces of [`Method::Converged`]:
+    /// with [`Settings::tail`] the most it runs before the tail is added (it may stop earlier
+    /// at [`Settings::tail_tolerance`]), without it exactly this many; 0 = direct light only.
     pub bounces: u32,
+    /// [`Method::Converged`]: after the explicit bounces, add the extrapolated rest of the
+    /// inter-reflection series ([`crate::series`]). The presets set it; [`Settings::paper`]
+    /// does not, and the paper's method ignores it. A [`SettingsPatch`] that sets `bounces`
+    /// without `tail` turns it off: an explicit count gives exactly that many bounces.
+    pub tail: bool,
     /// [`Method::Paper`]: blur of the direct and combined maps. [`Method::Converged`]: filter of
     /// the indirect increments only.
     pub blur: Blur,
@@ -741,13 +766,15 @@ impl Settings {
     pub const DEFAULT_TEXELS_PER_METRE: f32 = 64.0;
 
     /// The method paper's pipeline with the settings measured best for it: 4 rays, 3 bounces,
-    /// blur σ 2, 64 texels/m, MTBVH, seed 0, hash sampling.
+    /// blur σ 2, 64 texels/m, MTBVH, seed 0, hash sampling (no [`Settings::tail`]: the paper's
+    /// method ignores it).
     pub fn paper() -> Settings {
         Settings {
             method: Method::Paper,
             quality: Quality::Default,
             rays: Settings::PAPER_RAYS,
             bounces: Settings::PAPER_BOUNCES,
+            tail: false,
             blur: Blur::Sigma(Settings::PAPER_BLUR_SIGMA),
             tail_tolerance: 0.01,
             texels_per_metre: Settings::DEFAULT_TEXELS_PER_METRE,
@@ -763,8 +790,9 @@ impl Settings {
         }
     }
 
-    /// The converged method at `quality`: first-bounce rays and grid stride, the later
-    /// bounces' rays and stride, the cap of explicit bounces, the tail tolerance and the
+    /// The converged method at `quality`, with the tail ([`Settings::tail`]): first-bounce
+    /// rays and grid stride, the later bounces' rays and stride, the cap of explicit bounces,
+    /// the tail tolerance and the
     /// denoiser's size (`blur` σ: `3 + round(log2 σ)` à-trous iterations). Measured against
     /// Radiance on `chairs_05` and for grain on a box room (docs/performance.md).
     ///
@@ -787,6 +815,7 @@ impl Settings {
             method: Method::Converged,
             quality,
             bounces: Settings::CONVERGED_MAX_BOUNCES,
+            tail: true,
             sampler: Sampler::Sobol,
             ..Settings::paper()
         };
@@ -944,6 +973,284 @@ impl Default for Settings {
     /// The converged method's `default` preset ([`Settings::preset`]).
     fn default() -> Self {
         Settings::preset(Quality::Default)
+    }
+}
+
+/// Settings given key by key over a preset: a scene file's `[settings]` table, the flags of
+/// `cargo xtask bake`, the options of the JavaScript package, the browser viewer's request.
+/// Every field is optional; `None` keeps the value underneath. The one place that knows how
+/// such a patch becomes [`Settings`].
+///
+/// Its keys (serde, e.g. TOML or JSON) are the field names, the scene file's: `method` and
+/// `quality` (names, as [`Method`] and [`Quality`] parse them), `blur` (`"none"` or a sigma
+/// in texels; 0 is none), `bvh`, `sampler` (names), the numbers, `tail` (a boolean). Unknown
+/// keys are errors; [`SettingsPatch::from_entries`] names the key of a bad value.
+///
+/// # Rules
+/// - **Preset**: a patch names one when it sets `method` or `quality`; `quality` without
+///   `method` means [`Method::Converged`] (the quality is its preset). [`SettingsPatch::settings`]
+///   starts from that preset ([`Settings::of`]; `quality` defaults to `default`), or from
+///   [`Settings::default`] when the patch names none.
+/// - **Bounces**: a patch that sets `bounces` and not `tail` turns [`Settings::tail`] off, so
+///   an explicit count gives exactly that many bounces; with `tail = true` it is the cap.
+/// - **Layering** ([`SettingsPatch::then`]): the later patch's values win key by key. When it
+///   names a preset, that preset replaces the earlier one and every value a preset sets:
+///   only the earlier `texels_per_metre`, `bvh` and `seed` (which no preset sets) and its
+///   `quality` (when the later patch names only the method) stay. So
+///   `file.then(&flags).settings()` is `file.settings()` with `flags` applied
+///   ([`SettingsPatch::apply`]).
+#[derive(Debug, Clone, Default, PartialEq, serde::Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SettingsPatch {
+    /// [`Settings::method`] (the preset's method).
+    #[serde(deserialize_with = "de::parsed")]
+    pub method: Option<Method>,
+    /// [`Settings::quality`] (the converged method's preset).
+    #[serde(deserialize_with = "de::parsed")]
+    pub quality: Option<Quality>,
+    /// [`Settings::rays`].
+    pub rays: Option<u32>,
+    /// [`Settings::bounces`]; without `tail` it also turns the tail off.
+    pub bounces: Option<u32>,
+    /// [`Settings::tail`].
+    pub tail: Option<bool>,
+    /// [`Settings::blur`].
+    #[serde(deserialize_with = "de::blur")]
+    pub blur: Option<Blur>,
+    /// [`Settings::tail_tolerance`].
+    pub tail_tolerance: Option<f32>,
+    /// [`Settings::texels_per_metre`].
+    pub texels_per_metre: Option<f32>,
+    /// [`Settings::bvh`].
+    #[serde(deserialize_with = "de::parsed")]
+    pub bvh: Option<BvhMode>,
+    /// [`Settings::seed`].
+    pub seed: Option<u32>,
+    /// [`Settings::sampler`].
+    #[serde(deserialize_with = "de::parsed")]
+    pub sampler: Option<Sampler>,
+    /// [`Settings::stride`].
+    pub stride: Option<u32>,
+    /// [`Settings::higher_rays`].
+    pub higher_rays: Option<u32>,
+    /// [`Settings::higher_stride`].
+    pub higher_stride: Option<u32>,
+    /// [`Settings::refine_rays`].
+    pub refine_rays: Option<u32>,
+    /// [`Settings::refine_error`].
+    pub refine_error: Option<f32>,
+    /// [`Settings::lamp_paths`].
+    pub lamp_paths: Option<u32>,
+}
+
+impl SettingsPatch {
+    /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
+    pub const KEYS: [&'static str; 17] = [
+        "method",
+        "quality",
+        "rays",
+        "bounces",
+        "tail",
+        "blur",
+        "tail_tolerance",
+        "texels_per_metre",
+        "bvh",
+        "seed",
+        "sampler",
+        "stride",
+        "higher_rays",
+        "higher_stride",
+        "refine_rays",
+        "refine_error",
+        "lamp_paths",
+    ];
+
+    /// A patch from `key → value` entries of any serde format (a TOML table, a JSON object);
+    /// the keys are [`SettingsPatch::KEYS`].
+    ///
+    /// # Errors
+    /// A [`PatchError`] naming the key of the first entry that is unknown or whose value has
+    /// the wrong type or does not parse, as the entry spelled it.
+    pub fn from_entries<'de, V, E>(entries: &[(String, V)]) -> Result<SettingsPatch, PatchError>
+    where
+        V: IntoDeserializer<'de, E> + Clone,
+        E: serde::de::Error,
+    {
+        use serde::Deserialize;
+        let patch = |entries: &[(String, V)]| {
+            let pairs = entries.iter().map(|(k, v)| (k.as_str(), v.clone()));
+            SettingsPatch::deserialize(MapDeserializer::<'de, _, E>::new(pairs))
+        };
+        patch(entries).map_err(|whole| {
+            // Entry by entry, to name the key the error is about.
+            entries
+                .iter()
+                .find_map(|entry| {
+                    let e = patch(std::slice::from_ref(entry)).err()?;
+                    Some(PatchError {
+                        key: entry.0.clone(),
+                        message: e.to_string(),
+                    })
+                })
+                .unwrap_or_else(|| PatchError {
+                    key: String::new(),
+                    message: whole.to_string(),
+                })
+        })
+    }
+
+    /// The method of the preset this patch names, if it names one (see the type's rules).
+    fn preset_method(&self) -> Option<Method> {
+        self.method
+            .or_else(|| self.quality.map(|_| Method::Converged))
+    }
+
+    /// [`Settings::tail`] as this patch sets it: `tail`, else off when it sets `bounces`.
+    fn tail_setting(&self) -> Option<bool> {
+        self.tail.or_else(|| self.bounces.map(|_| false))
+    }
+
+    /// `other` layered over this patch (see the type's rules).
+    #[must_use]
+    pub fn then(&self, other: &SettingsPatch) -> SettingsPatch {
+        // A preset named by `other` replaces everything a preset sets.
+        let base = match other.preset_method() {
+            Some(method) => SettingsPatch {
+                method: Some(method),
+                quality: other.quality.or(self.quality),
+                texels_per_metre: self.texels_per_metre,
+                bvh: self.bvh,
+                seed: self.seed,
+                ..SettingsPatch::default()
+            },
+            None => self.clone(),
+        };
+        SettingsPatch {
+            method: other.method.or(base.method),
+            quality: other.quality.or(base.quality),
+            rays: other.rays.or(base.rays),
+            bounces: other.bounces.or(base.bounces),
+            tail: other.tail_setting().or(base.tail),
+            blur: other.blur.or(base.blur),
+            tail_tolerance: other.tail_tolerance.or(base.tail_tolerance),
+            texels_per_metre: other.texels_per_metre.or(base.texels_per_metre),
+            bvh: other.bvh.or(base.bvh),
+            seed: other.seed.or(base.seed),
+            sampler: other.sampler.or(base.sampler),
+            stride: other.stride.or(base.stride),
+            higher_rays: other.higher_rays.or(base.higher_rays),
+            higher_stride: other.higher_stride.or(base.higher_stride),
+            refine_rays: other.refine_rays.or(base.refine_rays),
+            refine_error: other.refine_error.or(base.refine_error),
+            lamp_paths: other.lamp_paths.or(base.lamp_paths),
+        }
+    }
+
+    /// Applies the patch to `s`: a preset it names replaces `s` but for `texels_per_metre`,
+    /// `bvh` and `seed` (and `quality` when the patch names only the method), then its values
+    /// replace single settings. Unchecked: [`Settings::validate`] the result.
+    pub fn apply(&self, s: &mut Settings) {
+        if let Some(method) = self.preset_method() {
+            *s = Settings {
+                texels_per_metre: s.texels_per_metre,
+                bvh: s.bvh,
+                seed: s.seed,
+                ..Settings::of(method, self.quality.unwrap_or(s.quality))
+            };
+        }
+        fn set<T>(field: &mut T, value: Option<T>) {
+            if let Some(v) = value {
+                *field = v;
+            }
+        }
+        set(&mut s.rays, self.rays);
+        set(&mut s.bounces, self.bounces);
+        set(&mut s.tail, self.tail_setting());
+        set(&mut s.blur, self.blur);
+        set(&mut s.tail_tolerance, self.tail_tolerance);
+        set(&mut s.texels_per_metre, self.texels_per_metre);
+        set(&mut s.bvh, self.bvh);
+        set(&mut s.seed, self.seed);
+        set(&mut s.sampler, self.sampler);
+        set(&mut s.stride, self.stride);
+        set(&mut s.higher_rays, self.higher_rays);
+        set(&mut s.higher_stride, self.higher_stride);
+        set(&mut s.refine_rays, self.refine_rays);
+        set(&mut s.refine_error, self.refine_error);
+        set(&mut s.lamp_paths, self.lamp_paths);
+    }
+
+    /// The settings of this patch: the preset it names (or [`Settings::default`]) with its
+    /// values applied, checked by [`Settings::validate`].
+    ///
+    /// # Errors
+    /// The [`SettingError`] of [`Settings::validate`]; its `name` is the patch's key.
+    pub fn settings(&self) -> Result<Settings, SettingError> {
+        let mut s = Settings::default();
+        self.apply(&mut s);
+        s.validate()?;
+        Ok(s)
+    }
+}
+
+/// A key of a [`SettingsPatch`] that is unknown or whose value does not parse.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("`{key}`: {message}")]
+pub struct PatchError {
+    /// The key as the entry spelled it (empty if no single entry is at fault).
+    pub key: String,
+    /// The deserialiser's message.
+    pub message: String,
+}
+
+/// Deserialisers of the [`SettingsPatch`] fields that are names.
+mod de {
+    use std::fmt;
+    use std::str::FromStr;
+
+    use serde::Deserializer;
+    use serde::de::{Error, Visitor};
+
+    use super::Blur;
+
+    /// A name parsed with `T`'s `FromStr` (its message on failure).
+    pub fn parsed<'de, D, T>(d: D) -> Result<Option<T>, D::Error>
+    where
+        D: Deserializer<'de>,
+        T: FromStr<Err = String>,
+    {
+        let name: String = serde::Deserialize::deserialize(d)?;
+        name.parse().map(Some).map_err(D::Error::custom)
+    }
+
+    /// `"none"` or a sigma in texels (0: none), as [`Blur`]'s `FromStr` and [`Blur::sigma`].
+    pub fn blur<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Blur>, D::Error> {
+        struct V;
+        impl Visitor<'_> for V {
+            type Value = Blur;
+            fn expecting(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+                f.write_str("\"none\" or a sigma in texels")
+            }
+            fn visit_str<E: Error>(self, v: &str) -> Result<Blur, E> {
+                if v.trim().eq_ignore_ascii_case("none") {
+                    Ok(Blur::None)
+                } else {
+                    Err(E::custom(format!(
+                        "`{v}`; expected \"none\" or a sigma in texels"
+                    )))
+                }
+            }
+            fn visit_f64<E: Error>(self, v: f64) -> Result<Blur, E> {
+                Ok(Blur::sigma(v as f32))
+            }
+            fn visit_i64<E: Error>(self, v: i64) -> Result<Blur, E> {
+                Ok(Blur::sigma(v as f32))
+            }
+            fn visit_u64<E: Error>(self, v: u64) -> Result<Blur, E> {
+                Ok(Blur::sigma(v as f32))
+            }
+        }
+        d.deserialize_any(V).map(Some)
     }
 }
 
@@ -1340,6 +1647,155 @@ mod tests {
             assert_ne!(b.encoded(), BvhMode::Wide);
         }
         assert!("bvh".parse::<BvhMode>().is_err());
+    }
+
+    #[test]
+    fn a_patch_starts_from_its_preset() {
+        let patch = |toml: &str| toml::from_str::<SettingsPatch>(toml).expect(toml);
+        assert_eq!(SettingsPatch::default().settings(), Ok(Settings::default()));
+        let draft = patch("quality = \"draft\"").settings();
+        assert_eq!(draft, Ok(Settings::preset(Quality::Draft)));
+        assert_eq!(
+            patch("method = \"paper\"").settings(),
+            Ok(Settings::paper())
+        );
+        let s = patch("method = \"paper\"\nquality = \"final\"\nrays = 9").settings();
+        assert_eq!(
+            s,
+            Ok(Settings {
+                rays: 9,
+                ..Settings::paper()
+            })
+        );
+        let s = patch("rays = 2\nblur = \"none\"\nbvh = \"tbvh\"\nsampler = \"hash\"").settings();
+        let want = Settings {
+            rays: 2,
+            blur: Blur::None,
+            bvh: BvhMode::Tbvh,
+            sampler: Sampler::Hash,
+            ..Settings::default()
+        };
+        assert_eq!(s, Ok(want));
+        // Blur: a sigma, "none" or 0 (none); integers where floats are expected.
+        let blur = |t: &str| patch(t).blur;
+        assert_eq!(blur("blur = 3"), Some(Blur::Sigma(3.0)));
+        assert_eq!(blur("blur = 0"), Some(Blur::None));
+        assert_eq!(blur("blur = \"None\""), Some(Blur::None));
+        assert_eq!(patch("texels_per_metre = 12").texels_per_metre, Some(12.0));
+        // Validation names the key; the whole table's keys are the fields.
+        let e = patch("rays = 0").settings().expect_err("rays 0");
+        assert_eq!(e.name, "rays");
+        let names: Vec<String> = SettingsPatch::KEYS
+            .iter()
+            .map(|k| format!("`{k}`"))
+            .collect();
+        let unknown = toml::from_str::<SettingsPatch>("raus = 1").expect_err("raus");
+        for name in names {
+            assert!(unknown.to_string().contains(&name), "{name}: {unknown}");
+        }
+    }
+
+    #[test]
+    fn bounces_without_tail_are_exact() {
+        let patch = |toml: &str| toml::from_str::<SettingsPatch>(toml).expect(toml);
+        let tail = |toml: &str| {
+            let s = patch(toml).settings().expect(toml);
+            (s.bounces, s.tail)
+        };
+        assert_eq!(tail(""), (Settings::CONVERGED_MAX_BOUNCES, true));
+        assert_eq!(tail("quality = \"draft\""), (3, true));
+        assert_eq!(tail("bounces = 2"), (2, false));
+        assert_eq!(tail("bounces = 2\ntail = true"), (2, true));
+        assert_eq!(tail("tail = false"), (32, false));
+        assert_eq!(tail("method = \"paper\""), (3, false));
+        // Layered: the later `bounces` turns the earlier tail off; a later `tail` keeps the
+        // earlier count.
+        let layered = |a: &str, b: &str| {
+            let s = patch(a).then(&patch(b)).settings().expect(b);
+            (s.bounces, s.tail)
+        };
+        assert_eq!(
+            layered("bounces = 8\ntail = true", "bounces = 2"),
+            (2, false)
+        );
+        assert_eq!(layered("bounces = 8", "tail = true"), (8, true));
+        assert_eq!(layered("bounces = 8", "rays = 3"), (8, false));
+    }
+
+    #[test]
+    fn layering_is_applying_in_order() {
+        let patch = |toml: &str| toml::from_str::<SettingsPatch>(toml).expect(toml);
+        let files = [
+            "",
+            "rays = 256\ntexels_per_metre = 32\nseed = 4",
+            "method = \"paper\"\nbvh = \"none\"",
+            "quality = \"final\"\nbounces = 5\nstride = 2",
+            "quality = \"draft\"\ntail = false\nblur = 3.0",
+        ];
+        let flags = [
+            "",
+            "quality = \"draft\"",
+            "method = \"converged\"\nrays = 8",
+            "method = \"paper\"\nbounces = 1",
+            "texels_per_metre = 12\ntail = true",
+            "bounces = 2\nlamp_paths = 0",
+        ];
+        for file in files {
+            for flag in flags {
+                let (a, b) = (patch(file), patch(flag));
+                let mut applied = a.settings().expect(file);
+                b.apply(&mut applied);
+                assert_eq!(a.then(&b).settings(), Ok(applied), "{file:?} then {flag:?}");
+            }
+        }
+        // A preset named later replaces the earlier preset's values but keeps the density,
+        // traversal and seed; `quality` alone means the converged method.
+        let s = patch("method = \"paper\"\nrays = 256\ntexels_per_metre = 32\nseed = 4")
+            .then(&patch("quality = \"draft\""))
+            .settings()
+            .expect("draft");
+        let want = Settings {
+            texels_per_metre: 32.0,
+            seed: 4,
+            ..Settings::preset(Quality::Draft)
+        };
+        assert_eq!(s, want);
+    }
+
+    #[test]
+    fn entries_name_the_key_of_a_bad_value() {
+        let entries = |toml: &str| -> Vec<(String, toml::Value)> {
+            toml::from_str::<toml::Table>(toml)
+                .expect(toml)
+                .into_iter()
+                .collect()
+        };
+        let p = SettingsPatch::from_entries(&entries("rays = 3\ntail = true")).expect("good");
+        assert_eq!((p.rays, p.tail), (Some(3), Some(true)));
+        for (toml, key, message) in [
+            ("rays = 3\nbvh = \"kd\"", "bvh", "got `kd`"),
+            ("method = \"fast\"", "method", "got `fast`"),
+            ("quality = \"best\"\nrays = 1", "quality", "got `best`"),
+            ("sampler = 3", "sampler", "string"),
+            ("blur = \"soft\"", "blur", "`soft`"),
+            ("blur = true", "blur", "\"none\" or a sigma"),
+            ("seed = -3", "seed", "-3"),
+            ("rays = 1\nraus = 3", "raus", "unknown field"),
+            ("tail = 1", "tail", "bool"),
+        ] {
+            let e = SettingsPatch::from_entries(&entries(toml)).expect_err(toml);
+            assert_eq!(e.key, key, "{toml}: {e}");
+            assert!(e.message.contains(message), "{toml}: {e}");
+        }
+        let json = |text: &str| -> Vec<(String, serde_json::Value)> {
+            let v: serde_json::Map<String, serde_json::Value> =
+                serde_json::from_str(text).expect(text);
+            v.into_iter().collect()
+        };
+        let p = SettingsPatch::from_entries(&json(r#"{"blur":0,"bounces":1}"#)).expect("json");
+        assert_eq!((p.blur, p.bounces), (Some(Blur::None), Some(1)));
+        let e = SettingsPatch::from_entries(&json(r#"{"rays":"many"}"#)).expect_err("json");
+        assert_eq!(e.key, "rays");
     }
 
     #[test]

@@ -4,10 +4,10 @@
 //! to a hard shadow's edge. The GPU backends run the cube and sphere checks in the workspace's
 //! `tests/` crate.
 
-use luxbake::bake::{BakeOutput, bake};
+use luxbake::bake::{BakeOutput, Skipped, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::probe::locate;
-use luxbake::scene::{Albedo, Object, Scene, Settings, Transform};
+use luxbake::scene::{Albedo, Object, Scene, Settings, SettingsPatch, Transform};
 use luxbake::sources::closed_forms::{cie_171_5_8, closed_sphere};
 use luxbake::sources::{builtin, meshes};
 
@@ -47,6 +47,54 @@ fn cie_171_test_5_8_closed_cube() {
         );
         assert!(err.abs() < 0.02, "ρ = {rho}: {indirect} vs {want}");
     }
+}
+
+/// `bounces` means what it says: a patch that sets it without `tail` bakes exactly that many
+/// explicit bounces and adds no tail, even where the tail tolerance would stop earlier; with
+/// `tail = true` it is the cap and the tail is extrapolated (`SettingsPatch`, `Settings::tail`).
+#[test]
+fn bounces_without_the_tail_are_exact() {
+    let run = |bounces: u32, tail: Option<bool>, tail_tolerance: f32| {
+        let settings = SettingsPatch {
+            bounces: Some(bounces),
+            tail,
+            tail_tolerance: Some(tail_tolerance),
+            texels_per_metre: Some(4.0),
+            rays: Some(4),
+            ..SettingsPatch::default()
+        }
+        .settings()
+        .expect("settings");
+        let (scene, _) = cie_171_5_8(0.5, settings.clone());
+        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let (mean_e, _) = mean(&out, |e, _| e);
+        (out.report, mean_e)
+    };
+    let (one, _) = run(1, None, 0.01);
+    assert_eq!((one.bounces_run, one.tail_fraction), (1, 0.0));
+    let (two, exact) = run(2, None, 0.01);
+    assert_eq!((two.bounces_run, two.tail_fraction), (2, 0.0));
+    assert!(two.bounce_ratio.is_some(), "the ratio is measured");
+    let (capped, with_tail) = run(2, Some(true), 0.01);
+    assert_eq!(capped.bounces_run, 2);
+    assert!(capped.tail_fraction > 0.05, "{}", capped.tail_fraction);
+    assert!(with_tail > exact * 1.05, "{with_tail} vs {exact}");
+    // A loose tolerance stops early only with the tail.
+    let (early, _) = run(6, Some(true), 0.5);
+    assert!(early.bounces_run < 6, "{}", early.bounces_run);
+    let (all, _) = run(6, None, 0.5);
+    assert_eq!((all.bounces_run, all.tail_fraction), (6, 0.0));
+    let skipped_bounces = |k: &Skipped| matches!(k, Skipped::Bounces { .. });
+    assert!(
+        !all.skipped.iter().any(skipped_bounces),
+        "{:?}",
+        all.skipped
+    );
+    assert!(
+        early.skipped.iter().any(skipped_bounces),
+        "{:?}",
+        early.skipped
+    );
 }
 
 #[test]

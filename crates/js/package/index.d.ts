@@ -65,7 +65,10 @@ export interface BakeOptions {
   /** 'converged' (default) or 'paper' (the paper's pipeline). */
   method?: Method;
   rays?: number;
+  /** Indirect bounces; 0 = direct light only. Converged: exactly this many unless `tail` is true. */
   bounces?: number;
+  /** Converged: after the bounces, add the extrapolated rest of the inter-reflection series (then `bounces` is a cap). Default: the preset's (true), false when `bounces` is given. */
+  tail?: boolean;
   /** Blur sigma in texels, 0 = none. */
   blurSigma?: number;
   texelsPerMetre?: number;

@@ -5,11 +5,11 @@
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum JsBakeError {
-    /// Malformed bake options (JSON shape, unknown key, wrong type).
+    /// Malformed bake options (JSON shape, unknown key, a wrong type outside the settings).
     #[error("options: {0}")]
     Options(String),
-    /// A bake setting out of range ([`luxbake::scene::Settings::validate`]), named by its
-    /// option key.
+    /// A bake setting of the wrong type, an unknown name (`method`, `quality`) or out of
+    /// range ([`luxbake::scene::Settings::validate`]), named by its option key.
     #[error("setting `{name}`: {reason}")]
     Setting {
         /// The option key (`rays`, `texelsPerMetre`, ...).

@@ -1,9 +1,9 @@
 //! What a page asks to bake: a glTF/GLB scene, options as JSON, the lamps' photometric files;
 //! and the scene built from them ([`build_scene`]), natively the same as in the browser.
 //!
-//! Settings come from the CLI's presets ([`Settings::of`]: `method` `converged` with `quality`
-//! `draft`, `default` or `final`, or `method` `paper`), optionally overridden key by key, and
-//! are checked by [`Settings::validate`]; lamps by [`Lamp::validate`]; the scene is read by
+//! Settings are a [`SettingsPatch`] in camelCase (the CLI's presets, `method` `converged` with
+//! `quality` `draft`, `default` or `final`, or `method` `paper`, optionally overridden key by
+//! key), checked by [`Settings::validate`]; lamps by [`Lamp::validate`]; the scene is read by
 //! [`luxbake_assets::gltf_in::import_bytes`], light-map UVs generated where the file has none
 //! usable, padded for the bake's blur at its density (as `cargo xtask bake` does for scene
 //! files).
@@ -11,38 +11,36 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use luxbake::scene::{Blur, Lamp, Method, Object, Quality, Scene, Settings, Transform};
+use luxbake::scene::{Lamp, Object, Scene, Settings, SettingsPatch, Transform};
 use luxbake_assets::{GltfSource, ImportOptions, UvSource, uv};
 use luxbake_ies::Photometry;
 use serde::Deserialize;
 
 use crate::JsBakeError;
 
-/// The bake options a page sends (JSON, camelCase keys; unknown keys are an error). Every
-/// setting is optional: missing ones take the preset's value.
-#[derive(Debug, Clone, Default, PartialEq, Deserialize)]
-#[serde(default, deny_unknown_fields, rename_all = "camelCase")]
+/// The bake options a page sends (JSON, camelCase keys; unknown keys are an error).
+#[derive(Debug, Clone, Default, PartialEq)]
 pub struct BakeOptions {
-    /// `converged` (default) or `paper`.
-    pub method: Option<String>,
-    /// The converged method's preset: `draft`, `default` (default) or `final`.
-    pub quality: Option<String>,
-    /// Gather rays per texel (converged: of the first bounce).
-    pub rays: Option<u32>,
-    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
-    pub bounces: Option<u32>,
-    /// Blur sigma in texels; 0 = no blur.
-    pub blur_sigma: Option<f32>,
-    /// Light-map density, texels per metre.
-    pub texels_per_metre: Option<f32>,
-    /// Seed of the bake's random numbers.
-    pub seed: Option<u32>,
-    /// Converged: lamp paths per texel of the first bounce (0 = the gather alone).
-    pub lamp_paths: Option<u32>,
+    /// The settings: every key of a [`SettingsPatch`] in camelCase (`blur` is `blurSigma`, a
+    /// sigma in texels, 0 = no blur), e.g. `method`, `quality`, `rays`, `bounces`, `tail`,
+    /// `texelsPerMetre`, `seed`, `lampPaths`. Missing ones take the preset's value.
+    pub settings: SettingsPatch,
     /// Largest distance of a `measure` point from a baked surface, metres (default 0.01).
     pub measure_tolerance: Option<f64>,
     /// The lamps; their photometric files are passed beside the options, in the same order.
     pub lamps: Vec<LampOptions>,
+}
+
+/// [`BakeOptions`] as JSON: the settings are the keys besides these.
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct OptionsJson {
+    #[serde(default)]
+    measure_tolerance: Option<f64>,
+    #[serde(default)]
+    lamps: Vec<LampOptions>,
+    #[serde(flatten)]
+    settings: serde_json::Map<String, serde_json::Value>,
 }
 
 /// One lamp of [`BakeOptions`]: where it hangs, where it points, how bright.
@@ -72,78 +70,74 @@ impl BakeOptions {
     /// Parses options from JSON.
     ///
     /// # Errors
-    /// [`JsBakeError::Options`] for malformed JSON, a wrong type or an unknown key.
+    /// [`JsBakeError::Options`] for malformed JSON, a wrong type or an unknown key;
+    /// [`JsBakeError::Setting`] for a setting of the wrong type or an unknown name (`method`,
+    /// `quality`), named by its option key.
     pub fn from_json(text: &str) -> Result<BakeOptions, JsBakeError> {
-        serde_json::from_str(text).map_err(|e| JsBakeError::Options(e.to_string()))
+        let json: OptionsJson =
+            serde_json::from_str(text).map_err(|e| JsBakeError::Options(e.to_string()))?;
+        let mut entries = Vec::with_capacity(json.settings.len());
+        for (key, value) in json.settings {
+            let field = setting_field(&key)
+                .ok_or_else(|| JsBakeError::Options(format!("unknown option `{key}`")))?;
+            entries.push((field, value));
+        }
+        let settings = SettingsPatch::from_entries(&entries).map_err(|e| JsBakeError::Setting {
+            name: option_key(&e.key),
+            reason: e.message,
+        })?;
+        Ok(BakeOptions {
+            settings,
+            measure_tolerance: json.measure_tolerance,
+            lamps: json.lamps,
+        })
     }
 
-    /// The bake settings: the preset of `method` and `quality`, overridden by the given keys,
-    /// checked by [`Settings::validate`].
+    /// The bake settings of [`BakeOptions::settings`] ([`SettingsPatch::settings`]).
     ///
     /// # Errors
     /// [`JsBakeError::Setting`] naming the first value out of range by its option key.
     pub fn settings(&self) -> Result<Settings, JsBakeError> {
-        let setting = |name: &str| {
-            let name = name.to_owned();
-            move |reason: String| JsBakeError::Setting { name, reason }
-        };
-        let method: Method = self
-            .method
-            .as_deref()
-            .unwrap_or("converged")
-            .parse()
-            .map_err(setting("method"))?;
-        let quality: Quality = self
-            .quality
-            .as_deref()
-            .unwrap_or("default")
-            .parse()
-            .map_err(setting("quality"))?;
-        let mut s = Settings::of(method, quality);
-        if let Some(r) = self.rays {
-            s.rays = r;
-        }
-        if let Some(b) = self.bounces {
-            s.bounces = b;
-        }
-        if let Some(sigma) = self.blur_sigma {
-            s.blur = if sigma == 0.0 {
-                Blur::None
-            } else {
-                Blur::Sigma(sigma)
-            };
-        }
-        if let Some(d) = self.texels_per_metre {
-            s.texels_per_metre = d;
-        }
-        if let Some(seed) = self.seed {
-            s.seed = seed;
-        }
-        if let Some(k) = self.lamp_paths {
-            s.lamp_paths = k;
-        }
-        s.validate().map_err(|e| JsBakeError::Setting {
-            name: option_key(e.name).to_owned(),
+        self.settings.settings().map_err(|e| JsBakeError::Setting {
+            name: option_key(e.name),
             reason: e.reason,
-        })?;
-        Ok(s)
+        })
     }
 }
 
-/// The option key of a [`Settings`] field (its camelCase name; `blur` is `blurSigma`).
-fn option_key(field: &str) -> &str {
+/// The option key of a [`Settings`] field, [`SettingsPatch`] key or [`Lamp`] field: its
+/// camelCase name; `blur` is `blurSigma`, `rotation_deg` is `rotation`.
+fn option_key(field: &str) -> String {
     match field {
-        "blur" => "blurSigma",
-        "texels_per_metre" => "texelsPerMetre",
-        "tail_tolerance" => "tailTolerance",
-        "higher_rays" => "higherRays",
-        "higher_stride" => "higherStride",
-        "refine_rays" => "refineRays",
-        "refine_error" => "refineError",
-        "lamp_paths" => "lampPaths",
-        "rotation_deg" => "rotation",
-        other => other,
+        "blur" => "blurSigma".into(),
+        "rotation_deg" => "rotation".into(),
+        _ => {
+            let mut words = field.split('_');
+            let first = words.next().unwrap_or_default().to_owned();
+            words.fold(first, |mut key, word| {
+                let mut chars = word.chars();
+                key.extend(chars.next().map(|c| c.to_ascii_uppercase()));
+                key.push_str(chars.as_str());
+                key
+            })
+        }
     }
+}
+
+/// The [`SettingsPatch`] key of an option key (the inverse of [`option_key`]); `None` for a
+/// key that names no setting.
+fn setting_field(key: &str) -> Option<String> {
+    let field = match key {
+        "blurSigma" => "blur".into(),
+        _ => key.chars().fold(String::new(), |mut field, c| {
+            if c.is_ascii_uppercase() {
+                field.push('_');
+            }
+            field.push(c.to_ascii_lowercase());
+            field
+        }),
+    };
+    (SettingsPatch::KEYS.contains(&field.as_str()) && option_key(&field) == key).then_some(field)
 }
 
 /// Where a baked object came from, for the page to find its mesh.
@@ -297,6 +291,7 @@ pub fn measure(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use luxbake::scene::{Blur, Quality};
 
     const IES: &[u8] = include_bytes!("../../bake/lamps/luxbake_downlight.ies");
 
@@ -304,18 +299,26 @@ mod tests {
         BakeOptions::from_json(json).unwrap()
     }
 
+    fn settings(json: &str) -> Result<Settings, JsBakeError> {
+        BakeOptions::from_json(json)?.settings()
+    }
+
     #[test]
     fn presets_are_the_clis_and_overrides_are_checked_by_the_core() {
-        let draft = options(r#"{"quality":"draft"}"#).settings().unwrap();
+        let draft = settings(r#"{"quality":"draft"}"#).unwrap();
         assert_eq!(draft, Settings::preset(Quality::Draft));
-        let paper = options(r#"{"method":"paper"}"#).settings().unwrap();
+        let paper = settings(r#"{"method":"paper"}"#).unwrap();
         assert_eq!(paper, Settings::paper());
-        let s = options(r#"{"rays":16,"blurSigma":0,"texelsPerMetre":12}"#)
-            .settings()
-            .unwrap();
+        let s = settings(r#"{"rays":16,"blurSigma":0,"texelsPerMetre":12}"#).unwrap();
         assert_eq!((s.rays, s.blur, s.texels_per_metre), (16, Blur::None, 12.0));
-        let s = options(r#"{"lampPaths":3}"#).settings().unwrap();
-        assert_eq!(s.lamp_paths, 3);
+        let s = settings(r#"{"lampPaths":3,"tailTolerance":0.05}"#).unwrap();
+        assert_eq!((s.lamp_paths, s.tail_tolerance), (3, 0.05));
+        // `bounces` alone is an exact count; with `tail` a cap.
+        let s = settings(r#"{"bounces":2}"#).unwrap();
+        assert_eq!((s.bounces, s.tail), (2, false));
+        let s = settings(r#"{"bounces":2,"tail":true}"#).unwrap();
+        assert_eq!((s.bounces, s.tail), (2, true));
+        assert!(settings("{}").unwrap().tail);
         for (json, key) in [
             (r#"{"lampPaths":5000}"#, "lampPaths"),
             (r#"{"rays":0}"#, "rays"),
@@ -324,13 +327,18 @@ mod tests {
             (r#"{"texelsPerMetre":0}"#, "texelsPerMetre"),
             (r#"{"blurSigma":-1}"#, "blurSigma"),
             (r#"{"bounces":1000}"#, "bounces"),
+            (r#"{"tail":"yes"}"#, "tail"),
+            (r#"{"higherStride":0}"#, "higherStride"),
         ] {
-            let e = options(json).settings().unwrap_err();
+            let e = settings(json).unwrap_err();
             assert!(e.to_string().contains(&format!("`{key}`")), "{json}: {e}");
             assert_eq!(e.kind(), "setting");
         }
-        let e = BakeOptions::from_json(r#"{"rayz":4}"#).unwrap_err();
-        assert!(e.to_string().contains("rayz"), "{e}");
+        for key in ["rayz", "blur", "texels_per_metre"] {
+            let e = BakeOptions::from_json(&format!(r#"{{"{key}":4}}"#)).unwrap_err();
+            assert!(e.to_string().contains(key), "{e}");
+            assert_eq!(e.kind(), "options");
+        }
     }
 
     #[test]

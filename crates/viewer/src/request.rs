@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use luxbake::scene::{Blur, Lamp, Method, Quality, Scene, Settings};
+use luxbake::scene::{Blur, Lamp, Method, Quality, Scene, Settings, SettingsPatch};
 use luxbake::sources::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake_ies::Photometry;
 use serde::{Deserialize, Serialize};
@@ -91,8 +91,12 @@ pub struct BakeRequest {
     pub quality: String,
     /// Gather rays per texel per bounce (converged: of the first bounce).
     pub rays: u32,
-    /// Indirect bounces (converged: the most explicit bounces; 0 = direct light only).
+    /// Indirect bounces; 0 = direct light only. Converged: exactly this many, unless `tail`
+    /// makes it the most explicit bounces before the tail is added.
     pub bounces: u32,
+    /// Converged: after the explicit bounces, add the extrapolated rest of the
+    /// inter-reflection series ([`Settings::tail`]; the presets' `true`).
+    pub tail: bool,
     /// Blur sigma in texels, 0 = no blur.
     pub blur_sigma: f32,
     /// Light-map texel density, texels per metre.
@@ -124,6 +128,7 @@ impl BakeRequest {
             quality: quality.name().into(),
             rays: s.rays,
             bounces: s.bounces,
+            tail: s.tail,
             blur_sigma: match s.blur {
                 Blur::None => 0.0,
                 Blur::Sigma(sigma) => sigma,
@@ -142,37 +147,39 @@ impl BakeRequest {
         serde_json::from_str(text).map_err(|e| ViewerError::Request(e.to_string()))
     }
 
-    /// The bake settings of this request, checked by [`Settings::validate`]; `blur_sigma`
-    /// 0 means no blur.
+    /// The settings of this request as a patch: every key is given (`blur_sigma` 0 means no
+    /// blur).
+    ///
+    /// # Errors
+    /// [`ViewerError::Setting`] for an unknown `method` or `quality`.
+    pub fn patch(&self) -> Result<SettingsPatch, ViewerError> {
+        let setting =
+            |name: &'static str| move |reason: String| ViewerError::Setting { name, reason };
+        Ok(SettingsPatch {
+            method: Some(self.method.parse().map_err(setting("method"))?),
+            quality: Some(self.quality.parse().map_err(setting("quality"))?),
+            rays: Some(self.rays),
+            bounces: Some(self.bounces),
+            tail: Some(self.tail),
+            blur: Some(Blur::sigma(self.blur_sigma)),
+            texels_per_metre: Some(self.texels_per_metre),
+            seed: Some(self.seed),
+            ..SettingsPatch::default()
+        })
+    }
+
+    /// The bake settings of this request ([`SettingsPatch::settings`]).
     ///
     /// # Errors
     /// [`ViewerError::Setting`] naming the first value out of range by its JSON key.
     pub fn settings(&self) -> Result<Settings, ViewerError> {
-        let setting =
-            |name: &'static str| move |reason: String| ViewerError::Setting { name, reason };
-        let method: Method = self.method.parse().map_err(setting("method"))?;
-        let quality: Quality = self.quality.parse().map_err(setting("quality"))?;
-        let base = Settings::of(method, quality);
-        let settings = Settings {
-            rays: self.rays,
-            bounces: self.bounces,
-            blur: if self.blur_sigma == 0.0 {
-                Blur::None
-            } else {
-                Blur::Sigma(self.blur_sigma)
-            },
-            texels_per_metre: self.texels_per_metre,
-            seed: self.seed,
-            ..base
-        };
-        settings.validate().map_err(|e| ViewerError::Setting {
+        self.patch()?.settings().map_err(|e| ViewerError::Setting {
             name: match e.name {
                 "blur" => "blur_sigma",
                 name => name,
             },
             reason: e.reason,
-        })?;
-        Ok(settings)
+        })
     }
 }
 
@@ -314,9 +321,29 @@ mod tests {
             ),
             (preset.method, preset.rays, preset.blur)
         );
+        assert_eq!(
+            scene.settings,
+            Settings {
+                texels_per_metre: 32.0,
+                ..preset
+            }
+        );
         let paper = BakeRequest::with_preset(Method::Paper, Quality::Default);
         let s = build_scene(&paper, None).unwrap().settings;
         assert_eq!((s.method, s.rays, s.bounces), (Method::Paper, 4, 3));
+        assert_eq!(
+            s,
+            Settings {
+                texels_per_metre: 32.0,
+                ..Settings::paper()
+            }
+        );
+        // The page's bounces are exact unless the request keeps the tail.
+        let r = BakeRequest::from_json(r#"{"bounces":2,"tail":false}"#).unwrap();
+        assert_eq!(
+            (r.settings().unwrap().bounces, r.settings().unwrap().tail),
+            (2, false)
+        );
     }
 
     #[test]

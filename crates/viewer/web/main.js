@@ -188,6 +188,7 @@ function syncControls() {
   set('blur', r.blur_sigma);
   $('method').value = r.method;
   $('quality').value = r.quality;
+  $('tail').checked = r.tail;
   for (const [id, v] of [['rays', r.rays], ['bounces', r.bounces], ['density', r.texels_per_metre]]) {
     const el = $(id);
     if (![...el.options].some((o) => Number(o.value) === v)) el.append(new Option(String(v)));
@@ -218,14 +219,17 @@ function wireControls() {
   lampInput('blur', (v) => { r.blur_sigma = v; });
   const preset = () => {
     const p = JSON.parse(presetRequest($('method').value, $('quality').value));
-    for (const key of ['method', 'quality', 'rays', 'bounces', 'blur_sigma']) r[key] = p[key];
+    for (const key of ['method', 'quality', 'rays', 'bounces', 'tail', 'blur_sigma']) r[key] = p[key];
     syncControls();
     requestBake();
   };
   $('method').onchange = preset;
   $('quality').onchange = preset;
   $('rays').onchange = (e) => { r.rays = Number(e.target.value); requestBake(); };
-  $('bounces').onchange = (e) => { r.bounces = Number(e.target.value); requestBake(); };
+  // A chosen bounce count is exact (as `bounces` without `tail` in a scene file); tick the
+  // tail to make it a cap again.
+  $('bounces').onchange = (e) => { r.bounces = Number(e.target.value); r.tail = false; syncControls(); requestBake(); };
+  $('tail').onchange = (e) => { r.tail = e.target.checked; requestBake(); };
   $('density').onchange = (e) => { r.texels_per_metre = Number(e.target.value); requestBake(); };
   $('rebake').onclick = () => requestBake(0);
   $('lamp-file').onchange = async (e) => {
@@ -319,11 +323,13 @@ function frame(now) {
 async function main() {
   await init();
   const request = JSON.parse(defaultRequest());
-  // URL overrides, e.g. ?scene=chairs_01&texels_per_metre=12&rays=16
+  // URL overrides, e.g. ?scene=chairs_01&texels_per_metre=12&rays=16&bounces=2 (`bounces`
+  // without `tail=true` is an exact count)
   const params = new URLSearchParams(location.search);
   for (const key of ['scene', 'method', 'quality', 'rays', 'bounces', 'blur_sigma', 'texels_per_metre', 'seed']) {
     if (params.has(key)) request[key] = ['scene', 'method', 'quality'].includes(key) ? params.get(key) : Number(params.get(key));
   }
+  if (params.has('bounces') || params.has('tail')) request.tail = params.get('tail') === 'true';
   hooks.request = request;
   fillSelect($('scene'), JSON.parse(sceneNames()).map((n) => [n, n]));
   fillSelect($('lamp'), JSON.parse(bundledLamps()));

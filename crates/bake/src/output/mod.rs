@@ -26,7 +26,7 @@
 //!
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
-//! `settings` (method, quality, tail_tolerance, rays, bounces, blur, texels_per_metre, bvh,
+//! `settings` (method, quality, tail_tolerance, rays, bounces, tail, blur, texels_per_metre, bvh,
 //! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
 //! the file's tilt factors are taken at, [`crate::scene::Lamp::tilt_deg`]), multiplier,
@@ -391,6 +391,7 @@ pub fn write_bake(
             "tail_tolerance": s.tail_tolerance,
             "rays": s.rays,
             "bounces": s.bounces,
+            "tail": s.tail,
             "blur": blur_json(s.blur),
             "texels_per_metre": s.texels_per_metre,
             "bvh": s.bvh.name(),

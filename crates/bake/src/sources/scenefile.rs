@@ -11,8 +11,9 @@
 //! ```toml
 //! [settings]                  # all optional; the CLI flags override them
 //! rays = 256                  # gather rays per texel per bounce, 1..=65536
-//! bounces = 1                 # indirect bounces, 0..=64
-//! blur = 2.0                  # Gaussian sigma in texels (0 < sigma <= 64), or "none"
+//! bounces = 1                 # indirect bounces, 0..=64: exactly this many unless tail = true
+//! tail = false                # converged: add the extrapolated rest of the series (presets: true)
+//! blur = 2.0                  # Gaussian sigma in texels (0 < sigma <= 64), or "none" (or 0)
 //! texels_per_metre = 64.0     # light-map density, finite and > 0 (the maps: at most 2^26 texels)
 //! bvh = "mtbvh"               # "wide" (default; CPU), "mtbvh", "tbvh" or "none"
 //! seed = 0                    # 0..=4294967295
@@ -64,8 +65,12 @@
 //! `lights_ies` is given. A file object's `scale` also reaches the [`MeshLoader`]
 //! ([`MeshRequest::scale`]) so that generated charts keep their padding in texels.
 //!
-//! The `[settings]` ranges are those of every bake: the table goes through
-//! [`Settings::validate`].
+//! The `[settings]` table is a [`SettingsPatch`] (its keys, its rules for presets and for
+//! `bounces` without `tail`), so its ranges are those of every bake: it goes through
+//! [`Settings::validate`]. Overrides (the command line's flags) are layered over it with
+//! [`from_file_patched`] *before* the objects are built, so that chart padding and the mesh
+//! loader's generated UVs follow the final `texels_per_metre` and `blur`: preset, then the
+//! file's keys, then the overrides.
 //!
 //! Defaults: `albedo` 0.5 for primitives, the built-in scenes' colours for the room
 //! ([`crate::sources::builtin::ROOM_ALBEDO`]), chair and sofa; `texel_scale` 1 for primitives,
@@ -81,7 +86,7 @@ use serde::Deserialize;
 use toml::Value;
 
 use crate::scene::{
-    Albedo, Blur, Lamp, Mesh, Method, Object, Quality, Scene, SceneError, Settings, Transform,
+    Albedo, Blur, Lamp, Mesh, Object, Scene, SceneError, Settings, SettingsPatch, Transform,
 };
 use crate::sources::builtin;
 use crate::sources::meshes::{self, RoomAlbedo};
@@ -100,33 +105,12 @@ pub const MAX_LAMPS: usize = 1_000;
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RawScene {
-    settings: Option<RawSettings>,
+    /// A [`SettingsPatch`], read key by key (plus `backend`, which is no bake setting).
+    settings: Option<toml::Table>,
     #[serde(default)]
     lamp: Vec<RawLamp>,
     #[serde(default)]
     object: Vec<RawObject>,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-struct RawSettings {
-    method: Option<String>,
-    quality: Option<String>,
-    tail_tolerance: Option<f64>,
-    sampler: Option<String>,
-    stride: Option<u32>,
-    higher_rays: Option<u32>,
-    lamp_paths: Option<u32>,
-    higher_stride: Option<u32>,
-    refine_rays: Option<u32>,
-    refine_error: Option<f64>,
-    rays: Option<u32>,
-    bounces: Option<u32>,
-    blur: Option<Value>,
-    texels_per_metre: Option<f64>,
-    bvh: Option<String>,
-    seed: Option<u32>,
-    backend: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -237,34 +221,31 @@ impl Scene {
 
 /// Reads and parses a scene file; `mesh = "..."` objects are an error (no loader).
 pub fn from_file(path: &Path) -> Result<Scene, SceneError> {
-    read_file(path, None, &|_| {})
+    from_file_patched(path, None, &SettingsPatch::default())
 }
 
 /// Reads and parses a scene file, loading `mesh = "..."` objects with `loader`.
 pub fn from_file_with(path: &Path, loader: &dyn MeshLoader) -> Result<Scene, SceneError> {
-    read_file(path, Some(loader), &|_| {})
+    from_file_patched(path, Some(loader), &SettingsPatch::default())
 }
 
-/// Reads and parses a scene file, calling `adjust` on its settings *before* the objects are
-/// built: use it for command-line overrides, so the procedural meshes' chart padding and the
-/// mesh loader's UV padding follow the final `texels_per_metre` and `blur` (overriding
-/// `scene.settings` afterwards leaves padding sized for the file's density).
-pub fn from_file_adjusted(
+/// Reads and parses a scene file with `overrides` layered over its `[settings]`
+/// ([`SettingsPatch::then`]) *before* the objects are built, so the procedural meshes' chart
+/// padding and the mesh loader's UV padding follow the final `texels_per_metre` and `blur`.
+/// `mesh = "..."` objects need a `loader`.
+///
+/// # Errors
+/// As [`from_file`]; the file's `[settings]` are checked on their own first
+/// ([`SceneError::Invalid`] naming `settings.<key>`), then with the overrides
+/// ([`SceneError::Override`] naming the setting, for the caller to name its flag or option).
+pub fn from_file_patched(
     path: &Path,
     loader: Option<&dyn MeshLoader>,
-    adjust: &dyn Fn(&mut Settings),
-) -> Result<Scene, SceneError> {
-    read_file(path, loader, adjust)
-}
-
-fn read_file(
-    path: &Path,
-    loader: Option<&dyn MeshLoader>,
-    adjust: &dyn Fn(&mut Settings),
+    overrides: &SettingsPatch,
 ) -> Result<Scene, SceneError> {
     let text = read_text(path)?;
     let base = path.parent().unwrap_or(Path::new("."));
-    parse(&text, base, Some(path), loader, adjust)
+    parse(&text, base, Some(path), loader, overrides)
 }
 
 /// The text of the scene file `path` (at most [`MAX_SCENE_FILE_BYTES`], UTF-8).
@@ -315,7 +296,7 @@ pub fn preferred_backend(path: &Path) -> Result<Option<&'static str>, SceneError
     };
     let raw = cx.raw(&read_text(path)?)?;
     raw.settings
-        .and_then(|s| s.backend)
+        .and_then(|mut s| s.remove("backend"))
         .map(|b| cx.backend(&b))
         .transpose()
 }
@@ -323,7 +304,7 @@ pub fn preferred_backend(path: &Path) -> Result<Option<&'static str>, SceneError
 /// Parses scene-file text; relative paths are relative to `base_dir`; `path` names the file
 /// in errors. `mesh = "..."` objects are an error (no loader).
 pub fn from_str(text: &str, base_dir: &Path, path: Option<&Path>) -> Result<Scene, SceneError> {
-    parse(text, base_dir, path, None, &|_| {})
+    parse(text, base_dir, path, None, &SettingsPatch::default())
 }
 
 /// [`from_str`] with a [`MeshLoader`] for `mesh = "..."` objects.
@@ -333,7 +314,13 @@ pub fn from_str_with(
     path: Option<&Path>,
     loader: &dyn MeshLoader,
 ) -> Result<Scene, SceneError> {
-    parse(text, base_dir, path, Some(loader), &|_| {})
+    parse(
+        text,
+        base_dir,
+        path,
+        Some(loader),
+        &SettingsPatch::default(),
+    )
 }
 
 fn parse(
@@ -341,7 +328,7 @@ fn parse(
     base_dir: &Path,
     path: Option<&Path>,
     loader: Option<&dyn MeshLoader>,
-    adjust: &dyn Fn(&mut Settings),
+    overrides: &SettingsPatch,
 ) -> Result<Scene, SceneError> {
     let cx = Cx {
         path: path.map(Path::to_path_buf),
@@ -349,8 +336,11 @@ fn parse(
         loader,
     };
     let raw = cx.raw(text)?;
-    let mut settings = cx.settings(raw.settings)?;
-    adjust(&mut settings);
+    let file = cx.settings(raw.settings)?;
+    let settings = file
+        .then(overrides)
+        .settings()
+        .map_err(SceneError::Override)?;
     let no_lamps = "a scene needs at least one [[lamp]] (or an [[object]] with `lights = true` \
                     whose file has lights)";
     if raw.lamp.is_empty() && !raw.object.iter().any(|o| o.lights == Some(true)) {
@@ -428,93 +418,33 @@ impl Cx<'_> {
         })
     }
 
-    fn backend(&self, name: &str) -> Result<&'static str, SceneError> {
+    fn backend(&self, value: &Value) -> Result<&'static str, SceneError> {
+        let name = value.as_str().ok_or_else(|| {
+            self.invalid(
+                "settings.backend",
+                format!("{value}; expected \"cpu\", \"glow\" or \"wgpu\""),
+            )
+        })?;
         backend_name(name).map_err(|e| self.invalid("settings.backend", e))
     }
 
-    /// The `[settings]` table over the defaults, checked by [`Settings::validate`].
-    fn settings(&self, raw: Option<RawSettings>) -> Result<Settings, SceneError> {
-        let Some(raw) = raw else {
-            return Ok(Settings::default());
-        };
-        // The method and the preset give the starting values; explicit keys override them.
-        let quality: Quality = match &raw.quality {
-            Some(q) => q
-                .parse()
-                .map_err(|e: String| self.invalid("settings.quality", e))?,
-            None => Quality::Default,
-        };
-        let method: Method = match &raw.method {
-            Some(m) => m
-                .parse()
-                .map_err(|e: String| self.invalid("settings.method", e))?,
-            None => Method::Converged,
-        };
-        let mut s = Settings::of(method, quality);
-        if let Some(t) = raw.tail_tolerance {
-            s.tail_tolerance = t as f32;
-        }
-        if let Some(sampler) = raw.sampler {
-            s.sampler = sampler
-                .parse()
-                .map_err(|e: String| self.invalid("settings.sampler", e))?;
-        }
-        if let Some(rays) = raw.rays {
-            s.rays = rays;
-        }
-        if let Some(v) = raw.stride {
-            s.stride = v;
-        }
-        if let Some(v) = raw.lamp_paths {
-            s.lamp_paths = v;
-        }
-        if let Some(v) = raw.higher_rays {
-            s.higher_rays = v;
-        }
-        if let Some(v) = raw.higher_stride {
-            s.higher_stride = v;
-        }
-        if let Some(v) = raw.refine_rays {
-            s.refine_rays = v;
-        }
-        if let Some(v) = raw.refine_error {
-            s.refine_error = v as f32;
-        }
-        if let Some(b) = raw.bounces {
-            s.bounces = b;
-        }
-        if let Some(v) = raw.blur {
-            s.blur = match &v {
-                Value::String(t) if t.eq_ignore_ascii_case("none") => Blur::None,
-                Value::Float(_) | Value::Integer(_) => {
-                    Blur::Sigma(number(&v).unwrap_or(f64::NAN) as f32)
-                }
-                other => {
-                    return Err(self.invalid(
-                        "settings.blur",
-                        format!("{other}; expected \"none\" or a sigma in texels"),
-                    ));
-                }
-            };
-        }
-        if let Some(d) = raw.texels_per_metre {
-            s.texels_per_metre = d as f32;
-        }
-        if let Some(b) = raw.bvh {
-            s.bvh = b
-                .parse()
-                .map_err(|e: String| self.invalid("settings.bvh", e))?;
-        }
-        if let Some(seed) = raw.seed {
-            s.seed = seed;
-        }
+    /// The `[settings]` table as a patch (`backend` checked and left out), checked on its own
+    /// by [`Settings::validate`]; errors name `settings.<key>`.
+    fn settings(&self, raw: Option<toml::Table>) -> Result<SettingsPatch, SceneError> {
+        let mut table = raw.unwrap_or_default();
         // Not a bake setting: checked here, read by `preferred_backend`.
-        if let Some(b) = raw.backend {
+        if let Some(b) = table.remove("backend") {
             self.backend(&b)?;
         }
-        s.validate()
-            .map_err(|e| self.invalid(format!("settings.{}", e.name), e.reason))?;
-        Ok(s)
+        let entries: Vec<(String, Value)> = table.into_iter().collect();
+        let invalid = |key: &str, message| match key {
+            "" => self.invalid("settings", message),
+            key => self.invalid(format!("settings.{key}"), message),
+        };
+        let patch =
+            SettingsPatch::from_entries(&entries).map_err(|e| invalid(&e.key, e.message))?;
+        patch.settings().map_err(|e| invalid(e.name, e.reason))?;
+        Ok(patch)
     }
 
     fn lamp(&self, i: usize, raw: RawLamp) -> Result<Lamp, SceneError> {
@@ -1776,23 +1706,94 @@ mod tests {
         assert!(e.contains("object[0].size"), "{e}");
     }
 
+    /// A density or blur given as an override builds the objects as the same key written in
+    /// the file does: the same meshes and light-map UVs (procedural charts and the loader's),
+    /// the same layout.
     #[test]
-    fn adjusted_settings_size_the_padding() {
+    fn overrides_size_the_padding_as_the_file_does() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/living_room.toml");
-        let plain = from_file(&path).expect("example");
-        let coarse =
-            from_file_adjusted(&path, None, &|s| s.texels_per_metre = 12.0).expect("example");
-        assert_eq!(plain.settings.texels_per_metre, 48.0);
+        let text = std::fs::read_to_string(&path).expect("example");
+        let base = path.parent().expect("folder");
+        let with_loader = format!("{text}\n[[object]]\nmesh = \"part.glb\"\n");
+        // (the key in the file, its new value, the same as an override, objects it re-pads: the
+        // room, and for the density the loader's part, which pads for the density alone)
+        for (key, value, patch, changed) in [
+            (
+                "texels_per_metre = 48.0",
+                "texels_per_metre = 32",
+                SettingsPatch {
+                    texels_per_metre: Some(32.0),
+                    ..SettingsPatch::default()
+                },
+                &[0, 7][..],
+            ),
+            (
+                "blur = 2.0",
+                "blur = 9",
+                SettingsPatch {
+                    blur: Some(Blur::Sigma(9.0)),
+                    ..SettingsPatch::default()
+                },
+                &[0],
+            ),
+        ] {
+            assert!(text.contains(key), "{key}");
+            let written = with_loader.replacen(key, value, 1);
+            let build = |text: &str, overrides: &SettingsPatch| {
+                super::parse(text, base, None, Some(&FakeLoader(1)), overrides).expect("parses")
+            };
+            let plain = build(&with_loader, &SettingsPatch::default());
+            let overridden = build(&with_loader, &patch);
+            let in_file = build(&written, &SettingsPatch::default());
+            assert_eq!(overridden.settings, in_file.settings, "{value}");
+            assert_eq!(overridden.objects, in_file.objects, "{value}");
+            let layout = |s: &Scene| crate::layout::Layout::new(s, 4096, 64).expect("layout");
+            assert_eq!(layout(&overridden), layout(&in_file), "{value}");
+            for &o in changed {
+                assert_ne!(
+                    plain.objects[o].mesh.lightmap_uvs, overridden.objects[o].mesh.lightmap_uvs,
+                    "{value}: object {o}"
+                );
+            }
+        }
+        // From a file, through the public loader.
+        let overrides = SettingsPatch {
+            texels_per_metre: Some(12.0),
+            ..SettingsPatch::default()
+        };
+        let coarse = from_file_patched(&path, None, &overrides).expect("example");
         assert_eq!(coarse.settings.texels_per_metre, 12.0);
-        // Same geometry, but charts padded for 12 texels per metre: a different UV layout.
-        assert_eq!(
-            plain.objects[1].mesh.positions,
-            coarse.objects[1].mesh.positions
+    }
+
+    #[test]
+    fn overrides_out_of_range_are_theirs() {
+        let t = text("rays = 8", LAMP, OBJECT);
+        let over = |patch: SettingsPatch| super::parse(&t, Path::new("."), None, None, &patch);
+        let bad = over(SettingsPatch {
+            rays: Some(0),
+            ..SettingsPatch::default()
+        });
+        assert!(
+            matches!(&bad, Err(SceneError::Override(e)) if e.name == "rays"),
+            "{bad:?}"
         );
-        assert_ne!(
-            plain.objects[1].mesh.lightmap_uvs,
-            coarse.objects[1].mesh.lightmap_uvs
-        );
+        // The file is checked on its own first.
+        let t = text("rays = 0", LAMP, OBJECT);
+        let fixed = SettingsPatch {
+            rays: Some(4),
+            ..SettingsPatch::default()
+        };
+        let e = super::parse(&t, Path::new("."), None, None, &fixed).expect_err("file");
+        assert!(e.to_string().contains("settings.rays"), "{e}");
+        // `bounces` in the file is exact unless it turns the tail on.
+        let s = parse(&text("bounces = 2", LAMP, OBJECT))
+            .expect("parses")
+            .settings;
+        assert_eq!((s.bounces, s.tail), (2, false));
+        let s = parse(&text("bounces = 2\ntail = true", LAMP, OBJECT))
+            .expect("parses")
+            .settings;
+        assert_eq!((s.bounces, s.tail), (2, true));
     }
 
     /// The example scene of the repository parses, and its relative lamp path resolves.
