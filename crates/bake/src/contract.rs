@@ -196,7 +196,7 @@ pub enum Library {
     /// The gather's ray loop: cosine-weighted directions, the masked bilinear look-up of the
     /// hit's light-map texel (`cpu::gather_rays`); for programs reading the slot `reflected`.
     Gather,
-    /// The reduced-resolution gather's grid test ([`coarse`]); for programs reading the slots
+    /// The reduced-resolution gather's grid test ([`coarse`](crate::program::coarse)); for programs reading the slots
     /// `position` and `normal`.
     Coarse,
     /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, `luxLuminance`, the

@@ -79,8 +79,7 @@ impl Decisions {
                 // adds nothing after it.
                 if last {
                     self.stopped = Some(bounce);
-                } else if settings.tail
-                    && self.series.converged(f64::from(settings.tail_tolerance))
+                } else if settings.tail && self.series.converged(f64::from(settings.tail_tolerance))
                 {
                     self.stop(bounce, settings.bounces, self.series.tail_fraction() as f32);
                 }

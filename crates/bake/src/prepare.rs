@@ -14,7 +14,7 @@
 //! A [`Room`] holds everything that does not depend on the lamps: the layout, the G-buffer
 //! after unocclusion and the BVH, built once and shared by the host steps and the CPU backend
 //! ([`SceneBvh`]). A lamp change needs only [`Lamps::prepare`] and the passes that depend on
-//! the lamps ([`crate::graph::PassDesc::depends`]): [`Room::bake`] takes the lamps apart from
+//! the lamps ([`crate::graph::PassDesc::lamps`]): [`crate::bake_room`] takes the lamps apart from
 //! the room.
 
 use luxbake_bvh::{BuildOptions, Bvh, BvhError, EncodeOptions, encode};
@@ -504,7 +504,7 @@ fn lamp_reach(
 
 /// The shift that moves a scene lying far from the world origin next to it, or `None` for a
 /// scene around the origin. A light map does not depend on where the room stands, but f32
-/// coordinates far out are coarse (1 mm at 10 km), so [`bake`] bakes the scene moved by
+/// coordinates far out are coarse (1 mm at 10 km), so [`crate::bake()`] bakes the scene moved by
 /// `−shift`: the centre of the objects' world bounding box (lamps are not geometry), rounded
 /// to a multiple of the power of two `g ≥` the box's half-extent, so that moving an f32
 /// translation or lamp position by it is exact where the result is near the origin. `None`
