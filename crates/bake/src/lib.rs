@@ -5,12 +5,25 @@
 //! Applications*: a lamp's photometric data in, light maps in lux out.
 //!
 //! ## Pipeline
-//! [`bake()`] runs the paper's Figure 4 on any [`GpuBackend`]:
-//! [`Layout`](layout::Layout) (per-object light-map regions in texture arrays) →
-//! [`rasterize`](gbuffer::rasterize) (G-buffer: world position, normal, albedo per texel) →
-//! BVH build and texture encoding (`luxbake-bvh`) → [`BakeGraph`] (the passes as plain data) →
-//! execution pass by pass → read-back. [`cpu::CpuBackend`] is the reference backend and the
-//! oracle for GPU backends; [`output`] writes EXR/PNG/JSON files.
+//! [`bake()`] runs the paper's Figure 4 on any [`GpuBackend`], as prepare → build → execute →
+//! collect:
+//!
+//! 1. **prepare** the room ([`Room::prepare`], host work that does not depend on the lamps):
+//!    [`Layout`](layout::Layout) (per-object light-map regions in texture arrays) →
+//!    [`rasterize`](gbuffer::rasterize) (G-buffer: world position, normal, albedo per texel) →
+//!    one BVH build (`luxbake-bvh`, encoded for the GPU and collapsed for the CPU, shared by
+//!    every host step and the CPU backend) → [`validity::unocclude`]; then the lamps
+//!    ([`prepare::Lamps`]: tables, reach, lamp paths). Each host step is a typed node that
+//!    declares what it depends on ([`prepare::HostNode`]);
+//! 2. **build** the [`BakeGraph`]: the passes as plain data, each marked with whether it
+//!    depends on the lamps, and the decisions (where the bounces stop, the tail's weight) as
+//!    typed checks ([`graph::Check`]);
+//! 3. **execute** it pass by pass on the backend;
+//! 4. **collect** the maps: read back, cropped per object ([`report::BakeOutput`]).
+//!
+//! [`bake_room`] bakes a prepared room under other lamps without repeating its work.
+//! [`cpu::CpuBackend`] is the reference backend and the oracle for GPU backends; [`output`]
+//! writes EXR/PNG/JSON files.
 //!
 //! ## The pass contract
 //! Each computed pass runs a [`program::Program`] whose [`program::Signature`] is data: the
@@ -29,15 +42,29 @@
 //!   output                       EXR / PNG / JSON files of a finished bake
 //!     │
 //!     ▼
-//!   bake, graph, backend, cpu,   the pipeline: bake() lays out, rasterises, builds the BVH
-//!   layout, gbuffer, map, rng,   and runs the pass graph on a GpuBackend (cpu: the
-//!   probe                        reference); reads light maps back (map, probe)
+//!   bake                         bake(), bake_room(): prepare → build → execute → collect
 //!     │
-//!     │      sources             where scenes come from: builtin scenes, scenefile (TOML),
-//!     │        │                 procedural meshes; Scene::builtin, Scene::from_toml_file, …
-//!     ▼        ▼                 are `impl Scene` blocks there
-//!   scene                        the model: Scene, Object, Mesh, Lamp, Transform, Albedo,
-//!                                Settings (one Settings::validate), SceneError
+//!     ▼
+//!   execute, prepare             run a graph on a backend / the host nodes: Room, Lamps
+//!     │
+//!     ▼
+//!   report, graph, cpu,          what a bake reports; the pass graph; the CPU reference;
+//!   backend, validity,           the backend contract; unocclusion, lamp paths, layout,
+//!   lightpaths, layout, gbuffer, G-buffer, map reading, the stateless random numbers
+//!   map, rng, probe, series
+//!     │
+//!     ▼
+//!   program, shader, pack        the pass contract's public path, the generated shader
+//!     │                          prefixes and entry points, the scene resources packed
+//!     ▼
+//!   passes/<label>/              one folder per pass and the registry (Program, Params)
+//!     │
+//!     ▼
+//!   contract                     signature, parameter blocks, scene needs, libraries
+//!
+//!   sources ─▶ scene             where scenes come from (builtin, scene file, meshes) and
+//!                                the model: Scene, Object, Mesh, Lamp, Transform, Albedo,
+//!                                Settings and SettingsPatch (one Settings::validate)
 //! ```
 //!
 //! The pipeline never reads a scene file and the model imports no source and no writer, so
@@ -78,7 +105,7 @@
 //!   within 25°) only, with renormalised weights: the empty texels between UV charts do not
 //!   bleed in, which removes the paper's black seams. Order as in the paper: direct → copy →
 //!   blur → ×albedo → gather → combine → blur → ×albedo. `blur = none` disables it.
-//! - **Denoising** (programs ready, not yet in the graph): an edge-stopping à-trous wavelet
+//! - **Denoising** (the converged method, after the bounces): an edge-stopping à-trous wavelet
 //!   filter of the indirect illuminance guided by world position, normal and object, with a
 //!   robust per-texel estimate of the noise variance ([`program::atrous_steps`] lists its
 //!   passes and derives it; [`cpu`] specifies them). It never mixes objects or charts and

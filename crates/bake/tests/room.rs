@@ -1,0 +1,177 @@
+//! A prepared room baked under other lamps: `Room::prepare` + `bake_room` gives exactly the
+//! maps of a whole `bake` of the same scene and lamps, for the lamps it was prepared with and
+//! for others (moved, dimmed, a second lamp), including a scene far from the origin; a room
+//! prepared for another texel density is refused.
+
+use std::sync::Arc;
+
+use luxbake::bake::{BakeError, BakeOutput, Room, bake, bake_room};
+use luxbake::cpu::CpuBackend;
+use luxbake::graph::PassKind;
+use luxbake::scene::{Lamp, Quality, Scene, Settings};
+use luxbake::{GpuBackend, Progress};
+use luxbake_ies::Photometry;
+
+fn settings() -> Settings {
+    Settings {
+        rays: 4,
+        texels_per_metre: 8.0,
+        ..Settings::preset(Quality::Default)
+    }
+}
+
+fn scene() -> Scene {
+    Scene::builtin_with_settings("chairs_01", settings()).expect("chairs_01")
+}
+
+fn whole(scene: &Scene) -> BakeOutput {
+    bake(&mut CpuBackend::new(), scene, &scene.settings, &mut |_| {}).expect("bake")
+}
+
+/// The bit patterns of every stage of every object's maps.
+fn bits(out: &BakeOutput) -> Vec<Vec<u32>> {
+    out.maps
+        .iter()
+        .flat_map(|m| m.stages.iter().flatten())
+        .map(|img| img.texels.iter().map(|v| v.to_bits()).collect())
+        .collect()
+}
+
+/// Other lamps for the same room: the scene's lamp moved and dimmed, plus an isotropic one.
+fn other_lamps(scene: &Scene) -> Vec<Lamp> {
+    let mut moved = scene.lamps[0].clone();
+    moved.position[0] += 0.4;
+    moved.position[1] -= 0.3;
+    moved.multiplier *= 0.5;
+    let bulb = Lamp::new(
+        "bulb",
+        Arc::new(Photometry::isotropic(300.0)),
+        [-0.8, 1.9, 0.6],
+    );
+    vec![moved, bulb]
+}
+
+#[test]
+fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
+    let scene = scene();
+    let s = &scene.settings;
+    let mut steps = Vec::new();
+    let room = Room::prepare(&scene, s, CpuBackend::new().limits(), &mut |p| {
+        if let Progress::Setup(step) = p {
+            steps.push(step.to_string());
+        }
+    })
+    .expect("room");
+    assert_eq!(steps, ["layout", "rasterise", "bvh", "unocclude"]);
+
+    let mut backend = CpuBackend::new();
+    let mut steps = Vec::new();
+    let same = bake_room(&mut backend, &room, &scene.lamps, s, &mut |p| {
+        if let Progress::Setup(step) = p {
+            steps.push(step.to_string());
+        }
+    })
+    .expect("same lamps");
+    // No room work is repeated.
+    for step in ["layout", "rasterise", "bvh", "unocclude"] {
+        assert!(
+            !steps.iter().any(|s| s == step),
+            "{step} ran again: {steps:?}"
+        );
+    }
+    let reference = whole(&scene);
+    assert!(!bits(&reference).is_empty());
+    assert_eq!(
+        bits(&same),
+        bits(&reference),
+        "the prepared room's own lamps"
+    );
+
+    let lamps = other_lamps(&scene);
+    let swapped = bake_room(&mut backend, &room, &lamps, s, &mut |_| {}).expect("swap");
+    let fresh = whole(&Scene {
+        lamps: lamps.clone(),
+        ..scene.clone()
+    });
+    assert_eq!(bits(&swapped), bits(&fresh), "other lamps");
+    assert_ne!(
+        bits(&swapped),
+        bits(&reference),
+        "the lamps changed nothing"
+    );
+    assert_eq!(swapped.lamps_used, [0, 1]);
+}
+
+#[test]
+fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
+    let scene = scene().translated([25_000.0, 0.0, -12_000.0]);
+    let room = Room::prepare(
+        &scene,
+        &scene.settings,
+        CpuBackend::new().limits(),
+        &mut |_| {},
+    )
+    .expect("room");
+    assert!(
+        room.shift.is_some(),
+        "the room is baked moved next to the origin"
+    );
+    let lamps: Vec<Lamp> = other_lamps(&scene)
+        .into_iter()
+        .map(|mut l| {
+            l.position[0] += 25_000.0;
+            l.position[2] -= 12_000.0;
+            l
+        })
+        .collect();
+    let swapped = bake_room(
+        &mut CpuBackend::new(),
+        &room,
+        &lamps,
+        &scene.settings,
+        &mut |_| {},
+    )
+    .expect("swap");
+    let fresh = whole(&Scene {
+        lamps,
+        ..scene.clone()
+    });
+    assert_eq!(bits(&swapped), bits(&fresh));
+}
+
+#[test]
+fn only_the_g_buffer_upload_is_independent_of_the_lamps() {
+    let out = whole(&scene());
+    let (room, lamps): (Vec<_>, Vec<_>) = out.graph.passes.iter().partition(|p| !p.lamps);
+    assert_eq!(
+        room.iter().map(|p| p.kind).collect::<Vec<_>>(),
+        [PassKind::GBuffer]
+    );
+    assert!(lamps.iter().any(|p| p.kind == PassKind::LampPaths));
+}
+
+#[test]
+fn a_room_prepared_for_another_density_is_refused() {
+    let scene = scene();
+    let room = Room::prepare(
+        &scene,
+        &scene.settings,
+        CpuBackend::new().limits(),
+        &mut |_| {},
+    )
+    .expect("room");
+    let denser = Settings {
+        texels_per_metre: 16.0,
+        ..scene.settings.clone()
+    };
+    let err = bake_room(
+        &mut CpuBackend::new(),
+        &room,
+        &scene.lamps,
+        &denser,
+        &mut |_| {},
+    )
+    .expect_err("another density");
+    assert!(matches!(err, BakeError::Room(_)), "{err}");
+    assert!(err.to_string().contains("texels per metre"), "{err}");
+}
