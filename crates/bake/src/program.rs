@@ -31,7 +31,8 @@
 //! denoiser's steps, the reduced-resolution grid ([`coarse`]) and the tile plan.
 
 pub use crate::contract::{
-    Field, Library, ParamBlock, ParamScalar, Scalar, SceneNeeds, Signature, TileParams,
+    B3, BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, ParamScalar, Scalar,
+    SceneNeeds, Signature, TileParams, coarse,
 };
 pub use crate::passes::{
     AtrousParams, BlurParams, CombineParams, DirectParams, GatherParams, Params, Program,
@@ -50,11 +51,6 @@ impl Program {
     }
 }
 
-/// Largest blur radius, texels (a shader's loop bound).
-pub const MAX_BLUR_RADIUS: i32 = 64;
-/// Blur taps whose normal deviates more than this cosine (25°) from the centre's are skipped.
-pub const BLUR_NORMAL_COS: f32 = 0.906_307_8;
-
 /// Taps on each side of a Gaussian of standard deviation `sigma` texels:
 /// `min(⌈3σ⌉, MAX_BLUR_RADIUS)`, at least 0.
 pub fn blur_radius(sigma: f32) -> i32 {
@@ -71,9 +67,6 @@ pub fn blur_params(step: [i32; 2], sigma: f32) -> BlurParams {
     }
 }
 
-/// The B3-spline kernel of the à-trous filter, one axis: taps `−2 ..= 2` (Dammertz et al.
-/// 2010); the 5×5 weights are the products `B3[i] · B3[j]`.
-pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 /// Default [`AtrousConfig::chart_tolerance`]: a tap on the centre's chart lies at most 1.5 texel
 /// sizes away per texel of offset (and at least 1/1.5 per texel beyond the first two). On the
 /// built-in scenes' G-buffers, same-object taps facing the same way lie within 1.19·|o|
@@ -276,47 +269,6 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         )
     }));
     steps
-}
-
-/// The reduced-resolution gather's grid ([`GatherParams::stride`], [`Program::Upsample`]).
-///
-/// With stride `s`, the grid texels are those whose column and row are multiples of `s`. A
-/// texel `(x, y)` lies in the grid cell of corners `(x₀, y₀)`, `(x₀ + s, y₀)`, `(x₀, y₀ + s)`,
-/// `(x₀ + s, y₀ + s)`, `x₀ = s·⌊x/s⌋`, with bilinear weights `(1 − fx)(1 − fy)` …, `fx = (x −
-/// x₀)/s`. A corner counts when its weight is positive and it lies on the texel's surface: in
-/// the layer, valid in the G-buffer, the texel's object, its normal within 25°
-/// ([`BLUR_NORMAL_COS`]) and its position within `reach·|offset|` (the denoiser's chart test,
-/// [`atrous_steps`]). A texel with counted corners is interpolated from them; one without —
-/// a chart narrower than the grid, a chart's rim — is an **orphan**: the gather traces it
-/// itself, so no texel is left without light. The gather and the upsample evaluate the same
-/// test on the same G-buffer, so they agree on the orphans. Grid texels count themselves
-/// (weight 1).
-///
-/// A grid texel's rays stand for its cell of `stride²` texels; an orphan lies in a strip
-/// narrower than the grid (a chair leg's chart, a chart's corner) and stands for itself, so it
-/// gets [`orphan_rays`](coarse::orphan_rays)`(rays, stride)` = ⌈rays / stride⌉: still more
-/// rays per texel of surface than the grid's `rays / stride²`.
-pub mod coarse {
-    /// Rays of an orphan of a gather of `rays` rays per grid texel at `stride`.
-    pub fn orphan_rays(rays: u32, stride: u32) -> u32 {
-        rays.div_ceil(stride.max(1))
-    }
-
-    /// The four corners of texel `(x, y)`'s grid cell, in the order `(x₀, y₀)`, `(x₁, y₀)`,
-    /// `(x₀, y₁)`, `(x₁, y₁)`, with their bilinear weights (before the surface test).
-    pub fn cell(x: u32, y: u32, stride: u32) -> [([i64; 2], f32); 4] {
-        let s = stride.max(1);
-        let (x0, y0) = (x / s * s, y / s * s);
-        let fx = (x - x0) as f32 / s as f32;
-        let fy = (y - y0) as f32 / s as f32;
-        let (x0, y0, s) = (i64::from(x0), i64::from(y0), i64::from(s));
-        [
-            ([x0, y0], (1.0 - fx) * (1.0 - fy)),
-            ([x0 + s, y0], fx * (1.0 - fy)),
-            ([x0, y0 + s], (1.0 - fx) * fy),
-            ([x0 + s, y0 + s], fx * fy),
-        ]
-    }
 }
 
 /// How one pass is split into dispatches: row tiles of about `tile_work` evaluations

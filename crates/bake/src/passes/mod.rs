@@ -9,11 +9,13 @@
 //! `param_block!` and `fn work(&Params) -> u64`), `<label>.glsl` defining
 //! `vec4 luxRun(ivec3 c)` and `<label>.wgsl` defining `fn lux_run(c: vec2<i32>) -> vec4<f32>`
 //! (the entry points and every declaration are generated, [`crate::shader`]), plus one line in
-//! the registry, and its CPU reference in [`crate::cpu`] (the CPU backend's dispatch names
-//! every program, so the compiler points at the place). Backends and the shader generator need
-//! no change.
+//! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing
+//! [`TexelPass`](crate::cpu::kernel::TexelPass) (texel by texel) or
+//! [`CpuPass`](crate::cpu::kernel::CpuPass) (row by row), built from the parameter words. The
+//! backends, the CPU backend's dispatch and the shader generator need no change.
 
 use crate::contract::{Field, ParamBlock, Signature};
+use crate::cpu::kernel::{Ctx, run};
 
 /// Counts its arguments (the registry's length).
 macro_rules! count {
@@ -51,6 +53,21 @@ macro_rules! registry {
                 match self {
                     $(Program::$variant => &$module::SIGNATURE,)*
                 }
+            }
+        }
+
+        /// Runs `program`'s CPU reference (`passes/<label>/cpu.rs`) with the parameter
+        /// words `words` over the tile of `ctx` into `out`, the written texture's data of
+        /// `shape = [floats per row, rows per layer]`.
+        pub(crate) fn run_on_cpu(
+            program: Program,
+            words: &[u32],
+            ctx: &Ctx<'_>,
+            out: &mut [f32],
+            shape: [usize; 2],
+        ) {
+            match program {
+                $(Program::$variant => run::<$module::cpu::Pass>(words, ctx, out, shape),)*
             }
         }
 

@@ -1,7 +1,9 @@
 //! Pass `albedo_mul`: the program's signature and its shaders
-//! (albedo_mul.glsl, albedo_mul.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (albedo_mul.glsl, albedo_mul.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Illuminance × albedo.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Library, SceneNeeds, Signature};
 

@@ -1,7 +1,9 @@
 //! Pass `atrous`: the program's signature, its parameter block and its shaders
-//! (atrous.glsl, atrous.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (atrous.glsl, atrous.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! One iteration of the edge-stopping à-trous wavelet filter.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

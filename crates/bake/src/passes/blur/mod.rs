@@ -1,7 +1,9 @@
 //! Pass `blur`: the program's signature, its parameter block and its shaders
-//! (blur.glsl, blur.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (blur.glsl, blur.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! One axis of the masked separable Gaussian.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

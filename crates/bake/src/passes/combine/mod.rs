@@ -1,7 +1,9 @@
 //! Pass `combine`: the program's signature, its parameter block and its shaders
-//! (combine.glsl, combine.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (combine.glsl, combine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Weighted sum of two maps (direct + indirect).
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

@@ -1,7 +1,9 @@
 //! Pass `direct`: the program's signature, its parameter block and its shaders
-//! (direct.glsl, direct.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (direct.glsl, direct.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Direct illuminance with shadow rays.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

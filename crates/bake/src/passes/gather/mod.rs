@@ -1,7 +1,9 @@
 //! Pass `gather`: the program's signature, its parameter block and its shaders
-//! (gather.glsl, gather.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (gather.glsl, gather.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! One bounce of indirect illuminance.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

@@ -1,5 +1,5 @@
 //! Pass `refine`: the program's signature, its parameter block and its shaders
-//! (refine.glsl, refine.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (refine.glsl, refine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Progressive refinement of a gather: a texel whose variance estimate
 //! ([`Program::Variance`](crate::program::Program::Variance) of the first gather: `√variance / mean luminance` of its 5×5
@@ -10,6 +10,8 @@
 //! those that came out low (measured: +5.5 % on `chairs_05` at a target of 0.3 when
 //! divided by the texel's own luminance; −2 % on the box room while its own value was in
 //! the variance). Then kept and refined texels are both unbiased.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

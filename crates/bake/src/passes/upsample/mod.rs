@@ -1,8 +1,10 @@
 //! Pass `upsample`: the program's signature, its parameter block and its shaders
-//! (upsample.glsl, upsample.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (upsample.glsl, upsample.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Fills the texels a reduced-resolution gather left out ([`GatherParams::stride`](crate::program::GatherParams::stride)) from
 //! the grid texels around them on their surface ([`coarse`](crate::program::coarse)).
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

@@ -1,9 +1,11 @@
 //! Pass `variance`: the program's signature, its parameter block and its shaders
-//! (variance.glsl, variance.wgsl) side by side; its CPU reference is in [`crate::cpu`].
+//! (variance.glsl, variance.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
 //! edge-stopping), and with the centre left out its mean luminance (green) and variance
 //! (blue), for refinement.
+
+pub(crate) mod cpu;
 
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 

@@ -1,0 +1,1165 @@
+//! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
+//! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
+//! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
+//! traversal of the *encoded textures* — the same data the shaders read. Both use the same
+//! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
+//! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
+//! diffed against. Two passes share work across texels without changing a bit of the result:
+//! the gather takes a row's rays through its stages in chunks, tracing a chunk before it
+//! fetches the previous chunk's look-ups (so that the look-ups' cache misses overlap), and then
+//! sums each texel's rays in order (`gather_sums`); the blur computes its tap
+//! weights and the normalised normals once per dispatch.
+//!
+//! # Pass semantics (what every backend must compute)
+//! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
+//! object index) and the pass's inputs `a`, `b` (in [`PassDesc::reads`](crate::graph::PassDesc::reads) order):
+//!
+//! - **Direct**: for each listed lamp with position `L`, `to = L − p`, `d² = |to|²`,
+//!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.
+//!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
+//!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o₀ = offset(p, n̂)`
+//!   ([`offset_origin`], size term `SceneData::ray_epsilon`),
+//!   `δ² = |o₀ − p|²`; when the lamp is nearer than four offsets (`16δ² > d²`) the origin is
+//!   `p + n̂·(d/4)` instead, else `o₀`. Direction `L − o` (unnormalised), any hit with
+//!   `t ∈ (0, 1 − s/|L − o|)`, `s = min(|offset(L, −ω) − L|, d/4)` (the lamp's own offset
+//!   toward the texel: the ray stops short of a lamp mounted on a surface): occluded lamps
+//!   contribute 0. Else `E += I·cos θ / max(d², δ²)` (**the d² floor**, one rule in every
+//!   backend: a lamp nearer to a texel than the texel's own ray offset counts as that far:
+//!   finite, never a division by zero).
+//!   Output `(E, 1)`; invalid texels `(0, 0, 0, 0)`.
+//! - **Copy**: `a`.
+//! - **Blur** (axis, σ): radius `R = min(⌈3σ⌉, 64)` texels along the axis; taps `k ∈ [−R, R]`
+//!   inside the layer whose `a.w > ½` (valid), whose object index equals the centre's and whose
+//!   normal is within 25° of the centre's (`n̂ₖ·n̂ ≥ 0.9063`), weighted `exp(−k²/(2σ²))`,
+//!   normalised by the sum of the used weights. So the empty texels between charts never bleed
+//!   in (the paper's black seams) and neither do charts facing elsewhere (floor into wall).
+//!   Output `(Σ, 1)`; invalid centres `(0, 0, 0, 0)`.
+//! - **AlbedoMul**: `(a.rgb × b.rgb, a.w)` — b is the G-buffer albedo.
+//! - **Combine**: `(a.rgb + b.rgb, a.w)`.
+//! - **Gather** (bounce k): N = `rays` directions, cosine-weighted about n̂: with
+//!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)` (the hash sampler) or
+//!   [`rng::sobol2`]`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
+//!   `r = √u₀`, `φ = 2π·u₁`, local `(r cos φ, r sin φ, √(1 − u₀))` (`cos φ`, `sin φ` by
+//!   [`sin_cos_turns`], a polynomial as exact as `cosf`/`sinf`) in the orthonormal basis
+//!   of Duff et al. (2017) built from n̂. Closest hit from `offset(p, n̂)` (t ∈ (0, ∞)). A hit counts when the hit object has a
+//!   region and the ray meets the front of the surface (interpolated shading normal `n_h`,
+//!   `n_h·dir < 0`); then it adds the reflected map `a` looked up at the hit's light-map UV in
+//!   the hit object's region by [`map::sample_masked`](crate::map::sample_masked). Back faces,
+//!   misses and non-receivers add 0. Output `(Σ / N, 1)`. Since `E = π·mean(L)` over a
+//!   cosine-weighted hemisphere and a Lambertian surface's radiance is `L = M/π`, the mean
+//!   exitance is the indirect illuminance.
+//! - **Variance** (the à-trous filter's noise estimate; derivation in
+//!   [`atrous_steps`](crate::program::atrous_steps)): `a` is the noisy map, `b` the G-buffer
+//!   position, then the normal. The window is the 5×5 taps at offsets `o ∈ [−2, 2]²` that lie
+//!   on the centre's surface (**guide**, below) with `n̂·n̂ₜ ≥ 0.9063` (25°), each with its
+//!   luminance `l = 0.2126 r + 0.7152 g + 0.0722 b` (left to right). For each direction
+//!   `d` in (1, 0), (0, 1), (1, 1), (1, −1) in that order, over the pairs `(o, o + d)` with
+//!   both ends in the window (rows, then columns of `o`): `v_d = Σ(l_{o+d} − l_o)² / (2n)`;
+//!   directions with `n < max(min_pairs, 1)` are skipped; `v` is the smallest `v_d` (first
+//!   wins ties), or 0 when no direction counts. Output `(v, m, v₀, 1)`: `v` of the window,
+//!   then, with the centre `o = 0` left out (so that they do not depend on the centre's own
+//!   noise; for refinement), the mean luminance `m` of the taps (0 without taps) and their
+//!   `v₀`; invalid centres `(0, 0, 0, 0)`;
+//!   a centre whose normal cannot be normalised `(0, 0, 0, 1)`.
+//! - **Atrous** (step `s`): `a` the map being filtered (value `c` at the centre), `b` the
+//!   variance map (its `r` is `σ²`), then position and normal. Taps at `s·(i, j)`,
+//!   `i, j ∈ −2..=2` (rows `j` outer, columns `i` inner) on the centre's surface (guide) with
+//!   `cos = n̂·n̂ₜ > 0` get `w = B3[i]·B3[j]·cos^(2^normal_log2)·w_l` (the power by squaring,
+//!   stopping once it is 0 or 1; `B3` = 1/16, 1/4, 3/8, 1/4, 1/16) with `Δ = v − c`,
+//!   `Δl` = its luminance and `w_l = 1` if `Δl = 0`, else `exp(−Δl² / (variance_scale·σ²))`
+//!   when `variance_scale·σ² > 0`, else 0. Taps with `w ≤ 0` (or NaN) are skipped. Output
+//!   `(c + ΣwΔ / Σw, 1)` — the centre itself is a tap, so a constant field is returned exactly
+//!   and a texel with no other usable tap keeps its value. A centre whose normal cannot be
+//!   normalised, or with no usable tap at all (a NaN or infinite centre), keeps its value:
+//!   `(c, 1)`. Invalid centres `(0, 0, 0, 0)`. A step beyond the layer's width and height
+//!   leaves only the centre.
+//!
+//! The **guide** of the denoiser passes: a tap at offset `o` from the centre `p` is on the
+//! centre's surface when it lies inside the layer, its `a.w > ½`, its object index equals the
+//! centre's, its normal can be normalised and, for `o ≠ 0`, its world position lies in the
+//! shell its offset allows on the centre's chart: `reach_min²·m² ≤ |x_t − x_p|² ≤
+//! reach²·|o|²`, `m = max(0, max(|o.x|, |o.y|) − 2)` (the variance pass has no lower bound,
+//! its offsets are at most 2). So taps of another chart — close in UV, elsewhere in the world
+//! — are skipped (the test is derived in [`atrous_steps`](crate::program::atrous_steps)).
+//!
+//! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
+//! NaN or infinity ever reaches a map.
+
+use std::sync::Arc;
+
+use crate::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
+use crate::graph::TexDesc;
+use crate::passes;
+
+pub(crate) mod kernel;
+
+pub use kernel::{CpuScene, Frame, basis, cosine_direction, guard, normalize, sin_cos_turns};
+use kernel::{Ctx, View, decode_attributes, traversal};
+
+/// Errors of the CPU backend (all are misuse of the [`GpuBackend`] contract).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum CpuError {
+    /// A texture handle that this backend did not create.
+    #[error("unknown texture {0}")]
+    UnknownTexture(usize),
+    /// An upload with the wrong number of floats.
+    #[error("upload of {got} floats into a layer of {expected}")]
+    WrongSize {
+        /// Floats per layer.
+        expected: usize,
+        /// Floats given.
+        got: usize,
+    },
+    /// A layer index beyond the texture's layers.
+    #[error("layer {layer} of a texture with {layers} layers")]
+    LayerOutOfRange {
+        /// The layer asked for.
+        layer: u32,
+        /// Layers of the texture.
+        layers: u32,
+    },
+    /// A pass was given the wrong number of textures or textures of different sizes.
+    #[error("pass `{pass}`: {reason}")]
+    BadBindings {
+        /// The pass label.
+        pass: &'static str,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A lamp refers to a table that was not uploaded.
+    #[error("lamp {lamp} refers to intensity table {table}, but {tables} were uploaded")]
+    MissingTable {
+        /// Lamp index.
+        lamp: usize,
+        /// Table index.
+        table: u32,
+        /// Number of tables.
+        tables: usize,
+    },
+    /// A texture too large to address.
+    #[error("texture {size:?} × {layers} layers is too large")]
+    TooLarge {
+        /// Layer size.
+        size: [u32; 2],
+        /// Layers.
+        layers: u32,
+    },
+}
+
+/// Handle of a CPU texture.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CpuTexture(usize);
+
+/// The CPU reference backend.
+#[derive(Debug, Default)]
+pub struct CpuBackend {
+    textures: Vec<(TexDesc, Vec<f32>)>,
+}
+
+impl CpuBackend {
+    /// A backend with no textures.
+    pub fn new() -> CpuBackend {
+        CpuBackend::default()
+    }
+
+    fn get(&self, t: &CpuTexture) -> Result<&(TexDesc, Vec<f32>), CpuError> {
+        self.textures.get(t.0).ok_or(CpuError::UnknownTexture(t.0))
+    }
+}
+
+impl GpuBackend for CpuBackend {
+    type Texture = CpuTexture;
+    type Scene = CpuScene;
+    type Error = CpuError;
+
+    fn name(&self) -> &'static str {
+        "cpu"
+    }
+
+    fn tile_work(&self) -> u64 {
+        DEFAULT_TILE_WORK
+    }
+
+    fn limits(&self) -> Limits {
+        Limits {
+            max_texture_size: 16_384,
+            max_array_layers: 2048,
+            max_texture_units: 16,
+        }
+    }
+
+    fn create_texture(&mut self, desc: &TexDesc) -> Result<CpuTexture, CpuError> {
+        let n = (desc.size[0] as usize)
+            .checked_mul(desc.size[1] as usize)
+            .and_then(|n| n.checked_mul(desc.layers as usize))
+            .and_then(|n| n.checked_mul(4))
+            .filter(|&n| n <= isize::MAX as usize / 4)
+            .ok_or(CpuError::TooLarge {
+                size: desc.size,
+                layers: desc.layers,
+            })?;
+        self.textures.push((desc.clone(), vec![0.0; n]));
+        Ok(CpuTexture(self.textures.len() - 1))
+    }
+
+    fn upload(&mut self, texture: &CpuTexture, layer: u32, texels: &[f32]) -> Result<(), CpuError> {
+        let (desc, data) = self
+            .textures
+            .get_mut(texture.0)
+            .ok_or(CpuError::UnknownTexture(texture.0))?;
+        if layer >= desc.layers {
+            return Err(CpuError::LayerOutOfRange {
+                layer,
+                layers: desc.layers,
+            });
+        }
+        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
+        if texels.len() != per_layer {
+            return Err(CpuError::WrongSize {
+                expected: per_layer,
+                got: texels.len(),
+            });
+        }
+        let start = layer as usize * per_layer;
+        data[start..start + per_layer].copy_from_slice(texels);
+        Ok(())
+    }
+
+    fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<CpuScene, CpuError> {
+        for (i, l) in scene.lamps.iter().enumerate() {
+            if l.table as usize >= scene.ies_tables.len() {
+                return Err(CpuError::MissingTable {
+                    lamp: i,
+                    table: l.table,
+                    tables: scene.ies_tables.len(),
+                });
+            }
+        }
+        Ok(CpuScene {
+            bvh: Arc::clone(&scene.bvh.encoded),
+            wide: Arc::clone(&scene.bvh.wide),
+            attributes: decode_attributes(&scene.bvh.encoded),
+            lamps: scene.lamps.to_vec(),
+            tables: scene.ies_tables.to_vec(),
+            regions: scene.regions.to_vec(),
+            layer_size: scene.layer_size,
+            ray_epsilon: scene.ray_epsilon,
+        })
+    }
+
+    fn dispatch(&mut self, call: &Dispatch<'_, CpuTexture, CpuScene>) -> Result<(), CpuError> {
+        let out_index = call.write.0;
+        let (desc, mut out) = {
+            let (d, data) = self
+                .textures
+                .get_mut(out_index)
+                .ok_or(CpuError::UnknownTexture(out_index))?;
+            (d.clone(), std::mem::take(data))
+        };
+        let result = (|| {
+            let mut views = Vec::with_capacity(call.reads.len());
+            for r in call.reads {
+                let (d, data) = self.get(r)?;
+                views.push(View {
+                    data,
+                    size: d.size,
+                    layers: d.layers,
+                });
+            }
+            let sizes: Vec<_> = views.iter().map(|v| (v.size, v.layers)).collect();
+            call.check((desc.size, desc.layers), &sizes, call.scene.layer_size)
+                .map_err(|reason| CpuError::BadBindings {
+                    pass: call.label,
+                    reason,
+                })?;
+            let ctx = Ctx {
+                scene: call.scene,
+                views: &views,
+                trav: traversal(call.bvh),
+                tile: call.tile,
+            };
+            let shape = [4 * desc.size[0] as usize, desc.size[1] as usize];
+            passes::run_on_cpu(call.program, call.params, &ctx, &mut out, shape);
+            Ok(())
+        })();
+        if let Some((_, data)) = self.textures.get_mut(out_index) {
+            *data = out;
+        }
+        result
+    }
+
+    fn read_back(&mut self, texture: &CpuTexture, layer: u32) -> Result<Vec<f32>, CpuError> {
+        let (desc, data) = self.get(texture)?;
+        if layer >= desc.layers {
+            return Err(CpuError::LayerOutOfRange {
+                layer,
+                layers: desc.layers,
+            });
+        }
+        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
+        let start = layer as usize * per_layer;
+        Ok(data[start..start + per_layer].to_vec())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::backend::LampParams;
+    use crate::cpu::kernel::*;
+    use crate::layout::Region;
+    use crate::map::masked_blend;
+    use crate::passes::blur::cpu::*;
+    use crate::passes::direct::cpu::*;
+    use crate::passes::gather::cpu::*;
+    use crate::program::DirectParams;
+    use crate::program::blur_params;
+    use crate::rng;
+    use luxbake_bvh::{Hit, Traversal, WideBvh};
+
+    #[test]
+    fn basis_is_orthonormal_for_any_normal() {
+        for n in [
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [1.0, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.577_350_3, -0.577_350_3, 0.577_350_3],
+            [0.0, 1e-8, -1.0],
+        ] {
+            let (t, b) = basis(n);
+            for (a, c) in [(t, b), (t, n), (b, n)] {
+                assert!(dot(a, c).abs() < 1e-6, "{n:?}");
+            }
+            for a in [t, b] {
+                assert!((dot(a, a) - 1.0).abs() < 1e-6, "{n:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn four_directions_at_once_are_four_single_ones() {
+        for (k, n) in [
+            [0.0, 0.0, 1.0],
+            [0.0, -1.0, 0.0],
+            [0.3, -0.8, 0.2],
+            [0.0, 1e-8, -1.0],
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let frame = Frame::new(normalize(n).expect("unit"));
+            for s in (0..400).step_by(4) {
+                let u = [0, 1, 2, 3].map(|i| rng::uniform2(k as u32, s + i, 1, 9));
+                let four = frame.cosine_directions4(u);
+                for (i, d) in four.iter().enumerate() {
+                    let one = frame.cosine_direction(u[i]);
+                    assert_eq!(
+                        d.map(f32::to_bits),
+                        one.map(f32::to_bits),
+                        "{n:?} {:?}",
+                        u[i]
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn sin_cos_turns_is_as_exact_as_libm() {
+        let check = |u: f32| {
+            let (s, c) = sin_cos_turns(u);
+            let phi = 2.0 * std::f64::consts::PI * f64::from(u);
+            let (es, ec) = phi.sin_cos();
+            // 1.3e-7 relative on the reduced sine, 7e-8 absolute on the reduced cosine; after
+            // the rotation either can be either.
+            let tol = |e: f64| 1.5e-7 * e.abs().max(0.5);
+            assert!(
+                (f64::from(s) - es).abs() <= tol(es),
+                "sin at u = {u}: {s} vs {es}"
+            );
+            assert!(
+                (f64::from(c) - ec).abs() <= tol(ec),
+                "cos at u = {u}: {c} vs {ec}"
+            );
+            assert!(
+                s.abs() <= 1.0 && c.abs() <= 1.0,
+                "u = {u}: |{s}|, |{c}| > 1"
+            );
+        };
+        // Every 2^-24 multiple the sampler can draw in a few windows, and a dense sweep.
+        for start in [0u32, 1 << 21, 1 << 22, 3 << 22, (1 << 24) - 4096] {
+            for i in start..start + 4096 {
+                check(i as f32 / 16_777_216.0);
+            }
+        }
+        for i in 0..200_000 {
+            check(i as f32 / 200_000.0);
+        }
+        // Exact at the quarter turns.
+        assert_eq!(sin_cos_turns(0.0), (0.0, 1.0));
+        assert_eq!(sin_cos_turns(0.25), (1.0, 0.0));
+        assert_eq!(sin_cos_turns(0.5), (0.0, -1.0));
+        assert_eq!(sin_cos_turns(0.75), (-1.0, 0.0));
+        assert!(sin_cos_turns(f32::NAN).0.is_nan());
+        assert!(sin_cos_turns(f32::INFINITY).1.is_nan());
+    }
+
+    #[test]
+    fn cosine_directions_lie_in_the_hemisphere_with_mean_cosine_two_thirds() {
+        let n = normalize([0.3, -0.8, 0.2]).expect("unit");
+        let mut mean_cos = 0.0f64;
+        let count = 20_000;
+        for s in 0..count {
+            let d = cosine_direction(n, rng::uniform2(17, s, 1, 3));
+            let c = dot(d, n);
+            assert!(c >= 0.0, "sample {s}");
+            assert!((dot(d, d) - 1.0).abs() < 1e-5);
+            mean_cos += f64::from(c);
+        }
+        // E[cos θ] under p(ω) = cos θ / π is 2/3.
+        let m = mean_cos / f64::from(count);
+        assert!((m - 2.0 / 3.0).abs() < 0.01, "{m}");
+    }
+
+    fn one_triangle_scene(lamp: [f32; 3]) -> CpuScene {
+        use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
+        let tris = vec![[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 0.0]]];
+        let attrs = vec![TriangleAttributes {
+            normals: [[0.0, 1.0, 0.0]; 3],
+            uvs: [[0.0, 0.0], [0.0, 1.0], [1.0, 0.5]],
+            object: 0,
+        }];
+        let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
+        let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
+        CpuScene {
+            wide: Arc::new(WideBvh::from_encoded(&enc)),
+            attributes: decode_attributes(&enc),
+            bvh: Arc::new(enc),
+            lamps: vec![LampParams {
+                position: lamp,
+                world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
+                scale: [1.0; 3],
+                table: 0,
+            }],
+            tables: vec![luxbake_ies::Photometry::isotropic(1e6).gpu_table()],
+            regions: vec![None],
+            layer_size: [1, 1],
+            ray_epsilon: crate::backend::ray_epsilon(1.0),
+        }
+    }
+
+    /// The gather's directions (four draws at a time, with AVX2 where the CPU has it) are the
+    /// module docs' per-ray rule bit for bit, `cosine_direction(n̂, uniform2(texel, s, bounce,
+    /// seed))`, for both samplers, ray counts with and without a remainder of four, and
+    /// samples inside and past the pass's precomputed ones.
+    #[test]
+    fn gather_directions_are_the_per_ray_rule_bit_for_bit() {
+        let (pass, seed) = (2, 77);
+        let texels: Vec<GatherTexel> = (0..60u32)
+            .map(|i| {
+                let start = i % 3;
+                let angle = i as f32 * 0.37;
+                let n = normalize([angle.sin(), 0.3 - (i % 2) as f32, angle.cos()]).expect("n");
+                GatherTexel {
+                    texel: i * 1013,
+                    rays: start..start + i % 11,
+                    o: [0.0; 3],
+                    frame: Frame::new(n),
+                    mis: Mis::NONE,
+                }
+            })
+            .collect();
+        let mut dirs = Vec::new();
+        for sampler in rng::Sampler::ALL {
+            let want: Vec<[u32; 3]> = texels
+                .iter()
+                .flat_map(|t| {
+                    t.rays.clone().map(move |s| {
+                        let u = sampler.uniform2(t.texel, s, pass, seed);
+                        cosine_direction(t.frame.n, u).map(f32::to_bits)
+                    })
+                })
+                .collect();
+            assert!(want.len() > 250, "{}", want.len());
+            for precomputed in [0..13, 1..5] {
+                let draws = rng::PassDraws::new(sampler, pass, seed, precomputed.clone());
+                directions(&mut dirs, &draws, &texels);
+                let got: Vec<[u32; 3]> = dirs.iter().map(|d| d.map(f32::to_bits)).collect();
+                assert_eq!(got, want, "{sampler}, samples {precomputed:?} precomputed");
+            }
+        }
+    }
+
+    /// The gather's look-up (footprint, texel indices, prefetch, fetch, masked blend) reads
+    /// what `map::sample_masked` reads, bit for bit, for regions inside the map (the indices
+    /// from the region's first texel) and for regions reaching past its edges or layers (the
+    /// indices texel by texel, texels outside reading 0).
+    #[test]
+    fn a_gather_look_up_is_the_masked_sample_inside_and_across_the_map_edges() {
+        let mut scene = one_triangle_scene([0.0, 1.0, 0.0]);
+        let (size, layers) = ([8u32, 6u32], 2u32);
+        let mut state = 12_345u32;
+        let mut next = || {
+            state = crate::rng::pcg(state);
+            crate::rng::unit_f32(state)
+        };
+        let data: Vec<f32> = (0..4 * size[0] * size[1] * layers)
+            .map(|i| {
+                if i % 4 == 3 {
+                    f32::from(next() > 0.2)
+                } else {
+                    10.0 * next()
+                }
+            })
+            .collect();
+        let map = View {
+            data: &data,
+            size,
+            layers,
+        };
+        let regions = [
+            (0, [0, 0], [8, 6]),
+            (1, [2, 1], [3, 4]),
+            (0, [6, 0], [5, 3]),
+            (1, [1, 4], [3, 5]),
+            (2, [0, 0], [2, 2]),
+            (0, [7, 5], [1, 1]),
+        ];
+        let attr = scene.attributes[0].0;
+        let mut compared = 0;
+        for (layer, offset, rect) in regions {
+            let region = Region {
+                layer,
+                offset,
+                size: rect,
+            };
+            scene.regions = vec![Some(region)];
+            for _ in 0..500 {
+                let (u, v) = (next(), next());
+                let (u, v) = if u + v > 1.0 {
+                    (1.0 - u, 1.0 - v)
+                } else {
+                    (u, v)
+                };
+                let hit = Hit {
+                    t: 1.0,
+                    triangle: 0,
+                    u,
+                    v,
+                };
+                let lookup = gather_lookup(&scene, map, &hit, [0.1, -1.0, 0.2])
+                    .expect("a front hit on a receiver");
+                let got = lookup.weights.map_or([0.0; 3], |w| {
+                    let t = lookup.texels.map(|i| map.at_offset(i));
+                    masked_blend([(t[0], w[0]), (t[1], w[1]), (t[2], w[2]), (t[3], w[3])])
+                });
+                let w0 = 1.0 - u - v;
+                let [a, b, c] = attr.uvs;
+                let uv = [
+                    w0 * a[0] + u * b[0] + v * c[0],
+                    w0 * a[1] + u * b[1] + v * c[1],
+                ];
+                let want =
+                    crate::map::sample_masked(|x, y| map.fetch(layer, x, y), offset, rect, uv);
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "region {region:?} uv {uv:?}"
+                );
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 3000);
+        // A region whose offset overflows the texel coordinates reads 0 (no panic).
+        scene.regions = vec![Some(Region {
+            layer: 0,
+            offset: [u32::MAX - 1, 0],
+            size: [4, 4],
+        })];
+        let hit = Hit {
+            t: 1.0,
+            triangle: 0,
+            u: 0.3,
+            v: 0.3,
+        };
+        let lookup = gather_lookup(&scene, map, &hit, [0.0, -1.0, 0.0]).expect("front hit");
+        assert!(lookup.texels.iter().all(|&i| map.at_offset(i) == [0.0; 4]));
+    }
+
+    const ONE_LAMP: DirectParams = DirectParams {
+        lamp_count: 1,
+        pad0: 0,
+        pad1: 0,
+        pad2: 0,
+    };
+
+    #[test]
+    fn direct_stays_finite_for_a_lamp_on_or_next_to_the_surface() {
+        let p = [0.0, 0.0, 0.0, 1.0];
+        let n = [0.0, 1.0, 0.0, 0.0];
+        for (lamp, expect_lit) in [
+            ([0.0, 0.0, 0.0], false),
+            ([0.0, 1e-9, 0.0], true),
+            ([0.0, 1e-3, 0.0], true),
+            // |to|² underflows to 0: the lamp is on the texel, which it does not light.
+            ([1e-30, 1e-30, 0.0], false),
+            ([1e-20, 1e-20, 0.0], true),
+            ([0.0, -1e-3, 0.0], false),
+        ] {
+            let scene = one_triangle_scene(lamp);
+            let e = direct_texel(&scene, ONE_LAMP, Trav::Encoded(Traversal::BruteForce), p, n);
+            assert!(
+                e.iter().all(|v| v.is_finite() && *v >= 0.0),
+                "{lamp:?}: {e:?}"
+            );
+            assert_eq!(e[0] > 0.0, expect_lit, "{lamp:?}: {e:?}");
+            // Never more than I / ε².
+            let eps = scene.ray_epsilon;
+            assert!(
+                f64::from(e[0]) <= 1e6 / f64::from(eps * eps) * 1.0001,
+                "{e:?}"
+            );
+        }
+        // 1 mm above: I / d² exactly (cos = 1).
+        let e = direct_texel(
+            &one_triangle_scene([0.0, 1e-3, 0.0]),
+            ONE_LAMP,
+            Trav::Wide,
+            p,
+            n,
+        );
+        assert!((f64::from(e[0]) - 1e12).abs() < 1e12 * 1e-5, "{e:?}");
+    }
+
+    #[test]
+    fn guard_maps_nan_and_inf() {
+        assert_eq!(guard(f32::NAN), 0.0);
+        assert_eq!(guard(f32::INFINITY), f32::MAX);
+        assert_eq!(guard(-1.0), 0.0);
+        assert_eq!(guard(2.5), 2.5);
+    }
+
+    #[test]
+    fn blur_keeps_empty_texels_and_other_objects_out() {
+        // One row: [obj0 1.0] [obj0 3.0] [empty] [obj1 100.0]
+        let size = [4, 1];
+        let src = [
+            1.0, 1.0, 1.0, 1.0, 3.0, 3.0, 3.0, 1.0, 0.0, 0.0, 0.0, 0.0, 100.0, 100.0, 100.0, 1.0,
+        ];
+        let nrm = [
+            0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0,
+        ];
+        let s = View {
+            data: &src,
+            size,
+            layers: 1,
+        };
+        let n = View {
+            data: &nrm,
+            size,
+            layers: 1,
+        };
+        let a = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 0, 0);
+        let b = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 1, 0);
+        let w = (-0.5f32).exp();
+        let expected_a = (1.0 + 3.0 * w) / (1.0 + w);
+        assert!((a[0] - expected_a).abs() < 1e-6, "{a:?}");
+        let expected_b = (3.0 + 1.0 * w) / (1.0 + w);
+        assert!((b[0] - expected_b).abs() < 1e-6, "{b:?}");
+        assert_eq!(
+            blur_texel(s, n, blur_params([1, 0], 1.0), 0, 2, 0),
+            [0.0; 4]
+        );
+        assert_eq!(
+            blur_texel(s, n, blur_params([1, 0], 5.0), 0, 3, 0),
+            [100.0, 100.0, 100.0, 1.0]
+        );
+        // A vertical pass over a one-row image sees only the centre.
+        assert_eq!(
+            blur_texel(s, n, blur_params([0, 1], 3.0), 0, 1, 0),
+            [3.0, 3.0, 3.0, 1.0]
+        );
+    }
+}
+
+#[cfg(test)]
+mod denoiser_tests {
+    use crate::cpu::kernel::*;
+    use crate::passes::atrous::cpu::*;
+    use crate::passes::blur::cpu::*;
+    use crate::passes::upsample::cpu::*;
+    use crate::passes::variance::cpu::*;
+    use crate::program::{AtrousConfig, Params, atrous_steps, blur_params};
+    use crate::program::{GatherParams, UpsampleParams, coarse};
+    use crate::rng;
+
+    /// Texel size of the synthetic fields, metres.
+    const H: f32 = 0.1;
+
+    /// A synthetic one-layer light map with its G-buffer.
+    #[derive(Clone)]
+    struct Field {
+        size: [u32; 2],
+        map: Vec<f32>,
+        pos: Vec<f32>,
+        nrm: Vec<f32>,
+    }
+
+    fn view(data: &[f32], size: [u32; 2]) -> View<'_> {
+        View {
+            data,
+            size,
+            layers: 1,
+        }
+    }
+
+    /// One pass over every texel of a one-layer map of `size`.
+    fn apply(size: [u32; 2], f: impl Fn(u32, u32) -> [f32; 4]) -> Vec<f32> {
+        (0..size[1])
+            .flat_map(|y| (0..size[0]).map(move |x| (x, y)))
+            .flat_map(|(x, y)| f(x, y))
+            .collect()
+    }
+
+    /// A standard normal number from the RNG hash (Box–Muller).
+    fn gauss(texel: u32, seed: u32) -> f32 {
+        let [u0, u1] = rng::uniform2(texel, 0, 0, seed);
+        (-2.0 * (1.0 - u0).ln()).sqrt() * (2.0 * std::f32::consts::PI * u1).cos()
+    }
+
+    impl Field {
+        /// A floor chart (normal +Y, object 0) of texels `H` metres apart, all valid with
+        /// grey value `value(x, y)`.
+        fn flat(size: [u32; 2], value: impl Fn(u32, u32) -> f32) -> Field {
+            let mut f = Field {
+                size,
+                map: Vec::new(),
+                pos: Vec::new(),
+                nrm: Vec::new(),
+            };
+            for y in 0..size[1] {
+                for x in 0..size[0] {
+                    let v = value(x, y);
+                    f.map.extend([v, v, v, 1.0]);
+                    f.pos
+                        .extend([(x as f32 + 0.5) * H, 0.0, (y as f32 + 0.5) * H, 1.0]);
+                    f.nrm.extend([0.0, 1.0, 0.0, 0.0]);
+                }
+            }
+            f
+        }
+
+        fn index(&self, x: u32, y: u32) -> usize {
+            4 * (y * self.size[0] + x) as usize
+        }
+
+        fn value(&self, x: u32, y: u32) -> [f32; 4] {
+            let i = self.index(x, y);
+            [0, 1, 2, 3].map(|c| self.map[i + c])
+        }
+
+        /// Makes texel `(x, y)` empty (all zeros, as the G-buffer has it) with `garbage` in
+        /// the map's RGB.
+        fn clear(&mut self, x: u32, y: u32, garbage: f32) {
+            let i = self.index(x, y);
+            self.map[i..i + 4].copy_from_slice(&[garbage, garbage, garbage, 0.0]);
+            self.pos[i..i + 4].fill(0.0);
+            self.nrm[i..i + 4].fill(0.0);
+        }
+
+        /// The variance map and the output of `config`'s passes.
+        fn denoise(&self, config: &AtrousConfig) -> (Vec<f32>, Vec<f32>) {
+            let size = self.size;
+            let (pos, nrm) = (view(&self.pos, size), view(&self.nrm, size));
+            let mut variance = Vec::new();
+            let mut out = self.map.clone();
+            for (_, params) in atrous_steps(config) {
+                let src = out.clone();
+                let s = view(&src, size);
+                match params {
+                    Params::Variance(p) => {
+                        variance = apply(size, |x, y| variance_texel(s, pos, nrm, p, 0, x, y));
+                    }
+                    Params::Atrous(p) => {
+                        let v = view(&variance, size);
+                        out = apply(size, |x, y| atrous_texel(s, v, pos, nrm, p, 0, x, y));
+                    }
+                    other => panic!("{other:?}"),
+                }
+            }
+            (variance, out)
+        }
+
+        /// The separable Gaussian of the blur passes (U, then V).
+        fn gaussian(&self, sigma: f32) -> Vec<f32> {
+            let (size, nrm) = (self.size, view(&self.nrm, self.size));
+            let u = apply(size, |x, y| {
+                blur_texel(
+                    view(&self.map, size),
+                    nrm,
+                    blur_params([1, 0], sigma),
+                    0,
+                    x,
+                    y,
+                )
+            });
+            apply(size, |x, y| {
+                blur_texel(view(&u, size), nrm, blur_params([0, 1], sigma), 0, x, y)
+            })
+        }
+    }
+
+    /// RMSE of the red channel of `map` against `truth(x, y)` over the texels `keep` accepts.
+    fn rmse(
+        f: &Field,
+        map: &[f32],
+        truth: impl Fn(u32, u32) -> f32,
+        keep: impl Fn(u32, u32) -> bool,
+    ) -> f64 {
+        let (mut se, mut n) = (0.0f64, 0usize);
+        for y in 0..f.size[1] {
+            for x in (0..f.size[0]).filter(|&x| keep(x, y)) {
+                let e = f64::from(map[f.index(x, y)]) - f64::from(truth(x, y));
+                se += e * e;
+                n += 1;
+            }
+        }
+        assert!(n > 0);
+        (se / n as f64).sqrt()
+    }
+
+    const ITERATIONS: u32 = 5;
+
+    #[test]
+    fn a_constant_field_is_returned_exactly() {
+        // A floor of object 0 (value 3.7) with a hole, object 1 (value 0.25) on the right and a
+        // wall strip facing +X at the top (value 12), whose texels are an edge apart.
+        let mut f = Field::flat([40, 24], |x, _| if x >= 30 { 0.25 } else { 3.7 });
+        for y in 8..12 {
+            for x in 10..15 {
+                f.clear(x, y, 1e6);
+            }
+        }
+        for y in 0..24 {
+            for x in 30..40 {
+                let i = f.index(x, y);
+                f.nrm[i + 3] = 1.0;
+            }
+        }
+        for y in 0..3 {
+            for x in 0..30 {
+                let i = f.index(x, y);
+                f.map[i..i + 3].fill(12.0);
+                f.pos[i..i + 3].copy_from_slice(&[0.0, (3 - y) as f32 * H, x as f32 * H]);
+                f.nrm[i..i + 3].copy_from_slice(&[1.0, 0.0, 0.0]);
+            }
+        }
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        for y in 0..24 {
+            for x in 0..40 {
+                let i = f.index(x, y);
+                let v = f.value(x, y);
+                if v[3] > 0.5 {
+                    assert_eq!(out[i..i + 4], v, "({x}, {y})");
+                    // No noise; the mean luminance of the window without the centre is the
+                    // field's (one grey level per surface here).
+                    let (var, mean) = (&variance[i..i + 4], luminance(xyz(v)));
+                    assert_eq!([var[0], var[2], var[3]], [0.0, 0.0, 1.0], "({x}, {y})");
+                    assert!((var[1] - mean).abs() <= 1e-6 * mean, "({x}, {y}): {var:?}");
+                } else {
+                    assert_eq!(out[i..i + 4], [0.0; 4], "({x}, {y})");
+                    assert_eq!(variance[i..i + 4], [0.0; 4], "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    /// A noisy field split at x = 24: the left half around 1, the right half around `right`.
+    fn split_field(right: f32) -> Field {
+        Field::flat([48, 32], |x, y| {
+            let base = if x < 24 { 1.0 } else { right };
+            base * (1.0 + 0.2 * gauss(y * 48 + x, 5))
+        })
+    }
+
+    /// Asserts that each half of `f` is denoised exactly as if the other half were empty.
+    fn halves_are_independent(f: &Field, config: &AtrousConfig) {
+        let (_, both) = f.denoise(config);
+        for left in [true, false] {
+            let mut alone = f.clone();
+            for y in 0..32 {
+                for x in (0..48).filter(|&x| (x < 24) != left) {
+                    alone.clear(x, y, 0.0);
+                }
+            }
+            let (_, out) = alone.denoise(config);
+            for y in 0..32 {
+                for x in (0..48).filter(|&x| (x < 24) == left) {
+                    let i = f.index(x, y);
+                    assert_eq!(both[i..i + 4], out[i..i + 4], "({x}, {y})");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn no_light_moves_between_objects_or_charts() {
+        let config = AtrousConfig::new(ITERATIONS, H);
+        // Two objects side by side on one plane: contiguous positions and normals.
+        let mut objects = split_field(40.0);
+        for y in 0..32 {
+            for x in 24..48 {
+                let i = objects.index(x, y);
+                objects.nrm[i + 3] = 1.0;
+            }
+        }
+        halves_are_independent(&objects, &config);
+        // Two charts of one object, adjacent in the map, 20 m apart in the world (as far as
+        // five iterations reach: 32·√2 texels × 1.5 × 0.1 m = 6.8 m, and more).
+        for right in [40.0, 1.5] {
+            let mut charts = split_field(right);
+            for y in 0..32 {
+                for x in 24..48 {
+                    let i = charts.index(x, y);
+                    charts.pos[i + 2] += 20.0;
+                }
+            }
+            halves_are_independent(&charts, &config);
+            // Without the chart test they do exchange light: the other chart's texels then
+            // also inflate the variance estimate, which lets even the large step through.
+            let loose = AtrousConfig {
+                chart_tolerance: 1e6,
+                ..config
+            };
+            let (_, mixed) = charts.denoise(&loose);
+            let (_, kept) = charts.denoise(&config);
+            let left = |m: &[f32]| (0..32).map(|y| m[charts.index(23, y)]).sum::<f32>() / 32.0;
+            println!(
+                "charts 1 | {right}: mean next to the seam {} (without the chart test {})",
+                left(&kept),
+                left(&mixed)
+            );
+            assert!(left(&mixed) > left(&kept) + 0.05);
+        }
+    }
+
+    #[test]
+    fn the_chart_test_rejects_taps_nearer_or_farther_than_their_offset_allows() {
+        // Along a row of texels H apart, move the texel 8 to the right of the centre to a
+        // distance `d`: on the chart it may lie (8 − 2)·H/1.5 = 0.4 m to 8·1.5·H = 1.2 m away.
+        let config = AtrousConfig::new(1, H);
+        let reach = [config.reach_min(), config.reach()];
+        for (d, accepted) in [
+            (0.8, true),
+            (0.41, true),
+            (1.19, true),
+            (0.1, false),
+            (0.39, false),
+            (1.21, false),
+        ] {
+            let mut f = Field::flat([16, 1], |_, _| 1.0);
+            let i = f.index(10, 0);
+            f.pos[i] = f.pos[f.index(2, 0)] + d;
+            let (src, pos, nrm) = (
+                view(&f.map, f.size),
+                view(&f.pos, f.size),
+                view(&f.nrm, f.size),
+            );
+            let guide = Guide::new(src, pos, nrm, reach, 0, 2, 0).expect("normal");
+            assert_eq!(guide.tap([8, 0]).is_some(), accepted, "{d}");
+            // Within two texels only the upper bound applies.
+            assert!(guide.tap([1, 0]).is_some() && guide.tap([0, 0]).is_some());
+        }
+    }
+
+    #[test]
+    fn noise_on_a_flat_field_is_reduced() {
+        let sigma = 0.1f32;
+        let f = Field::flat([64, 64], |x, y| 1.0 + sigma * gauss(y * 64 + x, 11));
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        let all = |_, _| true;
+        let before = rmse(&f, &f.map, |_, _| 1.0, all);
+        let after = rmse(&f, &out, |_, _| 1.0, all);
+        let mean_var = variance
+            .chunks_exact(4)
+            .map(|t| f64::from(t[0]))
+            .sum::<f64>()
+            / 4096.0;
+        println!(
+            "flat field: RMSE {before:.4} → {after:.4} ({:.1}× less); mean variance estimate \
+             {mean_var:.5} (true {:.5})",
+            before / after,
+            sigma * sigma
+        );
+        assert!(before / after > 8.0, "{before} → {after}");
+        // The estimate is the smallest of four: a little under σ².
+        let rel = mean_var / f64::from(sigma * sigma);
+        assert!((0.6..=1.05).contains(&rel), "{rel}");
+    }
+
+    #[test]
+    fn a_low_noise_shadow_edge_survives_better_than_under_the_gaussian() {
+        // A contact shadow: 1.0 lit, 0.2 shadowed from x = 32 on, with 1 % noise.
+        let signal = |x: u32, _| if x < 32 { 1.0 } else { 0.2 };
+        let f = Field::flat([64, 64], |x, y| {
+            signal(x, y) * (1.0 + 0.01 * gauss(y * 64 + x, 3))
+        });
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        let gaussian = f.gaussian(2.0);
+        let near = |x: u32, _| (28..36).contains(&x);
+        let far = |x: u32, _| !(20..44).contains(&x);
+        let atrous_edge = rmse(&f, &out, signal, near);
+        let gauss_edge = rmse(&f, &gaussian, signal, near);
+        let noisy_far = rmse(&f, &f.map, signal, far);
+        let atrous_far = rmse(&f, &out, signal, far);
+        println!(
+            "shadow edge (±4 texels): RMSE à-trous {atrous_edge:.5}, Gaussian σ = 2 \
+             {gauss_edge:.5} ({:.0}× less); away from it noise {noisy_far:.5} → {atrous_far:.5}",
+            gauss_edge / atrous_edge
+        );
+        assert!(
+            atrous_edge * 10.0 < gauss_edge,
+            "{atrous_edge} vs {gauss_edge}"
+        );
+        assert!(atrous_far * 3.0 < noisy_far, "{noisy_far} → {atrous_far}");
+        // The edge does not inflate the variance estimate next to it.
+        let i = f.index(31, 32);
+        assert!(variance[i] < 4.0 * 0.01 * 0.01, "{}", variance[i]);
+    }
+
+    #[test]
+    fn outputs_stay_finite_and_lonely_texels_keep_their_value() {
+        let mut f = Field::flat([12, 12], |x, y| (x * 12 + y) as f32);
+        let specials = [
+            ((2, 2), f32::NAN),
+            ((3, 2), f32::INFINITY),
+            ((4, 2), f32::MAX),
+            ((5, 2), -1.0),
+        ];
+        for ((x, y), v) in specials {
+            let i = f.index(x, y);
+            f.map[i..i + 3].fill(v);
+        }
+        // A centre without a usable normal, and a texel alone among empty ones.
+        let i = f.index(8, 8);
+        f.nrm[i..i + 3].fill(0.0);
+        for y in 9..12 {
+            for x in 0..3 {
+                if (x, y) != (1, 10) {
+                    f.clear(x, y, 0.0);
+                }
+            }
+        }
+        let (variance, out) = f.denoise(&AtrousConfig::new(ITERATIONS, H));
+        for v in variance.iter().chain(&out) {
+            assert!(v.is_finite() && *v >= 0.0, "{v}");
+        }
+        assert_eq!(out[f.index(8, 8)..f.index(8, 8) + 4], f.value(8, 8));
+        assert_eq!(out[f.index(1, 10)..f.index(1, 10) + 4], f.value(1, 10));
+        assert_eq!(variance[f.index(1, 10)], 0.0);
+    }
+
+    /// The reduced-resolution gather's reach on a [`Field`]: the denoiser's chart test.
+    const COARSE_REACH: f32 = H * 1.5;
+
+    /// The rays the gather at `stride` (16 rays per grid texel, 5 per orphan) casts at `(x, y)`.
+    fn rays_at(pos: View<'_>, nrm: View<'_>, stride: u32, x: u32, y: u32) -> u32 {
+        let params = GatherParams {
+            rays: 16,
+            stride,
+            reach: COARSE_REACH,
+            orphan_rays: 5,
+            ..GatherParams::default()
+        };
+        coarse_rays(pos, nrm, &params, 0, x, y)
+    }
+
+    /// A 13×13 floor with column 11 and row 11 a one-texel strip of another object, valued
+    /// `strip`, the floor `floor(x, y)`.
+    fn floor_with_strip(floor: impl Fn(u32, u32) -> f32, strip: f32) -> Field {
+        let mut f = Field::flat([13, 13], floor);
+        for k in 0..13 {
+            for (x, y) in [(11, k), (k, 11)] {
+                let i = f.index(x, y);
+                f.nrm[i + 3] = 1.0;
+                f.map[i..i + 3].fill(strip);
+            }
+        }
+        f
+    }
+
+    #[test]
+    fn the_coarse_grid_traces_grid_texels_and_orphans_only() {
+        let f = floor_with_strip(|_, _| 1.0, 1.0);
+        let (pos, nrm) = (view(&f.pos, f.size), view(&f.nrm, f.size));
+        for stride in [2u32, 3, 4] {
+            for y in (0..13).filter(|&y| y != 11) {
+                for x in (0..13).filter(|&x| x != 11) {
+                    // Every floor texel's corner (x₀, y₀) is floor, so only grid texels are
+                    // traced, with the grid's rays.
+                    let grid = x % stride == 0 && y % stride == 0;
+                    assert_eq!(
+                        rays_at(pos, nrm, stride, x, y),
+                        if grid { 16 } else { 0 },
+                        "stride {stride} ({x}, {y})"
+                    );
+                }
+            }
+            // No grid line runs along the strip (11 is no multiple of 2, 3 or 4): every strip
+            // texel is an orphan, with the orphans' rays.
+            for k in 0..13 {
+                assert_eq!(rays_at(pos, nrm, stride, 11, k), 5, "stride {stride}");
+                assert_eq!(rays_at(pos, nrm, stride, k, 11), 5, "stride {stride}");
+            }
+        }
+        // Stride 1 traces everything with the grid's rays.
+        assert_eq!(rays_at(pos, nrm, 1, 5, 7), 16);
+        assert_eq!(rays_at(pos, nrm, 1, 11, 7), 16);
+        assert_eq!(coarse::orphan_rays(16, 3), 6);
+        assert_eq!(coarse::orphan_rays(1, 4), 1);
+    }
+
+    #[test]
+    fn upsampling_reproduces_a_linear_field_and_keeps_grid_texels_and_orphans() {
+        let linear = |x: u32, y: u32| 2.0 + 0.25 * x as f32 + 0.5 * y as f32;
+        let mut f = floor_with_strip(linear, 7.0);
+        // Garbage where the gather at stride 4 writes nothing (the gather writes 0 there).
+        for y in (0..13).filter(|&y| y != 11) {
+            for x in (0..13).filter(|&x| x != 11 && (x % 4 != 0 || y % 4 != 0)) {
+                let i = f.index(x, y);
+                f.map[i..i + 3].fill(1e6);
+            }
+        }
+        let size = f.size;
+        let (pos, nrm) = (view(&f.pos, size), view(&f.nrm, size));
+        let params = UpsampleParams {
+            stride: 4,
+            reach: COARSE_REACH,
+            ..UpsampleParams::default()
+        };
+        let out = apply(size, |x, y| {
+            upsample_texel([view(&f.map, size), pos, nrm], params, 0, x, y)
+        });
+        let mut compared = 0;
+        for y in 0..13 {
+            for x in 0..13 {
+                let (got, want) = (out[f.index(x, y)], linear(x, y));
+                if x == 11 || y == 11 {
+                    // Orphans keep their own value: no floor light crosses into the strip.
+                    assert_eq!(got, 7.0, "strip ({x}, {y})");
+                } else {
+                    // Bilinear interpolation of a linear field between floor corners (across
+                    // the strip too: it is the same floor) is exact.
+                    assert!(
+                        (got - want).abs() <= 1e-5 * want,
+                        "({x}, {y}): {got} vs {want}"
+                    );
+                }
+                compared += 1;
+            }
+        }
+        assert_eq!(compared, 169);
+    }
+}

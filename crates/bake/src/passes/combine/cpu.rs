@@ -1,0 +1,28 @@
+//! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, guarded, `a`'s mask.
+
+use crate::cpu::kernel::*;
+use crate::contract::ParamBlock;
+
+use super::CombineParams;
+
+/// The weighted sum for one dispatch.
+pub(crate) struct Pass(CombineParams);
+
+impl TexelPass for Pass {
+    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
+        Pass(CombineParams::from_words(words))
+    }
+
+    #[inline]
+    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        let w = self.0;
+        let a = ctx.views[0].fetch(layer, x, y);
+        let b = ctx.views[1].fetch(layer, x, y);
+        [
+            guard(w.a_weight * a[0] + w.b_weight * b[0]),
+            guard(w.a_weight * a[1] + w.b_weight * b[1]),
+            guard(w.a_weight * a[2] + w.b_weight * b[2]),
+            a[3],
+        ]
+    }
+}

@@ -1,0 +1,79 @@
+//! The CPU reference of pass `refine` (the semantics the shaders mirror).
+
+use crate::backend::offset_origin;
+use crate::passes::gather::cpu::{GatherChunk, GatherTexel, Mis, gather_sums};
+use crate::rng;
+use crate::cpu::kernel::*;
+use crate::contract::ParamBlock;
+
+use super::RefineParams;
+
+/// The refinement for one dispatch.
+pub(crate) struct Pass(RefineParams);
+
+impl TexelPass for Pass {
+    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
+        Pass(RefineParams::from_words(words))
+    }
+
+    #[inline]
+    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        let v = ctx.views;
+        refine_texel(ctx.scene, [v[0], v[1], v[2], v[3], v[4]], ctx.trav, self.0, layer, x, y)
+    }
+}
+
+/// [`Program::Refine`] at one texel.
+pub(crate) fn refine_texel(
+    scene: &CpuScene,
+    [pos_map, nrm_map, reflected, first_map, variance]: [View<'_>; 5],
+    trav: Trav,
+    params: RefineParams,
+    layer: u32,
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let pos = pos_map.fetch(layer, x, y);
+    let first = first_map.fetch(layer, x, y);
+    if pos[3] <= 0.5 {
+        return [0.0; 4];
+    }
+    let n = normalize(xyz(nrm_map.fetch(layer, x, y)));
+    let (Some(n), 1..) = (n, params.rays) else {
+        return first;
+    };
+    let noise = variance.fetch(layer, x, y);
+    if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
+        return first;
+    }
+    let texel = GatherTexel {
+        texel: rng::texel_index(scene.layer_size, layer, x, y),
+        rays: params.first_rays..params.first_rays + params.rays,
+        o: offset_origin(xyz(pos), n, scene.ray_epsilon),
+        frame: Frame::new(n),
+        mis: Mis::NONE,
+    };
+    let sampler = [params.sampler, params.bounce, params.seed];
+    let mut sums = Vec::with_capacity(1);
+    let mut chunks = [GatherChunk::default(), GatherChunk::default()];
+    gather_sums(
+        scene,
+        reflected,
+        trav,
+        sampler,
+        &[texel],
+        &mut chunks,
+        &mut sums,
+    );
+    let [sum] = sums[..] else {
+        return first;
+    };
+    let total = (params.first_rays + params.rays) as f32;
+    let k = params.first_rays as f32;
+    [
+        guard((k * first[0] + sum[0]) / total),
+        guard((k * first[1] + sum[1]) / total),
+        guard((k * first[2] + sum[2]) / total),
+        1.0,
+    ]
+}
