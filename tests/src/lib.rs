@@ -12,7 +12,7 @@
 //! - [`compare`]: every stage of two bakes through `luxbake_backends::image_diff`, writing the
 //!   expected / actual / difference PNGs of a failure under [`output_dir`];
 //! - [`Tally`]: opens a backend by [`BackendKind`] (`luxbake_backends`), skipped without a
-//!   driver outside CI and failed under CI (`luxbake::ci`): a GPU test skipped in CI is a
+//!   driver outside CI and failed under CI (`luxbake_testkit`): a GPU test skipped in CI is a
 //!   failure; and counts what a test compared: a test that compared nothing must have skipped
 //!   a backend.
 //!
@@ -276,10 +276,10 @@ pub fn output_dir() -> PathBuf {
     target.join("test-output")
 }
 
-/// Opens `kind` for `test`; without its driver `None` after [`luxbake::ci::skip_or_fail`]
+/// Opens `kind` for `test`; without its driver `None` after [`luxbake_testkit::skip_or_fail`]
 /// (which fails the test under CI). A driver that fails to open fails the test.
 fn open(kind: BackendKind, test: &str) -> Option<AnyBackend> {
-    luxbake::ci::or_skip(
+    luxbake_testkit::or_skip(
         test,
         luxbake_backends::open(kind),
         OpenError::is_driver_missing,
@@ -308,7 +308,7 @@ impl Tally {
     }
 
     /// Opens `kind` for this test; without its driver `None` after
-    /// [`luxbake::ci::skip_or_fail`] (which fails the test under CI), recording the skip. A
+    /// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI), recording the skip. A
     /// driver that fails to open fails the test.
     pub fn open(&mut self, kind: BackendKind) -> Option<AnyBackend> {
         let opened = open(kind, &self.test);

@@ -1,11 +1,11 @@
-//! Test support: a headless context, or a skip by `luxbake::ci`'s policy.
+//! Test support: a headless context, or a skip by the workspace's rule (`luxbake_testkit`).
 
 use crate::{GlContext, GlowError};
 
-/// A headless context; without a driver `None` after [`luxbake::ci::skip_or_fail`] (which
+/// A headless context; without a driver `None` after [`luxbake_testkit::skip_or_fail`] (which
 /// fails the test under CI).
 pub(crate) fn context_or_skip(test: &str) -> Option<GlContext> {
-    luxbake::ci::or_skip(test, GlContext::headless(), GlowError::is_driver_missing)
+    luxbake_testkit::or_skip(test, GlContext::headless(), GlowError::is_driver_missing)
 }
 
 use crate::gl::{Program, Target, TextureArray};

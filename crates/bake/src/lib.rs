@@ -92,7 +92,6 @@
 
 pub mod backend;
 pub mod bake;
-pub mod ci;
 pub mod cpu;
 mod execute;
 pub mod gbuffer;
