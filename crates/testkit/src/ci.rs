@@ -34,7 +34,8 @@ pub fn skip_decision(ci: bool, test: &str, reason: &dyn Display) -> Result<Strin
 /// then skips).
 ///
 /// # Panics
-/// When [`ci_requires_everything`].
+/// When [`ci_requires_everything`] (at the caller's location).
+#[track_caller]
 pub fn skip_or_fail(test: &str, reason: &dyn Display) {
     match skip_decision(ci_requires_everything(), test, reason) {
         Ok(line) => eprintln!("{line}"),
@@ -47,7 +48,8 @@ pub fn skip_or_fail(test: &str, reason: &dyn Display) {
 ///
 /// # Panics
 /// On any other error (a driver that is there but fails is a test failure), and on a missing
-/// driver under CI.
+/// driver under CI (at the caller's location).
+#[track_caller]
 pub fn or_skip<T, E: Display>(
     test: &str,
     opened: Result<T, E>,
