@@ -12,9 +12,9 @@
 //! - [`compare`]: every stage of two bakes through `luxbake_backends::image_diff`, writing the
 //!   expected / actual / difference PNGs of a failure under [`output_dir`];
 //! - [`Tally`]: opens a backend by [`BackendKind`] (`luxbake_backends`), skipped without a
-//!   driver outside CI and failed under CI (`luxbake::ci`): a GPU test skipped in CI is a
-//!   failure; and counts what a test compared: a test that compared nothing must have skipped
-//!   a backend.
+//!   driver outside CI and failed under CI (`luxbake_testkit`): a GPU test skipped in CI is a
+//!   failure; and counts what a test compared: a test that compared nothing is reported as
+//!   skipped (outside CI, with the backends it skipped) or fails, and never passes.
 //!
 //! The comparisons run in `tests/cross_backend.rs` (cpu-vs-glow, cpu-vs-wgpu, glow-vs-wgpu on
 //! `chairs_01`, `floor`, `sphere`) and the closed-form checks on every GPU backend in
@@ -276,20 +276,22 @@ pub fn output_dir() -> PathBuf {
     target.join("test-output")
 }
 
-/// Opens `kind` for `test`; without its driver `None` after [`luxbake::ci::skip_or_fail`]
+/// Opens `kind` for `test`; without its driver `None` after [`luxbake_testkit::skip_or_fail`]
 /// (which fails the test under CI). A driver that fails to open fails the test.
 fn open(kind: BackendKind, test: &str) -> Option<AnyBackend> {
-    luxbake::ci::or_skip(
+    luxbake_testkit::or_skip(
         test,
         luxbake_backends::open(kind),
         OpenError::is_driver_missing,
     )
 }
 
-/// What one test compared, and which backends it skipped through [`Tally::open`]: a test either
-/// compares something or says which backends it skipped (outside CI only; in CI a skip is a
-/// failure). [`Tally::finish`] checks it, so a machine without drivers cannot pass a test that
-/// compared nothing in silence.
+/// What one test compared, and which backends it skipped through [`Tally::open`].
+/// [`Tally::finish`] reports it ([`Tally::verdict`]): a test that compared nothing is never a
+/// pass — outside CI it is skipped by the workspace's rule
+/// (`skipping <test>: compared nothing (skipped without a driver: …); set CI=true to fail
+/// instead`), under CI it fails, and with no backend skipped either it fails everywhere. So a
+/// machine without drivers cannot pass a test that compared nothing.
 #[derive(Debug)]
 pub struct Tally {
     test: String,
@@ -308,7 +310,7 @@ impl Tally {
     }
 
     /// Opens `kind` for this test; without its driver `None` after
-    /// [`luxbake::ci::skip_or_fail`] (which fails the test under CI), recording the skip. A
+    /// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI), recording the skip. A
     /// driver that fails to open fails the test.
     pub fn open(&mut self, kind: BackendKind) -> Option<AnyBackend> {
         let opened = open(kind, &self.test);
@@ -323,28 +325,61 @@ impl Tally {
         self.compared += cases;
     }
 
-    /// Prints what was compared and skipped.
+    /// What the test comes to when [everything must run](luxbake_testkit::ci_requires_everything)
+    /// (`ci`) or not: a pure function of the tally and `ci` ([`Tally::finish`] passes the
+    /// environment's).
+    pub fn verdict(&self, ci: bool) -> Verdict {
+        let skipped: Vec<&str> = self.skipped.iter().map(|b| b.name()).collect();
+        let skipped = skipped.join(", ");
+        if self.compared > 0 {
+            return Verdict::Compared(if skipped.is_empty() {
+                format!("{}: {} cases compared", self.test, self.compared)
+            } else {
+                format!(
+                    "{}: {} cases compared; skipped without a driver: {skipped} (see above)",
+                    self.test, self.compared
+                )
+            });
+        }
+        if skipped.is_empty() {
+            return Verdict::Failed(format!(
+                "{}: compared nothing, and skipped no backend",
+                self.test
+            ));
+        }
+        let reason = format!("compared nothing (skipped without a driver: {skipped})");
+        match luxbake_testkit::skip_decision(ci, &self.test, &reason) {
+            Ok(line) => Verdict::Skipped(line),
+            Err(message) => Verdict::Failed(message),
+        }
+    }
+
+    /// Reports the test ([`Tally::verdict`] under the environment's `CI`): prints what was
+    /// compared and skipped, or the skip line of a test that compared nothing.
     ///
     /// # Panics
-    /// When nothing was compared and no backend was skipped.
+    /// When nothing was compared: under CI, or when no backend was skipped either.
     pub fn finish(self) {
-        let skipped: Vec<&str> = self.skipped.iter().map(|b| b.name()).collect();
-        if skipped.is_empty() {
-            println!("{}: {} cases compared", self.test, self.compared);
-        } else {
-            println!(
-                "{}: {} cases compared; skipped without a driver: {} (see above)",
-                self.test,
-                self.compared,
-                skipped.join(", ")
-            );
+        match self.verdict(luxbake_testkit::ci_requires_everything()) {
+            Verdict::Compared(line) => println!("{line}"),
+            Verdict::Skipped(line) => eprintln!("{line}"),
+            Verdict::Failed(message) => panic!("{message}"),
         }
-        assert!(
-            self.compared > 0 || !skipped.is_empty(),
-            "{}: compared nothing, and skipped no backend",
-            self.test
-        );
     }
+}
+
+/// What a finished [`Tally`] comes to ([`Tally::verdict`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Verdict {
+    /// Something was compared (a pass): the summary line, naming the backends skipped if any.
+    Compared(String),
+    /// Nothing was compared and backends were skipped, outside CI: the skip line of the
+    /// workspace's rule (`skipping <test>: compared nothing (skipped without a driver: …); set
+    /// CI=true to fail instead`).
+    Skipped(String),
+    /// The test fails with this message: nothing compared under CI, or nothing compared and
+    /// nothing skipped.
+    Failed(String),
 }
 
 /// Two backends compared: `expected` is the reference of the pair.
@@ -485,5 +520,64 @@ mod tests {
     #[should_panic(expected = "t: compared nothing, and skipped no backend")]
     fn a_tally_that_compared_nothing_and_skipped_nothing_fails() {
         Tally::new("t").finish();
+    }
+
+    fn tally(compared: usize, skipped: &[BackendKind]) -> Tally {
+        Tally {
+            test: "t".to_owned(),
+            compared,
+            skipped: skipped.to_vec(),
+        }
+    }
+
+    #[test]
+    fn a_tally_that_compared_nothing_is_skipped_outside_ci_never_passed() {
+        assert_eq!(
+            tally(0, &[BackendKind::Glow, BackendKind::Wgpu]).verdict(false),
+            Verdict::Skipped(
+                "skipping t: compared nothing (skipped without a driver: glow, wgpu); \
+                 set CI=true to fail instead"
+                    .to_owned()
+            )
+        );
+    }
+
+    #[test]
+    fn a_tally_that_compared_nothing_fails_under_ci() {
+        assert_eq!(
+            tally(0, &[BackendKind::Wgpu]).verdict(true),
+            Verdict::Failed(
+                "t: compared nothing (skipped without a driver: wgpu); \
+                 CI is set, so this test may not be skipped"
+                    .to_owned()
+            )
+        );
+    }
+
+    #[test]
+    fn a_tally_that_compared_nothing_and_skipped_nothing_fails_in_and_out_of_ci() {
+        for ci in [false, true] {
+            assert_eq!(
+                tally(0, &[]).verdict(ci),
+                Verdict::Failed("t: compared nothing, and skipped no backend".to_owned()),
+                "ci {ci}"
+            );
+        }
+    }
+
+    #[test]
+    fn a_tally_that_compared_something_passes_and_says_what_it_skipped() {
+        for ci in [false, true] {
+            assert_eq!(
+                tally(2, &[]).verdict(ci),
+                Verdict::Compared("t: 2 cases compared".to_owned())
+            );
+            assert_eq!(
+                tally(3, &[BackendKind::Wgpu]).verdict(ci),
+                Verdict::Compared(
+                    "t: 3 cases compared; skipped without a driver: wgpu (see above)".to_owned()
+                )
+            );
+        }
     }
 }

@@ -3,7 +3,8 @@
 //! inter-reflection series `E = (I/R²)·Σ_{i≤k} ρ^i` within 1 % (paper method), and at the
 //! converged method's default preset CIE 171:2006 test case 5.8 within 2 % and the closed
 //! sphere's whole series within 1 %, for ρ up to 0.95. Each test prints the errors it measured,
-//! and compares something on at least one backend or says which it skipped
+//! and compares something on at least one backend, or is reported as skipped with the
+//! backends it skipped (outside CI; a failure under CI), never as passed
 //! ([`luxbake_tests::Tally`]).
 //! (The CPU backend's own checks live in the core crate.)
 

@@ -6,8 +6,8 @@
 //! (paper method), with the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
-//! fails in CI. Each test compares at least one backend pair, or says which backends it
-//! skipped ([`luxbake_tests::Tally`]).
+//! fails in CI. Each test compares at least one backend pair, or is reported as skipped with
+//! the backends it skipped (a failure in CI), never as passed ([`luxbake_tests::Tally`]).
 
 use luxbake::bake::bake;
 use luxbake::graph::Figure5;

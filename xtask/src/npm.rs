@@ -35,7 +35,8 @@
 //!
 //! Bake and first-frame times are printed and written to `<target dir>/npm-check/report.json`.
 //! A missing npm, Chromium, chromedriver, native GL driver or shared photometry skips the check
-//! with a message, except under CI, where it is a failure (`luxbake::ci`'s policy).
+//! with a message, except under CI, where it is a failure (the workspace's rule,
+//! `luxbake_testkit`).
 
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -203,7 +204,7 @@ fn npm_available(what: &str) -> bool {
     {
         return true;
     }
-    luxbake::ci::skip_or_fail(what, &"npm not found (apt-get install nodejs npm)");
+    luxbake_testkit::skip_or_fail(what, &"npm not found (apt-get install nodejs npm)");
     false
 }
 
@@ -277,7 +278,7 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
             lamp_path.display(),
             sofa_path.display()
         );
-        luxbake::ci::skip_or_fail("npm check", &msg);
+        luxbake_testkit::skip_or_fail("npm check", &msg);
         return Ok(());
     };
     let dir = target_dir(root).join("npm-check");
@@ -363,7 +364,7 @@ fn native_bake(
     let mut backend = match GlowBackend::headless() {
         Ok(b) => b,
         Err(e) if e.is_driver_missing() => {
-            luxbake::ci::skip_or_fail("npm check", &format!("native glow: {e}"));
+            luxbake_testkit::skip_or_fail("npm check", &format!("native glow: {e}"));
             return Ok(None);
         }
         Err(e) => return Err(format!("native glow: {e}")),

@@ -21,7 +21,7 @@
 //! 5. with WebGL disabled (`--disable-webgl`) the page shows a message naming WebGL2.
 //!
 //! A missing Chromium, chromedriver or native GL driver skips the check with a message, except
-//! under CI, where it is a failure (`luxbake::ci`'s policy).
+//! under CI, where it is a failure (the workspace's rule, `luxbake_testkit`).
 
 use std::io::{BufRead, BufReader, Read, Write};
 use std::net::{TcpListener, TcpStream};
@@ -419,7 +419,7 @@ pub(crate) fn free_port() -> Result<u16, String> {
 // ---------------------------------------------------------------- the check
 
 /// Whether Chromium and chromedriver are there; if not, check `check` skips with a message
-/// (fails under `CI=true`: [`luxbake::ci::skip_or_fail`]).
+/// (fails under `CI=true`: [`luxbake_testkit::skip_or_fail`]).
 pub(crate) fn browser_present(chromium: &Path, chromedriver: &Path, check: &str) -> bool {
     for (what, p) in [("Chromium", chromium), ("chromedriver", chromedriver)] {
         if !p.is_file() {
@@ -427,7 +427,7 @@ pub(crate) fn browser_present(chromium: &Path, chromedriver: &Path, check: &str)
                 "{what} not found at {} (apt-get install chromium chromium-driver)",
                 p.display()
             );
-            luxbake::ci::skip_or_fail(check, &msg);
+            luxbake_testkit::skip_or_fail(check, &msg);
             return false;
         }
     }
@@ -447,7 +447,7 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     let mut backend = match GlowBackend::headless() {
         Ok(b) => b,
         Err(e) if e.is_driver_missing() => {
-            luxbake::ci::skip_or_fail("web check", &format!("native glow: {e}"));
+            luxbake_testkit::skip_or_fail("web check", &format!("native glow: {e}"));
             return Ok(());
         }
         Err(e) => return Err(format!("native glow: {e}")),

@@ -15,14 +15,14 @@ use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
 use luxbake_assets::{GltfSource, ImportOptions, Limits, Model, UvSource, export, import};
 use luxbake_ies::Photometry;
 
-/// `../shared/models`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test` under
+/// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
 /// CI).
 fn models_dir(test: &str) -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
     if d.is_dir() {
         return Some(d);
     }
-    luxbake::ci::skip_or_fail(test, &format!("test models not found at {}", d.display()));
+    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
     None
 }
 
@@ -491,7 +491,7 @@ fn furnished_room_bakes_the_same_on_glow_and_cpu() {
         ..settings()
     };
     let scene = furnished_room(&dir, &s);
-    let Some(mut glow) = luxbake::ci::or_skip(
+    let Some(mut glow) = luxbake_testkit::or_skip(
         "the glow comparison",
         luxbake_backend_glow::GlowBackend::headless(),
         luxbake_backend_glow::GlowError::is_driver_missing,

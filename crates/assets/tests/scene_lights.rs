@@ -13,14 +13,14 @@ use luxbake_assets::{ImportOptions, Limits, SceneLoader, import};
 
 const LAMP_FILE: &str = "LightsPunctualLamp/LightsPunctualLamp.gltf";
 
-/// `../shared/models`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test` under
+/// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
 /// CI).
 fn models_dir(test: &str) -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
     if d.is_dir() {
         return Some(d);
     }
-    luxbake::ci::skip_or_fail(test, &format!("test models not found at {}", d.display()));
+    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
     None
 }
 

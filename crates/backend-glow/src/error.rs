@@ -82,7 +82,7 @@ pub enum GlowError {
 
 impl GlowError {
     /// Whether the machine has no OpenGL ES 3.0 driver to run on ([`GlowError::NoContext`]):
-    /// a test that needs one skips or fails by `luxbake::ci`'s policy. Every other error,
+    /// a test that needs one skips or fails by the workspace's rule (`luxbake_testkit::or_skip`). Every other error,
     /// opening included, is a failure of a driver that is there.
     pub fn is_driver_missing(&self) -> bool {
         matches!(self, GlowError::NoContext { .. })

@@ -644,10 +644,10 @@ mod tests {
     use luxbake::graph::{PassKind, TexFormat};
     use luxbake::scene::{Blur, Scene, Settings};
 
-    /// A backend; without a driver `None` after [`luxbake::ci::skip_or_fail`] (which fails
+    /// A backend; without a driver `None` after [`luxbake_testkit::skip_or_fail`] (which fails
     /// the test under CI).
     fn backend(test: &str, options: WgpuOptions) -> Option<WgpuBackend> {
-        luxbake::ci::or_skip(
+        luxbake_testkit::or_skip(
             test,
             WgpuBackend::with_options(options),
             WgpuError::is_driver_missing,

@@ -83,7 +83,7 @@ pub type Result<T, E = WgpuError> = std::result::Result<T, E>;
 
 impl WgpuError {
     /// Whether the machine has no wgpu adapter to run on ([`WgpuError::NoAdapter`]): a test
-    /// that needs one skips or fails by `luxbake::ci`'s policy. Every other error, opening
+    /// that needs one skips or fails by the workspace's rule (`luxbake_testkit::or_skip`). Every other error, opening
     /// included, is a failure of a driver that is there.
     pub fn is_driver_missing(&self) -> bool {
         matches!(self, WgpuError::NoAdapter { .. })

@@ -9,8 +9,8 @@
 //! - [`open`]: a backend by kind as an [`AnyBackend`], an enum that implements
 //!   [`GpuBackend`] by delegating to the backend inside (each arm is a static call; the enum
 //!   exists only at this edge). Its [`OpenError`] tells a machine without the driver
-//!   ([`OpenError::DriverMissing`], which tests hand to [`luxbake::ci`]'s skip-or-fail
-//!   policy) from a driver that fails;
+//!   ([`OpenError::DriverMissing`], which tests hand to the workspace's
+//!   skip-or-fail rule, `luxbake_testkit::or_skip`) from a driver that fails;
 //! - [`image_diff`]: light maps compared by relative RMSE and 99th-percentile relative error
 //!   against a [`Tolerance`](image_diff::Tolerance), with expected / actual / difference PNGs
 //!   for failures; used by the cross-backend tests (`luxbake-tests`) and the browser check
@@ -153,7 +153,8 @@ impl AnyError {
 #[derive(Debug, thiserror::Error)]
 pub enum OpenError {
     /// The machine has no driver for the backend (glow: no OpenGL ES 3.0 context; wgpu: no
-    /// adapter). Tests skip or fail by [`luxbake::ci`]'s policy.
+    /// adapter). Tests skip or fail by the workspace's rule
+    /// (`luxbake_testkit::or_skip`).
     #[error("{kind} backend: {source}")]
     DriverMissing {
         /// The backend.
@@ -400,7 +401,7 @@ mod tests {
         assert_eq!(t.kind(), BackendKind::Cpu);
         assert!(cpu.read_back(&t, 0).is_ok());
         let Some(mut gpu) = BackendKind::ALL[1..].iter().find_map(|&k| open(k).ok()) else {
-            luxbake::ci::skip_or_fail(
+            luxbake_testkit::skip_or_fail(
                 "a_handle_of_another_backend_is_an_error",
                 &"no GPU backend opens",
             );

@@ -119,7 +119,6 @@
 
 pub mod backend;
 pub mod bake;
-pub mod ci;
 pub mod contract;
 pub mod cpu;
 mod execute;

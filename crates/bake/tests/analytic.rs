@@ -5,7 +5,6 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
-use luxbake::ci::skip_or_fail;
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
@@ -14,6 +13,7 @@ use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes;
 use luxbake_ies::Photometry;
+use luxbake_testkit::skip_or_fail;
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     Settings {
@@ -72,7 +72,7 @@ fn assert_finite(out: &BakeOutput) {
     }
 }
 
-/// `path` inside `../shared`, or `None` after `luxbake::ci::skip_or_fail` (which fails `test`
+/// `path` inside `../shared`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test`
 /// under CI).
 fn shared(test: &str, path: &str) -> Option<PathBuf> {
     let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))

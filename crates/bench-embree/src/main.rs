@@ -28,6 +28,7 @@ use luxbake_bvh::{
     BuildOptions, Bvh, EncodeOptions, EncodedScene, Ray, Traversal, TriangleAttributes, WideBvh,
     encode,
 };
+use luxbake_testkit::SplitMix64;
 use serde_json::json;
 
 use clock::thread_seconds;
@@ -68,24 +69,6 @@ fn main() {
     }
 }
 
-/// SplitMix64: a small seeded generator for the rays.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [0, 1).
-    fn f(&mut self) -> f32 {
-        (self.next() >> 40) as f32 * (1.0 / (1u64 << 24) as f32)
-    }
-}
-
 /// One query: origin, direction, `t_max`.
 type Query = ([f32; 3], [f32; 3], f32);
 
@@ -107,9 +90,9 @@ fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
-fn unit_sphere(rng: &mut Rng) -> [f32; 3] {
-    let z = 2.0 * rng.f() - 1.0;
-    let phi = std::f32::consts::TAU * rng.f();
+fn unit_sphere(rng: &mut SplitMix64) -> [f32; 3] {
+    let z = 2.0 * rng.f32() - 1.0;
+    let phi = std::f32::consts::TAU * rng.f32();
     let r = (1.0 - z * z).max(0.0).sqrt();
     [r * phi.cos(), r * phi.sin(), z]
 }
@@ -125,7 +108,7 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
     }
     let max_abs = lo.iter().chain(&hi).fold(0.0f32, |m, c| m.max(c.abs()));
     let eps = luxbake::backend::ray_epsilon(max_abs);
-    let in_box = |rng: &mut Rng| [0, 1, 2].map(|k| lo[k] + (hi[k] - lo[k]) * rng.f());
+    let in_box = |rng: &mut SplitMix64| [0, 1, 2].map(|k| lo[k] + (hi[k] - lo[k]) * rng.f32());
     // Area-weighted triangle choice by binary search in the cumulative areas.
     let mut cumulative = Vec::with_capacity(tris.len());
     let mut total = 0.0f64;
@@ -134,9 +117,9 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
         total += 0.5 * f64::from(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
         cumulative.push(total);
     }
-    let on_surface = |rng: &mut Rng| -> ([f32; 3], [f32; 3]) {
+    let on_surface = |rng: &mut SplitMix64| -> ([f32; 3], [f32; 3]) {
         loop {
-            let a = f64::from(rng.f()) * total;
+            let a = f64::from(rng.f32()) * total;
             let i = cumulative.partition_point(|&c| c <= a).min(tris.len() - 1);
             let t = tris[i];
             let c = cross(sub(t[1], t[0]), sub(t[2], t[0]));
@@ -144,9 +127,9 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
             if len.is_nan() || len <= 0.0 {
                 continue;
             }
-            let side = if rng.f() < 0.5 { 1.0 } else { -1.0 };
+            let side = if rng.f32() < 0.5 { 1.0 } else { -1.0 };
             let nrm = c.map(|x| side * x / len);
-            let (mut u, mut v) = (rng.f(), rng.f());
+            let (mut u, mut v) = (rng.f32(), rng.f32());
             if u + v > 1.0 {
                 (u, v) = (1.0 - u, 1.0 - v);
             }
@@ -156,7 +139,7 @@ fn ray_sets(tris: &[[[f32; 3]; 3]], n: usize) -> Vec<RaySet> {
             return (p, nrm);
         }
     };
-    let mut rng = Rng(0x1234_5678);
+    let mut rng = SplitMix64::new(0x1234_5678);
     let random = (0..n)
         .map(|_| (in_box(&mut rng), unit_sphere(&mut rng), f32::INFINITY))
         .collect();

@@ -135,8 +135,6 @@ mod encode;
 pub mod layout;
 mod links;
 mod sliver;
-#[doc(hidden)]
-pub mod testing;
 mod traverse;
 mod wide;
 

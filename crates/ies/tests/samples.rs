@@ -4,34 +4,25 @@
 use luxbake_ies::{Format, IesVersion, PhotometricType, Photometry};
 use std::path::PathBuf;
 
-/// `../shared/photometry`, or `None` after printing that the test skips. Under CI (`CI` set
-/// to anything but empty, `false` or `0`: the rule of `luxbake::ci`, which this standalone
-/// crate does not depend on) a missing folder fails the test instead.
-fn shared_photometry() -> Option<PathBuf> {
+/// `../shared/photometry`, or `None` after [`luxbake_testkit::skip_or_fail`] (which fails
+/// `test` under CI).
+fn shared_photometry(test: &str) -> Option<PathBuf> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/photometry");
     if dir.is_dir() {
         return Some(dir);
     }
-    let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
-    assert!(
-        !ci,
-        "{} not found; CI is set, so this test may not be skipped",
-        dir.display()
-    );
-    eprintln!(
-        "skipping: {} not found; set CI=true to fail instead",
-        dir.display()
-    );
+    luxbake_testkit::skip_or_fail(test, &format!("{} not found", dir.display()));
     None
 }
 
-/// Every sample file (name, bytes), the bundled lamp first.
-fn samples() -> Vec<(String, Vec<u8>)> {
+/// Every sample file (name, bytes), the bundled lamp first; only the bundled lamp when
+/// `../shared/photometry` is missing (after [`shared_photometry`]'s skip-or-fail for `test`).
+fn samples(test: &str) -> Vec<(String, Vec<u8>)> {
     let mut out = vec![(
         "luxbake_downlight.ies".to_owned(),
         DOWNLIGHT.as_bytes().to_vec(),
     )];
-    let Some(dir) = shared_photometry() else {
+    let Some(dir) = shared_photometry(test) else {
         return out;
     };
     for sub in [dir.clone(), dir.join("real-world")] {
@@ -77,7 +68,7 @@ fn every_sample_parses_and_integrates() {
         "{:<28} {:<10} {:<4} {:>10} {:>11} {:>8}",
         "file", "format", "type", "header lm", "integr. lm", "ratio"
     );
-    for (name, bytes) in samples() {
+    for (name, bytes) in samples("every_sample_parses_and_integrates") {
         let p = Photometry::parse(&bytes).unwrap_or_else(|e| panic!("{name}: {e}"));
         let flux = p.luminous_flux();
         println!(
@@ -104,7 +95,7 @@ fn every_sample_parses_and_integrates() {
 /// the type B floodlight).
 #[test]
 fn integrated_lumens_match_published_lumens() {
-    for (name, bytes) in samples() {
+    for (name, bytes) in samples("integrated_lumens_match_published_lumens") {
         let p = Photometry::parse(&bytes).unwrap();
         let Some(reference) = reference_lumens(&p) else {
             continue;
@@ -123,7 +114,7 @@ fn integrated_lumens_match_published_lumens() {
 
 #[test]
 fn ies_and_ldt_versions_of_the_same_luminaire_agree() {
-    let Some(dir) = shared_photometry() else {
+    let Some(dir) = shared_photometry("ies_and_ldt_versions_of_the_same_luminaire_agree") else {
         return;
     };
     let ies =
@@ -158,7 +149,7 @@ fn directions(n: usize) -> Vec<[f64; 3]> {
 #[test]
 fn gpu_table_reproduces_intensity() {
     let dirs = directions(20_000);
-    for (name, bytes) in samples() {
+    for (name, bytes) in samples("gpu_table_reproduces_intensity") {
         let p = Photometry::parse(&bytes).unwrap();
         let table = p.gpu_table();
         assert!(table.width <= 2048 && table.height >= 2, "{name}");
@@ -189,7 +180,7 @@ fn gpu_table_reproduces_intensity() {
 
 #[test]
 fn written_samples_parse_back_equal() {
-    for (name, bytes) in samples() {
+    for (name, bytes) in samples("written_samples_parse_back_equal") {
         let p = Photometry::parse(&bytes).unwrap();
         for v in [IesVersion::Lm63_2002, IesVersion::Lm63_2019] {
             let text = p.to_ies(v);
@@ -217,7 +208,7 @@ fn written_samples_parse_back_equal() {
 /// file: `…0.00` cut to `…0.0`).
 #[test]
 fn truncated_prefixes_are_errors_never_panics() {
-    let files = samples();
+    let files = samples("truncated_prefixes_are_errors_never_panics");
     let threads = std::thread::available_parallelism().map_or(2, |n| n.get());
     let next = std::sync::atomic::AtomicUsize::new(0);
     std::thread::scope(|scope| {

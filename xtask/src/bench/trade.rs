@@ -34,6 +34,7 @@ use std::path::Path;
 use luxbake::bake::BakeOutput;
 use luxbake::scene::{Blur, Method, Quality, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
+use luxbake_testkit::SplitMix64;
 use plotters::prelude::*;
 
 use super::refcheck::{self, Comparison};
@@ -114,19 +115,6 @@ struct Point {
     bary: [f32; 3],
 }
 
-/// SplitMix64.
-fn next(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-fn unit(state: &mut u64) -> f64 {
-    (next(state) >> 11) as f64 / (1u64 << 53) as f64
-}
-
 /// `count` area-uniform points on the receivers' triangles of `scene` (seeded, deterministic).
 fn surface_points(scene: &Scene, count: usize) -> Vec<Point> {
     let (tris, attrs) = scene.world_triangles();
@@ -152,14 +140,14 @@ fn surface_points(scene: &Scene, count: usize) -> Vec<Point> {
     if total <= 0.0 {
         return Vec::new();
     }
-    let mut state = 0x5EED_u64;
+    let mut rng = SplitMix64::new(0x5EED);
     (0..count)
         .map(|_| {
-            let target = unit(&mut state) * total;
+            let target = rng.f64() * total;
             let triangle = cumulative
                 .partition_point(|c| *c <= target)
                 .min(cumulative.len() - 1);
-            let (mut u, mut v) = (unit(&mut state), unit(&mut state));
+            let (mut u, mut v) = (rng.f64(), rng.f64());
             if u + v > 1.0 {
                 (u, v) = (1.0 - u, 1.0 - v);
             }

@@ -10,7 +10,8 @@ use luxbake::shader::glsl_library;
 use super::{Pass, program_sources};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
-use crate::testutil::{TestRng, context_or_skip, render};
+use crate::testutil::{context_or_skip, render};
+use luxbake_testkit::SplitMix64;
 
 const TRACE_FS: &str = "uniform highp sampler2DArray u_rays;\n\
     uniform float u_tmax;\n\
@@ -27,7 +28,7 @@ const TRACE_FS: &str = "uniform highp sampler2DArray u_rays;\n\
 
 /// Random triangles in a 4 m box plus a closed box of 12 triangles around part of it.
 fn scene(seed: u64, n: usize) -> Vec<[[f32; 3]; 3]> {
-    let mut rng = TestRng(seed);
+    let mut rng = SplitMix64::new(seed);
     let mut tris = Vec::with_capacity(n + 12);
     for _ in 0..n {
         let c = [0, 1, 2].map(|_| rng.range(-2.0, 2.0));
@@ -84,7 +85,7 @@ fn scene(seed: u64, n: usize) -> Vec<[[f32; 3]; 3]> {
 /// Rays: random origins and directions, axis-aligned directions (±0 components) and rays
 /// aimed exactly at box vertices and edge midpoints.
 fn rays(seed: u64, count: usize) -> Vec<Ray> {
-    let mut rng = TestRng(seed);
+    let mut rng = SplitMix64::new(seed);
     (0..count)
         .map(|i| {
             let origin = [0, 1, 2].map(|_| rng.range(-2.5, 2.5));
@@ -299,7 +300,7 @@ fn ies_sampling_matches_the_cpu_table() {
     let downlight = Photometry::parse(include_bytes!("../../../bake/lamps/luxbake_downlight.ies"))
         .unwrap()
         .gpu_table();
-    let mut rng = TestRng(7);
+    let mut rng = SplitMix64::new(7);
     let (w, h) = (24u32, 13u32);
     let random = GpuTable {
         width: w,

@@ -5,7 +5,7 @@
 use luxbake_backend_glow::{GlowBackend, GlowError};
 
 /// A glow backend on a headless context; without a driver `None` after
-/// [`luxbake::ci::skip_or_fail`] (which fails the test under CI).
+/// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI).
 pub fn backend_or_skip(test: &str) -> Option<GlowBackend> {
-    luxbake::ci::or_skip(test, GlowBackend::headless(), GlowError::is_driver_missing)
+    luxbake_testkit::or_skip(test, GlowBackend::headless(), GlowError::is_driver_missing)
 }

@@ -1815,7 +1815,7 @@ mod tests {
         let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/photometry");
         if !shared.join("acrux_452lm.ldt").is_file() {
             let reason = format!("{} not found", shared.join("acrux_452lm.ldt").display());
-            crate::ci::skip_or_fail("shared_ldt_file_parses_when_present", &reason);
+            luxbake_testkit::skip_or_fail("shared_ldt_file_parses_when_present", &reason);
             return;
         }
         let t = format!(

@@ -4,13 +4,13 @@
 
 use std::path::PathBuf;
 
-use luxbake_bvh::testing::SplitMix64;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
+use luxbake_testkit::SplitMix64;
 
 /// A triangle as the crate takes it.
 pub type Tri = [[f32; 3]; 3];
 
-/// The crate's SplitMix64 ([`luxbake_bvh::testing::SplitMix64`], its methods through `Deref`)
+/// The workspace's SplitMix64 ([`luxbake_testkit::SplitMix64`], its methods through `Deref`)
 /// with the ray directions the tests draw.
 pub struct Rng(SplitMix64);
 
@@ -371,25 +371,14 @@ fn transform(m: &[[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
 }
 
 /// The named model of `../shared/models` (repository root), its triangles, or `None` after
-/// printing that the test skips. Under CI (`CI` set to anything but empty, `false` or `0`: the
-/// rule of `luxbake::ci`, which this standalone crate does not depend on) a missing model fails
-/// the test instead.
+/// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI).
 pub fn load_model(name: &str) -> Option<Vec<Tri>> {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("../../../shared/models")
         .join(name)
         .join(format!("{name}.glb"));
     if !path.is_file() {
-        let ci = std::env::var("CI").is_ok_and(|v| !v.is_empty() && v != "false" && v != "0");
-        assert!(
-            !ci,
-            "{} not found; CI is set, so this test may not be skipped",
-            path.display()
-        );
-        eprintln!(
-            "skipping: {} not found; set CI=true to fail instead",
-            path.display()
-        );
+        luxbake_testkit::skip_or_fail(name, &format!("{} not found", path.display()));
         return None;
     }
     Some(load_glb(&path).expect("loading a shared model"))

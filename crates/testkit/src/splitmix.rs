@@ -1,11 +1,12 @@
-//! Test support shared by this crate's unit tests, integration tests and bench (and open to the
-//! workspace's other test code): not part of the stable API.
+//! The one seeded generator of test data (see the [crate docs](crate)).
 
 /// SplitMix64 (Steele, Lea & Flood 2014): a tiny seedable generator, good enough for test
-/// scenes and rays, with no dependency. A seed gives the same stream on every platform.
+/// scenes and rays, with no dependency. A seed gives the same stream on every platform, and
+/// the streams never change: test data and expected values are drawn from them (code that needs
+/// another mapping of the bits to numbers applies it to [`next_u64`](Self::next_u64)).
 ///
 /// ```
-/// use luxbake_bvh::testing::SplitMix64;
+/// use luxbake_testkit::SplitMix64;
 ///
 /// let mut rng = SplitMix64::new(7);
 /// let x = rng.f32();
