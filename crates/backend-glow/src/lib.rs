@@ -25,7 +25,7 @@
 //! [`Dispatch`](luxbake::backend::Dispatch), binding what the program's
 //! `luxbake::program::Signature` lists — its read slots as `u_<slot>` samplers, the scene
 //! resources it needs, its parameter block field by field as `u_<field>` uniforms (types from
-//! the block's fields). The GLSL sources are the core's (`crates/bake/shaders/<pass>/<pass>.glsl`
+//! the block's fields). The GLSL sources are the core's (`crates/bake/src/passes/<pass>/<pass>.glsl`
 //! beside the WGSL twin, libraries in `crates/bake/shaders/lib/`), compiled once per program
 //! and traversal as `#version 300 es` + precision + `luxbake::shader::glsl_prefix` (generated
 //! constants and declarations) + library files + the pass file:

@@ -1,5 +1,5 @@
 //! The GLSL ES 3.00 programs: the core's shader sources (`luxbake::shader`, one file per pass
-//! under `crates/bake/shaders/<pass>/`, side by side with its WGSL twin) after the generated
+//! under `crates/bake/src/passes/<pass>/`, side by side with its WGSL twin) after the generated
 //! prefix of the program's signature. Every program is `#version 300 es` + precision (this
 //! crate's header) + [`luxbake::shader::glsl_prefix`] + its library files + its pass file.
 

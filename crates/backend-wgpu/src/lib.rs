@@ -20,7 +20,7 @@
 //! read slots at group 0 bindings 0.., the output, the tile block and the program's parameter
 //! block (bytes of its `#[repr(C)]` struct), and the scene (group 1) when the program needs it
 //! — at the bindings of `luxbake::shader::wgsl`. The WGSL is the core's
-//! (`crates/bake/shaders/<pass>/<pass>.wgsl` beside the GLSL twin, libraries in
+//! (`crates/bake/src/passes/<pass>/<pass>.wgsl` beside the GLSL twin, libraries in
 //! `crates/bake/shaders/lib/`), assembled by `luxbake::shader::wgsl_source` after a prefix
 //! generated from the signature (slot bindings, parameter structs, BVH layout constants,
 //! traversal and blur constants), so shader and Rust cannot drift; every module is validated with

@@ -1,5 +1,5 @@
 //! The WGSL modules: the core's shader sources (`luxbake::shader`, one file per pass under
-//! `crates/bake/shaders/<pass>/`, side by side with its GLSL twin) after the generated prefix of
+//! `crates/bake/src/passes/<pass>/`, side by side with its GLSL twin) after the generated prefix of
 //! the program's signature; `luxbake::shader::wgsl_source` assembles them. The bindings are
 //! `luxbake::shader::wgsl`'s.
 //!

@@ -231,9 +231,9 @@ pub struct Signature {
     pub params_wgsl: &'static str,
     /// Library files included before the pass file, in order.
     pub libraries: &'static [Library],
-    /// The pass file in GLSL ES 3.00: `shaders/<label>/<label>.glsl`.
+    /// The pass file in GLSL ES 3.00: `passes/<label>/<label>.glsl`.
     pub glsl: &'static str,
-    /// The pass file in WGSL: `shaders/<label>/<label>.wgsl`.
+    /// The pass file in WGSL: `passes/<label>/<label>.wgsl`.
     pub wgsl: &'static str,
 }
 

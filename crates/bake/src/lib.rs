@@ -28,7 +28,7 @@
 //! ## The pass contract
 //! Each computed pass runs a [`program::Program`] whose [`program::Signature`] is data: the
 //! texture slots it reads, the scene resources it needs and its `#[repr(C)]` parameter block.
-//! [`shader`] holds every program's GLSL and WGSL side by side (`shaders/<pass>/`) and generates
+//! [`shader`] holds every program's GLSL and WGSL side by side (`src/passes/<pass>/`) and generates
 //! their declarations from the signature; [`pack`] packs the scene resources for both GPU
 //! backends. The driver validates the graph against the signatures, splits each pass into row
 //! tiles ([`program::TilePlan`]) and calls [`GpuBackend::dispatch`] per tile: a backend binds

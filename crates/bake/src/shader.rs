@@ -1,7 +1,7 @@
 //! The shader sources of every [`Program`], GLSL ES 3.00 and WGSL side by side, and the
 //! generated prefix that declares what the program's [`Signature`] says.
 //!
-//! `shaders/<program>/<program>.glsl` and `.wgsl` hold a pass's two twins (they mirror
+//! `src/passes/<program>/<program>.glsl` and `.wgsl` hold a pass's two twins (they mirror
 //! [`crate::cpu`] operation for operation); `shaders/lib/` holds the shared [`Library`] files.
 //! A pass file declares nothing it gets from outside: the generated prefix holds
 //!
