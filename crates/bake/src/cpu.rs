@@ -95,6 +95,7 @@ use crate::backend::{
     DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, LampView, Limits, SceneData, lamp_toward,
     offset_origin,
 };
+use crate::exact::{basis, dot, guard, mad, normalize, sub};
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::lightpaths;
@@ -191,52 +192,6 @@ impl CpuBackend {
     fn get(&self, t: &CpuTexture) -> Result<&(TexDesc, Vec<f32>), CpuError> {
         self.textures.get(t.0).ok_or(CpuError::UnknownTexture(t.0))
     }
-}
-
-/// Maps NaN to 0 and clamps to `[0, f32::MAX]`.
-#[inline]
-pub fn guard(v: f32) -> f32 {
-    if v.is_nan() {
-        0.0
-    } else {
-        v.clamp(0.0, f32::MAX)
-    }
-}
-
-#[inline]
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-fn mad(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
-    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
-}
-
-/// `v / |v|`, or `None` for a zero or non-finite vector: the normalisation of every pass here
-/// (`n̂` in the module docs), `|v|` the square root of `v·v` summed left to right.
-#[inline]
-pub fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
-    let l = dot(v, v).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
-}
-
-/// Orthonormal basis `(t, b)` around unit `n` (Duff et al. 2017, "Building an Orthonormal
-/// Basis, Revisited").
-#[inline]
-pub fn basis(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
-    let sign = 1.0f32.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let b = n[0] * n[1] * a;
-    (
-        [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]],
-        [b, sign + n[1] * n[1] * a, -n[1]],
-    )
 }
 
 /// `(sin 2πu, cos 2πu)`: a polynomial instead of `sinf`/`cosf` (whose one call per gather ray

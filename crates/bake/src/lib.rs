@@ -122,6 +122,7 @@ pub mod bake;
 pub mod ci;
 pub mod contract;
 pub mod cpu;
+pub mod exact;
 mod execute;
 pub mod gbuffer;
 pub mod graph;
