@@ -95,7 +95,7 @@ use crate::backend::{
     DEFAULT_TILE_WORK, Dispatch, GpuBackend, LampParams, LampView, Limits, SceneData, lamp_toward,
     offset_origin,
 };
-use crate::exact::{basis, dot, guard, mad, normalize, sub};
+use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::lightpaths;
@@ -1192,12 +1192,6 @@ fn blur_texel(
     y: u32,
 ) -> [f32; 4] {
     BlurKernel::new(params, nrm, layer, [x, y, x + 1, y + 1]).texel(src, layer, x, y)
-}
-
-/// Rec. 709 luminance, left to right.
-#[inline]
-fn luminance(c: [f32; 3]) -> f32 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
 /// The centre of a denoiser pass and the surface its taps must lie on (module docs: guide).
