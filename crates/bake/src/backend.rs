@@ -20,6 +20,7 @@ use std::sync::Arc;
 use luxbake_bvh::{EncodedScene, WideBvh};
 use luxbake_ies::GpuTable;
 
+use crate::exact::{div, dot, sub};
 use crate::graph::TexDesc;
 use crate::layout::Region;
 use crate::program::{Program, TileParams};
@@ -84,15 +85,14 @@ pub fn lamp_toward(
     p: [f32; 3],
     n: [f32; 3],
 ) -> Option<LampView> {
-    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
     let table = tables.get(lamp.table as usize)?;
-    let to = [0, 1, 2].map(|c| lamp.position[c] - p[c]);
+    let to = sub(lamp.position, p);
     let d2 = dot(to, to);
     let d = d2.sqrt();
     if !(d > 0.0 && d.is_finite()) {
         return None;
     }
-    let w = [to[0] / d, to[1] / d, to[2] / d];
+    let w = div(to, d);
     let cos = dot(n, w);
     if cos.is_nan() || cos <= 0.0 {
         return None;

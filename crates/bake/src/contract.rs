@@ -196,7 +196,7 @@ pub enum Library {
     /// The gather's ray loop: cosine-weighted directions, the masked bilinear look-up of the
     /// hit's light-map texel (`cpu::gather_rays`); for programs reading the slot `reflected`.
     Gather,
-    /// The reduced-resolution gather's grid test ([`coarse`](crate::program::coarse)); for programs reading the slots
+    /// The reduced-resolution gather's grid test ([`coarse`]); for programs reading the slots
     /// `position` and `normal`.
     Coarse,
     /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, `luxLuminance`, the
@@ -245,7 +245,9 @@ pub const BLUR_NORMAL_COS: f32 = 0.906_307_8;
 /// 2010); the 5×5 weights are the products `B3[i] · B3[j]`.
 pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 
-/// The reduced-resolution gather's grid ([`GatherParams::stride`](crate::program::GatherParams::stride), [`Program::Upsample`](crate::program::Program::Upsample)).
+/// The reduced-resolution gather's grid
+/// ([`GatherParams::stride`](crate::program::GatherParams::stride),
+/// [`Program::Upsample`](crate::program::Program::Upsample)).
 ///
 /// With stride `s`, the grid texels are those whose column and row are multiples of `s`. A
 /// texel `(x, y)` lies in the grid cell of corners `(x₀, y₀)`, `(x₀ + s, y₀)`, `(x₀, y₀ + s)`,
@@ -253,7 +255,8 @@ pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 /// x₀)/s`. A corner counts when its weight is positive and it lies on the texel's surface: in
 /// the layer, valid in the G-buffer, the texel's object, its normal within 25°
 /// ([`BLUR_NORMAL_COS`]) and its position within `reach·|offset|` (the denoiser's chart test,
-/// [`atrous_steps`](crate::program::atrous_steps)). A texel with counted corners is interpolated from them; one without —
+/// [`atrous_steps`](crate::program::atrous_steps)). A texel with counted corners is interpolated
+/// from them; one without —
 /// a chart narrower than the grid, a chart's rim — is an **orphan**: the gather traces it
 /// itself, so no texel is left without light. The gather and the upsample evaluate the same
 /// test on the same G-buffer, so they agree on the orphans. Grid texels count themselves

@@ -43,6 +43,7 @@
 use glam::{DVec2, DVec3, Vec2, Vec3};
 use rayon::prelude::*;
 
+use crate::exact::normalize_f64;
 use crate::layout::{Layout, Region};
 use crate::scene::{Object, Scene, tri_indices};
 
@@ -299,9 +300,9 @@ fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Opti
         return None;
     }
     let wn = idx.map(|i| verts.normals[i]);
-    let n = normalize(interp3(wn))
-        .or_else(|| normalize((wp[1] - wp[0]).cross(wp[2] - wp[0])))
-        .or_else(|| wn.iter().find_map(|&v| normalize(v)))?;
+    let n = normalize_f64(interp3(wn))
+        .or_else(|| normalize_f64((wp[1] - wp[0]).cross(wp[2] - wp[0])))
+        .or_else(|| wn.iter().find_map(|&v| normalize_f64(v)))?;
     let mut albedo = Vec3::from(o.albedo.factor).as_dvec3();
     if let Some(colors) = &m.colors
         && let [Some(c0), Some(c1), Some(c2)] = idx.map(|i| colors.get(i))
@@ -330,12 +331,6 @@ fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Opti
         n.as_vec3().extend(index as f32).to_array(),
         albedo.extend(coverage).to_array(),
     ])
-}
-
-/// `v` divided by its length, or `None` for a zero or non-finite vector.
-fn normalize(v: DVec3) -> Option<DVec3> {
-    let l = v.length();
-    (l > 0.0 && l.is_finite()).then(|| v / l)
 }
 
 /// Whether the triangle `p` and the unit texel square with top-left corner `cell` overlap

@@ -63,7 +63,8 @@
 //! Each computed pass runs one [`Program`]; its reads follow the program's
 //! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
 //! the program's parameter block ([`Params`]); the uploads read nothing and write position,
-//! normal and albedo (the G-buffer) or the lamp paths' part of the first bounce. [`BakeGraph::validate`] checks every pass
+//! normal and albedo (the G-buffer) or the lamp paths' part of the first bounce.
+//! [`BakeGraph::validate`] checks every pass
 //! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;

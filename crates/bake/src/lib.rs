@@ -121,6 +121,7 @@ pub mod backend;
 pub mod bake;
 pub mod contract;
 pub mod cpu;
+pub mod exact;
 mod execute;
 pub mod gbuffer;
 pub mod graph;

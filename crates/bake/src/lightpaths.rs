@@ -52,6 +52,7 @@ use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
 use crate::backend::{LampParams, lamp_toward, offset_origin};
+use crate::exact::{div, dot, luminance, normalize, sub};
 use crate::gbuffer::GBuffer;
 use crate::layout::Region;
 use crate::map::sample_masked;
@@ -79,20 +80,6 @@ pub fn pool_size(texels: u64, k: u32) -> u32 {
 pub const EMIT_PASS: u32 = 0x1A11;
 /// The RNG pass of a texel's choice of paths.
 pub const CONNECT_PASS: u32 = 0x1A12;
-
-/// Photometric luminance of linear RGB (as the shaders' `luxLuminance`).
-fn luminance(c: [f32; 3]) -> f32 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
-
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
-    let len = dot(v, v).sqrt();
-    (len > 0.0 && len.is_finite()).then(|| v.map(|c| c / len))
-}
 
 /// The MIS density proxy's lamp sum at surface point `y` with unit normal `n`: the
 /// luminance-weighted illuminance of the lamps without shadows,
@@ -371,14 +358,14 @@ impl LampPaths {
                         continue;
                     }
                     if lj != li {
-                        let sd = [0, 1, 2].map(|c| l.position[c] - o[c]);
+                        let sd = sub(l.position, o);
                         let len = dot(sd, sd).sqrt();
                         if !(len > 0.0) {
                             continue;
                         }
                         let ray = Ray {
                             origin: o,
-                            dir: sd.map(|c| c / len),
+                            dir: div(sd, len),
                         };
                         if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
                             continue;
@@ -468,27 +455,27 @@ impl LampPaths {
                 let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, seed);
                 let j = ((u * count as f32) as usize).min(count - 1);
                 let path = &self.paths[j];
-                let to = [0, 1, 2].map(|c| path.position[c] - x[c]);
+                let to = sub(path.position, x);
                 let r2 = dot(to, to);
                 let r = r2.sqrt();
                 if !(r > 0.0 && r.is_finite()) {
                     continue;
                 }
-                let wdir = to.map(|c| c / r);
+                let wdir = div(to, r);
                 let cx = dot(n, wdir);
                 let cy = -dot(path.normal, wdir);
                 if !(cx > 0.0 && cy > 0.0) {
                     continue;
                 }
                 let target = offset_origin(path.position, path.normal, g.eps);
-                let sd = [0, 1, 2].map(|c| target[c] - origin[c]);
+                let sd = sub(target, origin);
                 let len = dot(sd, sd).sqrt();
                 if !(len > 0.0) {
                     continue;
                 }
                 let ray = Ray {
                     origin,
-                    dir: sd.map(|c| c / len),
+                    dir: div(sd, len),
                 };
                 if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
                     continue;

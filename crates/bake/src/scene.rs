@@ -44,6 +44,8 @@ use luxbake_ies::Photometry;
 use serde::de::IntoDeserializer;
 use serde::de::value::MapDeserializer;
 
+use crate::exact::normalize_f64;
+
 /// Errors of scene construction, scene files and mesh validation.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
@@ -329,7 +331,7 @@ impl Transform {
         if det == 0.0 || !det.is_finite() {
             return None;
         }
-        unit(cof * DVec3::from(n) * det.signum()).map(|v| v.to_array())
+        normalize_f64(cof * DVec3::from(n) * det.signum()).map(|v| v.to_array())
     }
 
     /// Determinant of the linear part (negative for mirroring transforms).
@@ -457,7 +459,7 @@ impl Lamp {
     /// [`Lamp::world_to_photometric_matrix`] in double precision.
     pub fn frame_f64(&self) -> [[f64; 3]; 3] {
         let default_aim = DVec3::NEG_Y;
-        let aim = unit(Vec3::from(self.aim).as_dvec3()).unwrap_or(default_aim);
+        let aim = normalize_f64(Vec3::from(self.aim).as_dvec3()).unwrap_or(default_aim);
         let basis = [DVec3::X, DVec3::NEG_Z, DVec3::Y];
         // Step 2: the smallest rotation taking −Y onto `aim` (Rodrigues).
         let c = default_aim.dot(aim);
@@ -1373,13 +1375,6 @@ fn rotation_xyz(deg: DVec3) -> DMat3 {
     DMat3::from_rotation_z(z) * (DMat3::from_rotation_y(y) * DMat3::from_rotation_x(x))
 }
 
-/// `v / |v|`, or `None` for a zero or non-finite vector. Divides (glam's `normalize`
-/// multiplies by the reciprocal, which rounds differently).
-pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
-    let l = v.length();
-    (l > 0.0 && l.is_finite()).then(|| v / l)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1580,7 +1575,7 @@ mod tests {
                 (m[0].cross(m[1]).dot(m[2]) - 1.0).abs() < 1e-9,
                 "right-handed"
             );
-            let a = unit(Vec3::from(aim).as_dvec3()).unwrap_or(DVec3::NEG_Y);
+            let a = normalize_f64(Vec3::from(aim).as_dvec3()).unwrap_or(DVec3::NEG_Y);
             let p = l.to_photometric(a.as_vec3().to_array());
             assert!(
                 close(p, [0.0, 0.0, -1.0]),

@@ -19,7 +19,7 @@
 //!    local: texels deep under a large closed object (farther than the reach from its walls)
 //!    stay valid and dark, as they are.
 //! 2. **Unocclude.** For an occluded texel, [`PUSH_DIRECTIONS`] directions in its tangent
-//!    plane (every 45°, from the basis of [`crate::cpu::basis`]) are cast from the offset
+//!    plane (every 45°, from the basis of [`crate::exact::basis`]) are cast from the offset
 //!    origin up to `s` (a texel: how far conservative rasterisation reaches past a chart edge).
 //!    The nearest back-face hit `t` gives the candidate `p + d·(t + margin)`, `margin =
 //!    `[`PUSH_MARGIN`]` · s` (half a texel: past the occluder's wall, on the same plane, and
@@ -39,7 +39,7 @@ use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use rayon::prelude::*;
 
 use crate::backend::{SceneBvh, offset_origin};
-use crate::cpu::basis;
+use crate::exact::{basis, cross, dot, mad, normalize, sub};
 use crate::gbuffer::GBuffer;
 
 use crate::rng;
@@ -84,22 +84,6 @@ pub struct Unoccluded {
     pub moved: u64,
     /// Texels made empty.
     pub removed: u64,
-}
-
-fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 /// The distance to the first hit along `dir` from `o` within `t_max`, and whether it is a back
@@ -187,11 +171,9 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
             let nw = &g.normal[4 * i..4 * i + 4];
             let p = [pw[0], pw[1], pw[2]];
             let n = [nw[0], nw[1], nw[2]];
-            let len = dot(n, n).sqrt();
-            if !(len > 0.0 && len.is_finite()) {
+            let Some(n) = normalize(n) else {
                 return (i, Outcome::Keep);
-            }
-            let n = n.map(|c| c / len);
+            };
             let (x, y) = (
                 (i % w as usize) as u32,
                 ((i / w as usize) % h as usize) as u32,
@@ -224,7 +206,7 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
                 .min_by(|a, b| a.0.total_cmp(&b.0));
             if let Some((hit, d)) = nearest {
                 let step = hit + PUSH_MARGIN * s;
-                let q = [0, 1, 2].map(|c| p[c] + d[c] * step);
+                let q = mad(p, d, step);
                 if !occluded(bvh, texel, (q, n), eps, reach) {
                     return (i, Outcome::Move(q));
                 }

@@ -23,9 +23,8 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use luxbake::backend::{Dispatch, SceneData, offset_origin};
-use luxbake::cpu::{
-    CpuBackend, CpuError, CpuScene, CpuTexture, cosine_direction, guard, normalize,
-};
+use luxbake::cpu::{CpuBackend, CpuError, CpuScene, CpuTexture, cosine_direction};
+use luxbake::exact::{guard, normalize};
 use luxbake::graph::TexDesc;
 use luxbake::layout::Region;
 use luxbake::map::sample_masked;

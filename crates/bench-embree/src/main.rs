@@ -22,6 +22,7 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 
 use clap::Parser;
+use luxbake::exact::{cross, sub};
 use luxbake::scene::{Object, Scene, Settings, Transform};
 use luxbake::sources::meshes::{self, RoomAlbedo};
 use luxbake_bvh::{
@@ -76,18 +77,6 @@ struct RaySet {
     name: &'static str,
     any_hit: bool,
     rays: Vec<Query>,
-}
-
-fn cross(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 fn unit_sphere(rng: &mut SplitMix64) -> [f32; 3] {

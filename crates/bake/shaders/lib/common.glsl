@@ -1,10 +1,10 @@
-// Shared helpers of every pass, mirroring luxbake::cpu's f32 helpers operation for operation
+// Shared helpers of every pass, mirroring luxbake::exact operation for operation
 // (dot products left to right, division rather than multiplication by a reciprocal).
 
 uniform int u_layer;   // the texture-array layer this draw renders
 out vec4 o_color;
 
-// cpu::dot
+// exact::dot
 float luxDot(vec3 a, vec3 b) {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
@@ -13,7 +13,7 @@ bool luxFinite(float v) {
     return !isnan(v) && !isinf(v);
 }
 
-// cpu::normalize: false for a zero or non-finite vector.
+// exact::normalize: false for a zero or non-finite vector.
 bool luxNormalize(vec3 v, out vec3 n) {
     float l = sqrt(luxDot(v, v));
     n = v;
@@ -24,7 +24,7 @@ bool luxNormalize(vec3 v, out vec3 n) {
     return true;
 }
 
-// cpu::guard: NaN to 0, clamped to [0, FLT_MAX].
+// exact::guard: NaN to 0, clamped to [0, FLT_MAX].
 float luxGuard(float v) {
     return isnan(v) ? 0.0 : clamp(v, 0.0, 3.40282347e38);
 }
@@ -38,7 +38,7 @@ ivec3 luxTexel() {
     return ivec3(ivec2(gl_FragCoord.xy), u_layer);
 }
 
-// cpu::luminance: Rec. 709, left to right.
+// exact::luminance: Rec. 709, left to right.
 float luxLuminance(vec3 c) {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }

@@ -1,4 +1,4 @@
-// Shared by every pass: f32 helpers that mirror luxbake::cpu operation for operation (dot products left to right, division rather than
+// Shared by every pass: f32 helpers that mirror luxbake::exact operation for operation (dot products left to right, division rather than
 // multiplication by a reciprocal). WGSL has no isnan/isinf: they are bit tests here, which no
 // compiler may fold away.
 
@@ -7,7 +7,7 @@
 
 const LUX_FLT_MAX: f32 = 3.40282347e38;
 
-// cpu::dot
+// exact::dot
 fn lux_dot(a: vec3<f32>, b: vec3<f32>) -> f32 {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
@@ -28,7 +28,7 @@ fn lux_sign_bit(v: f32) -> bool {
     return (bitcast<u32>(v) & 0x80000000u) != 0u;
 }
 
-// cpu::normalize: false for a zero or non-finite vector (then *n = v).
+// exact::normalize: false for a zero or non-finite vector (then *n = v).
 fn lux_normalize(v: vec3<f32>, n: ptr<function, vec3<f32>>) -> bool {
     let l = sqrt(lux_dot(v, v));
     *n = v;
@@ -39,7 +39,7 @@ fn lux_normalize(v: vec3<f32>, n: ptr<function, vec3<f32>>) -> bool {
     return true;
 }
 
-// cpu::guard: NaN to 0, clamped to [0, FLT_MAX].
+// exact::guard: NaN to 0, clamped to [0, FLT_MAX].
 fn lux_guard(v: f32) -> f32 {
     if (lux_is_nan(v)) {
         return 0.0;
@@ -63,7 +63,7 @@ fn lux_store(c: vec2<i32>, value: vec4<f32>) {
     textureStore(lux_out, c, i32(lux_tile.layer), value);
 }
 
-// cpu::luminance: Rec. 709, left to right.
+// exact::luminance: Rec. 709, left to right.
 fn lux_luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }

@@ -2,7 +2,7 @@
 // for operation). For programs reading the slot `reflected`; objects' regions are in
 // u_regions (scene.glsl); non-receivers reflect nothing.
 
-// cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
+// exact::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
 void luxBasis(vec3 n, out vec3 t, out vec3 b) {
     float s = (floatBitsToUint(n.z) & 0x80000000u) != 0u ? -1.0 : 1.0;
     float a = -1.0 / (s + n.z);

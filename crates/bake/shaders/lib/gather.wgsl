@@ -2,7 +2,7 @@
 // for operation). For programs reading the slot `reflected`; objects' regions are in
 // lux_regions (scene.wgsl); non-receivers reflect nothing.
 
-// cpu::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
+// exact::basis: orthonormal basis around unit n (Duff et al. 2017); copysign via the sign bit.
 fn lux_basis(n: vec3<f32>, t: ptr<function, vec3<f32>>, b: ptr<function, vec3<f32>>) {
     let s = select(1.0, -1.0, lux_sign_bit(n.z));
     let a = -1.0 / (s + n.z);

@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use crate::backend::LampParams;
 use crate::contract::{BLUR_NORMAL_COS, TileParams, coarse};
+pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::layout::Region;
 use crate::passes::gather::GatherParams;
 use crate::scene::BvhMode;
@@ -103,52 +104,6 @@ pub struct CpuScene {
     pub(crate) regions: Vec<Option<Region>>,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
-}
-
-/// Maps NaN to 0 and clamps to `[0, f32::MAX]`.
-#[inline]
-pub fn guard(v: f32) -> f32 {
-    if v.is_nan() {
-        0.0
-    } else {
-        v.clamp(0.0, f32::MAX)
-    }
-}
-
-#[inline]
-pub(crate) fn dot(a: [f32; 3], b: [f32; 3]) -> f32 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-#[inline]
-pub(crate) fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-#[inline]
-pub(crate) fn mad(a: [f32; 3], b: [f32; 3], s: f32) -> [f32; 3] {
-    [a[0] + b[0] * s, a[1] + b[1] * s, a[2] + b[2] * s]
-}
-
-/// `v / |v|`, or `None` for a zero or non-finite vector: the normalisation of every pass here
-/// (`n̂` in the module docs), `|v|` the square root of `v·v` summed left to right.
-#[inline]
-pub fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
-    let l = dot(v, v).sqrt();
-    (l > 0.0 && l.is_finite()).then(|| [v[0] / l, v[1] / l, v[2] / l])
-}
-
-/// Orthonormal basis `(t, b)` around unit `n` (Duff et al. 2017, "Building an Orthonormal
-/// Basis, Revisited").
-#[inline]
-pub fn basis(n: [f32; 3]) -> ([f32; 3], [f32; 3]) {
-    let sign = 1.0f32.copysign(n[2]);
-    let a = -1.0 / (sign + n[2]);
-    let b = n[0] * n[1] * a;
-    (
-        [1.0 + sign * n[0] * n[0] * a, sign * b, -sign * n[0]],
-        [b, sign + n[1] * n[1] * a, -n[1]],
-    )
 }
 
 /// `(sin 2πu, cos 2πu)`: a polynomial instead of `sinf`/`cosf` (whose one call per gather ray
@@ -426,12 +381,6 @@ pub(crate) fn coarse_rays(
     } else {
         params.orphan_rays
     }
-}
-
-/// Rec. 709 luminance, left to right.
-#[inline]
-pub(crate) fn luminance(c: [f32; 3]) -> f32 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
 /// The centre of a denoiser pass and the surface its taps must lie on (module docs: guide).

@@ -1,6 +1,6 @@
 //! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
-//! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`], the default
-//! [`BvhMode::Wide`]) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`]'s CPU
+//! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`](luxbake_bvh::WideBvh), the default
+//! [`BvhMode::Wide`](crate::scene::BvhMode::Wide)) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`](luxbake_bvh::EncodedScene)'s CPU
 //! traversal of the *encoded textures* — the same data the shaders read. Both use the same
 //! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
 //! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
@@ -18,7 +18,7 @@
 //!   `ω = to / d`, `cos θ = n̂·ω` (n̂ = normalised `n`). Lamps with `cos θ ≤ 0` contribute 0.
 //!   Intensity `I = table.sample(M · (−ω))` (M = world→photometric, the table's own bilinear
 //!   rule) times the lamp's RGB `scale`. Shadow ray: origin `o₀ = offset(p, n̂)`
-//!   ([`offset_origin`], size term `SceneData::ray_epsilon`),
+//!   ([`offset_origin`](crate::backend::offset_origin), size term `SceneData::ray_epsilon`),
 //!   `δ² = |o₀ − p|²`; when the lamp is nearer than four offsets (`16δ² > d²`) the origin is
 //!   `p + n̂·(d/4)` instead, else `o₀`. Direction `L − o` (unnormalised), any hit with
 //!   `t ∈ (0, 1 − s/|L − o|)`, `s = min(|offset(L, −ω) − L|, d/4)` (the lamp's own offset
@@ -37,8 +37,8 @@
 //! - **AlbedoMul**: `(a.rgb × b.rgb, a.w)` — b is the G-buffer albedo.
 //! - **Combine**: `(a.rgb + b.rgb, a.w)`.
 //! - **Gather** (bounce k): N = `rays` directions, cosine-weighted about n̂: with
-//!   `(u₀, u₁)` = [`rng::uniform2`]`(texel, s, k, seed)` (the hash sampler) or
-//!   [`rng::sobol2`]`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
+//!   `(u₀, u₁)` = [`rng::uniform2`](crate::rng::uniform2)`(texel, s, k, seed)` (the hash sampler) or
+//!   [`rng::sobol2`](crate::rng::sobol2)`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
 //!   `r = √u₀`, `φ = 2π·u₁`, local `(r cos φ, r sin φ, √(1 − u₀))` (`cos φ`, `sin φ` by
 //!   [`sin_cos_turns`], a polynomial as exact as `cosf`/`sinf`) in the orthonormal basis
 //!   of Duff et al. (2017) built from n̂. Closest hit from `offset(p, n̂)` (t ∈ (0, ∞)). A hit counts when the hit object has a
@@ -89,11 +89,13 @@ use std::sync::Arc;
 
 use crate::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use crate::graph::TexDesc;
-use crate::passes;
+use crate::passes::with_registry;
+use crate::program::Program;
 
 pub(crate) mod kernel;
 
-pub use kernel::{CpuScene, Frame, basis, cosine_direction, guard, normalize, sin_cos_turns};
+pub use crate::exact::{basis, guard, normalize};
+pub use kernel::{CpuScene, Frame, cosine_direction, sin_cos_turns};
 use kernel::{Ctx, View, decode_attributes, traversal};
 
 /// Errors of the CPU backend (all are misuse of the [`GpuBackend`] contract).
@@ -280,7 +282,7 @@ impl GpuBackend for CpuBackend {
                 tile: call.tile,
             };
             let shape = [4 * desc.size[0] as usize, desc.size[1] as usize];
-            passes::run_on_cpu(call.program, call.params, &ctx, &mut out, shape);
+            run_on_cpu(call.program, call.params, &ctx, &mut out, shape);
             Ok(())
         })();
         if let Some((_, data)) = self.textures.get_mut(out_index) {
@@ -302,6 +304,30 @@ impl GpuBackend for CpuBackend {
         Ok(data[start..start + per_layer].to_vec())
     }
 }
+
+/// Generates [`run_on_cpu`] from the pass registry.
+macro_rules! cpu_dispatch {
+    ($($(#[$doc:meta])* $variant:ident = $module:ident $(($params:ident))?;)*) => {
+        /// Runs `program`'s CPU reference (`passes/<label>/cpu.rs`) with the parameter words
+        /// `words` over the tile of `ctx` into `out`, the written texture's data of
+        /// `shape = [floats per row, rows per layer]`.
+        fn run_on_cpu(
+            program: Program,
+            words: &[u32],
+            ctx: &Ctx<'_>,
+            out: &mut [f32],
+            shape: [usize; 2],
+        ) {
+            match program {
+                $(Program::$variant => {
+                    kernel::run::<crate::passes::$module::cpu::Pass>(words, ctx, out, shape)
+                })*
+            }
+        }
+    };
+}
+
+with_registry!(cpu_dispatch);
 
 #[cfg(test)]
 mod tests {

@@ -69,10 +69,8 @@ impl Picture {
     }
 }
 
-/// Rec. 709 luminance of linear RGB.
-pub fn luminance(c: [f32; 3]) -> f32 {
-    0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
-}
+/// Rec. 709 luminance of linear RGB (the passes' [`crate::exact::luminance`]).
+pub use crate::exact::luminance;
 
 /// The sRGB transfer function of a linear value in [0, 1], as a byte.
 pub fn srgb_byte(x: f32) -> u8 {

@@ -1,21 +1,20 @@
 //! Every pass, one folder each: `passes/<label>/` holds the pass's [`Signature`], its
 //! parameter block ([`ParamBlock`]), its work estimate and its GLSL and WGSL files side by
 //! side. The registry below is the one list of passes: [`Program`] (with `ALL`, `label`,
-//! `signature`) and [`Params`] (with `decode`, `words`, `fields`, `work_per_texel`) are
-//! generated from it.
+//! `signature`), [`Params`] (with `decode`, `words`, `fields`, `work_per_texel`) and the CPU
+//! backend's dispatch are generated from it.
 //!
 //! # Adding a pass
 //! A new folder `passes/<label>/` with `mod.rs` (its `SIGNATURE`, and with parameters its
 //! `param_block!` and `fn work(&Params) -> u64`), `<label>.glsl` defining
 //! `vec4 luxRun(ivec3 c)` and `<label>.wgsl` defining `fn lux_run(c: vec2<i32>) -> vec4<f32>`
 //! (the entry points and every declaration are generated, [`crate::shader`]), plus one line in
-//! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing
-//! [`TexelPass`](crate::cpu::kernel::TexelPass) (texel by texel) or
-//! [`CpuPass`](crate::cpu::kernel::CpuPass) (row by row), built from the parameter words. The
-//! backends, the CPU backend's dispatch and the shader generator need no change.
+//! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing the
+//! CPU backend's `TexelPass` (texel by texel) or `CpuPass` (row by row; `cpu/kernel.rs`),
+//! built from the parameter words. The backends, the CPU backend's dispatch and the shader
+//! generator need no change.
 
 use crate::contract::{Field, ParamBlock, Signature};
-use crate::cpu::kernel::{Ctx, run};
 
 /// Counts its arguments (the registry's length).
 macro_rules! count {
@@ -23,8 +22,8 @@ macro_rules! count {
     ($head:ident $($tail:ident)*) => { 1 + count!($($tail)*) };
 }
 
-/// The registry: `Variant = module(ParamsType);` per pass, or `Variant = module;` for a pass
-/// without parameters. Generates the modules, [`Program`] and [`Params`].
+/// Generates the pass modules, [`Program`] and [`Params`] from the registry
+/// (`with_registry!`).
 macro_rules! registry {
     ($($(#[$doc:meta])* $variant:ident = $module:ident $(($params:ident))?;)*) => {
         $(pub mod $module;)*
@@ -53,21 +52,6 @@ macro_rules! registry {
                 match self {
                     $(Program::$variant => &$module::SIGNATURE,)*
                 }
-            }
-        }
-
-        /// Runs `program`'s CPU reference (`passes/<label>/cpu.rs`) with the parameter
-        /// words `words` over the tile of `ctx` into `out`, the written texture's data of
-        /// `shape = [floats per row, rows per layer]`.
-        pub(crate) fn run_on_cpu(
-            program: Program,
-            words: &[u32],
-            ctx: &Ctx<'_>,
-            out: &mut [f32],
-            shape: [usize; 2],
-        ) {
-            match program {
-                $(Program::$variant => run::<$module::cpu::Pass>(words, ctx, out, shape),)*
             }
         }
 
@@ -124,36 +108,52 @@ macro_rules! registry {
     };
 }
 
-registry! {
-    /// Direct illuminance with shadow rays.
-    Direct = direct(DirectParams);
-    /// Texel-for-texel copy.
-    Copy = copy;
-    /// One axis of the masked separable Gaussian.
-    Blur = blur(BlurParams);
-    /// Illuminance × albedo.
-    AlbedoMul = albedo_mul;
-    /// One bounce of indirect illuminance.
-    Gather = gather(GatherParams);
-    /// Weighted sum of two maps (direct + indirect).
-    Combine = combine(CombineParams);
-    /// Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
-    /// edge-stopping), and with the centre left out its mean luminance (green) and variance
-    /// (blue), for refinement.
-    Variance = variance(VarianceParams);
-    /// One iteration of the edge-stopping à-trous wavelet filter.
-    Atrous = atrous(AtrousParams);
-    /// Fills the texels a reduced-resolution gather left out ([`GatherParams::stride`]) from
-    /// the grid texels around them on their surface ([`coarse`](crate::program::coarse)).
-    Upsample = upsample(UpsampleParams);
-    /// Progressive refinement of a gather: a texel whose variance estimate
-    /// ([`Program::Variance`] of the first gather: `√variance / mean luminance` of its 5×5
-    /// window without the texel itself) shows a relative standard error over [`RefineParams::max_error`] gets `rays`
-    /// more rays, continuing its sequence, averaged with the first gather's by ray count; every
-    /// other texel keeps the first gather's value. The decision leaves the texel's own value
-    /// out: deciding on its own noisy estimate keeps the texels that came out high and refines
-    /// those that came out low (measured: +5.5 % on `chairs_05` at a target of 0.3 when
-    /// divided by the texel's own luminance; −2 % on the box room while its own value was in
-    /// the variance). Then kept and refined texels are both unbiased.
-    Refine = refine(RefineParams);
+/// The registry, one line per pass: `Variant = module(ParamsType);`, or `Variant = module;`
+/// for a pass without parameters. `with_registry!(generator)` hands the list to a generator
+/// macro: `registry!` here, the CPU backend's dispatch in [`crate::cpu`].
+macro_rules! with_registry {
+    ($generator:ident) => {
+        $generator! {
+            /// Direct illuminance with shadow rays.
+            Direct = direct(DirectParams);
+            /// Texel-for-texel copy.
+            Copy = copy;
+            /// One axis of the masked separable Gaussian.
+            Blur = blur(BlurParams);
+            /// Illuminance × albedo.
+            AlbedoMul = albedo_mul;
+            /// One bounce of indirect illuminance.
+            Gather = gather(GatherParams);
+            /// Weighted sum of two maps (direct + indirect).
+            Combine = combine(CombineParams);
+            /// Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
+            /// edge-stopping), and with the centre left out its mean luminance (green) and variance
+            /// (blue), for refinement.
+            Variance = variance(VarianceParams);
+            /// One iteration of the edge-stopping à-trous wavelet filter.
+            Atrous = atrous(AtrousParams);
+            /// Fills the texels a reduced-resolution gather left out ([`GatherParams::stride`])
+            /// from
+            /// the grid texels around them on their surface ([`coarse`](crate::program::coarse)).
+            Upsample = upsample(UpsampleParams);
+            /// Progressive refinement of a gather: a texel whose variance estimate
+            /// ([`Program::Variance`] of the first gather: `√variance / mean luminance` of its 5×5
+            /// window without the texel itself) shows a relative standard error over
+            /// [`RefineParams::max_error`] gets `rays`
+            /// more rays, continuing its sequence, averaged with the first gather's by ray count;
+            /// every
+            /// other texel keeps the first gather's value. The decision leaves the texel's own
+            /// value
+            /// out: deciding on its own noisy estimate keeps the texels that came out high and
+            /// refines
+            /// those that came out low (measured: +5.5 % on `chairs_05` at a target of 0.3 when
+            /// divided by the texel's own luminance; −2 % on the box room while its own value was
+            /// in
+            /// the variance). Then kept and refined texels are both unbiased.
+            Refine = refine(RefineParams);
+        }
+    };
 }
+pub(crate) use with_registry;
+
+with_registry!(registry);

@@ -16,7 +16,8 @@
 
 use glam::{DVec2, DVec3, Vec2Swizzles, dvec3};
 
-use crate::scene::{Mesh, unit};
+use crate::exact::normalize_f64;
+use crate::scene::Mesh;
 
 /// Per-part albedos of the room (linear RGB), applied as vertex colours.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,10 +87,10 @@ impl Builder {
     /// A flat rectangle as one chart: corners counter-clockwise seen from the front.
     fn rect_chart(&mut self, corners: [DVec3; 4]) {
         let (side1, side2) = (corners[1] - corners[0], corners[3] - corners[0]);
-        let n = unit(side1.cross(side2)).unwrap_or(DVec3::Y);
+        let n = normalize_f64(side1.cross(side2)).unwrap_or(DVec3::Y);
         self.begin_chart();
-        let e1 = unit(side1).unwrap_or(DVec3::X);
-        let e2 = unit(side2).unwrap_or(DVec3::Z);
+        let e1 = normalize_f64(side1).unwrap_or(DVec3::X);
+        let e2 = normalize_f64(side2).unwrap_or(DVec3::Z);
         let v = corners.map(|p| {
             let d = p - corners[0];
             self.vertex(p, n, DVec2::new(d.dot(e1), d.dot(e2)))
@@ -335,7 +336,7 @@ pub fn room(size: [f32; 3], albedo: RoomAlbedo, padding: f32) -> Mesh {
 fn set_flat_normals(b: &mut Builder) {
     for t in &b.tris {
         let [a, c, d] = t.map(|i| b.verts[i as usize].p);
-        if let Some(n) = unit((c - a).cross(d - a)) {
+        if let Some(n) = normalize_f64((c - a).cross(d - a)) {
             for &i in t {
                 b.verts[i as usize].n = n;
             }
@@ -470,7 +471,7 @@ pub fn sphere(radius: f32, segments: u32, inward: bool, padding: f32) -> Mesh {
         t[n / 2] = 0.0;
     }
     let map = |q: DVec3| {
-        let d = unit(q).unwrap_or(DVec3::Y);
+        let d = normalize_f64(q).unwrap_or(DVec3::Y);
         (d * r, d)
     };
     let mut b = Builder::default();
@@ -565,7 +566,7 @@ fn rounded_part(b: &mut Builder, lo: DVec3, hi: DVec3, r: f64, bands: usize, int
     let map = |q: DVec3| {
         // f64::clamp per component (glam's clamp compares, which treats NaN differently).
         let inner = DVec3::from_array(std::array::from_fn(|k| q[k].clamp(-flat[k], flat[k])));
-        match unit(q - inner) {
+        match normalize_f64(q - inner) {
             Some(n) => (c + inner + r * n, n),
             None => (c + q, DVec3::Y),
         }
@@ -768,7 +769,7 @@ mod tests {
             // Vertex normals agree with the winding.
             for t in &m.indices {
                 let [a, b, c] = corners(&m, t);
-                let g = unit((b - a).cross(c - a)).expect("non-degenerate");
+                let g = normalize_f64((b - a).cross(c - a)).expect("non-degenerate");
                 for &i in t {
                     let n = Vec3::from(m.normals[i as usize]).as_dvec3();
                     assert!(g.dot(n) > 0.7, "{name}: normal {n:?} against winding {g:?}");

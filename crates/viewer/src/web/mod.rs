@@ -382,8 +382,8 @@ impl Viewer {
     /// or `undefined` behind the camera.
     pub fn project(&self, x: f32, y: f32, z: f32, width: f32, height: f32) -> Option<Vec<f32>> {
         self.camera
-            .project([x, y, z], width, height)
-            .map(|p| p.to_vec())
+            .project(glam::Vec3::new(x, y, z), width, height)
+            .map(|p| p.to_array().to_vec())
     }
 
     /// Draws a frame into the drawing buffer of `width × height` pixels. A lost context draws

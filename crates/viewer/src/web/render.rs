@@ -1,5 +1,6 @@
 //! The display: the scene's meshes drawn with their light maps on the page's WebGL2 canvas.
 
+use glam::{Mat4, Vec3};
 use glow::HasContext;
 use wasm_bindgen::JsCast;
 use web_sys::{HtmlCanvasElement, WebGl2RenderingContext};
@@ -91,7 +92,7 @@ struct GpuMesh {
 /// How to draw a frame.
 pub(crate) struct Frame {
     /// `projection · view`, column-major.
-    pub view_projection: [f32; 16],
+    pub view_projection: Mat4,
     /// Linear factor on luminance before tone mapping.
     pub exposure: f32,
     /// False-colour lux view.
@@ -326,7 +327,8 @@ impl Renderer {
             gl.clear(glow::COLOR_BUFFER_BIT | glow::DEPTH_BUFFER_BIT);
             gl.use_program(Some(self.program));
             let loc = |n: &str| gl.get_uniform_location(self.program, n);
-            gl.uniform_matrix_4_f32_slice(loc("u_vp").as_ref(), false, &frame.view_projection);
+            let vp = frame.view_projection.to_cols_array();
+            gl.uniform_matrix_4_f32_slice(loc("u_vp").as_ref(), false, &vp);
             gl.uniform_1_f32(loc("u_exposure").as_ref(), frame.exposure);
             gl.uniform_1_i32(loc("u_mode").as_ref(), i32::from(frame.false_colour));
             gl.uniform_1_i32(loc("u_map").as_ref(), 0);
@@ -339,13 +341,9 @@ impl Renderer {
                 gl.draw_elements(glow::TRIANGLES, m.count, glow::UNSIGNED_INT, 0);
             }
             if let Some(m) = &self.marker {
-                let l = frame.lamp;
-                let mut vp = frame.view_projection;
                 // Translate the unit marker to the lamp: vp · T.
-                for r in 0..4 {
-                    vp[12 + r] += vp[r] * l[0] + vp[4 + r] * l[1] + vp[8 + r] * l[2];
-                }
-                gl.uniform_matrix_4_f32_slice(loc("u_vp").as_ref(), false, &vp);
+                let vp = frame.view_projection * Mat4::from_translation(Vec3::from(frame.lamp));
+                gl.uniform_matrix_4_f32_slice(loc("u_vp").as_ref(), false, &vp.to_cols_array());
                 gl.uniform_1_i32(loc("u_mode").as_ref(), 2);
                 gl.disable(glow::CULL_FACE);
                 gl.bind_vertex_array(Some(m.vao));

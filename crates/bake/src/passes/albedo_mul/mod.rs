@@ -1,5 +1,6 @@
 //! Pass `albedo_mul`: the program's signature and its shaders
-//! (albedo_mul.glsl, albedo_mul.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (albedo_mul.glsl, albedo_mul.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics
+//! the shaders mirror.
 //!
 //! Illuminance × albedo.
 

@@ -1,5 +1,6 @@
 //! Pass `atrous`: the program's signature, its parameter block and its shaders
-//! (atrous.glsl, atrous.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (atrous.glsl, atrous.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! One iteration of the edge-stopping à-trous wavelet filter.
 
@@ -8,7 +9,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of one iteration of [`Program::Atrous`](crate::program::Program::Atrous) (edge-stopping à-trous wavelet
+    /// Parameters of one iteration of [`Program::Atrous`](crate::program::Program::Atrous)
+    /// (edge-stopping à-trous wavelet
     /// filter; see [`atrous_steps`](crate::program::atrous_steps)).
     AtrousParams as "LuxAtrousParams" {
         /// Spacing of the 5×5 taps, texels: `2^i` at iteration `i`.
@@ -22,7 +24,9 @@ param_block! {
         /// Normal weight `max(0, n̂·n̂ₜ)^(2^normal_log2)`.
         normal_log2: u32,
         /// Luminance weight `exp(−Δl² / (variance_scale · σ²))`, σ² the centre's variance
-        /// estimate: `σ_l² · ρᵢ` ([`AtrousConfig::sigma_luminance`](crate::program::AtrousConfig::sigma_luminance), [`b3_noise_factor`](crate::program::b3_noise_factor)).
+        /// estimate: `σ_l² · ρᵢ`
+        /// ([`AtrousConfig::sigma_luminance`](crate::program::AtrousConfig::sigma_luminance),
+        /// [`b3_noise_factor`](crate::program::b3_noise_factor)).
         variance_scale: f32,
         /// Padding.
         pad0: u32,

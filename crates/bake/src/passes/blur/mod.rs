@@ -1,5 +1,6 @@
 //! Pass `blur`: the program's signature, its parameter block and its shaders
-//! (blur.glsl, blur.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (blur.glsl, blur.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders
+//! mirror.
 //!
 //! One axis of the masked separable Gaussian.
 
@@ -8,7 +9,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Blur`](crate::program::Program::Blur) (one axis of the masked Gaussian).
+    /// Parameters of [`Program::Blur`](crate::program::Program::Blur) (one axis of the masked
+    /// Gaussian).
     BlurParams as "LuxBlurParams" {
         /// Texel step along the axis: (1, 0) for U.
         step_x: i32,

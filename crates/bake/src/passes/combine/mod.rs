@@ -1,5 +1,6 @@
 //! Pass `combine`: the program's signature, its parameter block and its shaders
-//! (combine.glsl, combine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (combine.glsl, combine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! Weighted sum of two maps (direct + indirect).
 
@@ -8,7 +9,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Combine`](crate::program::Program::Combine): `dst = a_weight · a + b_weight · b`.
+    /// Parameters of [`Program::Combine`](crate::program::Program::Combine): `dst = a_weight · a +
+    /// b_weight · b`.
     CombineParams as "LuxCombineParams" {
         /// Weight of the first input.
         a_weight: f32,

@@ -1,5 +1,6 @@
 //! Pass `copy`: the program's signature and its shaders
-//! (copy.glsl, copy.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (copy.glsl, copy.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders
+//! mirror.
 //!
 //! Texel-for-texel copy.
 

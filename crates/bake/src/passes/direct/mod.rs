@@ -1,5 +1,6 @@
 //! Pass `direct`: the program's signature, its parameter block and its shaders
-//! (direct.glsl, direct.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (direct.glsl, direct.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! Direct illuminance with shadow rays.
 
@@ -8,7 +9,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Direct`](crate::program::Program::Direct): the lamps are the scene's uploaded lamps.
+    /// Parameters of [`Program::Direct`](crate::program::Program::Direct): the lamps are the
+    /// scene's uploaded lamps.
     DirectParams as "LuxDirectParams" {
         /// Lamps to evaluate (the first `lamp_count` of the uploaded lamps).
         lamp_count: u32,

@@ -1,5 +1,6 @@
 //! Pass `gather`: the program's signature, its parameter block and its shaders
-//! (gather.glsl, gather.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (gather.glsl, gather.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! One bounce of indirect illuminance.
 
@@ -20,13 +21,19 @@ param_block! {
         sampler: u32,
         /// Reduced resolution: only texels on the grid of every `stride`-th column and row,
         /// and texels with no such grid texel around them on their surface, are gathered
-        /// ([`coarse`](crate::program::coarse)); [`Program::Upsample`](crate::program::Program::Upsample) fills the rest. 1 (or 0): every texel.
+        /// ([`coarse`](crate::program::coarse));
+        /// [`Program::Upsample`](crate::program::Program::Upsample) fills the rest. 1 (or 0): every
+        /// texel.
         stride: u32,
-        /// The chart test of [`coarse`](crate::program::coarse): farthest a grid texel on the centre's surface lies
-        /// per texel of offset, metres ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
+        /// The chart test of [`coarse`](crate::program::coarse): farthest a grid texel on the
+        /// centre's surface lies
+        /// per texel of offset, metres
+        /// ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
         reach: f32,
-        /// Rays of an orphan ([`coarse`](crate::program::coarse)): it stands for itself, not for a grid cell of
-        /// `stride²` texels, so [`coarse::orphan_rays`](crate::program::coarse::orphan_rays) gives it fewer than a grid texel.
+        /// Rays of an orphan ([`coarse`](crate::program::coarse)): it stands for itself, not for a
+        /// grid cell of
+        /// `stride²` texels, so [`coarse::orphan_rays`](crate::program::coarse::orphan_rays) gives
+        /// it fewer than a grid texel.
         orphan_rays: u32,
         /// Lamp paths per texel combined with this gather ([`crate::lightpaths`]; the first
         /// bounce at stride 1 only): each hit's exitance is weighted by the balance heuristic

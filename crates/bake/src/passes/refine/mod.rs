@@ -1,9 +1,12 @@
 //! Pass `refine`: the program's signature, its parameter block and its shaders
-//! (refine.glsl, refine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (refine.glsl, refine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! Progressive refinement of a gather: a texel whose variance estimate
-//! ([`Program::Variance`](crate::program::Program::Variance) of the first gather: `√variance / mean luminance` of its 5×5
-//! window without the texel itself) shows a relative standard error over [`RefineParams::max_error`] gets `rays`
+//! ([`Program::Variance`](crate::program::Program::Variance) of the first gather: `√variance / mean
+//! luminance` of its 5×5
+//! window without the texel itself) shows a relative standard error over
+//! [`RefineParams::max_error`] gets `rays`
 //! more rays, continuing its sequence, averaged with the first gather's by ray count; every
 //! other texel keeps the first gather's value. The decision leaves the texel's own value
 //! out: deciding on its own noisy estimate keeps the texels that came out high and refines
@@ -16,7 +19,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Refine`](crate::program::Program::Refine): progressive refinement of a gather of `first_rays`
+    /// Parameters of [`Program::Refine`](crate::program::Program::Refine): progressive refinement
+    /// of a gather of `first_rays`
     /// rays per texel (see [`Program::Refine`](crate::program::Program::Refine)).
     RefineParams as "LuxRefineParams" {
         /// Further rays per texel that misses the target: samples `first_rays ..
@@ -31,7 +35,8 @@ param_block! {
         /// Rays of the first gather.
         first_rays: u32,
         /// The target: a texel whose estimated relative standard error (√variance / the
-        /// window's mean luminance, [`Program::Variance`](crate::program::Program::Variance)) is at most this is kept as it is.
+        /// window's mean luminance, [`Program::Variance`](crate::program::Program::Variance)) is at
+        /// most this is kept as it is.
         max_error: f32,
         /// Padding.
         pad0: u32,

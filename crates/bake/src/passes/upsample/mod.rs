@@ -1,7 +1,9 @@
 //! Pass `upsample`: the program's signature, its parameter block and its shaders
-//! (upsample.glsl, upsample.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (upsample.glsl, upsample.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
-//! Fills the texels a reduced-resolution gather left out ([`GatherParams::stride`](crate::program::GatherParams::stride)) from
+//! Fills the texels a reduced-resolution gather left out
+//! ([`GatherParams::stride`](crate::program::GatherParams::stride)) from
 //! the grid texels around them on their surface ([`coarse`](crate::program::coarse)).
 
 pub(crate) mod cpu;
@@ -9,7 +11,8 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Upsample`](crate::program::Program::Upsample): the reduced-resolution gather's grid.
+    /// Parameters of [`Program::Upsample`](crate::program::Program::Upsample): the
+    /// reduced-resolution gather's grid.
     UpsampleParams as "LuxUpsampleParams" {
         /// The gather's [`GatherParams::stride`](crate::program::GatherParams::stride).
         stride: u32,

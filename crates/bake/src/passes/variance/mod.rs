@@ -1,5 +1,6 @@
 //! Pass `variance`: the program's signature, its parameter block and its shaders
-//! (variance.glsl, variance.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
+//! (variance.glsl, variance.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
+//! shaders mirror.
 //!
 //! Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
 //! edge-stopping), and with the centre left out its mean luminance (green) and variance
@@ -10,14 +11,16 @@ pub(crate) mod cpu;
 use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
 
 param_block! {
-    /// Parameters of [`Program::Variance`](crate::program::Program::Variance): the noise variance of the luminance at a texel,
+    /// Parameters of [`Program::Variance`](crate::program::Program::Variance): the noise variance
+    /// of the luminance at a texel,
     /// estimated from neighbouring texels of its surface (the derivation is in
     /// [`atrous_steps`](crate::program::atrous_steps)' docs and [`crate::cpu`]).
     VarianceParams as "LuxVarianceParams" {
         /// Farthest a tap on the centre's chart lies per texel of offset, metres
         /// ([`AtrousConfig::reach`](crate::program::AtrousConfig::reach)).
         reach: f32,
-        /// Fewest texel pairs a direction needs to give an estimate ([`ATROUS_MIN_PAIRS`](crate::program::ATROUS_MIN_PAIRS)).
+        /// Fewest texel pairs a direction needs to give an estimate
+        /// ([`ATROUS_MIN_PAIRS`](crate::program::ATROUS_MIN_PAIRS)).
         min_pairs: u32,
         /// Padding.
         pad0: u32,
