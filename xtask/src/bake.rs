@@ -149,13 +149,15 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
                     SceneError::Override(e) => flag_error(&e),
                     e => e.to_string(),
                 })?;
-            let backend = match args.backend {
-                Some(b) => b,
-                None => match preferred_backend(path).map_err(|e| e.to_string())? {
-                    Some(name) => name.parse()?,
-                    None => BackendKind::Cpu,
-                },
+            // The file's backend is checked even when `--backend` overrides it.
+            let preferred = match preferred_backend(path).map_err(|e| e.to_string())? {
+                Some(name) => Some(
+                    name.parse::<BackendKind>()
+                        .map_err(|e| format!("{}: settings.backend: {e}", path.display()))?,
+                ),
+                None => None,
             };
+            let backend = args.backend.or(preferred).unwrap_or(BackendKind::Cpu);
             let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
             Ok((scene, backend, abs.display().to_string()))
         }
@@ -322,6 +324,39 @@ mod tests {
             (scene.settings.rays, backend, source.as_str()),
             (2, BackendKind::Cpu, "builtin:floor")
         );
+    }
+
+    #[test]
+    fn a_scene_files_backend_is_named_by_the_backends_crate() {
+        let dir = std::env::temp_dir().join(format!("luxbake-xtask-be-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("temp dir");
+        let path = dir.join("s.toml");
+        let load_file = |backend: &str, flags: &[&str]| {
+            let text = format!(
+                "[settings]\nbackend = \"{backend}\"\n[[lamp]]\nies = \"isotropic:100\"\n\
+                 position = [0, 2, 0]\n[[object]]\nprimitive = \"plane\"\nsize = [2, 2]\n"
+            );
+            std::fs::write(&path, text).expect("write scene");
+            let p = path.display().to_string();
+            let cli = Cli::try_parse_from([&["bake", p.as_str()], flags].concat())
+                .map_err(|e| e.to_string())?;
+            load(&cli.args).map(|(_, backend, _)| backend)
+        };
+        assert_eq!(load_file(" Glow ", &[]), Ok(BackendKind::Glow));
+        assert_eq!(
+            load_file("glow", &["--backend", "cpu"]),
+            Ok(BackendKind::Cpu)
+        );
+        // An unknown name is an error naming the key, also under a `--backend` override.
+        for flags in [&[][..], &["--backend", "cpu"]] {
+            let e = load_file("vulkan", flags).expect_err("vulkan");
+            assert!(
+                e.contains("settings.backend")
+                    && e.contains("expected \"cpu\", \"glow\" or \"wgpu\", got `vulkan`"),
+                "{e}"
+            );
+        }
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// A unit cube without UVs: the mesh loader generates its light-map UVs, padded for the

@@ -63,14 +63,15 @@ impl fmt::Display for BackendKind {
 
 impl FromStr for BackendKind {
     type Err = String;
-    /// `cpu`, `glow` or `wgpu` (case-insensitive): the names a scene file's `settings.backend`
-    /// accepts ([`luxbake::sources::scenefile::backend_name`]).
+    /// `cpu`, `glow` or `wgpu` (case-insensitive, surrounding spaces ignored): the names of
+    /// `--backend` and of a scene file's `settings.backend`
+    /// ([`luxbake::sources::scenefile::preferred_backend`]).
     fn from_str(s: &str) -> Result<BackendKind, String> {
-        let name = luxbake::sources::scenefile::backend_name(s)?;
+        let lower = s.trim().to_ascii_lowercase();
         BackendKind::ALL
             .into_iter()
-            .find(|k| k.name() == name)
-            .ok_or_else(|| format!("no backend is named `{name}`"))
+            .find(|k| k.name() == lower)
+            .ok_or_else(|| format!("expected \"cpu\", \"glow\" or \"wgpu\", got `{s}`"))
     }
 }
 
@@ -355,7 +356,8 @@ mod tests {
     #[test]
     fn names_parse_back() {
         let names = BackendKind::ALL.map(BackendKind::name);
-        assert_eq!(names, luxbake::sources::scenefile::BACKEND_NAMES);
+        assert_eq!(names, ["cpu", "glow", "wgpu"]);
+        assert_eq!(" Glow ".parse::<BackendKind>(), Ok(BackendKind::Glow));
         for b in BackendKind::ALL {
             assert_eq!(b.name().to_uppercase().parse::<BackendKind>(), Ok(b));
             assert_eq!(b.to_string(), b.name());

@@ -17,7 +17,7 @@
 //! texels_per_metre = 64.0     # light-map density, finite and > 0 (the maps: at most 2^26 texels)
 //! bvh = "mtbvh"               # "wide" (default; CPU), "mtbvh", "tbvh" or "none"
 //! seed = 0                    # 0..=4294967295
-//! backend = "cpu"             # "cpu", "glow" or "wgpu" (see `preferred_backend`)
+//! backend = "cpu"             # a backend's name, for the tool that bakes (`preferred_backend`)
 //!
 //! [[lamp]]                    # at least one (or an object with `lights = true`)
 //! name = "downlight"          # optional, for reports
@@ -266,29 +266,16 @@ fn read_text(path: &Path) -> Result<String, SceneError> {
     })
 }
 
-/// The backend names a scene file's `settings.backend` accepts.
-pub const BACKEND_NAMES: [&str; 3] = ["cpu", "glow", "wgpu"];
-
-/// `name` as one of [`BACKEND_NAMES`] (case-insensitive, surrounding spaces ignored).
+/// The backend the scene file `path` prefers: its `settings.backend` as written, or `None`
+/// when it names none. The core knows no backend, so this is no bake [`Settings`] and its value
+/// is not checked here: the caller (`cargo xtask bake`, whose `--backend` overrides it; the
+/// names are `luxbake_backends::BackendKind`'s) maps the name to a backend and names the key in
+/// its error. Parsing the file ([`from_file`]) checks that the key is a string.
 ///
 /// # Errors
-/// Any other name, with a message that lists them.
-pub fn backend_name(name: &str) -> Result<&'static str, String> {
-    let lower = name.trim().to_ascii_lowercase();
-    BACKEND_NAMES
-        .into_iter()
-        .find(|n| *n == lower)
-        .ok_or_else(|| format!("expected \"cpu\", \"glow\" or \"wgpu\", got `{name}`"))
-}
-
-/// The backend the scene file `path` prefers: its `settings.backend` as one of
-/// [`BACKEND_NAMES`], or `None` when it names none. The core runs no backend, so this is no
-/// bake [`Settings`]: the caller (`cargo xtask bake`, whose `--backend` overrides it) maps the
-/// name to a backend. Parsing the file ([`from_file`]) checks the key too.
-///
-/// # Errors
-/// As [`from_file`] for reading the file and its TOML; `settings.backend` for another name.
-pub fn preferred_backend(path: &Path) -> Result<Option<&'static str>, SceneError> {
+/// As [`from_file`] for reading the file and its TOML; `settings.backend` for a value that is
+/// not a string.
+pub fn preferred_backend(path: &Path) -> Result<Option<String>, SceneError> {
     let cx = Cx {
         path: Some(path.to_path_buf()),
         base_dir: PathBuf::new(),
@@ -418,14 +405,13 @@ impl Cx<'_> {
         })
     }
 
-    fn backend(&self, value: &Value) -> Result<&'static str, SceneError> {
-        let name = value.as_str().ok_or_else(|| {
+    fn backend(&self, value: &Value) -> Result<String, SceneError> {
+        value.as_str().map(str::to_owned).ok_or_else(|| {
             self.invalid(
                 "settings.backend",
-                format!("{value}; expected \"cpu\", \"glow\" or \"wgpu\""),
+                format!("{value}; expected a backend's name (a string)"),
             )
-        })?;
-        backend_name(name).map_err(|e| self.invalid("settings.backend", e))
+        })
     }
 
     /// The `[settings]` table as a patch (`backend` checked and left out), checked on its own
@@ -1167,7 +1153,7 @@ mod tests {
             ),
             ("bvh = \"kd\"", LAMP, OBJECT, "settings.bvh"),
             ("seed = -3", LAMP, OBJECT, "seed"),
-            ("backend = \"vulkan\"", LAMP, OBJECT, "settings.backend"),
+            ("backend = 3", LAMP, OBJECT, "settings.backend"),
             ("raus = 3", LAMP, OBJECT, "raus"),
             ("", "ies = \"isotropic:1\"", OBJECT, "position"),
             ("", "position = [0.0, 1.0]", OBJECT, "position"),
@@ -1491,21 +1477,23 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("luxbake-backend-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("s.toml");
+        // The core passes the name on as written: the backends' crate knows the names.
         for (settings, want) in [
             ("", None),
-            ("backend = \"WGPU\"", Some("wgpu")),
-            ("backend = \" glow \"", Some("glow")),
+            ("backend = \"WGPU\"", Some("WGPU")),
+            ("backend = \" glow \"", Some(" glow ")),
+            ("backend = \"vulkan\"", Some("vulkan")),
         ] {
             std::fs::write(&path, text(settings, LAMP, OBJECT)).expect("write scene");
-            assert_eq!(preferred_backend(&path).expect("reads"), want, "{settings}");
+            let got = preferred_backend(&path).expect("reads");
+            assert_eq!(got.as_deref(), want, "{settings}");
             let s = from_file(&path).expect("parses");
             assert_eq!(s.settings, Settings::default());
         }
-        std::fs::write(&path, text("backend = \"vulkan\"", LAMP, OBJECT)).expect("write scene");
-        let e = preferred_backend(&path).expect_err("vulkan").to_string();
+        std::fs::write(&path, text("backend = 3", LAMP, OBJECT)).expect("write scene");
+        let e = preferred_backend(&path).expect_err("a number").to_string();
         assert!(
-            e.contains("settings.backend")
-                && e.contains("expected \"cpu\", \"glow\" or \"wgpu\", got `vulkan`"),
+            e.contains("settings.backend") && e.contains("expected a backend's name"),
             "{e}"
         );
         assert!(from_file(&path).is_err());
