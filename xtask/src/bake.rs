@@ -19,13 +19,13 @@ use std::time::Duration;
 
 use indicatif::{ProgressBar, ProgressStyle};
 use luxbake::bake::{BakeOutput, Progress, bake};
-use luxbake::output::write_bake;
 use luxbake::scene::{
     Blur, BvhMode, Method, Quality, Sampler, Scene, SceneError, SettingError, Settings,
     SettingsPatch,
 };
 use luxbake::sources::scenefile::{from_file_patched, preferred_backend};
 use luxbake_backends::BackendKind;
+use luxbake_output::write_bake;
 
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]

@@ -18,11 +18,11 @@ use std::collections::hash_map::Entry;
 use std::path::{Path, PathBuf};
 
 use luxbake::map::MapImage;
-use luxbake::output::picture::luminance;
-use luxbake::output::read_exr;
 use luxbake::probe::{SurfacePoint, locate};
 use luxbake::scene::{Scene, SettingsPatch};
 use luxbake::sources::scenefile::from_file_patched;
+use luxbake_output::picture::luminance;
+use luxbake_output::read_exr;
 use serde_json::Value;
 
 /// Arguments of `cargo xtask measure`.
@@ -269,7 +269,7 @@ mod tests {
     fn a_scene_file_is_rebuilt_with_the_baked_settings() {
         use luxbake::bake::bake;
         use luxbake::cpu::CpuBackend;
-        use luxbake::output::write_bake;
+        use luxbake_output::write_bake;
         let dir = std::env::temp_dir().join(format!("luxbake-rebuild-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
         let path = dir.join("room.toml");
@@ -296,7 +296,7 @@ mod tests {
     fn measures_a_bake_against_the_closed_form() {
         use luxbake::bake::bake;
         use luxbake::cpu::CpuBackend;
-        use luxbake::output::write_bake;
+        use luxbake_output::write_bake;
         let settings = Settings {
             rays: 4,
             bounces: 0,

@@ -378,7 +378,7 @@ fn native_bake(
         out.report.texels,
         out.maps.len()
     );
-    let passes = luxbake::output::dilation_passes(&scene.settings);
+    let passes = luxbake_output::dilation_passes(&scene.settings);
     let maps = out
         .maps
         .iter()

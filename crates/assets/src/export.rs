@@ -210,7 +210,7 @@ fn lightmap_png(
 
 fn stem(path: &Path) -> String {
     path.file_stem()
-        .map(|s| luxbake::output::file_stem(&s.to_string_lossy()))
+        .map(|s| luxbake_output::file_stem(&s.to_string_lossy()))
         .unwrap_or_else(|| "scene".into())
 }
 
@@ -297,18 +297,15 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
             && let Some(maps) = out.maps.iter().find(|mp| mp.object == oi)
         {
             let lm = maps.illuminance();
-            let passes = luxbake::output::dilation_passes(&out.settings);
+            let passes = luxbake_output::dilation_passes(&out.settings);
             let png = lightmap_png(lm, scale, passes, path)?;
             let view = bin.view(&png, None);
             images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": format!("{}_lightmap", o.name) }));
             textures.push(
                 json!({ "source": images.len() - 1, "name": format!("{}_lightmap", o.name) }),
             );
-            let exr_name = format!(
-                "{file_stem}_{}_lux.exr",
-                luxbake::output::file_stem(&o.name)
-            );
-            let exr = luxbake::output::encode_exr(lm).map_err(|e| AssetError::Export {
+            let exr_name = format!("{file_stem}_{}_lux.exr", luxbake_output::file_stem(&o.name));
+            let exr = luxbake_output::encode_exr(lm).map_err(|e| AssetError::Export {
                 path: path.to_path_buf(),
                 message: e.to_string(),
             })?;

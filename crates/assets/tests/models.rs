@@ -173,7 +173,7 @@ fn each_model_loads_bakes_exports_and_reimports() {
         let report = export::export_baked(&scene, &out, &glb).expect("export");
         assert_eq!(report.exr.len(), out.maps.len());
         for (e, m) in report.exr.iter().zip(&out.maps) {
-            let back = luxbake::output::read_exr(e).expect("EXR");
+            let back = luxbake_output::read_exr(e).expect("EXR");
             assert_eq!(
                 (back.width, back.height),
                 (m.illuminance().width, m.illuminance().height)

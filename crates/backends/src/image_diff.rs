@@ -11,8 +11,8 @@
 use std::path::Path;
 
 use luxbake::map::MapImage;
-use luxbake::output::encode_png;
-use luxbake::output::picture::{Picture, srgb_byte};
+use luxbake_output::encode_png;
+use luxbake_output::picture::{Picture, srgb_byte};
 
 /// Explicit tolerances of one image comparison.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -22,8 +22,8 @@
 //! 4. **collect** the maps: read back, cropped per object ([`report::BakeOutput`]).
 //!
 //! [`bake_room`] bakes a prepared room under other lamps without repeating its work.
-//! [`cpu::CpuBackend`] is the reference backend and the oracle for GPU backends; [`output`]
-//! writes EXR/PNG/JSON files.
+//! [`cpu::CpuBackend`] is the reference backend and the oracle for GPU backends; the crate
+//! `luxbake-output` (formerly `luxbake::output`) writes EXR/PNG/JSON files.
 //!
 //! ## The pass contract
 //! Each computed pass runs a [`program::Program`] whose [`program::Signature`] is data: the
@@ -39,9 +39,6 @@
 //! files import each other in a circle (a test of `xtask` checks every crate):
 //!
 //! ```text
-//!   output                       EXR / PNG / JSON files of a finished bake
-//!     │
-//!     ▼
 //!   bake                         bake(), bake_room(): prepare → build → execute → collect
 //!     │
 //!     ▼
@@ -128,7 +125,6 @@ pub mod graph;
 pub mod layout;
 pub mod lightpaths;
 pub mod map;
-pub mod output;
 pub mod pack;
 pub mod passes;
 pub mod prepare;

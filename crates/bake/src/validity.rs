@@ -28,7 +28,7 @@
 //! 3. Otherwise the texel is made **empty** (position, normal and albedo all zero, as texels
 //!    no chart covers): no pass computes it, the filters and the gather's masked look-up skip
 //!    it, and the written maps fill it by dilation where it lies within the padding's reach of
-//!    a valid texel ([`crate::output`]).
+//!    a valid texel (`luxbake-output`).
 //!
 //! Only receivers' texels are tested; non-receivers still occlude. As with Unity's back-face
 //! tolerance, a texel that mostly sees the back of one-sided geometry (under a single-sided

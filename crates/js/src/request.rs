@@ -279,7 +279,7 @@ pub fn measure(
             luxbake::probe::locate(scene, [p[0], p[1], p[2]], tolerance)
                 .and_then(|sp| {
                     let map = maps.iter().find(|(o, _)| *o == sp.object)?.1;
-                    Some(f64::from(luxbake::output::picture::luminance(
+                    Some(f64::from(luxbake_output::picture::luminance(
                         map.sample(sp.uv),
                     )))
                 })

@@ -278,7 +278,7 @@ impl Baker {
             "skipped": r.skipped.iter().map(ToString::to_string).collect::<Vec<_>>(),
             "totalSeconds": r.total_seconds,
         });
-        let passes = luxbake::output::dilation_passes(&scene.settings);
+        let passes = luxbake_output::dilation_passes(&scene.settings);
         let objects = js_sys::Array::new();
         let set = |o: &js_sys::Object, k: &str, v: JsValue| {
             js_sys::Reflect::set(o, &k.into(), &v)

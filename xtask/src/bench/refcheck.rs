@@ -21,10 +21,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use luxbake::bake::BakeOutput;
-use luxbake::output::picture::luminance;
 use luxbake::probe::SurfacePoint;
 use luxbake::scene::{Blur, Scene, Settings};
 use luxbake_backends::BackendKind;
+use luxbake_output::picture::luminance;
 
 use super::{machine, open, result_path, timed_bake, utc_now, write};
 use crate::measure;

@@ -14,7 +14,7 @@
 //! [`false_color_range`]; below `lo` the first colour, above `hi` the last. Empty texels are
 //! mid-grey. Below the map: the colour bar with a tick and a label at each decade, and the unit.
 
-use crate::map::MapImage;
+use luxbake::map::MapImage;
 
 /// An 8-bit RGB picture, row 0 first.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -69,8 +69,8 @@ impl Picture {
     }
 }
 
-/// Rec. 709 luminance of linear RGB (the passes' [`crate::exact::luminance`]).
-pub use crate::exact::luminance;
+/// Rec. 709 luminance of linear RGB (the passes' [`luxbake::exact::luminance`]).
+pub use luxbake::exact::luminance;
 
 /// The sRGB transfer function of a linear value in [0, 1], as a byte.
 pub fn srgb_byte(x: f32) -> u8 {

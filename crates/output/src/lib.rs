@@ -1,3 +1,9 @@
+//! # luxbake-output
+//!
+//! Writes the files of a finished bake ([`luxbake::BakeOutput`]) and reads its EXRs back; its
+//! own crate so that the core carries no image codec (it was `luxbake::output`; the paths
+//! under it are the same, `luxbake_output::…`).
+//!
 //! Files of a bake: per object linear EXRs in lux, a tone-mapped PNG, a false-colour
 //! illuminance PNG with a lux scale bar, the 8-stage strip of the paper's Figure 5, and a JSON
 //! manifest.
@@ -29,7 +35,7 @@
 //! `settings` (method, quality, tail_tolerance, rays, bounces, tail, blur, texels_per_metre, bvh,
 //! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
-//! the file's tilt factors are taken at, [`crate::scene::Lamp::tilt_deg`]), multiplier,
+//! the file's tilt factors are taken at, [`luxbake::scene::Lamp::tilt_deg`]), multiplier,
 //! color, max_candela (file, at that tilt), lumens (integrated at that tilt × multiplier),
 //! used), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
 //! `size`, `resolution`, plus `transform` {`linear` (columns), `translation`} for all),
@@ -39,6 +45,8 @@
 //! `bounce_ratio` (the ratio λ it extrapolated with, or null)),
 //! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
 
+#![warn(missing_docs)]
+
 pub mod picture;
 
 use std::path::{Path, PathBuf};
@@ -46,9 +54,9 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde_json::{Value, json};
 
-use crate::bake::{BakeOutput, ObjectMaps};
-use crate::map::MapImage;
-use crate::scene::{Blur, Scene, Settings};
+use luxbake::bake::{BakeOutput, ObjectMaps};
+use luxbake::map::MapImage;
+use luxbake::scene::{Blur, Scene, Settings};
 use picture::{Picture, albedo_picture, exposure, false_color, false_color_range, strip, tone_map};
 
 /// Errors writing or reading bake files.
@@ -438,10 +446,10 @@ pub fn write_bake(
 }
 
 /// Rounds of [`MapImage::dilated`] for the written maps of a bake with `settings`: the chart
-/// padding ([`chart_padding_texels`](crate::layout::chart_padding_texels)), so every texel of
+/// padding ([`chart_padding_texels`](luxbake::layout::chart_padding_texels)), so every texel of
 /// the padding between and around charts is filled.
 pub fn dilation_passes(settings: &Settings) -> u32 {
-    crate::layout::chart_padding_texels(settings.blur).ceil() as u32
+    luxbake::layout::chart_padding_texels(settings.blur).ceil() as u32
 }
 
 /// Writes one object's six files (`files`, in [`object_files`] order), each encoded on its

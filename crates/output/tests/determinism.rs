@@ -6,8 +6,8 @@ use std::path::{Path, PathBuf};
 
 use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
-use luxbake::output::write_bake;
 use luxbake::scene::{Blur, Sampler, Scene, Settings};
+use luxbake_output::write_bake;
 
 fn scene(seed: u32) -> Scene {
     scene_with(seed, Sampler::default())

@@ -8,10 +8,10 @@ use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::layout::chart_padding_texels;
 use luxbake::map::MapImage;
-use luxbake::output::{dilation_passes, read_exr, write_bake};
 use luxbake::scene::{Albedo, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::builtin::{self, isotropic_lamp};
 use luxbake::sources::meshes;
+use luxbake_output::{dilation_passes, read_exr, write_bake};
 
 fn run(scene: &Scene) -> BakeOutput {
     let mut backend = CpuBackend::new();
