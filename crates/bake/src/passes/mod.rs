@@ -11,7 +11,8 @@
 //! (the entry points and every declaration are generated, [`crate::shader`]), plus one line in
 //! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing
 //! [`TexelPass`](crate::cpu::kernel::TexelPass) (texel by texel) or
-//! [`CpuPass`](crate::cpu::kernel::CpuPass) (row by row), built from the parameter words. The
+//! [`CpuPass`](crate::cpu::kernel::CpuPass) (row by row), built from the parameter words
+//! ([`Prepare`](crate::cpu::kernel::Prepare): usually the parameter block itself). The
 //! backends, the CPU backend's dispatch and the shader generator need no change.
 
 use crate::contract::{Field, ParamBlock, Signature};
