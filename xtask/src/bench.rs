@@ -280,6 +280,21 @@ pub fn load_average() -> String {
         .unwrap_or_else(|| "unknown".to_owned())
 }
 
+/// A bench report's Markdown begun: the heading `# {title}, {date} {time} UTC` and the line
+/// naming the machine, the backend and its renderer, then `note`.
+pub fn report_heading(
+    title: &str,
+    (date, time): (&str, &str),
+    backend: &str,
+    renderer: &str,
+    note: &str,
+) -> String {
+    format!(
+        "# {title}, {date} {time} UTC\n\n- machine: {}; backend {backend} ({renderer}){note}\n",
+        machine()
+    )
+}
+
 /// `machine()` as a file-name fragment: lower-case ASCII letters, digits and `-`.
 pub fn machine_slug() -> String {
     let mut slug = String::new();

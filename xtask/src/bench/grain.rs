@@ -23,7 +23,7 @@ use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backends::BackendKind;
 
-use super::{load_average, machine, open, timed_bake, utc_now, write_results};
+use super::{load_average, machine, open, report_heading, timed_bake, utc_now, write_results};
 
 /// First-bounce rays per texel of the reference (the figure).
 pub const REFERENCE_RAYS: u32 = 4096;
@@ -216,17 +216,12 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     }
     let load_after = load_average();
 
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# Grain of flat, evenly lit surfaces — sampling_room, {date} {time} UTC\n"
-    );
-    let _ = writeln!(
-        md,
-        "- machine: {}; backend {} ({renderer}){}",
-        machine(),
+    let mut md = report_heading(
+        "Grain of flat, evenly lit surfaces — sampling_room",
+        (&date, &time),
         args.backend.name(),
-        if quick { "; --quick" } else { "" }
+        &renderer,
+        if quick { "; --quick" } else { "" },
     );
     let _ = writeln!(
         md,

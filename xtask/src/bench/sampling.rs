@@ -22,7 +22,9 @@ use luxbake::bake::BakeOutput;
 use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
-use super::{load_average, log_log_slope, machine, open, timed_bake, utc_now, write_results};
+use super::{
+    load_average, log_log_slope, machine, open, report_heading, timed_bake, utc_now, write_results,
+};
 
 /// Rays per texel of each reference bake (full run).
 pub const REFERENCE_RAYS: u32 = 16_384;
@@ -225,17 +227,12 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         _ => None,
     };
 
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# Gather sampling: error vs rays — sampling_room, {date} {time} UTC\n"
-    );
-    let _ = writeln!(
-        md,
-        "- machine: {}; backend {} ({renderer}){}",
-        machine(),
+    let mut md = report_heading(
+        "Gather sampling: error vs rays — sampling_room",
+        (&date, &time),
         args.backend.name(),
-        if quick { "; --quick" } else { "" }
+        &renderer,
+        if quick { "; --quick" } else { "" },
     );
     let _ = writeln!(
         md,
