@@ -17,6 +17,7 @@ use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::{closed_forms, meshes};
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
+use luxbake_testkit::RelativeError;
 use luxbake_tests::Tally;
 
 const I0: f64 = 1000.0;
@@ -49,27 +50,6 @@ fn texels<'a>(
             })
         })
     })
-}
-
-/// Largest and mean relative error.
-#[derive(Debug, Default)]
-struct Err {
-    max: f64,
-    sum: f64,
-    n: usize,
-}
-
-impl Err {
-    fn add(&mut self, got: f64, want: f64) {
-        let e = (got - want).abs() / want.abs();
-        self.max = self.max.max(e);
-        self.sum += e;
-        self.n += 1;
-    }
-
-    fn mean(&self) -> f64 {
-        self.sum / self.n.max(1) as f64
-    }
 }
 
 /// Bakes `scene` on `backend`, or `None` when the backend is skipped (recorded in `tally`).
@@ -105,7 +85,7 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
         };
         let g = rasterize(&scene, &out.layout);
         let maps = &out.maps[0];
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         for (p, t) in texels(&g, maps, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
             let dy = h - p[1];
@@ -158,7 +138,7 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
             let g = rasterize(&scene, &out.layout);
             let maps = &out.maps[0];
             let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
-            let mut err = Err::default();
+            let mut err = RelativeError::default();
             for (_, t) in texels(&g, maps, maps.illuminance()) {
                 err.add(f64::from(t[0]), want);
             }

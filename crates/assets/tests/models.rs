@@ -18,12 +18,7 @@ use luxbake_ies::Photometry;
 /// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
 /// CI).
 fn models_dir(test: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.is_dir() {
-        return Some(d);
-    }
-    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
-    None
+    luxbake_testkit::shared_data(test, "models")
 }
 
 fn settings() -> Settings {

@@ -16,12 +16,7 @@ const LAMP_FILE: &str = "LightsPunctualLamp/LightsPunctualLamp.gltf";
 /// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
 /// CI).
 fn models_dir(test: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.is_dir() {
-        return Some(d);
-    }
-    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
-    None
+    luxbake_testkit::shared_data(test, "models")
 }
 
 fn loader() -> SceneLoader {

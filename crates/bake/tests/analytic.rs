@@ -1,7 +1,6 @@
 //! Closed-form checks of the CPU reference backend (issue #4, tests 1–4): blur off wherever a
 //! closed form is compared. Each test prints the errors it measured (`--nocapture`).
 
-use std::path::PathBuf;
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, ObjectMaps, bake};
@@ -13,7 +12,7 @@ use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes;
 use luxbake_ies::Photometry;
-use luxbake_testkit::skip_or_fail;
+use luxbake_testkit::{RelativeError, shared_data};
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     Settings {
@@ -72,39 +71,6 @@ fn assert_finite(out: &BakeOutput) {
     }
 }
 
-/// `path` inside `../shared`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test`
-/// under CI).
-fn shared(test: &str, path: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(path);
-    if p.exists() {
-        return Some(p);
-    }
-    skip_or_fail(test, &format!("{} not found", p.display()));
-    None
-}
-
-/// Relative error statistics.
-#[derive(Default, Debug)]
-struct Err {
-    max: f64,
-    sum: f64,
-    n: usize,
-}
-
-impl Err {
-    fn add(&mut self, got: f64, want: f64) {
-        let e = (got - want).abs() / want.abs();
-        self.max = self.max.max(e);
-        self.sum += e;
-        self.n += 1;
-    }
-    fn mean(&self) -> f64 {
-        self.sum / self.n.max(1) as f64
-    }
-}
-
 const I0: f64 = 1000.0;
 
 fn floor_scene(density: f32, lamp: Lamp) -> Scene {
@@ -135,12 +101,12 @@ fn floor_inverse_square_cosine() {
         let dy = h - p[1];
         I0 * dy / (dy * dy + r2).powf(1.5)
     };
-    let mut all = Err::default();
+    let mut all = RelativeError::default();
     for (p, t) in texels(&g, maps, maps.illuminance()) {
         all.add(f64::from(t[0]), closed(p));
     }
     // 20 calculation points along a spiral, read back bilinearly like `xtask measure`.
-    let mut points = Err::default();
+    let mut points = RelativeError::default();
     for k in 0..20 {
         let r = 0.45 * k as f64;
         let a = 0.7 * k as f64;
@@ -162,7 +128,7 @@ fn floor_inverse_square_cosine() {
 }
 
 fn asym_lamp(test: &str, position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
-    let path = shared(test, "photometry/synthetic_asym_typeC.ies")?;
+    let path = shared_data(test, "photometry/synthetic_asym_typeC.ies")?;
     let bytes = std::fs::read(path).expect("read");
     let mut l = Lamp::new(
         "asym",
@@ -205,7 +171,7 @@ fn floor_type_c_lamp_and_turned_lamp() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let mut moved = 0usize;
         for (p, t) in texels(&g, maps, maps.illuminance()) {
             let want = match expect_frame {
@@ -284,7 +250,7 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
     for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8)] {
         let tilted = bake_at(tilt);
         assert_eq!(tilted.len(), down.len());
-        let (mut ratio, mut closed) = (Err::default(), Err::default());
+        let (mut ratio, mut closed) = (RelativeError::default(), RelativeError::default());
         for ((p, e), (_, e0)) in tilted.iter().zip(&down) {
             ratio.add(f64::from(e[0]), factor * f64::from(e0[0]));
             let r2 = p[0] * p[0] + p[2] * p[2];
@@ -313,7 +279,7 @@ fn a_scene_at_a_thousandth_of_the_scale_bakes_the_same_texels() {
     let (a, b) = (run(&full), run(&small));
     assert_finite(&b);
     assert_eq!(a.layout, b.layout);
-    let mut err = Err::default();
+    let mut err = RelativeError::default();
     let (ea, eb) = (a.maps[0].illuminance(), b.maps[0].illuminance());
     for (x, y) in ea.texels.chunks_exact(4).zip(eb.texels.chunks_exact(4)) {
         assert_eq!(x[3], y[3], "the same texels are valid");
@@ -375,7 +341,7 @@ fn closed_sphere_interreflection_series() {
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
         let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         for (_, t) in texels(&g, maps, maps.illuminance()) {
             err.add(f64::from(t[0]), want);
         }
@@ -493,7 +459,7 @@ fn lamp_one_millimetre_from_a_wall() {
     let g = gbuffer(&scene, &out);
     let maps = &out.maps[0];
     let l = scene.lamps[0].position.map(f64::from);
-    let mut err = Err::default();
+    let mut err = RelativeError::default();
     let mut brightest = 0.0f64;
     for (p, t) in texels(&g, maps, maps.direct_unblurred()) {
         // Texels of the +X wall (x = 2): cosine = 1 mm / d.
@@ -531,7 +497,7 @@ fn scaled_scenes_scale_as_inverse_square() {
         assert_finite(&out);
         let m = &out.maps[0];
         assert_eq!(m.region.size, reference_maps.region.size, "same texel grid");
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let scale = f64::from(s) * f64::from(s);
         for (a, b) in reference_maps
             .illuminance()
@@ -563,7 +529,7 @@ fn grazing_incidence_and_a_million_candela() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let mut min_cos = 1.0f64;
         for (p, t) in texels(&g, maps, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
@@ -646,7 +612,7 @@ fn degenerate_slivers_and_silhouette_edges() {
     let g = gbuffer(&scene, &out);
     let floor = &out.maps[0];
     let r = floor.region;
-    let mut edge = Err::default();
+    let mut edge = RelativeError::default();
     for y in 0..r.size[1] {
         for x in 0..r.size[0] {
             let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);

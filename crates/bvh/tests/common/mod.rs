@@ -2,8 +2,6 @@
 //! the bench (`#[path]`-included there). Not every test binary uses every helper.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
-
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
 use luxbake_testkit::SplitMix64;
 
@@ -391,14 +389,7 @@ fn transform(m: &[[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
 /// The named model of `../shared/models` (repository root), its triangles, or `None` after
 /// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI).
 pub fn load_model(name: &str) -> Option<Vec<Tri>> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/models")
-        .join(name)
-        .join(format!("{name}.glb"));
-    if !path.is_file() {
-        luxbake_testkit::skip_or_fail(name, &format!("{} not found", path.display()));
-        return None;
-    }
+    let path = luxbake_testkit::shared_data(name, &format!("models/{name}/{name}.glb"))?;
     Some(load_glb(&path).expect("loading a shared model"))
 }
 
