@@ -10,9 +10,8 @@
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, ObjectMaps, bake};
-use luxbake::gbuffer::{GBuffer, rasterize};
-use luxbake::map::MapImage;
+use luxbake::bake::{BakeOutput, bake};
+use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::{closed_forms, meshes};
 use luxbake_backends::BackendKind;
@@ -31,25 +30,6 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
         texels_per_metre,
         ..Settings::paper()
     }
-}
-
-/// Every valid texel of one object's map: (world position, RGBA).
-fn texels<'a>(
-    g: &'a GBuffer,
-    maps: &'a ObjectMaps,
-    map: &'a MapImage,
-) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
-    let r = maps.region;
-    (0..r.size[1]).flat_map(move |y| {
-        (0..r.size[0]).filter_map(move |x| {
-            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
-            let p = &g.position[i..i + 4];
-            (p[3] > 0.5).then(|| {
-                let p = [p[0], p[1], p[2]].map(f64::from);
-                (p, map.texel(x, y))
-            })
-        })
-    })
 }
 
 /// Bakes `scene` on `backend`, or `None` when the backend is skipped (recorded in `tally`).
@@ -86,7 +66,7 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
         let g = rasterize(&scene, &out.layout);
         let maps = &out.maps[0];
         let mut err = RelativeError::default();
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
             let dy = h - p[1];
             let want = I0 * dy / (dy * dy + r2).powf(1.5);
@@ -139,7 +119,7 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
             let maps = &out.maps[0];
             let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
             let mut err = RelativeError::default();
-            for (_, t) in texels(&g, maps, maps.illuminance()) {
+            for (_, t) in maps.texels(&g, maps.illuminance()) {
                 err.add(f64::from(t[0]), want);
             }
             println!(

@@ -3,11 +3,10 @@
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, ObjectMaps, bake};
+use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
-use luxbake::map::MapImage;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes;
@@ -31,27 +30,6 @@ fn run(scene: &Scene) -> BakeOutput {
 
 fn gbuffer(scene: &Scene, out: &BakeOutput) -> GBuffer {
     rasterize(scene, &out.layout)
-}
-
-/// Every valid texel of object `o`: (world position, RGBA of `map`).
-fn texels<'a>(
-    g: &'a GBuffer,
-    maps: &'a ObjectMaps,
-    map: &'a MapImage,
-) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
-    let r = maps.region;
-    (0..r.size[1]).flat_map(move |y| {
-        (0..r.size[0]).filter_map(move |x| {
-            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
-            let p = &g.position[i..i + 4];
-            (p[3] > 0.5).then(|| {
-                (
-                    [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
-                    map.texel(x, y),
-                )
-            })
-        })
-    })
 }
 
 fn assert_finite(out: &BakeOutput) {
@@ -102,7 +80,7 @@ fn floor_inverse_square_cosine() {
         I0 * dy / (dy * dy + r2).powf(1.5)
     };
     let mut all = RelativeError::default();
-    for (p, t) in texels(&g, maps, maps.illuminance()) {
+    for (p, t) in maps.texels(&g, maps.illuminance()) {
         all.add(f64::from(t[0]), closed(p));
     }
     // 20 calculation points along a spiral, read back bilinearly like `xtask measure`.
@@ -173,7 +151,7 @@ fn floor_type_c_lamp_and_turned_lamp() {
         let maps = &out.maps[0];
         let mut err = RelativeError::default();
         let mut moved = 0usize;
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let want = match expect_frame {
                 // Unturned: the lamp's own frame.
                 None => expected(&l, &l.frame_f64(), p),
@@ -242,7 +220,7 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let t: Vec<([f64; 3], [f32; 4])> = texels(&g, maps, maps.illuminance()).collect();
+        let t: Vec<([f64; 3], [f32; 4])> = maps.texels(&g, maps.illuminance()).collect();
         t
     };
     let down = bake_at(0.0);
@@ -342,7 +320,7 @@ fn closed_sphere_interreflection_series() {
         let maps = &out.maps[0];
         let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
         let mut err = RelativeError::default();
-        for (_, t) in texels(&g, maps, maps.illuminance()) {
+        for (_, t) in maps.texels(&g, maps.illuminance()) {
             err.add(f64::from(t[0]), want);
         }
         println!(
@@ -461,7 +439,7 @@ fn lamp_one_millimetre_from_a_wall() {
     let l = scene.lamps[0].position.map(f64::from);
     let mut err = RelativeError::default();
     let mut brightest = 0.0f64;
-    for (p, t) in texels(&g, maps, maps.direct_unblurred()) {
+    for (p, t) in maps.texels(&g, maps.direct_unblurred()) {
         // Texels of the +X wall (x = 2): cosine = 1 mm / d.
         if (p[0] - 2.0).abs() < 1e-4 {
             let d = [p[0] - l[0], p[1] - l[1], p[2] - l[2]];
@@ -531,7 +509,7 @@ fn grazing_incidence_and_a_million_candela() {
         let maps = &out.maps[0];
         let mut err = RelativeError::default();
         let mut min_cos = 1.0f64;
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
             let dy = h - p[1];
             let want = cd * dy / (dy * dy + r2).powf(1.5);
@@ -688,7 +666,7 @@ fn gather_matches_form_factor_quadrature() {
         sum
     };
     let (mut got, mut want, mut count) = (0.0, 0.0, 0);
-    for (p, t) in texels(&g, patch, indirect) {
+    for (p, t) in patch.texels(&g, indirect) {
         got += f64::from(t[0]);
         want += quadrature(p);
         count += 1;
