@@ -515,6 +515,9 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method.
+    pub const ALL: [Method; 2] = [Method::Paper, Method::Converged];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -524,17 +527,42 @@ impl Method {
     }
 }
 
-impl FromStr for Method {
-    type Err = String;
-    /// `paper` or `converged` (case-insensitive).
-    fn from_str(s: &str) -> Result<Method, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "paper" => Ok(Method::Paper),
-            "converged" => Ok(Method::Converged),
-            _ => Err(format!("expected \"paper\" or \"converged\", got `{s}`")),
-        }
+/// The value of `all` whose `name` is `s` (trimmed, case-insensitive), else an error that
+/// lists every name: `expected "a", "b" or "c", got `s``.
+pub(crate) fn parse_name<T: Copy>(
+    s: &str,
+    all: &[T],
+    name: fn(T) -> &'static str,
+) -> Result<T, String> {
+    let wanted = s.trim().to_ascii_lowercase();
+    if let Some(&v) = all.iter().find(|&&v| name(v) == wanted) {
+        return Ok(v);
     }
+    let quoted: Vec<String> = all.iter().map(|&v| format!("\"{}\"", name(v))).collect();
+    let expected = match quoted.split_last() {
+        Some((last, [])) => last.clone(),
+        Some((last, rest)) => format!("{} or {last}", rest.join(", ")),
+        None => String::new(),
+    };
+    Err(format!("expected {expected}, got `{s}`"))
 }
+
+/// `FromStr` for enums with `ALL` and `name()`: [`parse_name`] of every value's name.
+macro_rules! from_str_by_name {
+    ($($t:ty),*) => {$(
+        impl std::str::FromStr for $t {
+            type Err = String;
+            /// One of the names of every value (case-insensitive).
+            fn from_str(s: &str) -> Result<$t, String> {
+                $crate::scene::parse_name(s, &<$t>::ALL, <$t>::name)
+            }
+        }
+    )*};
+}
+
+pub(crate) use from_str_by_name;
+
+from_str_by_name!(Method, Quality, BvhMode);
 
 /// Quality preset of the converged method ([`Settings::preset`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -548,27 +576,15 @@ pub enum Quality {
 }
 
 impl Quality {
+    /// Every preset.
+    pub const ALL: [Quality; 3] = [Quality::Draft, Quality::Default, Quality::Final];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
             Quality::Draft => "draft",
             Quality::Default => "default",
             Quality::Final => "final",
-        }
-    }
-}
-
-impl FromStr for Quality {
-    type Err = String;
-    /// `draft`, `default` or `final` (case-insensitive).
-    fn from_str(s: &str) -> Result<Quality, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "draft" => Ok(Quality::Draft),
-            "default" => Ok(Quality::Default),
-            "final" => Ok(Quality::Final),
-            _ => Err(format!(
-                "expected \"draft\", \"default\" or \"final\", got `{s}`"
-            )),
         }
     }
 }
@@ -638,6 +654,9 @@ pub enum BvhMode {
 }
 
 impl BvhMode {
+    /// Every mode.
+    pub const ALL: [BvhMode; 4] = [BvhMode::Wide, BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -654,22 +673,6 @@ impl BvhMode {
         match self {
             BvhMode::Wide => BvhMode::Mtbvh,
             m => m,
-        }
-    }
-}
-
-impl FromStr for BvhMode {
-    type Err = String;
-    /// `wide`, `mtbvh`, `tbvh` or `none` (case-insensitive).
-    fn from_str(s: &str) -> Result<BvhMode, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "wide" => Ok(BvhMode::Wide),
-            "mtbvh" => Ok(BvhMode::Mtbvh),
-            "tbvh" => Ok(BvhMode::Tbvh),
-            "none" => Ok(BvhMode::None),
-            _ => Err(format!(
-                "expected \"wide\", \"mtbvh\", \"tbvh\" or \"none\", got `{s}`"
-            )),
         }
     }
 }
@@ -1383,6 +1386,42 @@ pub(crate) fn unit(v: DVec3) -> Option<DVec3> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_parse_back_and_other_words_list_every_name() {
+        for m in Method::ALL {
+            assert_eq!(m.name().parse::<Method>(), Ok(m));
+        }
+        for q in Quality::ALL {
+            assert_eq!(
+                format!(" {} ", q.name().to_uppercase()).parse::<Quality>(),
+                Ok(q)
+            );
+        }
+        for b in BvhMode::ALL {
+            assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
+        }
+        for s in Sampler::ALL {
+            assert_eq!(s.name().parse::<Sampler>(), Ok(s));
+        }
+        let err = |r: Result<(), String>| r.unwrap_err();
+        assert_eq!(
+            err("x".parse::<Method>().map(|_| ())),
+            "expected \"paper\" or \"converged\", got `x`"
+        );
+        assert_eq!(
+            err(" Best ".parse::<Quality>().map(|_| ())),
+            "expected \"draft\", \"default\" or \"final\", got ` Best `"
+        );
+        assert_eq!(
+            err("bvh".parse::<BvhMode>().map(|_| ())),
+            "expected \"wide\", \"mtbvh\", \"tbvh\" or \"none\", got `bvh`"
+        );
+        assert_eq!(
+            err("".parse::<Sampler>().map(|_| ())),
+            "expected \"hash\" or \"sobol\", got ``"
+        );
+    }
 
     fn close(a: [f32; 3], b: [f32; 3]) -> bool {
         a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)
