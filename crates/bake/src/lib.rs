@@ -127,6 +127,7 @@ pub mod graph;
 pub mod layout;
 pub mod lightpaths;
 pub mod map;
+mod names;
 pub mod output;
 pub mod pack;
 pub mod passes;

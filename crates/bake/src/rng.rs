@@ -183,7 +183,7 @@ impl fmt::Display for Sampler {
     }
 }
 
-crate::scene::from_str_by_name!(Sampler);
+crate::names::from_str_by_name!(Sampler);
 
 /// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
 /// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per
