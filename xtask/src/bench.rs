@@ -139,6 +139,19 @@ pub fn open(kind: BackendKind) -> Opened {
     Ok((backend, renderer))
 }
 
+/// `bench/scenes/sampling_room.toml`: the box room of the sampling and grain studies.
+pub fn sampling_room_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
+}
+
+/// The sampling room ([`sampling_room_path`]) and backend `kind` opened, with its renderer.
+pub fn open_sampling_room(kind: BackendKind) -> Result<(Scene, AnyBackend, String), String> {
+    let path = sampling_room_path();
+    let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (backend, renderer) = open(kind).map_err(|e| format!("{}: {e}", kind.name()))?;
+    Ok((scene, backend, renderer))
+}
+
 /// One bake and its process CPU time per pass label.
 pub struct Run {
     /// The bake's output (maps, report with wall times).
