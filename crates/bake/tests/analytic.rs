@@ -1,6 +1,10 @@
 //! Closed-form checks of the CPU reference backend (issue #4, tests 1–4): blur off wherever a
 //! closed form is compared. Each test prints the errors it measured (`--nocapture`).
 
+mod common;
+
+use common::run;
+
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, bake};
@@ -21,11 +25,6 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
         texels_per_metre,
         ..Settings::paper()
     }
-}
-
-fn run(scene: &Scene) -> BakeOutput {
-    let mut backend = CpuBackend::new();
-    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
 }
 
 fn gbuffer(scene: &Scene, out: &BakeOutput) -> GBuffer {
