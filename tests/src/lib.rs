@@ -102,74 +102,47 @@ const DRAFT_STAGES: [Tolerance; 8] = [
     EXACT, DIRECT, DIRECT, DIRECT, REDUCED, REDUCED, REDUCED, REDUCED,
 ];
 
+/// A case of the paper's method (hash or Sobol sampling; the preset is ignored).
+const fn paper(scene: &'static str, sampler: Sampler) -> SceneCase {
+    SceneCase {
+        scene,
+        method: Method::Paper,
+        sampler,
+        quality: Quality::Default,
+        refine_rays: 0,
+        stages: STAGES,
+    }
+}
+
+/// A case of the converged method with Sobol sampling at `quality`, with `refine_rays`.
+const fn converged(
+    scene: &'static str,
+    quality: Quality,
+    refine_rays: u32,
+    stages: [Tolerance; 8],
+) -> SceneCase {
+    SceneCase {
+        scene,
+        method: Method::Converged,
+        sampler: Sampler::Sobol,
+        quality,
+        refine_rays,
+        stages,
+    }
+}
+
 /// The table of scenes × methods × stages × tolerances (every backend pair).
 pub const SCENES: [SceneCase; 8] = [
-    SceneCase {
-        scene: "chairs_01",
-        method: Method::Paper,
-        sampler: Sampler::Hash,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: STAGES,
-    },
-    SceneCase {
-        scene: "floor",
-        method: Method::Paper,
-        sampler: Sampler::Hash,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: STAGES,
-    },
-    SceneCase {
-        scene: "sphere",
-        method: Method::Paper,
-        sampler: Sampler::Hash,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: STAGES,
-    },
-    SceneCase {
-        scene: "chairs_01",
-        method: Method::Paper,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: STAGES,
-    },
-    SceneCase {
-        scene: "chairs_01",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: CONVERGED_STAGES,
-    },
-    SceneCase {
-        scene: "sphere",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: CONVERGED_STAGES,
-    },
+    paper("chairs_01", Sampler::Hash),
+    paper("floor", Sampler::Hash),
+    paper("sphere", Sampler::Hash),
+    paper("chairs_01", Sampler::Sobol),
+    converged("chairs_01", Quality::Default, 0, CONVERGED_STAGES),
+    converged("sphere", Quality::Default, 0, CONVERGED_STAGES),
     // Reduced-resolution gathers at every bounce, no denoiser.
-    SceneCase {
-        scene: "chairs_01",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Draft,
-        refine_rays: 0,
-        stages: DRAFT_STAGES,
-    },
+    converged("chairs_01", Quality::Draft, 0, DRAFT_STAGES),
     // Progressive refinement of the first bounce.
-    SceneCase {
-        scene: "chairs_01",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 16,
-        stages: CONVERGED_STAGES,
-    },
+    converged("chairs_01", Quality::Default, 16, CONVERGED_STAGES),
 ];
 
 /// A known, explained difference between two backends: replaces the table's tolerance of one

@@ -10,13 +10,13 @@
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, ObjectMaps, bake};
-use luxbake::gbuffer::{GBuffer, rasterize};
-use luxbake::map::MapImage;
+use luxbake::bake::{BakeOutput, bake};
+use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Albedo, Blur, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::{closed_forms, meshes};
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
+use luxbake_testkit::RelativeError;
 use luxbake_tests::Tally;
 
 const I0: f64 = 1000.0;
@@ -29,46 +29,6 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
         blur: Blur::None,
         texels_per_metre,
         ..Settings::paper()
-    }
-}
-
-/// Every valid texel of one object's map: (world position, RGBA).
-fn texels<'a>(
-    g: &'a GBuffer,
-    maps: &'a ObjectMaps,
-    map: &'a MapImage,
-) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
-    let r = maps.region;
-    (0..r.size[1]).flat_map(move |y| {
-        (0..r.size[0]).filter_map(move |x| {
-            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
-            let p = &g.position[i..i + 4];
-            (p[3] > 0.5).then(|| {
-                let p = [p[0], p[1], p[2]].map(f64::from);
-                (p, map.texel(x, y))
-            })
-        })
-    })
-}
-
-/// Largest and mean relative error.
-#[derive(Debug, Default)]
-struct Err {
-    max: f64,
-    sum: f64,
-    n: usize,
-}
-
-impl Err {
-    fn add(&mut self, got: f64, want: f64) {
-        let e = (got - want).abs() / want.abs();
-        self.max = self.max.max(e);
-        self.sum += e;
-        self.n += 1;
-    }
-
-    fn mean(&self) -> f64 {
-        self.sum / self.n.max(1) as f64
     }
 }
 
@@ -105,8 +65,8 @@ fn floor_inverse_square_cosine_on_every_gpu_backend() {
         };
         let g = rasterize(&scene, &out.layout);
         let maps = &out.maps[0];
-        let mut err = Err::default();
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        let mut err = RelativeError::default();
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
             let dy = h - p[1];
             let want = I0 * dy / (dy * dy + r2).powf(1.5);
@@ -158,8 +118,8 @@ fn closed_sphere_interreflection_series_on_every_gpu_backend() {
             let g = rasterize(&scene, &out.layout);
             let maps = &out.maps[0];
             let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
-            let mut err = Err::default();
-            for (_, t) in texels(&g, maps, maps.illuminance()) {
+            let mut err = RelativeError::default();
+            for (_, t) in maps.texels(&g, maps.illuminance()) {
                 err.add(f64::from(t[0]), want);
             }
             println!(

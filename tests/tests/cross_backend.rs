@@ -66,44 +66,25 @@ fn run_scene(case: &SceneCase, scene: &Scene) {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
-#[test]
-fn chairs_01_every_stage_agrees_across_backends() {
-    run(&SCENES[0]);
+/// One test per case of [`SCENES`], named after it.
+macro_rules! case_tests {
+    ($($name:ident = $index:literal;)*) => {$(
+        #[test]
+        fn $name() {
+            run(&SCENES[$index]);
+        }
+    )*};
 }
 
-#[test]
-fn floor_every_stage_agrees_across_backends() {
-    run(&SCENES[1]);
-}
-
-#[test]
-fn sphere_every_stage_agrees_across_backends() {
-    run(&SCENES[2]);
-}
-
-#[test]
-fn chairs_01_sobol_every_stage_agrees_across_backends() {
-    run(&SCENES[3]);
-}
-
-#[test]
-fn chairs_01_converged_every_stage_agrees_across_backends() {
-    run(&SCENES[4]);
-}
-
-#[test]
-fn sphere_converged_every_stage_agrees_across_backends() {
-    run(&SCENES[5]);
-}
-
-#[test]
-fn chairs_01_converged_draft_every_stage_agrees_across_backends() {
-    run(&SCENES[6]);
-}
-
-#[test]
-fn chairs_01_converged_refine_every_stage_agrees_across_backends() {
-    run(&SCENES[7]);
+case_tests! {
+    chairs_01_every_stage_agrees_across_backends = 0;
+    floor_every_stage_agrees_across_backends = 1;
+    sphere_every_stage_agrees_across_backends = 2;
+    chairs_01_sobol_every_stage_agrees_across_backends = 3;
+    chairs_01_converged_every_stage_agrees_across_backends = 4;
+    sphere_converged_every_stage_agrees_across_backends = 5;
+    chairs_01_converged_draft_every_stage_agrees_across_backends = 6;
+    chairs_01_converged_refine_every_stage_agrees_across_backends = 7;
 }
 
 #[test]

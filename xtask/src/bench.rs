@@ -139,6 +139,19 @@ pub fn open(kind: BackendKind) -> Opened {
     Ok((backend, renderer))
 }
 
+/// `bench/scenes/sampling_room.toml`: the box room of the sampling and grain studies.
+pub fn sampling_room_path() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
+}
+
+/// The sampling room ([`sampling_room_path`]) and backend `kind` opened, with its renderer.
+pub fn open_sampling_room(kind: BackendKind) -> Result<(Scene, AnyBackend, String), String> {
+    let path = sampling_room_path();
+    let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let (backend, renderer) = open(kind).map_err(|e| format!("{}: {e}", kind.name()))?;
+    Ok((scene, backend, renderer))
+}
+
 /// One bake and its process CPU time per pass label.
 pub struct Run {
     /// The bake's output (maps, report with wall times).
@@ -278,6 +291,21 @@ pub fn load_average() -> String {
         .ok()
         .map(|s| s.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
         .unwrap_or_else(|| "unknown".to_owned())
+}
+
+/// A bench report's Markdown begun: the heading `# {title}, {date} {time} UTC` and the line
+/// naming the machine, the backend and its renderer, then `note`.
+pub fn report_heading(
+    title: &str,
+    (date, time): (&str, &str),
+    backend: &str,
+    renderer: &str,
+    note: &str,
+) -> String {
+    format!(
+        "# {title}, {date} {time} UTC\n\n- machine: {}; backend {backend} ({renderer}){note}\n",
+        machine()
+    )
 }
 
 /// `machine()` as a file-name fragment: lower-case ASCII letters, digits and `-`.

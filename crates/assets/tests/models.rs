@@ -4,6 +4,10 @@
 //! GlamVelvetSofa bakes the same on glow as on the CPU. Skipped with a message when the
 //! models are absent.
 
+mod common;
+
+use common::{check_charts, models_dir};
+
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -11,20 +15,9 @@ use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes::{self, RoomAlbedo};
-use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
+use luxbake_assets::uv::{self, UnwrapOptions};
 use luxbake_assets::{GltfSource, ImportOptions, Limits, Model, UvSource, export, import};
 use luxbake_ies::Photometry;
-
-/// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
-/// CI).
-fn models_dir(test: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.is_dir() {
-        return Some(d);
-    }
-    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
-    None
-}
 
 fn settings() -> Settings {
     Settings {
@@ -214,21 +207,7 @@ fn generated_uvs_do_not_overlap_and_keep_the_padding() {
     ] {
         let model = import(&dir.join(file), &options(&s)).expect("import");
         for o in objects(&model, Transform::IDENTITY, "") {
-            let m = &o.mesh;
-            uv::check(&m.lightmap_uvs, &m.positions, &m.indices, OVERLAP_TOLERANCE)
-                .unwrap_or_else(|e| panic!("{file} {}: {e}", o.name));
-            let size = luxbake::layout::map_size(&o, s.texels_per_metre, 16_384).expect("size");
-            let texel_uvs: Vec<[f32; 2]> = m
-                .lightmap_uvs
-                .iter()
-                .map(|uv| [uv[0] * size[0] as f32, uv[1] * size[1] as f32])
-                .collect();
-            let gap = uv::min_chart_gap(&texel_uvs, &m.indices, f64::from(pad) * 0.999);
-            assert_eq!(
-                gap, None,
-                "{file} {}: charts closer than {pad} texels",
-                o.name
-            );
+            check_charts(&format!("{file} "), &o, s.texels_per_metre, pad);
             checked += 1;
         }
     }

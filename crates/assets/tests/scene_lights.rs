@@ -4,25 +4,18 @@
 //! generated charts keep their padding in texels. Skipped with a message when
 //! `../shared/models` is absent.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::{check_charts, models_dir};
+
+use std::path::Path;
 
 use luxbake::scene::{Scene, Transform};
 use luxbake::sources::scenefile::from_str_with;
-use luxbake_assets::uv::{self, OVERLAP_TOLERANCE, UnwrapOptions};
+use luxbake_assets::uv::{self, UnwrapOptions};
 use luxbake_assets::{ImportOptions, Limits, SceneLoader, import};
 
 const LAMP_FILE: &str = "LightsPunctualLamp/LightsPunctualLamp.gltf";
-
-/// `../shared/models`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test` under
-/// CI).
-fn models_dir(test: &str) -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/models");
-    if d.is_dir() {
-        return Some(d);
-    }
-    luxbake_testkit::skip_or_fail(test, &format!("test models not found at {}", d.display()));
-    None
-}
 
 fn loader() -> SceneLoader {
     SceneLoader {
@@ -149,17 +142,7 @@ fn scaled_objects_keep_their_chart_padding_in_texels() {
     let d = s.settings.texels_per_metre;
     let mut checked = 0;
     for o in &s.objects {
-        let m = &o.mesh;
-        uv::check(&m.lightmap_uvs, &m.positions, &m.indices, OVERLAP_TOLERANCE)
-            .unwrap_or_else(|e| panic!("{}: {e}", o.name));
-        let size = luxbake::layout::map_size(o, d, 16_384).expect("size");
-        let texel_uvs: Vec<[f32; 2]> = m
-            .lightmap_uvs
-            .iter()
-            .map(|uv| [uv[0] * size[0] as f32, uv[1] * size[1] as f32])
-            .collect();
-        let gap = uv::min_chart_gap(&texel_uvs, &m.indices, f64::from(pad) * 0.999);
-        assert_eq!(gap, None, "{}: charts closer than {pad} texels", o.name);
+        check_charts("", o, d, pad);
         checked += 1;
     }
     assert!(checked >= 2);

@@ -88,13 +88,7 @@ impl GlContext {
     /// As [`GlContext::headless`].
     #[cfg(target_arch = "wasm32")]
     pub fn from_canvas(canvas: &web_sys::HtmlCanvasElement) -> Result<Self> {
-        let gl = web::from_canvas(canvas)?;
-        let caps = check_capabilities(&gl)?;
-        Ok(Self {
-            gl,
-            caps,
-            _not_send: std::marker::PhantomData,
-        })
+        Self::from_webgl2(web::from_canvas(canvas)?)
     }
 
     /// A WebGL2 context from an `OffscreenCanvas`, e.g. in a Web Worker (the viewer bakes there
@@ -104,7 +98,12 @@ impl GlContext {
     /// As [`GlContext::headless`].
     #[cfg(target_arch = "wasm32")]
     pub fn from_offscreen_canvas(canvas: &web_sys::OffscreenCanvas) -> Result<Self> {
-        let gl = web::from_offscreen_canvas(canvas)?;
+        Self::from_webgl2(web::from_offscreen_canvas(canvas)?)
+    }
+
+    /// A WebGL2 context of the browser's, once its capabilities are checked.
+    #[cfg(target_arch = "wasm32")]
+    fn from_webgl2(gl: glow::Context) -> Result<Self> {
         let caps = check_capabilities(&gl)?;
         Ok(Self {
             gl,

@@ -299,6 +299,20 @@ impl WgpuBackend {
     }
 }
 
+/// Layer `layer` of `texture` from its origin, all aspects: where a whole-layer copy starts.
+fn layer_origin(texture: &wgpu::Texture, layer: u32) -> wgpu::TexelCopyTextureInfo<'_> {
+    wgpu::TexelCopyTextureInfo {
+        texture,
+        mip_level: 0,
+        origin: wgpu::Origin3d {
+            x: 0,
+            y: 0,
+            z: layer,
+        },
+        aspect: wgpu::TextureAspect::All,
+    }
+}
+
 impl GpuBackend for WgpuBackend {
     type Texture = WgpuTexture;
     type Scene = WgpuScene;
@@ -397,16 +411,7 @@ impl GpuBackend for WgpuBackend {
         let gpu = &self.gpu;
         gpu.scoped(&format!("uploading `{}`", t.label), || {
             gpu.queue.write_texture(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &t.texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: 0,
-                        y: 0,
-                        z: layer,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
+                layer_origin(&t.texture, layer),
                 &crate::scene::bytes_of(texels),
                 wgpu::TexelCopyBufferLayout {
                     offset: 0,
@@ -563,16 +568,7 @@ impl GpuBackend for WgpuBackend {
                     label: Some("read-back"),
                 });
             encoder.copy_texture_to_buffer(
-                wgpu::TexelCopyTextureInfo {
-                    texture: &t.texture,
-                    mip_level: 0,
-                    origin: wgpu::Origin3d {
-                        x: 0,
-                        y: 0,
-                        z: layer,
-                    },
-                    aspect: wgpu::TextureAspect::All,
-                },
+                layer_origin(&t.texture, layer),
                 wgpu::TexelCopyBufferInfo {
                     buffer: &buffer,
                     layout: wgpu::TexelCopyBufferLayout {

@@ -79,34 +79,22 @@ mod tests {
 
     #[test]
     fn parameter_structs_match_the_rust_blocks_field_by_field() {
-        let module = validate(
-            "gather",
-            &wgsl_source(Program::Gather, BvhMode::Mtbvh, BvhStorage::Buffers),
-        );
-        assert_eq!(
-            members(&module, TileParams::WGSL_NAME),
-            expected(TileParams::FIELDS)
-        );
-        assert_eq!(
-            members(&module, GatherParams::WGSL_NAME),
-            expected(GatherParams::FIELDS)
-        );
-        let module = validate(
-            "direct",
-            &wgsl_source(Program::Direct, BvhMode::Tbvh, BvhStorage::Buffers),
-        );
-        assert_eq!(
-            members(&module, DirectParams::WGSL_NAME),
-            expected(DirectParams::FIELDS)
-        );
-        let module = validate(
-            "blur",
-            &wgsl_source(Program::Blur, BvhMode::None, BvhStorage::Buffers),
-        );
-        assert_eq!(
-            members(&module, BlurParams::WGSL_NAME),
-            expected(BlurParams::FIELDS)
-        );
+        let cases = [
+            ("gather", Program::Gather, BvhMode::Mtbvh),
+            ("direct", Program::Direct, BvhMode::Tbvh),
+            ("blur", Program::Blur, BvhMode::None),
+        ];
+        let [gather, direct, module] = cases.map(|(label, program, mode)| {
+            validate(label, &wgsl_source(program, mode, BvhStorage::Buffers))
+        });
+        for (module, name, fields) in [
+            (&gather, TileParams::WGSL_NAME, TileParams::FIELDS),
+            (&gather, GatherParams::WGSL_NAME, GatherParams::FIELDS),
+            (&direct, DirectParams::WGSL_NAME, DirectParams::FIELDS),
+            (&module, BlurParams::WGSL_NAME, BlurParams::FIELDS),
+        ] {
+            assert_eq!(members(module, name), expected(fields), "{name}");
+        }
         // The uniform blocks have their Rust sizes.
         for (name, size) in [
             (TileParams::WGSL_NAME, std::mem::size_of::<TileParams>()),

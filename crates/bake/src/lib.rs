@@ -125,6 +125,7 @@ pub mod graph;
 pub mod layout;
 pub mod lightpaths;
 pub mod map;
+mod names;
 pub mod pack;
 pub mod passes;
 pub mod prepare;

@@ -2,6 +2,7 @@
 
 use std::fmt;
 
+use crate::gbuffer::GBuffer;
 use crate::graph::{BakeGraph, PassKind};
 use crate::layout::{Layout, Region};
 use crate::map::MapImage;
@@ -232,6 +233,26 @@ impl ObjectMaps {
     /// Indirect illuminance of the last bounce (5), unblurred, if any.
     pub fn indirect(&self) -> Option<&MapImage> {
         self.stages[4].as_ref()
+    }
+
+    /// Every valid texel of the object's region, row by row: its world position (from `g`,
+    /// the G-buffer of the bake's layout) and its RGBA in `map` (one of this object's maps).
+    pub fn texels<'a>(
+        &'a self,
+        g: &'a GBuffer,
+        map: &'a MapImage,
+    ) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
+        let r = self.region;
+        (0..r.size[1]).flat_map(move |y| {
+            (0..r.size[0]).filter_map(move |x| {
+                let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
+                let p = &g.position[i..i + 4];
+                (p[3] > 0.5).then(|| {
+                    let p = [p[0], p[1], p[2]].map(f64::from);
+                    (p, map.texel(x, y))
+                })
+            })
+        })
     }
 }
 

@@ -82,7 +82,6 @@
 
 use std::fmt;
 use std::ops::Range;
-use std::str::FromStr;
 
 /// The PCG-RXS-M-XS 32-bit permutation used as a hash (see the module docs).
 #[inline]
@@ -184,17 +183,7 @@ impl fmt::Display for Sampler {
     }
 }
 
-impl FromStr for Sampler {
-    type Err = String;
-    /// `hash` or `sobol` (case-insensitive).
-    fn from_str(s: &str) -> Result<Sampler, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "hash" => Ok(Sampler::Hash),
-            "sobol" => Ok(Sampler::Sobol),
-            _ => Err(format!("expected \"hash\" or \"sobol\", got `{s}`")),
-        }
-    }
-}
+crate::names::from_str_by_name!(Sampler);
 
 /// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
 /// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per

@@ -517,6 +517,9 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method.
+    pub const ALL: [Method; 2] = [Method::Paper, Method::Converged];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -526,17 +529,7 @@ impl Method {
     }
 }
 
-impl FromStr for Method {
-    type Err = String;
-    /// `paper` or `converged` (case-insensitive).
-    fn from_str(s: &str) -> Result<Method, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "paper" => Ok(Method::Paper),
-            "converged" => Ok(Method::Converged),
-            _ => Err(format!("expected \"paper\" or \"converged\", got `{s}`")),
-        }
-    }
-}
+crate::names::from_str_by_name!(Method, Quality, BvhMode);
 
 /// Quality preset of the converged method ([`Settings::preset`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -550,27 +543,15 @@ pub enum Quality {
 }
 
 impl Quality {
+    /// Every preset.
+    pub const ALL: [Quality; 3] = [Quality::Draft, Quality::Default, Quality::Final];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
             Quality::Draft => "draft",
             Quality::Default => "default",
             Quality::Final => "final",
-        }
-    }
-}
-
-impl FromStr for Quality {
-    type Err = String;
-    /// `draft`, `default` or `final` (case-insensitive).
-    fn from_str(s: &str) -> Result<Quality, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "draft" => Ok(Quality::Draft),
-            "default" => Ok(Quality::Default),
-            "final" => Ok(Quality::Final),
-            _ => Err(format!(
-                "expected \"draft\", \"default\" or \"final\", got `{s}`"
-            )),
         }
     }
 }
@@ -640,6 +621,9 @@ pub enum BvhMode {
 }
 
 impl BvhMode {
+    /// Every mode.
+    pub const ALL: [BvhMode; 4] = [BvhMode::Wide, BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None];
+
     /// The lower-case name used by the CLI and scene files.
     pub fn name(self) -> &'static str {
         match self {
@@ -656,22 +640,6 @@ impl BvhMode {
         match self {
             BvhMode::Wide => BvhMode::Mtbvh,
             m => m,
-        }
-    }
-}
-
-impl FromStr for BvhMode {
-    type Err = String;
-    /// `wide`, `mtbvh`, `tbvh` or `none` (case-insensitive).
-    fn from_str(s: &str) -> Result<BvhMode, String> {
-        match s.trim().to_ascii_lowercase().as_str() {
-            "wide" => Ok(BvhMode::Wide),
-            "mtbvh" => Ok(BvhMode::Mtbvh),
-            "tbvh" => Ok(BvhMode::Tbvh),
-            "none" => Ok(BvhMode::None),
-            _ => Err(format!(
-                "expected \"wide\", \"mtbvh\", \"tbvh\" or \"none\", got `{s}`"
-            )),
         }
     }
 }
@@ -1378,6 +1346,42 @@ fn rotation_xyz(deg: DVec3) -> DMat3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn names_parse_back_and_other_words_list_every_name() {
+        for m in Method::ALL {
+            assert_eq!(m.name().parse::<Method>(), Ok(m));
+        }
+        for q in Quality::ALL {
+            assert_eq!(
+                format!(" {} ", q.name().to_uppercase()).parse::<Quality>(),
+                Ok(q)
+            );
+        }
+        for b in BvhMode::ALL {
+            assert_eq!(b.name().parse::<BvhMode>(), Ok(b));
+        }
+        for s in Sampler::ALL {
+            assert_eq!(s.name().parse::<Sampler>(), Ok(s));
+        }
+        let err = |r: Result<(), String>| r.unwrap_err();
+        assert_eq!(
+            err("x".parse::<Method>().map(|_| ())),
+            "expected \"paper\" or \"converged\", got `x`"
+        );
+        assert_eq!(
+            err(" Best ".parse::<Quality>().map(|_| ())),
+            "expected \"draft\", \"default\" or \"final\", got ` Best `"
+        );
+        assert_eq!(
+            err("bvh".parse::<BvhMode>().map(|_| ())),
+            "expected \"wide\", \"mtbvh\", \"tbvh\" or \"none\", got `bvh`"
+        );
+        assert_eq!(
+            err("".parse::<Sampler>().map(|_| ())),
+            "expected \"hash\" or \"sobol\", got ``"
+        );
+    }
 
     fn close(a: [f32; 3], b: [f32; 3]) -> bool {
         a.iter().zip(&b).all(|(x, y)| (x - y).abs() < 1e-5)

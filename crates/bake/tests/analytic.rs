@@ -1,19 +1,21 @@
 //! Closed-form checks of the CPU reference backend (issue #4, tests 1–4): blur off wherever a
 //! closed form is compared. Each test prints the errors it measured (`--nocapture`).
 
-use std::path::PathBuf;
+mod common;
+
+use common::run;
+
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, ObjectMaps, bake};
+use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
-use luxbake::map::MapImage;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes;
 use luxbake_ies::Photometry;
-use luxbake_testkit::skip_or_fail;
+use luxbake_testkit::{RelativeError, shared_data};
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     Settings {
@@ -25,34 +27,8 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     }
 }
 
-fn run(scene: &Scene) -> BakeOutput {
-    let mut backend = CpuBackend::new();
-    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
-}
-
 fn gbuffer(scene: &Scene, out: &BakeOutput) -> GBuffer {
     rasterize(scene, &out.layout)
-}
-
-/// Every valid texel of object `o`: (world position, RGBA of `map`).
-fn texels<'a>(
-    g: &'a GBuffer,
-    maps: &'a ObjectMaps,
-    map: &'a MapImage,
-) -> impl Iterator<Item = ([f64; 3], [f32; 4])> + 'a {
-    let r = maps.region;
-    (0..r.size[1]).flat_map(move |y| {
-        (0..r.size[0]).filter_map(move |x| {
-            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
-            let p = &g.position[i..i + 4];
-            (p[3] > 0.5).then(|| {
-                (
-                    [f64::from(p[0]), f64::from(p[1]), f64::from(p[2])],
-                    map.texel(x, y),
-                )
-            })
-        })
-    })
 }
 
 fn assert_finite(out: &BakeOutput) {
@@ -69,39 +45,6 @@ fn assert_finite(out: &BakeOutput) {
                 }
             }
         }
-    }
-}
-
-/// `path` inside `../shared`, or `None` after `luxbake_testkit::skip_or_fail` (which fails `test`
-/// under CI).
-fn shared(test: &str, path: &str) -> Option<PathBuf> {
-    let p = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared")
-        .join(path);
-    if p.exists() {
-        return Some(p);
-    }
-    skip_or_fail(test, &format!("{} not found", p.display()));
-    None
-}
-
-/// Relative error statistics.
-#[derive(Default, Debug)]
-struct Err {
-    max: f64,
-    sum: f64,
-    n: usize,
-}
-
-impl Err {
-    fn add(&mut self, got: f64, want: f64) {
-        let e = (got - want).abs() / want.abs();
-        self.max = self.max.max(e);
-        self.sum += e;
-        self.n += 1;
-    }
-    fn mean(&self) -> f64 {
-        self.sum / self.n.max(1) as f64
     }
 }
 
@@ -135,12 +78,12 @@ fn floor_inverse_square_cosine() {
         let dy = h - p[1];
         I0 * dy / (dy * dy + r2).powf(1.5)
     };
-    let mut all = Err::default();
-    for (p, t) in texels(&g, maps, maps.illuminance()) {
+    let mut all = RelativeError::default();
+    for (p, t) in maps.texels(&g, maps.illuminance()) {
         all.add(f64::from(t[0]), closed(p));
     }
     // 20 calculation points along a spiral, read back bilinearly like `xtask measure`.
-    let mut points = Err::default();
+    let mut points = RelativeError::default();
     for k in 0..20 {
         let r = 0.45 * k as f64;
         let a = 0.7 * k as f64;
@@ -162,7 +105,7 @@ fn floor_inverse_square_cosine() {
 }
 
 fn asym_lamp(test: &str, position: [f32; 3], rotation_deg: f32) -> Option<Lamp> {
-    let path = shared(test, "photometry/synthetic_asym_typeC.ies")?;
+    let path = shared_data(test, "photometry/synthetic_asym_typeC.ies")?;
     let bytes = std::fs::read(path).expect("read");
     let mut l = Lamp::new(
         "asym",
@@ -205,9 +148,9 @@ fn floor_type_c_lamp_and_turned_lamp() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let mut moved = 0usize;
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let want = match expect_frame {
                 // Unturned: the lamp's own frame.
                 None => expected(&l, &l.frame_f64(), p),
@@ -276,7 +219,7 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let t: Vec<([f64; 3], [f32; 4])> = texels(&g, maps, maps.illuminance()).collect();
+        let t: Vec<([f64; 3], [f32; 4])> = maps.texels(&g, maps.illuminance()).collect();
         t
     };
     let down = bake_at(0.0);
@@ -284,7 +227,7 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
     for (tilt, factor) in [(30.0, 1.0 - 0.2 * 30.0 / 45.0), (45.0, 0.8)] {
         let tilted = bake_at(tilt);
         assert_eq!(tilted.len(), down.len());
-        let (mut ratio, mut closed) = (Err::default(), Err::default());
+        let (mut ratio, mut closed) = (RelativeError::default(), RelativeError::default());
         for ((p, e), (_, e0)) in tilted.iter().zip(&down) {
             ratio.add(f64::from(e[0]), factor * f64::from(e0[0]));
             let r2 = p[0] * p[0] + p[2] * p[2];
@@ -313,7 +256,7 @@ fn a_scene_at_a_thousandth_of_the_scale_bakes_the_same_texels() {
     let (a, b) = (run(&full), run(&small));
     assert_finite(&b);
     assert_eq!(a.layout, b.layout);
-    let mut err = Err::default();
+    let mut err = RelativeError::default();
     let (ea, eb) = (a.maps[0].illuminance(), b.maps[0].illuminance());
     for (x, y) in ea.texels.chunks_exact(4).zip(eb.texels.chunks_exact(4)) {
         assert_eq!(x[3], y[3], "the same texels are valid");
@@ -375,8 +318,8 @@ fn closed_sphere_interreflection_series() {
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
         let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
-        let mut err = Err::default();
-        for (_, t) in texels(&g, maps, maps.illuminance()) {
+        let mut err = RelativeError::default();
+        for (_, t) in maps.texels(&g, maps.illuminance()) {
             err.add(f64::from(t[0]), want);
         }
         println!(
@@ -493,9 +436,9 @@ fn lamp_one_millimetre_from_a_wall() {
     let g = gbuffer(&scene, &out);
     let maps = &out.maps[0];
     let l = scene.lamps[0].position.map(f64::from);
-    let mut err = Err::default();
+    let mut err = RelativeError::default();
     let mut brightest = 0.0f64;
-    for (p, t) in texels(&g, maps, maps.direct_unblurred()) {
+    for (p, t) in maps.texels(&g, maps.direct_unblurred()) {
         // Texels of the +X wall (x = 2): cosine = 1 mm / d.
         if (p[0] - 2.0).abs() < 1e-4 {
             let d = [p[0] - l[0], p[1] - l[1], p[2] - l[2]];
@@ -531,7 +474,7 @@ fn scaled_scenes_scale_as_inverse_square() {
         assert_finite(&out);
         let m = &out.maps[0];
         assert_eq!(m.region.size, reference_maps.region.size, "same texel grid");
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let scale = f64::from(s) * f64::from(s);
         for (a, b) in reference_maps
             .illuminance()
@@ -563,9 +506,9 @@ fn grazing_incidence_and_a_million_candela() {
         assert_finite(&out);
         let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
-        let mut err = Err::default();
+        let mut err = RelativeError::default();
         let mut min_cos = 1.0f64;
-        for (p, t) in texels(&g, maps, maps.illuminance()) {
+        for (p, t) in maps.texels(&g, maps.illuminance()) {
             let r2 = p[0] * p[0] + p[2] * p[2];
             let dy = h - p[1];
             let want = cd * dy / (dy * dy + r2).powf(1.5);
@@ -646,7 +589,7 @@ fn degenerate_slivers_and_silhouette_edges() {
     let g = gbuffer(&scene, &out);
     let floor = &out.maps[0];
     let r = floor.region;
-    let mut edge = Err::default();
+    let mut edge = RelativeError::default();
     for y in 0..r.size[1] {
         for x in 0..r.size[0] {
             let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
@@ -722,7 +665,7 @@ fn gather_matches_form_factor_quadrature() {
         sum
     };
     let (mut got, mut want, mut count) = (0.0, 0.0, 0);
-    for (p, t) in texels(&g, patch, indirect) {
+    for (p, t) in patch.texels(&g, indirect) {
         got += f64::from(t[0]);
         want += quadrature(p);
         count += 1;

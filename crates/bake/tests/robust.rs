@@ -2,10 +2,13 @@
 //! lamp far away, bakes like the room at the origin, shadows included. CPU reference backend;
 //! each test prints what it measured (`--nocapture`).
 
+mod common;
+
+use common::run;
+
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, bake, recentring_shift};
-use luxbake::cpu::CpuBackend;
+use luxbake::bake::{BakeOutput, recentring_shift};
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Blur, BvhMode, Lamp, Scene, Settings};
 use luxbake_ies::Photometry;
@@ -25,10 +28,6 @@ fn settings() -> Settings {
         seed: 7,
         ..Settings::paper()
     }
-}
-
-fn run(scene: &Scene) -> BakeOutput {
-    bake(&mut CpuBackend::new(), scene, &scene.settings, &mut |_| {}).expect("bake")
 }
 
 /// Relative RMSE `√(Σ(a − b)² / Σa²)` and the largest `|a − b| / max(a, 1 lx)` of the

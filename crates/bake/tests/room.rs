@@ -102,16 +102,21 @@ fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
     assert_eq!(swapped.lamps_used, [0, 1]);
 }
 
-#[test]
-fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
-    let scene = scene().translated([25_000.0, 0.0, -12_000.0]);
-    let room = Room::prepare(
-        &scene,
+/// `scene` prepared for its own settings and the CPU backend's limits.
+fn prepare(scene: &Scene) -> Room {
+    Room::prepare(
+        scene,
         &scene.settings,
         CpuBackend::new().limits(),
         &mut |_| {},
     )
-    .expect("room");
+    .expect("room")
+}
+
+#[test]
+fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
+    let scene = scene().translated([25_000.0, 0.0, -12_000.0]);
+    let room = prepare(&scene);
     assert!(
         room.shift.is_some(),
         "the room is baked moved next to the origin"
@@ -153,13 +158,7 @@ fn only_the_g_buffer_upload_is_independent_of_the_lamps() {
 #[test]
 fn a_room_prepared_for_another_density_is_refused() {
     let scene = scene();
-    let room = Room::prepare(
-        &scene,
-        &scene.settings,
-        CpuBackend::new().limits(),
-        &mut |_| {},
-    )
-    .expect("room");
+    let room = prepare(&scene);
     let denser = Settings {
         texels_per_metre: 16.0,
         ..scene.settings.clone()

@@ -1,17 +1,15 @@
 //! "Model only what the scene requires": lamps that reach nothing, negligible bounces,
 //! non-receivers and tiny scenes are skipped, reported, and change nothing in the result.
 
+mod common;
+
+use common::run;
+
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, Skipped, bake};
-use luxbake::cpu::CpuBackend;
+use luxbake::bake::Skipped;
 use luxbake::scene::{Blur, BvhMode, Lamp, Scene, Settings};
 use luxbake_ies::Photometry;
-
-fn run(scene: &Scene) -> BakeOutput {
-    let mut backend = CpuBackend::new();
-    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
-}
 
 fn floor(bounces: u32) -> Scene {
     Scene::builtin_with_settings(

@@ -140,14 +140,7 @@ fn scenes() -> Vec<Scene> {
 /// (closest hit, t in (1e-4, ∞)) and shadow rays from the same points to a lamp above the
 /// scene's centre (any hit, t in (1e-4, 1)).
 fn bake_rays(tris: &[common::Tri], count: usize) -> (Vec<Ray>, Vec<Ray>) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in tris.iter().flatten() {
-        for a in 0..3 {
-            lo[a] = lo[a].min(p[a]);
-            hi[a] = hi[a].max(p[a]);
-        }
-    }
+    let (lo, hi) = common::bounds(tris);
     let lamp = [
         0.5 * (lo[0] + hi[0]),
         hi[1] - 0.05 * (hi[1] - lo[1]),
@@ -180,14 +173,7 @@ fn bench(c: &mut Criterion<CpuTime>) {
     let options = BuildOptions::default();
     for scene in scenes() {
         let tris = &scene.tris;
-        let bvh = Bvh::build(tris, &options).expect("build");
-        let encoded = encode(
-            &bvh,
-            tris,
-            &common::attributes(tris, 11),
-            &EncodeOptions::default(),
-        )
-        .expect("encode");
+        let (bvh, encoded) = common::build_and_encode_objects(tris, 11);
         let otris = common::obvhs_triangles(tris);
         let obvh = common::obvhs_build(&otris, common::obvhs_params(false, options.max_leaf_size));
         println!(

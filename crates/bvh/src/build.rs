@@ -143,6 +143,19 @@ impl Aabb {
     }
 }
 
+/// [`BvhError::NonFiniteVertex`] for the first vertex of triangle `i` with a NaN or infinite
+/// coordinate.
+pub(crate) fn check_finite_vertices(i: usize, tri: &[[f32; 3]; 3]) -> Result<(), BvhError> {
+    match tri.iter().position(|p| !p.iter().all(|c| c.is_finite())) {
+        Some(vertex) => Err(BvhError::NonFiniteVertex {
+            triangle: i,
+            vertex,
+            position: tri[vertex],
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Half the surface area of a box, in f64; 0 for an empty or inverted box.
 fn half_area(min: &[f32; 3], max: &[f32; 3]) -> f64 {
     let d = [
@@ -194,14 +207,8 @@ impl Bvh {
         };
         for (i, tri) in triangles.iter().enumerate() {
             let mut b = Aabb::EMPTY;
-            for (vertex, p) in tri.iter().enumerate() {
-                if !p.iter().all(|c| c.is_finite()) {
-                    return Err(BvhError::NonFiniteVertex {
-                        triangle: i,
-                        vertex,
-                        position: *p,
-                    });
-                }
+            check_finite_vertices(i, tri)?;
+            for p in tri {
                 b.grow(p, p);
             }
             prims.min.push(b.min);

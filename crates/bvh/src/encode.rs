@@ -1,6 +1,6 @@
 //! Encoding of the BVH, its link orders and the triangle data into RGBA32F texel arrays.
 
-use crate::build::{Bvh, NodeKind};
+use crate::build::{Bvh, NodeKind, check_finite_vertices};
 use crate::layout::{self, FLOATS_PER_TEXEL, MAX_EXACT_INTEGER};
 use crate::links::{ChildOrder, Link};
 use crate::sliver::is_sliver;
@@ -142,15 +142,7 @@ pub fn encode(
     }
     check_triangle_capacity(triangles.len())?;
     for (i, (tri, attr)) in triangles.iter().zip(attributes).enumerate() {
-        for (vertex, p) in tri.iter().enumerate() {
-            if !p.iter().all(|c| c.is_finite()) {
-                return Err(BvhError::NonFiniteVertex {
-                    triangle: i,
-                    vertex,
-                    position: *p,
-                });
-            }
-        }
+        check_finite_vertices(i, tri)?;
         let finite = attr.normals.iter().flatten().all(|c| c.is_finite())
             && attr.uvs.iter().flatten().all(|c| c.is_finite());
         if !finite {

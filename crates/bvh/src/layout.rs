@@ -116,55 +116,50 @@ pub enum Constant {
     Float(f32),
 }
 
+/// `(name, Constant)` per layout constant: its name in shader code is `LUX_` + its name here.
+macro_rules! constants {
+    ($($kind:ident $name:ident),* $(,)?) => {
+        &[$((concat!("LUX_", stringify!($name)), constants!(@value $kind $name))),*]
+    };
+    (@value Int $name:ident) => {
+        Constant::Int($name as i64)
+    };
+    (@value Float $name:ident) => {
+        Constant::Float($name)
+    };
+}
+
 /// Every layout constant by the name it has in shader code (prefix `LUX_`).
-pub const CONSTANTS: &[(&str, Constant)] = &[
-    (
-        "LUX_MAX_EXACT_INTEGER",
-        Constant::Int(MAX_EXACT_INTEGER as i64),
-    ),
-    ("LUX_END_LINK", Constant::Float(END_LINK)),
-    ("LUX_ROOT_X", Constant::Int(ROOT_X as i64)),
-    ("LUX_ROOT_Y", Constant::Int(ROOT_Y as i64)),
-    ("LUX_LINK_LAYERS", Constant::Int(LINK_LAYERS as i64)),
-    (
-        "LUX_TBVH_LINK_LAYERS",
-        Constant::Int(TBVH_LINK_LAYERS as i64),
-    ),
-    ("LUX_DIR_POS_X", Constant::Int(DIR_POS_X as i64)),
-    ("LUX_DIR_NEG_X", Constant::Int(DIR_NEG_X as i64)),
-    ("LUX_DIR_POS_Y", Constant::Int(DIR_POS_Y as i64)),
-    ("LUX_DIR_NEG_Y", Constant::Int(DIR_NEG_Y as i64)),
-    ("LUX_DIR_POS_Z", Constant::Int(DIR_POS_Z as i64)),
-    ("LUX_DIR_NEG_Z", Constant::Int(DIR_NEG_Z as i64)),
-    ("LUX_BOUNDS_LAYERS", Constant::Int(BOUNDS_LAYERS as i64)),
-    (
-        "LUX_BOUNDS_MIN_LAYER",
-        Constant::Int(BOUNDS_MIN_LAYER as i64),
-    ),
-    (
-        "LUX_BOUNDS_MAX_LAYER",
-        Constant::Int(BOUNDS_MAX_LAYER as i64),
-    ),
-    ("LUX_TRIANGLE_LAYERS", Constant::Int(TRIANGLE_LAYERS as i64)),
-    ("LUX_TRI_P0_LAYER", Constant::Int(TRI_P0_LAYER as i64)),
-    ("LUX_TRI_P1_LAYER", Constant::Int(TRI_P1_LAYER as i64)),
-    ("LUX_TRI_P2_LAYER", Constant::Int(TRI_P2_LAYER as i64)),
-    ("LUX_TRI_N0_LAYER", Constant::Int(TRI_N0_LAYER as i64)),
-    ("LUX_TRI_N1_LAYER", Constant::Int(TRI_N1_LAYER as i64)),
-    ("LUX_TRI_N2_LAYER", Constant::Int(TRI_N2_LAYER as i64)),
-    ("LUX_TRI_UV01_LAYER", Constant::Int(TRI_UV01_LAYER as i64)),
-    (
-        "LUX_TRI_UV2_OBJECT_LAYER",
-        Constant::Int(TRI_UV2_OBJECT_LAYER as i64),
-    ),
-    ("LUX_TEXELS_PER_NODE", Constant::Int(TEXELS_PER_NODE as i64)),
-    (
-        "LUX_TEXELS_PER_TRIANGLE",
-        Constant::Int(TEXELS_PER_TRIANGLE as i64),
-    ),
-    ("LUX_PARALLEL_EPSILON", Constant::Float(PARALLEL_EPSILON)),
-    ("LUX_BIG", Constant::Float(BIG)),
-    ("LUX_BOX_SLACK", Constant::Float(BOX_SLACK)),
+pub const CONSTANTS: &[(&str, Constant)] = constants![
+    Int MAX_EXACT_INTEGER,
+    Float END_LINK,
+    Int ROOT_X,
+    Int ROOT_Y,
+    Int LINK_LAYERS,
+    Int TBVH_LINK_LAYERS,
+    Int DIR_POS_X,
+    Int DIR_NEG_X,
+    Int DIR_POS_Y,
+    Int DIR_NEG_Y,
+    Int DIR_POS_Z,
+    Int DIR_NEG_Z,
+    Int BOUNDS_LAYERS,
+    Int BOUNDS_MIN_LAYER,
+    Int BOUNDS_MAX_LAYER,
+    Int TRIANGLE_LAYERS,
+    Int TRI_P0_LAYER,
+    Int TRI_P1_LAYER,
+    Int TRI_P2_LAYER,
+    Int TRI_N0_LAYER,
+    Int TRI_N1_LAYER,
+    Int TRI_N2_LAYER,
+    Int TRI_UV01_LAYER,
+    Int TRI_UV2_OBJECT_LAYER,
+    Int TEXELS_PER_NODE,
+    Int TEXELS_PER_TRIANGLE,
+    Float PARALLEL_EPSILON,
+    Float BIG,
+    Float BOX_SLACK,
 ];
 
 /// Formats a float so that it parses back to the same `f32` and is a float literal in both

@@ -1316,6 +1316,29 @@ mod tests {
         }
     }
 
+    /// `count` small triangles over `[0, 10)³`, each vertex within `±spread` of its centre
+    /// (drawn from `rng`), built with `options` and encoded with default attributes: the
+    /// triangles, the encoding and its wide BVH.
+    fn clustered_scene(
+        rng: &mut Rng,
+        count: usize,
+        spread: f32,
+        options: &crate::BuildOptions,
+    ) -> (Vec<[[f32; 3]; 3]>, crate::EncodedScene, WideBvh) {
+        use crate::{Bvh, EncodeOptions, TriangleAttributes, encode};
+        let tris: Vec<[[f32; 3]; 3]> = (0..count)
+            .map(|_| {
+                let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
+                [0, 1, 2].map(|_| std::array::from_fn(|a| c[a] + rng.coord(-spread, spread)))
+            })
+            .collect();
+        let bvh = Bvh::build(&tris, options).expect("build");
+        let attributes = vec![TriangleAttributes::default(); tris.len()];
+        let scene = encode(&bvh, &tris, &attributes, &EncodeOptions::default()).expect("encode");
+        let wide = WideBvh::from_encoded(&scene);
+        (tris, scene, wide)
+    }
+
     /// The SSE packet test equals the scalar watertight test lane by lane, bit for bit (mask,
     /// `t`, `u`, `v`; the any-hit form: whether the mask is non-zero), on seeded random
     /// packets: triangles sharing vertices and edges, zero-area ones, unused lanes, rays aimed
@@ -1414,18 +1437,9 @@ mod tests {
     /// seeded scene deep enough for several levels of 8-wide nodes.
     #[test]
     fn avx_and_sse_walks_agree_with_brute_force() {
-        use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
         let mut rng = Rng(SplitMix64(11));
-        let tris: Vec<[[f32; 3]; 3]> = (0..3000)
-            .map(|_| {
-                let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
-                [0, 1, 2].map(|_| std::array::from_fn(|a| c[a] + rng.coord(-0.4, 0.4)))
-            })
-            .collect();
-        let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("build");
-        let attributes = vec![TriangleAttributes::default(); tris.len()];
-        let scene = encode(&bvh, &tris, &attributes, &EncodeOptions::default()).expect("encode");
-        let wide = WideBvh::from_encoded(&scene);
+        let (_, scene, wide) =
+            clustered_scene(&mut rng, 3000, 0.4, &crate::BuildOptions::default());
         assert!(wide.node_count() > 9, "{} nodes", wide.node_count());
         let positions: Vec<[[f32; 3]; 3]> = (0..scene.triangle_count)
             .map(|t| scene.triangle_positions(t))
@@ -1528,22 +1542,12 @@ mod tests {
     /// every triangle is in exactly one packet lane.
     #[test]
     fn small_subtrees_share_a_packet() {
-        use crate::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
-        let mut rng = Rng(SplitMix64(5));
-        let tris: Vec<[[f32; 3]; 3]> = (0..300)
-            .map(|_| {
-                let c: [f32; 3] = std::array::from_fn(|_| rng.coord(0.0, 10.0));
-                [0, 1, 2].map(|_| std::array::from_fn(|a| c[a] + rng.coord(-0.3, 0.3)))
-            })
-            .collect();
-        let options = BuildOptions {
+        let options = crate::BuildOptions {
             max_leaf_size: 1,
-            ..BuildOptions::default()
+            ..crate::BuildOptions::default()
         };
-        let bvh = Bvh::build(&tris, &options).expect("build");
-        let attributes = vec![TriangleAttributes::default(); tris.len()];
-        let scene = encode(&bvh, &tris, &attributes, &EncodeOptions::default()).expect("encode");
-        let wide = WideBvh::from_encoded(&scene);
+        let mut rng = Rng(SplitMix64(5));
+        let (tris, _, wide) = clustered_scene(&mut rng, 300, 0.3, &options);
         let mut seen = vec![0u32; tris.len()];
         for packet in &wide.packets {
             for &i in packet.index.iter().filter(|&&i| i != u32::MAX) {

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{Rng, attributes, build_and_encode, check_agreement};
+use common::{Rng, attributes, axis_range, build, build_and_encode, check_agreement};
 use luxbake_bvh::{
     BuildOptions, Bvh, BvhError, EncodeOptions, NodeKind, Ray, Traversal, TriangleAttributes,
     WideBvh, encode, layout,
@@ -148,14 +148,7 @@ fn duplicates_and_all_in_one_point() {
         let hit = scene.closest_hit(&r, 0.0, f32::INFINITY, t).expect("hit");
         assert_eq!(hit.t, 1.0);
     }
-    check_agreement(
-        &scene,
-        &WideBvh::from_encoded(&scene),
-        &r,
-        0.0,
-        f32::INFINITY,
-    )
-    .expect("agreement");
+    agree_unbounded(&scene, &r).expect("agreement");
 
     let point = vec![[[0.5f32; 3]; 3]; 777];
     let bvh = Bvh::build(&point, &options).expect("build");
@@ -378,14 +371,13 @@ fn texture_capacity_boundary() {
             [[x, 0.0, 0.0], [x + 1.0, 0.0, 0.0], [x, 1.0, 0.0]]
         })
         .collect();
-    let bvh = Bvh::build(
+    let bvh = build(
         &tris,
-        &BuildOptions {
+        BuildOptions {
             max_leaf_size: 1,
             ..BuildOptions::default()
         },
-    )
-    .expect("build");
+    );
     assert_eq!(bvh.nodes().len(), 31);
     let attrs = attributes(&tris, 1);
     let scene = encode(
@@ -400,15 +392,9 @@ fn texture_capacity_boundary() {
     assert_eq!(scene.node_size, [6, 6]);
     assert_eq!(scene.tri_size, [4, 4]);
     let r = ray([0.25, 0.25, 1.0], [0.0, 0.0, -1.0]);
-    check_agreement(
-        &scene,
-        &WideBvh::from_encoded(&scene),
-        &r,
-        0.0,
-        f32::INFINITY,
-    )
-    .expect("agreement")
-    .expect("hit");
+    agree_unbounded(&scene, &r)
+        .expect("agreement")
+        .expect("hit");
     // 31 nodes need 6×6 at least: 5×5 = 25 is too small.
     match encode(
         &bvh,
@@ -428,15 +414,14 @@ fn texture_capacity_boundary() {
     // 16 triangles exactly fill a 4 × 4 triangle texture (checked above); 17 do not.
     let mut tris17 = tris.clone();
     tris17.push([[40.0, 0.0, 0.0], [41.0, 0.0, 0.0], [40.0, 1.0, 0.0]]);
-    let bvh = Bvh::build(
+    let bvh = build(
         &tris17,
-        &BuildOptions {
+        BuildOptions {
             max_leaf_size: 32,
             traversal_cost: 1e6,
             ..BuildOptions::default()
         },
-    )
-    .expect("build");
+    );
     assert_eq!(bvh.nodes().len(), 1);
     match encode(
         &bvh,
@@ -564,18 +549,19 @@ fn corrupt_encodings_do_not_panic() {
     }
 }
 
+/// [`check_agreement`] of `r` over `[0, ∞)`, the wide BVH collapsed from `scene`.
+fn agree_unbounded(
+    scene: &luxbake_bvh::EncodedScene,
+    r: &Ray,
+) -> Result<Option<luxbake_bvh::Hit>, String> {
+    check_agreement(scene, &WideBvh::from_encoded(scene), r, 0.0, f32::INFINITY)
+}
+
 /// The point `origin + t·dir` (in f64) and whether it lies in the box of `tri` grown by `slack`.
 fn in_box(r: &Ray, t: f32, tri: &[[f32; 3]; 3], slack: f64) -> bool {
     (0..3).all(|k| {
         let p = f64::from(r.origin[k]) + f64::from(t) * f64::from(r.dir[k]);
-        let lo = tri
-            .iter()
-            .map(|v| f64::from(v[k]))
-            .fold(f64::INFINITY, f64::min);
-        let hi = tri
-            .iter()
-            .map(|v| f64::from(v[k]))
-            .fold(f64::NEG_INFINITY, f64::max);
+        let (lo, hi) = axis_range(tri, k);
         lo - slack <= p && p <= hi + slack
     })
 }

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{check_agreement, load_model, model_rays};
-use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Traversal, encode};
+use luxbake_bvh::{BuildOptions, Traversal};
 
 fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
     let Some(tris) = load_model(name) else {
@@ -23,14 +23,7 @@ fn check_model(name: &str, expected_triangles: std::ops::Range<usize>) {
 
 fn check_scene(name: &str, tris: &[common::Tri]) {
     let options = BuildOptions::default();
-    let bvh = Bvh::build(tris, &options).expect("build");
-    let scene = encode(
-        &bvh,
-        tris,
-        &common::attributes(tris, 3),
-        &EncodeOptions::default(),
-    )
-    .expect("encode");
+    let (bvh, scene) = common::build_and_encode_objects(tris, 3);
     let wide = luxbake_bvh::WideBvh::from_encoded(&scene);
 
     let otris = common::obvhs_triangles(tris);

@@ -14,19 +14,24 @@ fn validate(module: &naga::Module) {
     .expect("valid module");
 }
 
-#[test]
-fn wgsl_constants_parse_and_validate() {
+/// Every constant in one float expression: their sum, the integers converted by `cast`.
+fn sum_of_constants(cast: &str) -> String {
     let uses: Vec<String> = CONSTANTS
         .iter()
         .map(|(name, c)| match c {
-            Constant::Int(_) => format!("f32({name})"),
+            Constant::Int(_) => format!("{cast}({name})"),
             Constant::Float(_) => name.to_string(),
         })
         .collect();
+    uses.join(" + ")
+}
+
+#[test]
+fn wgsl_constants_parse_and_validate() {
     let source = format!(
         "{}\n@fragment\nfn main() -> @location(0) vec4<f32> {{\n    let s = {};\n    return vec4<f32>(s);\n}}\n",
         layout::wgsl_constants(),
-        uses.join(" + ")
+        sum_of_constants("f32")
     );
     let module = naga::front::wgsl::parse_str(&source)
         .unwrap_or_else(|e| panic!("{}\n{source}", e.emit_to_string(&source)));
@@ -35,17 +40,10 @@ fn wgsl_constants_parse_and_validate() {
 
 #[test]
 fn glsl_defines_parse_and_validate() {
-    let uses: Vec<String> = CONSTANTS
-        .iter()
-        .map(|(name, c)| match c {
-            Constant::Int(_) => format!("float({name})"),
-            Constant::Float(_) => name.to_string(),
-        })
-        .collect();
     let source = format!(
         "#version 450 core\n{}\nlayout(location = 0) out vec4 o;\nvoid main() {{\n    float s = {};\n    o = vec4(s);\n}}\n",
         layout::glsl_defines(),
-        uses.join(" + ")
+        sum_of_constants("float")
     );
     let mut frontend = naga::front::glsl::Frontend::default();
     let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);

@@ -2,7 +2,7 @@
 
 mod common;
 
-use common::{Rng, attributes, random_scene};
+use common::{Rng, attributes, build, random_scene};
 use luxbake_bvh::{BuildOptions, Bvh, ChildOrder, EncodeOptions, Link, NodeKind, encode, layout};
 
 fn scenes() -> Vec<(u64, Vec<common::Tri>)> {
@@ -378,15 +378,14 @@ fn sah_cost_matches_the_formula() {
     );
     assert!((bvh.sah_cost_with(2.0, 3.0) - (2.0 + 6.0 / 11.0)).abs() < 1e-6);
     // A single leaf costs its triangle count.
-    let leaf = Bvh::build(
+    let leaf = build(
         &tris,
-        &BuildOptions {
+        BuildOptions {
             max_leaf_size: 2,
             traversal_cost: 100.0,
             ..options
         },
-    )
-    .expect("build");
+    );
     assert_eq!(leaf.nodes().len(), 1);
     assert_eq!(leaf.sah_cost_with(100.0, 1.0), 2.0);
 }
@@ -396,22 +395,20 @@ fn sah_cost_matches_the_formula() {
 fn sah_build_is_reasonable() {
     let mut rng = Rng::new(21);
     let tris = random_scene(&mut rng, 2000);
-    let coarse = Bvh::build(
+    let coarse = build(
         &tris,
-        &BuildOptions {
+        BuildOptions {
             bins: 4,
             ..BuildOptions::default()
         },
-    )
-    .expect("build");
-    let fine = Bvh::build(
+    );
+    let fine = build(
         &tris,
-        &BuildOptions {
+        BuildOptions {
             bins: 32,
             ..BuildOptions::default()
         },
-    )
-    .expect("build");
+    );
     assert!(
         fine.sah_cost() < tris.len() as f32 / 10.0,
         "{}",

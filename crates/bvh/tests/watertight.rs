@@ -24,6 +24,12 @@ fn edge_and_vertex_targets(tris: &[Tri], rng: &mut Rng) -> Vec<[f32; 3]> {
     targets
 }
 
+/// Panics (naming `label` and `ray`) unless `hit` is a hit at `t = 1` (the ray's target).
+fn assert_hit_at_target(hit: Option<luxbake_bvh::Hit>, label: &str, ray: &Ray) {
+    let hit = hit.unwrap_or_else(|| panic!("{label} ray {ray:?} escaped"));
+    assert!((hit.t - 1.0).abs() < 1e-4, "{label} {ray:?} t = {}", hit.t);
+}
+
 /// Every ray from `origin` (inside the closed mesh) through each target must hit, and the
 /// closest hit must be the surface point itself (the mesh is convex around the origin).
 fn assert_no_escape(
@@ -46,24 +52,14 @@ fn assert_no_escape(
         let ray = Ray { origin, dir };
         for traversal in ALL {
             let hit = scene.closest_hit(&ray, 0.0, f32::INFINITY, traversal);
-            let hit = hit.unwrap_or_else(|| panic!("{what}: {traversal:?} ray {ray:?} escaped"));
-            assert!(
-                (hit.t - 1.0).abs() < 1e-4,
-                "{what}: {traversal:?} {ray:?} t = {}",
-                hit.t
-            );
+            assert_hit_at_target(hit, &format!("{what}: {traversal:?}"), &ray);
             assert!(
                 scene.any_hit(&ray, 0.0, f32::INFINITY, traversal),
                 "{what}: any-hit escaped"
             );
         }
         let hit = wide.closest_hit(&ray, 0.0, f32::INFINITY);
-        let hit = hit.unwrap_or_else(|| panic!("{what}: wide ray {ray:?} escaped"));
-        assert!(
-            (hit.t - 1.0).abs() < 1e-4,
-            "{what}: wide {ray:?} t = {}",
-            hit.t
-        );
+        assert_hit_at_target(hit, &format!("{what}: wide"), &ray);
         assert!(
             wide.any_hit(&ray, 0.0, f32::INFINITY),
             "{what}: wide any-hit escaped"

@@ -50,6 +50,15 @@ impl<'a> Fields<'a> {
         Ok((v, line))
     }
 
+    /// `count` values, one per lamp set, each read by `read`.
+    fn per_set<T>(
+        &mut self,
+        count: usize,
+        mut read: impl FnMut(&mut Self) -> Result<T, IesError>,
+    ) -> Result<Vec<T>, IesError> {
+        (0..count).map(|_| read(self)).collect()
+    }
+
     fn integer(&mut self, what: &str, min: i64, max: i64) -> Result<(i64, usize), IesError> {
         let (v, line) = self.number(what)?;
         integer_in(v, line, what, min, max).map(|i| (i, line))
@@ -137,12 +146,8 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         }
         counts.push(count);
     }
-    let mut types = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
-        types.push(f.text("type of lamps")?.0.to_owned());
-    }
-    let mut fluxes = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
+    let types = f.per_set(n_sets, |f| Ok(f.text("type of lamps")?.0.to_owned()))?;
+    let fluxes = f.per_set(n_sets, |f| {
         let (flux, line) = f.number("total luminous flux of lamps")?;
         if flux < 0.0 {
             return Err(IesError::OutOfRange {
@@ -152,20 +157,11 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
                 expected: "≥ 0 lumens".into(),
             });
         }
-        fluxes.push(flux);
-    }
-    let mut colors = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
-        colors.push(f.text("colour appearance")?.0.to_owned());
-    }
-    let mut cris = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
-        cris.push(f.text("colour rendering")?.0.to_owned());
-    }
-    let mut watts = Vec::with_capacity(n_sets);
-    for _ in 0..n_sets {
-        watts.push(f.number("wattage including ballast")?.0);
-    }
+        Ok(flux)
+    })?;
+    let colors = f.per_set(n_sets, |f| Ok(f.text("colour appearance")?.0.to_owned()))?;
+    let cris = f.per_set(n_sets, |f| Ok(f.text("colour rendering")?.0.to_owned()))?;
+    let watts = f.per_set(n_sets, |f| Ok(f.number("wattage including ballast")?.0))?;
     let mut direct_ratios = [0.0; 10];
     for dr in &mut direct_ratios {
         *dr = f.number("direct ratio")?.0;

@@ -7,12 +7,7 @@ use std::path::PathBuf;
 /// `../shared/photometry`, or `None` after [`luxbake_testkit::skip_or_fail`] (which fails
 /// `test` under CI).
 fn shared_photometry(test: &str) -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/photometry");
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    luxbake_testkit::skip_or_fail(test, &format!("{} not found", dir.display()));
-    None
+    luxbake_testkit::shared_data(test, "photometry")
 }
 
 /// Every sample file (name, bytes), the bundled lamp first; only the bundled lamp when

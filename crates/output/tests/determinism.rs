@@ -2,10 +2,12 @@
 //! does the other gather sampler. Also checks the file set and manifest keys that
 //! `cargo xtask bake` writes.
 
-use std::path::{Path, PathBuf};
+mod common;
 
-use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
+use common::{run, temp_dir};
+
+use std::path::Path;
+
 use luxbake::scene::{Blur, Sampler, Scene, Settings};
 use luxbake_output::write_bake;
 
@@ -29,17 +31,6 @@ fn scene_with(seed: u32, sampler: Sampler) -> Scene {
     .expect("chairs_01")
 }
 
-fn run(scene: &Scene) -> BakeOutput {
-    let mut backend = CpuBackend::new();
-    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
-}
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("luxbake-det-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
-
 fn exr_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
         .expect("read dir")
@@ -59,7 +50,7 @@ fn exr_files(dir: &Path) -> Vec<(String, Vec<u8>)> {
 fn same_seed_gives_identical_exr_bytes() {
     let s = scene(7);
     let (a, b) = (run(&s), run(&s));
-    let (da, db) = (temp_dir("a"), temp_dir("b"));
+    let (da, db) = (temp_dir("det", "a"), temp_dir("det", "b"));
     let manifest = write_bake(&da, &s, &a, "builtin:chairs_01").expect("write a");
     write_bake(&db, &s, &b, "builtin:chairs_01").expect("write b");
     let (fa, fb) = (exr_files(&da), exr_files(&db));

@@ -2,27 +2,17 @@
 //! their padding, and the padding rule keeps the method paper's blur from carrying light from
 //! one chart of an object into another.
 
-use std::path::PathBuf;
+mod common;
 
-use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
+use common::{run, temp_dir};
+
+use luxbake::bake::BakeOutput;
 use luxbake::layout::chart_padding_texels;
 use luxbake::map::MapImage;
 use luxbake::scene::{Albedo, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::builtin::{self, isotropic_lamp};
 use luxbake::sources::meshes;
 use luxbake_output::{dilation_passes, read_exr, write_bake};
-
-fn run(scene: &Scene) -> BakeOutput {
-    let mut backend = CpuBackend::new();
-    bake(&mut backend, scene, &scene.settings, &mut |_| {}).expect("bake")
-}
-
-fn temp_dir(tag: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("luxbake-pad-{}-{tag}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
 
 /// Checks that `written` is `baked` dilated by `passes`: same alpha, same valid texels, and
 /// every empty texel within `passes` texels (Chebyshev) of a valid one holds the RGB of a
@@ -81,7 +71,7 @@ fn written_maps_are_dilated_into_their_padding() {
     };
     let scene = Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01");
     let out = run(&scene);
-    let dir = temp_dir("dilated");
+    let dir = temp_dir("pad", "dilated");
     let manifest = write_bake(&dir, &scene, &out, "builtin:chairs_01").expect("write");
     let passes = dilation_passes(&scene.settings);
     assert_eq!(passes, 8, "σ 2: 2 + ⌈3σ⌉ texels of padding");

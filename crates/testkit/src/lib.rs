@@ -6,7 +6,10 @@
 //!   no shared test data, a CPU without a feature): [`ci_requires_everything`],
 //!   [`skip_or_fail`], [`or_skip`] (and [`skip_decision`], the rule as a pure function);
 //! - **The one seeded generator of test data**: [`SplitMix64`], whose streams are fixed (test
-//!   scenes, rays and expected values are drawn from them).
+//!   scenes, rays and expected values are drawn from them);
+//! - small shared helpers: [`shared_data`] (the shared test data), [`temp_dir`] (where a test
+//!   writes files) and [`RelativeError`] (the largest and mean relative error of compared
+//!   values).
 //!
 //! ## The skip rule
 //!
@@ -24,8 +27,8 @@
 //! names no backend; each backend's error type says which of its errors mean "no driver"
 //! (`GlowError::is_driver_missing`, `WgpuError::is_driver_missing`,
 //! `OpenError::is_driver_missing`): any other error of a driver that is there fails the
-//! test. Tests that read the shared test data (`../shared`, beside the repository) go
-//! through it when the data is missing.
+//! test. Tests that read the shared test data (`../shared`, beside the repository) find it
+//! with [`shared_data`], which goes through it when the data is missing.
 //!
 //! ## Who depends on it
 //!
@@ -36,7 +39,11 @@
 #![warn(missing_docs)]
 
 mod ci;
+mod shared;
 mod splitmix;
+mod stats;
 
 pub use ci::{ci_requires_everything, or_skip, skip_decision, skip_or_fail};
+pub use shared::{shared_data, temp_dir};
 pub use splitmix::SplitMix64;
+pub use stats::RelativeError;

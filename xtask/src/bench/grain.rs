@@ -16,14 +16,16 @@
 //! bound of the preset's.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use luxbake::bake::BakeOutput;
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backends::BackendKind;
 
-use super::{load_average, machine, open, timed_bake, utc_now, write_results};
+use super::{
+    load_average, machine, open_sampling_room, report_heading, timed_bake, utc_now, write_results,
+};
 
 /// First-bounce rays per texel of the reference (the figure).
 pub const REFERENCE_RAYS: u32 = 4096;
@@ -46,11 +48,6 @@ pub struct Args {
     /// First-bounce rays of the reference (default 4096; 256 with `--quick`).
     #[arg(long)]
     reference_rays: Option<u32>,
-}
-
-/// The scene file of the study.
-fn scene_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
 }
 
 /// The kinds of surface reported, in order.
@@ -142,10 +139,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         .unwrap_or(if quick { 256 } else { REFERENCE_RAYS });
     let load_before = load_average();
     let (date, time) = utc_now();
-    let path = scene_path();
-    let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let (mut backend, renderer) =
-        open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
+    let (scene, mut backend, renderer) = open_sampling_room(args.backend)?;
     let with = |s: Settings| Settings {
         texels_per_metre: density,
         seed: SEED,
@@ -216,17 +210,12 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     }
     let load_after = load_average();
 
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# Grain of flat, evenly lit surfaces — sampling_room, {date} {time} UTC\n"
-    );
-    let _ = writeln!(
-        md,
-        "- machine: {}; backend {} ({renderer}){}",
-        machine(),
+    let mut md = report_heading(
+        "Grain of flat, evenly lit surfaces — sampling_room",
+        (&date, &time),
         args.backend.name(),
-        if quick { "; --quick" } else { "" }
+        &renderer,
+        if quick { "; --quick" } else { "" },
     );
     let _ = writeln!(
         md,

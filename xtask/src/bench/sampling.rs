@@ -15,14 +15,17 @@
 //! larger than in a furnished scene.
 
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use luxbake::bake::BakeOutput;
 use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
-use super::{load_average, log_log_slope, machine, open, timed_bake, utc_now, write_results};
+use super::{
+    load_average, log_log_slope, machine, open_sampling_room, report_heading, timed_bake, utc_now,
+    write_results,
+};
 
 /// Rays per texel of each reference bake (full run).
 pub const REFERENCE_RAYS: u32 = 16_384;
@@ -45,11 +48,6 @@ pub struct Args {
     /// Rays per texel of each reference bake (default 16384, 1024 with `--quick`).
     #[arg(long)]
     reference_rays: Option<u32>,
-}
-
-/// The scene file of the study.
-fn scene_path() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
 }
 
 /// The floor texels: per receiver map, the texel coordinates whose G-buffer normal points up
@@ -140,10 +138,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         .unwrap_or(if quick { 1024 } else { REFERENCE_RAYS });
     let load_before = load_average();
     let (date, time) = utc_now();
-    let path = scene_path();
-    let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let (mut backend, renderer) =
-        open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
+    let (scene, mut backend, renderer) = open_sampling_room(args.backend)?;
     let settings = |sampler, rays, seed| Settings {
         sampler,
         rays,
@@ -225,17 +220,12 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         _ => None,
     };
 
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# Gather sampling: error vs rays — sampling_room, {date} {time} UTC\n"
-    );
-    let _ = writeln!(
-        md,
-        "- machine: {}; backend {} ({renderer}){}",
-        machine(),
+    let mut md = report_heading(
+        "Gather sampling: error vs rays — sampling_room",
+        (&date, &time),
         args.backend.name(),
-        if quick { "; --quick" } else { "" }
+        &renderer,
+        if quick { "; --quick" } else { "" },
     );
     let _ = writeln!(
         md,
@@ -358,7 +348,7 @@ mod tests {
 
     #[test]
     fn the_scene_file_is_the_issue_room() {
-        let scene = Scene::from_toml_file(&scene_path()).expect("scene file");
+        let scene = Scene::from_toml_file(&crate::bench::sampling_room_path()).expect("scene file");
         let s = &scene.settings;
         assert_eq!((s.bounces, s.texels_per_metre), (1, 16.0));
         assert_eq!(s.blur, luxbake::scene::Blur::None);

@@ -39,7 +39,8 @@ use plotters::prelude::*;
 
 use super::refcheck::{self, Comparison};
 use super::{
-    Summary, load_average, machine, open, result_path, timed_bake, utc_now, write_results,
+    Summary, load_average, machine, open, report_heading, result_path, timed_bake, utc_now,
+    write_results,
 };
 
 /// The chosen configuration is the cheapest Pareto point whose mean |relative error| against
@@ -429,16 +430,12 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         .filter(|&i| pts[i].1 <= KNEE * best)
         .min_by(|&a, &b| measured[a].time.median.total_cmp(&measured[b].time.median));
 
-    let mut md = String::new();
-    let _ = writeln!(
-        md,
-        "# Speed/accuracy trade — {scene_name}, {date} {time} UTC\n"
-    );
-    let _ = writeln!(
-        md,
-        "- machine: {}; backend {} ({renderer})",
-        machine(),
-        args.backend.name()
+    let mut md = report_heading(
+        &format!("Speed/accuracy trade — {scene_name}"),
+        (&date, &time),
+        args.backend.name(),
+        &renderer,
+        "",
     );
     let _ = writeln!(
         md,

@@ -13,7 +13,7 @@ use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
 use crate::backend::LampParams;
-use crate::contract::{BLUR_NORMAL_COS, TileParams, coarse};
+use crate::contract::{BLUR_NORMAL_COS, ParamBlock, TileParams, coarse};
 pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::layout::Region;
 use crate::passes::gather::GatherParams;
@@ -32,31 +32,53 @@ pub(crate) struct Ctx<'a> {
     pub(crate) tile: TileParams,
 }
 
-/// A pass's CPU reference: prepared once per dispatch from its parameter words, then run row
-/// by row (rows in parallel, each thread with its own scratch).
-pub(crate) trait CpuPass: Sync + Sized {
+/// How a pass is prepared for one dispatch from its parameter words. A pass whose state is
+/// its parameter block implements its CPU reference on the block itself, built by the blanket
+/// impl; a pass without parameters is declared by [`parameterless_pass!`]; any other says how.
+pub(crate) trait Prepare: Sized {
+    /// The pass for one dispatch.
+    fn prepare(words: &[u32], ctx: &Ctx<'_>) -> Self;
+}
+
+impl<P: ParamBlock> Prepare for P {
+    fn prepare(words: &[u32], _: &Ctx<'_>) -> Self {
+        P::from_words(words)
+    }
+}
+
+/// Declares the unit struct `$name`, the CPU state of a pass without parameters.
+macro_rules! parameterless_pass {
+    ($(#[$meta:meta])* $name:ident) => {
+        $(#[$meta])*
+        pub(crate) struct $name;
+
+        impl $crate::cpu::kernel::Prepare for $name {
+            fn prepare(_: &[u32], _: &$crate::cpu::kernel::Ctx<'_>) -> Self {
+                $name
+            }
+        }
+    };
+}
+
+pub(crate) use parameterless_pass;
+
+/// A pass's CPU reference: prepared once per dispatch from its parameter words ([`Prepare`]),
+/// then run row by row (rows in parallel, each thread with its own scratch).
+pub(crate) trait CpuPass: Prepare + Sync {
     /// Per-thread scratch, reused from row to row.
     type Scratch: Default + Send;
-    /// The pass for one dispatch.
-    fn new(words: &[u32], ctx: &Ctx<'_>) -> Self;
     /// The RGBA texels `ctx.tile.x0 ..` of row `y` of the tile's layer.
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut Self::Scratch);
 }
 
 /// A pass computed texel by texel.
-pub(crate) trait TexelPass: Sync + Sized {
-    /// The pass for one dispatch.
-    fn new(words: &[u32], ctx: &Ctx<'_>) -> Self;
+pub(crate) trait TexelPass: Prepare + Sync {
     /// Texel `(x, y)` of `layer`.
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4];
 }
 
 impl<T: TexelPass> CpuPass for T {
     type Scratch = ();
-
-    fn new(words: &[u32], ctx: &Ctx<'_>) -> Self {
-        <T as TexelPass>::new(words, ctx)
-    }
 
     #[inline]
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], _: &mut ()) {
@@ -79,7 +101,7 @@ pub(crate) fn run<P: CpuPass>(
     if row_floats == 0 || t.height == 0 {
         return;
     }
-    let pass = P::new(words, ctx);
+    let pass = P::prepare(words, ctx);
     let start = (t.layer as usize * layer_rows + t.y0 as usize) * row_floats;
     let end = start + t.height as usize * row_floats;
     out[start..end]

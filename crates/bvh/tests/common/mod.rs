@@ -2,8 +2,6 @@
 //! the bench (`#[path]`-included there). Not every test binary uses every helper.
 #![allow(dead_code)]
 
-use std::path::PathBuf;
-
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, EncodedScene, TriangleAttributes, encode};
 use luxbake_testkit::SplitMix64;
 
@@ -299,8 +297,26 @@ pub fn attributes(tris: &[Tri], objects: u32) -> Vec<TriangleAttributes> {
 
 /// Builds and encodes with default options.
 pub fn build_and_encode(tris: &[Tri]) -> EncodedScene {
-    let bvh = Bvh::build(tris, &BuildOptions::default()).expect("build");
-    encode(&bvh, tris, &attributes(tris, 7), &EncodeOptions::default()).expect("encode")
+    build_and_encode_objects(tris, 7).1
+}
+
+/// Builds with default options and encodes with the attributes of `objects` objects
+/// ([`attributes`]): the tree and the encoding.
+pub fn build_and_encode_objects(tris: &[Tri], objects: u32) -> (Bvh, EncodedScene) {
+    let bvh = build(tris, BuildOptions::default());
+    let scene = encode(
+        &bvh,
+        tris,
+        &attributes(tris, objects),
+        &EncodeOptions::default(),
+    )
+    .expect("encode");
+    (bvh, scene)
+}
+
+/// Builds with `options`.
+pub fn build(tris: &[Tri], options: BuildOptions) -> Bvh {
+    Bvh::build(tris, &options).expect("build")
 }
 
 /// World-space triangles of every mesh instance of the default scene of a `.glb` file.
@@ -373,14 +389,7 @@ fn transform(m: &[[f32; 4]; 4], p: [f32; 3]) -> [f32; 3] {
 /// The named model of `../shared/models` (repository root), its triangles, or `None` after
 /// [`luxbake_testkit::skip_or_fail`] (which fails the test under CI).
 pub fn load_model(name: &str) -> Option<Vec<Tri>> {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/models")
-        .join(name)
-        .join(format!("{name}.glb"));
-    if !path.is_file() {
-        luxbake_testkit::skip_or_fail(name, &format!("{} not found", path.display()));
-        return None;
-    }
+    let path = luxbake_testkit::shared_data(name, &format!("models/{name}/{name}.glb"))?;
     Some(load_glb(&path).expect("loading a shared model"))
 }
 
@@ -408,14 +417,7 @@ pub fn check_agreement(
         let p = scene.triangle_positions(r.triangle);
         let outside = (0..3).find(|&k| {
             let at = f64::from(ray.origin[k]) + f64::from(r.t) * f64::from(ray.dir[k]);
-            let lo = p
-                .iter()
-                .map(|v| f64::from(v[k]))
-                .fold(f64::INFINITY, f64::min);
-            let hi = p
-                .iter()
-                .map(|v| f64::from(v[k]))
-                .fold(f64::NEG_INFINITY, f64::max);
+            let (lo, hi) = axis_range(&p, k);
             let slack = 1e-4 * (1.0 + lo.abs().max(hi.abs()));
             !(lo - slack <= at && at <= hi + slack)
         });
@@ -538,6 +540,16 @@ pub fn obvhs_sah(bvh: &obvhs::bvh2::Bvh2, traversal_cost: f32, intersection_cost
     luxbake_bvh::sah_cost(order, traversal_cost, intersection_cost)
 }
 
+/// `ray` for obvhs, over `[t_min, t_max]`.
+fn obvhs_ray(ray: &luxbake_bvh::Ray, t_min: f32, t_max: f32) -> obvhs::ray::Ray {
+    obvhs::ray::Ray::new(
+        glam::Vec3A::from_array(ray.origin),
+        glam::Vec3A::from_array(ray.dir),
+        t_min,
+        t_max,
+    )
+}
+
 /// obvhs closest hit (its own stack traversal and Möller–Trumbore test): `(t, input index)`.
 pub fn obvhs_closest(
     bvh: &obvhs::bvh2::Bvh2,
@@ -546,12 +558,7 @@ pub fn obvhs_closest(
     t_min: f32,
     t_max: f32,
 ) -> Option<(f32, u32)> {
-    let r = obvhs::ray::Ray::new(
-        glam::Vec3A::from_array(ray.origin),
-        glam::Vec3A::from_array(ray.dir),
-        t_min,
-        t_max,
-    );
+    let r = obvhs_ray(ray, t_min, t_max);
     let mut hit = obvhs::ray::RayHit::none();
     bvh.ray_traverse(r, &mut hit, |r, id| {
         tris[bvh.primitive_indices[id] as usize].intersect(r)
@@ -567,20 +574,14 @@ pub fn obvhs_any(
     t_min: f32,
     t_max: f32,
 ) -> bool {
-    let r = obvhs::ray::Ray::new(
-        glam::Vec3A::from_array(ray.origin),
-        glam::Vec3A::from_array(ray.dir),
-        t_min,
-        t_max,
-    );
+    let r = obvhs_ray(ray, t_min, t_max);
     !bvh.ray_traverse_miss(r, |r, id| {
         tris[bvh.primitive_indices[id] as usize].intersect(r)
     })
 }
 
-/// Rays for a model: half from random points around its bounds towards random points on
-/// random triangles, half from random points inside the bounds in random directions.
-pub fn model_rays(tris: &[Tri], count: usize, seed: u64) -> Vec<luxbake_bvh::Ray> {
+/// The bounding box of `tris`: (min, max) per axis.
+pub fn bounds(tris: &[Tri]) -> ([f32; 3], [f32; 3]) {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
     for p in tris.iter().flatten() {
@@ -589,6 +590,22 @@ pub fn model_rays(tris: &[Tri], count: usize, seed: u64) -> Vec<luxbake_bvh::Ray
             hi[a] = hi[a].max(p[a]);
         }
     }
+    (lo, hi)
+}
+
+/// The range of `tri`'s coordinate `k`, in f64: (min, max).
+pub fn axis_range(tri: &[[f32; 3]; 3], k: usize) -> (f64, f64) {
+    let c = tri.map(|v| f64::from(v[k]));
+    (
+        c.into_iter().fold(f64::INFINITY, f64::min),
+        c.into_iter().fold(f64::NEG_INFINITY, f64::max),
+    )
+}
+
+/// Rays for a model: half from random points around its bounds towards random points on
+/// random triangles, half from random points inside the bounds in random directions.
+pub fn model_rays(tris: &[Tri], count: usize, seed: u64) -> Vec<luxbake_bvh::Ray> {
+    let (lo, hi) = bounds(tris);
     let mut rng = Rng::new(seed);
     (0..count)
         .map(|i| {

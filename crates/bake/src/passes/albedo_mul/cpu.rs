@@ -2,14 +2,12 @@
 
 use crate::cpu::kernel::*;
 
-/// The albedo multiply.
-pub(crate) struct Pass;
+parameterless_pass! {
+    /// The albedo multiply.
+    Pass
+}
 
 impl TexelPass for Pass {
-    fn new(_: &[u32], _: &Ctx<'_>) -> Self {
-        Pass
-    }
-
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let a = ctx.views[0].fetch(layer, x, y);

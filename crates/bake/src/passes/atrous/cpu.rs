@@ -2,22 +2,17 @@
 
 use crate::contract::B3;
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::AtrousParams;
 
 /// One à-trous iteration for one dispatch.
-pub(crate) struct Pass(AtrousParams);
+pub(crate) type Pass = AtrousParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(AtrousParams::from_words(words))
-    }
-
+impl TexelPass for AtrousParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
-        atrous_texel(v[0], v[1], v[2], v[3], self.0, layer, x, y)
+        atrous_texel(v[0], v[1], v[2], v[3], *self, layer, x, y)
     }
 }
 

@@ -11,13 +11,15 @@ use super::BlurParams;
 /// The blur for one dispatch: its kernel.
 pub(crate) type Pass = BlurKernel;
 
-impl TexelPass for BlurKernel {
-    fn new(words: &[u32], ctx: &Ctx<'_>) -> Self {
+impl Prepare for BlurKernel {
+    fn prepare(words: &[u32], ctx: &Ctx<'_>) -> Self {
         let t = ctx.tile;
         let rect = [t.x0, t.y0, t.x0 + t.width, t.y0 + t.height];
         BlurKernel::new(BlurParams::from_words(words), ctx.views[1], t.layer, rect)
     }
+}
 
+impl TexelPass for BlurKernel {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         BlurKernel::texel(self, ctx.views[0], layer, x, y)

@@ -1,21 +1,16 @@
 //! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, guarded, `a`'s mask.
 
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::CombineParams;
 
 /// The weighted sum for one dispatch.
-pub(crate) struct Pass(CombineParams);
+pub(crate) type Pass = CombineParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(CombineParams::from_words(words))
-    }
-
+impl TexelPass for CombineParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let w = self.0;
+        let w = *self;
         let a = ctx.views[0].fetch(layer, x, y);
         let b = ctx.views[1].fetch(layer, x, y);
         [

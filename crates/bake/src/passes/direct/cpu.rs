@@ -4,24 +4,19 @@ use luxbake_bvh::Ray;
 
 use crate::backend::{LampView, lamp_toward, offset_origin};
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::DirectParams;
 
 /// The direct pass for one dispatch.
-pub(crate) struct Pass(DirectParams);
+pub(crate) type Pass = DirectParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(DirectParams::from_words(words))
-    }
-
+impl TexelPass for DirectParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
         direct_texel(
             ctx.scene,
-            self.0,
+            *self,
             ctx.trav,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),

@@ -8,25 +8,20 @@ use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::GatherParams;
 
 /// The gather for one dispatch.
-pub(crate) struct Pass(GatherParams);
+pub(crate) type Pass = GatherParams;
 
-impl CpuPass for Pass {
+impl CpuPass for GatherParams {
     type Scratch = GatherScratch;
-
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(GatherParams::from_words(words))
-    }
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut GatherScratch) {
         let v = ctx.views;
         let views = [v[0], v[1], v[2], v[3]];
         let (layer, x0) = (ctx.tile.layer, ctx.tile.x0);
-        gather_row(ctx.scene, views, ctx.trav, self.0, layer, x0, y, texels, scratch);
+        gather_row(ctx.scene, views, ctx.trav, *self, layer, x0, y, texels, scratch);
     }
 }
 

@@ -4,22 +4,17 @@ use crate::backend::offset_origin;
 use crate::passes::gather::cpu::{GatherChunk, GatherTexel, Mis, gather_sums};
 use crate::rng;
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::RefineParams;
 
 /// The refinement for one dispatch.
-pub(crate) struct Pass(RefineParams);
+pub(crate) type Pass = RefineParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(RefineParams::from_words(words))
-    }
-
+impl TexelPass for RefineParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
-        refine_texel(ctx.scene, [v[0], v[1], v[2], v[3], v[4]], ctx.trav, self.0, layer, x, y)
+        refine_texel(ctx.scene, [v[0], v[1], v[2], v[3], v[4]], ctx.trav, *self, layer, x, y)
     }
 }
 

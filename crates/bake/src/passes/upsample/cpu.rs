@@ -1,22 +1,17 @@
 //! The CPU reference of pass `upsample` (the semantics the shaders mirror).
 
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::UpsampleParams;
 
 /// The upsample for one dispatch.
-pub(crate) struct Pass(UpsampleParams);
+pub(crate) type Pass = UpsampleParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(UpsampleParams::from_words(words))
-    }
-
+impl TexelPass for UpsampleParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
-        upsample_texel([v[0], v[1], v[2]], self.0, layer, x, y)
+        upsample_texel([v[0], v[1], v[2]], *self, layer, x, y)
     }
 }
 

@@ -2,22 +2,17 @@
 
 use crate::contract::BLUR_NORMAL_COS;
 use crate::cpu::kernel::*;
-use crate::contract::ParamBlock;
 
 use super::VarianceParams;
 
 /// The variance estimate for one dispatch.
-pub(crate) struct Pass(VarianceParams);
+pub(crate) type Pass = VarianceParams;
 
-impl TexelPass for Pass {
-    fn new(words: &[u32], _: &Ctx<'_>) -> Self {
-        Pass(VarianceParams::from_words(words))
-    }
-
+impl TexelPass for VarianceParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
-        variance_texel(v[0], v[1], v[2], self.0, layer, x, y)
+        variance_texel(v[0], v[1], v[2], *self, layer, x, y)
     }
 }
 
