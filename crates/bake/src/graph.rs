@@ -389,6 +389,14 @@ impl Builder {
     /// The graph: every pass's [`PassDesc::lamps`] set by following the textures from the
     /// passes that compute lamp light (the direct pass and the lamp paths).
     fn finish(mut self, parts: GraphParts) -> BakeGraph {
+        let GraphParts {
+            gbuffer,
+            figure5,
+            method,
+            bounces,
+        } = parts;
+        let stage = |i: usize| figure5.stages[i];
+        let direct = stage(1).unwrap_or(gbuffer.albedo);
         let mut lit = vec![false; self.textures.len()];
         for p in &mut self.passes {
             p.lamps = matches!(p.kind, PassKind::Run(Program::Direct) | PassKind::LampPaths)
@@ -400,26 +408,24 @@ impl Builder {
         BakeGraph {
             textures: self.textures,
             passes: self.passes,
-            gbuffer: parts.gbuffer,
-            figure5: parts.figure5,
-            direct: parts.direct,
-            illuminance: parts.illuminance,
-            exitance: parts.exitance,
-            direct_blurred: parts.direct_blurred,
-            method: parts.method,
-            bounces: parts.bounces,
+            gbuffer,
+            figure5,
+            direct,
+            // The last stages the graph has: (7) and (8), or (3) and (4) without bounces.
+            illuminance: stage(6).or(stage(2)).unwrap_or(direct),
+            exitance: stage(7).or(stage(3)).unwrap_or(direct),
+            direct_blurred: stage(2).unwrap_or(direct),
+            method,
+            bounces,
         }
     }
 }
 
-/// What a graph builder found, besides its textures and passes.
+/// What a graph builder found, besides its textures and passes: the final maps are the last
+/// stages of its Figure 5.
 struct GraphParts {
     gbuffer: GBufferTex,
     figure5: Figure5,
-    direct: TexId,
-    illuminance: TexId,
-    exitance: TexId,
-    direct_blurred: TexId,
     method: Method,
     bounces: u32,
 }
@@ -692,7 +698,6 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             None,
         ],
     };
-    let (mut illuminance, mut exitance) = (direct, reflected_direct);
     if config.bounces > 0 {
         // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
         let reflected = b.texture("reflected");
@@ -853,16 +858,10 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         figure5.stages[5] = Some(combined);
         figure5.stages[6] = Some(combined);
         figure5.stages[7] = Some(reflected_combined);
-        illuminance = combined;
-        exitance = reflected_combined;
     }
     b.finish(GraphParts {
         gbuffer: g,
         figure5,
-        direct,
-        illuminance,
-        exitance,
-        direct_blurred: direct,
         method: Method::Converged,
         bounces: config.bounces,
     })
@@ -913,8 +912,6 @@ impl BakeGraph {
                 None,
             ],
         };
-        let mut illuminance = direct_blurred;
-        let mut exitance = reflected_direct;
         if config.bounces > 0 {
             let indirect = b.texture("indirect");
             let combined = b.texture("combined");
@@ -965,16 +962,10 @@ impl BakeGraph {
             figure5.stages[5] = Some(combined);
             figure5.stages[6] = Some(combined_blurred);
             figure5.stages[7] = Some(reflected_combined);
-            illuminance = combined_blurred;
-            exitance = reflected_combined;
         }
         b.finish(GraphParts {
             gbuffer: g,
             figure5,
-            direct,
-            illuminance,
-            exitance,
-            direct_blurred,
             method: Method::Paper,
             bounces: config.bounces,
         })
