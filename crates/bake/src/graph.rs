@@ -236,6 +236,16 @@ pub struct Figure5 {
 }
 
 impl Figure5 {
+    /// Stages (1)–(4) of the direct part, `[albedo, direct, blurred direct, reflected
+    /// direct]`; (5)–(8) not (yet) in the graph.
+    pub fn direct_part(stages: [TexId; 4]) -> Figure5 {
+        let mut f = Figure5 { stages: [None; 8] };
+        for (s, t) in f.stages.iter_mut().zip(stages) {
+            *s = Some(t);
+        }
+        f
+    }
+
     /// Names of the eight stages, as in the paper's caption.
     pub const NAMES: [&'static str; 8] = [
         "albedo",
@@ -686,18 +696,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
     let reflected_direct = b.texture("reflected_direct");
     albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
-    let mut figure5 = Figure5 {
-        stages: [
-            Some(g.albedo),
-            Some(direct),
-            Some(direct),
-            Some(reflected_direct),
-            None,
-            None,
-            None,
-            None,
-        ],
-    };
+    let mut figure5 = Figure5::direct_part([g.albedo, direct, direct, reflected_direct]);
     if config.bounces > 0 {
         // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
         let reflected = b.texture("reflected");
@@ -854,10 +853,8 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             config.bounces,
             "albedo_combined",
         );
-        figure5.stages[4] = Some(scratch);
-        figure5.stages[5] = Some(combined);
-        figure5.stages[6] = Some(combined);
-        figure5.stages[7] = Some(reflected_combined);
+        figure5.stages[4..]
+            .copy_from_slice(&[scratch, combined, combined, reflected_combined].map(Some));
     }
     b.finish(GraphParts {
         gbuffer: g,
@@ -900,18 +897,8 @@ impl BakeGraph {
             "albedo_direct",
         );
 
-        let mut figure5 = Figure5 {
-            stages: [
-                Some(g.albedo),
-                Some(direct),
-                Some(direct_blurred),
-                Some(reflected_direct),
-                None,
-                None,
-                None,
-                None,
-            ],
-        };
+        let mut figure5 =
+            Figure5::direct_part([g.albedo, direct, direct_blurred, reflected_direct]);
         if config.bounces > 0 {
             let indirect = b.texture("indirect");
             let combined = b.texture("combined");
@@ -958,10 +945,9 @@ impl BakeGraph {
                     last: k == config.bounces,
                 });
             }
-            figure5.stages[4] = Some(indirect);
-            figure5.stages[5] = Some(combined);
-            figure5.stages[6] = Some(combined_blurred);
-            figure5.stages[7] = Some(reflected_combined);
+            figure5.stages[4..].copy_from_slice(
+                &[indirect, combined, combined_blurred, reflected_combined].map(Some),
+            );
         }
         b.finish(GraphParts {
             gbuffer: g,
