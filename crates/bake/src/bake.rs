@@ -33,13 +33,10 @@
 // std's clock panics (the bake runs in a browser in `luxbake-viewer`).
 use web_time::Instant;
 
-use luxbake_bvh::BvhError;
-
 use crate::backend::GpuBackend;
 use crate::execute;
 pub use crate::execute::BOUNCE_ENERGY_THRESHOLD;
 use crate::graph::{BakeGraph, GraphConfig, GraphError};
-use crate::layout::LayoutError;
 use crate::prepare::{Lamps, PrepareError};
 pub use crate::prepare::{Room, recentring_shift};
 pub use crate::report::{BakeOutput, BakeReport, ObjectMaps, PassTiming, Progress, Skipped};
@@ -52,26 +49,14 @@ pub const BRUTE_FORCE_MAX_TRIANGLES: usize = 8;
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum BakeError<E: std::error::Error + 'static> {
-    /// A setting is out of range.
-    #[error("invalid setting `{name}`: {reason}")]
-    InvalidSetting {
-        /// Setting name (as in the scene file's `[settings]`).
-        name: &'static str,
-        /// What is allowed.
-        reason: String,
-    },
-    /// The light maps do not fit the backend's textures.
-    #[error("light-map layout: {0}")]
-    Layout(#[from] LayoutError),
-    /// The BVH could not be built or encoded.
-    #[error("BVH: {0}")]
-    Bvh(#[from] BvhError),
+    /// The host work could not be done: a setting out of range, light maps that do not fit
+    /// the backend's textures, a BVH that cannot be built, or (for [`bake_room`]) a room
+    /// prepared for another texel density or backend.
+    #[error(transparent)]
+    Prepare(#[from] PrepareError),
     /// A pass of the graph breaks its program's signature (a bug in the graph builder).
     #[error("pass graph: {0}")]
     Graph(#[from] GraphError),
-    /// [`bake_room`] was given a room prepared for another texel density or backend.
-    #[error("{0}")]
-    Room(PrepareError),
     /// The backend failed.
     #[error("{backend} backend: {source}")]
     Backend {
@@ -83,18 +68,6 @@ pub enum BakeError<E: std::error::Error + 'static> {
     },
 }
 
-impl<E: std::error::Error + 'static> From<PrepareError> for BakeError<E> {
-    fn from(e: PrepareError) -> Self {
-        match e {
-            PrepareError::InvalidSetting { name, reason } => {
-                BakeError::InvalidSetting { name, reason }
-            }
-            PrepareError::Layout(e) => BakeError::Layout(e),
-            PrepareError::Bvh(e) => BakeError::Bvh(e),
-            e @ PrepareError::Mismatch { .. } => BakeError::Room(e),
-        }
-    }
-}
 /// Bakes `scene` with `settings` on `backend` (see the module docs). `settings` replaces
 /// `scene.settings` (texel density, rays, bounces, blur, traversal, seed).
 ///
@@ -132,10 +105,12 @@ pub fn bake_room<B: GpuBackend>(
         backend: name,
         source,
     };
-    settings.validate().map_err(|e| BakeError::InvalidSetting {
-        name: e.name,
-        reason: e.reason,
-    })?;
+    settings
+        .validate()
+        .map_err(|e| PrepareError::InvalidSetting {
+            name: e.name,
+            reason: e.reason,
+        })?;
     room.check(settings, backend.limits())?;
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), settings, progress);
 

@@ -8,6 +8,7 @@ use std::sync::Arc;
 use luxbake::bake::{BakeError, BakeOutput, Room, bake, bake_room};
 use luxbake::cpu::CpuBackend;
 use luxbake::graph::PassKind;
+use luxbake::prepare::PrepareError;
 use luxbake::scene::{Lamp, Quality, Scene, Settings};
 use luxbake::{GpuBackend, Progress};
 use luxbake_ies::Photometry;
@@ -171,6 +172,9 @@ fn a_room_prepared_for_another_density_is_refused() {
         &mut |_| {},
     )
     .expect_err("another density");
-    assert!(matches!(err, BakeError::Room(_)), "{err}");
+    assert!(
+        matches!(err, BakeError::Prepare(PrepareError::Mismatch { .. })),
+        "{err}"
+    );
     assert!(err.to_string().contains("texels per metre"), "{err}");
 }
