@@ -402,11 +402,11 @@ impl Builder {
         let GraphParts {
             gbuffer,
             figure5,
+            direct,
             method,
             bounces,
         } = parts;
         let stage = |i: usize| figure5.stages[i];
-        let direct = stage(1).unwrap_or(gbuffer.albedo);
         let mut lit = vec![false; self.textures.len()];
         for p in &mut self.passes {
             p.lamps = matches!(p.kind, PassKind::Run(Program::Direct) | PassKind::LampPaths)
@@ -436,6 +436,8 @@ impl Builder {
 struct GraphParts {
     gbuffer: GBufferTex,
     figure5: Figure5,
+    /// The unblurred direct illuminance (2).
+    direct: TexId,
     method: Method,
     bounces: u32,
 }
@@ -859,6 +861,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     b.finish(GraphParts {
         gbuffer: g,
         figure5,
+        direct,
         method: Method::Converged,
         bounces: config.bounces,
     })
@@ -952,6 +955,7 @@ impl BakeGraph {
         b.finish(GraphParts {
             gbuffer: g,
             figure5,
+            direct,
             method: Method::Paper,
             bounces: config.bounces,
         })

@@ -211,7 +211,7 @@ impl Room {
         // Not timed: moving the scene is cheap and only far from the origin does anything.
         let shift = recentring_shift(&scene);
         if let Some(shift) = shift {
-            scene = scene.translated(shift.map(|c| -c));
+            scene.translate(shift.map(|c| -c));
         }
         let mut timings = Vec::new();
         let layout = timed(HostNode::Layout, &mut timings, progress, || {
@@ -289,7 +289,7 @@ impl Room {
         let mut lamps = lamps.to_vec();
         if let Some(shift) = self.shift {
             for l in &mut lamps {
-                // As `Scene::translated(−shift)` moves them, bit for bit.
+                // As `Scene::translate(−shift)` moves them, bit for bit.
                 l.position = [0, 1, 2].map(|c| l.position[c] + -shift[c]);
             }
         }
@@ -415,13 +415,13 @@ impl Lamps {
             }
         }
         let params: Vec<LampParams> = used.iter().map(|&l| all[l]).collect();
-        let paths = match lamp_paths_off(settings, params.is_empty()) {
-            Some(Some(reason)) => {
+        let paths = match lamp_paths_wanted(settings, params.is_empty()) {
+            Err(reason) => {
                 skipped.push(Skipped::LampPaths { reason });
                 None
             }
-            Some(None) => None,
-            None => Some(timed(HostNode::LampPaths, &mut timings, progress, || {
+            Ok(false) => None,
+            Ok(true) => Some(timed(HostNode::LampPaths, &mut timings, progress, || {
                 let geometry = room.geometry();
                 let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
                 let pool = LampPaths::trace(&geometry, &params, &tables, size, settings.seed);
@@ -442,24 +442,23 @@ impl Lamps {
     }
 }
 
-/// `None` when the bake traces lamp paths; `Some(None)` when it was not asked to, and
-/// `Some(Some(reason))` when it was asked to but cannot combine them with the first bounce.
-fn lamp_paths_off(settings: &Settings, no_lamp: bool) -> Option<Option<&'static str>> {
+/// Whether the bake traces lamp paths: `Ok(false)` when it was not asked to, `Err(reason)`
+/// when it was asked to but cannot combine them with the first bounce.
+fn lamp_paths_wanted(settings: &Settings, no_lamp: bool) -> Result<bool, &'static str> {
     if settings.method != Method::Converged || settings.lamp_paths == 0 {
-        return Some(None);
+        return Ok(false);
     }
-    let reason = if settings.bounces == 0 {
-        "no bounce"
+    if settings.bounces == 0 {
+        Err("no bounce")
     } else if settings.stride > 1 {
-        "the first bounce is gathered at reduced resolution (stride > 1)"
+        Err("the first bounce is gathered at reduced resolution (stride > 1)")
     } else if settings.refine_rays > 0 {
-        "the first bounce is refined (refine_rays > 0)"
+        Err("the first bounce is refined (refine_rays > 0)")
     } else if no_lamp {
-        "no lamp lights anything"
+        Err("no lamp lights anything")
     } else {
-        return None;
-    };
-    Some(Some(reason))
+        Ok(true)
+    }
 }
 
 /// Per lamp and object, how many valid texels the lamp lights (no shadows).
@@ -550,9 +549,8 @@ mod tests {
                 "{node:?}"
             );
         }
-        let labels: Vec<_> = HostNode::ALL.iter().map(|n| n.label()).collect();
-        let mut unique = labels.clone();
-        unique.dedup();
-        assert_eq!(labels, unique);
+        let labels: std::collections::HashSet<_> =
+            HostNode::ALL.iter().map(|n| n.label()).collect();
+        assert_eq!(labels.len(), HostNode::ALL.len(), "labels are unique");
     }
 }

@@ -1276,14 +1276,19 @@ impl Scene {
     /// (the sums are exact while the offset and the coordinates fit f64's 53 bits together).
     pub fn translated(&self, offset: [f64; 3]) -> Scene {
         let mut s = self.clone();
+        s.translate(offset);
+        s
+    }
+
+    /// Moves the scene by `offset` metres in place, as [`Scene::translated`] does.
+    pub fn translate(&mut self, offset: [f64; 3]) {
         let add = |v: [f64; 3]| std::array::from_fn(|c| v[c] + offset[c]);
-        for o in &mut s.objects {
+        for o in &mut self.objects {
             o.transform.translation = add(o.transform.translation);
         }
-        for l in &mut s.lamps {
+        for l in &mut self.lamps {
             l.position = add(l.position);
         }
-        s
     }
 
     /// Total number of triangles over all objects.
