@@ -2,8 +2,15 @@
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
 //! [--tail true|false] [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N]
 //! [--refine-rays N] [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none]
-//! [--bvh mtbvh|tbvh|none] [--seed S] [--sampler hash|sobol]`: bake a scene's light maps into
-//! a folder.
+//! [--bvh mtbvh|tbvh|none] [--seed S] [--sampler hash|sobol] [--lamp FILE|DIR]...
+//! [--lamp-layers]`: bake a scene's light maps into a folder.
+//!
+//! `--lamp` (repeated, or a folder of `.ies`/`.ldt` files) bakes the room once per
+//! photometric file, every lamp of the scene taking that file, into `OUT/<file stem>/`: the
+//! room's host work (layout, rasterising, BVH, unocclusion) runs once for all of them.
+//! `--lamp-layers` also bakes each lamp's light apart and writes it as a bake folder of its own,
+//! `OUT/lamps/<index>_<lamp name>/` (each readable by `cargo xtask measure`), the maps in `OUT`
+//! being their sum ([`luxbake::layers`]).
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
 //! the converged method's `default` preset. The flags are a [`SettingsPatch`] layered over the
@@ -14,18 +21,21 @@
 //! without `--tail true` bakes exactly that many bounces. A progress bar per pass, then a
 //! summary table.
 
-use std::path::PathBuf;
-use std::time::Duration;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressStyle};
-use luxbake::bake::{BakeOutput, Progress, bake};
+use luxbake::GpuBackend;
+use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room};
+use luxbake::layers::{LampState, bake_layers};
 use luxbake::scene::{
-    Blur, BvhMode, Method, Quality, Sampler, Scene, SceneError, SettingError, Settings,
-    SettingsPatch,
+    Blur, BvhMode, Lamp, Method, Quality, Sampler, Scene, SceneError, SettingError, SettingsPatch,
 };
-use luxbake::sources::scenefile::{from_file_patched, preferred_backend};
+use luxbake::sources::scenefile::{from_file_patched, preferred_backend, read_photometry};
 use luxbake_backends::BackendKind;
-use luxbake_output::write_bake;
+use luxbake_ies::Photometry;
+use luxbake_output::{file_stem, write_bake};
 
 /// Arguments of `cargo xtask bake`.
 #[derive(clap::Args)]
@@ -105,6 +115,14 @@ pub struct Args {
     /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
     #[arg(long)]
     lamp_paths: Option<u32>,
+    /// A photometric file (IES or EULUMDAT) for every lamp of the scene, or a folder of them:
+    /// the room is prepared once and baked per file into `OUT/<file stem>/`. Repeatable.
+    #[arg(long = "lamp", value_name = "FILE|DIR")]
+    lamp_files: Vec<PathBuf>,
+    /// Also write each lamp's light apart, to `OUT/lamps/<index>_<name>/` (a bake folder per
+    /// lamp at multiplier 1); the maps in `OUT` are their sum.
+    #[arg(long)]
+    lamp_layers: bool,
 }
 
 impl Args {
@@ -174,31 +192,161 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
 /// Runs the bake; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
     let (scene, backend, source) = load(args)?;
+    let files = lamp_files(&args.lamp_files)?;
+    if files.len() > 1 && args.glb.is_some() {
+        return Err("--glb writes one file: give it with one --lamp file at a time".into());
+    }
+    if !files.is_empty() && scene.lamps.is_empty() {
+        return Err("--lamp: the scene has no lamp to take the photometric file".into());
+    }
     let settings = scene.settings.clone();
     let mut backend = luxbake_backends::open(backend).map_err(|e| e.to_string())?;
-    let output = run_with(&mut backend, &scene, &settings)?;
-    write_bake(&args.out, &scene, &output, &source).map_err(|e| e.to_string())?;
-    if let Some(glb) = &args.glb {
-        luxbake_assets::export::export_baked(&scene, &output, glb).map_err(|e| e.to_string())?;
-        println!("wrote {}", glb.display());
+    let mut progress = progress_bars()?;
+    if files.is_empty() && !args.lamp_layers {
+        let output =
+            bake(&mut backend, &scene, &settings, &mut progress).map_err(|e| e.to_string())?;
+        return finish(args, &args.out, &scene, &output, &source);
     }
-    print_summary(&output, &scene);
-    println!("wrote {}", args.out.join("manifest.json").display());
+    // The room once, then each lamp file (or the scene's own lamps) on it.
+    let room = Room::prepare(&scene, &settings, backend.limits(), &mut progress)
+        .map_err(|e| e.to_string())?;
+    let room_seconds: f64 = room.timings.iter().map(|(_, s)| s).sum();
+    let jobs: Vec<(PathBuf, Scene)> = if files.is_empty() {
+        vec![(args.out.clone(), scene.clone())]
+    } else {
+        files
+            .iter()
+            .map(|(stem, photometry)| {
+                let mut lit = scene.clone();
+                for lamp in &mut lit.lamps {
+                    lamp.photometry = photometry.clone();
+                }
+                (args.out.join(stem), lit)
+            })
+            .collect()
+    };
+    let mut lamp_seconds = Vec::new();
+    for (dir, lit) in &jobs {
+        let t = Instant::now();
+        let output = if args.lamp_layers {
+            let layers = bake_layers(&mut backend, &room, &lit.lamps, &settings, &mut progress)
+                .map_err(|e| e.to_string())?;
+            for (i, (layer, color)) in layers.layers.iter().zip(&layers.colors).enumerate() {
+                let lamp = Lamp {
+                    multiplier: 1.0,
+                    color: *color,
+                    ..lit.lamps[i].clone()
+                };
+                let alone = Scene {
+                    lamps: vec![lamp],
+                    ..lit.clone()
+                };
+                let folder = dir
+                    .join("lamps")
+                    .join(format!("{i}_{}", file_stem(&lit.lamps[i].name)));
+                write_bake(&folder, &alone, layer, &source).map_err(|e| e.to_string())?;
+            }
+            let states: Vec<LampState> = lit.lamps.iter().map(LampState::of).collect();
+            layers.combine(&states).map_err(|e| e.to_string())?
+        } else {
+            bake_room(&mut backend, &room, &lit.lamps, &settings, &mut progress)
+                .map_err(|e| e.to_string())?
+        };
+        lamp_seconds.push((dir.clone(), t.elapsed().as_secs_f64()));
+        finish(args, dir, lit, &output, &source)?;
+    }
+    println!(
+        "\nroom prepared once: {:.1} ms (layout, rasterise, bvh, unocclude)",
+        room_seconds * 1e3
+    );
+    for (dir, seconds) in lamp_seconds {
+        println!(
+            "lamps baked on it:  {:>8.1} ms  {}",
+            seconds * 1e3,
+            dir.display()
+        );
+    }
     Ok(())
 }
 
-fn run_with<B: luxbake::GpuBackend>(
-    backend: &mut B,
+/// Writes one bake's folder (and `--glb`), prints its summary.
+fn finish(
+    args: &Args,
+    dir: &Path,
     scene: &Scene,
-    settings: &Settings,
-) -> Result<BakeOutput, String> {
+    output: &BakeOutput,
+    source: &str,
+) -> Result<(), String> {
+    write_bake(dir, scene, output, source).map_err(|e| e.to_string())?;
+    if let Some(glb) = &args.glb {
+        luxbake_assets::export::export_baked(scene, output, glb).map_err(|e| e.to_string())?;
+        println!("wrote {}", glb.display());
+    }
+    print_summary(output, scene);
+    println!("wrote {}", dir.join("manifest.json").display());
+    Ok(())
+}
+
+/// The photometric files `--lamp` names, each with its output folder's name (the file stem,
+/// made unique), read and parsed; a folder gives its `.ies` and `.ldt` files in name order.
+fn lamp_files(paths: &[PathBuf]) -> Result<Vec<(String, Arc<Photometry>)>, String> {
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            let mut found: Vec<PathBuf> = std::fs::read_dir(path)
+                .map_err(|e| format!("--lamp {}: {e}", path.display()))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| {
+                    p.is_file()
+                        && p.extension().is_some_and(|x| {
+                            x.eq_ignore_ascii_case("ies") || x.eq_ignore_ascii_case("ldt")
+                        })
+                })
+                .collect();
+            if found.is_empty() {
+                return Err(format!(
+                    "--lamp {}: the folder holds no .ies or .ldt file",
+                    path.display()
+                ));
+            }
+            found.sort();
+            files.extend(found);
+        } else {
+            files.push(path.clone());
+        }
+    }
+    let mut stems = std::collections::HashSet::new();
+    files
+        .iter()
+        .map(|file| {
+            let photometry =
+                read_photometry(file).map_err(|e| format!("--lamp {}: {e}", file.display()))?;
+            let base = file_stem(
+                &file
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+            );
+            let mut stem = base.clone();
+            let mut n = 2;
+            while !stems.insert(stem.clone()) {
+                stem = format!("{base}_{n}");
+                n += 1;
+            }
+            Ok((stem, photometry))
+        })
+        .collect()
+}
+
+/// A progress bar per pass on stderr.
+fn progress_bars() -> Result<impl FnMut(&Progress<'_>), String> {
     let style = ProgressStyle::with_template(
         "{prefix:>16} [{bar:40.cyan/blue}] {percent:>3}% {elapsed_precise}",
     )
     .map_err(|e| e.to_string())?
     .progress_chars("=> ");
     let mut bar: Option<ProgressBar> = None;
-    let mut on_progress = |p: &Progress<'_>| match p {
+    Ok(move |p: &Progress<'_>| match p {
         Progress::Setup(step) => eprintln!("{step} …"),
         Progress::PassStart {
             index,
@@ -226,8 +374,7 @@ fn run_with<B: luxbake::GpuBackend>(
                 b.finish();
             }
         }
-    };
-    bake(backend, scene, settings, &mut on_progress).map_err(|e| e.to_string())
+    })
 }
 
 fn print_summary(out: &BakeOutput, scene: &Scene) {
@@ -415,5 +562,102 @@ mod tests {
             .settings;
         assert_eq!((s.bounces, s.tail), (2, true));
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// `--lamp A --lamp B --lamp-layers` prepares the room once and writes one folder per file,
+    /// each with the maps a whole bake of the scene with that file gives, and the per-lamp
+    /// folder beside them.
+    #[test]
+    fn lamp_files_bake_one_room_per_file_into_their_folders() {
+        let (Some(a), Some(b)) = (
+            luxbake_testkit::shared_data("lamp_files", "photometry/real-world/rw_7.IES"),
+            luxbake_testkit::shared_data("lamp_files", "photometry/real-world/rw_5.IES"),
+        ) else {
+            return;
+        };
+        let out = luxbake_testkit::temp_dir("xtask-lamps", "out");
+        let (a, b, o) = (
+            a.display().to_string(),
+            b.display().to_string(),
+            out.display().to_string(),
+        );
+        let flags = [
+            "bake",
+            "--scene",
+            "floor",
+            "--quality",
+            "draft",
+            "--texels-per-metre",
+            "8",
+            "--out",
+            &o,
+            "--lamp",
+            &a,
+            "--lamp",
+            &b,
+            "--lamp-layers",
+        ];
+        let cli = Cli::try_parse_from(flags).expect("flags");
+        run(&cli.args).expect("bake");
+        let (scene, ..) = load(&cli.args).expect("scene");
+        for (stem, file) in [("rw_7", &a), ("rw_5", &b)] {
+            let mut lit = scene.clone();
+            lit.lamps[0].photometry = read_photometry(Path::new(file)).expect("photometry");
+            let whole = bake(
+                &mut luxbake::cpu::CpuBackend::new(),
+                &lit,
+                &lit.settings,
+                &mut |_| {},
+            )
+            .expect("whole bake");
+            let folder = out.join(stem);
+            let written = luxbake_output::read_exr(&folder.join(format!(
+                "{}_illuminance.exr",
+                file_stem(&lit.objects[0].name)
+            )))
+            .expect("illuminance");
+            // The EXR is dilated into the padding: compare the baked texels.
+            let baked = whole.maps[0].illuminance();
+            let mut compared = 0;
+            for (w, t) in written
+                .texels
+                .chunks_exact(4)
+                .zip(baked.texels.chunks_exact(4))
+            {
+                if t[3] > 0.5 {
+                    for c in 0..3 {
+                        assert!((w[c] - t[c]).abs() <= 1e-5 * t[c].abs().max(1e-3), "{stem}");
+                    }
+                    compared += 1;
+                }
+            }
+            assert!(compared > 100, "{stem}: {compared} texels");
+            let layer = folder
+                .join("lamps")
+                .join(format!("0_{}", file_stem(&lit.lamps[0].name)));
+            assert!(layer.join("manifest.json").is_file(), "{}", layer.display());
+        }
+        // A folder gives its files in name order; one without any is refused.
+        let dir = Path::new(&a).parent().expect("folder");
+        let stems: Vec<String> = lamp_files(&[dir.to_path_buf()])
+            .expect("folder")
+            .into_iter()
+            .map(|(s, _)| s)
+            .collect();
+        assert!(
+            stems.len() >= 2 && stems.windows(2).all(|w| w[0] < w[1]),
+            "{stems:?}"
+        );
+        std::fs::create_dir_all(out.join("empty")).expect("empty");
+        let e = lamp_files(&[out.join("empty")]).expect_err("empty folder");
+        assert!(e.contains("no .ies or .ldt file"), "{e}");
+        // The same file twice gets two folders.
+        let twice: Vec<String> = lamp_files(&[a.clone().into(), a.clone().into()])
+            .expect("twice")
+            .into_iter()
+            .map(|(s, _)| s)
+            .collect();
+        assert_eq!(twice, ["rw_7", "rw_7_2"]);
+        std::fs::remove_dir_all(&out).ok();
     }
 }

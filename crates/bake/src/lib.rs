@@ -21,7 +21,9 @@
 //! 3. **execute** it pass by pass on the backend;
 //! 4. **collect** the maps: read back, cropped per object ([`report::BakeOutput`]).
 //!
-//! [`bake_room`] bakes a prepared room under other lamps without repeating its work.
+//! [`bake_room`] bakes a prepared room under other lamps without repeating its work;
+//! [`layers::bake_layers`] keeps each lamp's light apart, so that dimming, tinting or switching
+//! a lamp recombines the maps without a ray ([`layers::LampLayers::combine`]).
 //! [`cpu::CpuBackend`] is the reference backend and the oracle for GPU backends; the crate
 //! `luxbake-output` (formerly `luxbake::output`) writes EXR/PNG/JSON files.
 //!
@@ -122,6 +124,7 @@ pub mod exact;
 mod execute;
 pub mod gbuffer;
 pub mod graph;
+pub mod layers;
 pub mod layout;
 pub mod lightpaths;
 pub mod map;

@@ -487,38 +487,14 @@ impl Cx<'_> {
             };
         }
         let file = self.base_dir.join(ies);
-        let bytes = read_limited(&file, MAX_PHOTOMETRY_FILE_BYTES)
-            .map_err(|e| self.invalid(key, format!("cannot read `{}`: {e}", file.display())))?
-            .ok_or_else(|| {
-                self.invalid(
-                    key,
-                    format!(
-                        "`{}` is longer than {MAX_PHOTOMETRY_FILE_BYTES} bytes",
-                        file.display()
-                    ),
-                )
-            })?;
-        // `TILT=<file>` names a file beside the photometric file (a plain file name only).
-        let folder = file.parent().map(Path::to_path_buf).unwrap_or_default();
-        let resolve = |name: &str| -> Option<Vec<u8>> {
-            let name = name.trim();
-            let plain = Path::new(name).file_name().is_some_and(|f| f == name);
-            if !plain {
-                return None;
-            }
-            read_limited(&folder.join(name), MAX_PHOTOMETRY_FILE_BYTES).ok()?
-        };
-        let options = ParseOptions {
-            tilt_resolver: Some(&resolve),
-            ..ParseOptions::default()
-        };
-        Photometry::parse_with(&bytes, &options)
-            .map(Arc::new)
-            .map_err(|e| SceneError::Photometry {
+        read_photometry(&file).map_err(|e| match e {
+            PhotometryFileError::Parse { file, source } => SceneError::Photometry {
                 key: key.to_string(),
                 file,
-                source: Box::new(e),
-            })
+                source,
+            },
+            e => self.invalid(key, e.to_string()),
+        })
     }
 
     fn object(
@@ -984,6 +960,71 @@ impl Cx<'_> {
 
 /// Reads at most `limit` bytes of `path`: `Ok(None)` when the file is longer. Reads through
 /// the handle rather than trusting the file's reported size (devices and pipes report 0).
+/// A photometric file that [`read_photometry`] could not read.
+#[derive(Debug, thiserror::Error)]
+pub enum PhotometryFileError {
+    /// The file could not be opened or read.
+    #[error("cannot read `{}`: {source}", file.display())]
+    Read {
+        /// The file.
+        file: PathBuf,
+        /// Why.
+        #[source]
+        source: std::io::Error,
+    },
+    /// The file is longer than [`MAX_PHOTOMETRY_FILE_BYTES`].
+    #[error("`{}` is longer than {MAX_PHOTOMETRY_FILE_BYTES} bytes", file.display())]
+    TooLong {
+        /// The file.
+        file: PathBuf,
+    },
+    /// The file is neither valid IES LM-63 nor valid EULUMDAT.
+    #[error("cannot parse photometric file `{}`: {source}", file.display())]
+    Parse {
+        /// The file.
+        file: PathBuf,
+        /// The parser's error.
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync>,
+    },
+}
+
+/// Reads an IES LM-63 or EULUMDAT file as a scene file's `ies` key does: at most
+/// [`MAX_PHOTOMETRY_FILE_BYTES`], a `TILT=<file>` naming a plain file beside it.
+///
+/// # Errors
+/// [`PhotometryFileError`] naming the file.
+pub fn read_photometry(file: &Path) -> Result<Arc<Photometry>, PhotometryFileError> {
+    let bytes = read_limited(file, MAX_PHOTOMETRY_FILE_BYTES)
+        .map_err(|source| PhotometryFileError::Read {
+            file: file.to_path_buf(),
+            source,
+        })?
+        .ok_or_else(|| PhotometryFileError::TooLong {
+            file: file.to_path_buf(),
+        })?;
+    // `TILT=<file>` names a file beside the photometric file (a plain file name only).
+    let folder = file.parent().map(Path::to_path_buf).unwrap_or_default();
+    let resolve = |name: &str| -> Option<Vec<u8>> {
+        let name = name.trim();
+        let plain = Path::new(name).file_name().is_some_and(|f| f == name);
+        if !plain {
+            return None;
+        }
+        read_limited(&folder.join(name), MAX_PHOTOMETRY_FILE_BYTES).ok()?
+    };
+    let options = ParseOptions {
+        tilt_resolver: Some(&resolve),
+        ..ParseOptions::default()
+    };
+    Photometry::parse_with(&bytes, &options)
+        .map(Arc::new)
+        .map_err(|e| PhotometryFileError::Parse {
+            file: file.to_path_buf(),
+            source: Box::new(e),
+        })
+}
+
 fn read_limited(path: &Path, limit: u64) -> std::io::Result<Option<Vec<u8>>> {
     use std::io::Read;
     let mut bytes = Vec::new();
