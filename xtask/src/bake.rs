@@ -374,6 +374,7 @@ fn progress_bars() -> Result<impl FnMut(&Progress<'_>), String> {
                 b.finish();
             }
         }
+        Progress::Work(_) => {}
     })
 }
 

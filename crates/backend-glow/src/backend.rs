@@ -239,9 +239,13 @@ impl GpuBackend for GlowBackend {
         }
         self.target
             .draw(gl, label, [t.x0, t.y0, t.width, t.height])?;
-        // Wait for the tile: honest progress, and no unbounded queue of GPU work.
+        // Wait for the tile: honest progress and timings, and no unbounded queue of GPU work.
         // SAFETY: glFinish has no preconditions.
         unsafe { gl.finish() };
+        // WebGL's `finish` need not wait (browsers run the GPU work in another process): reading
+        // one texel of the tile back does.
+        #[cfg(target_arch = "wasm32")]
+        self.target.wait(gl, label, [t.x0, t.y0])?;
         check(gl, label, "finishing a tile")
     }
 

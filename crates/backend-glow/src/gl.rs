@@ -448,6 +448,29 @@ impl Target {
             .collect())
     }
 
+    /// Reads texel `at` of the bound target back: the caller waits until the GPU has drawn it
+    /// (WebGL's `finish` need not wait).
+    #[cfg(target_arch = "wasm32")]
+    pub(crate) fn wait(&self, gl: &glow::Context, label: &str, at: [u32; 2]) -> Result<()> {
+        let mut bytes = [0u8; 16];
+        // SAFETY: the buffer holds one RGBA f32 texel; RGBA/FLOAT is a valid read format for
+        // an RGBA32F attachment (EXT_color_buffer_float).
+        unsafe {
+            gl.pixel_store_i32(glow::PACK_ALIGNMENT, 4);
+            gl.read_buffer(glow::COLOR_ATTACHMENT0);
+            gl.read_pixels(
+                to_i32(at[0], "x")?,
+                to_i32(at[1], "y")?,
+                1,
+                1,
+                glow::RGBA,
+                glow::FLOAT,
+                glow::PixelPackData::Slice(Some(&mut bytes)),
+            );
+        }
+        check(gl, label, "waiting for a tile")
+    }
+
     /// Deletes the framebuffer and vertex array.
     pub(crate) fn delete(&self, gl: &glow::Context) {
         // SAFETY: both objects belong to this context and are not used again.

@@ -39,7 +39,9 @@ pub use crate::execute::BOUNCE_ENERGY_THRESHOLD;
 use crate::graph::{BakeGraph, GraphConfig, GraphError};
 use crate::prepare::{Lamps, PrepareError};
 pub use crate::prepare::{Room, recentring_shift};
-pub use crate::report::{BakeOutput, BakeReport, ObjectMaps, PassTiming, Progress, Skipped};
+pub use crate::report::{
+    BakeOutput, BakeReport, ObjectMaps, OnDirect, PassTiming, Progress, Skipped,
+};
 use crate::scene::{BvhMode, Lamp, Method, Scene, Settings};
 
 /// Scenes with at most this many triangles are traced by brute force.
@@ -99,6 +101,32 @@ pub fn bake_room<B: GpuBackend>(
     settings: &Settings,
     progress: &mut dyn FnMut(&Progress<'_>),
 ) -> Result<BakeOutput, BakeError<B::Error>> {
+    bake_room_inner(backend, room, lamps, settings, progress, None)
+}
+
+/// [`bake_room`], handing the direct light to `direct` as soon as it exists: per receiver,
+/// [`ObjectMaps`] with only the blurred direct illuminance (Figure 5 stage 3, which
+/// [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`] return), before the bounces run.
+/// It costs one read-back of one map.
+pub fn bake_room_direct_first<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    lamps: &[Lamp],
+    settings: &Settings,
+    progress: &mut dyn FnMut(&Progress<'_>),
+    direct: &mut dyn FnMut(&[ObjectMaps]),
+) -> Result<BakeOutput, BakeError<B::Error>> {
+    bake_room_inner(backend, room, lamps, settings, progress, Some(direct))
+}
+
+fn bake_room_inner<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    lamps: &[Lamp],
+    settings: &Settings,
+    progress: &mut dyn FnMut(&Progress<'_>),
+    direct: Option<OnDirect<'_>>,
+) -> Result<BakeOutput, BakeError<B::Error>> {
     let start = Instant::now();
     let name = backend.name();
     let be = |source| BakeError::Backend {
@@ -149,7 +177,8 @@ pub fn bake_room<B: GpuBackend>(
     graph.validate()?;
 
     // Execute, then collect.
-    let run = execute::run(backend, (room, &lamps), &graph, settings, progress).map_err(be)?;
+    let run =
+        execute::run(backend, (room, &lamps), &graph, settings, progress, direct).map_err(be)?;
     progress(&Progress::Setup("read back"));
     let t = Instant::now();
     let maps = execute::collect(backend, room, &graph, &run.textures).map_err(be)?;

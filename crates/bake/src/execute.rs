@@ -5,6 +5,14 @@
 //! [`RunWhen`] the decisions so far rule out. After a pass with a [`Check`] it reads back the
 //! energy of one texture (a sum over its valid texels) and decides: where the bounces stop,
 //! and the tail's weight ([`Runtime::TailWeight`]). The graph itself is never changed.
+//!
+//! # Progress
+//! [`Progress::Work`] is the work done (texels × rays or taps of every dispatch run) over that
+//! plus the work of the passes still expected: the bounces up to the one where the decisions
+//! so far expect the series to stop ([`Decisions::expected_stop`]: the tail's fraction,
+//! shrinking by the bounce ratio per bounce, under the tolerance; before two bounces have run,
+//! [`EXPECTED_BOUNCES`]). A graph that reserves 32 bounces and stops after 4 therefore does not
+//! sit at an eighth for most of the bake.
 
 // `web_time::Instant` is `std::time::Instant` natively and `performance.now()` on wasm32.
 use web_time::Instant;
@@ -12,17 +20,21 @@ use web_time::Instant;
 use rayon::prelude::*;
 
 use crate::backend::{Dispatch, GpuBackend, SceneData};
-use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime};
+use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId};
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
 use crate::program::{CombineParams, Params, TilePlan};
-use crate::report::{ObjectMaps, PassTiming, Progress, Skipped};
+use crate::report::{ObjectMaps, OnDirect, PassTiming, Progress, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
 
 /// Bounces stop once one adds less than this fraction of the total illuminance.
 pub const BOUNCE_ENERGY_THRESHOLD: f32 = 1e-3;
+
+/// Bounces a progress estimate expects before two have run and their ratio is known (the
+/// default preset's rooms stop after 3 to 6).
+pub const EXPECTED_BOUNCES: u32 = 4;
 
 /// What the decisions of a run found.
 #[derive(Debug, Default)]
@@ -67,6 +79,8 @@ impl Decisions {
                 } else {
                     0.0
                 };
+                // The increments, for the progress estimate.
+                self.series.increments.push(energy - self.previous_indirect);
                 self.previous_indirect = energy;
                 if !last && added.abs() < BOUNCE_ENERGY_THRESHOLD {
                     self.stop(bounce, settings.bounces, added);
@@ -98,6 +112,43 @@ impl Decisions {
             to,
             added,
         });
+    }
+
+    /// The bounce at which the bake is expected to stop, for progress: the decided one, or
+    /// where the series' tail (the paper method's increment) falls under the tolerance if it
+    /// keeps shrinking by the last ratio, at most `settings.bounces`.
+    fn expected_stop(&self, settings: &Settings) -> u32 {
+        if let Some(s) = self.stopped {
+            return s;
+        }
+        let done = self.bounces_run;
+        let (left, tolerance, ratio) = match settings.method {
+            crate::scene::Method::Converged if settings.tail => (
+                self.series.tail_fraction(),
+                f64::from(settings.tail_tolerance),
+                self.series.ratio(),
+            ),
+            // Without the tail every bounce runs.
+            crate::scene::Method::Converged => return settings.bounces,
+            crate::scene::Method::Paper => {
+                let total = self.direct_energy + self.previous_indirect;
+                let last = self.series.increments.last().copied().unwrap_or(0.0);
+                let left = if total > 0.0 { last.abs() / total } else { 0.0 };
+                (
+                    left,
+                    f64::from(BOUNCE_ENERGY_THRESHOLD),
+                    self.series.ratio(),
+                )
+            }
+        };
+        let more = match ratio {
+            Some(r) if r > 0.0 && r < 1.0 && left > tolerance => {
+                ((tolerance / left).ln() / r.ln()).ceil().clamp(1.0, 64.0) as u32
+            }
+            Some(_) if left <= tolerance => 1,
+            _ => EXPECTED_BOUNCES.saturating_sub(done).max(1),
+        };
+        (done + more).min(settings.bounces)
     }
 
     /// `pass`'s parameter block with the decided runtime values.
@@ -141,13 +192,51 @@ fn read_all<B: GpuBackend>(
         .collect()
 }
 
-/// Runs `graph` for `room` lit by `lamps` on `backend` (module docs).
+/// What one ray costs against one filter tap, for progress (the CPU backend on `chairs_05`:
+/// a gather ray about 14 à-trous taps, a shadow ray about 9).
+const RAY_COST: f64 = 12.0;
+
+/// Work of `pass`, for progress, in filter taps: texels of the layout × its work per texel,
+/// rays weighted by [`RAY_COST`], a strided gather on its grid only, its lamp-path
+/// connections (a shadow ray each) included.
+fn pass_work(pass: &PassDesc, room: &Room) -> f64 {
+    let [w, h] = room.layout.layer_size;
+    let texels = f64::from(w) * f64::from(h) * f64::from(room.layout.layers);
+    let mut per_texel = pass.params.work_per_texel() as f64;
+    if let Params::Gather(g) = pass.params {
+        per_texel = (per_texel + f64::from(g.lamp_paths)) / f64::from(g.stride.max(1)).powi(2);
+    }
+    if pass.kind.program().is_some_and(|p| p.signature().scene.bvh) {
+        per_texel *= RAY_COST;
+    }
+    texels * per_texel
+}
+
+/// Work of the passes after `index` that run if the bake stops at bounce `stop`.
+fn work_to_come(graph: &BakeGraph, room: &Room, index: usize, stop: u32) -> f64 {
+    graph
+        .passes
+        .iter()
+        .skip(index + 1)
+        .filter(|p| match p.when {
+            RunWhen::Always => true,
+            RunWhen::Bounce(k) => k <= stop,
+            RunWhen::StoppedAt(k) => k == stop,
+        })
+        .map(|p| pass_work(p, room))
+        .sum()
+}
+
+/// Runs `graph` for `room` lit by `lamps` on `backend` (module docs). `direct`, if given,
+/// receives the blurred direct maps (Figure 5 stage 3, the maps a bake without bounces
+/// shows) as soon as the graph has computed them.
 pub(crate) fn run<B: GpuBackend>(
     backend: &mut B,
     (room, lamps): (&Room, &Lamps),
     graph: &BakeGraph,
     settings: &Settings,
     progress: &mut dyn FnMut(&Progress<'_>),
+    mut direct: Option<OnDirect<'_>>,
 ) -> Result<Run<B::Texture>, B::Error> {
     progress(&Progress::Setup("upload"));
     let t = Instant::now();
@@ -172,10 +261,20 @@ pub(crate) fn run<B: GpuBackend>(
     let mut decisions = Decisions::default();
     let mut passes = Vec::new();
     let count = graph.passes.len();
+    // The last pass that writes the blurred direct map: after it, the direct light exists.
+    let blurred_direct = graph.figure5.stages[2];
+    let direct_done = graph
+        .passes
+        .iter()
+        .rposition(|p| blurred_direct.is_some_and(|t| p.writes.contains(&t)));
+    let mut done_work = 0.0f64;
+    let mut shown = 0.0f32;
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
             continue;
         }
+        let work = pass_work(pass, room);
+        let to_come = work_to_come(graph, room, index, decisions.expected_stop(settings));
         progress(&Progress::PassStart {
             index,
             count,
@@ -183,7 +282,15 @@ pub(crate) fn run<B: GpuBackend>(
             bounce: pass.bounce,
         });
         let t = Instant::now();
-        let mut report = |fraction| progress(&Progress::PassProgress { index, fraction });
+        let mut report = |fraction: f32| {
+            progress(&Progress::PassProgress { index, fraction });
+            let done = done_work + work * f64::from(fraction);
+            let f = (done / (done_work + work + to_come)) as f32;
+            if f > shown {
+                shown = f.min(1.0);
+                progress(&Progress::Work(shown));
+            }
+        };
         let uploads: [&[f32]; 3] = match pass.kind {
             PassKind::GBuffer => [
                 &room.gbuffer.position,
@@ -231,6 +338,15 @@ pub(crate) fn run<B: GpuBackend>(
             }
             report(1.0);
         }
+        done_work += work;
+        // The check's read-back waits for the pass's GPU work: it is part of the pass's time.
+        if let Some(check) = pass.then {
+            let (Check::DirectEnergy(tex)
+            | Check::PaperBounce { indirect: tex, .. }
+            | Check::ConvergedBounce { delta: tex, .. }) = check;
+            let e = energy(&read_all(backend, room, &textures[tex.index()])?);
+            decisions.decide(check, e, settings);
+        }
         let seconds = t.elapsed().as_secs_f64();
         progress(&Progress::PassDone { index, seconds });
         passes.push(PassTiming {
@@ -239,13 +355,15 @@ pub(crate) fn run<B: GpuBackend>(
             bounce: pass.bounce,
             seconds,
         });
-        if let Some(check) = pass.then {
-            let (Check::DirectEnergy(tex)
-            | Check::PaperBounce { indirect: tex, .. }
-            | Check::ConvergedBounce { delta: tex, .. }) = check;
-            let e = energy(&read_all(backend, room, &textures[tex.index()])?);
-            decisions.decide(check, e, settings);
+        if let (Some(show), Some(tex)) = (direct.as_mut(), blurred_direct)
+            && direct_done == Some(index)
+        {
+            let maps = collect_stages(backend, room, &textures, &[(2, tex)])?;
+            show(&maps);
         }
+    }
+    if shown < 1.0 {
+        progress(&Progress::Work(1.0));
     }
     Ok(Run {
         textures,
@@ -264,10 +382,27 @@ pub(crate) fn collect<B: GpuBackend>(
     graph: &BakeGraph,
     textures: &[B::Texture],
 ) -> Result<Vec<ObjectMaps>, B::Error> {
+    let stages: Vec<(usize, TexId)> = graph
+        .figure5
+        .stages
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| Some((i, (*t)?)))
+        .collect();
+    collect_stages(backend, room, textures, &stages)
+}
+
+/// Reads the Figure 5 stages `stages` (index, texture) back, cropped per receiver; the other
+/// stages stay `None`.
+fn collect_stages<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    textures: &[B::Texture],
+    wanted: &[(usize, TexId)],
+) -> Result<Vec<ObjectMaps>, B::Error> {
     let layout = &room.layout;
     let mut stages: Vec<[Option<MapImage>; 8]> = vec![Default::default(); layout.regions.len()];
-    for (i, stage) in graph.figure5.stages.iter().enumerate() {
-        let Some(tex) = stage else { continue };
+    for &(i, tex) in wanted {
         let layers = read_all(backend, room, &textures[tex.index()])?;
         let crops: Vec<Option<MapImage>> = layout
             .regions

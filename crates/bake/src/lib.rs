@@ -143,6 +143,8 @@ pub mod sources;
 pub mod validity;
 
 pub use backend::{GpuBackend, Limits};
-pub use bake::{BakeError, BakeOutput, BakeReport, Progress, bake, bake_room};
+pub use bake::{
+    BakeError, BakeOutput, BakeReport, Progress, bake, bake_room, bake_room_direct_first,
+};
 pub use graph::BakeGraph;
 pub use prepare::Room;

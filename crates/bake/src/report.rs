@@ -32,14 +32,23 @@ pub enum Progress<'a> {
         /// Fraction done.
         fraction: f32,
     },
-    /// Pass `index` finished after `seconds`.
+    /// Pass `index` finished after `seconds` (its check's read-back included).
     PassDone {
         /// Index in the graph.
         index: usize,
         /// Wall time, seconds.
         seconds: f64,
     },
+    /// The share (0–1) of the passes' work done so far, after every dispatch: work done over
+    /// work done plus the work still expected (texels × rays or taps per pass, for the bounces
+    /// the decisions so far expect: see `execute`'s docs). Non-decreasing, 1 after the last
+    /// pass; the bounces left out are never counted as work to come.
+    Work(f32),
 }
+
+/// Receives the direct light of a bake as soon as it exists
+/// ([`crate::bake::bake_room_direct_first`]).
+pub type OnDirect<'a> = &'a mut dyn FnMut(&[ObjectMaps]);
 
 /// Wall time of one executed pass.
 #[derive(Debug, Clone, PartialEq)]

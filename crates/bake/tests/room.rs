@@ -178,3 +178,79 @@ fn a_room_prepared_for_another_density_is_refused() {
     );
     assert!(err.to_string().contains("texels per metre"), "{err}");
 }
+
+/// What a bake reported, in order.
+#[derive(Debug, Clone, PartialEq)]
+enum Event {
+    Work(f32),
+    Start(u32),
+    Direct,
+}
+
+#[test]
+fn progress_follows_the_work_and_the_direct_light_comes_first() {
+    let scene = scene();
+    let room = prepare(&scene);
+    let events = std::cell::RefCell::new(Vec::new());
+    let mut shown = None;
+    let out = luxbake::bake_room_direct_first(
+        &mut CpuBackend::new(),
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |p| match p {
+            Progress::Work(f) => events.borrow_mut().push(Event::Work(*f)),
+            Progress::PassStart { bounce, .. } => events.borrow_mut().push(Event::Start(*bounce)),
+            _ => {}
+        },
+        &mut |maps| {
+            shown = Some(maps.to_vec());
+            events.borrow_mut().push(Event::Direct);
+        },
+    )
+    .expect("bake");
+    let events = events.into_inner();
+    eprintln!("{events:?}");
+    // The direct light is handed over before the first bounce, as the bake's own direct maps.
+    let direct_at = events
+        .iter()
+        .position(|e| *e == Event::Direct)
+        .expect("direct event");
+    let first_bounce = events
+        .iter()
+        .position(|e| matches!(e, Event::Start(b) if *b >= 1))
+        .expect("a bounce ran");
+    assert!(direct_at < first_bounce, "{events:?}");
+    let shown = shown.expect("direct maps");
+    assert_eq!(shown.len(), out.maps.len());
+    for (a, b) in shown.iter().zip(&out.maps) {
+        assert_eq!(a.illuminance(), b.direct());
+        assert!(a.indirect().is_none());
+    }
+    // Handing it over changes nothing.
+    let plain = bake_room(
+        &mut CpuBackend::new(),
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |_| {},
+    )
+    .expect("bake");
+    assert_eq!(bits(&plain), bits(&out));
+
+    // The work fraction never decreases, ends at 1, and grows in steps: no long stand-still
+    // followed by a jump (the graph reserves many more bounces than run).
+    let work: Vec<f32> = events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Work(f) => Some(*f),
+            _ => None,
+        })
+        .collect();
+    assert!(work.len() > 10, "{work:?}");
+    assert!(work.windows(2).all(|w| w[0] <= w[1]), "{work:?}");
+    assert_eq!(work.last(), Some(&1.0));
+    let jump = work.windows(2).map(|w| w[1] - w[0]).fold(work[0], f32::max);
+    assert!(jump < 0.35, "largest step {jump}: {work:?}");
+    assert!(out.report.bounces_run < scene.settings.bounces);
+}

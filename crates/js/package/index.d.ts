@@ -46,7 +46,7 @@ export interface Lamp {
 
 /** Progress of a bake; `fraction` never decreases and the last event has fraction 1. */
 export interface ProgressEvent {
-  phase: 'setup' | 'pass' | 'done';
+  phase: 'setup' | 'pass' | 'work' | 'done';
   fraction: number;
   step?: string;
   label?: string;

@@ -223,7 +223,6 @@ impl Baker {
             .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
         let mut backend = GlowBackend::new(ctx).map_err(|e| JsBakeError::Gpu(e.to_string()))?;
         let mut last = 0.0f64;
-        let mut passes_seen = false;
         let lose_at = self.lose_at_pass.take();
         let canvas = &self.canvas;
         let mut send = |mut event: serde_json::Value, fraction: f64| {
@@ -233,27 +232,25 @@ impl Baker {
             let _ = progress.call1(&JsValue::NULL, &JsValue::from_str(&event.to_string()));
         };
         let mut on_progress = |p: &Progress<'_>| match p {
-            Progress::Setup(step) => {
-                let f = if passes_seen { 0.98 } else { 0.0 };
-                send(json!({"phase": "setup", "step": step}), f);
-            }
+            // The passes' work is 2 % to 98 % of the whole (Progress::Work: the bounces
+            // left out are never counted as work to come).
+            Progress::Setup(step) => send(json!({"phase": "setup", "step": step}), 0.0),
             Progress::PassStart {
                 index,
                 count,
                 label,
                 bounce,
             } => {
-                passes_seen = true;
                 if lose_at == Some(*index) {
                     lose_context(canvas);
                 }
-                let f = 0.02 + 0.96 * *index as f64 / (*count).max(1) as f64;
                 send(
                     json!({"phase": "pass", "index": index, "count": count, "label": label,
                            "bounce": bounce}),
-                    f,
+                    0.02,
                 );
             }
+            Progress::Work(f) => send(json!({"phase": "work"}), 0.02 + 0.96 * f64::from(*f)),
             Progress::PassProgress { .. } | Progress::PassDone { .. } => {}
         };
         let out = luxbake::bake(&mut backend, scene, &scene.settings, &mut on_progress)

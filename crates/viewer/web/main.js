@@ -131,11 +131,8 @@ function onWorker(e) {
     const ev = m.event;
     if (ev.kind === 'setup') $('status').textContent = `${ev.step}…`;
     if (ev.kind === 'pass') $('status').textContent = `pass ${ev.index + 1}/${ev.count}: ${ev.label}`;
-    if (ev.kind === 'tile') {
-      const count = hooks.passCount || 1;
-      $('progress').value = Math.min(1, (ev.index + ev.fraction) / count);
-    }
-    if (ev.kind === 'pass') hooks.passCount = ev.count;
+    // The share of the expected work done (bounces left out are not counted as to come).
+    if (ev.kind === 'work') $('progress').value = Math.min(1, ev.fraction);
     return;
   }
   baking = false;

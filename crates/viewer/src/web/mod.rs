@@ -175,6 +175,7 @@ impl Baker {
             Progress::PassDone { index, seconds } => {
                 send(json!({"kind": "done", "index": index, "seconds": seconds}));
             }
+            Progress::Work(fraction) => send(json!({"kind": "work", "fraction": fraction})),
         };
         let out = luxbake::bake(&mut backend, &scene, &scene.settings, &mut on_progress)
             .map_err(js_err)?;
