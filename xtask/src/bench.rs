@@ -23,6 +23,8 @@
 //!   slopes, hash / Sobol ratios.
 //! - `bench grain` ([`grain`]): the grain of the box room's floor, ceiling and walls per preset
 //!   against a 4096-ray reference: relative standard deviation and bias of `E / E_ref`.
+//! - `bench swap` ([`swap`]): the lamp swap on a prepared room (first bake, swap to the
+//!   direct light and to the converged maps, dimming) per backend, as ratios of the first bake.
 //! - `bench rays` ([`rays`]): single-thread rays/s of luxbake's CPU traversals against Embree 3
 //!   on the same triangles and rays (built-in scenes and the shared glTF room).
 //!
@@ -49,6 +51,7 @@ mod rays;
 mod refcheck;
 mod sampling;
 mod scaling;
+mod swap;
 mod table1;
 mod trade;
 
@@ -103,6 +106,9 @@ enum What {
     /// Single-thread ray throughput of luxbake's CPU traversals against Embree 3 (same
     /// triangles, same rays; luxbake alone where Embree is not installed).
     Rays(rays::Args),
+    /// The lamp swap: first bake, swap (direct light, converged maps) and dimming on one
+    /// prepared room, per backend, as ratios of the first bake.
+    Swap(swap::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -121,6 +127,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         Some(What::Sampling(s)) => sampling::run(s, args.quick, &out),
         Some(What::Grain(g)) => grain::run(g, args.quick, &out),
         Some(What::Rays(r)) => rays::run(r, args.quick, args.runs, &out),
+        Some(What::Swap(w)) => swap::run(w, args.quick, args.runs, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)

@@ -246,8 +246,9 @@ pub struct Dispatch<'a, T, S> {
 impl<T: PartialEq, S> Dispatch<'_, T, S> {
     /// The one binding check every backend runs before a dispatch: as many reads as the
     /// program has slots, none of them the target, every read of the target's size
-    /// (`reads` and `target` are `(layer size, layers)`), the target of the scene's layer size,
-    /// and the tile inside one layer of the target. The error says what is wrong.
+    /// (`reads` and `target` are `(layer size, layers)`), the target of the scene's layer size
+    /// (a reduction, [`Program::Energy`]: reads and target with as many layers, the target of
+    /// any size), and the tile inside one layer of the target. The error says what is wrong.
     pub fn check(
         &self,
         target: ([u32; 2], u32),
@@ -264,7 +265,16 @@ impl<T: PartialEq, S> Dispatch<'_, T, S> {
         if self.reads.contains(&self.write) {
             return Err("reads the texture it writes".into());
         }
-        if let Some((i, r)) = reads.iter().enumerate().find(|(_, r)| **r != target) {
+        // A reduction ([`Program::Energy`]) writes a smaller target than it reads, with as
+        // many layers.
+        let reduces = self.program == Program::Energy;
+        if let Some((i, r)) = reads.iter().enumerate().find(|(_, r)| {
+            if reduces {
+                r.1 != target.1
+            } else {
+                **r != target
+            }
+        }) {
             return Err(format!(
                 "read `{}` is {:?} × {} layers, the target {:?} × {}",
                 slots[i], r.0, r.1, target.0, target.1
@@ -272,7 +282,7 @@ impl<T: PartialEq, S> Dispatch<'_, T, S> {
         }
         let ([w, h], layers) = target;
         let t = self.tile;
-        if [w, h] != scene_layer_size
+        if (!reduces && [w, h] != scene_layer_size)
             || [t.layer_w, t.layer_h] != [w, h]
             || t.layer >= layers
             || t.x0.checked_add(t.width).is_none_or(|e| e > w)

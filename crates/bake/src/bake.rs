@@ -16,7 +16,8 @@
 //!   every receiving surface, turned away, or has a zero multiplier, colour or table) is left out
 //!   of the direct pass. A lamp that reaches some receivers but not others is reported per
 //!   object.
-//! - **Bounces**: after bounce `k` the driver reads back the indirect map and computes the
+//! - **Bounces**: after bounce `k` the backend sums the indirect map (two reduction passes,
+//!   [`crate::passes::energy`]; 16 bytes per layer read back) and the driver computes the
 //!   energy it added, `(ΣE_ind,k − ΣE_ind,k−1) / (ΣE_direct + ΣE_ind,k)` over valid texels
 //!   (texels have equal area at a uniform density). Under [`BOUNCE_ENERGY_THRESHOLD`] the
 //!   remaining bounces are skipped: each further bounce adds at most about as much again times

@@ -2,9 +2,12 @@
 //!
 //! The driver is generic: it creates the graph's textures, uploads the scene, then runs the
 //! passes in order — an upload, or a program dispatched tile by tile — skipping those whose
-//! [`RunWhen`] the decisions so far rule out. After a pass with a [`Check`] it reads back the
-//! energy of one texture (a sum over its valid texels) and decides: where the bounces stop,
-//! and the tail's weight ([`Runtime::TailWeight`]). The graph itself is never changed.
+//! [`RunWhen`] the decisions so far rule out. After a pass with a [`Check`] — the second of
+//! the two reductions ([`crate::passes::energy`]) the graph puts after the checked map — it
+//! reads back one texel per layer (16 bytes, not the map: no stall on a whole read-back per
+//! bounce) and decides: where the bounces stop, and the tail's weight
+//! ([`Runtime::TailWeight`]). Where the f32 sum overflowed it reads the map and sums it in f64.
+//! The graph itself is never changed.
 //!
 //! # Progress
 //! [`Progress::Work`] is the work done (texels × rays or taps of every dispatch run) over that
@@ -24,7 +27,7 @@ use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
-use crate::program::{CombineParams, Params, TilePlan};
+use crate::program::{CombineParams, Params, Program, TilePlan};
 use crate::report::{ObjectMaps, OnDirect, PassTiming, Progress, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
@@ -305,7 +308,7 @@ pub(crate) fn run<B: GpuBackend>(
             let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
             let params = decisions.params(pass).words();
             let plan = TilePlan::new(
-                layout.layer_size,
+                graph.textures[write.index()].size,
                 layout.layers,
                 pass.params.work_per_texel(),
                 backend.tile_work(),
@@ -344,7 +347,18 @@ pub(crate) fn run<B: GpuBackend>(
             let (Check::DirectEnergy(tex)
             | Check::PaperBounce { indirect: tex, .. }
             | Check::ConvergedBounce { delta: tex, .. }) = check;
-            let e = energy(&read_all(backend, room, &textures[tex.index()])?);
+            // A reduction's one texel per layer; the map itself where the f32 sum overflowed
+            // (or without a reduction).
+            let reduced = match (pass.kind, pass.writes.first()) {
+                (PassKind::Run(Program::Energy), Some(w)) => {
+                    Some(energy(&read_all(backend, room, &textures[w.index()])?))
+                }
+                _ => None,
+            };
+            let e = match reduced {
+                Some(e) if e.is_finite() => e,
+                _ => energy(&read_all(backend, room, &textures[tex.index()])?),
+            };
             decisions.decide(check, e, settings);
         }
         let seconds = t.elapsed().as_secs_f64();

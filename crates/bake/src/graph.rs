@@ -389,6 +389,53 @@ impl Builder {
         });
     }
 
+    /// After every pass with a [`Check`], the two [`Program::Energy`] passes that reduce the
+    /// checked texture to one texel per layer (its rows into a row of row sums, that row into
+    /// one texel); the check moves onto the second, whose texture the driver reads back.
+    fn reduce_checks(&mut self) {
+        let passes = std::mem::take(&mut self.passes);
+        let mut reductions: Option<[TexId; 2]> = None;
+        for mut p in passes {
+            let Some(check) = p.then.take() else {
+                self.passes.push(p);
+                continue;
+            };
+            let (Check::DirectEnergy(checked)
+            | Check::PaperBounce {
+                indirect: checked, ..
+            }
+            | Check::ConvergedBounce { delta: checked, .. }) = check;
+            let (when, bounce) = (p.when, p.bounce);
+            self.passes.push(p);
+            // Two small textures, shared by every check (each is read back before the next).
+            let [rows, total] = *reductions.get_or_insert_with(|| {
+                [("energy_rows", [self.layer_size[1], 1]), ("energy", [1, 1])].map(
+                    |(label, size)| {
+                        self.textures.push(TexDesc {
+                            label,
+                            size,
+                            layers: self.layers,
+                            format: TexFormat::Rgba32F,
+                        });
+                        TexId(self.textures.len() as u32 - 1)
+                    },
+                )
+            });
+            self.when = when;
+            for (label, read, write) in [("energy_rows", checked, rows), ("energy", rows, total)] {
+                self.pass(
+                    PassKind::Run(Program::Energy),
+                    label,
+                    vec![read],
+                    vec![write],
+                    bounce,
+                    Params::None,
+                );
+            }
+            self.last().then = Some(check);
+        }
+    }
+
     /// The last pass appended.
     fn last(&mut self) -> &mut PassDesc {
         self.passes
@@ -407,6 +454,7 @@ impl Builder {
             bounces,
         } = parts;
         let stage = |i: usize| figure5.stages[i];
+        self.reduce_checks();
         let mut lit = vec![false; self.textures.len()];
         for p in &mut self.passes {
             p.lamps = matches!(p.kind, PassKind::Run(Program::Direct) | PassKind::LampPaths)
@@ -1034,11 +1082,15 @@ impl BakeGraph {
                 }
             }
             let first = p.writes.first().and_then(|&w| self.texture(w));
+            // A reduction writes a smaller texture than it reads, with as many layers.
+            let reduces = p.kind == PassKind::Run(Program::Energy);
             for &t in p.reads.iter().chain(&p.writes) {
                 let Some(desc) = self.texture(t) else {
                     return Err(fail(format!("texture {} is not in the graph", t.0)));
                 };
-                if first.is_some_and(|f| (f.size, f.layers) != (desc.size, desc.layers)) {
+                let differs =
+                    |f: &TexDesc| f.layers != desc.layers || (!reduces && f.size != desc.size);
+                if first.is_some_and(differs) {
                     return Err(fail(format!("texture `{}` differs in size", desc.label)));
                 }
             }
@@ -1338,6 +1390,8 @@ mod tests {
             [
                 "gbuffer",
                 "direct",
+                "energy_rows",
+                "energy",
                 "copy_direct",
                 "blur_direct_u",
                 "blur_direct_v",
@@ -1348,20 +1402,42 @@ mod tests {
                 "blur_combined_u",
                 "blur_combined_v",
                 "albedo_combined",
+                "energy_rows",
+                "energy",
             ]
         );
-        assert_eq!(labels(&g, 0), kinds(&g)[6..12]);
-        assert_eq!(
-            g.passes[11].then,
-            Some(Check::PaperBounce {
-                bounce: 1,
-                indirect: g.figure5.stages[4].expect("indirect"),
-                last: true
-            })
-        );
-        assert_eq!(g.passes[1].then, Some(Check::DirectEnergy(g.direct)));
-        // Every texture has the layout's size and is RGBA32F.
-        for t in &g.textures {
+        assert_eq!(labels(&g, 0), kinds(&g)[8..16]);
+        // A check sits on the reduction of the texture it measures: its rows into a row of
+        // row sums, that row into one texel per layer.
+        for (at, check) in [
+            (
+                15,
+                Check::PaperBounce {
+                    bounce: 1,
+                    indirect: g.figure5.stages[4].expect("indirect"),
+                    last: true,
+                },
+            ),
+            (3, Check::DirectEnergy(g.direct)),
+        ] {
+            assert_eq!(g.passes[at].then, Some(check));
+            let (rows, total) = (&g.passes[at - 1], &g.passes[at]);
+            let (Check::DirectEnergy(checked)
+            | Check::PaperBounce {
+                indirect: checked, ..
+            }) = check
+            else {
+                unreachable!("the paper graph's checks")
+            };
+            assert_eq!(rows.reads, [checked]);
+            assert_eq!(total.reads, rows.writes);
+            let size = |p: &PassDesc| g.texture(p.writes[0]).map(|t| (t.size, t.layers));
+            assert_eq!(size(rows), Some(([32, 1], 2)));
+            assert_eq!(size(total), Some(([1, 1], 2)));
+            assert!(g.passes.iter().filter(|p| p.then.is_some()).count() == 2);
+        }
+        // Every map has the layout's size and is RGBA32F.
+        for t in g.textures.iter().filter(|t| !t.label.starts_with("energy")) {
             assert_eq!(t.size, [64, 32]);
             assert_eq!(t.layers, 2);
             assert_eq!(t.format, TexFormat::Rgba32F);
@@ -1456,6 +1532,13 @@ mod tests {
             .iter()
             .map(|p| (p.reads.clone(), p.writes.clone()))
             .collect();
+        // The check's reductions left out.
+        let rw: Vec<_> = rw
+            .into_iter()
+            .zip(&g.passes)
+            .filter(|(_, p)| p.kind != PassKind::Run(Program::Energy))
+            .map(|(rw, _)| rw)
+            .collect();
         assert_eq!(rw[0], (vec![], vec![gb.position, gb.normal, gb.albedo]));
         assert_eq!(rw[1], (vec![gb.position, gb.normal], vec![f[1]]));
         assert_eq!(rw[2], (vec![f[1]], vec![f[2]]));
@@ -1480,16 +1563,16 @@ mod tests {
                 ..DirectParams::default()
             })
         );
-        assert_eq!(g.passes[6].kind, PassKind::Run(Program::Gather));
-        let Params::Gather(gp) = g.passes[6].params else {
-            panic!("gather parameters: {:?}", g.passes[6].params);
+        assert_eq!(g.passes[8].kind, PassKind::Run(Program::Gather));
+        let Params::Gather(gp) = g.passes[8].params else {
+            panic!("gather parameters: {:?}", g.passes[8].params);
         };
         assert_eq!(
             (gp.rays, gp.bounce, gp.seed, gp.sampler),
             (16, 1, 9, Sampler::Sobol.id())
         );
-        assert_eq!(g.passes[3].params, Params::Blur(blur_params([1, 0], 2.0)));
-        assert_eq!(g.passes[4].params, Params::Blur(blur_params([0, 1], 2.0)));
+        assert_eq!(g.passes[5].params, Params::Blur(blur_params([1, 0], 2.0)));
+        assert_eq!(g.passes[6].params, Params::Blur(blur_params([0, 1], 2.0)));
         assert!(g.passes.iter().all(|p| p.bvh == BvhMode::Mtbvh));
     }
 
@@ -1543,12 +1626,19 @@ mod tests {
         );
         let one = BakeGraph::build(&config(1, Blur::None));
         assert_eq!(one.textures.len(), g.textures.len());
-        assert_eq!(one.passes.len() + 2 * 4, g.passes.len());
-        // Each bounce range is gather, combine, copy, albedo.
+        assert_eq!(one.passes.len() + 2 * 6, g.passes.len());
+        // Each bounce range is gather, combine, copy, albedo and the check's reduction.
         for k in 0..3 {
             assert_eq!(
                 labels(&g, k),
-                ["gather", "combine", "copy_combined", "albedo_combined"]
+                [
+                    "gather",
+                    "combine",
+                    "copy_combined",
+                    "albedo_combined",
+                    "energy_rows",
+                    "energy"
+                ]
             );
         }
         // Only the paper method's G-buffer upload does not depend on the lamps.

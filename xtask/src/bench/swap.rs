@@ -1,0 +1,266 @@
+//! `cargo xtask bench swap [--quick]`: the shop's lamp swap (issue 26), natively, per backend.
+//!
+//! Per scene (`chairs_05` with `rw_7.IES` at [0, 2.5, 0], and the furnished room of
+//! `bench/scenes/furnished_room.toml`: three SheenChairs and a GlamVelvetSofa, `rw_7.IES` at
+//! [0, 2.5, 0]) and backend, in one run:
+//!
+//! 1. **first bake**: a fresh backend, [`Room::prepare`] and [`bake_room`] with `rw_7.IES` —
+//!    everything a page's first bake does (the GPU backends compile their programs here);
+//! 2. **whole re-bake**: [`luxbake::bake`] of the same scene on the warm backend (nothing of the
+//!    room reused);
+//! 3. **swap**: [`bake_room_direct_first`] on the same room with `rw_5.IES` at [0, 2, 0]:
+//!    the time to the direct light and to the converged maps;
+//! 4. **dim**: the swapped lamp's layer ([`bake_layers`]) recombined at multiplier 0.5
+//!    ([`LampLayers::combine`]): no ray.
+//!
+//! Reported as ratios against the first bake of the same run (the median over `--runs`),
+//! with the swap's host share (the CPU work before and around the passes: lamp reach, lamp
+//! paths, upload, read-back) and how well the report's phases add up to its wall time.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::time::Instant;
+
+use luxbake::GpuBackend;
+use luxbake::bake::{BakeOutput, Room, bake, bake_room, bake_room_direct_first};
+use luxbake::layers::{LampState, bake_layers};
+use luxbake::scene::{Lamp, Quality, Scene, Settings};
+use luxbake::sources::scenefile::read_photometry;
+use luxbake_backends::BackendKind;
+use serde_json::{Value, json};
+
+use super::{
+    Summary, cpu_seconds, load_average, machine, open, report_heading, utc_now, write_results,
+};
+
+/// Arguments of `cargo xtask bench swap`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Scenes: `chairs_05` and `furnished_room`, comma separated.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "chairs_05,furnished_room"
+    )]
+    scenes: Vec<String>,
+    /// Backends, comma separated (an unavailable one is reported, not fatal).
+    #[arg(long, value_delimiter = ',', default_value = "cpu,glow,wgpu")]
+    backends: Vec<BackendKind>,
+    /// Preset: draft, default or final (`--quick`: draft).
+    #[arg(long)]
+    quality: Option<Quality>,
+    /// Texel density (default: the preset's; `--quick`: 16).
+    #[arg(long)]
+    texels_per_metre: Option<f32>,
+}
+
+/// The first lamp and its position, and the lamp swapped in.
+const FIRST: (&str, [f64; 3]) = ("rw_7.IES", [0.0, 2.5, 0.0]);
+const SWAPPED: (&str, [f64; 3]) = ("rw_5.IES", [0.0, 2.0, 0.0]);
+
+/// `../shared/photometry/real-world/<name>` as a lamp at `position`.
+fn lamp((name, position): (&str, [f64; 3])) -> Result<Lamp, String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/photometry/real-world")
+        .join(name);
+    let photometry = read_photometry(&path).map_err(|e| e.to_string())?;
+    Ok(Lamp::new(name, photometry, position))
+}
+
+/// The scene `name` with the first lamp, at `settings`.
+fn scene(name: &str, settings: &Settings) -> Result<Scene, String> {
+    let mut scene = match name {
+        "furnished_room" => {
+            let path =
+                Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/furnished_room.toml");
+            let loader = luxbake_assets::SceneLoader::default();
+            let patch = luxbake::scene::SettingsPatch {
+                quality: Some(settings.quality),
+                texels_per_metre: Some(settings.texels_per_metre),
+                ..Default::default()
+            };
+            luxbake::sources::scenefile::from_file_patched(&path, Some(&loader), &patch)
+                .map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        _ => Scene::builtin_with_settings(name, settings.clone()).map_err(|e| e.to_string())?,
+    };
+    scene.lamps = vec![lamp(FIRST)?];
+    Ok(scene)
+}
+
+/// One measured run of the four steps on one backend.
+#[derive(Debug, Clone, Default)]
+struct Measured {
+    first: f64,
+    whole: f64,
+    direct: f64,
+    swap: f64,
+    swap_cpu: f64,
+    swap_host: f64,
+    swap_phases: f64,
+    dim: f64,
+}
+
+/// Host seconds of a bake run on a prepared room: its set-up steps (lamp reach and paths,
+/// upload, read-back).
+fn host_seconds(out: &BakeOutput) -> f64 {
+    out.report.setup.iter().map(|(_, s)| s).sum()
+}
+
+fn measure_once(kind: BackendKind, scene: &Scene) -> Result<(Measured, String), String> {
+    let settings = &scene.settings;
+    let swapped = vec![lamp(SWAPPED)?];
+    let t = Instant::now();
+    let (mut backend, renderer) = open(kind)?;
+    let room =
+        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
+    bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {})
+        .map_err(|e| e.to_string())?;
+    let first = t.elapsed().as_secs_f64();
+
+    let t = Instant::now();
+    bake(&mut backend, scene, settings, &mut |_| {}).map_err(|e| e.to_string())?;
+    let whole = t.elapsed().as_secs_f64();
+
+    let (t, c) = (Instant::now(), cpu_seconds());
+    let mut direct = None;
+    let out = bake_room_direct_first(
+        &mut backend,
+        &room,
+        &swapped,
+        settings,
+        &mut |_| {},
+        &mut |_| direct = Some(t.elapsed().as_secs_f64()),
+    )
+    .map_err(|e| e.to_string())?;
+    let swap = t.elapsed().as_secs_f64();
+    let swap_cpu = cpu_seconds() - c;
+    let phases = host_seconds(&out) + out.report.passes.iter().map(|p| p.seconds).sum::<f64>();
+
+    let layers = bake_layers(&mut backend, &room, &swapped, settings, &mut |_| {})
+        .map_err(|e| e.to_string())?;
+    let t = Instant::now();
+    let dimmed = layers
+        .combine(&[LampState {
+            multiplier: 0.5,
+            ..LampState::of(&swapped[0])
+        }])
+        .map_err(|e| e.to_string())?;
+    let dim = t.elapsed().as_secs_f64();
+    if dimmed.maps.len() != out.maps.len() {
+        return Err("the recombined maps lost an object".into());
+    }
+    Ok((
+        Measured {
+            first,
+            whole,
+            direct: direct.ok_or("the direct light was never handed over")?,
+            swap,
+            swap_cpu,
+            swap_host: host_seconds(&out),
+            swap_phases: phases / out.report.total_seconds.max(1e-9),
+            dim,
+        },
+        renderer,
+    ))
+}
+
+/// Runs the study; the error is a message for stderr.
+pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<(), String> {
+    let runs = runs.unwrap_or(if quick { 1 } else { 3 }).max(1);
+    let quality = args.quality.unwrap_or(if quick {
+        Quality::Draft
+    } else {
+        Quality::Default
+    });
+    let mut settings = Settings::preset(quality);
+    if let Some(d) = args.texels_per_metre.or(quick.then_some(16.0)) {
+        settings.texels_per_metre = d;
+    }
+    let scenes: Vec<String> = if quick {
+        vec!["chairs_05".into()]
+    } else {
+        args.scenes.clone()
+    };
+    let (date, time) = utc_now();
+    let mut md = report_heading(
+        "Lamp swap",
+        (&date, &time),
+        "per row",
+        "see the table",
+        &format!(
+            "; preset `{}`, {} texels/m, median of {runs} run(s); load average {}",
+            quality.name(),
+            settings.texels_per_metre,
+            load_average()
+        ),
+    );
+    let _ = writeln!(
+        md,
+        "\nRatios against the first bake (fresh backend: room prepared, programs compiled, \
+         {} at {:?}) in the same run; the swap puts {} at {:?} on the same room.\n",
+        FIRST.0, FIRST.1, SWAPPED.0, SWAPPED.1
+    );
+    let _ = writeln!(
+        md,
+        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | dim [ms] |"
+    );
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let mut rows = Vec::new();
+    for name in &scenes {
+        let scene = scene(name, &settings)?;
+        for &kind in &args.backends {
+            let mut all = Vec::new();
+            let mut renderer = String::new();
+            for _ in 0..runs {
+                match measure_once(kind, &scene) {
+                    Ok((m, r)) => {
+                        all.push(m);
+                        renderer = r;
+                    }
+                    Err(e) => {
+                        let _ = writeln!(md, "| {name} | {} | unavailable: {e} |", kind.name());
+                        rows.push(json!({"scene": name, "backend": kind.name(), "error": e}));
+                        break;
+                    }
+                }
+            }
+            if all.is_empty() {
+                continue;
+            }
+            let med = |f: fn(&Measured) -> f64| Summary::of(&all.iter().map(f).collect::<Vec<_>>());
+            let first = med(|m| m.first).median;
+            let ratio = |f: fn(&Measured) -> f64| med(f).median / first;
+            let swap = med(|m| m.swap).median;
+            let _ = writeln!(
+                md,
+                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.1} |",
+                kind.name(),
+                ratio(|m| m.whole),
+                ratio(|m| m.direct),
+                ratio(|m| m.swap),
+                100.0 * med(|m| m.swap_host).median / swap,
+                med(|m| m.swap_cpu).median / swap,
+                med(|m| m.swap_phases).median,
+                1e3 * med(|m| m.dim).median,
+            );
+            rows.push(json!({
+                "scene": name, "backend": kind.name(), "renderer": renderer,
+                "first_s": med(|m| m.first).json(), "whole_s": med(|m| m.whole).json(),
+                "direct_s": med(|m| m.direct).json(), "swap_s": med(|m| m.swap).json(),
+                "swap_cpu_s": med(|m| m.swap_cpu).json(), "swap_host_s": med(|m| m.swap_host).json(),
+                "swap_phases_over_wall": med(|m| m.swap_phases).json(), "dim_s": med(|m| m.dim).json(),
+            }));
+        }
+    }
+    print!("{md}");
+    let json = json!({
+        "study": "swap", "date": date, "time_utc": time, "machine": machine(),
+        "load_average": load_average(), "quality": quality.name(),
+        "texels_per_metre": settings.texels_per_metre, "runs": runs,
+        "first": {"lamp": FIRST.0, "position": FIRST.1},
+        "swapped": {"lamp": SWAPPED.0, "position": SWAPPED.1},
+        "rows": Value::Array(rows),
+    });
+    write_results(out, "swap", &md, &json)
+}
