@@ -24,6 +24,7 @@
 //! `4 × f32` per texel of every receiver's region: 112 bytes per region texel
 //! ([`LampLayers::bytes_per_lamp`]).
 
+use rayon::prelude::*;
 use web_time::Instant;
 
 use crate::backend::GpuBackend;
@@ -209,9 +210,12 @@ impl LampLayers {
             .map(|(o, object)| self.combine_object(o, object, &weights))
             .collect();
         let mut out = BakeOutput {
+            settings: first.settings.clone(),
+            layout: first.layout.clone(),
+            graph: first.graph.clone(),
             maps,
             lamps_used: Vec::new(),
-            ..first.clone()
+            report: first.report.clone(),
         };
         let r = &mut out.report;
         r.shadow_rays = 0;
@@ -237,31 +241,53 @@ impl LampLayers {
 
     /// Object `o`'s maps (`object` in the first layer) recombined with `weights`.
     fn combine_object(&self, o: usize, object: &ObjectMaps, weights: &[[f32; 3]]) -> ObjectMaps {
-        let mut out = object.clone();
-        // Stage 0 is the albedo: the same in every layer, not light.
-        for (s, stage) in out.stages.iter_mut().enumerate().skip(1) {
-            let Some(image) = stage.as_mut() else {
-                continue;
-            };
-            let sources: Vec<(&MapImage, [f32; 3])> = self
+        let stages = std::array::from_fn(|s| {
+            let first = object.stages[s].as_ref()?;
+            // Stage 0 is the albedo: the same in every layer, not light.
+            if s == 0 {
+                return Some(first.clone());
+            }
+            let sources: Vec<(&[f32], [f32; 3])> = self
                 .layers
                 .iter()
                 .zip(weights)
                 .filter_map(|(layer, w)| {
                     let m = layer.maps.get(o)?.stages.get(s)?.as_ref()?;
-                    (m.texels.len() == image.texels.len()).then_some((m, *w))
+                    (m.texels.len() == first.texels.len()).then_some((m.texels.as_slice(), *w))
                 })
                 .collect();
-            for (t, texel) in image.texels.chunks_exact_mut(4).enumerate() {
-                for (c, value) in texel.iter_mut().take(3).enumerate() {
-                    let sum: f32 = sources
-                        .iter()
-                        .map(|(m, w)| w[c] * m.texels[4 * t + c])
-                        .sum();
-                    *value = if sum.is_finite() { sum } else { 0.0 };
-                }
-            }
+            let mut texels = vec![0.0f32; first.texels.len()];
+            // In parallel, in chunks of 4096 texels.
+            texels
+                .par_chunks_mut(4 * 4096)
+                .enumerate()
+                .for_each(|(chunk, out)| {
+                    let base = chunk * 4 * 4096;
+                    for (i, t) in out.chunks_exact_mut(4).enumerate() {
+                        let k = base + 4 * i;
+                        let mut sum = [0.0f32; 3];
+                        for (m, w) in &sources {
+                            for c in 0..3 {
+                                sum[c] += w[c] * m[k + c];
+                            }
+                        }
+                        for c in 0..3 {
+                            t[c] = if sum[c].is_finite() { sum[c] } else { 0.0 };
+                        }
+                        t[3] = first.texels[k + 3];
+                    }
+                });
+            Some(MapImage {
+                width: first.width,
+                height: first.height,
+                texels,
+            })
+        });
+        ObjectMaps {
+            object: object.object,
+            name: object.name.clone(),
+            region: object.region,
+            stages,
         }
-        out
     }
 }
