@@ -138,6 +138,7 @@ fn run<B: GpuBackend>(
         layer_size: SIZE,
         layers: LAYERS,
         ray_epsilon: 1e-4,
+        lamp_paths: &[],
     })?;
     let mut outputs = Vec::new();
     let mut current = 0;

@@ -216,6 +216,9 @@ impl GpuBackend for GlowBackend {
         if sig.scene.regions {
             samplers.push(("u_regions".into(), &gpu_scene.regions));
         }
+        if sig.scene.lamp_paths {
+            samplers.push(("u_path_points".into(), &gpu_scene.lamp_paths));
+        }
         let program = self
             .programs
             .get(&(call.program, trav))

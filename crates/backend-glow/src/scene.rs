@@ -22,6 +22,8 @@ pub(crate) struct GpuScene {
     pub(crate) regions: TextureArray,
     /// One column per uploaded lamp, `pack::LAMP_ROWS` rows.
     pub(crate) lamps: TextureArray,
+    /// The lamp paths' points ([`SceneData::lamp_paths`]).
+    pub(crate) lamp_paths: TextureArray,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
 }
@@ -120,11 +122,13 @@ impl GpuScene {
         let regions = TextureArray::new(gl, "regions", n, 2, 1)?;
         regions.upload(gl, "regions", 0, &data)?;
         let lamps = lamp_texture(gl, caps, &pack::lamp_rows(scene))?;
+        let lamp_paths = lamp_path_texture(gl, caps, scene.lamp_paths)?;
         Ok(Self {
             bvh,
             ies,
             regions,
             lamps,
+            lamp_paths,
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,
         })
@@ -135,7 +139,33 @@ impl GpuScene {
         self.ies.delete(gl);
         self.regions.delete(gl);
         self.lamps.delete(gl);
+        self.lamp_paths.delete(gl);
     }
+}
+
+/// Texels per row of the lamp paths' texture (a WebGL2 texture is at least 2048 wide).
+const LAMP_PATH_WIDTH: usize = 1024;
+
+/// The lamp paths' points ([`SceneData::lamp_paths`]) as a texture, texel `i` at
+/// `(i % width, i / width)`: [`LAMP_PATH_WIDTH`] wide (or narrower for fewer texels), at
+/// least one texel (zero) when there are none.
+fn lamp_path_texture(
+    gl: &glow::Context,
+    caps: &Capabilities,
+    floats: &[f32],
+) -> Result<TextureArray> {
+    let texels = (floats.len() / 4).max(1);
+    let width = texels.min(LAMP_PATH_WIDTH);
+    let height = texels.div_ceil(width);
+    let (w, h) = (
+        checked_size(caps, "lamp paths (texture width)", width)?,
+        checked_size(caps, "lamp paths (texture height)", height)?,
+    );
+    let mut data = vec![0.0f32; 4 * width * height];
+    data[..floats.len() / 4 * 4].copy_from_slice(&floats[..floats.len() / 4 * 4]);
+    let tex = TextureArray::new(gl, "lamp paths", w, h, 1)?;
+    tex.upload(gl, "lamp paths", 0, &data)?;
+    Ok(tex)
 }
 
 /// The uploaded lamps as a texture: one column per lamp, its [`pack::LAMP_ROWS`] rows as

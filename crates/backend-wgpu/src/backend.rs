@@ -161,6 +161,7 @@ fn scene_layout_entries(storage: BvhStorage) -> Vec<wgpu::BindGroupLayoutEntry> 
         SCENE_UNIFORM_BYTES,
     ));
     entries.push(buffer_entry(wgsl::LAMPS_BINDING, STORAGE_RO, 0));
+    entries.push(buffer_entry(wgsl::LAMP_PATHS_BINDING, STORAGE_RO, 0));
     entries
 }
 

@@ -244,6 +244,15 @@ impl GpuScene {
         // element.
         lamps.resize(lamps.len().max(LAMP_BYTES), 0);
         let lamps = storage(gpu, "lamps", lamps)?;
+        // At least one (zero) point: a binding is never smaller than its element.
+        let mut lamp_paths = bytes_of(scene.lamp_paths);
+        lamp_paths.resize(
+            lamp_paths
+                .len()
+                .max(4 * 4 * luxbake::backend::LAMP_PATH_TEXELS),
+            0,
+        );
+        let lamp_paths = storage(gpu, "lamp paths", lamp_paths)?;
         let regions = storage(gpu, "regions", u32_bytes(&regions))?;
         let objects = u32::try_from(scene.regions.len())
             .map_err(|_| WgpuError::InvalidInput("too many objects".into()))?;
@@ -294,6 +303,10 @@ impl GpuScene {
                         wgpu::BindGroupEntry {
                             binding: wgsl::LAMPS_BINDING,
                             resource: lamps.as_entire_binding(),
+                        },
+                        wgpu::BindGroupEntry {
+                            binding: wgsl::LAMP_PATHS_BINDING,
+                            resource: lamp_paths.as_entire_binding(),
                         },
                     ],
                 })

@@ -154,7 +154,14 @@ pub struct SceneData<'a> {
     /// geometry × 2^-16 (see [`ray_epsilon`] and [`offset_origin`]). It does not depend on
     /// where the scene lies or where its lamps are.
     pub ray_epsilon: f32,
+    /// The lamp paths' points ([`crate::lightpaths::LampPaths::packed`]): [`LAMP_PATH_TEXELS`]
+    /// RGBA texels per point — (position.xyz, density), (normal.xyz, 0), (power.rgb, 0) —
+    /// that the `connect` pass joins every texel to; empty without lamp paths.
+    pub lamp_paths: &'a [f32],
 }
+
+/// RGBA texels of one lamp path's point in [`SceneData::lamp_paths`].
+pub const LAMP_PATH_TEXELS: usize = 3;
 
 /// ULPs per unit of normal component that [`offset_origin`] steps each coordinate: the
 /// texel's position and the triangle's vertices are each rounded to f32 (half an ULP per

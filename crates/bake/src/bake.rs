@@ -174,6 +174,9 @@ fn bake_room_inner<B: GpuBackend>(
             .paths
             .as_ref()
             .map_or((0, 0.0), |p| (settings.lamp_paths, p.1)),
+        lamp_path_count: lamps.paths.as_ref().map_or(0, |p| {
+            u32::try_from(p.0.len() / (4 * crate::backend::LAMP_PATH_TEXELS)).unwrap_or(u32::MAX)
+        }),
     });
     graph.validate()?;
 

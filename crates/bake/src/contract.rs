@@ -179,6 +179,8 @@ pub struct SceneNeeds {
     pub lamps: bool,
     /// The objects' light-map regions.
     pub regions: bool,
+    /// The lamp paths' points ([`crate::backend::SceneData::lamp_paths`]).
+    pub lamp_paths: bool,
 }
 
 impl SceneNeeds {
@@ -187,6 +189,7 @@ impl SceneNeeds {
         bvh: false,
         lamps: false,
         regions: false,
+        lamp_paths: false,
     };
 }
 

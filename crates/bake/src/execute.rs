@@ -257,6 +257,7 @@ pub(crate) fn run<B: GpuBackend>(
         layer_size: layout.layer_size,
         layers: layout.layers,
         ray_epsilon: room.ray_epsilon,
+        lamp_paths: lamps.paths.as_ref().map_or(&[][..], |p| &p.0),
     })?;
     let upload_seconds = t.elapsed().as_secs_f64();
 
@@ -300,7 +301,6 @@ pub(crate) fn run<B: GpuBackend>(
                 &room.gbuffer.normal,
                 &room.gbuffer.albedo,
             ],
-            PassKind::LampPaths => [lamps.paths.as_ref().map_or(&[][..], |p| &p.0), &[], &[]],
             _ => [&[]; 3],
         };
         if let (Some(program), Some(write)) = (pass.kind.program(), pass.writes.first()) {

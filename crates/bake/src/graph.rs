@@ -26,7 +26,7 @@
 //! # Stages (the paper's Figure 5 numbering)
 //! ```text
 //! GBuffer                      → position, normal, albedo(1)        (uploaded from the rasteriser)
-//! LampPaths                    → connected                          (converged, uploaded)
+//! Connect    position, normal  → connected                          (converged, lamp paths)
 //! Direct     position, normal  → direct(2)
 //! Copy       direct            → direct_blurred                     (the paper's "copy for later")
 //! Blur U/V   direct_blurred    → blur_tmp → direct_blurred(3)       (only when blur ≠ none)
@@ -63,13 +63,13 @@
 //! Each computed pass runs one [`Program`]; its reads follow the program's
 //! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
 //! the program's parameter block ([`Params`]); the uploads read nothing and write position,
-//! normal and albedo (the G-buffer) or the lamp paths' part of the first bounce.
+//! normal and albedo (the G-buffer).
 //! [`BakeGraph::validate`] checks every pass
 //! against its signature (the driver runs it before executing a graph).
 
 pub use crate::program::Program;
 use crate::program::{
-    ATROUS_MIN_PAIRS, AtrousConfig, CombineParams, DirectParams, GatherParams,
+    ATROUS_MIN_PAIRS, AtrousConfig, CombineParams, ConnectParams, DirectParams, GatherParams,
     MAX_ATROUS_ITERATIONS, Params, RefineParams, UpsampleParams, VarianceParams, atrous_steps,
     blur_params, coarse,
 };
@@ -114,9 +114,6 @@ pub enum PassKind {
     /// The G-buffer: world position (w = 1 valid), normal (w = object index) and albedo
     /// (w = coverage) per texel, rasterised on the host and uploaded.
     GBuffer,
-    /// The lamp paths' part of the first bounce, computed on the host and uploaded
-    /// ([`crate::lightpaths::LampPaths::connect`]).
-    LampPaths,
     /// A computed pass.
     Run(Program),
 }
@@ -126,7 +123,7 @@ impl PassKind {
     pub fn program(&self) -> Option<Program> {
         match self {
             PassKind::Run(p) => Some(*p),
-            PassKind::GBuffer | PassKind::LampPaths => None,
+            PassKind::GBuffer => None,
         }
     }
 }
@@ -221,7 +218,7 @@ pub struct GBufferTex {
     pub normal: TexId,
     /// Albedo, w = coverage.
     pub albedo: TexId,
-    /// The lamp paths' part of the first bounce ([`crate::lightpaths::LampPaths::connect`]),
+    /// The lamp paths' part of the first bounce ([`Program::Connect`]),
     /// when the bake has lamp paths ([`GraphConfig::lamp_paths`]).
     pub connected: Option<TexId>,
 }
@@ -298,8 +295,11 @@ pub struct GraphConfig {
     /// [`Method::Converged`] with a first bounce at stride 1 and no refinement: lamp paths per
     /// texel combined with the first gather ([`crate::lightpaths`]) and their
     /// [`density_scale`](crate::lightpaths::LampPaths::density_scale); 0: none. With lamp
-    /// paths the G-buffer upload writes a fourth texture, [`GBufferTex::connected`].
+    /// paths a `connect` pass ([`Program::Connect`]) writes a fourth G-buffer texture,
+    /// [`GBufferTex::connected`].
     pub lamp_paths: (u32, f32),
+    /// Points in the lamp paths' pool ([`crate::backend::SceneData::lamp_paths`]).
+    pub lamp_path_count: u32,
 }
 
 /// The bake's textures and passes, in execution order.
@@ -457,8 +457,10 @@ impl Builder {
         self.reduce_checks();
         let mut lit = vec![false; self.textures.len()];
         for p in &mut self.passes {
-            p.lamps = matches!(p.kind, PassKind::Run(Program::Direct) | PassKind::LampPaths)
-                || p.reads.iter().any(|r| lit[r.index()]);
+            p.lamps = matches!(
+                p.kind,
+                PassKind::Run(Program::Direct) | PassKind::Run(Program::Connect)
+            ) || p.reads.iter().any(|r| lit[r.index()]);
             for w in &p.writes {
                 lit[w.index()] |= p.lamps;
             }
@@ -490,13 +492,14 @@ struct GraphParts {
     bounces: u32,
 }
 
-/// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output.
-fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
+/// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output; with
+/// lamp paths (`connect`), their part of the first bounce.
+fn gbuffer_stage(b: &mut Builder, connect: Option<ConnectParams>) -> GBufferTex {
     let g = GBufferTex {
         position: b.texture("gbuffer_position"),
         normal: b.texture("gbuffer_normal"),
         albedo: b.texture("gbuffer_albedo"),
-        connected: lamp_paths.then(|| b.texture("lamp_paths")),
+        connected: connect.map(|_| b.texture("lamp_paths")),
     };
     b.pass(
         PassKind::GBuffer,
@@ -506,14 +509,14 @@ fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
         0,
         Params::None,
     );
-    if let Some(connected) = g.connected {
+    if let (Some(connected), Some(params)) = (g.connected, connect) {
         b.pass(
-            PassKind::LampPaths,
-            "lamp_paths",
-            Vec::new(),
+            PassKind::Run(Program::Connect),
+            "connect",
+            vec![g.position, g.normal],
             vec![connected],
             0,
-            Params::None,
+            Params::Connect(params),
         );
     }
     g
@@ -741,7 +744,17 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
     let lamp_paths =
         config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
-    let g = gbuffer_stage(&mut b, lamp_paths);
+    let g = gbuffer_stage(
+        &mut b,
+        lamp_paths.then(|| ConnectParams {
+            rays: config.rays,
+            k: config.lamp_paths.0,
+            seed: config.seed,
+            count: config.lamp_path_count,
+            density_scale: config.lamp_paths.1,
+            ..ConnectParams::default()
+        }),
+    );
     let direct = direct_stage(&mut b, g, config);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
     let reflected_direct = b.texture("reflected_direct");
@@ -922,7 +935,7 @@ impl BakeGraph {
             return build_converged(config);
         }
         let mut b = Builder::new(config);
-        let g = gbuffer_stage(&mut b, false);
+        let g = gbuffer_stage(&mut b, None);
         let direct = direct_stage(&mut b, g, config);
         let direct_blurred = b.texture("direct_blurred");
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
@@ -1188,6 +1201,7 @@ mod tests {
             texel_size: [1.0 / 64.0; 2],
             sampler: Sampler::Sobol,
             lamp_paths: (0, 0.0),
+            lamp_path_count: 0,
         }
     }
 
@@ -1358,7 +1372,11 @@ mod tests {
     #[test]
     fn every_computed_pass_has_one_program_and_the_graph_uses_them_all() {
         let g = BakeGraph::build(&config(2, Blur::Sigma(1.5)));
-        let c = BakeGraph::build(&converged(2, Blur::Sigma(1.5)));
+        let c = BakeGraph::build(&GraphConfig {
+            lamp_paths: (4, 0.5),
+            lamp_path_count: 100,
+            ..converged(2, Blur::Sigma(1.5))
+        });
         let reduced = BakeGraph::build(&GraphConfig {
             higher_stride: 2,
             refine: Some((4, 0.1)),
@@ -1376,8 +1394,11 @@ mod tests {
         let labels: std::collections::HashSet<&str> =
             Program::ALL.iter().map(|p| p.label()).collect();
         assert_eq!(labels.len(), Program::ALL.len());
-        for p in &g.passes {
-            let rays = matches!(p.kind, PassKind::Run(Program::Direct | Program::Gather));
+        for p in g.passes.iter().chain(&c.passes) {
+            let rays = matches!(
+                p.kind,
+                PassKind::Run(Program::Direct | Program::Gather | Program::Connect)
+            );
             assert_eq!(p.kind.program().is_some_and(Program::traces_rays), rays);
         }
     }
@@ -1467,19 +1488,28 @@ mod tests {
     }
 
     #[test]
-    fn lamp_paths_are_uploaded_and_read_by_the_first_gather_only() {
+    fn lamp_paths_are_connected_and_read_by_the_first_gather_only() {
         let config = GraphConfig {
             method: Method::Converged,
             lamp_paths: (4, 0.5),
+            lamp_path_count: 1000,
             ..config(3, Blur::Sigma(1.0))
         };
         let g = BakeGraph::build(&config);
         g.validate().expect("valid");
-        let connected = g.gbuffer.connected.expect("lamp paths uploaded");
+        let connected = g.gbuffer.connected.expect("lamp paths connected");
         assert_eq!(g.passes[0].writes.len(), 3);
         assert_eq!(
             (g.passes[1].kind, &g.passes[1].writes),
-            (PassKind::LampPaths, &vec![connected])
+            (PassKind::Run(Program::Connect), &vec![connected])
+        );
+        assert_eq!(g.passes[1].reads, [g.gbuffer.position, g.gbuffer.normal]);
+        let Params::Connect(cp) = g.passes[1].params else {
+            panic!("connect parameters");
+        };
+        assert_eq!(
+            (cp.k, cp.count, cp.density_scale, cp.rays),
+            (4, 1000, 0.5, 16)
         );
         // The G-buffer is the room's; the lamp paths and everything after depend on the lamps.
         assert!(!g.passes[0].lamps);

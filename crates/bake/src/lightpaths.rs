@@ -35,8 +35,10 @@
 //!
 //! The gather multiplies each hit's exitance by its weight (in every backend, the same
 //! operations); the lamp-path part, `C(x) = Σ_k p̃_V cos θₓ cos θ_y ρE/p_V / (π K p̃_V r² +
-//! N_C cos θₓ cos θ_y)`, is computed here on the CPU, once per bake, for every backend (like
-//! [`crate::validity`]), uploaded and added by the gather. Both are finite as `r → 0`.
+//! N_C cos θₓ cos θ_y)`, is the `connect` pass ([`crate::passes::connect`]), run by the
+//! backend before the gather adds it. Both are finite as `r → 0`. The pool is traced here on
+//! the host ([`LampPaths::trace`], a few hundred thousand rays at most) and uploaded with the
+//! scene ([`LampPaths::packed`]).
 //!
 //! # Determinism
 //! Pool directions come from the Sobol sampler (texel 0, sample `i`, pass [`EMIT_PASS`]) and
@@ -418,84 +420,18 @@ impl LampPaths {
         }
     }
 
-    /// The lamp-path part `C(x)` of the first bounce at every valid texel of `gbuffer` (RGBA,
-    /// alpha 1 on valid texels, laid out as the G-buffer's arrays), for a gather of `rays`
-    /// rays per texel and `k` connections per texel (see the module docs).
-    pub fn connect(&self, g: &Geometry<'_>, rays: u32, k: u32, seed: u32) -> Vec<f32> {
-        let gb = g.gbuffer;
-        let mut out = vec![0.0f32; gb.position.len()];
-        let count = self.paths.len();
-        if count == 0 || k == 0 {
-            for (o, p) in out.chunks_exact_mut(4).zip(gb.position.chunks_exact(4)) {
-                o[3] = if p[3] > 0.5 { 1.0 } else { 0.0 };
-            }
-            return out;
-        }
-        let (w, h) = (gb.layer_size[0] as usize, gb.layer_size[1] as usize);
-        let nc = rays as f32;
-        let kf = k as f32;
-        out.par_chunks_exact_mut(4).enumerate().for_each(|(i, o)| {
-            let pw = &gb.position[4 * i..4 * i + 4];
-            if pw[3] <= 0.5 {
-                return;
-            }
-            o[3] = 1.0;
-            let nw = &gb.normal[4 * i..4 * i + 4];
-            let Some(n) = normalize([nw[0], nw[1], nw[2]]) else {
-                return;
-            };
-            let x = [pw[0], pw[1], pw[2]];
-            let (tx, ty, layer) = ((i % w) as u32, ((i / w) % h) as u32, (i / (w * h)) as u32);
-            let texel = rng::texel_index(gb.layer_size, layer, tx, ty);
-            let origin = offset_origin(x, n, g.eps);
-            let mut sum = [0.0f32; 3];
-            for s in 0..k {
-                // Independent picks: paths at evenly spaced pool indices would be Sobol points
-                // sharing their leading bits, all from one spot of one lamp.
-                let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, seed);
-                let j = ((u * count as f32) as usize).min(count - 1);
-                let path = &self.paths[j];
-                let to = sub(path.position, x);
-                let r2 = dot(to, to);
-                let r = r2.sqrt();
-                if !(r > 0.0 && r.is_finite()) {
-                    continue;
-                }
-                let wdir = div(to, r);
-                let cx = dot(n, wdir);
-                let cy = -dot(path.normal, wdir);
-                if !(cx > 0.0 && cy > 0.0) {
-                    continue;
-                }
-                let target = offset_origin(path.position, path.normal, g.eps);
-                let sd = sub(target, origin);
-                let len = dot(sd, sd).sqrt();
-                if !(len > 0.0) {
-                    continue;
-                }
-                let ray = Ray {
-                    origin,
-                    dir: div(sd, len),
-                };
-                if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
-                    continue;
-                }
-                let pv = path.density * self.density_scale;
-                let geometry = cx * cy;
-                let denominator = std::f32::consts::PI * kf * pv * r2 + nc * geometry;
-                if !(denominator > 0.0) {
-                    continue;
-                }
-                let f = pv * geometry / denominator;
-                for (sc, pc) in sum.iter_mut().zip(path.power) {
-                    *sc += f * pc;
-                }
-            }
-            for c in 0..3 {
-                o[c] = if sum[c].is_finite() { sum[c] } else { 0.0 };
-            }
-        });
-        out
+    /// The points as the `connect` pass reads them ([`crate::backend::SceneData::lamp_paths`]):
+    /// per point (position.xyz, density), (normal.xyz, 0), (power.rgb, 0).
+    pub fn packed(&self) -> Vec<f32> {
+        self.paths
+            .iter()
+            .flat_map(|p| {
+                let [x, y, z] = p.position;
+                let [nx, ny, nz] = p.normal;
+                let [r, g, b] = p.power;
+                [x, y, z, p.density, nx, ny, nz, 0.0, r, g, b, 0.0]
+            })
+            .collect()
     }
 }
 

@@ -155,6 +155,7 @@ mod tests {
             layer_size: [8, 8],
             layers: 3,
             ray_epsilon: 1e-4,
+            lamp_paths: &[],
         };
         let values = ies_values(&scene);
         let n0 = (tables[0].width * tables[0].height) as usize;

@@ -355,8 +355,9 @@ pub struct Lamps {
     pub params: Vec<LampParams>,
     /// Shadow rays the direct pass casts: valid texels each used lamp faces.
     pub shadow_rays: u64,
-    /// The lamp paths' part of the first bounce per texel ([`LampPaths::connect`]) and the
-    /// pool's density scale, when the bake uses lamp paths.
+    /// The lamp paths' pool, traced on the host: its points packed for the scene upload
+    /// ([`LampPaths::packed`]) and its [`density_scale`](LampPaths::density_scale); the
+    /// backend connects every texel to them (`connect`).
     pub paths: Option<(Vec<f32>, f32)>,
     /// Lamps that light nothing or miss receivers, and lamp paths left out.
     pub skipped: Vec<Skipped>,
@@ -425,9 +426,7 @@ impl Lamps {
                 let geometry = room.geometry();
                 let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
                 let pool = LampPaths::trace(&geometry, &params, &tables, size, settings.seed);
-                let connected =
-                    pool.connect(&geometry, settings.rays, settings.lamp_paths, settings.seed);
-                (connected, pool.density_scale)
+                (pool.packed(), pool.density_scale)
             })),
         };
         Lamps {

@@ -35,8 +35,8 @@ pub use crate::contract::{
     SceneNeeds, Signature, TileParams, coarse,
 };
 pub use crate::passes::{
-    AtrousParams, BlurParams, CombineParams, DirectParams, GatherParams, Params, Program,
-    RefineParams, UpsampleParams, VarianceParams,
+    AtrousParams, BlurParams, CombineParams, ConnectParams, DirectParams, GatherParams, Params,
+    Program, RefineParams, UpsampleParams, VarianceParams,
 };
 
 impl Program {

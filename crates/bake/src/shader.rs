@@ -7,7 +7,8 @@
 //!
 //! - the BVH texel-layout constants (`luxbake_bvh::layout`), the traversal ids and choice, the
 //!   blur constants ([`BLUR_NORMAL_COS`], [`MAX_BLUR_RADIUS`]) and the sampler ids
-//!   ([`Sampler::id`], `LUX_SAMPLER_HASH`, `LUX_SAMPLER_SOBOL`);
+//!   ([`Sampler::id`], `LUX_SAMPLER_HASH`, `LUX_SAMPLER_SOBOL`) and the lamp paths' RNG pass
+//!   (`LUX_CONNECT_PASS`);
 //! - one declaration per read slot: `uniform highp sampler2DArray u_<slot>;` (GLSL, bound by
 //!   name) or `@group(0) @binding(i) var lux_<slot>: texture_2d_array<f32>;` (WGSL, `i` = slot
 //!   index);
@@ -54,6 +55,8 @@ pub mod wgsl {
     pub const SCENE_BINDING: u32 = 5;
     /// Group 1: the lamps.
     pub const LAMPS_BINDING: u32 = 6;
+    /// Group 1: the lamp paths' points.
+    pub const LAMP_PATHS_BINDING: u32 = 7;
 }
 
 /// How WGSL reads the encoded BVH and triangle data: both hold exactly the texels of
@@ -169,6 +172,10 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
             sampler.id()
         ));
     }
+    s.push_str(&format!(
+        "#define LUX_CONNECT_PASS {}u\n",
+        crate::lightpaths::CONNECT_PASS
+    ));
     s
 }
 
@@ -191,6 +198,10 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
             sampler.id()
         ));
     }
+    s.push_str(&format!(
+        "const LUX_CONNECT_PASS: u32 = {}u;\n",
+        crate::lightpaths::CONNECT_PASS
+    ));
     s
 }
 

@@ -36,6 +36,7 @@ fn two_reductions_sum_a_map_as_the_host_does() {
             layer_size: [w, h],
             layers,
             ray_epsilon: room.ray_epsilon,
+            lamp_paths: &[],
         })
         .expect("scene");
     let desc = |label, size| TexDesc {

@@ -153,7 +153,11 @@ fn only_the_g_buffer_upload_is_independent_of_the_lamps() {
         room.iter().map(|p| p.kind).collect::<Vec<_>>(),
         [PassKind::GBuffer]
     );
-    assert!(lamps.iter().any(|p| p.kind == PassKind::LampPaths));
+    assert!(
+        lamps
+            .iter()
+            .any(|p| p.kind == PassKind::Run(luxbake::program::Program::Connect))
+    );
 }
 
 #[test]

@@ -12,6 +12,23 @@ vec4 luxLamp(int lamp, int row) {
     return texelFetch(u_lamps, ivec3(lamp, row, 0), 0);
 }
 
+// u_path_points: the lamp paths' points (backend::SceneData::lamp_paths), LAMP_PATH_TEXELS = 3
+// texels each — (position.xyz, density), (normal.xyz, 0), (power.rgb, 0) — texel i at
+// (i % width, i / width).
+uniform highp sampler2DArray u_path_points;
+
+vec4 luxPathPoint(uint path, int row) {
+    int i = int(path) * 3 + row;
+    int width = textureSize(u_path_points, 0).x;
+    return texelFetch(u_path_points, ivec3(i % width, i / width, 0), 0);
+}
+
+// The points the texture holds.
+uint luxPathPointCount() {
+    ivec3 size = textureSize(u_path_points, 0);
+    return uint(size.x * size.y) / 3u;
+}
+
 // u_regions: one column per object id: row 0 (layer, offset.x, offset.y, receiver ? 1 : 0),
 // row 1 (width, height, 0, 0); non-receivers (receiver = 0) reflect nothing.
 uniform highp sampler2DArray u_regions;

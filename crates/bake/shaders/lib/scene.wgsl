@@ -37,6 +37,19 @@ struct LuxLamp {
 
 @group(1) @binding(6) var<storage, read> lux_lamps: array<LuxLamp>;
 
+// The lamp paths' points (backend::SceneData::lamp_paths), 3 entries each: (position.xyz,
+// density), (normal.xyz, 0), (power.rgb, 0). At least one (zero) point is bound.
+@group(1) @binding(7) var<storage, read> lux_path_points: array<vec4<f32>>;
+
+fn lux_path_point(path: u32, row: u32) -> vec4<f32> {
+    return lux_path_points[path * 3u + row];
+}
+
+// The points the buffer holds.
+fn lux_path_point_count() -> u32 {
+    return arrayLength(&lux_path_points) / 3u;
+}
+
 // backend::offset_coordinate / offset_origin: the ray origin for surface point p with unit
 // normal n (Wächter & Binder, Ray Tracing Gems ch. 6, plus the size term ray_epsilon):
 // p + n * size, then each coordinate stepped trunc(4 * n) ULPs along n in integer space.

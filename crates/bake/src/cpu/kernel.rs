@@ -126,6 +126,8 @@ pub struct CpuScene {
     pub(crate) regions: Vec<Option<Region>>,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
+    /// [`crate::backend::SceneData::lamp_paths`].
+    pub(crate) lamp_paths: Vec<f32>,
 }
 
 /// `(sin 2πu, cos 2πu)`: a polynomial instead of `sinf`/`cosf` (whose one call per gather ray

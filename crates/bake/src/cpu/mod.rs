@@ -247,6 +247,7 @@ impl GpuBackend for CpuBackend {
             regions: scene.regions.to_vec(),
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,
+            lamp_paths: scene.lamp_paths.to_vec(),
         })
     }
 
@@ -473,6 +474,7 @@ mod tests {
             regions: vec![None],
             layer_size: [1, 1],
             ray_epsilon: crate::backend::ray_epsilon(1.0),
+            lamp_paths: Vec::new(),
         }
     }
 

@@ -151,6 +151,9 @@ macro_rules! with_registry {
             /// in
             /// the variance). Then kept and refined texels are both unbiased.
             Refine = refine(RefineParams);
+            /// The lamp paths' part of the first bounce: each texel joined to points of the
+            /// pool by shadow rays ([`connect`]).
+            Connect = connect(ConnectParams);
             /// The sum of each row of a map's valid texels: what a check of the driver reads
             /// back, applied twice ([`energy`]).
             Energy = energy;

@@ -30,6 +30,7 @@ pub const SIGNATURE: Signature = Signature {
         bvh: true,
         lamps: true,
         regions: false,
+        lamp_paths: false,
     },
     params: DirectParams::FIELDS,
     params_wgsl: DirectParams::WGSL_NAME,

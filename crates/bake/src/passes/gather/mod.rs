@@ -58,6 +58,7 @@ pub const SIGNATURE: Signature = Signature {
         bvh: true,
         lamps: true,
         regions: true,
+        lamp_paths: false,
     },
     params: GatherParams::FIELDS,
     params_wgsl: GatherParams::WGSL_NAME,

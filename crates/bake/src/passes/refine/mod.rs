@@ -54,6 +54,7 @@ pub const SIGNATURE: Signature = Signature {
         bvh: true,
         lamps: true,
         regions: true,
+        lamp_paths: false,
     },
     params: RefineParams::FIELDS,
     params_wgsl: RefineParams::WGSL_NAME,

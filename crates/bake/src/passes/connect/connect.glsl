@@ -1,0 +1,64 @@
+// Pass "connect" (lightpaths.rs): the lamp paths' part of the first bounce at a texel — K
+// points of the pool picked with the hash sampler, each joined by a shadow ray and weighted by
+// the balance heuristic against a gather of u_rays rays (connect/cpu.rs, operation for
+// operation). The pool: luxPathPoint (scene.glsl).
+
+vec4 luxRun(ivec3 c) {
+    vec4 pw = texelFetch(u_position, c, 0);
+    if (pw.w <= 0.5) {
+        return vec4(0.0);
+    }
+    vec3 n;
+    if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n)) {
+        return vec4(0.0, 0.0, 0.0, 1.0);
+    }
+    uint count = min(u_count, luxPathPointCount());
+    if (count == 0u || u_k == 0u) {
+        return vec4(0.0, 0.0, 0.0, 1.0);
+    }
+    vec3 p = pw.xyz;
+    uint texel = luxTexelIndex(uvec2(textureSize(u_position, 0).xy), uint(c.z), uint(c.x),
+                               uint(c.y));
+    vec3 origin = luxOffsetOrigin(p, n, u_ray_epsilon);
+    float nc = float(u_rays);
+    float kf = float(u_k);
+    vec3 sum = vec3(0.0);
+    for (uint s = 0u; s < u_k; ++s) {
+        vec2 u = luxUniform2(texel, s, LUX_CONNECT_PASS, u_seed);
+        uint j = min(uint(u.x * float(count)), count - 1u);
+        vec4 a = luxPathPoint(j, 0);
+        vec4 b = luxPathPoint(j, 1);
+        vec3 power = luxPathPoint(j, 2).rgb;
+        vec3 to = a.xyz - p;
+        float r2 = luxDot(to, to);
+        float r = sqrt(r2);
+        if (!(r > 0.0 && luxFinite(r))) {
+            continue;
+        }
+        vec3 w = to / r;
+        float cx = luxDot(n, w);
+        float cy = -luxDot(b.xyz, w);
+        if (!(cx > 0.0 && cy > 0.0)) {
+            continue;
+        }
+        vec3 target = luxOffsetOrigin(a.xyz, b.xyz, u_ray_epsilon);
+        vec3 sd = target - origin;
+        float len = sqrt(luxDot(sd, sd));
+        if (!(len > 0.0)) {
+            continue;
+        }
+        vec3 hit;
+        if (luxTrace(origin, sd / len, 0.0, len * (1.0 - 1e-4), true, hit) >= 0) {
+            continue;
+        }
+        float pv = a.w * u_density_scale;
+        float geometry = cx * cy;
+        float denominator = 3.14159265358979 * kf * pv * r2 + nc * geometry;
+        if (!(denominator > 0.0)) {
+            continue;
+        }
+        float f = pv * geometry / denominator;
+        sum += f * power;
+    }
+    return vec4(luxGuard3(sum), 1.0);
+}

@@ -1,0 +1,64 @@
+// Pass "connect" (lightpaths.rs): the lamp paths' part of the first bounce at a texel — K
+// points of the pool picked with the hash sampler, each joined by a shadow ray and weighted by
+// the balance heuristic against a gather of `rays` rays (connect/cpu.rs, operation for
+// operation). The pool: lux_path_point (scene.wgsl).
+
+fn lux_run(c: vec2<i32>) -> vec4<f32> {
+    let layer = i32(lux_tile.layer);
+    let pw = textureLoad(lux_position, c, layer, 0);
+    if (pw.w <= 0.5) {
+        return vec4<f32>(0.0);
+    }
+    var n: vec3<f32>;
+    if (!lux_normalize(textureLoad(lux_normal, c, layer, 0).xyz, &n)) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let count = min(lux_pass.count, lux_path_point_count());
+    if (count == 0u || lux_pass.k == 0u) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
+    let p = pw.xyz;
+    let texel = lux_texel_index(textureDimensions(lux_position).xy, u32(layer), u32(c.x), u32(c.y));
+    let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
+    let nc = f32(lux_pass.rays);
+    let kf = f32(lux_pass.k);
+    var sum = vec3<f32>(0.0);
+    for (var s = 0u; s < lux_pass.k; s++) {
+        let u = lux_uniform2(texel, s, LUX_CONNECT_PASS, lux_pass.seed);
+        let j = min(u32(u.x * f32(count)), count - 1u);
+        let a = lux_path_point(j, 0u);
+        let b = lux_path_point(j, 1u);
+        let power = lux_path_point(j, 2u).xyz;
+        let to = a.xyz - p;
+        let r2 = lux_dot(to, to);
+        let r = sqrt(r2);
+        if (!(r > 0.0 && lux_finite(r))) {
+            continue;
+        }
+        let w = to / r;
+        let cx = lux_dot(n, w);
+        let cy = -lux_dot(b.xyz, w);
+        if (!(cx > 0.0 && cy > 0.0)) {
+            continue;
+        }
+        let target_point = lux_offset_origin(a.xyz, b.xyz, lux_scene.ray_epsilon);
+        let sd = target_point - origin;
+        let len = sqrt(lux_dot(sd, sd));
+        if (!(len > 0.0)) {
+            continue;
+        }
+        var hit: vec3<f32>;
+        if (lux_trace(origin, sd / len, 0.0, len * (1.0 - 1e-4), true, &hit) >= 0) {
+            continue;
+        }
+        let pv = a.w * lux_pass.density_scale;
+        let geometry = cx * cy;
+        let denominator = 3.14159265358979 * kf * pv * r2 + nc * geometry;
+        if (!(denominator > 0.0)) {
+            continue;
+        }
+        let f = pv * geometry / denominator;
+        sum += f * power;
+    }
+    return vec4<f32>(lux_guard3(sum), 1.0);
+}

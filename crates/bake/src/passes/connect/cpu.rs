@@ -1,0 +1,87 @@
+//! The CPU reference of pass `connect` (the semantics the shaders mirror).
+
+// `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use luxbake_bvh::Ray;
+
+use crate::backend::{LAMP_PATH_TEXELS, offset_origin};
+use crate::cpu::kernel::*;
+use crate::exact::div;
+use crate::lightpaths::CONNECT_PASS;
+use crate::rng;
+
+use super::ConnectParams;
+
+/// The connect pass for one dispatch.
+pub(crate) type Pass = ConnectParams;
+
+impl TexelPass for ConnectParams {
+    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
+        let pw = ctx.views[0].fetch(layer, x, y);
+        if pw[3] <= 0.5 {
+            return [0.0; 4];
+        }
+        let Some(n) = normalize(xyz(ctx.views[1].fetch(layer, x, y))) else {
+            return [0.0, 0.0, 0.0, 1.0];
+        };
+        let paths = &ctx.scene.lamp_paths;
+        let stored = (paths.len() / (4 * LAMP_PATH_TEXELS)) as u32;
+        let count = self.count.min(stored);
+        if count == 0 || self.k == 0 {
+            return [0.0, 0.0, 0.0, 1.0];
+        }
+        let p = xyz(pw);
+        let scene = ctx.scene;
+        let texel = rng::texel_index(scene.layer_size, layer, x, y);
+        let origin = offset_origin(p, n, scene.ray_epsilon);
+        let (nc, kf) = (self.rays as f32, self.k as f32);
+        let mut sum = [0.0f32; 3];
+        for s in 0..self.k {
+            let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, self.seed);
+            let j = ((u * count as f32) as u32).min(count - 1) as usize;
+            let at = |row: usize| {
+                let i = 4 * (LAMP_PATH_TEXELS * j + row);
+                [paths[i], paths[i + 1], paths[i + 2], paths[i + 3]]
+            };
+            let (a, b, power) = (at(0), at(1), at(2));
+            let (position, normal) = (xyz(a), xyz(b));
+            let to = sub(position, p);
+            let r2 = dot(to, to);
+            let r = r2.sqrt();
+            if !(r > 0.0 && r.is_finite()) {
+                continue;
+            }
+            let w = div(to, r);
+            let cx = dot(n, w);
+            let cy = -dot(normal, w);
+            if !(cx > 0.0 && cy > 0.0) {
+                continue;
+            }
+            let target = offset_origin(position, normal, scene.ray_epsilon);
+            let sd = sub(target, origin);
+            let len = dot(sd, sd).sqrt();
+            if !(len > 0.0) {
+                continue;
+            }
+            let ray = Ray {
+                origin,
+                dir: div(sd, len),
+            };
+            if scene.any_hit(&ray, 0.0, len * (1.0 - 1e-4), ctx.trav) {
+                continue;
+            }
+            let pv = a[3] * self.density_scale;
+            let geometry = cx * cy;
+            let denominator = std::f32::consts::PI * kf * pv * r2 + nc * geometry;
+            if !(denominator > 0.0) {
+                continue;
+            }
+            let f = pv * geometry / denominator;
+            for (sc, pc) in sum.iter_mut().zip(power) {
+                *sc += f * pc;
+            }
+        }
+        [guard(sum[0]), guard(sum[1]), guard(sum[2]), 1.0]
+    }
+}
