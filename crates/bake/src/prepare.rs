@@ -8,7 +8,8 @@
 //!   Room::prepare (the scene and its texel density; not the lamps)
 //!     recentre → layout → rasterise → BVH build (once) → unocclude
 //!   Lamps::prepare (the room and the lamps)
-//!     lamp tables → lamp reach → lamp paths (traced once, connected to every texel)
+//!     lamp tables → lamp reach → lamp paths (the pool traced once; the backend connects
+//!     every texel to it, pass `connect`)
 //! ```
 //!
 //! A [`Room`] holds everything that does not depend on the lamps: the layout, the G-buffer
@@ -57,7 +58,8 @@ pub enum HostNode {
     Unocclude,
     /// Each lamp's table, its parameters and which texels it can reach unshadowed.
     LampReach,
-    /// The first bounce's lamp paths, traced and connected to every texel ([`lightpaths`]).
+    /// The first bounce's lamp paths: the pool traced ([`lightpaths`]; the `connect` pass
+    /// joins every texel to it on the backend).
     LampPaths,
 }
 

@@ -3,7 +3,7 @@
 // With u_stride > 1 only the coarse grid's texels (u_rays) and its orphans (u_orphan_rays) are
 // gathered (coarse.glsl); the others are written as 0 for the upsample pass to fill. With
 // u_lamp_paths > 0 each hit is weighted against the lamp paths, whose part (u_connected,
-// computed on the CPU: lightpaths::LampPaths::connect) is added.
+// computed by the connect pass) is added.
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);

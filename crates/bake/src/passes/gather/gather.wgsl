@@ -3,7 +3,7 @@
 // operation). With lux_pass.stride > 1 only the coarse grid's texels (lux_pass.rays) and its
 // orphans (lux_pass.orphan_rays) are gathered (coarse.wgsl); the others are written as 0 for
 // the upsample pass to fill. With lux_pass.lamp_paths > 0 each hit is weighted against the
-// lamp paths, whose part (lux_connected, computed on the CPU: lightpaths::LampPaths::connect)
+// lamp paths, whose part (lux_connected, computed by the connect pass)
 // is added.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
