@@ -223,11 +223,11 @@ export class Luxbake {
 
   async #bake(options = {}) {
     const { scene, lamps, onProgress, signal } = options;
+    if (signal?.aborted) throw aborted(signal);
     const bytes = sceneBytes(scene);
     const settings = settingsOf(options, ['scene', 'lamps', 'onProgress', 'signal']);
     const { specs, photometry } = lampsOf(lamps);
     settings.lamps = specs;
-    if (signal?.aborted) throw aborted(signal);
     await this.#ensureWorker();
     return this.#run(
       { type: 'bake', gltf: bytes, options: JSON.stringify(settings), photometry },
@@ -239,9 +239,9 @@ export class Luxbake {
 
   async #load(options = {}) {
     const { scene, onProgress, signal } = options;
+    if (signal?.aborted) throw aborted(signal);
     const bytes = sceneBytes(scene);
     const settings = settingsOf(options, ['scene', 'onProgress', 'signal']);
-    if (signal?.aborted) throw aborted(signal);
     const room = new Room(this, bytes, settings);
     await this._loadInWorker(room, { onProgress, signal });
     return room;
@@ -272,6 +272,7 @@ export class Luxbake {
 
   async #bakeRoom(room, options = {}) {
     const { lamps, onProgress, onDirect, signal, layers = false } = options;
+    if (signal?.aborted) throw aborted(signal);
     const keys = ['lamps', 'onProgress', 'onDirect', 'signal', 'layers'];
     const settings = { ...room._settings, ...settingsOf(options, keys) };
     if (typeof layers !== 'boolean') throw new LuxbakeError('options', '`layers` must be true or false');
@@ -279,7 +280,6 @@ export class Luxbake {
     if (onDirect && layers) throw new LuxbakeError('options', '`onDirect` is for bakes without `layers` (a layered bake bakes each lamp alone)');
     const { specs, photometry } = lampsOf(lamps);
     settings.lamps = specs;
-    if (signal?.aborted) throw aborted(signal);
     room._check();
     if (room._generation !== this._generation) await this._loadInWorker(room, { signal });
     const started = performance.now();
