@@ -9,7 +9,8 @@
 //! `--check` serves the page on a free port, starts `chromedriver` with Chromium on
 //! SwiftShader (WebGL2 on the CPU) and drives it over WebDriver (HTTP + JSON, std only):
 //! 1. the page bakes `chairs_01` at a reduced density ([`CHECK_REQUEST`]: SwiftShader is
-//!    slow) without an error and reports its bake time;
+//!    slow) without an error and reports its bake time; it showed the direct light first,
+//!    before the bake ended;
 //! 2. its light maps (read back through `window.luxbake.readback()`) match a native glow
 //!    bake (headless EGL) of the same request per object and stage within [`TOLERANCES`];
 //! 3. a screenshot of the view is not blank: the floor under the lamp is brighter than the
@@ -628,6 +629,19 @@ fn run_checks(
     }
     std::fs::write(out_dir.join("browser_report.json"), report.to_string())
         .map_err(|e| e.to_string())?;
+    let last =
+        s.eval("({direct: window.luxbake.lastBake.direct, wall: window.luxbake.lastBake.wall})")?;
+    let (direct, wall) = (last["direct"].as_f64(), last["wall"].as_f64());
+    println!(
+        "direct light shown after {:.2} s of the bake's {:.2} s",
+        direct.unwrap_or(f64::NAN),
+        wall.unwrap_or(f64::NAN)
+    );
+    if !direct.zip(wall).is_some_and(|(d, w)| d > 0.0 && d < w) {
+        return Err(format!(
+            "the page did not show the direct light before the bake ended: direct {direct:?}, bake {wall:?} s"
+        ));
+    }
 
     // 2. Light maps: browser vs native glow.
     compare_maps(&back, native)?;

@@ -12,7 +12,7 @@ export type LuxbakeErrorKind =
   | 'measure'      // malformed points, or the result's maps are gone
   | 'worker'       // the worker could not start
   | 'internal'     // a bug (the worker is replaced; please report it)
-  | 'disposed';    // the baker was disposed
+  | 'disposed';    // the baker or the room was disposed
 
 /** The error every promise of this package rejects with. */
 export class LuxbakeError extends Error {
@@ -81,6 +81,27 @@ export interface BakeOptions {
   signal?: AbortSignal;
 }
 
+/** What a room is read with (`baker.load`): the settings its bakes start from. */
+export type LoadOptions = Omit<BakeOptions, 'lamps'>;
+
+/** What a room is baked with (`room.bake`): the lamps and settings over the load's. */
+export interface RoomBakeOptions extends Omit<BakeOptions, 'scene'> {
+  /** Called once with the blurred direct light (a BakeResult with `stage` 'direct', for applyToThree; no measure) before the bounces run. Not with `layers`. */
+  onDirect?: (direct: BakeResult) => void;
+  /** Bake each lamp alone, so that `result.setLamp` dims, tints or switches it without a ray (costs one bake per lamp, and memory per lamp: see `bytesPerLamp`). */
+  layers?: boolean;
+}
+
+/** A lamp's state in a layered result. */
+export interface LampState {
+  /** Dimmer (>= 0). */
+  multiplier: number;
+  /** Linear RGB tint (each >= 0). */
+  color: [number, number, number];
+  /** Switched on. */
+  on: boolean;
+}
+
 /** One baked object's light maps. */
 export interface BakedObject {
   /** Index of the object in the bake. */
@@ -102,6 +123,8 @@ export interface BakedObject {
   /** For generated UVs: triangle indices of the new vertices, and the file vertex each one copies. */
   indices: Uint32Array | null;
   sourceVertex: Uint32Array | null;
+  /** Layered results: per lamp, its maps alone at multiplier 1 (in `BakeResult.layerColors`). */
+  layers?: { illuminance: Float32Array[]; direct: Float32Array[] };
 }
 
 export interface BakeTimings {
@@ -118,15 +141,44 @@ export class BakeResult {
   readonly warnings: string[];
   readonly timings: BakeTimings;
   readonly report: Record<string, unknown>;
-  /** Illuminance (lux) at world points; NaN where a point is on no baked surface. */
+  /** 'converged', or 'direct' for the direct light handed to `onDirect`. */
+  readonly stage: 'converged' | 'direct';
+  /** Layered results: the lamps in their current states. */
+  readonly lamps: LampState[];
+  /** Layered results: bytes the worker keeps per lamp (the page keeps 32 and the GPU 8 more per region texel). */
+  readonly bytesPerLamp?: number;
+  /** Illuminance (lux) at world points; NaN where a point is on no baked surface. Rejects ('measure') for a 'direct' result. */
   measure(points: ArrayLike<number> | [number, number, number][]): Promise<Float64Array>;
+  /**
+   * Layered results: sets lamp `index`'s state without a ray; what applyToThree applied, the
+   * objects' maps and measure follow. Throws 'lamp' for an index out of range or a negative
+   * or non-finite value, 'options' for a result without layers or an unknown key.
+   */
+  setLamp(index: number, state: Partial<LampState>): void;
   /**
    * Puts the light maps on the meshes of a three.js scene loaded from the same file (pass the
    * GLTFLoader result for exact matching, or an Object3D to match by name): `lightMap` on
-   * channel 1 (uv1), `lightMapIntensity` = `intensity` (default 1).
+   * channel 1 (uv1), `lightMapIntensity` = `intensity` (default 1). `lights`: the file's own
+   * punctual lights under `root` are removed ('remove', the default) or kept ('keep').
    */
-  applyToThree(root: object, THREE: object, options?: { intensity?: number }): { applied: number; unmatched: string[] };
+  applyToThree(root: object, THREE: object, options?: { intensity?: number; lights?: 'remove' | 'keep' }): { applied: number; unmatched: string[]; removedLights: number };
   /** Frees the textures made by applyToThree and the maps kept for measure. */
+  dispose(): void;
+}
+
+/** A room read once: its layout, G-buffer and BVH stay in the worker for every bake of it. */
+export class Room {
+  /** What the glTF reader ignored or converted. */
+  readonly warnings: string[];
+  /** Objects read from the file. */
+  readonly objects: number;
+  /** Light-map texels. */
+  readonly texels: number;
+  /** Seconds the room's host work took. */
+  readonly seconds: number;
+  /** Bakes the room lit by `options.lamps`; one bake at a time per baker. */
+  bake(options: RoomBakeOptions): Promise<BakeResult>;
+  /** Frees the room; later bakes reject with 'disposed'. */
   dispose(): void;
 }
 
@@ -137,6 +189,14 @@ export class Luxbake {
   readonly renderer: string;
   /** Bakes; one bake at a time (a second call waits for the first). */
   bake(options: BakeOptions): Promise<BakeResult>;
+  /** Reads a room once for many bakes (a lamp swap re-bakes only the lamps' part). */
+  load(options: LoadOptions): Promise<Room>;
   /** Frees the worker and its WebGL2 context. */
   dispose(): void;
 }
+
+/**
+ * ACES filmic tone mapping with the exposure that shows a surface of `albedo` (default 0.5)
+ * lit by `lux` at `key` (default 0.8) before tone mapping; returns the exposure.
+ */
+export function setExposure(renderer: object, THREE: object, lux: number, options?: { albedo?: number; key?: number }): number;

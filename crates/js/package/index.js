@@ -34,6 +34,61 @@ function aborted(signal) {
   return new LuxbakeError('aborted', `the bake was aborted${why}`);
 }
 
+/** The glTF/GLB file of `options.scene` as a copy of its bytes. */
+function sceneBytes(scene) {
+  if (!(scene instanceof ArrayBuffer) && !ArrayBuffer.isView(scene)) {
+    throw new LuxbakeError('options', '`scene` must be the glTF or GLB file as an ArrayBuffer');
+  }
+  return toBytes(scene, '`scene`');
+}
+
+/** The settings of `options` (every key but `other`), checked for unknown keys. */
+function settingsOf(options, other) {
+  const settings = {};
+  for (const [k, v] of Object.entries(options)) {
+    if (other.includes(k) || v === undefined) continue;
+    if (!SETTING_KEYS.includes(k)) {
+      throw new LuxbakeError('options', `unknown option \`${k}\` (expected ${other.join(', ')}, ${SETTING_KEYS.join(', ')})`);
+    }
+    settings[k] = v;
+  }
+  return settings;
+}
+
+/** The lamps' specs (JSON for the worker) and their photometric files. */
+function lampsOf(lamps) {
+  if (!Array.isArray(lamps)) throw new LuxbakeError('options', '`lamps` must be an array of lamps');
+  const photometry = [];
+  const specs = lamps.map((lamp, i) => {
+    if (lamp === null || typeof lamp !== 'object') throw new LuxbakeError('lamp', `lamp ${i} is not an object`);
+    if (lamp.photometry === undefined) throw new LuxbakeError('lamp', `lamp ${i}: \`photometry\` (the IES or EULUMDAT file) is missing`);
+    photometry.push(toBytes(lamp.photometry, `lamp ${i}: \`photometry\``));
+    const spec = {};
+    for (const [k, v] of Object.entries(lamp)) {
+      if (k === 'photometry' || v === undefined) continue;
+      if (!LAMP_KEYS.includes(k)) throw new LuxbakeError('lamp', `lamp ${i}: unknown key \`${k}\` (expected photometry, ${LAMP_KEYS.join(', ')})`);
+      spec[k] = ArrayBuffer.isView(v) ? Array.from(v) : v;
+    }
+    return spec;
+  });
+  return { specs, photometry };
+}
+
+/**
+ * Sets `renderer` up for light maps in lux: ACES filmic tone mapping (three.js's default,
+ * `NoToneMapping`, ignores the exposure) with the exposure that shows a surface of albedo
+ * `albedo` lit by `lux` (e.g. `result.measure` on the floor under the lamp) at `key` before
+ * tone mapping. Returns the exposure.
+ */
+export function setExposure(renderer, THREE, lux, { albedo = 0.5, key = 0.8 } = {}) {
+  if (!THREE || THREE.ACESFilmicToneMapping === undefined) throw new LuxbakeError('options', 'setExposure needs the three.js module as its second argument');
+  if (!(lux > 0) || !Number.isFinite(lux)) throw new LuxbakeError('options', `setExposure needs an illuminance > 0 lux, got ${lux}`);
+  renderer.toneMapping = THREE.ACESFilmicToneMapping;
+  // Radiance ρE/π of the surface, brought to `key`.
+  renderer.toneMappingExposure = key * Math.PI / (albedo * lux);
+  return renderer.toneMappingExposure;
+}
+
 /**
  * A baker: one module worker with one WebGL2 context on an OffscreenCanvas. Bakes run one at a
  * time (a second `bake()` waits for the first).
@@ -111,6 +166,10 @@ export class Luxbake {
       p.progress?.(m.event);
       return;
     }
+    if (m.type === 'direct') {
+      p.direct?.(m.result);
+      return;
+    }
     this.#pending.delete(m.id);
     if (m.type === 'error') {
       const err = new LuxbakeError(m.kind, m.message);
@@ -122,10 +181,10 @@ export class Luxbake {
     }
   }
 
-  #request(message, transfer = [], progress = null) {
+  #request(message, transfer = [], progress = null, direct = null) {
     const id = this.#nextId++;
     return new Promise((resolve, reject) => {
-      this.#pending.set(id, { resolve, reject, progress });
+      this.#pending.set(id, { resolve, reject, progress, direct });
       this.#worker.postMessage({ ...message, id }, transfer);
     });
   }
@@ -137,10 +196,23 @@ export class Luxbake {
    * `signal` an AbortSignal. Resolves to a BakeResult.
    */
   bake(options) {
-    const run = () => this.#bake(options);
+    return this.#enqueue(() => this.#bake(options), options?.signal);
+  }
+
+  /**
+   * Reads `scene` (glTF/GLB bytes) as a room and does its host work (light-map layout,
+   * G-buffer, BVH) once: resolves to a Room whose `bake({ lamps, ... })` runs only the lamps'
+   * work and the GPU passes. Options: the settings of `bake` (the room's bakes start from
+   * them), `onProgress`, `signal`.
+   */
+  load(options) {
+    return this.#enqueue(() => this.#load(options), options?.signal);
+  }
+
+  /** Runs `run` after the bakes before it; a fired `signal` rejects at once. */
+  #enqueue(run, signal) {
     const result = this.#queue.then(run, run);
     this.#queue = result.catch(() => {});
-    const signal = options?.signal;
     if (!signal) return result;
     // A bake still waiting for the one before it rejects at once too (it then never starts).
     return Promise.race([result, new Promise((_, reject) => {
@@ -152,34 +224,79 @@ export class Luxbake {
   async #bake(options = {}) {
     const { scene, lamps, onProgress, signal } = options;
     if (signal?.aborted) throw aborted(signal);
-    if (!(scene instanceof ArrayBuffer) && !ArrayBuffer.isView(scene)) {
-      throw new LuxbakeError('options', '`scene` must be the glTF or GLB file as an ArrayBuffer');
-    }
-    if (!Array.isArray(lamps)) throw new LuxbakeError('options', '`lamps` must be an array of lamps');
-    const settings = {};
-    for (const [k, v] of Object.entries(options)) {
-      if (['scene', 'lamps', 'onProgress', 'signal'].includes(k) || v === undefined) continue;
-      if (!SETTING_KEYS.includes(k)) {
-        throw new LuxbakeError('options', `unknown option \`${k}\` (expected scene, lamps, onProgress, signal, ${SETTING_KEYS.join(', ')})`);
-      }
-      settings[k] = v;
-    }
-    const photometry = [];
-    settings.lamps = lamps.map((lamp, i) => {
-      if (lamp === null || typeof lamp !== 'object') throw new LuxbakeError('lamp', `lamp ${i} is not an object`);
-      if (lamp.photometry === undefined) throw new LuxbakeError('lamp', `lamp ${i}: \`photometry\` (the IES or EULUMDAT file) is missing`);
-      photometry.push(toBytes(lamp.photometry, `lamp ${i}: \`photometry\``));
-      const spec = {};
-      for (const [k, v] of Object.entries(lamp)) {
-        if (k === 'photometry' || v === undefined) continue;
-        if (!LAMP_KEYS.includes(k)) throw new LuxbakeError('lamp', `lamp ${i}: unknown key \`${k}\` (expected photometry, ${LAMP_KEYS.join(', ')})`);
-        spec[k] = ArrayBuffer.isView(v) ? Array.from(v) : v;
-      }
-      return spec;
-    });
-    const bytes = toBytes(scene, '`scene`');
+    const bytes = sceneBytes(scene);
+    const settings = settingsOf(options, ['scene', 'lamps', 'onProgress', 'signal']);
+    const { specs, photometry } = lampsOf(lamps);
+    settings.lamps = specs;
     await this.#ensureWorker();
+    return this.#run(
+      { type: 'bake', gltf: bytes, options: JSON.stringify(settings), photometry },
+      [bytes.buffer, ...photometry.map((p) => p.buffer)],
+      { onProgress, signal },
+      (m, seconds) => new BakeResult(this, m.result, seconds, { lamps: specs }),
+    );
+  }
+
+  async #load(options = {}) {
+    const { scene, onProgress, signal } = options;
     if (signal?.aborted) throw aborted(signal);
+    const bytes = sceneBytes(scene);
+    const settings = settingsOf(options, ['scene', 'onProgress', 'signal']);
+    const room = new Room(this, bytes, settings);
+    await this._loadInWorker(room, { onProgress, signal });
+    return room;
+  }
+
+  /** @internal Loads `room` in the current worker (again after the worker was replaced). */
+  async _loadInWorker(room, { onProgress, signal } = {}) {
+    await this.#ensureWorker();
+    const generation = this.#generation;
+    const bytes = room._bytes.slice();
+    await this.#run(
+      { type: 'load', gltf: bytes, options: JSON.stringify(room._settings) },
+      [bytes.buffer],
+      { onProgress, signal },
+      (m) => room._loaded(m.result, generation),
+    );
+  }
+
+  /** @internal The worker's generation: rooms loaded in another one are gone. */
+  get _generation() {
+    return this.#worker ? this.#generation : -1;
+  }
+
+  /** @internal Bakes a loaded room (queued like `bake`). */
+  _bakeRoom(room, options) {
+    return this.#enqueue(() => this.#bakeRoom(room, options), options?.signal);
+  }
+
+  async #bakeRoom(room, options = {}) {
+    const { lamps, onProgress, onDirect, signal, layers = false } = options;
+    if (signal?.aborted) throw aborted(signal);
+    const keys = ['lamps', 'onProgress', 'onDirect', 'signal', 'layers'];
+    const settings = { ...room._settings, ...settingsOf(options, keys) };
+    if (typeof layers !== 'boolean') throw new LuxbakeError('options', '`layers` must be true or false');
+    if (onDirect !== undefined && typeof onDirect !== 'function') throw new LuxbakeError('options', '`onDirect` must be a function');
+    if (onDirect && layers) throw new LuxbakeError('options', '`onDirect` is for bakes without `layers` (a layered bake bakes each lamp alone)');
+    const { specs, photometry } = lampsOf(lamps);
+    settings.lamps = specs;
+    room._check();
+    if (room._generation !== this._generation) await this._loadInWorker(room, { signal });
+    const started = performance.now();
+    const direct = onDirect ? (m) => {
+      const result = new BakeResult(null, { id: 0, report: '{}', warnings: [], objects: m.objects }, (performance.now() - started) / 1000, { stage: 'direct' });
+      try { onDirect(result); } catch (err) { console.error(err); }
+    } : null;
+    return this.#run(
+      { type: 'bakeRoom', room: room._id, options: JSON.stringify(settings), photometry, direct: !!onDirect, layers },
+      photometry.map((p) => p.buffer),
+      { onProgress, signal, direct },
+      (m, seconds) => new BakeResult(this, m.result, seconds, { lamps: specs }),
+    );
+  }
+
+  /** Sends a request, reports its progress, rejects at once on `signal`; `make` builds the result. */
+  async #run(message, transfer, { onProgress, signal, direct = null }, make) {
     const started = performance.now();
     let last = 0;
     const progress = (event) => {
@@ -188,11 +305,7 @@ export class Luxbake {
         try { onProgress({ ...event, fraction: last }); } catch (err) { console.error(err); }
       }
     };
-    const work = this.#request(
-      { type: 'bake', gltf: bytes, options: JSON.stringify(settings), photometry },
-      [bytes.buffer, ...photometry.map((p) => p.buffer)],
-      progress,
-    );
+    const work = this.#request(message, transfer, progress, direct);
     let onAbort = null;
     const cancel = new Promise((_, reject) => {
       if (!signal) return;
@@ -207,8 +320,8 @@ export class Luxbake {
     });
     try {
       const m = await Promise.race([work, cancel]);
-      const result = new BakeResult(this, m.result, (performance.now() - started) / 1000);
-      this.#results.add(result);
+      const result = make(m, (performance.now() - started) / 1000);
+      if (result instanceof BakeResult) this.#results.add(result);
       if (onProgress) {
         try { onProgress({ phase: 'done', fraction: 1 }); } catch (err) { console.error(err); }
       }
@@ -219,9 +332,14 @@ export class Luxbake {
   }
 
   /** @internal */
-  async _measure(bakeId, points) {
+  _disposeRoom(id) {
+    if (this.#worker) this.#worker.postMessage({ type: 'disposeRoom', room: id });
+  }
+
+  /** @internal */
+  async _measure(bakeId, points, states) {
     if (!this.#worker) throw new LuxbakeError('measure', 'the baker that made this result was disposed or aborted');
-    const m = await this.#request({ type: 'measure', bakeId, points });
+    const m = await this.#request({ type: 'measure', bakeId, points, states: states ? JSON.stringify(states) : undefined });
     return m.lux;
   }
 
@@ -245,37 +363,216 @@ export class Luxbake {
   }
 }
 
+/**
+ * A room read once (`baker.load`): its file, its light-map layout, G-buffer and BVH stay in
+ * the worker, and `bake` runs only the lamps' work and the GPU passes.
+ */
+export class Room {
+  #baker;
+  #id = 0;
+  #generation = -1;
+  #disposed = false;
+
+  constructor(baker, bytes, settings) {
+    this.#baker = baker;
+    /** @internal The file, kept to load the room again in a new worker. */
+    this._bytes = bytes;
+    /** @internal The load's settings: every bake starts from them. */
+    this._settings = settings;
+    /** What the glTF reader ignored or converted. */
+    this.warnings = [];
+    /** Objects read from the file, and light-map texels of the room. */
+    this.objects = 0;
+    this.texels = 0;
+    /** Seconds the room's host work took in the worker. */
+    this.seconds = 0;
+  }
+
+  /** @internal */
+  _loaded(raw, generation) {
+    this.#id = raw.room;
+    this.#generation = generation;
+    this.warnings = raw.warnings;
+    this.objects = raw.objects;
+    this.texels = raw.texels;
+    this.seconds = raw.seconds;
+  }
+
+  /** @internal */
+  get _id() {
+    return this.#id;
+  }
+
+  /** @internal */
+  get _generation() {
+    return this.#generation;
+  }
+
+  /** @internal Throws `disposed` for a disposed room. */
+  _check() {
+    if (this.#disposed) throw new LuxbakeError('disposed', 'the room was disposed: load it again with baker.load');
+  }
+
+  /**
+   * Bakes the room lit by `lamps`. Options: those of `baker.bake` but `scene` (the settings
+   * start from the load's; another `texelsPerMetre` or `blurSigma` reads the room again),
+   * `onDirect(result)` called with the direct light (a BakeResult for `applyToThree`) before
+   * the bounces run, and `layers: true` to bake each lamp alone so that `result.setLamp`
+   * dims, tints or switches it without a ray. Resolves to a BakeResult.
+   */
+  bake(options) {
+    if (this.#disposed) return Promise.reject(new LuxbakeError('disposed', 'the room was disposed: load it again with baker.load'));
+    return this.#baker._bakeRoom(this, options);
+  }
+
+  /** Frees the room in the worker; later bakes reject with `disposed`. */
+  dispose() {
+    if (this.#disposed) return;
+    this.#disposed = true;
+    if (this.#baker._generation === this.#generation) this.#baker._disposeRoom(this.#id);
+    this._bytes = null;
+  }
+}
+
 /** Largest finite half float. */
 const HALF_MAX = 65504;
+
+/** Most lamps whose layers `applyToThree` sums in the shader (one texture unit each). */
+const MAX_SHADER_LAYERS = 8;
+
+/** The read of the light map in three.js's `lights_fragment_maps` chunk, replaced by the layers' sum. */
+const LIGHTMAP_READ = 'vec4 lightMapTexel = texture2D( lightMap, vLightMapUv );';
+
+/** A lamp's state in a layered result: `{ multiplier, color, on }`. */
+function lampState(spec) {
+  return { multiplier: spec.multiplier ?? 1, color: [...(spec.color ?? [1, 1, 1])], on: true };
+}
 
 /** The light maps of one bake. */
 export class BakeResult {
   #baker;
   #textures = [];
+  /** Layered: `{ colors, states, weights (three.js uniform), dirty, maps }`. */
+  #layers = null;
 
-  constructor(baker, raw, wallSeconds) {
+  constructor(baker, raw, wallSeconds, { lamps = [], stage = 'converged' } = {}) {
     this.#baker = baker;
     const report = JSON.parse(raw.report);
     /** Bake id inside the worker (for `measure`). */
     this.id = raw.id;
+    /** `converged`, or `direct` for the direct light handed to `onDirect` before the bounces. */
+    this.stage = stage;
     /** Per baked object: name, glTF origin, light maps (RGBA Float32Array, lux). */
     this.objects = raw.objects;
     /** What the glTF reader ignored or converted. */
     this.warnings = raw.warnings;
     /** The bake's report: texels, triangles, settings, per-pass seconds. */
     this.report = report;
-    /** Seconds: `bake` as the bake measured itself, `total` with the transfer to and from the worker. */
+    /** Seconds: `bake` as the bake measured itself, `total` with the transfer to and from the worker (for `direct`: until the direct light arrived). */
     this.timings = {
       bake: report.totalSeconds,
       total: wallSeconds,
       setup: report.setup,
       passes: report.passes,
     };
+    if (raw.layerColors) {
+      this.#layers = {
+        colors: raw.layerColors.map((c) => Array.from(c)),
+        states: lamps.map(lampState),
+        weights: null,
+        dirty: false,
+        maps: raw.objects.map((o) => ({ illuminance: o.illuminance, direct: o.direct })),
+      };
+      /** Layered results: what the worker keeps per lamp, bytes (the page keeps 32 and the GPU 8 more per region texel). */
+      this.bytesPerLamp = raw.bytesPerLamp;
+      const layers = this.#layers;
+      raw.objects.forEach((o, k) => {
+        for (const stage of ['illuminance', 'direct']) {
+          Object.defineProperty(o, stage, {
+            enumerable: true,
+            get: () => {
+              if (layers.dirty) this.#recombine();
+              return layers.maps[k][stage];
+            },
+          });
+        }
+      });
+    }
   }
 
   /** @internal */
   _forget() {
     this.#baker = null;
+  }
+
+  /** The lamps of a layered result, in their current states (copies). */
+  get lamps() {
+    return this.#layers ? this.#layers.states.map((s) => ({ ...s, color: [...s.color] })) : [];
+  }
+
+  /**
+   * Layered results (`room.bake({ layers: true })`): sets lamp `index`'s `multiplier` (>= 0),
+   * `color` (linear RGB, each >= 0) and `on`, without a ray. The light maps `applyToThree`
+   * applied follow at once (their layers are summed in the shader); `objects[k].illuminance`
+   * and `direct` and `measure` follow the new state.
+   */
+  setLamp(index, state = {}) {
+    const layers = this.#layers;
+    if (!layers) throw new LuxbakeError('options', 'setLamp needs a result of room.bake({ layers: true })');
+    if (!Number.isInteger(index) || index < 0 || index >= layers.states.length) {
+      throw new LuxbakeError('lamp', `setLamp: lamp ${index} is not one of the ${layers.states.length} lamps of the bake`);
+    }
+    if (state === null || typeof state !== 'object') throw new LuxbakeError('options', 'setLamp: the state must be an object { multiplier, color, on }');
+    const next = { ...layers.states[index], color: [...layers.states[index].color] };
+    for (const [k, v] of Object.entries(state)) {
+      if (v === undefined) continue;
+      if (k === 'multiplier') {
+        if (typeof v !== 'number' || !Number.isFinite(v) || v < 0) throw new LuxbakeError('lamp', `lamp ${index}: \`multiplier\` must be a finite number >= 0, got ${v}`);
+        next.multiplier = v;
+      } else if (k === 'color') {
+        if (!(Array.isArray(v) || ArrayBuffer.isView(v)) || v.length !== 3 || !Array.from(v).every((c) => typeof c === 'number' && Number.isFinite(c) && c >= 0)) {
+          throw new LuxbakeError('lamp', `lamp ${index}: \`color\` must be three finite numbers >= 0`);
+        }
+        next.color = Array.from(v);
+      } else if (k === 'on') {
+        if (typeof v !== 'boolean') throw new LuxbakeError('options', `lamp ${index}: \`on\` must be true or false`);
+        next.on = v;
+      } else {
+        throw new LuxbakeError('options', `setLamp: unknown key \`${k}\` (expected multiplier, color, on)`);
+      }
+    }
+    layers.states[index] = next;
+    layers.dirty = true;
+    if (layers.weights) layers.weights.value[index].fromArray(this.#weight(index));
+  }
+
+  /** Lamp `i`'s weight on its layer, per channel: its state over the colour it was baked in. */
+  #weight(i) {
+    const { states, colors } = this.#layers;
+    const s = states[i];
+    return s.on ? [0, 1, 2].map((c) => s.multiplier * s.color[c] / colors[i][c]) : [0, 0, 0];
+  }
+
+  /** The objects' maps from the layers in the current states. */
+  #recombine() {
+    const layers = this.#layers;
+    const weights = layers.states.map((_, i) => this.#weight(i));
+    this.objects.forEach((o, k) => {
+      for (const stage of ['illuminance', 'direct']) {
+        const sources = o.layers[stage];
+        const out = new Float32Array(sources[0].length);
+        for (let t = 0; t < out.length; t += 4) {
+          let r = 0, g = 0, b = 0;
+          for (let i = 0; i < sources.length; i++) {
+            const w = weights[i], m = sources[i];
+            r += w[0] * m[t]; g += w[1] * m[t + 1]; b += w[2] * m[t + 2];
+          }
+          out[t] = r; out[t + 1] = g; out[t + 2] = b; out[t + 3] = sources[0][t + 3];
+        }
+        layers.maps[k][stage] = out;
+      }
+    });
+    layers.dirty = false;
   }
 
   /**
@@ -285,8 +582,9 @@ export class BakeResult {
    */
   async measure(points) {
     const flat = Float64Array.from(Array.isArray(points) && Array.isArray(points[0]) ? points.flat() : points);
+    if (this.stage === 'direct') throw new LuxbakeError('measure', 'the direct light handed to onDirect has no measure: measure the bake\'s result');
     if (!this.#baker) throw new LuxbakeError('measure', 'this result was disposed, or its baker aborted a bake or was disposed');
-    return this.#baker._measure(this.id, flat);
+    return this.#baker._measure(this.id, flat, this.#layers?.states);
   }
 
   /**
@@ -295,17 +593,37 @@ export class BakeResult {
    * Object3D (matching by name). Each matched mesh gets a clone of its material with
    * `lightMap` (half-float RGBA, lux, `channel` 1) and `lightMapIntensity` (default 1: the
    * map is illuminance E, so three.js shows radiance ρE/π); its geometry gets `uv1` (and is
-   * rebuilt where the UVs were generated). Returns `{ applied, unmatched }`.
+   * rebuilt where the UVs were generated). The file's own punctual lights (KHR_lights_punctual)
+   * under `root` are removed (`lights: 'remove'`, the default: the maps hold all of the
+   * lamps' light) or kept (`lights: 'keep'`). A layered result puts one map per lamp on the
+   * material and sums them in the shader, weighted as `setLamp` says. Returns
+   * `{ applied, unmatched, removedLights }`.
    */
-  applyToThree(root, THREE, { intensity = 1 } = {}) {
+  applyToThree(root, THREE, { intensity = 1, lights = 'remove' } = {}) {
     if (!THREE || !THREE.DataTexture) throw new LuxbakeError('options', 'applyToThree needs the three.js module as its second argument');
+    if (lights !== 'remove' && lights !== 'keep') throw new LuxbakeError('options', `applyToThree: \`lights\` must be 'remove' or 'keep', got ${lights}`);
     const associations = root?.parser?.associations;
     const sceneRoot = root?.scene ?? root;
     if (!sceneRoot || typeof sceneRoot.traverse !== 'function') {
       throw new LuxbakeError('options', 'applyToThree needs the GLTFLoader result or a three.js Object3D');
     }
+    const layered = this.#layers;
+    if (layered) {
+      if (layered.states.length > MAX_SHADER_LAYERS) {
+        throw new LuxbakeError('options', `applyToThree sums at most ${MAX_SHADER_LAYERS} lamps' layers in the shader; this bake has ${layered.states.length}`);
+      }
+      if (!THREE.ShaderChunk?.lights_fragment_maps?.includes(LIGHTMAP_READ)) {
+        throw new LuxbakeError('options', 'applyToThree: this three.js version reads the light map differently from the one luxbake sums layers in (three r151 or later)');
+      }
+      layered.weights ??= { value: layered.states.map((_, i) => new THREE.Vector3().fromArray(this.#weight(i))) };
+    }
     const meshes = [];
-    sceneRoot.traverse((o) => { if (o.isMesh) meshes.push(o); });
+    const punctual = [];
+    sceneRoot.traverse((o) => {
+      if (o.isMesh) meshes.push(o);
+      if (o.isLight && !o.isAmbientLight && !o.isHemisphereLight) punctual.push(o);
+    });
+    if (lights === 'remove') for (const l of punctual) l.removeFromParent();
     const sanitize = (s) => String(s).replace(/\s/g, '_').replace(/[\[\]\.:\/]/g, '');
     const find = (obj) => {
       if (associations && obj.gltf) {
@@ -341,19 +659,42 @@ export class BakeResult {
       }
       if (mesh.geometry !== ud.luxbakeGeometry) mesh.geometry.dispose();
       mesh.geometry = geometry;
-      const texture = this.#texture(obj, THREE);
+      const textures = layered
+        ? obj.layers.illuminance.map((map, i) => this.#texture(obj, map, `${obj.name}_lux_${i}`, THREE))
+        : [this.#texture(obj, obj.illuminance, `${obj.name}_lux`, THREE)];
       const source = ud.luxbakeMaterial;
       const material = Array.isArray(source) ? source.map((m) => m.clone()) : source.clone();
       for (const m of Array.isArray(material) ? material : [material]) {
-        m.lightMap = texture;
+        m.lightMap = textures[0];
         m.lightMapIntensity = intensity;
+        if (layered) this.#sumLayers(m, textures, layered.weights, THREE.ShaderChunk.lights_fragment_maps);
         m.needsUpdate = true;
       }
       if (mesh.material !== source) for (const m of [mesh.material].flat()) m.dispose();
       mesh.material = material;
       applied++;
     }
-    return { applied, unmatched };
+    return { applied, unmatched, removedLights: lights === 'remove' ? punctual.length : 0 };
+  }
+
+  /**
+   * Makes `material` show the sum of the lamps' layers (`textures`, one per lamp, the first as
+   * its `lightMap`) weighted by the shared uniform `weights` (one RGB weight per lamp), so that
+   * `setLamp` changes a uniform and no texture.
+   */
+  #sumLayers(material, textures, weights, chunk) {
+    const extra = textures.slice(1).map((t) => ({ value: t }));
+    const sum = `vec4 lightMapTexel = vec4( luxbakeWeights[ 0 ] * texture2D( lightMap, vLightMapUv ).rgb${
+      extra.map((_, i) => ` + luxbakeWeights[ ${i + 1} ] * texture2D( luxbakeLayer${i + 1}, vLightMapUv ).rgb`).join('')}, 1.0 );`;
+    const declarations = [`uniform vec3 luxbakeWeights[ ${textures.length} ];`,
+      ...extra.map((_, i) => `uniform sampler2D luxbakeLayer${i + 1};`)].join('\n');
+    const patched = chunk.replace(LIGHTMAP_READ, sum);
+    material.onBeforeCompile = (shader) => {
+      shader.uniforms.luxbakeWeights = weights;
+      extra.forEach((u, i) => { shader.uniforms[`luxbakeLayer${i + 1}`] = u; });
+      shader.fragmentShader = `${declarations}\n${shader.fragmentShader.replace('#include <lights_fragment_maps>', patched)}`;
+    };
+    material.customProgramCacheKey = () => `luxbake-layers-${textures.length}`;
   }
 
   /** The geometry with the light-map UVs as `uv1`, or null when `old` does not fit. */
@@ -390,8 +731,7 @@ export class BakeResult {
     return geometry;
   }
 
-  #texture(obj, THREE) {
-    const src = obj.illuminance;
+  #texture(obj, src, name, THREE) {
     const half = new Uint16Array(src.length);
     for (let i = 0; i < src.length; i++) {
       const v = i % 4 === 3 ? 1 : Math.min(Math.max(src[i], 0), HALF_MAX);
@@ -404,7 +744,7 @@ export class BakeResult {
     t.magFilter = THREE.LinearFilter;
     t.minFilter = THREE.LinearFilter;
     t.generateMipmaps = false;
-    t.name = `${obj.name}_lux`;
+    t.name = name;
     t.needsUpdate = true;
     this.#textures.push(t);
     return t;

@@ -41,11 +41,14 @@ pub enum JsBakeError {
     /// The measurement points are malformed.
     #[error("measure: {0}")]
     Measure(String),
+    /// A room (or result) that was disposed, or that the worker no longer holds.
+    #[error("{0}")]
+    Disposed(String),
 }
 
 impl JsBakeError {
     /// The error's kind as the JavaScript API names it: `options`, `setting`, `lamp`, `scene`,
-    /// `webgl`, `contextLost` or `measure`.
+    /// `webgl`, `contextLost`, `measure` or `disposed`.
     pub fn kind(&self) -> &'static str {
         match self {
             JsBakeError::Options(_) => "options",
@@ -55,6 +58,7 @@ impl JsBakeError {
             JsBakeError::Gpu(_) => "webgl",
             JsBakeError::ContextLost => "contextLost",
             JsBakeError::Measure(_) => "measure",
+            JsBakeError::Disposed(_) => "disposed",
         }
     }
 }

@@ -27,4 +27,7 @@ pub mod request;
 pub mod web;
 
 pub use error::JsBakeError;
-pub use request::{BakeOptions, Built, LampOptions, ObjectInfo, build_scene, measure};
+pub use request::{
+    BakeOptions, Built, Imported, LampOptions, ObjectInfo, build_lamps, build_scene, import_room,
+    measure,
+};

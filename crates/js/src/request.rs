@@ -163,18 +163,94 @@ pub struct Built {
     pub warnings: Vec<String>,
 }
 
-/// Builds the scene of a request: `gltf` (glTF JSON with data-URI buffers, or GLB), `options`,
-/// and one photometric file (IES LM-63 or EULUMDAT bytes) per lamp of `options.lamps`.
+/// A glTF/GLB file read as a room to bake: its receiving objects (no lamps) and what the page
+/// needs to apply a result. Light-map UVs the file lacks are generated for one texel density
+/// and chart padding ([`Imported::fits`]).
+#[derive(Debug, Clone)]
+pub struct Imported {
+    /// The scene: one receiving object per glTF primitive, no lamps, the settings it was
+    /// imported for.
+    pub scene: Scene,
+    /// Per object of `scene` (same order): where it came from.
+    pub objects: Vec<ObjectInfo>,
+    /// Things that were ignored or converted while reading the file, one sentence each.
+    pub warnings: Vec<String>,
+}
+
+/// The unwrapper's options for `settings`: its texel density and the chart padding its blur
+/// needs.
+fn unwrap_options(settings: &Settings) -> uv::UnwrapOptions {
+    uv::UnwrapOptions {
+        texels_per_metre: settings.texels_per_metre,
+        padding_texels: uv::padding_texels(settings.blur),
+        scale: [1.0; 3],
+    }
+}
+
+impl Imported {
+    /// Whether this import serves a bake with `settings`: the same texel density and chart
+    /// padding (the reader checks the file's own light-map UVs at the density, and generates
+    /// missing ones for both).
+    pub fn fits(&self, settings: &Settings) -> bool {
+        let (have, want) = (
+            unwrap_options(&self.scene.settings),
+            unwrap_options(settings),
+        );
+        have.texels_per_metre.to_bits() == want.texels_per_metre.to_bits()
+            && have.padding_texels.to_bits() == want.padding_texels.to_bits()
+    }
+}
+
+/// Reads `gltf` (glTF JSON with data-URI buffers, or GLB) as a room baked with `settings`.
 ///
 /// # Errors
-/// Options or settings out of range, a photometric file that does not parse (the message
-/// names its line), a lamp out of range, a glTF file `luxbake-assets` rejects, no lamp.
-pub fn build_scene(
-    gltf: &[u8],
-    options: &BakeOptions,
-    photometry: &[&[u8]],
-) -> Result<Built, JsBakeError> {
-    let settings = options.settings()?;
+/// [`JsBakeError::Scene`] for a file `luxbake-assets` rejects or a scene that fails
+/// [`Scene::validate`].
+pub fn import_room(gltf: &[u8], settings: &Settings) -> Result<Imported, JsBakeError> {
+    let import = ImportOptions {
+        unwrap: unwrap_options(settings),
+        ..ImportOptions::default()
+    };
+    let model = luxbake_assets::gltf_in::import_bytes(gltf, Path::new("scene"), &import)
+        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
+    let mut objects = Vec::with_capacity(model.parts.len());
+    let mut infos = Vec::with_capacity(model.parts.len());
+    for part in model.parts {
+        infos.push(ObjectInfo {
+            gltf: part.gltf,
+            generated_uvs: matches!(part.uv_source, UvSource::Generated { .. }),
+            source_vertex: part.source_vertex,
+        });
+        objects.push(Object {
+            name: part.name,
+            mesh: part.mesh,
+            transform: Transform::IDENTITY,
+            albedo: part.albedo,
+            receiver: true,
+            texel_scale: 1.0,
+        });
+    }
+    let scene = Scene {
+        objects,
+        lamps: Vec::new(),
+        settings: settings.clone(),
+    };
+    scene
+        .validate()
+        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
+    Ok(Imported {
+        scene,
+        objects: infos,
+        warnings: model.warnings,
+    })
+}
+
+/// The lamps of `options` with one photometric file (IES LM-63 or EULUMDAT bytes) each.
+///
+/// # Errors
+/// No lamp, not one file per lamp ([`JsBakeError::Options`]); a photometric file that does
+/// not parse (the message names its line) or a lamp out of range ([`JsBakeError::Lamp`]).
+pub fn build_lamps(options: &BakeOptions, photometry: &[&[u8]]) -> Result<Vec<Lamp>, JsBakeError> {
     if options.lamps.is_empty() {
         return Err(JsBakeError::Options(
             "`lamps` is empty: a bake needs a lamp".into(),
@@ -205,45 +281,31 @@ pub fn build_scene(
             .map_err(|e| lamp_error(format!("`{}`: {}", option_key(e.name), e.reason)))?;
         lamps.push(lamp);
     }
-    let import = ImportOptions {
-        unwrap: uv::UnwrapOptions {
-            texels_per_metre: settings.texels_per_metre,
-            padding_texels: uv::padding_texels(settings.blur),
-            scale: [1.0; 3],
-        },
-        ..ImportOptions::default()
-    };
-    let model = luxbake_assets::gltf_in::import_bytes(gltf, Path::new("scene"), &import)
-        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
-    let mut objects = Vec::with_capacity(model.parts.len());
-    let mut infos = Vec::with_capacity(model.parts.len());
-    for part in model.parts {
-        infos.push(ObjectInfo {
-            gltf: part.gltf,
-            generated_uvs: matches!(part.uv_source, UvSource::Generated { .. }),
-            source_vertex: part.source_vertex,
-        });
-        objects.push(Object {
-            name: part.name,
-            mesh: part.mesh,
-            transform: Transform::IDENTITY,
-            albedo: part.albedo,
-            receiver: true,
-            texel_scale: 1.0,
-        });
-    }
-    let scene = Scene {
-        objects,
-        lamps,
-        settings,
-    };
-    scene
-        .validate()
-        .map_err(|e| JsBakeError::Scene(e.to_string()))?;
+    Ok(lamps)
+}
+
+/// Builds the scene of a request: `gltf` (glTF JSON with data-URI buffers, or GLB), `options`,
+/// and one photometric file (IES LM-63 or EULUMDAT bytes) per lamp of `options.lamps`
+/// ([`build_lamps`], then [`import_room`]).
+///
+/// # Errors
+/// Options or settings out of range, a photometric file that does not parse (the message
+/// names its line), a lamp out of range, a glTF file `luxbake-assets` rejects, no lamp.
+pub fn build_scene(
+    gltf: &[u8],
+    options: &BakeOptions,
+    photometry: &[&[u8]],
+) -> Result<Built, JsBakeError> {
+    let settings = options.settings()?;
+    let lamps = build_lamps(options, photometry)?;
+    let room = import_room(gltf, &settings)?;
     Ok(Built {
-        scene,
-        objects: infos,
-        warnings: model.warnings,
+        scene: Scene {
+            lamps,
+            ..room.scene
+        },
+        objects: room.objects,
+        warnings: room.warnings,
     })
 }
 
@@ -387,6 +449,21 @@ mod tests {
                 .iter()
                 .all(|i| i.gltf.is_some() && !i.generated_uvs)
         );
+        // The room alone: the same objects, no lamps; it serves bakes at its density and blur.
+        let settings = &built.scene.settings;
+        let room = import_room(&bytes, settings).unwrap();
+        assert!(room.scene.lamps.is_empty());
+        assert_eq!(room.scene.objects, built.scene.objects);
+        assert!(room.fits(settings));
+        let denser = Settings {
+            texels_per_metre: 16.0,
+            ..settings.clone()
+        };
+        let blurred = Settings {
+            blur: Blur::Sigma(4.0),
+            ..settings.clone()
+        };
+        assert!(!room.fits(&denser) && !room.fits(&blurred));
         let mut backend = luxbake::cpu::CpuBackend::new();
         let out = luxbake::bake(
             &mut backend,

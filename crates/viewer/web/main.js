@@ -26,6 +26,8 @@ const hooks = {
   errors,
   bakeCount: 0,
   lastBake: null,
+  // The last bake's direct light: `{ bake, wall }` (its bake number, seconds to it).
+  direct: null,
   state: 'starting',
   request: null,
   waiters: [],
@@ -135,6 +137,17 @@ function onWorker(e) {
     if (ev.kind === 'work') $('progress').value = Math.min(1, ev.fraction);
     return;
   }
+  if (m.type === 'direct') {
+    // The direct light first; the converged maps replace it when the bake is done.
+    try {
+      viewer.showBake(JSON.stringify(hooks.request), m.maps);
+      hooks.direct = { bake: bakeId, wall: m.wall };
+      $('status').textContent = 'direct light shown; baking the bounces…';
+    } catch (err) {
+      showError(`display: ${err.message || err}`);
+    }
+    return;
+  }
   baking = false;
   if (m.type === 'done') {
     retried = false;
@@ -144,7 +157,8 @@ function onWorker(e) {
     } catch (err) {
       showError(`display: ${err.message || err}`);
     }
-    hooks.lastBake = { request, report: m.report, maps: m.maps, wall: m.wall };
+    const direct = hooks.direct?.bake === bakeId ? hooks.direct.wall : null;
+    hooks.lastBake = { request, report: m.report, maps: m.maps, wall: m.wall, direct };
     hooks.bakeCount += 1;
     hooks.state = 'baked';
     $('progress').value = 1;

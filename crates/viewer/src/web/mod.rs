@@ -2,14 +2,16 @@
 //!
 //! - [`Baker`] lives in the bake worker (`web/worker.js`): one WebGL2 context on an
 //!   `OffscreenCanvas`, a fresh [`GlowBackend`] per bake (dropping it frees every texture of
-//!   the previous bake), progress reported through a JS callback.
+//!   the previous bake), progress reported through a JS callback, the direct light handed
+//!   over through another before the bounces run.
 //! - [`Viewer`] lives on the page's thread: the display renderer, the camera, the light maps
 //!   of the last successful bake.
 
 mod render;
 
-use luxbake::Progress;
+use luxbake::bake::ObjectMaps;
 use luxbake::sources::builtin::ROOM_SIZE;
+use luxbake::{GpuBackend, Progress, Room};
 use luxbake_backend_glow::{GlContext, GlowBackend};
 use serde_json::json;
 use wasm_bindgen::prelude::*;
@@ -122,10 +124,12 @@ impl Baker {
 
     /// Bakes `request_json` ([`BakeRequest`]); `lamp_file` holds the bytes of a file from disk
     /// for lamp source `file`. `progress` is called with one JSON event per set-up step, pass
-    /// start, finished tile and finished pass. Returns `{report, maps}`: `report` a JSON string
-    /// (texels, passes with seconds, total), `maps` one entry per receiver
-    /// `{object, name, width, height, illuminance, direct, exitance}` (Float32Arrays, RGBA,
-    /// row 0 first; stages 7, 3 and 8 of Figure 5).
+    /// start, finished tile and finished pass; `direct` once with the blurred direct light, as
+    /// `maps` entries `{object, name, width, height, illuminance}` ([`Viewer::show_bake`]
+    /// shows them), before the bounces run ([`luxbake::bake_room_direct_first`]). Returns
+    /// `{report, maps}`: `report` a JSON string (texels, passes with seconds, total), `maps`
+    /// one entry per receiver `{object, name, width, height, illuminance, direct, exitance}`
+    /// (Float32Arrays, RGBA, row 0 first; stages 7, 3 and 8 of Figure 5).
     ///
     /// After a failure the context is replaced, so a lost context does not stop the next bake.
     ///
@@ -136,8 +140,9 @@ impl Baker {
         request_json: &str,
         lamp_file: Option<Vec<u8>>,
         progress: &js_sys::Function,
+        direct: &js_sys::Function,
     ) -> Result<JsValue, JsError> {
-        let result = self.bake_inner(request_json, lamp_file.as_deref(), progress);
+        let result = self.bake_inner(request_json, lamp_file.as_deref(), progress, direct);
         if result.is_err()
             && let Ok((canvas, _)) = new_context()
         {
@@ -151,6 +156,7 @@ impl Baker {
         request_json: &str,
         lamp_file: Option<&[u8]>,
         progress: &js_sys::Function,
+        direct: &js_sys::Function,
     ) -> Result<JsValue, JsError> {
         let request = BakeRequest::from_json(request_json).map_err(js_err)?;
         let scene = build_scene(&request, lamp_file).map_err(js_err)?;
@@ -177,9 +183,29 @@ impl Baker {
             }
             Progress::Work(fraction) => send(json!({"kind": "work", "fraction": fraction})),
         };
-        let out = luxbake::bake(&mut backend, &scene, &scene.settings, &mut on_progress)
-            .map_err(js_err)?;
+        // luxbake::bake, the direct light handed over first.
+        let settings = &scene.settings;
+        let room =
+            Room::prepare(&scene, settings, backend.limits(), &mut on_progress).map_err(js_err)?;
+        let mut sent = Ok(());
+        let mut out = luxbake::bake_room_direct_first(
+            &mut backend,
+            &room,
+            &scene.lamps,
+            settings,
+            &mut on_progress,
+            &mut |maps: &[ObjectMaps]| {
+                sent = maps_of(maps, false).map(|maps| {
+                    // A throwing callback must not stop the bake.
+                    let _ = direct.call1(&JsValue::NULL, &maps);
+                });
+            },
+        )
+        .map_err(js_err)?;
+        sent?;
         drop(backend);
+        out.report.setup.splice(0..0, room.timings.iter().copied());
+        out.report.total_seconds += room.timings.iter().map(|(_, s)| s).sum::<f64>();
         let r = &out.report;
         let report = json!({
             "backend": r.backend,
@@ -196,31 +222,39 @@ impl Baker {
             "skipped": r.skipped.iter().map(ToString::to_string).collect::<Vec<_>>(),
             "total_seconds": r.total_seconds,
         });
-        let maps = js_sys::Array::new();
-        for m in &out.maps {
-            let o = js_sys::Object::new();
-            let set = |k: &str, v: JsValue| js_sys::Reflect::set(&o, &k.into(), &v);
-            let f32s = |img: &luxbake::map::MapImage| {
-                JsValue::from(js_sys::Float32Array::from(img.texels.as_slice()))
-            };
-            let ok = set("object", (m.object as u32).into()).is_ok()
-                && set("name", m.name.as_str().into()).is_ok()
-                && set("width", m.region.size[0].into()).is_ok()
-                && set("height", m.region.size[1].into()).is_ok()
-                && set("illuminance", f32s(m.illuminance())).is_ok()
-                && set("direct", f32s(m.direct())).is_ok()
-                && set("exitance", f32s(m.exitance())).is_ok();
-            if !ok {
-                return Err(js_err("building the result object"));
-            }
-            maps.push(&o);
-        }
+        let maps = maps_of(&out.maps, true)?;
         let result = js_sys::Object::new();
         js_sys::Reflect::set(&result, &"report".into(), &report.to_string().into())
             .and_then(|_| js_sys::Reflect::set(&result, &"maps".into(), &maps))
             .map_err(|_| js_err("building the result object"))?;
         Ok(result.into())
     }
+}
+
+/// `maps` as the page gets them: per receiver `{object, name, width, height, illuminance}`
+/// and, with `all`, `direct` and `exitance` (Float32Arrays, RGBA, row 0 first).
+fn maps_of(maps: &[ObjectMaps], all: bool) -> Result<js_sys::Array, JsError> {
+    let out = js_sys::Array::new();
+    for m in maps {
+        let o = js_sys::Object::new();
+        let set = |k: &str, v: JsValue| js_sys::Reflect::set(&o, &k.into(), &v);
+        let f32s = |img: &luxbake::map::MapImage| {
+            JsValue::from(js_sys::Float32Array::from(img.texels.as_slice()))
+        };
+        let ok = set("object", (m.object as u32).into()).is_ok()
+            && set("name", m.name.as_str().into()).is_ok()
+            && set("width", m.region.size[0].into()).is_ok()
+            && set("height", m.region.size[1].into()).is_ok()
+            && set("illuminance", f32s(m.illuminance())).is_ok()
+            && (!all
+                || set("direct", f32s(m.direct())).is_ok()
+                    && set("exitance", f32s(m.exitance())).is_ok());
+        if !ok {
+            return Err(js_err("building the result object"));
+        }
+        out.push(&o);
+    }
+    Ok(out)
 }
 
 /// The page's display: renderer, camera, the light maps of the last bake.

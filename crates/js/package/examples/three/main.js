@@ -1,5 +1,6 @@
 // luxbake + three.js: load a glTF room, pick a lamp (bundled photometry or a file), bake its
-// light maps in the browser, orbit around the result.
+// light maps in the browser, orbit around the result. The room is read once (`baker.load`):
+// another lamp re-bakes only the lamp's part, and shows its direct light first.
 //
 // URL parameters (all optional): scene (a .glb URL), lamp (a photometry URL), x, y, z (lamp
 // position, metres), quality, and rays, bounces, blurSigma, texelsPerMetre, seed (settings'
@@ -7,7 +8,7 @@
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
-import { Luxbake } from 'luxbake';
+import { Luxbake, setExposure } from 'luxbake';
 
 const LAMPS = [
   ['lamps/luxbake_downlight.ies', 'luxbake downlight (1500 lm)'],
@@ -20,7 +21,7 @@ const $ = (id) => document.getElementById(id);
 // State the end-to-end test reads (cargo xtask npm --check).
 const example = {
   state: 'loading', errors: [], progress: [], bakes: 0, timings: null, result: null,
-  THREE, Luxbake, GLTFLoader,
+  THREE, Luxbake, GLTFLoader, setExposure,
 };
 window.luxbakeExample = example;
 function fail(err) {
@@ -31,14 +32,15 @@ function fail(err) {
 const canvas = $('view');
 const renderer = new THREE.WebGLRenderer({ canvas, antialias: true, preserveDrawingBuffer: true });
 renderer.setPixelRatio(1);
-renderer.toneMapping = THREE.ACESFilmicToneMapping;
 const scene3 = new THREE.Scene();
 scene3.background = new THREE.Color(0x101010);
 const camera = new THREE.PerspectiveCamera(60, 1, 0.05, 100);
 const controls = new OrbitControls(camera, canvas);
 controls.addEventListener('change', draw);
 
-function setExposure() {
+function exposureChanged() {
+  // ACES filmic: three.js's default (NoToneMapping) ignores the exposure.
+  renderer.toneMapping = THREE.ACESFilmicToneMapping;
   renderer.toneMappingExposure = 2 ** Number($('exposure').value);
   draw();
 }
@@ -53,7 +55,7 @@ function draw() {
   renderer.render(scene3, camera);
 }
 window.addEventListener('resize', draw);
-$('exposure').addEventListener('input', setExposure);
+$('exposure').addEventListener('input', exposureChanged);
 
 /** Pixel position of world point (x, y, z) in the canvas, or null behind the camera. */
 example.screenPoint = (x, y, z) => {
@@ -90,8 +92,18 @@ async function loadRoom(url) {
 }
 
 let baker = null;
+let room = null;
 let running = null;
 let lastResult = null;
+
+/** The settings' overrides of the URL. */
+function urlSettings() {
+  const settings = {};
+  for (const k of ['rays', 'bounces', 'blurSigma', 'texelsPerMetre', 'seed']) {
+    if (params.has(k)) settings[k] = Number(params.get(k));
+  }
+  return settings;
+}
 
 async function bake() {
   if (running) running.abort();
@@ -101,17 +113,15 @@ async function bake() {
   example.state = 'baking';
   example.progress = [];
   const photometry = lampFile ? lampFile.bytes : await fetchBytes($('lamp').value);
-  const settings = {};
-  for (const k of ['rays', 'bounces', 'blurSigma', 'texelsPerMetre', 'seed']) {
-    if (params.has(k)) settings[k] = Number(params.get(k));
-  }
+  const settings = urlSettings();
   const position = ['x', 'y', 'z'].map((k) => Number($(k).value));
   example.request = { position, ...settings };
   $('status').textContent = 'baking…';
   try {
     const t0 = performance.now();
-    const result = await baker.bake({
-      scene: sceneBytes,
+    let direct = null;
+    let directSeconds = null;
+    const result = await room.bake({
       lamps: [{ photometry, position, name: lampFile ? lampFile.name : $('lamp').selectedOptions[0].text }],
       quality: $('quality').value,
       ...settings,
@@ -120,22 +130,31 @@ async function bake() {
         example.progress.push(e.fraction);
         $('progress').value = e.fraction;
       },
+      // The direct light first, while the bounces run.
+      onDirect: (d) => {
+        directSeconds = (performance.now() - t0) / 1000;
+        direct = d;
+        d.applyToThree(gltf, THREE);
+        draw();
+        $('status').textContent = 'direct light shown; baking the bounces…';
+      },
     });
     const t1 = performance.now();
     if (lastResult) lastResult.dispose();
     lastResult = result;
     const { applied, unmatched } = result.applyToThree(gltf, THREE);
+    direct?.dispose();
     draw();
     await new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
     const t2 = performance.now();
-    example.timings = { bake: result.timings.bake, call: (t1 - t0) / 1000, firstFrame: (t2 - t1) / 1000 };
+    example.timings = { bake: result.timings.bake, call: (t1 - t0) / 1000, firstFrame: (t2 - t1) / 1000, direct: directSeconds };
     // Exposure from the illuminance on the floor under the lamp (a measure() look-up): its
     // radiance ρE/π at ρ = 0.5 maps to 0.8 before tone mapping.
     const [floorLux] = await result.measure([[position[0], bounds.min.y, position[2]]]);
     example.floorLux = floorLux;
     if (!params.has('exposure') && floorLux > 0) {
-      $('exposure').value = Math.log2(0.8 * Math.PI / (0.5 * floorLux)).toFixed(2);
-      setExposure();
+      $('exposure').value = Math.log2(setExposure(renderer, THREE, floorLux)).toFixed(2);
+      exposureChanged();
     }
     await new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r)));
     example.result = result;
@@ -171,11 +190,14 @@ async function main() {
   });
   $('bake').addEventListener('click', bake);
   $('cancel').addEventListener('click', () => running?.abort(new Error('cancelled')));
-  setExposure();
+  exposureChanged();
   await loadRoom(params.get('scene') || 'chairs_01.glb');
   draw();
   baker = await Luxbake.create();
   example.baker = baker;
+  // The room's layout, G-buffer and BVH, once for every lamp.
+  room = await baker.load({ scene: sceneBytes, ...urlSettings() });
+  example.room = room;
   example.state = 'ready';
   $('status').textContent = `ready: ${baker.renderer}`;
   if (params.get('autobake') === '1') await bake();
