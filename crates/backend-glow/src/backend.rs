@@ -41,6 +41,7 @@ impl std::fmt::Debug for GlowBackend {
         f.debug_struct("GlowBackend")
             .field("ctx", &self.ctx)
             .field("textures", &self.textures.len())
+            .field("scenes", &self.scenes.len())
             .field("programs", &self.programs.len())
             .field("tile_work", &self.tile_work)
             .finish_non_exhaustive()
@@ -255,6 +256,17 @@ impl GpuBackend for GlowBackend {
     fn read_back(&mut self, texture: &GlowTexture, layer: u32) -> Result<Vec<f32>> {
         let (label, t) = self.texture(texture)?;
         self.target.read(self.ctx.gl()?, label, t, layer)
+    }
+
+    fn release(&mut self) -> Result<()> {
+        let gl = self.ctx.gl()?;
+        for (_, t) in self.textures.drain(..) {
+            t.delete(gl);
+        }
+        for s in self.scenes.drain(..) {
+            s.delete(gl);
+        }
+        check(gl, "release", "freeing the textures")
     }
 }
 

@@ -137,3 +137,42 @@ fn limits_and_misuse_are_errors() {
     let read = glow.read_back(&t, 5);
     assert!(matches!(read, Err(GlowError::InvalidInput(_))), "{read:?}");
 }
+
+/// One backend bakes a prepared room under several lamps: after each bake it holds no texture
+/// and no scene (they were released), its programs stay, and every bake equals one on a fresh
+/// backend.
+#[test]
+fn one_backend_bakes_a_room_again_and_again_without_growing() {
+    let test = "one_backend_bakes_a_room_again_and_again_without_growing";
+    let Some(mut kept) = backend_or_skip(test) else {
+        return;
+    };
+    let settings = Settings {
+        rays: 4,
+        texels_per_metre: 8.0,
+        ..Settings::preset(luxbake::scene::Quality::Default)
+    };
+    let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
+    let room = luxbake::Room::prepare(&scene, &settings, kept.limits(), &mut |_| {}).expect("room");
+    let mut dimmer = scene.lamps.clone();
+    dimmer[0].multiplier = 0.25;
+    dimmer[0].position[0] += 0.3;
+    for lamps in [&scene.lamps, &dimmer, &scene.lamps] {
+        let out = luxbake::bake_room(&mut kept, &room, lamps, &settings, &mut |_| {})
+            .expect("bake on the kept backend");
+        let held = format!("{kept:?}");
+        assert!(
+            held.contains("textures: 0") && held.contains("scenes: 0"),
+            "{held}"
+        );
+        let Some(mut fresh) = backend_or_skip(test) else {
+            return;
+        };
+        let reference = luxbake::bake_room(&mut fresh, &room, lamps, &settings, &mut |_| {})
+            .expect("bake on a fresh backend");
+        assert!(!out.maps.is_empty());
+        for (a, b) in out.maps.iter().zip(&reference.maps) {
+            assert_eq!(a.stages, b.stages, "{}", a.name);
+        }
+    }
+}

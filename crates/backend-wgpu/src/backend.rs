@@ -428,6 +428,12 @@ impl GpuBackend for WgpuBackend {
         })
     }
 
+    fn release(&mut self) -> Result<()> {
+        self.textures.clear();
+        self.scenes.clear();
+        Ok(())
+    }
+
     fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<WgpuScene> {
         let s = GpuScene::upload(
             &self.gpu,

@@ -333,6 +333,12 @@ macro_rules! delegate {
                     (b, t) => Err(foreign("texture", t.kind(), b.kind())),
                 }
             }
+
+            fn release(&mut self) -> Result<(), AnyError> {
+                match self {
+                    $(AnyBackend::$V(b) => Ok(b.release()?),)*
+                }
+            }
         }
     };
 }

@@ -351,6 +351,12 @@ pub trait GpuBackend {
 
     /// Reads one layer back (`4 × width × height` floats, row 0 first).
     fn read_back(&mut self, texture: &Self::Texture, layer: u32) -> Result<Vec<f32>, Self::Error>;
+
+    /// Frees every texture and uploaded scene (their handles are not used again); what the
+    /// backend compiled stays. The driver calls it when a bake's maps are read back, so that
+    /// one backend bakes a room under many lamps without growing and without compiling its
+    /// programs again.
+    fn release(&mut self) -> Result<(), Self::Error>;
 }
 
 /// Default work per dispatch: texel × ray (or texel × tap) evaluations of one tile. About 2^20

@@ -186,6 +186,9 @@ fn bake_room_inner<B: GpuBackend>(
     progress(&Progress::Setup("read back"));
     let t = Instant::now();
     let maps = execute::collect(backend, room, &graph, &run.textures).map_err(be)?;
+    // The maps are on the host: the backend frees the bake's textures and scene, and keeps
+    // what it compiled for the next bake.
+    backend.release().map_err(be)?;
     let mut setup = lamps.timings.clone();
     setup.push(("upload", run.upload_seconds));
     setup.push(("read back", t.elapsed().as_secs_f64()));

@@ -492,14 +492,14 @@ struct GraphParts {
     bounces: u32,
 }
 
-/// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output; with
-/// lamp paths (`connect`), their part of the first bounce.
-fn gbuffer_stage(b: &mut Builder, connect: Option<ConnectParams>) -> GBufferTex {
+/// Stage (1): the G-buffer textures, written by the upload of the rasteriser's output, and
+/// with lamp paths the texture of their part of the first bounce ([`connect_stage`]).
+fn gbuffer_stage(b: &mut Builder, lamp_paths: bool) -> GBufferTex {
     let g = GBufferTex {
         position: b.texture("gbuffer_position"),
         normal: b.texture("gbuffer_normal"),
         albedo: b.texture("gbuffer_albedo"),
-        connected: connect.map(|_| b.texture("lamp_paths")),
+        connected: lamp_paths.then(|| b.texture("lamp_paths")),
     };
     b.pass(
         PassKind::GBuffer,
@@ -509,17 +509,22 @@ fn gbuffer_stage(b: &mut Builder, connect: Option<ConnectParams>) -> GBufferTex 
         0,
         Params::None,
     );
-    if let (Some(connected), Some(params)) = (g.connected, connect) {
+    g
+}
+
+/// The lamp paths' part of the first bounce ([`Program::Connect`]), after the direct part so
+/// that the direct light is ready first.
+fn connect_stage(b: &mut Builder, g: GBufferTex, params: ConnectParams) {
+    if let Some(connected) = g.connected {
         b.pass(
             PassKind::Run(Program::Connect),
             "connect",
             vec![g.position, g.normal],
             vec![connected],
-            0,
+            1,
             Params::Connect(params),
         );
     }
-    g
 }
 
 /// Stage (2): direct illuminance from the first `lamp_count` uploaded lamps; with bounces,
@@ -744,21 +749,23 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
     let lamp_paths =
         config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
-    let g = gbuffer_stage(
+    let g = gbuffer_stage(&mut b, lamp_paths);
+    let direct = direct_stage(&mut b, g, config);
+    // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
+    let reflected_direct = b.texture("reflected_direct");
+    albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
+    connect_stage(
         &mut b,
-        lamp_paths.then(|| ConnectParams {
+        g,
+        ConnectParams {
             rays: config.rays,
             k: config.lamp_paths.0,
             seed: config.seed,
             count: config.lamp_path_count,
             density_scale: config.lamp_paths.1,
             ..ConnectParams::default()
-        }),
+        },
     );
-    let direct = direct_stage(&mut b, g, config);
-    // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
-    let reflected_direct = b.texture("reflected_direct");
-    albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
     let mut figure5 = Figure5::direct_part([g.albedo, direct, direct, reflected_direct]);
     if config.bounces > 0 {
         // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
@@ -935,7 +942,7 @@ impl BakeGraph {
             return build_converged(config);
         }
         let mut b = Builder::new(config);
-        let g = gbuffer_stage(&mut b, None);
+        let g = gbuffer_stage(&mut b, false);
         let direct = direct_stage(&mut b, g, config);
         let direct_blurred = b.texture("direct_blurred");
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
@@ -1499,12 +1506,19 @@ mod tests {
         g.validate().expect("valid");
         let connected = g.gbuffer.connected.expect("lamp paths connected");
         assert_eq!(g.passes[0].writes.len(), 3);
-        assert_eq!(
-            (g.passes[1].kind, &g.passes[1].writes),
-            (PassKind::Run(Program::Connect), &vec![connected])
-        );
-        assert_eq!(g.passes[1].reads, [g.gbuffer.position, g.gbuffer.normal]);
-        let Params::Connect(cp) = g.passes[1].params else {
+        // After the direct part (its light is ready first), before the first gather.
+        let at = g
+            .passes
+            .iter()
+            .position(|p| p.kind == PassKind::Run(Program::Connect))
+            .expect("a connect pass");
+        let direct_part = g.passes.iter().position(|p| p.label == "albedo_direct");
+        let first_gather = g.passes.iter().position(|p| p.label == "gather");
+        assert!(direct_part < Some(at) && Some(at) < first_gather);
+        let connect = &g.passes[at];
+        assert_eq!(connect.writes, [connected]);
+        assert_eq!(connect.reads, [g.gbuffer.position, g.gbuffer.normal]);
+        let Params::Connect(cp) = connect.params else {
             panic!("connect parameters");
         };
         assert_eq!(

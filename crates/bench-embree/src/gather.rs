@@ -297,6 +297,11 @@ impl GpuBackend for Recorder {
     fn read_back(&mut self, texture: &CpuTexture, layer: u32) -> Result<Vec<f32>, CpuError> {
         self.inner.read_back(texture, layer)
     }
+
+    fn release(&mut self) -> Result<(), CpuError> {
+        self.layers.clear();
+        self.inner.release()
+    }
 }
 
 /// The settings of `cargo xtask bake --method paper`.

@@ -2,9 +2,10 @@
 //!
 //! [`Baker`] owns one WebGL2 context on an `OffscreenCanvas`, the rooms the page loaded
 //! ([`Baker::load`]: the glTF file read and the room's host work done once, for every bake of
-//! it) and a fresh [`GlowBackend`] per bake: dropping it frees every texture of the bake (the
-//! backend keeps a bake's textures until it is dropped, so one backend per room would hold
-//! each bake's textures; the price is compiling the pass programs once per bake). Errors
+//! it) and one [`GlowBackend`] for all of them: the pass programs compile once, and the
+//! backend frees each bake's textures and scene when its maps are read back
+//! ([`GpuBackend::release`]); after a failure that was not the request's, the context and the
+//! backend are replaced. Errors
 //! become JS `Error`s with `name` `LuxbakeError` and a `kind` ([`JsBakeError::kind`]). A Rust panic
 //! aborts the module (wasm32 has no unwinding): the panic hook keeps its message for
 //! [`take_panic`], and the worker reports it and replaces the module instead of hanging.
@@ -103,6 +104,9 @@ pub struct Baker {
     next_id: u32,
     rooms: HashMap<u32, LoadedRoom>,
     next_room: u32,
+    /// The backend of every bake on the context (taken out while a bake runs: a bake that
+    /// fails drops it).
+    backend: Option<GlowBackend>,
     /// For tests: lose the context (`WEBGL_lose_context`) when this pass of the next bake
     /// starts.
     lose_at_pass: Option<usize>,
@@ -355,6 +359,7 @@ impl Baker {
             kept: HashMap::new(),
             next_id: 1,
             rooms: HashMap::new(),
+            backend: None,
             next_room: 1,
             lose_at_pass: None,
         })
@@ -504,6 +509,7 @@ impl Baker {
                 if let Ok((canvas, _)) = new_context() {
                     self.canvas = canvas;
                 }
+                self.backend = None;
                 Err(if lost { JsBakeError::ContextLost } else { e })
             }
             other => other,
@@ -511,8 +517,12 @@ impl Baker {
         result.map_err(|e| js_error(&e))
     }
 
-    /// A fresh backend on the baker's context.
-    fn backend(&self) -> Result<GlowBackend, JsBakeError> {
+    /// The baker's backend, taken out for one bake (put it back with
+    /// `self.backend = Some(..)` when the bake succeeded), or a new one on the context.
+    fn backend(&mut self) -> Result<GlowBackend, JsBakeError> {
+        if let Some(backend) = self.backend.take() {
+            return Ok(backend);
+        }
         let ctx = GlContext::from_offscreen_canvas(&self.canvas)
             .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
         GlowBackend::new(ctx).map_err(|e| JsBakeError::Gpu(e.to_string()))
@@ -585,7 +595,7 @@ impl Baker {
             reporter.on(p);
         })
         .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
-        drop(backend);
+        self.backend = Some(backend);
         let settings = scene.settings.clone();
         let report = report_of(&out, scene.objects.len(), &settings, &self.renderer);
         let imported = Rc::new(Imported {
@@ -616,7 +626,9 @@ impl Baker {
         }
         let settings = options.settings()?;
         let imported = Rc::new(import_room(&gltf, &settings)?);
-        let limits = self.backend()?.limits();
+        let backend = self.backend()?;
+        let limits = backend.limits();
+        self.backend = Some(backend);
         let mut reporter = self.reporter(progress, 1);
         let room = Room::prepare(&imported.scene, &settings, limits, &mut |p| reporter.on(p))
             .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
@@ -730,9 +742,12 @@ impl Baker {
                 Ok((out, None))
             }
         });
-        // The room stays loaded whatever the bake did.
+        // The room stays loaded whatever the bake did; the backend serves the next bake if
+        // this one succeeded.
         self.rooms.insert(room, loaded);
-        drop(backend);
+        if baked.is_ok() {
+            self.backend = Some(backend);
+        }
         let (mut out, layers) = baked?;
         // This bake prepared the room again: its host steps come first.
         let r = &mut out.report;

@@ -251,6 +251,11 @@ impl GpuBackend for CpuBackend {
         })
     }
 
+    fn release(&mut self) -> Result<(), CpuError> {
+        self.textures.clear();
+        Ok(())
+    }
+
     fn dispatch(&mut self, call: &Dispatch<'_, CpuTexture, CpuScene>) -> Result<(), CpuError> {
         let out_index = call.write.0;
         let (desc, mut out) = {
