@@ -10,12 +10,14 @@
 //! The graph itself is never changed.
 //!
 //! # Progress
-//! [`Progress::Work`] is the work done (texels × rays or taps of every dispatch run) over that
-//! plus the work of the passes still expected: the bounces up to the one where the decisions
-//! so far expect the series to stop ([`Decisions::expected_stop`]: the tail's fraction,
-//! shrinking by the bounce ratio per bounce, under the tolerance; before two bounces have run,
-//! [`EXPECTED_BOUNCES`]). A graph that reserves 32 bounces and stops after 4 therefore does not
-//! sit at an eighth for most of the bake.
+//! [`Progress::Work`] follows the work (texels × rays or taps of every dispatch run): at the
+//! start of each pass the fraction still to go is split between that pass and the passes still
+//! expected — the bounces up to the one where the decisions so far expect the series to stop
+//! ([`Decisions::expected_stop`]: the tail's fraction, shrinking by the bounce ratio per
+//! bounce, under the tolerance; before two bounces have run, [`EXPECTED_BOUNCES`]) — and the
+//! pass moves it by its share as its tiles finish. A graph that reserves 32 bounces and stops
+//! after 4 therefore does not sit at an eighth for most of the bake, and an estimate that
+//! grows slows the fraction down instead of stopping it.
 
 // `web_time::Instant` is `std::time::Instant` natively and `performance.now()` on wasm32.
 use web_time::Instant;
@@ -271,7 +273,6 @@ pub(crate) fn run<B: GpuBackend>(
         .passes
         .iter()
         .rposition(|p| blurred_direct.is_some_and(|t| p.writes.contains(&t)));
-    let mut done_work = 0.0f64;
     let mut shown = 0.0f32;
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
@@ -279,6 +280,15 @@ pub(crate) fn run<B: GpuBackend>(
         }
         let work = pass_work(pass, room);
         let to_come = work_to_come(graph, room, index, decisions.expected_stop(settings));
+        // What is shown so far stays; this pass moves the rest of the way in proportion to its
+        // share of the work still expected (re-estimated at each pass: a later stop slows the
+        // fraction down, it never stops it).
+        let base = shown;
+        let share = if work + to_come > 0.0 {
+            work / (work + to_come)
+        } else {
+            1.0
+        };
         progress(&Progress::PassStart {
             index,
             count,
@@ -288,8 +298,7 @@ pub(crate) fn run<B: GpuBackend>(
         let t = Instant::now();
         let mut report = |fraction: f32| {
             progress(&Progress::PassProgress { index, fraction });
-            let done = done_work + work * f64::from(fraction);
-            let f = (done / (done_work + work + to_come)) as f32;
+            let f = base + (1.0 - base) * (share * f64::from(fraction)) as f32;
             if f > shown {
                 shown = f.min(1.0);
                 progress(&Progress::Work(shown));
@@ -341,7 +350,6 @@ pub(crate) fn run<B: GpuBackend>(
             }
             report(1.0);
         }
-        done_work += work;
         // The check's read-back waits for the pass's GPU work: it is part of the pass's time.
         if let Some(check) = pass.then {
             let (Check::DirectEnergy(tex)

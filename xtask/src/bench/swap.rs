@@ -14,15 +14,17 @@
 //!    ([`LampLayers::combine`]): no ray.
 //!
 //! Reported as ratios against the first bake of the same run (the median over `--runs`),
-//! with the swap's host share (the CPU work before and around the passes: lamp reach, lamp
-//! paths, upload, read-back) and how well the report's phases add up to its wall time.
+//! with the swap's host share (the CPU work before and around the passes: lamp reach, the
+//! lamp paths' pool, upload, read-back), how well the report's phases add up to its wall
+//! time, and the longest time its progress fraction ([`Progress::Work`]) stood still, as a
+//! share of its wall time.
 
 use std::fmt::Write as _;
 use std::path::Path;
 use std::time::Instant;
 
 use luxbake::GpuBackend;
-use luxbake::bake::{BakeOutput, Room, bake, bake_room, bake_room_direct_first};
+use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room, bake_room_direct_first};
 use luxbake::layers::{LampState, bake_layers};
 use luxbake::scene::{Lamp, Quality, Scene, Settings};
 use luxbake::sources::scenefile::read_photometry;
@@ -98,6 +100,8 @@ struct Measured {
     swap_cpu: f64,
     swap_host: f64,
     swap_phases: f64,
+    /// The longest time the swap's progress fraction did not grow, over its wall time.
+    swap_still: f64,
     dim: f64,
 }
 
@@ -124,16 +128,25 @@ fn measure_once(kind: BackendKind, scene: &Scene) -> Result<(Measured, String), 
 
     let (t, c) = (Instant::now(), cpu_seconds());
     let mut direct = None;
+    // When the progress fraction last grew, and the longest wait for it to grow.
+    let (mut grew, mut still) = (0.0f64, 0.0f64);
     let out = bake_room_direct_first(
         &mut backend,
         &room,
         &swapped,
         settings,
-        &mut |_| {},
+        &mut |p| {
+            if let Progress::Work(_) = p {
+                let now = t.elapsed().as_secs_f64();
+                still = still.max(now - grew);
+                grew = now;
+            }
+        },
         &mut |_| direct = Some(t.elapsed().as_secs_f64()),
     )
     .map_err(|e| e.to_string())?;
     let swap = t.elapsed().as_secs_f64();
+    let swap_still = still.max(swap - grew) / swap;
     let swap_cpu = cpu_seconds() - c;
     let phases = host_seconds(&out) + out.report.passes.iter().map(|p| p.seconds).sum::<f64>();
 
@@ -159,6 +172,7 @@ fn measure_once(kind: BackendKind, scene: &Scene) -> Result<(Measured, String), 
             swap_cpu,
             swap_host: host_seconds(&out),
             swap_phases: phases / out.report.total_seconds.max(1e-9),
+            swap_still,
             dim,
         },
         renderer,
@@ -203,9 +217,9 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     );
     let _ = writeln!(
         md,
-        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | dim [ms] |"
+        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] |"
     );
-    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut rows = Vec::new();
     for name in &scenes {
         let scene = scene(name, &settings)?;
@@ -234,7 +248,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
             let swap = med(|m| m.swap).median;
             let _ = writeln!(
                 md,
-                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.1} |",
+                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} |",
                 kind.name(),
                 ratio(|m| m.whole),
                 ratio(|m| m.direct),
@@ -242,6 +256,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 100.0 * med(|m| m.swap_host).median / swap,
                 med(|m| m.swap_cpu).median / swap,
                 med(|m| m.swap_phases).median,
+                100.0 * med(|m| m.swap_still).median,
                 1e3 * med(|m| m.dim).median,
             );
             rows.push(json!({
@@ -249,7 +264,9 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 "first_s": med(|m| m.first).json(), "whole_s": med(|m| m.whole).json(),
                 "direct_s": med(|m| m.direct).json(), "swap_s": med(|m| m.swap).json(),
                 "swap_cpu_s": med(|m| m.swap_cpu).json(), "swap_host_s": med(|m| m.swap_host).json(),
-                "swap_phases_over_wall": med(|m| m.swap_phases).json(), "dim_s": med(|m| m.dim).json(),
+                "swap_phases_over_wall": med(|m| m.swap_phases).json(),
+                "swap_longest_still_over_wall": med(|m| m.swap_still).json(),
+                "dim_s": med(|m| m.dim).json(),
             }));
         }
     }
