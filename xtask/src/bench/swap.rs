@@ -6,12 +6,12 @@
 //!
 //! 1. **first bake**: a fresh backend, [`Room::prepare`] and [`bake_room`] with `rw_7.IES` —
 //!    everything a page's first bake does (the GPU backends compile their programs here);
-//! 2. **whole re-bake**: [`luxbake::bake`] of the same scene on the warm backend (nothing of the
+//! 2. **whole re-bake**: [`luxbake::bake()`] of the same scene on the warm backend (nothing of the
 //!    room reused);
 //! 3. **swap**: [`bake_room_direct_first`] on the same room with `rw_5.IES` at [0, 2, 0]:
 //!    the time to the direct light and to the converged maps;
 //! 4. **dim**: the swapped lamp's layer ([`bake_layers`]) recombined at multiplier 0.5
-//!    ([`LampLayers::combine`]): no ray.
+//!    ([`LampLayers::combine`](luxbake::layers::LampLayers::combine)): no ray.
 //!
 //! Reported as ratios against the first bake of the same run (the median over `--runs`),
 //! with the swap's host share (the CPU work before and around the passes: lamp reach, the
