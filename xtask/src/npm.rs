@@ -900,7 +900,8 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          {JS_DIFF} const asFresh = diff(swap, fresh, 1); fresh.dispose(); \
          window.__swapRoom = room; window.__swapGlb = glb; window.__swap = swap; window.__direct = direct; \
          const gpu = (r) => r.report.passes.reduce((a, p) => a + p.seconds, 0); \
-         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), prepared: r.report.roomPrepared}}); \
+         const setup = (r) => r.timings.setup.reduce((a, p) => a + p.seconds, 0); \
+         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared}}); \
          done({{load: (t1 - t0) / 1000, loadWorker: room.seconds, first: {{...times(first), wall: (t2 - t1) / 1000}}, \
            swap: {{...times(swap), wall: (t3 - t2) / 1000}}, fresh: {{...times(fresh), wall: (t4 - t3) / 1000}}, direct: directAt === null ? null : (directAt - t2) / 1000, \
            directStage: direct?.stage, texels: room.texels, regionTexels: swap.report.regionTexels, asFresh}});",
@@ -962,9 +963,10 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     let split = |b: &Value| {
         let (total, gpu) = (f(&b["bake"]), f(&b["gpu"]));
         format!(
-            "worker {total:.2} s: GPU passes {gpu:.2} s ({:.0} %), CPU {:.2} s",
+            "worker {total:.2} s: GPU passes {gpu:.2} s ({:.0} %), CPU {:.2} s, phases {:.2} of it",
             100.0 * gpu / total,
-            total - gpu
+            total - gpu,
+            f(&b["phases"]) / total
         )
     };
     println!(
@@ -1149,6 +1151,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "direct_s": direct, "direct_ratio": direct / first_total,
         "first_worker_s": first["bake"], "first_gpu_s": first["gpu"],
         "swap_worker_s": swap["bake"], "swap_gpu_s": swap["gpu"],
+        "swap_phases_over_bake": f(&swap["phases"]) / f(&swap["bake"]),
         "layered_bake_s": l["layered"], "set_lamp_ms": set_lamp_ms,
         "set_lamp_frame_ms": l["setLampFrameMs"], "bytes_per_lamp": l["bytesPerLamp"],
         "check_s": started.elapsed().as_secs_f64(),
