@@ -2,35 +2,36 @@
 //! multiplier equals a fresh bake with that multiplier (1e-5 relative), a lamp switched off
 //! leaves exactly the other's light, and bad states are refused.
 
+mod common;
+
 use std::sync::Arc;
 
 use luxbake::GpuBackend;
-use luxbake::bake::{BakeOutput, Room, bake};
+use luxbake::bake::{BakeOutput, Room};
 use luxbake::cpu::CpuBackend;
-use luxbake::layers::{LampState, LayerError, bake_layers};
-use luxbake::scene::{Lamp, Quality, Scene, Settings};
+use luxbake::layers::{LampLayers, LampState, LayerError, bake_layers};
+use luxbake::scene::{Lamp, Scene};
 use luxbake_ies::Photometry;
 
-fn settings() -> Settings {
-    Settings {
-        rays: 4,
-        texels_per_metre: 8.0,
-        ..Settings::preset(Quality::Default)
-    }
-}
+use common::{run, small_room};
 
-fn scene() -> Scene {
-    Scene::builtin_with_settings("chairs_01", settings()).expect("chairs_01")
-}
-
-fn prepare(scene: &Scene) -> Room {
-    Room::prepare(
+/// `scene`'s room prepared and each of its lamps baked alone, on the CPU backend.
+fn layered(scene: &Scene) -> LampLayers {
+    let room = Room::prepare(
         scene,
         &scene.settings,
         CpuBackend::new().limits(),
         &mut |_| {},
     )
-    .expect("room")
+    .expect("room");
+    bake_layers(
+        &mut CpuBackend::new(),
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |_| {},
+    )
+    .expect("layers")
 }
 
 /// Largest |a − b| / max(|b|, floor) over every light stage's RGB, and how many values were
@@ -67,18 +68,10 @@ fn worst(a: &BakeOutput, b: &BakeOutput) -> (f64, usize) {
 
 #[test]
 fn a_dimmed_layer_equals_a_fresh_bake_with_that_multiplier() {
-    let mut scene = scene();
+    let mut scene = small_room();
     // A tinted lamp: its layer is baked in its colour.
     scene.lamps[0].color = [1.0, 0.8, 0.55];
-    let room = prepare(&scene);
-    let layers = bake_layers(
-        &mut CpuBackend::new(),
-        &room,
-        &scene.lamps,
-        &scene.settings,
-        &mut |_| {},
-    )
-    .expect("layers");
+    let layers = layered(&scene);
     assert_eq!(layers.layers.len(), 1);
     assert_eq!(layers.colors, [[1.0, 0.8, 0.55]]);
     let color = scene.lamps[0].color;
@@ -86,13 +79,7 @@ fn a_dimmed_layer_equals_a_fresh_bake_with_that_multiplier() {
         let mut dimmed = scene.clone();
         dimmed.lamps[0].multiplier = multiplier;
         dimmed.lamps[0].color = color;
-        let fresh = bake(
-            &mut CpuBackend::new(),
-            &dimmed,
-            &dimmed.settings,
-            &mut |_| {},
-        )
-        .expect("fresh bake");
+        let fresh = run(&dimmed);
         let combined = layers
             .combine(&[LampState {
                 multiplier,
@@ -109,7 +96,7 @@ fn a_dimmed_layer_equals_a_fresh_bake_with_that_multiplier() {
 
 #[test]
 fn switching_one_of_two_lamps_off_leaves_the_other_lamps_light() {
-    let mut scene = scene();
+    let mut scene = small_room();
     let mut bulb = Lamp::new(
         "bulb",
         Arc::new(Photometry::isotropic(300.0)),
@@ -117,16 +104,7 @@ fn switching_one_of_two_lamps_off_leaves_the_other_lamps_light() {
     );
     bulb.multiplier = 0.0; // off in the scene: still baked, so it can be switched on.
     scene.lamps.push(bulb);
-    let room = prepare(&scene);
-    let mut backend = CpuBackend::new();
-    let layers = bake_layers(
-        &mut backend,
-        &room,
-        &scene.lamps,
-        &scene.settings,
-        &mut |_| {},
-    )
-    .expect("layers");
+    let layers = layered(&scene);
     assert_eq!(layers.layers.len(), 2);
     assert!(layers.bytes_per_lamp() > 0);
 
@@ -134,7 +112,7 @@ fn switching_one_of_two_lamps_off_leaves_the_other_lamps_light() {
         lamps: vec![scene.lamps[0].clone()],
         ..scene.clone()
     };
-    let fresh = bake(&mut backend, &only_first, &scene.settings, &mut |_| {}).expect("fresh");
+    let fresh = run(&only_first);
     let on = LampState::of(&scene.lamps[0]);
     let off = LampState {
         on: false,
@@ -169,16 +147,8 @@ fn switching_one_of_two_lamps_off_leaves_the_other_lamps_light() {
 
 #[test]
 fn bad_states_are_refused() {
-    let scene = scene();
-    let room = prepare(&scene);
-    let layers = bake_layers(
-        &mut CpuBackend::new(),
-        &room,
-        &scene.lamps,
-        &scene.settings,
-        &mut |_| {},
-    )
-    .expect("layers");
+    let scene = small_room();
+    let layers = layered(&scene);
     let good = LampState::of(&scene.lamps[0]);
     assert_eq!(
         layers.combine(&[good, good]).unwrap_err(),
@@ -229,26 +199,12 @@ fn bad_states_are_refused() {
 
 #[test]
 fn a_new_colour_differs_from_a_fresh_bake_only_by_part_of_the_tail() {
-    let scene = scene();
-    let room = prepare(&scene);
-    let layers = bake_layers(
-        &mut CpuBackend::new(),
-        &room,
-        &scene.lamps,
-        &scene.settings,
-        &mut |_| {},
-    )
-    .expect("layers");
+    let scene = small_room();
+    let layers = layered(&scene);
     let color = [1.0, 0.7, 0.4];
     let mut tinted = scene.clone();
     tinted.lamps[0].color = color;
-    let fresh = bake(
-        &mut CpuBackend::new(),
-        &tinted,
-        &tinted.settings,
-        &mut |_| {},
-    )
-    .expect("fresh bake");
+    let fresh = run(&tinted);
     let combined = layers
         .combine(&[LampState {
             color,

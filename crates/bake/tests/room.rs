@@ -3,31 +3,19 @@
 //! for others (moved, dimmed, a second lamp), including a scene far from the origin; a room
 //! prepared for another texel density is refused.
 
+mod common;
+
 use std::sync::Arc;
 
-use luxbake::bake::{BakeError, BakeOutput, Room, bake, bake_room};
+use luxbake::bake::{BakeError, BakeOutput, Room, bake_room};
 use luxbake::cpu::CpuBackend;
 use luxbake::graph::PassKind;
 use luxbake::prepare::PrepareError;
-use luxbake::scene::{Lamp, Quality, Scene, Settings};
+use luxbake::scene::{Lamp, Scene, Settings};
 use luxbake::{GpuBackend, Progress};
 use luxbake_ies::Photometry;
 
-fn settings() -> Settings {
-    Settings {
-        rays: 4,
-        texels_per_metre: 8.0,
-        ..Settings::preset(Quality::Default)
-    }
-}
-
-fn scene() -> Scene {
-    Scene::builtin_with_settings("chairs_01", settings()).expect("chairs_01")
-}
-
-fn whole(scene: &Scene) -> BakeOutput {
-    bake(&mut CpuBackend::new(), scene, &scene.settings, &mut |_| {}).expect("bake")
-}
+use common::{run, small_room};
 
 /// The bit patterns of every stage of every object's maps.
 fn bits(out: &BakeOutput) -> Vec<Vec<u32>> {
@@ -54,7 +42,7 @@ fn other_lamps(scene: &Scene) -> Vec<Lamp> {
 
 #[test]
 fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
-    let scene = scene();
+    let scene = small_room();
     let s = &scene.settings;
     let mut steps = Vec::new();
     let room = Room::prepare(&scene, s, CpuBackend::new().limits(), &mut |p| {
@@ -80,7 +68,7 @@ fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
             "{step} ran again: {steps:?}"
         );
     }
-    let reference = whole(&scene);
+    let reference = run(&scene);
     assert!(!bits(&reference).is_empty());
     assert_eq!(
         bits(&same),
@@ -90,7 +78,7 @@ fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
 
     let lamps = other_lamps(&scene);
     let swapped = bake_room(&mut backend, &room, &lamps, s, &mut |_| {}).expect("swap");
-    let fresh = whole(&Scene {
+    let fresh = run(&Scene {
         lamps: lamps.clone(),
         ..scene.clone()
     });
@@ -115,8 +103,8 @@ fn prepare(scene: &Scene) -> Room {
 }
 
 #[test]
-fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
-    let scene = scene().translated([25_000.0, 0.0, -12_000.0]);
+fn a_room_far_from_the_origin_places_its_lamps_like_the_small_room() {
+    let scene = small_room().translated([25_000.0, 0.0, -12_000.0]);
     let room = prepare(&scene);
     assert!(
         room.shift.is_some(),
@@ -138,7 +126,7 @@ fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
         &mut |_| {},
     )
     .expect("swap");
-    let fresh = whole(&Scene {
+    let fresh = run(&Scene {
         lamps,
         ..scene.clone()
     });
@@ -147,7 +135,7 @@ fn a_room_far_from_the_origin_places_its_lamps_like_the_scene() {
 
 #[test]
 fn only_the_g_buffer_upload_is_independent_of_the_lamps() {
-    let out = whole(&scene());
+    let out = run(&small_room());
     let (room, lamps): (Vec<_>, Vec<_>) = out.graph.passes.iter().partition(|p| !p.lamps);
     assert_eq!(
         room.iter().map(|p| p.kind).collect::<Vec<_>>(),
@@ -162,7 +150,7 @@ fn only_the_g_buffer_upload_is_independent_of_the_lamps() {
 
 #[test]
 fn a_room_prepared_for_another_density_is_refused() {
-    let scene = scene();
+    let scene = small_room();
     let room = prepare(&scene);
     let denser = Settings {
         texels_per_metre: 16.0,
@@ -193,7 +181,7 @@ enum Event {
 
 #[test]
 fn progress_follows_the_work_and_the_direct_light_comes_first() {
-    let scene = scene();
+    let scene = small_room();
     let room = prepare(&scene);
     let events = std::cell::RefCell::new(Vec::new());
     let mut shown = None;

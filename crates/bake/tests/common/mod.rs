@@ -3,9 +3,20 @@
 
 use luxbake::bake::{BakeOutput, bake};
 use luxbake::cpu::CpuBackend;
-use luxbake::scene::Scene;
+use luxbake::scene::{Quality, Scene, Settings};
 
 /// `scene` baked on the CPU backend at its own settings.
 pub fn run(scene: &Scene) -> BakeOutput {
     bake(&mut CpuBackend::new(), scene, &scene.settings, &mut |_| {}).expect("bake")
+}
+
+/// `chairs_01` at the default preset with 4 rays at 8 texels/m: a small room whose bakes take
+/// a fraction of a second, for tests that bake it many times.
+pub fn small_room() -> Scene {
+    let settings = Settings {
+        rays: 4,
+        texels_per_metre: 8.0,
+        ..Settings::preset(Quality::Default)
+    };
+    Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01")
 }
