@@ -335,21 +335,6 @@ pub(crate) fn gather_lookup(
     })
 }
 
-/// Asks the cache for the line holding `data[index]` (nothing when `index` is out of range,
-/// or off x86_64).
-#[inline(always)]
-pub(crate) fn prefetch(data: &[f32], index: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(v) = data.get(index) {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: SSE is part of the x86_64 baseline, and a prefetch reads nothing the
-        // program sees and never faults; the pointer is to an element of `data`.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((v as *const f32).cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (data, index);
-}
-
 /// The gather's multiple-importance-sampling weights ([`crate::lightpaths`]): none when
 /// `lamp_paths` is 0.
 #[derive(Debug, Clone, Copy)]
