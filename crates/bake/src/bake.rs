@@ -134,12 +134,7 @@ fn bake_room_inner<B: GpuBackend>(
         backend: name,
         source,
     };
-    settings
-        .validate()
-        .map_err(|e| PrepareError::InvalidSetting {
-            name: e.name,
-            reason: e.reason,
-        })?;
+    settings.validate().map_err(PrepareError::from)?;
     room.check(settings, backend.limits())?;
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), settings, progress);
 

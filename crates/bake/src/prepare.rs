@@ -29,7 +29,7 @@ use crate::gbuffer::{GBuffer, rasterize};
 use crate::layout::{Layout, LayoutError};
 use crate::lightpaths::{self, LampPaths};
 use crate::report::{Progress, Skipped};
-use crate::scene::{Lamp, Method, Scene, Settings};
+use crate::scene::{Lamp, Method, Scene, SettingError, Settings};
 use crate::validity;
 
 /// What a node of the bake depends on: when none of it changed, its result can be reused.
@@ -150,6 +150,15 @@ pub enum PrepareError {
     },
 }
 
+impl From<SettingError> for PrepareError {
+    fn from(e: SettingError) -> Self {
+        PrepareError::InvalidSetting {
+            name: e.name,
+            reason: e.reason,
+        }
+    }
+}
+
 /// A room prepared for baking: the host work that does not depend on the lamps.
 #[derive(Debug, Clone)]
 pub struct Room {
@@ -200,12 +209,7 @@ impl Room {
         limits: Limits,
         progress: &mut dyn FnMut(&Progress<'_>),
     ) -> Result<Room, PrepareError> {
-        settings
-            .validate()
-            .map_err(|e| PrepareError::InvalidSetting {
-                name: e.name,
-                reason: e.reason,
-            })?;
+        settings.validate()?;
         let mut scene = Scene {
             settings: settings.clone(),
             ..scene.clone()
