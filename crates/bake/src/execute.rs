@@ -202,14 +202,14 @@ fn read_all<B: GpuBackend>(
 const RAY_COST: f64 = 12.0;
 
 /// Work of `pass`, for progress, in filter taps: texels of the layout × its work per texel,
-/// rays weighted by [`RAY_COST`], a strided gather on its grid only, its lamp-path
-/// connections (a shadow ray each) included.
+/// rays weighted by [`RAY_COST`], a strided gather on its grid only (the lamp-path
+/// connections are the connect pass's work, not the gather's).
 fn pass_work(pass: &PassDesc, room: &Room) -> f64 {
     let [w, h] = room.layout.layer_size;
     let texels = f64::from(w) * f64::from(h) * f64::from(room.layout.layers);
     let mut per_texel = pass.params.work_per_texel() as f64;
     if let Params::Gather(g) = pass.params {
-        per_texel = (per_texel + f64::from(g.lamp_paths)) / f64::from(g.stride.max(1)).powi(2);
+        per_texel /= f64::from(g.stride.max(1)).powi(2);
     }
     if pass.kind.program().is_some_and(|p| p.signature().scene.bvh) {
         per_texel *= RAY_COST;
