@@ -157,6 +157,15 @@ fn one_backend_bakes_a_room_again_and_again_without_growing() {
     let mut dimmer = scene.lamps.clone();
     dimmer[0].multiplier = 0.25;
     dimmer[0].position[0] += 0.3;
+    // The number of compiled programs after the first bake: later bakes compile none.
+    let programs = |held: &str| -> Option<usize> {
+        let rest = held.split("programs: ").nth(1)?;
+        rest.split(|c: char| !c.is_ascii_digit())
+            .next()?
+            .parse()
+            .ok()
+    };
+    let mut compiled = None;
     for lamps in [&scene.lamps, &dimmer, &scene.lamps] {
         let out = luxbake::bake_room(&mut kept, &room, lamps, &settings, &mut |_| {})
             .expect("bake on the kept backend");
@@ -165,12 +174,20 @@ fn one_backend_bakes_a_room_again_and_again_without_growing() {
             held.contains("textures: 0") && held.contains("scenes: 0"),
             "{held}"
         );
+        let now = programs(&held).filter(|&n| n > 0);
+        assert!(now.is_some(), "no compiled programs in {held}");
+        assert_eq!(
+            *compiled.get_or_insert(now),
+            now,
+            "programs compiled again: {held}"
+        );
         let Some(mut fresh) = backend_or_skip(test) else {
             return;
         };
         let reference = luxbake::bake_room(&mut fresh, &room, lamps, &settings, &mut |_| {})
             .expect("bake on a fresh backend");
         assert!(!out.maps.is_empty());
+        assert_eq!(out.maps.len(), reference.maps.len());
         for (a, b) in out.maps.iter().zip(&reference.maps) {
             assert_eq!(a.stages, b.stages, "{}", a.name);
         }
