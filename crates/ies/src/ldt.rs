@@ -8,6 +8,10 @@
 //! cd/klm, Ng per stored C plane. Stored planes by Isym: 0 all Mc; 1 one; 2 C0–C180 (Mc/2+1);
 //! 3 C90–C270 (Mc/2+1); 4 C0–C90 (Mc/4+1).
 //!
+//! The luminous area becomes LM-63 opening dimensions: width = its width (along C90–C270),
+//! length = its length (along C0–C180), height = the largest of its four heights; width 0 is
+//! a circle of diameter length (see the [`opening`](crate::opening) module docs).
+//!
 //! Several lamp sets are one luminaire with all of them fitted: the intensities are per
 //! 1000 lm of the total flux of every set, and the header's lamps, lumens and watts are the
 //! sums over the sets. A negative lamp count (absolute photometry) must be negative in every
@@ -324,11 +328,14 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
         }
     }
     let (area_l, area_w) = (nums[3], nums[4]);
-    // LM-63 signs: a round area (width 0) is a circle of diameter `length`.
+    // LM-63 signs (length along C0-C180, width along C90-C270, as in LM-63): a round area
+    // (width 0) is a circle of diameter `length`. The box height is the largest of the
+    // heights in C0, C90, C180, C270: any height above zero makes the sides luminous.
+    let height = nums[5..9].iter().fold(0.0f64, |m, h| m.max(h.abs()));
     let dimensions = if area_w == 0.0 && area_l > 0.0 {
-        [-area_l / 1000.0, -area_l / 1000.0, nums[5] / 1000.0]
+        [-area_l / 1000.0, -area_l / 1000.0, height / 1000.0]
     } else {
-        [area_w / 1000.0, area_l / 1000.0, nums[5] / 1000.0]
+        [area_w / 1000.0, area_l / 1000.0, height / 1000.0]
     };
     let info = LdtInfo {
         company: company.to_owned(),

@@ -99,6 +99,13 @@
 //! `I = I₀ cos γ` sampled every 5° over the lower hemisphere this gives π·I₀ within 0.1 %; a
 //! constant gives exactly 4π·I.
 //!
+//! # Luminous opening
+//! [`Photometry::luminous_opening`] reads the file's opening (shape and size; length along
+//! C0 = +X, width along C90 = +Y), and [`Photometry::emitter`] makes an emitting box, elliptic
+//! cylinder or ellipsoid of it, with uniform luminance per direction
+//! ([`Photometry::opening_luminance`]) so the far field is the file's intensity. See the
+//! [`opening`] module for the mapping from every LM-63 and EULUMDAT shape.
+//!
 //! # GPU table
 //! See [`GpuTable`]: rows over γ, columns over C, bilinear, wrap in C.
 
@@ -109,6 +116,7 @@ mod gpu;
 mod ies;
 mod ldt;
 mod model;
+pub mod opening;
 mod photometry;
 mod read;
 mod sphere;
@@ -121,4 +129,5 @@ pub use model::{
     Format, IesVersion, Keyword, LampSet, LdtInfo, Limits, LuminousOpening, OpeningShape,
     ParseOptions, PhotometricType, Symmetry, Tilt, TiltData, TiltResolver, Units, Warning,
 };
+pub use opening::{Emitter, EmitterSample, SolidKind};
 pub use photometry::Photometry;

@@ -208,9 +208,12 @@ impl Symmetry {
     }
 }
 
-/// Shape of the luminous opening, from the signs of width, length and height (LM-63-2002 table
-/// of luminous opening shapes). "Length" lies along the 0° horizontal direction, "width" along
-/// 90°.
+/// Shape of the luminous opening, from the signs of width, length and height (LM-63-2002 and
+/// -2019 table of luminous opening shapes; LM-63-1995 and older files by the 1995 table, see
+/// [`LuminousOpening::from_signed_lm63_1995`]). "Length" lies along the 0°–180° photometric
+/// plane (+X for type C), "width" along 90°–270° (+Y). The signs listed are the 2002 ones;
+/// the [`opening`](crate::opening) module docs give both tables and the emitting solid of each
+/// shape.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum OpeningShape {
@@ -240,11 +243,12 @@ pub enum OpeningShape {
     HorizontalCylinderAlong90,
     /// +W, −L, −H (L ≠ H).
     HorizontalEllipticalCylinderAlong90,
-    /// −D, 0, −D: vertical disc facing the 0° direction.
+    /// −D, 0, −D: vertical disc facing the 0° direction (the "photometric horizontal").
     VerticalCircleFacing0,
     /// −W, 0, −H (W ≠ H).
     VerticalEllipseFacing0,
-    /// 0, −D, −D: vertical disc facing the 90° direction.
+    /// 0, −D, −D: vertical disc facing the 90° direction. Not in LM-63's table; read by the
+    /// same rule (negative = rounded in that plane) as the disc facing 0°.
     VerticalCircleFacing90,
     /// 0, −L, −H (L ≠ H).
     VerticalEllipseFacing90,
@@ -255,29 +259,65 @@ pub enum OpeningShape {
 /// The luminous opening as given in the file.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LuminousOpening {
-    /// Width in metres (absolute value), along the 90° direction.
+    /// Width in metres (absolute value), the extent along the 90°–270° plane (+Y for type C).
+    /// In an LM-63-1995 shape whose zero width stands for a diameter, that diameter.
     pub width: f64,
-    /// Length in metres (absolute value), along the 0° direction.
+    /// Length in metres (absolute value), the extent along the 0°–180° plane (+X for type C).
+    /// In an LM-63-1995 shape whose zero length stands for a diameter, that diameter.
     pub length: f64,
-    /// Height in metres (absolute value).
+    /// Height in metres (absolute value), the vertical extent.
     pub height: f64,
     /// Shape from the signs.
     pub shape: OpeningShape,
 }
 
 impl LuminousOpening {
-    /// Classifies signed file dimensions (in file units) and converts them to metres.
+    /// Classifies signed file dimensions (in file units) by the LM-63-1995 table (used for
+    /// LM-63-1986, -1991 and -1995 files) and converts them to metres. A diameter is written
+    /// once, in the width, with a zero for the dimension that repeats it: −d, 0, 0 circular;
+    /// −d, 0, −d sphere (an ellipsoid when the height differs); −d, 0, +h vertical cylinder;
+    /// 0, +l, −d horizontal cylinder along the length (0°); +w, 0, −d horizontal cylinder
+    /// along the width (90°); −w, +l or +w, −l with height 0, above 0 or below 0: ellipse,
+    /// vertical elliptic cylinder, ellipsoid. Other sign patterns are read as by
+    /// [`LuminousOpening::from_signed`]. The repeated diameter is filled in.
+    pub fn from_signed_lm63_1995(
+        width: f64,
+        length: f64,
+        height: f64,
+        units: Units,
+    ) -> LuminousOpening {
+        use OpeningShape as S;
+        let (w, l, h) = (width.abs(), length.abs(), height.abs());
+        let eq = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.max(b);
+        let found = match (sign(width), sign(length), sign(height)) {
+            (-1, 0, 0) => Some((S::Circular, w, w, 0.0)),
+            (-1, 0, -1) if eq(w, h) => Some((S::Sphere, w, w, h)),
+            (-1, 0, -1) => Some((S::Ellipsoid, w, w, h)),
+            (-1, 0, 1) => Some((S::VerticalCylinder, w, w, h)),
+            (0, 1, -1) => Some((S::HorizontalCylinderAlong0, h, l, h)),
+            (1, 0, -1) => Some((S::HorizontalCylinderAlong90, w, h, h)),
+            (-1, 1, 0) | (1, -1, 0) => Some((S::Ellipse, w, l, 0.0)),
+            (-1, 1, 1) | (1, -1, 1) => Some((S::VerticalEllipticalCylinder, w, l, h)),
+            (-1, 1, -1) | (1, -1, -1) => Some((S::Ellipsoid, w, l, h)),
+            _ => None,
+        };
+        let Some((shape, w, l, h)) = found else {
+            return LuminousOpening::from_signed(width, length, height, units);
+        };
+        let m = units.to_meters();
+        LuminousOpening {
+            width: w * m,
+            length: l * m,
+            height: h * m,
+            shape,
+        }
+    }
+
+    /// Classifies signed file dimensions (in file units) by the LM-63-2002/2019 table (also
+    /// used for EULUMDAT) and converts them to metres.
     pub fn from_signed(width: f64, length: f64, height: f64, units: Units) -> LuminousOpening {
         use OpeningShape as S;
-        let s = |v: f64| {
-            if v > 0.0 {
-                1
-            } else if v < 0.0 {
-                -1
-            } else {
-                0
-            }
-        };
+        let s = sign;
         let eq = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs());
         let shape = match (s(width), s(length), s(height)) {
             (0, 0, 0) => S::Point,
@@ -306,6 +346,17 @@ impl LuminousOpening {
             height: height.abs() * m,
             shape,
         }
+    }
+}
+
+/// −1, 0 or 1 (0 for NaN).
+fn sign(v: f64) -> i8 {
+    if v > 0.0 {
+        1
+    } else if v < 0.0 {
+        -1
+    } else {
+        0
     }
 }
 

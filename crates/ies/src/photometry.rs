@@ -258,10 +258,17 @@ impl Photometry {
     pub fn dimensions(&self) -> [f64; 3] {
         self.dimensions
     }
-    /// Luminous opening size in metres and its shape.
+    /// Luminous opening size in metres and its shape: by the LM-63-1995 table for LM-63-1986,
+    /// -1991 and -1995 files, by the LM-63-2002 table otherwise (see the
+    /// [`opening`](crate::opening) module docs; [`Photometry::emitter`] makes a solid of it).
     pub fn luminous_opening(&self) -> LuminousOpening {
         let [w, l, h] = self.dimensions;
-        LuminousOpening::from_signed(w, l, h, self.units)
+        match self.format {
+            Format::Lm63_1986 | Format::Lm63_1991 | Format::Lm63_1995 => {
+                LuminousOpening::from_signed_lm63_1995(w, l, h, self.units)
+            }
+            _ => LuminousOpening::from_signed(w, l, h, self.units),
+        }
     }
     /// Photometric type (angle system).
     pub fn photometric_type(&self) -> PhotometricType {

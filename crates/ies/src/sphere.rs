@@ -95,7 +95,8 @@ impl Sphere {
         }
     }
 
-    fn value(&self, i_phi: usize, j_theta: usize) -> f64 {
+    /// The node value at φ index `i_phi`, θ index `j_theta` (0 outside the grid).
+    pub(crate) fn value(&self, i_phi: usize, j_theta: usize) -> f64 {
         self.values
             .get(i_phi * self.theta.len() + j_theta)
             .copied()
