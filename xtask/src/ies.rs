@@ -71,6 +71,30 @@ pub fn run(args: &Args) -> Result<(), String> {
         "opening           {:?}, {:.3} × {:.3} × {:.3} m (width × length × height)",
         opening.shape, opening.width, opening.length, opening.height
     );
+    match lamp.emitter() {
+        Some(e) => {
+            let axis = ["X", "Y", "Z"][usize::from(e.axis.min(2))];
+            let _ = writeln!(
+                o,
+                "emitter           {}, axis {axis}, half {:.4} × {:.4} × {:.4} m (u × v × w), \
+                 emitting {}, area {:.5} m²",
+                e.kind.name(),
+                e.half[0],
+                e.half[1],
+                e.half[2],
+                e.part_names().join(" + "),
+                e.area()
+            );
+            let _ = writeln!(
+                o,
+                "point model       within 1 % beyond {:.3} m",
+                e.point_model_distance(0.01)
+            );
+        }
+        None => {
+            let _ = writeln!(o, "emitter           none (point)");
+        }
+    }
     let _ = match lamp.lumens_header() {
         Some(h) => writeln!(
             o,
@@ -111,6 +135,17 @@ fn emit(text: &str) {
 fn report_json(file: &Path, lamp: &Photometry) -> serde_json::Value {
     let (max_cd, max_dir) = lamp.max_intensity();
     let opening = lamp.luminous_opening();
+    let emitter = lamp.emitter().map(|e| {
+        let axis = ["x", "y", "z"][usize::from(e.axis.min(2))];
+        json!({
+            "solid": e.kind.name(),
+            "axis": axis,
+            "half_m": e.half,
+            "faces": e.part_names(),
+            "area_m2": e.area(),
+            "point_model_1pct_m": e.point_model_distance(0.01),
+        })
+    });
     let keywords: Vec<_> = lamp
         .keywords()
         .iter()
@@ -146,6 +181,7 @@ fn report_json(file: &Path, lamp: &Photometry) -> serde_json::Value {
             "width_m": opening.width,
             "length_m": opening.length,
             "height_m": opening.height,
+            "emitter": emitter,
         },
         "keywords": keywords,
         "warnings": warnings,
@@ -180,6 +216,27 @@ mod tests {
         let integrated = j["lumens_integrated"].as_f64().unwrap();
         assert!((integrated / header - 1.0).abs() < 1e-4);
         assert!(j["max_candela"].as_f64().unwrap() > 1000.0);
+        let o = &j["luminous_opening"];
+        assert!(o["shape"].is_string() && o["width_m"].is_number());
+        assert!(o["length_m"].is_number() && o["height_m"].is_number());
+    }
+
+    #[test]
+    fn json_report_shows_the_emitter() {
+        // A 0.3 m × 0.6 m flat downlight: a box with only its bottom lit.
+        let text = "IESNA:LM-63-2002\nTILT=NONE\n1 -1 1 2 1 1 2 0.3 0.6 0\n1 1 0\n0 90\n0\n10 0\n";
+        let lamp = Photometry::parse(text.as_bytes()).unwrap();
+        let e = &report_json(Path::new("x.ies"), &lamp)["luminous_opening"]["emitter"];
+        assert_eq!(e["solid"], "box");
+        assert_eq!(e["axis"], "z");
+        assert_eq!(e["faces"], json!(["bottom"]));
+        assert!((e["area_m2"].as_f64().unwrap() - 0.18).abs() < 1e-12);
+        assert_eq!(e["half_m"], json!([0.3, 0.15, 0.0]));
+        assert!(e["point_model_1pct_m"].as_f64().unwrap() > 0.0);
+        // A point opening has none.
+        let point = text.replace("0.3 0.6 0", "0 0 0");
+        let lamp = Photometry::parse(point.as_bytes()).unwrap();
+        assert!(report_json(Path::new("x.ies"), &lamp)["luminous_opening"]["emitter"].is_null());
     }
 
     #[test]
