@@ -38,6 +38,10 @@ Sub-commands:
     validate     direct-only check (inverse-square-cosine law with the IES intensity), the CIE
                  171:2006 closed box (test case 5.8) and the convergence check; writes
                  validation.json
+    nearfield    direct light of the lamps' luminous openings (ies2rad without -i) and of the
+                 point model in the rooms bench/scenes/nearfield_*.toml: nearfield_<room>.csv,
+                 nearfield.json; and the method against closed forms: nearfield_validation.json
+                 (about 6 minutes)
 """
 
 from __future__ import annotations
@@ -467,7 +471,10 @@ def floor_points(scene: dict, count: int, seed: int):
 
 
 def export_glb(name: str, out: Path) -> None:
-    cmd = ["cargo", "xtask", "export-scene", name, str(out)]
+    # LUXBAKE_XTASK: a prebuilt xtask binary, for a tree that does not build at the moment.
+    xtask = os.environ.get("LUXBAKE_XTASK")
+    cmd = [xtask] if xtask else ["cargo", "xtask"]
+    cmd += ["export-scene", name, str(out)]
     subprocess.run(["nice", "-n", "10", *cmd], cwd=REPO, check=True)
 
 
@@ -726,12 +733,651 @@ def convergence(env: dict, workroot: Path, name: str, count: int, settings: dict
 
 
 # ---------------------------------------------------------------------------------------------
+# Near field: lamps with their luminous openings (the `nearfield` sub-command)
+#
+# `ies2rad -dm` without `-i` turns the file's luminous opening into emitting `light` geometry
+# (see README.md, "Near field"): a flat rectangle or disk (one face per hemisphere the file has
+# light in) with radiance I(w) / (A cos) (`flatcorr`), or a box / vertical cylinder (all faces,
+# when the file has light both up and down) with radiance I(w) / A_proj(w) (`boxcorr`,
+# `cylcorr`): uniform luminance on every emitting face, equal to the intensity over the
+# projected area. Two limits of rtrace's area-source sampling are worked around here, without
+# changing that model:
+# - a source is split into at most 64 cells (MAXSPART), whatever -ds asks: a 0.6 m opening
+#   0.15 m from a point is then integrated with 10 cm cells. Each emitting rectangle is cut
+#   into pieces of at most NF_PIECE (same modifier, same plane, same orientation), so -ds
+#   decides again;
+# - a disk (`ring`) is sampled through a square-to-disk map that is not area-preserving while
+#   every cell keeps the same weight: 13 % low on the axis at h = D/4 (nearfield_validation.json).
+#   Each disk is replaced by strips of NF_STRIP width whose lengths give every strip exactly
+#   the disk's area in its band (total area pi r^2, as ies2rad's correction assumes), then cut
+#   into pieces as above.
+
+NF_DS = 0.02          # rtrace -ds: cells below 2 % of their distance
+NF_PIECE = 0.04       # m, largest emitting piece (64 cells of 5 mm at most)
+NF_STRIP = 0.004      # m, strip width of a disk
+NF_MIN_DIST = 0.10    # m, least distance of a calculation point from a luminous opening
+NF_MIN_LUX = 1.0      # lx, least direct illuminance (opening model) of a calculation point
+NF_CANDIDATES = 5     # random candidates per wanted point (shadowed ones are dropped)
+NF_FLAGS = ["-ab", "0", "-aa", "0", "-av", "0", "0", "0", "-dt", "0", "-dc", "1", "-dj", "0",
+            "-dr", "0", "-st", "1", "-ss", "0", "-lr", "1000", "-u+"]
+NF_SCENE_DIR = REPO / "bench" / "scenes"
+# Points per room: random strata (as the furnished scenes) plus points aimed at from every lamp
+# (under, beside, above it); only lit points are kept, so a stratum no lamp lights is left out.
+NF_ROOMS = {
+    "nearfield_dining": {"floor": 45, "wall": 45, "furniture/up": 45},
+    "nearfield_office": {"floor": 40, "wall": 40, "furniture/up": 45, "furniture/side": 15},
+    "nearfield_round": {"floor": 35, "wall": 35, "ceiling": 35, "furniture/up": 40},
+    "nearfield_box": {"floor": 35, "wall": 45, "ceiling": 40, "furniture/up": 15,
+                      "furniture/side": 10},
+}
+
+
+def from_rad(p: np.ndarray) -> np.ndarray:
+    """Radiance world (z up) -> luxbake world (y up): (X, Y, Z) -> (X, Z, -Y)."""
+    p = np.asarray(p, dtype=np.float64)
+    return np.stack([p[..., 0], p[..., 2], -p[..., 1]], axis=-1)
+
+
+def rad_primitives(text: str) -> list:
+    """Primitives of a Radiance scene text: dicts with mod, type, name, s, i, r."""
+    words = []
+    for line in text.splitlines():
+        if line.lstrip().startswith("#") or line.lstrip().startswith("!"):
+            continue
+        words += [w.strip("'\"") for w in line.split()]
+    prims, k = [], 0
+    while k < len(words):
+        mod, typ, name = words[k:k + 3]
+        k += 3
+        ns = int(words[k]); s = words[k + 1:k + 1 + ns]; k += 1 + ns
+        ni = int(words[k]); ints = words[k + 1:k + 1 + ni]; k += 1 + ni
+        nr = int(words[k]); r = [float(v) for v in words[k + 1:k + 1 + nr]]; k += 1 + nr
+        prims.append({"mod": mod, "type": typ, "name": name, "s": s, "i": ints, "r": r})
+    return prims
+
+
+def prim_text(p: dict) -> str:
+    reals = " ".join(f"{v:.9g}" for v in p["r"])
+    return (f"{p['mod']} {p['type']} {p['name']}\n{len(p['s'])} {' '.join(p['s'])}\n"
+            f"{len(p['i'])} {' '.join(p['i'])}\n{len(p['r'])} {reals}\n")
+
+
+def poly_normal(v: np.ndarray) -> np.ndarray:
+    n = np.cross(v[1] - v[0], v[2] - v[0])
+    return n / np.linalg.norm(n)
+
+
+def split_quad(v: np.ndarray, piece: float) -> list:
+    """A parallelogram v0 v1 v2 v3 cut into a grid of pieces no larger than `piece`, same order."""
+    a, b = v[1] - v[0], v[3] - v[0]
+    assert np.allclose(v[2], v[0] + a + b, atol=1e-7), "emitting polygon is no parallelogram"
+    n = max(1, math.ceil(np.linalg.norm(a) / piece - 1e-9))
+    m = max(1, math.ceil(np.linalg.norm(b) / piece - 1e-9))
+    out = []
+    for i in range(n):
+        for j in range(m):
+            o = v[0] + a * (i / n) + b * (j / m)
+            out.append(np.array([o, o + a / n, o + a / n + b / m, o + b / m]))
+    return out
+
+
+def disk_quads(center: np.ndarray, normal: np.ndarray, radius: float, strip: float,
+               piece: float) -> list:
+    """An axis-aligned disk (normal +-z) as area-exact strips, cut into pieces."""
+    assert abs(abs(normal[2]) - 1) < 1e-9, "only disks facing +-z (what ies2rad writes)"
+    nstrips = max(2, math.ceil(2 * radius / strip))
+    edges = np.linspace(-radius, radius, nstrips + 1)
+
+    def band(y):  # integral of 2 sqrt(r^2 - y^2) from 0 to y
+        y = np.clip(y, -radius, radius)
+        return y * np.sqrt(radius ** 2 - y ** 2) + radius ** 2 * np.arcsin(y / radius)
+
+    quads = []
+    for y0, y1 in zip(edges[:-1], edges[1:]):
+        half = (band(y1) - band(y0)) / (y1 - y0) / 2  # exact band area / width / 2
+        v = np.array([[-half, y0, 0], [half, y0, 0], [half, y1, 0], [-half, y1, 0]]) + center
+        if poly_normal(v) @ normal < 0:
+            v = v[[0, 3, 2, 1]]
+        quads += split_quad(v, piece)
+    return quads
+
+
+def opening_lamp(ies: Path, name: str, mult: float, color, workdir: Path, env: dict,
+                 piece: float, strip: float) -> dict:
+    """ies2rad's luminous-opening luminaire (lamp frame), its faces cut into pieces.
+
+    Returns the Radiance text, the emitting faces as ies2rad wrote them (for the probes) and
+    what ies2rad said (shape comments, warnings)."""
+    shutil.copy(ies, workdir / f"{name}.ies")
+    run = subprocess.run(["ies2rad", "-dm", "-c", *map(str, color), "-m", str(mult), "-o", name,
+                          f"{name}.ies"], cwd=workdir, env=env, check=True, capture_output=True,
+                         text=True)
+    text = (workdir / f"{name}.rad").read_text()
+    shape = [line[2:].strip() for line in text.splitlines()
+             if line.startswith("# IES file shape") or line.startswith("# Radiance geometry")]
+    out, faces, npieces = [], [], 0
+    for p in rad_primitives(text):
+        if p["type"] == "polygon":
+            v = np.array(p["r"]).reshape(-1, 3)
+            faces.append({"kind": "polygon", "vertices": v, "normal": poly_normal(v)})
+            for k, q in enumerate(split_quad(v, piece)):
+                out.append(prim_text({**p, "name": f"{p['name']}.{k}", "r": list(q.reshape(-1))}))
+                npieces += 1
+        elif p["type"] == "ring":
+            c, n, r0, r1 = np.array(p["r"][:3]), np.array(p["r"][3:6]), p["r"][6], p["r"][7]
+            assert r0 == 0.0
+            faces.append({"kind": "disk", "center": c, "normal": n, "radius": r1})
+            for k, q in enumerate(disk_quads(c, n, r1, strip, piece)):
+                out.append(prim_text({"mod": p["mod"], "type": "polygon",
+                                      "name": f"{p['name']}.{k}", "s": [], "i": [],
+                                      "r": list(q.reshape(-1))}))
+                npieces += 1
+        elif p["type"] in ("cylinder", "sphere"):
+            raise NotImplementedError(f"{ies.name}: ies2rad wrote a {p['type']}; the near-field "
+                                      "references take rectangles, boxes and disks")
+        else:
+            out.append(prim_text(p))
+    return {"text": "\n".join(out), "faces": faces, "pieces": npieces, "shape": shape,
+            "warnings": run.stderr.strip()}
+
+
+def face_probes(face: dict, inset: float = 0.002) -> np.ndarray:
+    """Points of an emitting face (lamp frame): centre, corners and edge midpoints (inset)."""
+    if face["kind"] == "polygon":
+        v = face["vertices"]
+        c = v.mean(axis=0)
+        pts = [c]
+        for k in range(len(v)):
+            a, b = v[k], v[(k + 1) % len(v)]
+            for q in (a, 0.5 * (a + b)):
+                d = c - q
+                pts.append(q + inset * d / np.linalg.norm(d))
+        return np.array(pts)
+    c, r = face["center"], face["radius"] - inset
+    return np.array([c] + [c + r * np.array([math.cos(a), math.sin(a), 0.0])
+                           for a in np.arange(8) * (2 * math.pi / 8)])
+
+
+def face_triangles(face: dict) -> np.ndarray:
+    if face["kind"] == "polygon":
+        v = face["vertices"]
+        return np.array([[v[0], v[k], v[k + 1]] for k in range(1, len(v) - 1)])
+    c, r = face["center"], face["radius"]
+    ring = [c + r * np.array([math.cos(a), math.sin(a), 0.0])
+            for a in np.arange(33) * (2 * math.pi / 32)]
+    return np.array([[c, ring[k], ring[k + 1]] for k in range(32)])
+
+
+def nf_lamp_files(toml_path: Path) -> dict:
+    """Lamp name -> photometric file, from the scene file (the export does not carry it)."""
+    import tomllib
+    data = tomllib.loads(toml_path.read_text())
+    files = {}
+    for i, lamp in enumerate(data.get("lamp", [])):
+        ies = lamp.get("ies", "builtin:downlight")
+        if ies.startswith(("builtin:", "isotropic:")):
+            raise NotImplementedError(f"{toml_path.name}: lamp {i}: {ies} has no opening")
+        files[lamp.get("name", f"lamp_{i}")] = (toml_path.parent / ies).resolve()
+    return files
+
+
+def nf_build(name: str, work: Path, env: dict, piece: float, strip: float) -> dict:
+    """Exports a near-field room, writes its Radiance scene with the opening model
+    (scene_open.oct) and the point model (scene_point.oct); returns the scene and the lamps."""
+    toml_path = NF_SCENE_DIR / f"{name}.toml"
+    glb = work / f"{name}.glb"
+    export_glb(str(toml_path), glb)
+    scene = load_scene(glb)
+    files = nf_lamp_files(toml_path)
+    geometry = (work / "scene.rad")
+    write_scene({**scene, "lamps": []}, work, env)  # geometry and materials only
+    base = geometry.read_text()
+    open_txt, point_txt, lamps = [base], [base], []
+    for k, lamp in enumerate(scene["lamps"]):
+        aim = np.array(lamp.get("aim", [0, -1, 0]), dtype=np.float64)
+        if not np.allclose(aim / np.linalg.norm(aim), [0, -1, 0]) or \
+                abs(lamp.get("rotationDeg", 0.0)) > 1e-9:
+            raise NotImplementedError(f"{name}: lamp {lamp['name']}: only the default frame")
+        ies = files[lamp["name"]]
+        mult = float(lamp.get("multiplier", 1.0))
+        color = [float(c) for c in lamp.get("color", [1, 1, 1])]
+        pos = to_rad(np.array(lamp["position"]))
+        t = f"-t {pos[0]:.6f} {pos[1]:.6f} {pos[2]:.6f}"
+        lo = opening_lamp(ies, f"lamp{k}", mult, color, work, env, piece, strip)
+        (work / f"lamp{k}_open.rad").write_text(lo["text"])
+        open_txt.append(f"!xform -n lamp{k} {t} lamp{k}_open.rad\n")
+        shutil.copy(ies, work / f"lamp{k}p.ies")
+        subprocess.run(["ies2rad", "-dm", "-i", str(LAMP_RADIUS), "-c", *map(str, color),
+                        "-m", str(mult), "-o", f"lamp{k}p", f"lamp{k}p.ies"],
+                       cwd=work, env=env, check=True, capture_output=True)
+        point_txt.append(f"!xform -n lamp{k}p {t} lamp{k}p.rad\n")
+        probes = np.concatenate([[np.zeros(3)]] + [face_probes(f) for f in lo["faces"]])
+        tris = np.concatenate([face_triangles(f) for f in lo["faces"]])
+        lamps.append({"name": lamp["name"], "file": ies, "position": np.array(lamp["position"]),
+                      "probes": from_rad(probes + pos), "tris": from_rad(tris + pos),
+                      "pieces": lo["pieces"], "shape": lo["shape"], "warnings": lo["warnings"],
+                      "faces": len(lo["faces"])})
+    octrees = {}
+    for kind, txt in (("open", open_txt), ("point", point_txt)):
+        (work / f"scene_{kind}.rad").write_text("\n".join(txt))
+        with open(work / f"scene_{kind}.oct", "wb") as f:
+            subprocess.run(["oconv", f"scene_{kind}.rad"], cwd=work, env=env, stdout=f,
+                           check=True)
+        octrees[kind] = work / f"scene_{kind}.oct"
+    return {"scene": scene, "lamps": lamps, "octrees": octrees}
+
+
+def nf_acceptable(scene: dict, lamps: list, ti: int, p: np.ndarray, margin: float,
+                  rng) -> bool:
+    """`acceptable` with area lamps: the point is no nearer than NF_MIN_DIST to an opening and
+    sees each lamp's whole opening (centre, corners, edge midpoints, the photometric centre) or
+    none of it, and so do the 8 points `margin` around it; no sight line to a lamp passes
+    through another lamp's opening."""
+    for lamp in lamps:
+        if point_triangle_distance(p, lamp["tris"]).min() < NF_MIN_DIST:
+            return False
+    if not acceptable({**scene, "lamp_positions": []}, ti, p, margin, rng):
+        return False
+    n = scene["normals"][ti]
+    helper = np.array([1.0, 0, 0]) if abs(n[0]) < 0.9 else np.array([0, 1.0, 0])
+    u = np.cross(n, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(n, u)
+    ring = [p + OFFSET * n + margin * (math.cos(a) * u + math.sin(a) * v)
+            for a in np.arange(8) * (2 * math.pi / 8)]
+    origins = np.array([p + OFFSET * n, *ring])
+    for k, lamp in enumerate(lamps):
+        others = [m["tris"] for j, m in enumerate(lamps) if j != k]
+        seen_all = []
+        for q in lamp["probes"]:
+            to = q - origins
+            dist = np.linalg.norm(to, axis=1)
+            dirs = to / dist[:, None]
+            t, _ = first_hits(scene, origins, dirs)
+            if others:
+                t_other, _ = first_hits({"tris": np.concatenate(others)}, origins, dirs)
+                if np.any(t_other < dist):
+                    return False
+            seen_all.append(t > dist - 1e-3)
+        seen = np.array(seen_all)
+        if seen.any() and not seen.all():
+            return False
+    return True
+
+
+def nf_candidates(scene: dict, lamps: list):
+    """Surface points hit from each lamp: straight down and up, and at 20, 40 and 60 degrees
+    off in 8 azimuths (under, beside and above the lamps)."""
+    out = []
+    for lamp in lamps:
+        o = lamp["position"]
+        dirs = [np.array([0, -1.0, 0]), np.array([0, 1.0, 0])]
+        for tilt in (20, 40, 60):
+            for az in np.arange(8) * 45 + 22.5 * (tilt == 40):
+                a, b = math.radians(tilt), math.radians(az)
+                for s in (-1, 1):
+                    dirs.append(np.array([math.sin(a) * math.cos(b), s * math.cos(a),
+                                          math.sin(a) * math.sin(b)]))
+        dirs = np.array(dirs)
+        t, idx = first_hits(scene, np.repeat(o[None], len(dirs), axis=0), dirs)
+        for d, tt, j in zip(dirs, t, idx):
+            if np.isfinite(tt) and np.dot(d, scene["normals"][j]) < 0:
+                out.append((int(j), o + tt * d))
+    return out
+
+
+def nf_choose_points(scene: dict, lamps: list, counts: dict, seed: int):
+    """Candidates: points aimed at from the lamps, then area-uniform random points per stratum
+    (NF_CANDIDATES times the count: `make_nearfield` keeps the first that are lit). Returns the
+    points and their strata ("aimed" or the stratum)."""
+    rng = np.random.default_rng(seed)
+    tri = scene["tris"]
+    chosen = []
+
+    def margin_of(kind):
+        return MARGIN_ROOM if kind in ("floor", "wall", "ceiling") else MARGIN_FURNITURE
+
+    for ti, p in nf_candidates(scene, lamps):
+        kind = surface_kind(scene, ti)
+        if nf_acceptable(scene, lamps, ti, p, margin_of(kind), rng):
+            chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
+    labels = ["aimed"] * len(chosen)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    kinds = np.array([surface_kind(scene, i) for i in range(len(tri))])
+    ny = scene["normals"][:, 1]
+    facing = np.where(ny > 0.5, "up", np.where(ny < -0.5, "down", "side"))
+    strata = np.char.add(np.char.add(kinds.astype(str), "/"), facing)
+    for stratum, count in counts.items():
+        kind = stratum.split("/")[0]
+        pool = np.flatnonzero((kinds == stratum) | (strata == stratum))
+        if len(pool) == 0 or count == 0:
+            continue
+        w = area[pool] / area[pool].sum()
+        got, tries = 0, 0
+        count *= NF_CANDIDATES
+        while got < count and tries < 200 * count:
+            tries += 1
+            ti = int(rng.choice(pool, p=w))
+            r1, r2 = rng.random(), rng.random()
+            if r1 + r2 > 1:
+                r1, r2 = 1 - r1, 1 - r2
+            t = tri[ti]
+            p = t[0] + r1 * (t[1] - t[0]) + r2 * (t[2] - t[0])
+            if nf_acceptable(scene, lamps, ti, p, margin_of(kind), rng):
+                chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
+                labels.append(stratum)
+                got += 1
+        if got < count:
+            print(f"note: {got} of {count} {stratum} candidates")
+    return chosen, labels
+
+
+def nf_rtrace(octree: Path, rays: np.ndarray, ds: float, env: dict, cwd: Path) -> np.ndarray:
+    """Direct illuminance, lux (Rec. 709 Y), of `rtrace -I -ab 0` at rows x y z nx ny nz."""
+    args = ["rtrace", "-I", "-h", *NF_FLAGS, "-ds", f"{ds:g}", str(octree)]
+    text = "".join(" ".join(f"{v:.6f}" for v in r) + "\n" for r in rays)
+    out = subprocess.run(["nice", "-n", "10", *args], input=text, env=env, cwd=cwd,
+                         capture_output=True, text=True, check=True)
+    vals = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()
+                     if line.strip()])
+    if vals.shape != (len(rays), 3):
+        raise RuntimeError(f"rtrace returned {vals.shape} for {len(rays)} rays: {out.stderr}")
+    return lux(vals) @ REC709
+
+
+def nf_summary(points, opening, point) -> dict:
+    """Per surface kind: (point - opening) / opening where the opening model gives > 1 lx."""
+    kinds = {}
+    for (_, _, kind, _), o, q in zip(points, opening, point):
+        kinds.setdefault(kind, []).append((o, q))
+        kinds.setdefault("all", []).append((o, q))
+    out = {}
+    for kind, rows in sorted(kinds.items()):
+        o = np.array([r[0] for r in rows])
+        q = np.array([r[1] for r in rows])
+        lit = o > 1.0
+        rel = q[lit] / o[lit] - 1
+        out[kind] = {"points": len(rows), "lit": int(lit.sum()),
+                     "mean_rel": float(rel.mean()) if lit.any() else None,
+                     "mean_abs_rel": float(np.abs(rel).mean()) if lit.any() else None,
+                     "min_rel": float(rel.min()) if lit.any() else None,
+                     "max_rel": float(rel.max()) if lit.any() else None,
+                     "max_abs_rel": float(np.abs(rel).max()) if lit.any() else None}
+    return out
+
+
+def make_nearfield(name: str, out_dir: Path, env: dict, workroot: Path, check: bool) -> dict:
+    work = workroot / name
+    work.mkdir(parents=True, exist_ok=True)
+    built = nf_build(name, work, env, NF_PIECE, NF_STRIP)
+    scene, lamps = built["scene"], built["lamps"]
+    t0 = time.time()
+    cands, labels = nf_choose_points(scene, lamps, NF_ROOMS[name], seed=sum(map(ord, name)))
+    t_points = time.time() - t0
+    rays = rays_of(cands)
+    t0 = time.time()
+    opening = nf_rtrace(built["octrees"]["open"], rays, NF_DS, env, work)
+    t_open = time.time() - t0
+    t0 = time.time()
+    point = nf_rtrace(built["octrees"]["point"], rays, NF_DS, env, work)
+    t_point = time.time() - t0
+    # Keep the lit candidates (opening model >= NF_MIN_LUX; a dark point has no relative
+    # error to test): every aimed one, then the first `count` of each stratum.
+    keep, taken = [], {}
+    for k, (label, o) in enumerate(zip(labels, opening)):
+        if o < NF_MIN_LUX:
+            continue
+        if label != "aimed":
+            if taken.get(label, 0) >= NF_ROOMS[name][label]:
+                continue
+            taken[label] = taken.get(label, 0) + 1
+        keep.append(k)
+    for stratum, count in NF_ROOMS[name].items():
+        if taken.get(stratum, 0) < count:
+            print(f"warning: {name}: only {taken.get(stratum, 0)} of {count} lit {stratum} "
+                  "points")
+    aimed = sum(labels[k] == "aimed" for k in keep)
+    points = [cands[k] for k in keep]
+    rays, opening, point = rays[keep], opening[keep], point[keep]
+    dist = np.array([min(point_triangle_distance(p + OFFSET * n, lamp["tris"]).min()
+                         for lamp in lamps) for p, n, _, _ in points])
+    summary = nf_summary(points, opening, point)
+    res = {"points": len(points), "aimed_points": aimed, "candidates": len(cands),
+           "per_kind": {k: v["points"] for k, v in summary.items() if k != "all"},
+           "lamps": [{"name": m["name"], "file": os.path.relpath(m["file"], REPO),
+                      "position": [float(v) for v in m["position"]], "ies2rad": m["shape"],
+                      "emitting_faces": m["faces"], "pieces": m["pieces"],
+                      "ies2rad_warnings": m["warnings"]} for m in lamps],
+           "point_vs_opening": summary,
+           "distance_to_opening_m": [float(dist.min()), float(dist.max())],
+           "seconds_points": round(t_points, 1), "seconds_rtrace_opening": round(t_open, 1),
+           "seconds_rtrace_point": round(t_point, 1), "triangles": int(len(scene["tris"]))}
+    if check:  # convergence: -ds and the piece size halved
+        fine = work / "fine"
+        fine.mkdir(exist_ok=True)
+        b2 = nf_build(name, fine, env, NF_PIECE / 2, NF_STRIP / 2)
+        t0 = time.time()
+        again = nf_rtrace(b2["octrees"]["open"], rays, NF_DS / 2, env, fine)
+        lit = opening > 1.0
+        rel = again[lit] / opening[lit] - 1
+        res["convergence"] = {"ds": NF_DS / 2, "piece_m": NF_PIECE / 2, "strip_m": NF_STRIP / 2,
+                              "points": int(lit.sum()), "mean_rel": float(rel.mean()),
+                              "max_abs_rel": float(np.abs(rel).max()),
+                              "seconds": round(time.time() - t0, 1)}
+    path = out_dir / f"{name}.csv"
+    with open(path, "w") as f:
+        f.write(f"# Radiance near-field reference for bench/scenes/{name}.toml: made by "
+                f"make_references.py nearfield (see README.md, Near field)\n")
+        f.write(f"# {radiance_version(env)}; direct light only: rtrace -I -h "
+                f"{' '.join(NF_FLAGS)} -ds {NF_DS:g}\n")
+        f.write("# direct_lux: luminous-opening model, ies2rad -dm -c 1 1 1 -m MULT (no -i), "
+                f"emitting faces cut into pieces <= {NF_PIECE:g} m, disks into area-exact "
+                f"strips of {NF_STRIP:g} m; direct_point_lux: point model, ies2rad -i "
+                f"{LAMP_RADIUS} (as the other references)\n")
+        f.write("# lux = direct_lux (no inter-reflection: compare with a direct-only bake); "
+                "position 1 mm off the surface along the normal; Rec. 709 Y, 179 lm/W; "
+                "lamp_dist_m: distance to the nearest luminous opening\n")
+        f.write("x,y,z,nx,ny,nz,surface,object,lux,direct_lux,direct_point_lux,lamp_dist_m\n")
+        for (p, n, kind, obj), o, q, d in zip(points, opening, point, dist):
+            x = p + OFFSET * n
+            f.write(f"{x[0]:.4f},{x[1]:.4f},{x[2]:.4f},{n[0]:.5f},{n[1]:.5f},{n[2]:.5f},"
+                    f"{kind},{obj},{o:.3f},{o:.3f},{q:.3f},{d:.3f}\n")
+    print(f"{name}: wrote {path} ({len(points)} points, {aimed} aimed from the lamps; rtrace "
+          f"{t_open:.0f} s opening, {t_point:.0f} s point)")
+    for kind, s in summary.items():
+        if s["lit"]:
+            print(f"  {kind:10s} {s['lit']:3d} lit: point vs opening mean {s['mean_rel']:+.2%}, "
+                  f"min {s['min_rel']:+.2%}, max {s['max_rel']:+.2%}")
+    if "convergence" in res:
+        c = res["convergence"]
+        print(f"  convergence (-ds {c['ds']:g}, pieces {c['piece_m']:g} m): mean "
+              f"{c['mean_rel']:+.4%}, max |rel| {c['max_abs_rel']:.4%}")
+    return res
+
+
+# Validation of the method against closed forms (`nearfield-validate`)
+
+
+def lambert_ies(path: Path, dims, kind: str, intensity: float = 1000.0) -> None:
+    """Synthetic LM-63-2002 file of a uniform-luminance opening.
+
+    `flat`: I(gamma) = I0 cos(gamma), downward only (a Lambertian disk or rectangle, width,
+    length, height = dims as the file writes them); `box`: I = L A_proj(gamma, C) of a box
+    with luminance L = intensity / (length x width) on every face, C 0-90 (quadrant)."""
+    if kind == "flat":
+        gam = np.arange(0, 90.01, 0.5)
+        horiz = np.array([0.0])
+        cd = np.maximum(intensity * np.cos(np.radians(gam)), 0)[None]
+        cd[0, -1] = 0.0
+    else:
+        w, l, h = dims
+        lum = intensity / (l * w)
+        gam = np.arange(0, 180.01, 1.0)
+        horiz = np.arange(0, 90.01, 1.0)
+        g, c = np.radians(gam)[None], np.radians(horiz)[:, None]
+        # C0 along the length (x), C90 along the width (y): the faces' projected areas.
+        cd = lum * (np.abs(np.sin(g) * np.cos(c)) * w * h + np.abs(np.sin(g) * np.sin(c)) * l * h
+                    + np.abs(np.cos(g)) * l * w)
+    lines = ["IESNA:LM-63-2002", f"[TEST] synthetic uniform-luminance opening ({kind})",
+             "[MANUFAC] luxbake make_references.py", "TILT=NONE",
+             f"1 -1 1 {len(gam)} {len(horiz)} 1 2 {dims[0]} {dims[1]} {dims[2]}", "1 1 0"]
+    lines += [" ".join(f"{v:g}" for v in gam), " ".join(f"{v:g}" for v in horiz)]
+    lines += [" ".join(f"{v:.6f}" for v in row) for row in cd]
+    path.write_text("\n".join(lines) + "\n")
+
+
+def rect_corner(L: float, a: float, b: float, h: float) -> float:
+    """Illuminance under a Lambertian a x b rectangle of luminance L, on the normal through a
+    corner at distance h (the point's plane parallel to the rectangle)."""
+    A, B = a / h, b / h
+    return L / 2 * (A / math.sqrt(1 + A * A) * math.atan(B / math.sqrt(1 + A * A))
+                    + B / math.sqrt(1 + B * B) * math.atan(A / math.sqrt(1 + B * B)))
+
+
+def box_quadrature(L: float, dims, p: np.ndarray, n: np.ndarray, order: int = 96) -> float:
+    """Illuminance at p (normal n) from a box of luminance L on every face, centred at the
+    origin (x: length, y: width, z: height), by a Gauss-Legendre rule on each face it sees."""
+    lx, wy, hz = dims
+    half = np.array([lx, wy, hz]) / 2
+    x, wts = np.polynomial.legendre.leggauss(order)
+    total = 0.0
+    for axis in range(3):
+        for sign in (-1, 1):
+            if (p[axis] - sign * half[axis]) * sign <= 0:
+                continue  # the point is behind this face
+            o = [k for k in range(3) if k != axis]
+            uu, vv = np.meshgrid(x * half[o[0]], x * half[o[1]], indexing="ij")
+            ww = np.outer(wts, wts) * half[o[0]] * half[o[1]]
+            q = np.zeros(uu.shape + (3,))
+            q[..., axis] = sign * half[axis]
+            q[..., o[0]], q[..., o[1]] = uu, vv
+            d = q - p
+            r = np.linalg.norm(d, axis=-1)
+            cos_p = np.clip(d @ n / r, 0, None)
+            cos_f = np.clip(-d[..., axis] * sign / r, 0, None)
+            total += float((L * cos_p * cos_f / r ** 2 * ww).sum())
+    return total
+
+
+def nf_point(octree: Path, rays, ds, env, cwd) -> np.ndarray:
+    return nf_rtrace(octree, np.atleast_2d(np.asarray(rays, dtype=np.float64)), ds, env, cwd)
+
+
+def nearfield_validation(env: dict, workroot: Path) -> dict:
+    """Uniform-luminance openings through ies2rad + rtrace against closed forms."""
+    work = workroot / "nf_validate"
+    work.mkdir(parents=True, exist_ok=True)
+    ratios = [0.25, 0.5, 1, 2, 5]
+    res = {"settings": {"flags": NF_FLAGS, "ds": NF_DS, "piece_m": NF_PIECE,
+                        "strip_m": NF_STRIP}, "cases": []}
+
+    def scene_with(lamp_rad: str, tag: str) -> Path:
+        (work / f"{tag}.rad").write_text(lamp_rad)
+        with open(work / f"{tag}.oct", "wb") as f:
+            subprocess.run(["oconv", f"{tag}.rad"], cwd=work, env=env, stdout=f, check=True)
+        return work / f"{tag}.oct"
+
+    def variants(ies: Path, tag: str):
+        raw = subprocess.run(["ies2rad", "-dm", "-c", "1", "1", "1", "-o", tag, ies.name],
+                             cwd=work, env=env, check=True, capture_output=True)
+        del raw
+        yield "ies2rad as written", scene_with((work / f"{tag}.rad").read_text(), f"{tag}_raw"), \
+            NF_DS
+        for scale, label in ((1, "pieces"), (0.5, "pieces/2, -ds/2")):
+            lo = opening_lamp(ies, f"{tag}_p{scale}", 1.0, [1, 1, 1], work, env,
+                              NF_PIECE * scale, NF_STRIP * scale)
+            yield label, scene_with(lo["text"], f"{tag}_p{scale}"), NF_DS * scale
+
+    # 1. Lambertian disk, D = 0.2 m, I0 = 1000 cd: on the axis E = I0 / (a^2 + h^2).
+    D, I0 = 0.2, 1000.0
+    a = D / 2
+    ies = work / "lambert_disk.ies"
+    lambert_ies(ies, (-D, -D, 0), "flat", I0)
+    face_z = -0.00025  # ies2rad gives a flat opening 0.5 mm thickness: the lower face
+    for label, octree, ds in variants(ies, "disk"):
+        rows = []
+        for q in ratios:
+            h = q * D
+            got = float(nf_point(octree, [0, 0, face_z - h, 0, 0, 1], ds, env, work)[0])
+            want = I0 / (a * a + h * h)
+            rows.append({"h_over_D": q, "h_m": h, "radiance_lux": got, "closed_form_lux": want,
+                         "rel": got / want - 1})
+        res["cases"].append({"case": "Lambertian disk D 0.2 m, on the axis", "variant": label,
+                             "rows": rows})
+    # 2. Lambertian rectangles, normal through a corner.
+    for (wd, ln), what in (((0.06, 0.6), "linear 0.6 x 0.06 m"),
+                           ((0.3, 0.3), "square 0.3 x 0.3 m")):
+        ies = work / f"lambert_rect_{ln}x{wd}.ies"
+        lambert_ies(ies, (wd, ln, 0), "flat", I0)
+        L = I0 / (wd * ln)
+        Dm = max(wd, ln)
+        for label, octree, ds in variants(ies, f"rect{ln}"):
+            rows = []
+            for q in ratios:
+                h = q * Dm
+                # corner of the lower face: x = length / 2, y = width / 2 (Radiance frame)
+                got = float(nf_point(octree, [ln / 2, wd / 2, face_z - h, 0, 0, 1], ds, env,
+                                     work)[0])
+                want = rect_corner(L, ln, wd, h)
+                centre = float(nf_point(octree, [0, 0, face_z - h, 0, 0, 1], ds, env, work)[0])
+                want_c = 4 * rect_corner(L, ln / 2, wd / 2, h)
+                rows.append({"h_over_D": q, "h_m": h, "corner_radiance_lux": got,
+                             "corner_closed_form_lux": want, "corner_rel": got / want - 1,
+                             "centre_radiance_lux": centre, "centre_closed_form_lux": want_c,
+                             "centre_rel": centre / want_c - 1})
+            res["cases"].append({"case": f"Lambertian rectangle {what}, normal through a "
+                                 "corner and through the centre", "variant": label,
+                                 "rows": rows})
+    # 3. Uniform-luminance box 0.4 x 0.4 x 0.1 m with luminous sides (rw_1's kind), against a
+    #    96 x 96 Gauss-Legendre rule per visible face: below, beside (facing a side), above.
+    dims = (0.4, 0.4, 0.1)  # length (x, C0), width (y, C90), height (z)
+    ies = work / "lambert_box.ies"
+    lambert_ies(ies, (dims[1], dims[0], dims[2]), "box", I0)
+    L = I0 / (dims[0] * dims[1])
+    probes = []
+    for q in ratios:
+        h = q * 0.4
+        probes.append((q, "below", np.array([0.05, 0.1, -0.05 - h]), np.array([0, 0, 1.0])))
+        probes.append((q, "beside", np.array([0.2 + h, 0.07, 0.02]), np.array([-1.0, 0, 0])))
+        probes.append((q, "above, tilted", np.array([0.1, -0.1, 0.05 + h]),
+                       np.array([0.3, 0, -1.0]) / math.hypot(0.3, 1.0)))
+    for label, octree, ds in variants(ies, "box"):
+        rows = []
+        for q, where, p, n in probes:
+            got = float(nf_point(octree, [*p, *n], ds, env, work)[0])
+            want = box_quadrature(L, dims, p, n) * 1.0
+            rows.append({"h_over_D": q, "where": where, "radiance_lux": got,
+                         "quadrature_lux": want, "rel": got / want - 1})
+        res["cases"].append({"case": "uniform-luminance box 0.4 x 0.4 x 0.1 m (I = L A_proj)",
+                             "variant": label, "rows": rows})
+    # The quadrature itself: 96 against 128 nodes per side.
+    worst = max(abs(box_quadrature(L, dims, p, n, 96) / box_quadrature(L, dims, p, n, 128) - 1)
+                for _, _, p, n in probes)
+    res["box_quadrature_96_vs_128_max_rel"] = worst
+    for case in res["cases"]:
+        rels = [r.get("rel", r.get("corner_rel")) for r in case["rows"]] + \
+            [r["centre_rel"] for r in case["rows"] if "centre_rel" in r]
+        case["max_abs_rel"] = float(max(abs(v) for v in rels))
+        print(f"{case['case']} [{case['variant']}]: max |rel| {case['max_abs_rel']:.3%} ("
+              + ", ".join(f"{r['h_over_D']}: {r.get('rel', r.get('corner_rel')):+.3%}"
+                          for r in case["rows"]) + ")")
+    return res
+
+
+# ---------------------------------------------------------------------------------------------
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("what", nargs="?", default="scenes", choices=["scenes", "validate"])
+    ap.add_argument("what", nargs="?", default="scenes",
+                    choices=["scenes", "validate", "nearfield"])
     ap.add_argument("--scenes", default="chairs_01,chairs_05,sofa_01,floor,sphere")
+    ap.add_argument("--rooms", default=",".join(NF_ROOMS),
+                    help="nearfield: the rooms (bench/scenes/<room>.toml)")
+    ap.add_argument("--skip-validation", action="store_true",
+                    help="nearfield: leave nearfield_validation.json as it is")
+    ap.add_argument("--skip-convergence", action="store_true",
+                    help="nearfield: no rerun with -ds and the pieces halved")
     ap.add_argument("--out", type=Path, default=HERE)
     ap.add_argument("--ab", type=int, default=REFERENCE["ab"])
     ap.add_argument("--ad", type=int, default=REFERENCE["ad"])
@@ -756,6 +1402,19 @@ def main() -> None:
             log["scenes"][name] = make_scene(name, args.out, env, workroot, settings)
         log["seconds"] = round(time.time() - started, 1)
         (args.out / "scenes.json").write_text(json.dumps(log, indent=2) + "\n")
+    elif args.what == "nearfield":
+        log = {"meta": meta, "flags": NF_FLAGS, "ds": NF_DS, "piece_m": NF_PIECE,
+               "strip_m": NF_STRIP, "min_distance_m": NF_MIN_DIST, "rooms": {}}
+        for name in args.rooms.split(","):
+            log["rooms"][name] = make_nearfield(name, args.out, env, workroot,
+                                                not args.skip_convergence)
+        log["seconds_rooms"] = round(time.time() - started, 1)
+        (args.out / "nearfield.json").write_text(json.dumps(log, indent=2) + "\n")
+        if not args.skip_validation:
+            t0 = time.time()
+            val = {"meta": meta, **nearfield_validation(env, workroot)}
+            val["seconds"] = round(time.time() - t0, 1)
+            (args.out / "nearfield_validation.json").write_text(json.dumps(val, indent=2) + "\n")
     else:
         log = {"meta": meta, "settings": settings, "common_flags": COMMON}
         log["direct"] = direct_check(env, workroot)
