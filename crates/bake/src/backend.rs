@@ -15,6 +15,7 @@
 //! semantics — bit for bit where they can be — are defined by the CPU reference backend
 //! ([`crate::cpu`]).
 
+use crate::opening::OpeningParams;
 use std::sync::Arc;
 
 use luxbake_bvh::{EncodedScene, WideBvh};
@@ -58,6 +59,9 @@ pub struct LampParams {
     pub scale: [f32; 3],
     /// Index of the lamp's table in [`SceneData::ies_tables`].
     pub table: u32,
+    /// The luminous opening near which the lamp is not a point ([`crate::opening`]); `None`: a
+    /// point everywhere.
+    pub opening: Option<OpeningParams>,
 }
 
 /// A lamp seen unshadowed from a surface point ([`lamp_toward`]).

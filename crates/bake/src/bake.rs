@@ -172,6 +172,11 @@ fn bake_room_inner<B: GpuBackend>(
         lamp_path_count: lamps.paths.as_ref().map_or(0, |p| {
             u32::try_from(p.0.len() / (4 * crate::backend::LAMP_PATH_TEXELS)).unwrap_or(u32::MAX)
         }),
+        openings: (
+            settings.opening_samples,
+            u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
+                .unwrap_or(u32::MAX),
+        ),
     });
     graph.validate()?;
 
@@ -213,6 +218,7 @@ fn bake_room_inner<B: GpuBackend>(
         setup,
         passes: run.passes,
         skipped,
+        lamp_models: lamps.models.clone(),
         total_seconds: start.elapsed().as_secs_f64(),
     };
     Ok(BakeOutput {

@@ -216,6 +216,9 @@ pub enum Library {
     /// A lamp seen unshadowed from a surface point ([`crate::backend::lamp_toward`]); after
     /// [`Library::Scene`] and [`Library::Ies`].
     Lamp,
+    /// Sampling a lamp's luminous opening ([`crate::opening`]); after [`Library::Rng`] and
+    /// [`Library::Lamp`].
+    Opening,
     /// The denoiser's guide: whether a tap lies on the centre's surface (`cpu::Guide`); for
     /// programs reading the slots `src`, `position` and `normal`.
     Guide,

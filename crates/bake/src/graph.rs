@@ -300,6 +300,9 @@ pub struct GraphConfig {
     pub lamp_paths: (u32, f32),
     /// Points in the lamp paths' pool ([`crate::backend::SceneData::lamp_paths`]).
     pub lamp_path_count: u32,
+    /// Points of a lamp's luminous opening per texel near it, and how many of the lamps have
+    /// an opening ([`DirectParams::samples`], [`DirectParams::openings`]).
+    pub openings: (u32, u32),
 }
 
 /// The bake's textures and passes, in execution order.
@@ -539,7 +542,9 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig) -> TexId {
         0,
         Params::Direct(DirectParams {
             lamp_count: config.lamp_count,
-            ..DirectParams::default()
+            seed: config.seed,
+            samples: config.openings.0,
+            openings: config.openings.1,
         }),
     );
     if config.bounces > 0 {
@@ -1209,6 +1214,7 @@ mod tests {
             sampler: Sampler::Sobol,
             lamp_paths: (0, 0.0),
             lamp_path_count: 0,
+            openings: (0, 0),
         }
     }
 
@@ -1382,6 +1388,7 @@ mod tests {
         let c = BakeGraph::build(&GraphConfig {
             lamp_paths: (4, 0.5),
             lamp_path_count: 100,
+            openings: (0, 0),
             ..converged(2, Blur::Sigma(1.5))
         });
         let reduced = BakeGraph::build(&GraphConfig {
@@ -1500,6 +1507,7 @@ mod tests {
             method: Method::Converged,
             lamp_paths: (4, 0.5),
             lamp_path_count: 1000,
+            openings: (0, 0),
             ..config(3, Blur::Sigma(1.0))
         };
         let g = BakeGraph::build(&config);
@@ -1604,6 +1612,7 @@ mod tests {
             g.passes[1].params,
             Params::Direct(DirectParams {
                 lamp_count: 2,
+                seed: 9,
                 ..DirectParams::default()
             })
         );

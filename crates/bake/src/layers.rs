@@ -31,7 +31,7 @@ use crate::backend::GpuBackend;
 use crate::bake::{BakeError, BakeOutput, Progress, bake_room};
 use crate::map::MapImage;
 use crate::prepare::Room;
-use crate::report::ObjectMaps;
+use crate::report::{LampModelChoice, ObjectMaps};
 use crate::scene::{Lamp, Settings};
 
 /// How a lamp lights a recombination ([`LampLayers::combine`]).
@@ -223,6 +223,7 @@ impl LampLayers {
         r.passes.clear();
         r.setup.clear();
         r.skipped.clear();
+        r.lamp_models.clear();
         for (i, layer) in self.layers.iter().enumerate() {
             let l = &layer.report;
             r.shadow_rays += l.shadow_rays;
@@ -231,6 +232,12 @@ impl LampLayers {
             r.passes.extend(l.passes.iter().cloned());
             r.setup.extend(l.setup.iter().copied());
             r.skipped.extend(l.skipped.iter().cloned());
+            // Each layer bakes one lamp as the scene's lamp 0: its index is the layer's.
+            r.lamp_models
+                .extend(l.lamp_models.iter().map(|c| LampModelChoice {
+                    lamp: i,
+                    ..c.clone()
+                }));
             if states[i].on && !layer.lamps_used.is_empty() {
                 out.lamps_used.push(i);
             }

@@ -129,6 +129,7 @@ pub mod layout;
 pub mod lightpaths;
 pub mod map;
 mod names;
+pub mod opening;
 pub mod pack;
 pub mod passes;
 pub mod prepare;

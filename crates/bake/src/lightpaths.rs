@@ -58,6 +58,7 @@ use crate::exact::{div, dot, luminance, normalize, sub};
 use crate::gbuffer::GBuffer;
 use crate::layout::Region;
 use crate::map::sample_masked;
+use crate::opening::{self, OpeningParams};
 use crate::rng;
 
 /// Most rays that leave the lamps per bake.
@@ -308,10 +309,15 @@ impl LampPaths {
                 let (li, w) = emitter.sample(i, seed)?;
                 let lamp = &lamps[li];
                 let dir = w.map(|c| c as f32);
-                let ray = Ray {
-                    origin: lamp.position,
-                    dir,
+                // A lamp with an opening emits from a point of it ([`crate::opening`]).
+                let origin = match lamp.opening {
+                    Some(o) => {
+                        let u = opening::lattice(0, 1, opening::shift(i, li as u32, seed));
+                        opening_point(lamp, &o, u)?.0
+                    }
+                    None => lamp.position,
                 };
+                let ray = Ray { origin, dir };
                 let hit = g.wide.closest_hit(&ray, 0.0, f32::INFINITY)?;
                 let attr = g.encoded.triangle_attributes(hit.triangle);
                 let region = (*g.regions.get(attr.object as usize)?)?;
@@ -324,8 +330,7 @@ impl LampPaths {
                 if !(dot(n, dir) < 0.0) {
                     return None;
                 }
-                let y = [0, 1, 2]
-                    .map(|c| (f64::from(lamp.position[c]) + f64::from(hit.t) * w[c]) as f32);
+                let y = [0, 1, 2].map(|c| (f64::from(origin[c]) + f64::from(hit.t) * w[c]) as f32);
                 let uv = [0, 1]
                     .map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
                 let gb = g.gbuffer;
@@ -347,6 +352,18 @@ impl LampPaths {
                 let mut p = 0.0f64;
                 let o = offset_origin(y, n, g.eps);
                 for (lj, l) in lamps.iter().enumerate() {
+                    if let Some(o) = l.opening.filter(|o| {
+                        let to = sub(l.position, y);
+                        dot(to, to).sqrt() < o.near
+                    }) {
+                        let shift = opening::shift(i, lj as u32, seed ^ EMIT_PASS);
+                        let (el, pl) = from_opening(g, &emitter, lj, l, &o, tables, y, n, shift);
+                        for (ec, sc) in e.iter_mut().zip(l.scale) {
+                            *ec += f64::from(sc) * el;
+                        }
+                        p += pl;
+                        continue;
+                    }
                     let to = [0, 1, 2].map(|c| f64::from(l.position[c]) - f64::from(y[c]));
                     let d2 = to.iter().map(|c| c * c).sum::<f64>();
                     let d = d2.sqrt();
@@ -359,7 +376,9 @@ impl LampPaths {
                     if !(cos > 0.0) {
                         continue;
                     }
-                    if lj != li {
+                    // The pool ray left lamp `li`'s centre, which therefore sees `y` — unless it
+                    // left a point of the lamp's opening.
+                    if lj != li || l.opening.is_some() {
                         let sd = sub(l.position, o);
                         let len = dot(sd, sd).sqrt();
                         if !(len > 0.0) {
@@ -435,6 +454,92 @@ impl LampPaths {
     }
 }
 
+/// Samples of an opening per pool point for its illuminance and density there.
+pub const OPENING_POOL_SAMPLES: u32 = 8;
+
+/// The world point and photometric-frame sample of uniforms `u` on `lamp`'s opening `o`.
+fn opening_point(
+    lamp: &LampParams,
+    o: &OpeningParams,
+    u: [f32; 3],
+) -> Option<([f32; 3], opening::OpeningSample)> {
+    let s = opening::sample(o, u, None)?;
+    let (q, m) = (s.point, &lamp.world_to_photometric);
+    let x = [0, 1, 2].map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
+    Some((x, s))
+}
+
+/// At pool point `y` (unit normal `n`), the illuminance from lamp `li`'s opening `o` before
+/// the lamp's scale, and the density per unit area of the pool's rays from that lamp: the same
+/// [`OPENING_POOL_SAMPLES`] points for both, so that their ratio, the path's power, keeps
+/// little of the quadrature's error. A pool ray starts at a point drawn as [`opening::sample`]
+/// draws it (density `1/W` per area) toward a direction of density `q(ω)` per solid angle
+/// ([`Emitter::density`]); the density of `y` is `∫ q(ω_x)·cos θ_y / r² · V / W dA_x`,
+/// estimated by `1/S Σ q(ω_k)·cos θ_y / r_k² · V_k`. Both bound `r²` below as the direct
+/// pass does.
+#[allow(clippy::too_many_arguments)]
+fn from_opening(
+    g: &Geometry<'_>,
+    emitter: &Emitter,
+    li: usize,
+    lamp: &LampParams,
+    o: &OpeningParams,
+    tables: &[GpuTable],
+    y: [f32; 3],
+    n: [f32; 3],
+    shift: [u32; 3],
+) -> (f64, f64) {
+    let origin = offset_origin(y, n, g.eps);
+    let Some(table) = tables.get(lamp.table as usize) else {
+        return (0.0, 0.0);
+    };
+    let m = &lamp.world_to_photometric;
+    let sf = f64::from(OPENING_POOL_SAMPLES);
+    let (mut e, mut p) = (0.0f64, 0.0f64);
+    for k in 0..OPENING_POOL_SAMPLES {
+        let Some((x, s)) = opening_point(lamp, o, opening::lattice(k, OPENING_POOL_SAMPLES, shift))
+        else {
+            continue;
+        };
+        let to = [0, 1, 2].map(|c| f64::from(x[c]) - f64::from(y[c]));
+        let r2 = to.iter().map(|c| c * c).sum::<f64>();
+        let r = r2.sqrt();
+        if !(r > 0.0 && r.is_finite()) {
+            continue;
+        }
+        let w = to.map(|c| c / r);
+        let cos_y = f64::from(n[0]) * w[0] + f64::from(n[1]) * w[1] + f64::from(n[2]) * w[2];
+        if !(cos_y > 0.0) {
+            continue;
+        }
+        let sd = sub(x, origin);
+        let len = dot(sd, sd).sqrt();
+        if !(len > 0.0) {
+            continue;
+        }
+        let ray = Ray {
+            origin,
+            dir: div(sd, len),
+        };
+        if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
+            continue;
+        }
+        let back = w.map(|c| (-c) as f32);
+        let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+        let r2e = r2.max(f64::from(s.weight) / (std::f64::consts::PI * sf));
+        let cos_x = f64::from(dot(s.normal, emit));
+        let area = f64::from(opening::projected_area(o, emit));
+        if cos_x > 0.0 && area > 0.0 {
+            let intensity = f64::from(table.sample(emit));
+            if intensity > 0.0 {
+                e += intensity * cos_x * f64::from(s.weight) / area * cos_y / r2e;
+            }
+        }
+        p += emitter.density(li, w.map(|c| -c)) * cos_y / r2e;
+    }
+    (e / sf, p / sf)
+}
+
 /// The gather's balance-heuristic weight of a hit at distance `r` with cosines `cx` (texel)
 /// and `cy` (hit), `lamp_density` = [`density`] at the hit: `N_C cx cy / (N_C cx cy + π K p̃_V
 /// r²)`; 1 without lamp paths. Mirrored by the shaders' `luxGatherWeight`.
@@ -470,6 +575,7 @@ mod tests {
             world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             scale: [1.0; 3],
             table: 0,
+            opening: None,
         };
         (lamp, Photometry::isotropic(cd).gpu_table())
     }
@@ -538,6 +644,7 @@ mod tests {
             world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             scale: [1.0; 3],
             table: 0,
+            opening: None,
         };
         let e = Emitter::new(&[lamp], &[p.gpu_table()]);
         let mut down = 0;

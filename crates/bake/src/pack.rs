@@ -5,7 +5,9 @@
 //! - **Lamps** ([`lamp_rows`]): [`LAMP_ROWS`] rows per lamp: `(position.xyz, table index)`,
 //!   the three rows of the world-to-photometric matrix `(xyz, 0)`, `(scale.rgb, 0)` (floats),
 //!   then `(table offset, table width, table height, 0)` (unsigned integers; the offset is the
-//!   table's first value in [`ies_values`]).
+//!   table's first value in [`ies_values`]), then the luminous opening
+//!   ([`crate::opening::OpeningParams`]) as floats: `(half.uvw, near)`, `(kind, axis, faces,
+//!   0)` — all zero for a point lamp (no emitting faces).
 //! - **Regions** ([`region_rows`]): two rows per object id (unsigned integers):
 //!   `(layer, offset.x, offset.y, receiver ? 1 : 0)`, `(width, height, 0, 0)`; zero rows for
 //!   non-receivers, which reflect nothing.
@@ -16,34 +18,40 @@ use crate::backend::{LampParams, SceneData};
 use crate::layout::Region;
 
 /// Rows of one packed lamp.
-pub const LAMP_ROWS: usize = 6;
+pub const LAMP_ROWS: usize = 8;
 
-/// One packed lamp: five float rows and one integer row (see the module docs).
+/// One packed lamp: five float rows, one integer row and two float rows (see the module
+/// docs).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LampRows {
     /// `(position.xyz, table index)`, the matrix rows `(xyz, 0)`, `(scale.rgb, 0)`.
-    pub floats: [[f32; 4]; LAMP_ROWS - 1],
+    pub floats: [[f32; 4]; 5],
     /// `(table offset, table width, table height, 0)`.
     pub table: [u32; 4],
+    /// The opening: `(half.uvw, near)`, `(kind, axis, faces, 0)`.
+    pub opening: [[f32; 4]; 2],
 }
 
 impl LampRows {
-    /// All six rows as 32-bit words (floats by their bits).
+    /// All rows as 32-bit words (floats by their bits).
     pub fn words(&self) -> [u32; 4 * LAMP_ROWS] {
         let mut w = [0u32; 4 * LAMP_ROWS];
         for (i, v) in self.floats.iter().flatten().enumerate() {
             w[i] = v.to_bits();
         }
-        w[4 * (LAMP_ROWS - 1)..].copy_from_slice(&self.table);
+        w[20..24].copy_from_slice(&self.table);
+        for (i, v) in self.opening.iter().flatten().enumerate() {
+            w[24 + i] = v.to_bits();
+        }
         w
     }
 
-    /// All six rows as floats (the integer row converted by value, as a float texture holds
-    /// it).
+    /// All rows as floats (the integer row converted by value, as a float texture holds it).
     pub fn floats(&self) -> [[f32; 4]; LAMP_ROWS] {
         let mut r = [[0.0; 4]; LAMP_ROWS];
-        r[..LAMP_ROWS - 1].copy_from_slice(&self.floats);
-        r[LAMP_ROWS - 1] = self.table.map(|v| v as f32);
+        r[..5].copy_from_slice(&self.floats);
+        r[5] = self.table.map(|v| v as f32);
+        r[6..].copy_from_slice(&self.opening);
         r
     }
 }
@@ -71,6 +79,12 @@ pub fn lamp_rows(scene: &SceneData<'_>) -> Vec<LampRows> {
                     [l.scale[0], l.scale[1], l.scale[2], 0.0],
                 ],
                 table: [offset, size[0], size[1], 0],
+                opening: l.opening.map_or([[0.0; 4]; 2], |o| {
+                    [
+                        [o.half[0], o.half[1], o.half[2], o.near],
+                        [o.kind as f32, o.axis as f32, o.faces as f32, 0.0],
+                    ]
+                }),
             }
         })
         .collect()
@@ -137,6 +151,7 @@ mod tests {
             world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             scale: [0.5, 0.25, 2.0],
             table: 1,
+            opening: None,
         };
         let regions = [
             None,

@@ -28,8 +28,9 @@ use crate::backend::{LampParams, Limits, ray_epsilon};
 use crate::gbuffer::{GBuffer, rasterize};
 use crate::layout::{Layout, LayoutError};
 use crate::lightpaths::{self, LampPaths};
-use crate::report::{Progress, Skipped};
-use crate::scene::{Lamp, Method, Scene, SettingError, Settings};
+use crate::opening::OpeningParams;
+use crate::report::{LampModelChoice, Progress, Skipped};
+use crate::scene::{Lamp, LampModel, Method, Scene, SettingError, Settings};
 use crate::validity;
 
 /// What a node of the bake depends on: when none of it changed, its result can be reused.
@@ -367,6 +368,8 @@ pub struct Lamps {
     pub paths: Option<(Vec<f32>, f32)>,
     /// Lamps that light nothing or miss receivers, and lamp paths left out.
     pub skipped: Vec<Skipped>,
+    /// The model each lamp of the scene got, and why ([`LampModel`]).
+    pub models: Vec<LampModelChoice>,
     /// Host steps and their wall time, seconds.
     pub timings: Vec<(&'static str, f64)>,
 }
@@ -387,17 +390,21 @@ impl Lamps {
             .iter()
             .map(|l| l.photometry.gpu_table_tilted(l.tilt_deg()))
             .collect();
+        let models = lamp_models(&room.gbuffer, lamps);
         let all: Vec<LampParams> = lamps
             .iter()
+            .zip(&models)
             .enumerate()
-            .map(|(i, l)| LampParams {
+            .map(|(i, (l, (_, opening)))| LampParams {
                 position: l.position.map(|c| c as f32),
                 world_to_photometric: l.world_to_photometric_matrix(),
                 scale: l.color.map(|c| c * l.multiplier),
                 table: i as u32,
+                opening: *opening,
             })
             .collect();
-        let reach = lamp_reach(&room.gbuffer, &all, &tables, room.scene.objects.len());
+        let models = models.into_iter().map(|(choice, _)| choice).collect();
+        let (reach, near) = lamp_reach(&room.gbuffer, &all, &tables, room.scene.objects.len());
         let mut used = Vec::new();
         let mut shadow_rays = 0u64;
         for (l, per_object) in reach.iter().enumerate() {
@@ -410,7 +417,8 @@ impl Lamps {
                 continue;
             }
             used.push(l);
-            shadow_rays += total;
+            // A texel near an opening casts a shadow ray per opening sample.
+            shadow_rays += total + near[l] * u64::from(settings.opening_samples.saturating_sub(1));
             for (o, &count) in per_object.iter().enumerate() {
                 if count == 0 && room.layout.regions.get(o).is_some_and(Option::is_some) {
                     skipped.push(Skipped::LampObject {
@@ -442,9 +450,88 @@ impl Lamps {
             shadow_rays,
             paths,
             skipped,
+            models,
             timings,
         }
     }
+}
+
+/// Each lamp's model ([`LampModel`]): the report's choice, and the opening its parameters
+/// carry (`None`: a point).
+fn lamp_models(gbuffer: &GBuffer, lamps: &[Lamp]) -> Vec<(LampModelChoice, Option<OpeningParams>)> {
+    lamps
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let choice = |opening: Option<OpeningParams>, reason: String| {
+                let near_m = opening.map(|o| f64::from(o.near));
+                let c = LampModelChoice {
+                    lamp: i,
+                    name: l.name.clone(),
+                    requested: l.model,
+                    area: opening.is_some(),
+                    reason,
+                    near_m: near_m.filter(|d| *d < f64::from(f32::MAX)),
+                };
+                (c, opening)
+            };
+            if l.model == LampModel::Point {
+                return choice(None, "lamp_model = \"point\"".into());
+            }
+            let Some(emitter) = l.photometry.emitter() else {
+                return choice(
+                    None,
+                    "its file gives no luminous opening (all sizes 0)".into(),
+                );
+            };
+            if l.model == LampModel::Area {
+                return choice(
+                    OpeningParams::new(&emitter, f32::MAX),
+                    "lamp_model = \"area\"".into(),
+                );
+            }
+            let d1 = emitter.point_model_distance(LampModel::AUTO_TOLERANCE);
+            let nearest = nearest_receiver(gbuffer, l);
+            let pct = LampModel::AUTO_TOLERANCE * 100.0;
+            if nearest < d1 {
+                let near = (d1 * LampModel::SWITCH_FACTOR) as f32;
+                choice(
+                    OpeningParams::new(&emitter, near),
+                    format!(
+                        "auto: a receiver {nearest:.3} m from its centre, nearer than {d1:.3} m, \
+                         within which the point model is off by more than {pct} %"
+                    ),
+                )
+            } else {
+                choice(
+                    None,
+                    format!(
+                        "auto: every receiver at least {nearest:.3} m from its centre, beyond \
+                         {d1:.3} m, where the point model is within {pct} %"
+                    ),
+                )
+            }
+        })
+        .collect()
+}
+
+/// The distance from `lamp`'s centre to the nearest valid texel it sends light toward (its
+/// intensity toward the texel is positive: a downlight's ceiling does not count), metres;
+/// infinite without one.
+fn nearest_receiver(gbuffer: &GBuffer, lamp: &Lamp) -> f64 {
+    let m = lamp.world_to_photometric_matrix();
+    let photometry = &lamp.photometry;
+    gbuffer
+        .position
+        .chunks_exact(4)
+        .filter(|p| p[3] > 0.5)
+        .filter_map(|p| {
+            let to = [0, 1, 2].map(|c| f64::from(p[c]) - lamp.position[c]);
+            let d = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let dir = m.map(|r| (0..3).map(|c| f64::from(r[c]) * to[c]).sum::<f64>());
+            (photometry.intensity(dir) > 0.0).then_some(d)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// Whether the bake traces lamp paths: `Ok(false)` when it was not asked to, `Err(reason)`
@@ -466,14 +553,16 @@ fn lamp_paths_wanted(settings: &Settings, no_lamp: bool) -> Result<bool, &'stati
     }
 }
 
-/// Per lamp and object, how many valid texels the lamp lights (no shadows).
+/// Per lamp and object, how many valid texels the lamp lights (no shadows), and per lamp how
+/// many of them lie near its opening ([`OpeningParams::near`]).
 fn lamp_reach(
     gbuffer: &GBuffer,
     lamps: &[LampParams],
     tables: &[GpuTable],
     objects: usize,
-) -> Vec<Vec<u64>> {
+) -> (Vec<Vec<u64>>, Vec<u64>) {
     let mut reach = vec![vec![0u64; objects]; lamps.len()];
+    let mut near_count = vec![0u64; lamps.len()];
     for (pos, nrm) in gbuffer
         .position
         .chunks_exact(4)
@@ -489,6 +578,18 @@ fn lamp_reach(
                 continue;
             }
             let to = [0, 1, 2].map(|c| lamp.position[c] - pos[c]);
+            // Near an opening the light comes from its whole surface, which a texel may see
+            // while it faces away from the centre: counted, the shadow rays tell.
+            let near = lamp
+                .opening
+                .is_some_and(|o| (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt() < o.near);
+            if near {
+                near_count[l] += 1;
+                if let Some(slot) = reach[l].get_mut(object) {
+                    *slot += 1;
+                }
+                continue;
+            }
             let cos = n[0] * to[0] + n[1] * to[1] + n[2] * to[2];
             if cos.is_nan() || cos <= 0.0 {
                 continue;
@@ -503,7 +604,7 @@ fn lamp_reach(
             }
         }
     }
-    reach
+    (reach, near_count)
 }
 
 /// The shift that moves a scene lying far from the world origin next to it, or `None` for a

@@ -6,7 +6,7 @@ use crate::gbuffer::GBuffer;
 use crate::graph::{BakeGraph, PassKind};
 use crate::layout::{Layout, Region};
 use crate::map::MapImage;
-use crate::scene::{BvhMode, Settings};
+use crate::scene::{BvhMode, LampModel, Settings};
 
 /// Progress events of a bake, in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -155,7 +155,8 @@ pub struct BakeReport {
     pub region_texels: u64,
     /// Triangles in the scene.
     pub triangles: usize,
-    /// Shadow rays cast (one per valid texel facing a used lamp with non-zero intensity).
+    /// Shadow rays cast (one per valid texel facing a used lamp with non-zero intensity, one
+    /// per opening sample near a lamp's opening).
     pub shadow_rays: u64,
     /// Gather rays cast (valid texels × rays × bounces run).
     pub gather_rays: u64,
@@ -178,6 +179,8 @@ pub struct BakeReport {
     pub passes: Vec<PassTiming>,
     /// What was left out.
     pub skipped: Vec<Skipped>,
+    /// The model each lamp of the scene was baked with, and why.
+    pub lamp_models: Vec<LampModelChoice>,
     /// Whole bake, seconds.
     pub total_seconds: f64,
 }
@@ -262,6 +265,51 @@ impl ObjectMaps {
                 })
             })
         })
+    }
+}
+
+/// The model a lamp was baked with, and why ([`crate::scene::LampModel`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LampModelChoice {
+    /// Lamp index in the scene.
+    pub lamp: usize,
+    /// Lamp name.
+    pub name: String,
+    /// The model asked for.
+    pub requested: LampModel,
+    /// `true`: the luminous opening ([`crate::opening`]); `false`: the point.
+    pub area: bool,
+    /// Why, in words.
+    pub reason: String,
+    /// With the opening: the distance from the lamp's centre within which texels evaluate it,
+    /// metres (`None`: everywhere).
+    pub near_m: Option<f64>,
+}
+
+impl LampModelChoice {
+    /// `"area"` or `"point"`.
+    pub fn used(&self) -> &'static str {
+        if self.area { "area" } else { "point" }
+    }
+}
+
+impl fmt::Display for LampModelChoice {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "lamp {} `{}`: {} model ({})",
+            self.lamp,
+            self.name,
+            self.used(),
+            self.reason
+        )?;
+        if let Some(d) = self.near_m {
+            write!(
+                f,
+                "; texels within {d:.3} m see the opening, farther ones the point"
+            )?;
+        }
+        Ok(())
     }
 }
 

@@ -388,6 +388,52 @@ pub struct Lamp {
     pub multiplier: f32,
     /// Linear RGB tint (default `[1, 1, 1]`); the light maps carry one channel per component.
     pub color: [f32; 3],
+    /// How the lamp emits: from a point, from its file's luminous opening, or whichever the
+    /// scene needs ([`LampModel`], default [`LampModel::Auto`]).
+    pub model: LampModel,
+}
+
+/// How a lamp emits ([`Lamp::model`]; the scene file's `lamp_model`).
+///
+/// - [`LampModel::Point`]: from its photometric centre, the file's intensity table alone.
+/// - [`LampModel::Area`]: from its file's luminous opening ([`crate::opening`]), at every
+///   texel; a file without an opening (all sizes 0) stays a point.
+/// - [`LampModel::Auto`]: the opening where a receiver lies nearer the lamp than
+///   [`LampModel::AUTO_TOLERANCE`]'s distance ([`luxbake_ies::Emitter::point_model_distance`]),
+///   else the point. With the opening chosen, texels beyond the distance at which the point
+///   model's error is under a quarter of the tolerance ([`LampModel::SWITCH_FACTOR`] times
+///   farther) take the point, which costs one shadow ray instead of
+///   [`Settings::opening_samples`]. The bake's report says which model each lamp got and why.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum LampModel {
+    /// The point, or the opening where it matters.
+    #[default]
+    Auto,
+    /// The photometric centre only.
+    Point,
+    /// The luminous opening everywhere.
+    Area,
+}
+
+impl LampModel {
+    /// Every model.
+    pub const ALL: [LampModel; 3] = [LampModel::Auto, LampModel::Point, LampModel::Area];
+    /// The point model's relative error above which [`LampModel::Auto`] takes the opening:
+    /// 1 %, the IES rule of thumb (five times the largest dimension of a disk).
+    pub const AUTO_TOLERANCE: f64 = 0.01;
+    /// How much farther than the 1 % distance the opening is still evaluated, once chosen:
+    /// the point model's error falls with the square of the distance, so at twice the
+    /// distance it is 0.25 %, the step where texels switch to the point.
+    pub const SWITCH_FACTOR: f64 = 2.0;
+
+    /// The lower-case name used by scene files, the CLI and the JavaScript package.
+    pub fn name(self) -> &'static str {
+        match self {
+            LampModel::Auto => "auto",
+            LampModel::Point => "point",
+            LampModel::Area => "area",
+        }
+    }
 }
 
 impl Lamp {
@@ -401,6 +447,7 @@ impl Lamp {
             rotation_deg: 0.0,
             multiplier: 1.0,
             color: [1.0; 3],
+            model: LampModel::Auto,
         }
     }
 
@@ -529,7 +576,7 @@ impl Method {
     }
 }
 
-crate::names::from_str_by_name!(Method, Quality, BvhMode);
+crate::names::from_str_by_name!(Method, Quality, BvhMode, LampModel);
 
 /// Quality preset of the converged method ([`Settings::preset`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -660,6 +707,7 @@ impl BvhMode {
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
 /// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 and no refinement only (else reported as skipped) |
+/// | `opening_samples`  | 1 ..= [`MAX_SAMPLES`](crate::opening::MAX_SAMPLES) (1024) |
 /// | `tail`, `bvh`, `seed`, `backend` | any value                                     |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -718,6 +766,10 @@ pub struct Settings {
     /// Used when the first bounce is gathered at every texel without refinement (`stride`
     /// 1, `refine_rays` 0); otherwise the bake reports them skipped.
     pub lamp_paths: u32,
+    /// Points of a lamp's luminous opening, each with its shadow ray, per texel near a lamp
+    /// that has one ([`crate::opening`], [`LampModel`]); texels farther away and lamps
+    /// without an opening cast one shadow ray as before.
+    pub opening_samples: u32,
 }
 
 impl Settings {
@@ -757,6 +809,7 @@ impl Settings {
             refine_rays: 0,
             refine_error: 0.1,
             lamp_paths: 0,
+            opening_samples: 32,
         }
     }
 
@@ -766,11 +819,15 @@ impl Settings {
     /// denoiser's size (`blur` σ: `3 + round(log2 σ)` à-trous iterations). Measured against
     /// Radiance on `chairs_05` and for grain on a box room (docs/performance.md).
     ///
-    /// | preset | rays (stride) | lamp paths | later bounces: rays (stride) | most bounces | tail tolerance | σ (iterations) |
-    /// |---|--:|--:|--:|--:|--:|--:|
-    /// | draft | 8 (4) | — | 4 (8) | 3 | 5 % | none |
-    /// | default | 4 (1) | 12 | 4 (2) | 32 | 1 % | 1 (3) |
-    /// | final | 128 (1) | 32 | 16 (1) | 32 | 0.2 % | 2 (4) |
+    /// | preset | rays (stride) | lamp paths | later bounces: rays (stride) | most bounces | tail tolerance | σ (iterations) | opening samples |
+    /// |---|--:|--:|--:|--:|--:|--:|--:|
+    /// | draft | 8 (4) | — | 4 (8) | 3 | 5 % | none | 12 |
+    /// | default | 4 (1) | 12 | 4 (2) | 32 | 1 % | 1 (3) | 48 |
+    /// | final | 128 (1) | 32 | 16 (1) | 32 | 0.2 % | 2 (4) | 128 |
+    ///
+    /// Opening samples ([`Settings::opening_samples`]): at `default` the direct light on a
+    /// table 0.55 m under a 0.61 m linear pendant (`rw_5.IES`) is within 0.7 % of a
+    /// 1024-sample bake at every texel (32 samples: 1.0 %; `crates/bake/tests/opening.rs`).
     ///
     /// Lamp paths ([`Settings::lamp_paths`]) take the first bounce's grain where a lamp
     /// lights a small patch brightly (a lamp under the ceiling): on the box room's walls at
@@ -798,11 +855,13 @@ impl Settings {
                 bounces: 3,
                 tail_tolerance: 0.05,
                 blur: Blur::None,
+                opening_samples: 12,
                 ..base
             },
             Quality::Default => Settings {
                 rays: 4,
                 lamp_paths: 12,
+                opening_samples: 48,
                 higher_rays: 4,
                 higher_stride: 2,
                 tail_tolerance: 0.01,
@@ -815,6 +874,7 @@ impl Settings {
                 higher_rays: 16,
                 tail_tolerance: 0.002,
                 blur: Blur::Sigma(2.0),
+                opening_samples: 128,
                 ..base
             },
         }
@@ -842,8 +902,8 @@ impl Settings {
 
     /// Checks every setting against the limits in the type's docs; the error names the first
     /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance`, `stride`,
-    /// `higher_stride`, `higher_rays`, `refine_rays`, `lamp_paths`, `refine_error` or
-    /// `texels_per_metre`).
+    /// `higher_stride`, `higher_rays`, `refine_rays`, `lamp_paths`, `opening_samples`,
+    /// `refine_error` or `texels_per_metre`).
     pub fn validate(&self) -> Result<(), SettingError> {
         let invalid = |name, reason| Err(SettingError { name, reason });
         if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
@@ -908,6 +968,13 @@ impl Settings {
             return invalid(
                 "lamp_paths",
                 format!("{}; expected 0..={max}", self.lamp_paths),
+            );
+        }
+        if !(1..=crate::opening::MAX_SAMPLES).contains(&self.opening_samples) {
+            let max = crate::opening::MAX_SAMPLES;
+            return invalid(
+                "opening_samples",
+                format!("{}; expected 1..={max}", self.opening_samples),
             );
         }
         let e = self.refine_error;
@@ -1011,11 +1078,13 @@ pub struct SettingsPatch {
     pub refine_error: Option<f32>,
     /// [`Settings::lamp_paths`].
     pub lamp_paths: Option<u32>,
+    /// [`Settings::opening_samples`].
+    pub opening_samples: Option<u32>,
 }
 
 impl SettingsPatch {
     /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
-    pub const KEYS: [&'static str; 17] = [
+    pub const KEYS: [&'static str; 18] = [
         "method",
         "quality",
         "rays",
@@ -1033,6 +1102,7 @@ impl SettingsPatch {
         "refine_rays",
         "refine_error",
         "lamp_paths",
+        "opening_samples",
     ];
 
     /// A patch from `key → value` entries of any serde format (a TOML table, a JSON object);
@@ -1113,6 +1183,7 @@ impl SettingsPatch {
             refine_rays: other.refine_rays.or(base.refine_rays),
             refine_error: other.refine_error.or(base.refine_error),
             lamp_paths: other.lamp_paths.or(base.lamp_paths),
+            opening_samples: other.opening_samples.or(base.opening_samples),
         }
     }
 
@@ -1148,6 +1219,7 @@ impl SettingsPatch {
         set(&mut s.refine_rays, self.refine_rays);
         set(&mut s.refine_error, self.refine_error);
         set(&mut s.lamp_paths, self.lamp_paths);
+        set(&mut s.opening_samples, self.opening_samples);
     }
 
     /// The settings of this patch: the preset it names (or [`Settings::default`]) with its

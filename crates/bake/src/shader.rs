@@ -99,6 +99,7 @@ pub fn glsl_library(lib: Library) -> &'static str {
         Library::Bvh => include_str!("../shaders/lib/bvh.glsl"),
         Library::Ies => include_str!("../shaders/lib/ies.glsl"),
         Library::Lamp => include_str!("../shaders/lib/lamp.glsl"),
+        Library::Opening => include_str!("../shaders/lib/opening.glsl"),
         Library::Guide => include_str!("../shaders/lib/guide.glsl"),
         Library::Gather => include_str!("../shaders/lib/gather.glsl"),
         Library::Coarse => include_str!("../shaders/lib/coarse.glsl"),
@@ -120,6 +121,7 @@ pub fn wgsl_library(lib: Library, storage: BvhStorage) -> Vec<&'static str> {
         ],
         Library::Ies => vec![include_str!("../shaders/lib/ies.wgsl")],
         Library::Lamp => vec![include_str!("../shaders/lib/lamp.wgsl")],
+        Library::Opening => vec![include_str!("../shaders/lib/opening.wgsl")],
         Library::Guide => vec![include_str!("../shaders/lib/guide.wgsl")],
         Library::Gather => vec![include_str!("../shaders/lib/gather.wgsl")],
         Library::Coarse => vec![include_str!("../shaders/lib/coarse.wgsl")],
@@ -173,8 +175,14 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
         ));
     }
     s.push_str(&format!(
-        "#define LUX_CONNECT_PASS {}u\n",
-        crate::lightpaths::CONNECT_PASS
+        "#define LUX_CONNECT_PASS {}u\n#define LUX_OPENING_PASS {}u\n\
+         #define LUX_R3 uvec3({}u, {}u, {}u)\n#define LUX_PHI {}u\n",
+        crate::lightpaths::CONNECT_PASS,
+        crate::opening::OPENING_PASS,
+        crate::opening::R3[0],
+        crate::opening::R3[1],
+        crate::opening::R3[2],
+        crate::opening::PHI,
     ));
     s
 }
@@ -199,8 +207,14 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
         ));
     }
     s.push_str(&format!(
-        "const LUX_CONNECT_PASS: u32 = {}u;\n",
-        crate::lightpaths::CONNECT_PASS
+        "const LUX_CONNECT_PASS: u32 = {}u;\nconst LUX_OPENING_PASS: u32 = {}u;\n\
+         const LUX_R3: vec3<u32> = vec3<u32>({}u, {}u, {}u);\nconst LUX_PHI: u32 = {}u;\n",
+        crate::lightpaths::CONNECT_PASS,
+        crate::opening::OPENING_PASS,
+        crate::opening::R3[0],
+        crate::opening::R3[1],
+        crate::opening::R3[2],
+        crate::opening::PHI,
     ));
     s
 }

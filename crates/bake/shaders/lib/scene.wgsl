@@ -33,6 +33,9 @@ struct LuxLamp {
     m2: vec4<f32>,
     scale: vec4<f32>,
     table: vec4<u32>,
+    // The luminous opening (opening.wgsl): (half.uvw, near), (kind, axis, faces, 0).
+    opening: vec4<f32>,
+    shape: vec4<f32>,
 }
 
 @group(1) @binding(6) var<storage, read> lux_lamps: array<LuxLamp>;

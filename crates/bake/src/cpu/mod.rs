@@ -474,6 +474,7 @@ mod tests {
                 world_to_photometric: [[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]],
                 scale: [1.0; 3],
                 table: 0,
+                opening: None,
             }],
             tables: vec![luxbake_ies::Photometry::isotropic(1e6).gpu_table()],
             regions: vec![None],
@@ -623,9 +624,9 @@ mod tests {
 
     const ONE_LAMP: DirectParams = DirectParams {
         lamp_count: 1,
-        pad0: 0,
-        pad1: 0,
-        pad2: 0,
+        seed: 0,
+        samples: 0,
+        openings: 0,
     };
 
     #[test]
@@ -642,7 +643,14 @@ mod tests {
             ([0.0, -1e-3, 0.0], false),
         ] {
             let scene = one_triangle_scene(lamp);
-            let e = direct_texel(&scene, ONE_LAMP, Trav::Encoded(Traversal::BruteForce), p, n);
+            let e = direct_texel(
+                &scene,
+                ONE_LAMP,
+                Trav::Encoded(Traversal::BruteForce),
+                0,
+                p,
+                n,
+            );
             assert!(
                 e.iter().all(|v| v.is_finite() && *v >= 0.0),
                 "{lamp:?}: {e:?}"
@@ -660,6 +668,7 @@ mod tests {
             &one_triangle_scene([0.0, 1e-3, 0.0]),
             ONE_LAMP,
             Trav::Wide,
+            0,
             p,
             n,
         );

@@ -29,6 +29,8 @@
 //! rotation_deg = 0.0          # turn of the C0 plane about the aim axis
 //! multiplier = 1.0            # >= 0
 //! color = [1.0, 1.0, 1.0]     # linear RGB tint, each >= 0
+//! lamp_model = "auto"         # "auto", "point" or "area": emission from the file's
+//!                             # luminous opening where the scene needs it (LampModel)
 //!
 //! [[object]]                  # at least one
 //! name = "room"               # optional (default: the primitive or builtin name, made
@@ -123,6 +125,7 @@ struct RawLamp {
     rotation_deg: Option<f64>,
     multiplier: Option<f64>,
     color: Option<[f64; 3]>,
+    lamp_model: Option<String>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -454,6 +457,11 @@ impl Cx<'_> {
         }
         if let Some(c) = raw.color {
             lamp.color = c.map(|v| v as f32);
+        }
+        if let Some(m) = raw.lamp_model {
+            lamp.model = m
+                .parse()
+                .map_err(|e: String| self.invalid(key("lamp_model"), e))?;
         }
         // The ranges every bake input shares (a zero aim, a negative multiplier or colour).
         lamp.validate()

@@ -1,9 +1,15 @@
 //! The CPU reference of pass `direct` (the semantics the shaders mirror).
 
+// `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 use luxbake_bvh::Ray;
 
-use crate::backend::{LampView, lamp_toward, offset_origin};
+use crate::backend::{LampParams, LampView, lamp_toward, offset_origin};
 use crate::cpu::kernel::*;
+use crate::exact::div;
+use crate::opening::{self, OpeningParams};
+use crate::rng;
 
 use super::DirectParams;
 
@@ -14,21 +20,25 @@ impl TexelPass for DirectParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
         let v = ctx.views;
+        let texel = rng::texel_index(ctx.scene.layer_size, layer, x, y);
         direct_texel(
             ctx.scene,
             *self,
             ctx.trav,
+            texel,
             v[0].fetch(layer, x, y),
             v[1].fetch(layer, x, y),
         )
     }
 }
 
-/// The direct illuminance at one texel (see the module docs).
+/// The direct illuminance at one texel (see the module docs); `texel` its index
+/// ([`rng::texel_index`]).
 pub(crate) fn direct_texel(
     scene: &CpuScene,
     params: DirectParams,
     trav: Trav,
+    texel: u32,
     pos: [f32; 4],
     nrm: [f32; 4],
 ) -> [f32; 4] {
@@ -40,7 +50,15 @@ pub(crate) fn direct_texel(
         return [0.0, 0.0, 0.0, 1.0];
     };
     let mut e = [0.0f32; 3];
-    for lamp in scene.lamps.iter().take(params.lamp_count as usize) {
+    for (li, lamp) in scene.lamps.iter().take(params.lamp_count as usize).enumerate() {
+        if let Some(o) = near_opening(lamp, p) {
+            let shift = opening::shift(texel, li as u32, params.seed);
+            let k = from_opening(scene, trav, lamp, &o, p, n, params.samples, shift);
+            for (ec, sc) in e.iter_mut().zip(lamp.scale) {
+                *ec += k * sc;
+            }
+            continue;
+        }
         let Some(LampView {
             d2,
             d,
@@ -77,4 +95,86 @@ pub(crate) fn direct_texel(
         }
     }
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
+}
+
+/// `lamp`'s opening when `p` lies within its [`OpeningParams::near`] distance.
+#[inline]
+pub(crate) fn near_opening(lamp: &LampParams, p: [f32; 3]) -> Option<OpeningParams> {
+    let o = lamp.opening?;
+    let to = sub(lamp.position, p);
+    (dot(to, to).sqrt() < o.near).then_some(o)
+}
+
+/// The illuminance at `p` (unit normal `n`) from `samples` lattice points of `lamp`'s opening
+/// `o`, before the lamp's scale ([`crate::opening`]'s estimator, each point with its shadow
+/// ray).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn from_opening(
+    scene: &CpuScene,
+    trav: Trav,
+    lamp: &LampParams,
+    o: &OpeningParams,
+    p: [f32; 3],
+    n: [f32; 3],
+    samples: u32,
+    shift: [u32; 3],
+) -> f32 {
+    let Some(table) = scene.tables.get(lamp.table as usize) else {
+        return 0.0;
+    };
+    let m = &lamp.world_to_photometric;
+    let o0 = offset_origin(p, n, scene.ray_epsilon);
+    let off = sub(o0, p);
+    let off2 = dot(off, off);
+    let sf = samples as f32;
+    // The receiver in the lamp's photometric frame: M·(p − centre).
+    let rel = sub(p, lamp.position);
+    let receiver = [dot(m[0], rel), dot(m[1], rel), dot(m[2], rel)];
+    let mut sum = 0.0f32;
+    for k in 0..samples {
+        let Some(s) = opening::sample(o, opening::lattice(k, samples, shift), Some(receiver)) else {
+            continue;
+        };
+        // World point: the photometric centre plus Mᵀ·point (M is a rotation).
+        let q = s.point;
+        let x = [0, 1, 2]
+            .map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
+        let to = sub(x, p);
+        let r2 = dot(to, to);
+        let r = r2.sqrt();
+        if !(r > 0.0 && r.is_finite()) {
+            continue;
+        }
+        let w = div(to, r);
+        let cos_p = dot(n, w);
+        if !(cos_p > 0.0) {
+            continue;
+        }
+        let back = [-w[0], -w[1], -w[2]];
+        let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+        let cos_x = dot(s.normal, emit);
+        if !(cos_x > 0.0) {
+            continue;
+        }
+        let area = opening::projected_area(o, emit);
+        if !(area > 0.0) {
+            continue;
+        }
+        let intensity = table.sample(emit);
+        if !(intensity > 0.0) {
+            continue;
+        }
+        let origin = if 16.0 * off2 > r2 { mad(p, n, 0.25 * r) } else { o0 };
+        let dir = sub(x, origin);
+        let len = dot(dir, dir).sqrt();
+        let x_off = sub(offset_origin(x, back, scene.ray_epsilon), x);
+        let stop = dot(x_off, x_off).sqrt().min(0.25 * r);
+        let t_max = 1.0 - stop / len;
+        if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin, dir }, 0.0, t_max, trav) {
+            continue;
+        }
+        let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * sf));
+        sum += intensity * cos_x * s.weight / area * cos_p / r2e;
+    }
+    sum / sf
 }

@@ -1,6 +1,76 @@
 // Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
-// through the BVH (cpu::direct_texel, operation for operation).
+// through the BVH (cpu::direct_texel, operation for operation); near a lamp's luminous
+// opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl).
 
+// cpu::from_opening: the illuminance at p from lux_pass.samples lattice points of lamp li's
+// opening, before the lamp's scale.
+fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: vec3<u32>) -> f32 {
+    let lamp = lux_lamps[li];
+    let lamp_pos = lamp.position.xyz;
+    let m0 = lamp.m0.xyz;
+    let m1 = lamp.m1.xyz;
+    let m2 = lamp.m2.xyz;
+    let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
+    let off = o0 - p;
+    let off2 = lux_dot(off, off);
+    let samples = lux_pass.samples;
+    let sf = f32(samples);
+    // The receiver in the lamp's photometric frame: M·(p − centre).
+    let rel = p - lamp_pos;
+    let receiver = vec3<f32>(lux_dot(m0, rel), lux_dot(m1, rel), lux_dot(m2, rel));
+    var sum = 0.0;
+    for (var k = 0u; k < samples; k++) {
+        let s = lux_opening_sample(o, lux_opening_lattice(k, samples, shift), receiver);
+        if (!s.valid) {
+            continue;
+        }
+        let q = s.point;
+        let x = vec3<f32>(lamp_pos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
+                          lamp_pos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
+                          lamp_pos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
+        let to = x - p;
+        let r2 = lux_dot(to, to);
+        let r = sqrt(r2);
+        if (!(r > 0.0 && lux_finite(r))) {
+            continue;
+        }
+        let w = vec3<f32>(to.x / r, to.y / r, to.z / r);
+        let cos_p = lux_dot(n, w);
+        if (!(cos_p > 0.0)) {
+            continue;
+        }
+        let back = -w;
+        let emit = vec3<f32>(lux_dot(m0, back), lux_dot(m1, back), lux_dot(m2, back));
+        let cos_x = lux_dot(s.normal, emit);
+        if (!(cos_x > 0.0)) {
+            continue;
+        }
+        let area = lux_opening_projected_area(o, emit);
+        if (!(area > 0.0)) {
+            continue;
+        }
+        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), emit);
+        if (!(intensity > 0.0)) {
+            continue;
+        }
+        var origin = o0;
+        if (16.0 * off2 > r2) {
+            origin = p + n * (0.25 * r);
+        }
+        let dir = x - origin;
+        let len = sqrt(lux_dot(dir, dir));
+        let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
+        let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
+        let t_max = 1.0 - stop_short / len;
+        var hit: vec3<f32>;
+        if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
+            continue;
+        }
+        let r2e = max(max(r2, off2), s.weight / (LUX_PI * sf));
+        sum += intensity * cos_x * s.weight / area * cos_p / r2e;
+    }
+    return sum / sf;
+}
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let layer = i32(lux_tile.layer);
@@ -14,11 +84,20 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(nrm.xyz, &n)) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
+    let texel = lux_texel_index(textureDimensions(lux_position).xy, u32(layer), u32(c.x),
+                                u32(c.y));
     var e = vec3<f32>(0.0);
     let count = min(lux_pass.lamp_count, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
         let lamp = lux_lamps[li];
         let lamp_pos = lamp.position.xyz;
+        let opening = lux_opening(li);
+        if (lux_opening_near(opening, lamp_pos, p)) {
+            let shift = lux_opening_shift(texel, li, lux_pass.seed);
+            let k = lux_from_opening(li, opening, p, n, shift);
+            e += k * lamp.scale.xyz;
+            continue;
+        }
         let view = lux_lamp_toward(li, p, n);
         if (!view.valid) {
             continue;

@@ -2,7 +2,9 @@
 //! (direct.glsl, direct.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
 //! shaders mirror.
 //!
-//! Direct illuminance with shadow rays.
+//! Direct illuminance with shadow rays: from each lamp's photometric centre, or, for texels
+//! near a lamp with a luminous opening, from [`DirectParams::samples`] points of the opening
+//! ([`crate::opening`]).
 
 pub(crate) mod cpu;
 
@@ -14,12 +16,12 @@ param_block! {
     DirectParams as "LuxDirectParams" {
         /// Lamps to evaluate (the first `lamp_count` of the uploaded lamps).
         lamp_count: u32,
-        /// Padding.
-        pad0: u32,
-        /// Padding.
-        pad1: u32,
-        /// Padding.
-        pad2: u32,
+        /// Seed of the RNG hash (the openings' lattice shift).
+        seed: u32,
+        /// Points of a lamp's opening per texel near it ([`crate::opening`]).
+        samples: u32,
+        /// Lamps with an opening among the first `lamp_count` (for the tile plan).
+        openings: u32,
     }
 }
 
@@ -36,16 +38,19 @@ pub const SIGNATURE: Signature = Signature {
     params_wgsl: DirectParams::WGSL_NAME,
     libraries: &[
         Library::Common,
+        Library::Rng,
         Library::Scene,
         Library::Bvh,
         Library::Ies,
         Library::Lamp,
+        Library::Opening,
     ],
     glsl: include_str!("direct.glsl"),
     wgsl: include_str!("direct.wgsl"),
 };
 
-/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
+/// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): one shadow ray
+/// per lamp, and at most `samples` per lamp with an opening.
 pub fn work(p: &DirectParams) -> u64 {
-    u64::from(p.lamp_count)
+    u64::from(p.lamp_count) + u64::from(p.openings) * u64::from(p.samples)
 }

@@ -1,0 +1,284 @@
+// A lamp's luminous opening (luxbake::opening, operation for operation): its parts, its
+// samples, its projected area and the per-texel lattice (after rng.glsl, scene.glsl, ies.glsl
+// and lamp.glsl). The opening is lamp rows 6 (half.uvw, near) and 7 (kind, axis, faces, 0)
+// (luxLamp); no emitting faces: a point lamp.
+
+struct LuxOpening {
+    int kind;
+    int axis;
+    int faces;
+    vec3 halfAxes;
+    float near;
+};
+
+LuxOpening luxOpening(int li) {
+    vec4 a = luxLamp(li, 6);
+    vec4 b = luxLamp(li, 7);
+    LuxOpening o;
+    o.kind = int(b.x);
+    o.axis = int(b.y);
+    o.faces = int(b.z);
+    o.halfAxes = a.xyz;
+    o.near = a.w;
+    return o;
+}
+
+// direct cpu::near_opening: the lamp has an opening and p lies within its near distance.
+bool luxOpeningNear(LuxOpening o, vec3 lampPos, vec3 p) {
+    vec3 to = lampPos - p;
+    return o.faces != 0 && sqrt(luxDot(to, to)) < o.near;
+}
+
+float luxOpeningOn(LuxOpening o, int bit, float v) {
+    return (o.faces & bit) != 0 ? v : 0.0;
+}
+
+// opening::part_areas.
+void luxOpeningParts(LuxOpening o, out float areas[6]) {
+    const float PI = 3.14159265358979;
+    const float TAU = 6.28318530717959;
+    float a = o.halfAxes.x;
+    float b = o.halfAxes.y;
+    float c = o.halfAxes.z;
+    for (int i = 0; i < 6; ++i) {
+        areas[i] = 0.0;
+    }
+    if (o.kind == 0) {
+        float end = 4.0 * a * b;
+        areas[0] = luxOpeningOn(o, 1, end);
+        areas[1] = luxOpeningOn(o, 2, end);
+        areas[2] = luxOpeningOn(o, 4, 4.0 * b * c);
+        areas[3] = luxOpeningOn(o, 4, 4.0 * b * c);
+        areas[4] = luxOpeningOn(o, 4, 4.0 * a * c);
+        areas[5] = luxOpeningOn(o, 4, 4.0 * a * c);
+    } else if (o.kind == 1) {
+        float end = PI * a * b;
+        float mantle = TAU * 2.0 * c * sqrt(0.5 * (a * a + b * b));
+        areas[0] = luxOpeningOn(o, 1, end);
+        areas[1] = luxOpeningOn(o, 2, end);
+        areas[2] = luxOpeningOn(o, 4, mantle);
+    } else {
+        areas[0] = luxOpeningOn(o, 4, 4.0 * PI * (a * b + b * c + a * c) / 3.0);
+    }
+}
+
+// opening::to_photometric, opening::to_solid.
+vec3 luxToPhotometric(int axis, vec3 s) {
+    return axis == 0 ? vec3(s.z, s.x, s.y) : (axis == 1 ? vec3(s.y, s.z, s.x) : s);
+}
+
+vec3 luxToSolid(int axis, vec3 p) {
+    return axis == 0 ? vec3(p.y, p.z, p.x) : (axis == 1 ? vec3(p.z, p.x, p.y) : p);
+}
+
+// opening::falloff: a draw t in [lo, hi] of the density ~ (s² + t²)^(-3/2) and that density;
+// false for an empty range.
+bool luxFalloff(float u, float s, float lo, float hi, out float t, out float density) {
+    float g0 = lo / sqrt(s * s + lo * lo);
+    float g1 = hi / sqrt(s * s + hi * hi);
+    float span = g1 - g0;
+    t = 0.0;
+    density = 0.0;
+    if (!(span > 0.0)) {
+        return false;
+    }
+    float q = g0 + u * span;
+    t = clamp(s * q / sqrt(max(1.0 - q * q, 0.0)), lo, hi);
+    float r2 = s * s + t * t;
+    density = s * s / (r2 * sqrt(r2) * span);
+    return true;
+}
+
+// opening::toward: a point (x, y) of a flat part and its density per area, for a receiver h
+// in front of its plane with its foot at foot.
+bool luxToward(vec3 u, float h, vec2 foot, vec2 ext, bool ellipse, out vec2 xy,
+               out float density) {
+    xy = vec2(0.0);
+    density = 0.0;
+    if (!(h > 0.0 && ext.x > 0.0 && ext.y > 0.0)) {
+        return false;
+    }
+    float outside = max(abs(foot.y) - ext.y, 0.0);
+    float sx = sqrt(h * h + outside * outside);
+    float dx;
+    float px;
+    if (!luxFalloff(u.x, sx, -ext.x - foot.x, ext.x - foot.x, dx, px)) {
+        return false;
+    }
+    float x = clamp(foot.x + dx, -ext.x, ext.x);
+    float halfChord = ext.y;
+    if (ellipse) {
+        float q = x / ext.x;
+        halfChord = ext.y * sqrt(max(1.0 - q * q, 0.0));
+    }
+    float sy = sqrt(h * h + dx * dx);
+    float dy;
+    float py;
+    if (!luxFalloff(u.y, sy, -halfChord - foot.y, halfChord - foot.y, dy, py)) {
+        return false;
+    }
+    float y = clamp(foot.y + dy, -halfChord, halfChord);
+    density = px * py;
+    xy = vec2(x, y);
+    return density > 0.0 && luxFinite(density);
+}
+
+// opening::sample toward a receiver (photometric frame): false when the opening has no
+// emitting area, or the part drawn faces away from the receiver.
+bool luxOpeningSample(LuxOpening o, vec3 u, vec3 receiver, out vec3 point, out vec3 normal,
+                      out float weight) {
+    const float PI = 3.14159265358979;
+    const float TAU = 6.28318530717959;
+    point = vec3(0.0);
+    normal = vec3(0.0);
+    weight = 0.0;
+    float areas[6];
+    luxOpeningParts(o, areas);
+    float total = 0.0;
+    for (int i = 0; i < 6; ++i) {
+        total += areas[i];
+    }
+    if (!(total > 0.0)) {
+        return false;
+    }
+    float target = u.z * total;
+    int part = 0;
+    float run = 0.0;
+    for (int i = 0; i < 6; ++i) {
+        if (areas[i] > 0.0) {
+            part = i;
+            run += areas[i];
+            if (target < run) {
+                break;
+            }
+        }
+    }
+    float chosen = areas[part] / total;
+    float a = o.halfAxes.x;
+    float b = o.halfAxes.y;
+    float c = o.halfAxes.z;
+    vec3 r = luxToSolid(o.axis, receiver);
+    float s0 = 2.0 * u.x - 1.0;
+    float s1 = 2.0 * u.y - 1.0;
+    vec3 p;
+    vec3 n;
+    float element;
+    // A flat part: its plane's axis, side and in-plane extents.
+    int planeAxis = -1;
+    float side = 1.0;
+    vec2 ext = vec2(0.0);
+    bool ellipse = false;
+    if (o.kind == 0) {
+        if (part < 2) {
+            planeAxis = 2;
+            side = part == 0 ? -1.0 : 1.0;
+            ext = vec2(a, b);
+        } else if (part < 4) {
+            planeAxis = 0;
+            side = part == 2 ? 1.0 : -1.0;
+            ext = vec2(b, c);
+        } else {
+            planeAxis = 1;
+            side = part == 4 ? 1.0 : -1.0;
+            ext = vec2(a, c);
+        }
+    } else if (o.kind == 1 && part < 2) {
+        planeAxis = 2;
+        side = part == 0 ? -1.0 : 1.0;
+        ext = vec2(a, b);
+        ellipse = true;
+    }
+    if (planeAxis >= 0) {
+        float plane = side * o.halfAxes[planeAxis];
+        float h = side * (r[planeAxis] - plane);
+        int i = planeAxis == 0 ? 1 : 0;
+        int j = planeAxis == 2 ? 1 : 2;
+        vec2 xy;
+        float density;
+        if (!luxToward(u, h, vec2(r[i], r[j]), ext, ellipse, xy, density)) {
+            return false;
+        }
+        p = vec3(0.0);
+        p[planeAxis] = plane;
+        p[i] = xy.x;
+        p[j] = xy.y;
+        n = vec3(0.0);
+        n[planeAxis] = side;
+        element = 1.0 / density;
+    } else if (o.kind == 1) {
+        float phi = TAU * u.y;
+        float sn = sin(phi);
+        float cs = cos(phi);
+        vec3 g = vec3(b * cs, a * sn, 0.0);
+        float len = sqrt(luxDot(g, g));
+        if (!(len > 0.0)) {
+            return false;
+        }
+        p = vec3(a * cs, b * sn, c * s0);
+        n = vec3(g.x / len, g.y / len, 0.0);
+        element = TAU * 2.0 * c * len;
+    } else {
+        float z = 1.0 - 2.0 * u.x;
+        float rr = sqrt(max(1.0 - z * z, 0.0));
+        float phi = TAU * u.y;
+        vec3 s = vec3(rr * cos(phi), rr * sin(phi), z);
+        vec3 g = vec3(b * c * s.x, a * c * s.y, a * b * s.z);
+        float len = sqrt(luxDot(g, g));
+        if (!(len > 0.0)) {
+            return false;
+        }
+        p = vec3(a * s.x, b * s.y, c * s.z);
+        n = vec3(g.x / len, g.y / len, g.z / len);
+        element = 4.0 * PI * len;
+    }
+    weight = element / chosen;
+    point = luxToPhotometric(o.axis, p);
+    normal = luxToPhotometric(o.axis, n);
+    return true;
+}
+
+// opening::projected_area: the emitting parts' projected area seen from photometric
+// direction w.
+float luxOpeningProjectedArea(LuxOpening o, vec3 w) {
+    const float PI = 3.14159265358979;
+    vec3 s = luxToSolid(o.axis, w);
+    float a = o.halfAxes.x;
+    float b = o.halfAxes.y;
+    float c = o.halfAxes.z;
+    int endBit = s.z < 0.0 ? 1 : 2;
+    float ends = (o.faces & endBit) != 0 ? abs(s.z) : 0.0;
+    bool sides = (o.faces & 4) != 0;
+    if (o.kind == 0) {
+        float area = 4.0 * a * b * ends;
+        if (sides) {
+            area += 4.0 * b * c * abs(s.x) + 4.0 * a * c * abs(s.y);
+        }
+        return area;
+    }
+    if (o.kind == 1) {
+        float area = PI * a * b * ends;
+        if (sides) {
+            area += 4.0 * c * sqrt(a * a * s.y * s.y + b * b * s.x * s.x);
+        }
+        return area;
+    }
+    if (!sides) {
+        return 0.0;
+    }
+    float x = b * c * s.x;
+    float y = a * c * s.y;
+    float z = a * b * s.z;
+    return PI * sqrt(x * x + y * y + z * z);
+}
+
+// opening::shift and opening::lattice.
+uvec3 luxOpeningShift(uint texel, uint lamp, uint seed) {
+    uint h0 = luxHash(texel, lamp, LUX_OPENING_PASS, seed);
+    uint h1 = luxPcg(h0);
+    return uvec3(h0, h1, luxPcg(h1));
+}
+
+vec3 luxOpeningLattice(uint k, uint n, uvec3 shift) {
+    float a = (float(k) + 0.5) / float(n) + luxUnit(shift.x);
+    return vec3(a - floor(a), luxUnit(k * LUX_PHI + shift.y), luxUnit(k * LUX_R3.x + shift.z));
+}

@@ -1,0 +1,295 @@
+// A lamp's luminous opening (luxbake::opening, operation for operation): its parts, its
+// samples, its projected area and the per-texel lattice (after rng.wgsl, scene.wgsl, ies.wgsl
+// and lamp.wgsl). The opening is the lamp's `opening` (half.uvw, near) and `shape` (kind,
+// axis, faces, 0); no emitting faces: a point lamp.
+
+struct LuxOpening {
+    kind: i32,
+    axis: i32,
+    faces: i32,
+    half_axes: vec3<f32>,
+    near: f32,
+}
+
+fn lux_opening(li: u32) -> LuxOpening {
+    let lamp = lux_lamps[li];
+    var o: LuxOpening;
+    o.kind = i32(lamp.shape.x);
+    o.axis = i32(lamp.shape.y);
+    o.faces = i32(lamp.shape.z);
+    o.half_axes = lamp.opening.xyz;
+    o.near = lamp.opening.w;
+    return o;
+}
+
+// direct cpu::near_opening: the lamp has an opening and p lies within its near distance.
+fn lux_opening_near(o: LuxOpening, lamp_pos: vec3<f32>, p: vec3<f32>) -> bool {
+    let to = lamp_pos - p;
+    return o.faces != 0 && sqrt(lux_dot(to, to)) < o.near;
+}
+
+fn lux_opening_on(o: LuxOpening, bit: i32, v: f32) -> f32 {
+    return select(0.0, v, (o.faces & bit) != 0);
+}
+
+// opening::part_areas.
+fn lux_opening_parts(o: LuxOpening) -> array<f32, 6> {
+    let a = o.half_axes.x;
+    let b = o.half_axes.y;
+    let c = o.half_axes.z;
+    var areas = array<f32, 6>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    if (o.kind == 0) {
+        let end = 4.0 * a * b;
+        areas[0] = lux_opening_on(o, 1, end);
+        areas[1] = lux_opening_on(o, 2, end);
+        areas[2] = lux_opening_on(o, 4, 4.0 * b * c);
+        areas[3] = lux_opening_on(o, 4, 4.0 * b * c);
+        areas[4] = lux_opening_on(o, 4, 4.0 * a * c);
+        areas[5] = lux_opening_on(o, 4, 4.0 * a * c);
+    } else if (o.kind == 1) {
+        let end = LUX_PI * a * b;
+        let mantle = LUX_TAU * 2.0 * c * sqrt(0.5 * (a * a + b * b));
+        areas[0] = lux_opening_on(o, 1, end);
+        areas[1] = lux_opening_on(o, 2, end);
+        areas[2] = lux_opening_on(o, 4, mantle);
+    } else {
+        areas[0] = lux_opening_on(o, 4, 4.0 * LUX_PI * (a * b + b * c + a * c) / 3.0);
+    }
+    return areas;
+}
+
+// opening::to_photometric, opening::to_solid.
+fn lux_to_photometric(axis: i32, s: vec3<f32>) -> vec3<f32> {
+    if (axis == 0) {
+        return vec3<f32>(s.z, s.x, s.y);
+    }
+    if (axis == 1) {
+        return vec3<f32>(s.y, s.z, s.x);
+    }
+    return s;
+}
+
+fn lux_to_solid(axis: i32, p: vec3<f32>) -> vec3<f32> {
+    if (axis == 0) {
+        return vec3<f32>(p.y, p.z, p.x);
+    }
+    if (axis == 1) {
+        return vec3<f32>(p.z, p.x, p.y);
+    }
+    return p;
+}
+
+// opening::falloff: a draw t in [lo, hi] of the density ~ (s² + t²)^(-3/2) and that density;
+// `valid` false for an empty range.
+struct LuxFalloff {
+    valid: bool,
+    t: f32,
+    density: f32,
+}
+
+fn lux_falloff(u: f32, s: f32, lo: f32, hi: f32) -> LuxFalloff {
+    var res: LuxFalloff;
+    let g0 = lo / sqrt(s * s + lo * lo);
+    let g1 = hi / sqrt(s * s + hi * hi);
+    let span = g1 - g0;
+    if (!(span > 0.0)) {
+        return res;
+    }
+    let q = g0 + u * span;
+    res.t = clamp(s * q / sqrt(max(1.0 - q * q, 0.0)), lo, hi);
+    let r2 = s * s + res.t * res.t;
+    res.density = s * s / (r2 * sqrt(r2) * span);
+    res.valid = true;
+    return res;
+}
+
+// opening::toward: a point (x, y) of a flat part and its density per area (in z), for a
+// receiver h in front of its plane with its foot at foot; density 0: none.
+fn lux_toward(u: vec3<f32>, h: f32, foot: vec2<f32>, ext: vec2<f32>, ellipse: bool) -> vec3<f32> {
+    if (!(h > 0.0 && ext.x > 0.0 && ext.y > 0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let outside = max(abs(foot.y) - ext.y, 0.0);
+    let sx = sqrt(h * h + outside * outside);
+    let fx = lux_falloff(u.x, sx, -ext.x - foot.x, ext.x - foot.x);
+    if (!fx.valid) {
+        return vec3<f32>(0.0);
+    }
+    let dx = fx.t;
+    let x = clamp(foot.x + dx, -ext.x, ext.x);
+    var half_chord = ext.y;
+    if (ellipse) {
+        let q = x / ext.x;
+        half_chord = ext.y * sqrt(max(1.0 - q * q, 0.0));
+    }
+    let sy = sqrt(h * h + dx * dx);
+    let fy = lux_falloff(u.y, sy, -half_chord - foot.y, half_chord - foot.y);
+    if (!fy.valid) {
+        return vec3<f32>(0.0);
+    }
+    let y = clamp(foot.y + fy.t, -half_chord, half_chord);
+    let density = fx.density * fy.density;
+    if (!(density > 0.0 && lux_finite(density))) {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(x, y, density);
+}
+
+// opening::sample toward a receiver (photometric frame): `valid` false when the opening has no
+// emitting area, or the part drawn faces away from the receiver.
+struct LuxOpeningSample {
+    valid: bool,
+    point: vec3<f32>,
+    normal: vec3<f32>,
+    weight: f32,
+}
+
+fn lux_opening_sample(o: LuxOpening, u: vec3<f32>, receiver: vec3<f32>) -> LuxOpeningSample {
+    var res: LuxOpeningSample;
+    let areas = lux_opening_parts(o);
+    var total = 0.0;
+    for (var i = 0; i < 6; i++) {
+        total += areas[i];
+    }
+    if (!(total > 0.0)) {
+        return res;
+    }
+    let target_area = u.z * total;
+    var part = 0;
+    var run = 0.0;
+    for (var i = 0; i < 6; i++) {
+        if (areas[i] > 0.0) {
+            part = i;
+            run += areas[i];
+            if (target_area < run) {
+                break;
+            }
+        }
+    }
+    let chosen = areas[part] / total;
+    let a = o.half_axes.x;
+    let b = o.half_axes.y;
+    let c = o.half_axes.z;
+    let r = lux_to_solid(o.axis, receiver);
+    let s0 = 2.0 * u.x - 1.0;
+    var p: vec3<f32>;
+    var n: vec3<f32>;
+    var element: f32;
+    // A flat part: its plane's axis, side and in-plane extents.
+    var plane_axis = -1;
+    var side = 1.0;
+    var ext = vec2<f32>(0.0);
+    var ellipse = false;
+    if (o.kind == 0) {
+        if (part < 2) {
+            plane_axis = 2;
+            side = select(1.0, -1.0, part == 0);
+            ext = vec2<f32>(a, b);
+        } else if (part < 4) {
+            plane_axis = 0;
+            side = select(-1.0, 1.0, part == 2);
+            ext = vec2<f32>(b, c);
+        } else {
+            plane_axis = 1;
+            side = select(-1.0, 1.0, part == 4);
+            ext = vec2<f32>(a, c);
+        }
+    } else if (o.kind == 1 && part < 2) {
+        plane_axis = 2;
+        side = select(1.0, -1.0, part == 0);
+        ext = vec2<f32>(a, b);
+        ellipse = true;
+    }
+    if (plane_axis >= 0) {
+        let plane = side * o.half_axes[plane_axis];
+        let h = side * (r[plane_axis] - plane);
+        let i = select(0, 1, plane_axis == 0);
+        let j = select(2, 1, plane_axis == 2);
+        let t = lux_toward(u, h, vec2<f32>(r[i], r[j]), ext, ellipse);
+        if (!(t.z > 0.0)) {
+            return res;
+        }
+        p = vec3<f32>(0.0);
+        p[plane_axis] = plane;
+        p[i] = t.x;
+        p[j] = t.y;
+        n = vec3<f32>(0.0);
+        n[plane_axis] = side;
+        element = 1.0 / t.z;
+    } else if (o.kind == 1) {
+        let phi = LUX_TAU * u.y;
+        let sn = sin(phi);
+        let cs = cos(phi);
+        let g = vec3<f32>(b * cs, a * sn, 0.0);
+        let len = sqrt(lux_dot(g, g));
+        if (!(len > 0.0)) {
+            return res;
+        }
+        p = vec3<f32>(a * cs, b * sn, c * s0);
+        n = vec3<f32>(g.x / len, g.y / len, 0.0);
+        element = LUX_TAU * 2.0 * c * len;
+    } else {
+        let z = 1.0 - 2.0 * u.x;
+        let rr = sqrt(max(1.0 - z * z, 0.0));
+        let phi = LUX_TAU * u.y;
+        let s = vec3<f32>(rr * cos(phi), rr * sin(phi), z);
+        let g = vec3<f32>(b * c * s.x, a * c * s.y, a * b * s.z);
+        let len = sqrt(lux_dot(g, g));
+        if (!(len > 0.0)) {
+            return res;
+        }
+        p = vec3<f32>(a * s.x, b * s.y, c * s.z);
+        n = vec3<f32>(g.x / len, g.y / len, g.z / len);
+        element = 4.0 * LUX_PI * len;
+    }
+    res.valid = true;
+    res.weight = element / chosen;
+    res.point = lux_to_photometric(o.axis, p);
+    res.normal = lux_to_photometric(o.axis, n);
+    return res;
+}
+
+// opening::projected_area: the emitting parts' projected area seen from photometric
+// direction w.
+fn lux_opening_projected_area(o: LuxOpening, w: vec3<f32>) -> f32 {
+    let s = lux_to_solid(o.axis, w);
+    let a = o.half_axes.x;
+    let b = o.half_axes.y;
+    let c = o.half_axes.z;
+    let end_bit = select(2, 1, s.z < 0.0);
+    let ends = select(0.0, abs(s.z), (o.faces & end_bit) != 0);
+    let sides = (o.faces & 4) != 0;
+    if (o.kind == 0) {
+        var area = 4.0 * a * b * ends;
+        if (sides) {
+            area += 4.0 * b * c * abs(s.x) + 4.0 * a * c * abs(s.y);
+        }
+        return area;
+    }
+    if (o.kind == 1) {
+        var area = LUX_PI * a * b * ends;
+        if (sides) {
+            area += 4.0 * c * sqrt(a * a * s.y * s.y + b * b * s.x * s.x);
+        }
+        return area;
+    }
+    if (!sides) {
+        return 0.0;
+    }
+    let x = b * c * s.x;
+    let y = a * c * s.y;
+    let z = a * b * s.z;
+    return LUX_PI * sqrt(x * x + y * y + z * z);
+}
+
+// opening::shift and opening::lattice.
+fn lux_opening_shift(texel: u32, lamp: u32, seed: u32) -> vec3<u32> {
+    let h0 = lux_hash(texel, lamp, LUX_OPENING_PASS, seed);
+    let h1 = lux_pcg(h0);
+    return vec3<u32>(h0, h1, lux_pcg(h1));
+}
+
+fn lux_opening_lattice(k: u32, n: u32, shift: vec3<u32>) -> vec3<f32> {
+    let a = (f32(k) + 0.5) / f32(n) + lux_unit(shift.x);
+    return vec3<f32>(a - floor(a), lux_unit(k * LUX_PHI + shift.y), lux_unit(k * LUX_R3.x + shift.z));
+}

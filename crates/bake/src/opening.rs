@@ -1,0 +1,482 @@
+//! Light from a lamp's luminous opening: the near field of a luminaire with a size.
+//!
+//! # The model
+//! A photometric file gives the intensity `I(ω)` of the whole luminaire, measured far away, and
+//! the size and shape of its luminous opening ([`luxbake_ies::Emitter`]). As Radiance's
+//! `ies2rad` does, the opening is a surface of **uniform luminance** per direction,
+//! `L(ω) = I(ω) / A_proj(ω)`, `A_proj(ω)` the projected area of its emitting parts seen from
+//! direction `ω` ([`projected_area`]): far away it sends exactly the file's intensity, near it
+//! the light comes from the whole opening — softer, lower under a long luminaire's ends, and
+//! the top of a box pendant lights the ceiling from its real height.
+//!
+//! # The estimator
+//! The illuminance of a receiver at `p` (unit normal `n`) is
+//! `E(p) = ∫ L(ω_x)·cos θ_x·cos θ_p / r² · V(x, p) dA_x` over the emitting surface, `ω_x` the
+//! direction from `x` toward `p`. [`sample`] maps three uniforms to a point `x`, its outward
+//! normal `n_x` and a weight `W` (area element over probability), so that
+//! `E[g(x)·W] = ∫ g dA`; with `S` samples
+//!
+//! ```text
+//! E(p) ≈ 1/S · Σ I(ω_k)·max(0, n_k·ω_k)·W_k / A_proj(ω_k) · cos θ_p / max(r², off², W_k/(π S))
+//! ```
+//!
+//! each sample with its own shadow ray from `p` to `x_k`. The last term of the denominator
+//! bounds each sample's share where the receiver touches the opening (a lamp against the
+//! ceiling): a sample stands for `W/S` of the surface, whose light on a point is at most
+//! `π L` — so no single sample can exceed what its patch can give, and no spike reaches a
+//! light map.
+//!
+//! The samples are a Fibonacci lattice ([`lattice`]) shifted per texel by the hash of
+//! [`crate::rng`] (Cranley–Patterson rotation, pass [`OPENING_PASS`], the lamp's index as the
+//! sample): well spread over the opening for every texel, independent between texels. A flat
+//! part is sampled as the receiver sees it ([`toward`]), so that where the lamp is fully seen
+//! the integrand is smooth and a few lattice points integrate it to under a per cent even a
+//! fraction of the opening's size away; in a penumbra the shift turns the structured error
+//! into noise.
+//!
+//! # Where it is used
+//! [`OpeningParams::near`]: texels nearer the lamp's photometric centre than that evaluate the
+//! opening, farther ones the point as before (its error there is below the tolerance the
+//! lamp model was chosen with, see [`crate::prepare`]). A lamp without opening parameters is a
+//! point everywhere and costs exactly what it cost before.
+//!
+//! The shaders' `luxOpening*` (`shaders/lib/opening.glsl`) and `lux_opening_*`
+//! (`opening.wgsl`) mirror these functions operation for operation.
+
+// `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
+use crate::exact::dot;
+use crate::rng;
+
+/// The RNG pass of the openings' per-texel lattice shift.
+pub const OPENING_PASS: u32 = 0x6f70_656e;
+
+/// The R3 sequence's increments `round(2³² / gᵏ)`, `k = 1, 2, 3` (the first picks the part).
+pub const R3: [u32; 3] = [3_518_319_155, 2_882_110_345, 2_360_945_575];
+
+/// The golden ratio's fraction `round(2³²·(√5 − 1)/2)`: the Fibonacci lattice's step.
+pub const PHI: u32 = 2_654_435_769;
+
+/// Opening samples per texel at most ([`crate::scene::Settings::opening_samples`]).
+pub const MAX_SAMPLES: u32 = 1024;
+
+/// A lamp's luminous opening as the shaders see it: [`luxbake_ies::Emitter`] in `f32`, and the
+/// distance within which texels use it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpeningParams {
+    /// The solid: 0 box, 1 cylinder, 2 ellipsoid ([`luxbake_ies::SolidKind`]).
+    pub kind: u32,
+    /// Photometric axis of the solid's axis `w`: 0 = X, 1 = Y, 2 = Z (`u`, `v` follow
+    /// cyclically).
+    pub axis: u32,
+    /// Emitting parts: 1 the end facing −w, 2 the end facing +w, 4 the sides.
+    pub faces: u32,
+    /// Semi-axes along `u`, `v`, `w`, metres.
+    pub half: [f32; 3],
+    /// Texels nearer than this to the photometric centre (metres) see the opening; farther
+    /// ones the point. `f32::MAX`: everywhere.
+    pub near: f32,
+}
+
+impl OpeningParams {
+    /// The opening of `emitter` used within `near` metres; `None` when it has no emitting area.
+    pub fn new(emitter: &luxbake_ies::Emitter, near: f32) -> Option<OpeningParams> {
+        let o = OpeningParams {
+            kind: emitter.kind as u32,
+            axis: u32::from(emitter.axis).min(2),
+            faces: u32::from(emitter.faces) & 7,
+            half: emitter.half.map(|h| h as f32),
+            near,
+        };
+        (part_areas(&o).iter().sum::<f32>() > 0.0).then_some(o)
+    }
+}
+
+/// One sample of an opening ([`sample`]), in the photometric frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OpeningSample {
+    /// Point on the emitting surface, metres from the photometric centre.
+    pub point: [f32; 3],
+    /// Outward unit normal there.
+    pub normal: [f32; 3],
+    /// Area element over probability density: `E[g·weight] = ∫ g dA`.
+    pub weight: f32,
+}
+
+/// The parts' areas that pick a part in [`sample`], in order: box `[end −w, end +w, +u, −u,
+/// +v, −v]`; cylinder `[end −w, end +w, mantle]` (the mantle's by the perimeter
+/// `2π·√((a² + b²)/2)`, exact for a circle); ellipsoid `[surface]` (its samples carry their
+/// exact area element, so these need not be exact areas). Zero for parts that do not emit.
+pub fn part_areas(o: &OpeningParams) -> [f32; 6] {
+    let [a, b, c] = o.half;
+    let on = |bit: u32, v: f32| if o.faces & bit != 0 { v } else { 0.0 };
+    match o.kind {
+        0 => {
+            let end = 4.0 * a * b;
+            [
+                on(1, end),
+                on(2, end),
+                on(4, 4.0 * b * c),
+                on(4, 4.0 * b * c),
+                on(4, 4.0 * a * c),
+                on(4, 4.0 * a * c),
+            ]
+        }
+        1 => {
+            let end = std::f32::consts::PI * a * b;
+            let mantle = std::f32::consts::TAU * 2.0 * c * (0.5 * (a * a + b * b)).sqrt();
+            [on(1, end), on(2, end), on(4, mantle), 0.0, 0.0, 0.0]
+        }
+        _ => {
+            let s = 4.0 * std::f32::consts::PI * (a * b + b * c + a * c) / 3.0;
+            [on(4, s), 0.0, 0.0, 0.0, 0.0, 0.0]
+        }
+    }
+}
+
+/// Photometric-frame vector of solid-frame `(u, v, w)`.
+#[inline]
+pub fn to_photometric(axis: u32, s: [f32; 3]) -> [f32; 3] {
+    match axis {
+        0 => [s[2], s[0], s[1]],
+        1 => [s[1], s[2], s[0]],
+        _ => s,
+    }
+}
+
+/// Solid-frame `(u, v, w)` of photometric-frame vector `p`.
+#[inline]
+pub fn to_solid(axis: u32, p: [f32; 3]) -> [f32; 3] {
+    match axis {
+        0 => [p[1], p[2], p[0]],
+        1 => [p[2], p[0], p[1]],
+        _ => p,
+    }
+}
+
+/// The point, normal and weight of uniforms `u` on the opening (see the module docs); `None`
+/// when it has no emitting area, or, toward a receiver, when the part drawn faces away from
+/// it.
+///
+/// `u[2]` picks a part in proportion to [`part_areas`]. Without a `receiver` the point is
+/// uniform on the part (the lamp paths' origins). Toward a `receiver` (photometric frame,
+/// metres from the centre) a flat part — a box face, a cylinder's end — is sampled by the
+/// receiver's view of it ([`toward`]), the curved ones (a mantle, an ellipsoid) uniformly.
+pub fn sample(o: &OpeningParams, u: [f32; 3], receiver: Option<[f32; 3]>) -> Option<OpeningSample> {
+    let areas = part_areas(o);
+    let total: f32 = areas.iter().sum();
+    if !(total > 0.0) {
+        return None;
+    }
+    // The part: the first whose running sum passes u2·total (the last emitting one at worst).
+    let target = u[2] * total;
+    let mut part = 0usize;
+    let mut run = 0.0f32;
+    for (i, &a) in areas.iter().enumerate() {
+        if a > 0.0 {
+            part = i;
+            run += a;
+            if target < run {
+                break;
+            }
+        }
+    }
+    let chosen = areas[part] / total;
+    let [a, b, c] = o.half;
+    let r = receiver.map(|r| to_solid(o.axis, r));
+    let (s0, s1) = (2.0 * u[0] - 1.0, 2.0 * u[1] - 1.0);
+    // A flat part: (plane axis, side, half-extents along its two in-plane axes, ellipse?).
+    let flat = match (o.kind, part) {
+        (0, 0 | 1) => Some((2usize, if part == 0 { -1.0f32 } else { 1.0 }, [a, b], false)),
+        (0, 2 | 3) => Some((0, if part == 2 { 1.0 } else { -1.0 }, [b, c], false)),
+        (0, _) => Some((1, if part == 4 { 1.0 } else { -1.0 }, [a, c], false)),
+        (1, 0 | 1) => Some((2, if part == 0 { -1.0 } else { 1.0 }, [a, b], true)),
+        _ => None,
+    };
+    let (p, n, element) = match (flat, r) {
+        (Some((axis, side, ext, ellipse)), Some(r)) => {
+            // The plane's in-plane axes, in (u, v, w) order; its offset from the centre.
+            let (i, j) = match axis {
+                0 => (1, 2),
+                1 => (0, 2),
+                _ => (0, 1),
+            };
+            let plane = side * o.half[axis];
+            let h = side * (r[axis] - plane);
+            let (x, y, density) = toward(u, h, [r[i], r[j]], ext, ellipse)?;
+            let mut p = [0.0f32; 3];
+            p[axis] = plane;
+            p[i] = x;
+            p[j] = y;
+            let mut n = [0.0f32; 3];
+            n[axis] = side;
+            (p, n, 1.0 / density)
+        }
+        _ => area_point(o, part, u, [s0, s1])?,
+    };
+    Some(OpeningSample {
+        point: to_photometric(o.axis, p),
+        normal: to_photometric(o.axis, n),
+        weight: element / chosen,
+    })
+}
+
+/// A point of flat part `part`, or of a curved one, uniform in area: `(point, normal, area
+/// element)` in the solid frame.
+fn area_point(
+    o: &OpeningParams,
+    part: usize,
+    u: [f32; 3],
+    [s0, s1]: [f32; 2],
+) -> Option<([f32; 3], [f32; 3], f32)> {
+    let [a, b, c] = o.half;
+    Some(match (o.kind, part) {
+        (0, 0) => ([a * s0, b * s1, -c], [0.0, 0.0, -1.0], 4.0 * a * b),
+        (0, 1) => ([a * s0, b * s1, c], [0.0, 0.0, 1.0], 4.0 * a * b),
+        (0, 2) => ([a, b * s0, c * s1], [1.0, 0.0, 0.0], 4.0 * b * c),
+        (0, 3) => ([-a, b * s0, c * s1], [-1.0, 0.0, 0.0], 4.0 * b * c),
+        (0, 4) => ([a * s0, b, c * s1], [0.0, 1.0, 0.0], 4.0 * a * c),
+        (0, _) => ([a * s0, -b, c * s1], [0.0, -1.0, 0.0], 4.0 * a * c),
+        (1, 0 | 1) => {
+            let r = u[0].sqrt();
+            let (sin, cos) = turns(u[1]);
+            let side = if part == 0 { -1.0 } else { 1.0 };
+            (
+                [a * r * cos, b * r * sin, side * c],
+                [0.0, 0.0, side],
+                std::f32::consts::PI * a * b,
+            )
+        }
+        (1, _) => {
+            let (sin, cos) = turns(u[1]);
+            let g = [b * cos, a * sin, 0.0];
+            let len = dot(g, g).sqrt();
+            if !(len > 0.0) {
+                return None;
+            }
+            (
+                [a * cos, b * sin, c * s0],
+                [g[0] / len, g[1] / len, 0.0],
+                std::f32::consts::TAU * 2.0 * c * len,
+            )
+        }
+        _ => {
+            let z = 1.0 - 2.0 * u[0];
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let (sin, cos) = turns(u[1]);
+            let s = [r * cos, r * sin, z];
+            let g = [b * c * s[0], a * c * s[1], a * b * s[2]];
+            let len = dot(g, g).sqrt();
+            if !(len > 0.0) {
+                return None;
+            }
+            (
+                [a * s[0], b * s[1], c * s[2]],
+                [g[0] / len, g[1] / len, g[2] / len],
+                4.0 * std::f32::consts::PI * len,
+            )
+        }
+    })
+}
+
+/// A point of a flat part as a receiver `h` in front of its plane sees it: `(x, y, density
+/// per unit area)`, `x`, `y` in the plane's axes, the part `[−e₀, e₀] × [−e₁, e₁]` (or the
+/// ellipse of those semi-axes), the receiver's foot on the plane at `foot`. `None` when the
+/// receiver is not in front of the plane (the part gives it no light) or the part is empty.
+///
+/// A uniform patch lights a receiver parallel to it as `h² / r⁴` (`cos θ_x cos θ_p / r²`),
+/// brightest at the foot. Each coordinate is drawn from the density `∝ (s² + t²)^(−3/2)`
+/// truncated to the part ([`falloff`]): `x − foot₀` with `s = √(h² + d₁²)` (`d₁` the foot's
+/// distance outside the part's `y` range, 0 inside), then `y − foot₁` on the part's chord at
+/// `x` with `s = √(h² + (x − foot₀)²)`. Their product falls off nearly as the light does, so
+/// the light over the density is smooth and bounded, and a few lattice points integrate it
+/// well for a receiver a fraction of the part's size away: under a disk at h/D = 0.25, 256
+/// points are within 0.3 % (uniform points: ±4 %), 32 within 3 % at worst, 0.6 % on average.
+pub fn toward(
+    u: [f32; 3],
+    h: f32,
+    foot: [f32; 2],
+    [e0, e1]: [f32; 2],
+    ellipse: bool,
+) -> Option<(f32, f32, f32)> {
+    if !(h > 0.0 && e0 > 0.0 && e1 > 0.0) {
+        return None;
+    }
+    let out = (foot[1].abs() - e1).max(0.0);
+    let sx = (h * h + out * out).sqrt();
+    let (dx, px) = falloff(u[0], sx, -e0 - foot[0], e0 - foot[0])?;
+    let x = (foot[0] + dx).clamp(-e0, e0);
+    let half = if ellipse {
+        let q = x / e0;
+        e1 * (1.0 - q * q).max(0.0).sqrt()
+    } else {
+        e1
+    };
+    let sy = (h * h + dx * dx).sqrt();
+    let (dy, py) = falloff(u[1], sy, -half - foot[1], half - foot[1])?;
+    let y = (foot[1] + dy).clamp(-half, half);
+    let density = px * py;
+    (density > 0.0 && density.is_finite()).then_some((x, y, density))
+}
+
+/// A draw `t ∈ [lo, hi]` of the density `∝ (s² + t²)^(−3/2)` by its inverse CDF, with that
+/// density: `G(t) = t / √(s² + t²)` is uniform in `[G(lo), G(hi)]`, `t = s·g / √(1 − g²)`,
+/// density `s² / ((s² + t²)^(3/2)·(G(hi) − G(lo)))`. `None` for an empty range.
+#[inline]
+pub fn falloff(u: f32, s: f32, lo: f32, hi: f32) -> Option<(f32, f32)> {
+    let g = |t: f32| t / (s * s + t * t).sqrt();
+    let (g0, g1) = (g(lo), g(hi));
+    let span = g1 - g0;
+    if !(span > 0.0) {
+        return None;
+    }
+    let q = g0 + u * span;
+    let t = (s * q / (1.0 - q * q).max(0.0).sqrt()).clamp(lo, hi);
+    let r2 = s * s + t * t;
+    Some((t, s * s / (r2 * r2.sqrt() * span)))
+}
+
+/// `(sin 2πu, cos 2πu)` as the shaders compute it (`sin(6.2831855 * u)`, `cos(…)`).
+#[inline]
+fn turns(u: f32) -> (f32, f32) {
+    let phi = std::f32::consts::TAU * u;
+    (phi.sin(), phi.cos())
+}
+
+/// The projected area of the opening's emitting parts seen from photometric direction `w`
+/// (unit, pointing away from the lamp): Σ over emitting parts of `∫ max(0, n·w) dA`. Box: the
+/// end facing `w` `4ab·|w_w|`, the sides `4bc·|w_u| + 4ac·|w_v|`; cylinder: the end
+/// `πab·|w_w|`, the mantle `4c·√(a²w_v² + b²w_u²)` (its silhouette's width times its height);
+/// ellipsoid `π·√((bc·w_u)² + (ac·w_v)² + (ab·w_w)²)`.
+pub fn projected_area(o: &OpeningParams, w: [f32; 3]) -> f32 {
+    let s = to_solid(o.axis, w);
+    let [a, b, c] = o.half;
+    let end_bit = if s[2] < 0.0 { 1 } else { 2 };
+    let ends = if o.faces & end_bit != 0 {
+        s[2].abs()
+    } else {
+        0.0
+    };
+    let sides = o.faces & 4 != 0;
+    match o.kind {
+        0 => {
+            let mut area = 4.0 * a * b * ends;
+            if sides {
+                area += 4.0 * b * c * s[0].abs() + 4.0 * a * c * s[1].abs();
+            }
+            area
+        }
+        1 => {
+            let mut area = std::f32::consts::PI * a * b * ends;
+            if sides {
+                area += 4.0 * c * (a * a * s[1] * s[1] + b * b * s[0] * s[0]).sqrt();
+            }
+            area
+        }
+        _ => {
+            if !sides {
+                return 0.0;
+            }
+            let (x, y, z) = (b * c * s[0], a * c * s[1], a * b * s[2]);
+            std::f32::consts::PI * (x * x + y * y + z * z).sqrt()
+        }
+    }
+}
+
+/// The uniforms of sample `k` of `n` for a texel whose shift is `shift` ([`shift`]): the
+/// Fibonacci lattice `((k + ½)/n, k·φ)` for the point on a part (φ = (√5 − 1)/2 as
+/// [`PHI`]), and `k·α` ([`R3`]`[0]`) for the part, each shifted and wrapped:
+/// `u₀ = fract((k + 0.5)/n + unit(shift₀))`, `u₁ = unit(k·PHI + shift₁)`,
+/// `u₂ = unit(k·R3₀ + shift₂)`.
+#[inline]
+pub fn lattice(k: u32, n: u32, shift: [u32; 3]) -> [f32; 3] {
+    let a = (k as f32 + 0.5) / n as f32 + rng::unit_f32(shift[0]);
+    [
+        a - a.floor(),
+        rng::unit_f32(k.wrapping_mul(PHI).wrapping_add(shift[1])),
+        rng::unit_f32(k.wrapping_mul(R3[0]).wrapping_add(shift[2])),
+    ]
+}
+
+/// The per-texel shift of lamp `lamp`'s lattice: `h = hash(texel, lamp, OPENING_PASS, seed)`,
+/// `(h, pcg(h), pcg(pcg(h)))`.
+#[inline]
+pub fn shift(texel: u32, lamp: u32, seed: u32) -> [u32; 3] {
+    let h0 = rng::hash(texel, lamp, OPENING_PASS, seed);
+    let h1 = rng::pcg(h0);
+    [h0, h1, rng::pcg(h1)]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(kind: u32, axis: u32, faces: u32, half: [f32; 3]) -> OpeningParams {
+        OpeningParams {
+            kind,
+            axis,
+            faces,
+            half,
+            near: f32::MAX,
+        }
+    }
+
+    /// Σ max(0, n·w)·W over many lattice samples: the projected area.
+    fn integrated(o: &OpeningParams, w: [f32; 3]) -> f64 {
+        let n = 1u32 << 16;
+        let mut sum = 0.0f64;
+        for k in 0..n {
+            let s = sample(
+                o,
+                lattice(k, n, [0x1234_5678, 0x9abc_def0, 0x0fed_cba9]),
+                None,
+            )
+            .unwrap();
+            sum += f64::from(dot(s.normal, w).max(0.0) * s.weight);
+        }
+        sum / f64::from(n)
+    }
+
+    #[test]
+    fn samples_integrate_the_projected_area_of_every_solid() {
+        let shapes = [
+            params(0, 2, 1, [0.3, 0.05, 0.0]),
+            params(0, 2, 7, [0.2, 0.2, 0.04]),
+            params(0, 0, 3, [0.1, 0.15, 0.0]),
+            params(1, 2, 1, [0.1, 0.1, 0.0]),
+            params(1, 2, 7, [0.15, 0.1, 0.02]),
+            params(1, 1, 4, [0.05, 0.05, 0.3]),
+            params(2, 2, 4, [0.1, 0.1, 0.1]),
+            params(2, 0, 4, [0.1, 0.2, 0.05]),
+        ];
+        let dirs = [
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0],
+            [0.6, 0.0, -0.8],
+            [0.36, 0.48, 0.8],
+            [1.0, 0.0, 0.0],
+            [-0.48, 0.6, -0.64],
+        ];
+        for o in &shapes {
+            for w in dirs {
+                let exact = f64::from(projected_area(o, w));
+                let got = integrated(o, w);
+                assert!(
+                    (got - exact).abs() <= 2e-3 * exact.max(1e-4),
+                    "{o:?} {w:?}: sampled {got}, closed form {exact}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_openings_have_no_samples() {
+        let o = params(0, 2, 1, [0.0, 0.3, 0.0]);
+        assert_eq!(sample(&o, [0.5; 3], None), None);
+        assert_eq!(projected_area(&o, [0.0, 0.0, -1.0]), 0.0);
+        let flat = params(2, 2, 4, [0.1, 0.1, 0.0]);
+        let s = sample(&flat, [0.3, 0.7, 0.1], None).unwrap();
+        assert!(s.weight.is_finite() && s.normal.iter().all(|c| c.is_finite()));
+    }
+}

@@ -1,0 +1,159 @@
+//! Lamps with a luminous opening on the CPU backend: which model `auto` picks and why, the
+//! area model's noise at the default preset under a real linear pendant, and its cost where
+//! nothing is near. (The closed forms on every backend: `tests/tests/opening.rs`.)
+
+mod common;
+
+use std::sync::Arc;
+
+use luxbake::bake::BakeOutput;
+use luxbake::gbuffer::rasterize;
+use luxbake::scene::{Albedo, Lamp, LampModel, Object, Quality, Scene, Settings, Transform};
+use luxbake::sources::builtin::DEFAULT_LAMP_IES;
+use luxbake::sources::meshes;
+use luxbake_ies::Photometry;
+use luxbake_testkit::shared_data;
+
+use common::run;
+
+/// A 1.8 × 0.75 × 0.9 m table on a 4 × 3.5 m floor, direct light only, at `density`.
+fn dining(lamps: Vec<Lamp>, density: f32, samples: u32) -> Scene {
+    let settings = Settings {
+        bounces: 0,
+        texels_per_metre: density,
+        opening_samples: samples,
+        ..Settings::preset(Quality::Default)
+    };
+    let pad = 2.0 / density;
+    Scene {
+        objects: vec![
+            Object {
+                name: "floor".into(),
+                mesh: meshes::plane([4.0, 3.5], pad),
+                transform: Transform::IDENTITY,
+                albedo: Albedo::grey(0.3),
+                receiver: true,
+                texel_scale: 1.0,
+            },
+            Object {
+                name: "table".into(),
+                mesh: meshes::cuboid([1.8, 0.75, 0.9], false, pad),
+                transform: Transform::IDENTITY,
+                albedo: Albedo::grey(0.6),
+                receiver: true,
+                texel_scale: 1.0,
+            },
+        ],
+        lamps,
+        settings,
+    }
+}
+
+fn photometry(test: &str, relative: &str) -> Option<Arc<Photometry>> {
+    let path = shared_data(test, relative)?;
+    let bytes = std::fs::read(&path).expect("read");
+    Some(Arc::new(Photometry::parse(&bytes).expect("parse")))
+}
+
+/// The table top's texels (at its height, 0.75 m; the sides' texels lie below): illuminance
+/// (green).
+fn table_top(scene: &Scene, out: &BakeOutput) -> Vec<f64> {
+    let g = rasterize(scene, &out.layout);
+    let maps = out.maps.iter().find(|m| m.name == "table").expect("table");
+    maps.texels(&g, maps.illuminance())
+        .filter(|(p, _)| p[1] > 0.749)
+        .map(|(_, t)| f64::from(t[1]))
+        .collect()
+}
+
+#[test]
+fn auto_keeps_a_far_downlight_a_point_and_gives_a_near_linear_pendant_its_opening() {
+    let test = "auto_lamp_model";
+    let Some(linear) = photometry(test, "photometry/real-world/rw_5.IES") else {
+        return;
+    };
+    let downlight = Arc::new(Photometry::parse(DEFAULT_LAMP_IES.as_bytes()).expect("downlight"));
+    let lamps = vec![
+        Lamp::new("downlight", downlight.clone(), [1.5, 2.5, 1.2]),
+        Lamp::new("pendant", linear.clone(), [0.0, 1.3, 0.0]),
+        {
+            let mut l = Lamp::new("forced", linear.clone(), [0.0, 1.3, 0.0]);
+            l.model = LampModel::Point;
+            l
+        },
+        {
+            let mut l = Lamp::new(
+                "iso",
+                Arc::new(Photometry::isotropic(100.0)),
+                [1.0, 1.0, 1.0],
+            );
+            l.model = LampModel::Area;
+            l
+        },
+    ];
+    let out = run(&dining(lamps, 8.0, 8));
+    let models = &out.report.lamp_models;
+    for m in models {
+        println!("{m}");
+    }
+    assert_eq!(models.len(), 4);
+    // The 150 mm downlight: its opening matters within 0.75 m; the floor is 2.5 m away.
+    assert!(!models[0].area, "{}", models[0]);
+    assert!(
+        models[0].reason.starts_with("auto: every receiver"),
+        "{}",
+        models[0]
+    );
+    // The 0.61 m linear pendant 0.55 m over the table: within its 1 % distance (2.5 m).
+    assert!(models[1].area, "{}", models[1]);
+    let d1 = linear
+        .emitter()
+        .expect("rw_5 opening")
+        .point_model_distance(0.01);
+    let near = models[1].near_m.expect("near distance");
+    assert!((near - 2.0 * d1).abs() < 1e-4 * near, "{near} vs 2 × {d1}");
+    assert!(
+        models[1].reason.starts_with("auto: a receiver 0.55"),
+        "{}",
+        models[1]
+    );
+    // Asked for: the point; and a file without an opening stays a point.
+    assert!(!models[2].area && models[2].reason.contains("point"));
+    assert!(!models[3].area && models[3].reason.contains("no luminous opening"));
+}
+
+#[test]
+fn the_area_models_noise_at_the_default_preset_under_a_linear_pendant_is_under_one_percent() {
+    let test = "opening_noise_at_default";
+    let Some(linear) = photometry(test, "photometry/real-world/rw_5.IES") else {
+        return;
+    };
+    let lamp = |samples| {
+        let mut l = Lamp::new("pendant", linear.clone(), [0.0, 1.3, 0.0]);
+        l.model = LampModel::Area;
+        dining(vec![l], 32.0, samples)
+    };
+    let default = Settings::preset(Quality::Default).opening_samples;
+    let scene = lamp(default);
+    let reference = lamp(1024);
+    let (a, b) = (
+        table_top(&scene, &run(&scene)),
+        table_top(&reference, &run(&reference)),
+    );
+    assert_eq!(a.len(), b.len());
+    assert!(a.len() > 1000, "{} texels", a.len());
+    let mut rel: Vec<f64> = a.iter().zip(&b).map(|(x, y)| (x - y).abs() / y).collect();
+    rel.sort_by(f64::total_cmp);
+    assert!(b.iter().all(|&y| y > 0.0), "the whole top is lit");
+    let mean = rel.iter().sum::<f64>() / rel.len() as f64;
+    let p99 = rel[rel.len() * 99 / 100];
+    let max = rel[rel.len() - 1];
+    println!(
+        "{} table-top texels, {default} vs 1024 samples: mean |rel| {:.3} %, p99 {:.3} %, max {:.3} %",
+        rel.len(),
+        100.0 * mean,
+        100.0 * p99,
+        100.0 * max
+    );
+    assert!(max < 0.01, "max {max}");
+}
