@@ -30,7 +30,8 @@ use luxbake::GpuBackend;
 use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room};
 use luxbake::layers::{LampState, bake_layers};
 use luxbake::scene::{
-    Blur, BvhMode, Lamp, Method, Quality, Sampler, Scene, SceneError, SettingError, SettingsPatch,
+    Blur, BvhMode, Lamp, LampModel, Method, Quality, Sampler, Scene, SceneError, SettingError,
+    SettingsPatch,
 };
 use luxbake::sources::scenefile::{from_file_patched, preferred_backend, read_photometry};
 use luxbake_backends::BackendKind;
@@ -115,6 +116,15 @@ pub struct Args {
     /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
     #[arg(long)]
     lamp_paths: Option<u32>,
+    /// Points of a lamp's luminous opening (each with a shadow ray) per texel near a lamp
+    /// baked with its opening (see --lamp-model).
+    #[arg(long)]
+    opening_samples: Option<u32>,
+    /// How every lamp emits, over the scene file's `lamp_model`: auto (its luminous opening
+    /// where a receiver is near enough for the point model to be off by more than 1 %),
+    /// point or area (the opening everywhere).
+    #[arg(long)]
+    lamp_model: Option<LampModel>,
     /// A photometric file (IES or EULUMDAT) for every lamp of the scene, or a folder of them:
     /// the room is prepared once and baked per file into `OUT/<file stem>/`. Repeatable.
     #[arg(long = "lamp", value_name = "FILE|DIR")]
@@ -146,6 +156,7 @@ impl Args {
             refine_rays: self.refine_rays,
             refine_error: self.refine_error,
             lamp_paths: self.lamp_paths,
+            opening_samples: self.opening_samples,
         }
     }
 }
@@ -191,7 +202,12 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
 
 /// Runs the bake; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
-    let (scene, backend, source) = load(args)?;
+    let (mut scene, backend, source) = load(args)?;
+    if let Some(model) = args.lamp_model {
+        for lamp in &mut scene.lamps {
+            lamp.model = model;
+        }
+    }
     let files = lamp_files(&args.lamp_files)?;
     if files.len() > 1 && args.glb.is_some() {
         return Err("--glb writes one file: give it with one --lamp file at a time".into());
@@ -428,6 +444,12 @@ fn print_summary(out: &BakeOutput, scene: &Scene) {
         "",
         r.total_seconds * 1e3
     );
+    if !r.lamp_models.is_empty() {
+        println!("\nlamp models:");
+        for m in &r.lamp_models {
+            println!("  - {m}");
+        }
+    }
     if r.skipped.is_empty() {
         println!("\nskipped: nothing");
     } else {

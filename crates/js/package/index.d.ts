@@ -42,7 +42,12 @@ export interface Lamp {
   color?: [number, number, number];
   /** Name for reports and errors (default `lamp_<index>`). */
   name?: string;
+  /** How it emits: 'auto' (its file's luminous opening where a surface is near enough for the point model to be off by more than 1 %), 'point' or 'area' (default: the options' `lampModel`, else 'auto'). */
+  lampModel?: LampModel;
 }
+
+/** How a lamp emits: from a point, from its file's luminous opening, or whichever the scene needs. */
+export type LampModel = 'auto' | 'point' | 'area';
 
 /** Progress of a bake; `fraction` never decreases and the last event has fraction 1. */
 export interface ProgressEvent {
@@ -75,6 +80,10 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
+  /** Points of a lamp's luminous opening per texel near it (default: the preset's, 32 at 'default'). */
+  openingSamples?: number;
+  /** The lamp model of every lamp without its own `lampModel` (default 'auto'). */
+  lampModel?: LampModel;
   /** Largest distance of a measure() point from a baked surface, metres (default 0.01). */
   measureTolerance?: number;
   onProgress?: (event: ProgressEvent) => void;

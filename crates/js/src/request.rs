@@ -11,7 +11,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use luxbake::scene::{Lamp, Object, Scene, Settings, SettingsPatch, Transform};
+use luxbake::scene::{Lamp, LampModel, Object, Scene, Settings, SettingsPatch, Transform};
 use luxbake_assets::{GltfSource, ImportOptions, UvSource, uv};
 use luxbake_ies::Photometry;
 use serde::Deserialize;
@@ -29,6 +29,9 @@ pub struct BakeOptions {
     pub measure_tolerance: Option<f64>,
     /// The lamps; their photometric files are passed beside the options, in the same order.
     pub lamps: Vec<LampOptions>,
+    /// `lampModel`: how the lamps without their own `lampModel` emit (`"auto"`, the default,
+    /// `"point"` or `"area"`, [`LampModel`]).
+    pub lamp_model: Option<String>,
 }
 
 /// [`BakeOptions`] as JSON: the settings are the keys besides these.
@@ -39,6 +42,8 @@ struct OptionsJson {
     measure_tolerance: Option<f64>,
     #[serde(default)]
     lamps: Vec<LampOptions>,
+    #[serde(default)]
+    lamp_model: Option<String>,
     #[serde(flatten)]
     settings: serde_json::Map<String, serde_json::Value>,
 }
@@ -64,6 +69,11 @@ pub struct LampOptions {
     /// Linear RGB tint (default white).
     #[serde(default)]
     pub color: Option<[f32; 3]>,
+    /// How it emits: `"auto"` (its file's luminous opening where a receiver is near enough
+    /// for the point model to be off by more than 1 %), `"point"` or `"area"` ([`LampModel`]);
+    /// default: the options' `lampModel`, else `"auto"`.
+    #[serde(default)]
+    pub lamp_model: Option<String>,
 }
 
 impl BakeOptions {
@@ -90,6 +100,7 @@ impl BakeOptions {
             settings,
             measure_tolerance: json.measure_tolerance,
             lamps: json.lamps,
+            lamp_model: json.lamp_model,
         })
     }
 
@@ -277,6 +288,11 @@ pub fn build_lamps(options: &BakeOptions, photometry: &[&[u8]]) -> Result<Vec<La
         lamp.rotation_deg = spec.rotation;
         lamp.multiplier = spec.multiplier.unwrap_or(1.0);
         lamp.color = spec.color.unwrap_or([1.0; 3]);
+        if let Some(model) = spec.lamp_model.as_ref().or(options.lamp_model.as_ref()) {
+            lamp.model = model
+                .parse::<LampModel>()
+                .map_err(|e| lamp_error(format!("`lampModel`: {e}")))?;
+        }
         lamp.validate()
             .map_err(|e| lamp_error(format!("`{}`: {}", option_key(e.name), e.reason)))?;
         lamps.push(lamp);

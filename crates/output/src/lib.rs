@@ -33,11 +33,14 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, tail, blur, texels_per_metre, bvh,
-//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths), `layout`
+//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths,
+//! opening_samples), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
 //! the file's tilt factors are taken at, [`luxbake::scene::Lamp::tilt_deg`]), multiplier,
 //! color, max_candela (file, at that tilt), lumens (integrated at that tilt × multiplier),
-//! used), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
+//! used, `model` (the `lamp_model` asked for), `model_used` ("point" or "area"),
+//! `model_reason` (why, in words), `opening_near_m` (with the area model: the distance within
+//! which texels see the opening; null: everywhere)), `objects` (name, index, receiver, and for receivers `files`, `layer`, `offset`,
 //! `size`, `resolution`, plus `transform` {`linear` (columns), `translation`} for all),
 //! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run,
 //! `explicit_bounces` (= bounces_run), `tail_fraction` (the estimated share of the total
@@ -373,6 +376,7 @@ pub fn write_bake(
         .map(|(i, l)| {
             let tilt = l.tilt_deg();
             let (max_cd, _) = l.photometry.max_intensity_tilted(tilt);
+            let choice = rep.lamp_models.iter().find(|c| c.lamp == i);
             json!({
                 "name": l.name,
                 "position": l.position,
@@ -384,6 +388,10 @@ pub fn write_bake(
                 "max_candela": max_cd,
                 "lumens": l.photometry.luminous_flux_tilted(tilt) * f64::from(l.multiplier),
                 "used": output.lamps_used.contains(&i),
+                "model": l.model.name(),
+                "model_used": choice.map(|c| c.used()),
+                "model_reason": choice.map(|c| c.reason.clone()),
+                "opening_near_m": choice.and_then(|c| c.near_m),
             })
         })
         .collect();
@@ -408,6 +416,7 @@ pub fn write_bake(
             "stride": s.stride,
             "higher_rays": s.higher_rays,
             "lamp_paths": s.lamp_paths,
+            "opening_samples": s.opening_samples,
             "higher_stride": s.higher_stride,
             "refine_rays": s.refine_rays,
             "refine_error": s.refine_error,

@@ -6,7 +6,7 @@
 
 use std::sync::Arc;
 
-use luxbake::scene::{Blur, Lamp, Method, Quality, Scene, Settings, SettingsPatch};
+use luxbake::scene::{Blur, Lamp, LampModel, Method, Quality, Scene, Settings, SettingsPatch};
 use luxbake::sources::builtin::{DEFAULT_LAMP_IES, ROOM_SIZE};
 use luxbake_ies::Photometry;
 use serde::{Deserialize, Serialize};
@@ -55,6 +55,10 @@ pub struct LampSpec {
     pub rotation_deg: f32,
     /// Dimmer: scalar on every intensity.
     pub multiplier: f32,
+    /// How the lamp emits (`lamp_model`, also `lampModel`): `"auto"`, `"point"` or `"area"`
+    /// ([`LampModel`]).
+    #[serde(alias = "lampModel")]
+    pub lamp_model: String,
 }
 
 impl Default for LampSpec {
@@ -66,6 +70,7 @@ impl Default for LampSpec {
             azimuth_deg: 0.0,
             rotation_deg: 0.0,
             multiplier: 1.0,
+            lamp_model: LampModel::Auto.name().into(),
         }
     }
 }
@@ -294,6 +299,13 @@ pub fn build_scene(request: &BakeRequest, lamp_file: Option<&[u8]>) -> Result<Sc
     lamp.aim = spec.aim();
     lamp.rotation_deg = spec.rotation_deg;
     lamp.multiplier = spec.multiplier;
+    lamp.model = spec
+        .lamp_model
+        .parse()
+        .map_err(|reason| ViewerError::Setting {
+            name: "lamp_model",
+            reason,
+        })?;
     scene.lamps = vec![lamp];
     Ok(scene)
 }

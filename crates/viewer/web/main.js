@@ -196,6 +196,7 @@ function syncControls() {
   set('lamp-x', pos[0]); set('lamp-y', pos[1]); set('lamp-z', pos[2]);
   set('lamp-tilt', l.tilt_deg); set('lamp-azimuth', l.azimuth_deg);
   set('lamp-rotation', l.rotation_deg); set('lamp-multiplier', l.multiplier);
+  $('lamp-model').value = l.lamp_model;
   set('blur', r.blur_sigma);
   $('method').value = r.method;
   $('quality').value = r.quality;
@@ -227,6 +228,7 @@ function wireControls() {
   lampInput('lamp-azimuth', (v) => { r.lamp.azimuth_deg = v; });
   lampInput('lamp-rotation', (v) => { r.lamp.rotation_deg = v; });
   lampInput('lamp-multiplier', (v) => { r.lamp.multiplier = v; });
+  $('lamp-model').onchange = (e) => { r.lamp.lamp_model = e.target.value; requestBake(); };
   lampInput('blur', (v) => { r.blur_sigma = v; });
   const preset = () => {
     const p = JSON.parse(presetRequest($('method').value, $('quality').value));
