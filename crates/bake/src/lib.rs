@@ -88,6 +88,11 @@
 //!   next to it ([`bake::recentring_shift`]): the maps do not depend on where it stands.
 //!   Object translations and lamp positions are f64 (scene-file numbers are kept as read), so
 //!   a room placed at 10 km keeps its millimetres and bakes exactly like the room at the origin.
+//!   Near a lamp with a size (a linear pendant over a table, a box pendant under the ceiling)
+//!   the light comes from its file's luminous opening instead, uniform luminance
+//!   `I(ω)/A_proj(ω)` on its emitting faces sampled with a shadow ray each ([`opening`],
+//!   [`scene::LampModel`]): where the scene needs it, so a scene of small lamps costs what it
+//!   did.
 //! - **Indirect**: per texel, N cosine-weighted hemisphere rays; at each closest hit the hit
 //!   object's reflected map is read (masked bilinear, [`map`]) at the hit's light-map UV.
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face

@@ -40,6 +40,15 @@
 //! the host ([`LampPaths::trace`], a few hundred thousand rays at most) and uploaded with the
 //! scene ([`LampPaths::packed`]).
 //!
+//! # Lamps with an opening
+//! A lamp baked with its luminous opening ([`crate::opening`]) starts each pool ray at a point
+//! of the opening drawn uniformly over its area (the direction as for a point). The density of
+//! a pool point `y` is then an integral over the opening, and `E_direct(y)` one too: both are
+//! estimated at `y` with the same [`OPENING_POOL_SAMPLES`] points of the opening (each with
+//! its shadow ray), so the quadrature's error largely cancels in their ratio, the path's
+//! power. Pool points farther from the lamp than its opening's near distance see it as a
+//! point, as the direct pass does.
+//!
 //! # Determinism
 //! Pool directions come from the Sobol sampler (texel 0, sample `i`, pass [`EMIT_PASS`]) and
 //! the hash sampler, in f64 (whose last-bit differences between maths libraries do not reach
