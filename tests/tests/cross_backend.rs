@@ -3,7 +3,8 @@
 //! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
 //! gathers run at reduced resolution, and with refinement), `chairs_01` with a second lamp
 //! (converged, lamp paths weighted over both lamps), and a room with a lamp 0.1 mm from a wall
-//! (paper method), with the tolerances of
+//! (paper method), `chairs_01` with lamps baked from their luminous openings (converged), with
+//! the tolerances of
 //! [`luxbake_tests::SCENES`] and [`luxbake_tests::KNOWN_GAPS`]. Each scene is baked once per
 //! backend; a GPU backend without a driver is skipped with a printed reason outside CI and
 //! fails in CI. Each test compares at least one backend pair, or is reported as skipped with
@@ -178,5 +179,43 @@ fn chairs_01_with_two_lamps_and_lamp_paths_agrees_across_backends() {
         Arc::new(luxbake_ies::Photometry::isotropic(60.0)),
         [2.2, 2.2, -1.7],
     ));
+    run_scene(&case, &scene);
+}
+
+/// `chairs_01` with its downlight baked from its 150 mm disk opening and a box-shaped
+/// direct/indirect pendant (`rw_1.IES`, bottom, top and sides emitting) 0.3 m under the
+/// ceiling, both with `lamp_model = "area"`, at the converged `default` preset: the opening's
+/// samples (per part, toward each receiver), its lamp paths leaving the opening and every
+/// later stage agree across backends within the converged method's tolerances.
+#[test]
+fn chairs_01_with_luminous_openings_agrees_across_backends() {
+    use std::sync::Arc;
+
+    use luxbake::scene::{Lamp, LampModel, Method, Quality, Sampler};
+
+    let case = SceneCase {
+        scene: "chairs_01_openings",
+        method: Method::Converged,
+        sampler: Sampler::Sobol,
+        quality: Quality::Default,
+        refine_rays: 0,
+        stages: SCENES[4].stages,
+    };
+    let Some(path) = luxbake_testkit::shared_data(
+        "cross_backend::chairs_01_openings",
+        "photometry/real-world/rw_1.IES",
+    ) else {
+        return;
+    };
+    let bytes = std::fs::read(&path).expect("rw_1.IES");
+    let pendant = luxbake_ies::Photometry::parse(&bytes).expect("rw_1.IES parses");
+    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
+    for lamp in &mut scene.lamps {
+        lamp.model = LampModel::Area;
+    }
+    let mut box_pendant = Lamp::new("box", Arc::new(pendant), [0.8, 2.3, -0.6]);
+    box_pendant.model = LampModel::Area;
+    box_pendant.multiplier = 0.2;
+    scene.lamps.push(box_pendant);
     run_scene(&case, &scene);
 }

@@ -321,8 +321,9 @@ impl LampPaths {
                 // A lamp with an opening emits from a point of it ([`crate::opening`]).
                 let origin = match lamp.opening {
                     Some(o) => {
-                        let u = opening::lattice(0, 1, opening::shift(i, li as u32, seed));
-                        opening_point(lamp, &o, u)?.0
+                        let [h0, h1] = opening::shift(i, li as u32, seed);
+                        let u = [h0, h1, rng::pcg(h1)].map(rng::unit_f32);
+                        opening_point(lamp, &o, |o| opening::sample(o, u))?.0
                     }
                     None => lamp.position,
                 };
@@ -466,13 +467,13 @@ impl LampPaths {
 /// Samples of an opening per pool point for its illuminance and density there.
 pub const OPENING_POOL_SAMPLES: u32 = 8;
 
-/// The world point and photometric-frame sample of uniforms `u` on `lamp`'s opening `o`.
+/// The world point and photometric-frame sample `draw` makes on `lamp`'s opening `o`.
 fn opening_point(
     lamp: &LampParams,
     o: &OpeningParams,
-    u: [f32; 3],
+    draw: impl FnOnce(&OpeningParams) -> Option<opening::OpeningSample>,
 ) -> Option<([f32; 3], opening::OpeningSample)> {
-    let s = opening::sample(o, u, None)?;
+    let s = draw(o)?;
     let (q, m) = (s.point, &lamp.world_to_photometric);
     let x = [0, 1, 2].map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
     Some((x, s))
@@ -480,12 +481,13 @@ fn opening_point(
 
 /// At pool point `y` (unit normal `n`), the illuminance from lamp `li`'s opening `o` before
 /// the lamp's scale, and the density per unit area of the pool's rays from that lamp: the same
-/// [`OPENING_POOL_SAMPLES`] points for both, so that their ratio, the path's power, keeps
-/// little of the quadrature's error. A pool ray starts at a point drawn as [`opening::sample`]
-/// draws it (density `1/W` per area) toward a direction of density `q(ω)` per solid angle
-/// ([`Emitter::density`]); the density of `y` is `∫ q(ω_x)·cos θ_y / r² · V / W dA_x`,
-/// estimated by `1/S Σ q(ω_k)·cos θ_y / r_k² · V_k`. Both bound `r²` below as the direct
-/// pass does.
+/// [`OPENING_POOL_SAMPLES`] points for both (shared among the parts, [`opening::counts`]), so
+/// that their ratio, the path's power, keeps little of the quadrature's error. A pool ray
+/// starts at a point drawn as [`opening::sample`] draws it (part `j` with probability `Pⱼ`,
+/// then density `Pⱼ/W` per area) toward a direction of density `q(ω)` per solid angle
+/// ([`Emitter::density`]); the density of `y` is `Σⱼ ∫ Pⱼ/W · q(ω_x)·cos θ_y / r² · V dA_x`,
+/// estimated by `Σⱼ Pⱼ/Sⱼ Σ_k q(ω_k)·cos θ_y / r_k² · V_k`. Both bound `r²` below as the
+/// direct pass does.
 #[allow(clippy::too_many_arguments)]
 fn from_opening(
     g: &Geometry<'_>,
@@ -496,57 +498,68 @@ fn from_opening(
     tables: &[GpuTable],
     y: [f32; 3],
     n: [f32; 3],
-    shift: [u32; 3],
+    shift: [u32; 2],
 ) -> (f64, f64) {
     let origin = offset_origin(y, n, g.eps);
     let Some(table) = tables.get(lamp.table as usize) else {
         return (0.0, 0.0);
     };
     let m = &lamp.world_to_photometric;
-    let sf = f64::from(OPENING_POOL_SAMPLES);
+    let areas = opening::part_areas(o);
+    let total: f32 = areas.iter().sum();
     let (mut e, mut p) = (0.0f64, 0.0f64);
-    for k in 0..OPENING_POOL_SAMPLES {
-        let Some((x, s)) = opening_point(lamp, o, opening::lattice(k, OPENING_POOL_SAMPLES, shift))
-        else {
-            continue;
-        };
-        let to = [0, 1, 2].map(|c| f64::from(x[c]) - f64::from(y[c]));
-        let r2 = to.iter().map(|c| c * c).sum::<f64>();
-        let r = r2.sqrt();
-        if !(r > 0.0 && r.is_finite()) {
-            continue;
-        }
-        let w = to.map(|c| c / r);
-        let cos_y = f64::from(n[0]) * w[0] + f64::from(n[1]) * w[1] + f64::from(n[2]) * w[2];
-        if !(cos_y > 0.0) {
-            continue;
-        }
-        let sd = sub(x, origin);
-        let len = dot(sd, sd).sqrt();
-        if !(len > 0.0) {
-            continue;
-        }
-        let ray = Ray {
-            origin,
-            dir: div(sd, len),
-        };
-        if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
-            continue;
-        }
-        let back = w.map(|c| (-c) as f32);
-        let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
-        let r2e = r2.max(f64::from(s.weight) / (std::f64::consts::PI * sf));
-        let cos_x = f64::from(dot(s.normal, emit));
-        let area = f64::from(opening::projected_area(o, emit));
-        if cos_x > 0.0 && area > 0.0 {
-            let intensity = f64::from(table.sample(emit));
-            if intensity > 0.0 {
-                e += intensity * cos_x * f64::from(s.weight) / area * cos_y / r2e;
+    for (part, &count) in opening::counts(&areas, OPENING_POOL_SAMPLES)
+        .iter()
+        .enumerate()
+    {
+        // A pool ray leaves this part with probability `chosen`, uniformly over its area:
+        // density `chosen / W` per area, so `density × W = chosen`.
+        let chosen = f64::from(areas[part] / total);
+        let nf = f64::from(count);
+        for k in 0..count {
+            let u = opening::lattice(k, count, shift);
+            let Some((x, s)) = opening_point(lamp, o, |o| opening::sample_part(o, part, u, None))
+            else {
+                continue;
+            };
+            let to = [0, 1, 2].map(|c| f64::from(x[c]) - f64::from(y[c]));
+            let r2 = to.iter().map(|c| c * c).sum::<f64>();
+            let r = r2.sqrt();
+            if !(r > 0.0 && r.is_finite()) {
+                continue;
             }
+            let w = to.map(|c| c / r);
+            let cos_y = f64::from(n[0]) * w[0] + f64::from(n[1]) * w[1] + f64::from(n[2]) * w[2];
+            if !(cos_y > 0.0) {
+                continue;
+            }
+            let sd = sub(x, origin);
+            let len = dot(sd, sd).sqrt();
+            if !(len > 0.0) {
+                continue;
+            }
+            let ray = Ray {
+                origin,
+                dir: div(sd, len),
+            };
+            if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
+                continue;
+            }
+            let back = w.map(|c| (-c) as f32);
+            let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+            let r2e = r2.max(f64::from(s.weight) / (std::f64::consts::PI * nf));
+            let cos_x = f64::from(dot(s.normal, emit));
+            let area = f64::from(opening::projected_area(o, emit));
+            if cos_x > 0.0 && area > 0.0 {
+                let intensity = f64::from(table.sample(emit));
+                if intensity > 0.0 {
+                    e += intensity * cos_x * f64::from(s.weight) / area * cos_y / r2e / nf;
+                }
+            }
+            p += chosen * emitter.density(li, w.map(|c| -c)) * cos_y / r2e / nf;
         }
-        p += emitter.density(li, w.map(|c| -c)) * cos_y / r2e;
     }
-    (e / sf, p / sf)
+    (e, p)
 }
 
 /// The gather's balance-heuristic weight of a hit at distance `r` with cosines `cx` (texel)

@@ -7,7 +7,7 @@
 //!   then `(table offset, table width, table height, 0)` (unsigned integers; the offset is the
 //!   table's first value in [`ies_values`]), then the luminous opening
 //!   ([`crate::opening::OpeningParams`]) as floats: `(half.uvw, near)`, `(kind, axis, faces,
-//!   0)` — all zero for a point lamp (no emitting faces).
+//!   size)` — all zero for a point lamp (no emitting faces).
 //! - **Regions** ([`region_rows`]): two rows per object id (unsigned integers):
 //!   `(layer, offset.x, offset.y, receiver ? 1 : 0)`, `(width, height, 0, 0)`; zero rows for
 //!   non-receivers, which reflect nothing.
@@ -28,7 +28,7 @@ pub struct LampRows {
     pub floats: [[f32; 4]; 5],
     /// `(table offset, table width, table height, 0)`.
     pub table: [u32; 4],
-    /// The opening: `(half.uvw, near)`, `(kind, axis, faces, 0)`.
+    /// The opening: `(half.uvw, near)`, `(kind, axis, faces, size)`.
     pub opening: [[f32; 4]; 2],
 }
 
@@ -82,7 +82,7 @@ pub fn lamp_rows(scene: &SceneData<'_>) -> Vec<LampRows> {
                 opening: l.opening.map_or([[0.0; 4]; 2], |o| {
                     [
                         [o.half[0], o.half[1], o.half[2], o.near],
-                        [o.kind as f32, o.axis as f32, o.faces as f32, 0.0],
+                        [o.kind as f32, o.axis as f32, o.faces as f32, o.size],
                     ]
                 }),
             }

@@ -28,7 +28,7 @@ use crate::backend::{LampParams, Limits, ray_epsilon};
 use crate::gbuffer::{GBuffer, rasterize};
 use crate::layout::{Layout, LayoutError};
 use crate::lightpaths::{self, LampPaths};
-use crate::opening::OpeningParams;
+use crate::opening::{self, OpeningParams};
 use crate::report::{LampModelChoice, Progress, Skipped};
 use crate::scene::{Lamp, LampModel, Method, Scene, SettingError, Settings};
 use crate::validity;
@@ -404,7 +404,13 @@ impl Lamps {
             })
             .collect();
         let models = models.into_iter().map(|(choice, _)| choice).collect();
-        let (reach, near) = lamp_reach(&room.gbuffer, &all, &tables, room.scene.objects.len());
+        let (reach, near) = lamp_reach(
+            &room.gbuffer,
+            &all,
+            &tables,
+            room.scene.objects.len(),
+            settings.opening_samples,
+        );
         let mut used = Vec::new();
         let mut shadow_rays = 0u64;
         for (l, per_object) in reach.iter().enumerate() {
@@ -418,7 +424,7 @@ impl Lamps {
             }
             used.push(l);
             // A texel near an opening casts a shadow ray per opening sample.
-            shadow_rays += total + near[l] * u64::from(settings.opening_samples.saturating_sub(1));
+            shadow_rays += total + near[l];
             for (o, &count) in per_object.iter().enumerate() {
                 if count == 0 && room.layout.regions.get(o).is_some_and(Option::is_some) {
                     skipped.push(Skipped::LampObject {
@@ -491,9 +497,8 @@ fn lamp_models(gbuffer: &GBuffer, lamps: &[Lamp]) -> Vec<(LampModelChoice, Optio
                 );
             }
             let d1 = emitter.point_model_distance(LampModel::AUTO_TOLERANCE);
-            let nearest = nearest_receiver(gbuffer, l);
             let pct = LampModel::AUTO_TOLERANCE * 100.0;
-            if nearest < d1 {
+            if let Some(nearest) = nearest_lit_within(gbuffer, l, d1) {
                 let near = (d1 * LampModel::SWITCH_FACTOR) as f32;
                 choice(
                     OpeningParams::new(&emitter, near),
@@ -506,8 +511,8 @@ fn lamp_models(gbuffer: &GBuffer, lamps: &[Lamp]) -> Vec<(LampModelChoice, Optio
                 choice(
                     None,
                     format!(
-                        "auto: every receiver at least {nearest:.3} m from its centre, beyond \
-                         {d1:.3} m, where the point model is within {pct} %"
+                        "auto: no receiver it lights is nearer its centre than {d1:.3} m, \
+                         beyond which the point model is within {pct} %"
                     ),
                 )
             }
@@ -515,23 +520,28 @@ fn lamp_models(gbuffer: &GBuffer, lamps: &[Lamp]) -> Vec<(LampModelChoice, Optio
         .collect()
 }
 
-/// The distance from `lamp`'s centre to the nearest valid texel it sends light toward (its
-/// intensity toward the texel is positive: a downlight's ceiling does not count), metres;
-/// infinite without one.
-fn nearest_receiver(gbuffer: &GBuffer, lamp: &Lamp) -> f64 {
+/// The distance from `lamp`'s centre to the nearest valid texel within `limit` metres that it
+/// sends light toward (its intensity toward the texel is positive: a downlight's ceiling does
+/// not count), or `None`. Only texels within `limit` are looked up in the intensity table.
+fn nearest_lit_within(gbuffer: &GBuffer, lamp: &Lamp, limit: f64) -> Option<f64> {
     let m = lamp.world_to_photometric_matrix();
     let photometry = &lamp.photometry;
+    let limit2 = limit * limit;
     gbuffer
         .position
         .chunks_exact(4)
         .filter(|p| p[3] > 0.5)
         .filter_map(|p| {
             let to = [0, 1, 2].map(|c| f64::from(p[c]) - lamp.position[c]);
-            let d = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            let d2 = to[0] * to[0] + to[1] * to[1] + to[2] * to[2];
+            // A NaN position fails too.
+            if d2.partial_cmp(&limit2) != Some(std::cmp::Ordering::Less) {
+                return None;
+            }
             let dir = m.map(|r| (0..3).map(|c| f64::from(r[c]) * to[c]).sum::<f64>());
-            (photometry.intensity(dir) > 0.0).then_some(d)
+            (photometry.intensity(dir) > 0.0).then(|| d2.sqrt())
         })
-        .fold(f64::INFINITY, f64::min)
+        .reduce(f64::min)
 }
 
 /// Whether the bake traces lamp paths: `Ok(false)` when it was not asked to, `Err(reason)`
@@ -554,12 +564,14 @@ fn lamp_paths_wanted(settings: &Settings, no_lamp: bool) -> Result<bool, &'stati
 }
 
 /// Per lamp and object, how many valid texels the lamp lights (no shadows), and per lamp how
-/// many of them lie near its opening ([`OpeningParams::near`]).
+/// many shadow rays more than one per texel the texels near its opening cast
+/// ([`OpeningParams::near`], [`opening::texel_samples`] of `samples`).
 fn lamp_reach(
     gbuffer: &GBuffer,
     lamps: &[LampParams],
     tables: &[GpuTable],
     objects: usize,
+    samples: u32,
 ) -> (Vec<Vec<u64>>, Vec<u64>) {
     let mut reach = vec![vec![0u64; objects]; lamps.len()];
     let mut near_count = vec![0u64; lamps.len()];
@@ -580,11 +592,9 @@ fn lamp_reach(
             let to = [0, 1, 2].map(|c| lamp.position[c] - pos[c]);
             // Near an opening the light comes from its whole surface, which a texel may see
             // while it faces away from the centre: counted, the shadow rays tell.
-            let near = lamp
-                .opening
-                .is_some_and(|o| (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt() < o.near);
-            if near {
-                near_count[l] += 1;
+            let d = (to[0] * to[0] + to[1] * to[1] + to[2] * to[2]).sqrt();
+            if let Some(o) = lamp.opening.filter(|o| d < o.near) {
+                near_count[l] += u64::from(opening::texel_samples(&o, d, samples)) - 1;
                 if let Some(slot) = reach[l].get_mut(object) {
                     *slot += 1;
                 }

@@ -175,13 +175,9 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
         ));
     }
     s.push_str(&format!(
-        "#define LUX_CONNECT_PASS {}u\n#define LUX_OPENING_PASS {}u\n\
-         #define LUX_R3 uvec3({}u, {}u, {}u)\n#define LUX_PHI {}u\n",
+        "#define LUX_CONNECT_PASS {}u\n#define LUX_OPENING_PASS {}u\n#define LUX_PHI {}u\n",
         crate::lightpaths::CONNECT_PASS,
         crate::opening::OPENING_PASS,
-        crate::opening::R3[0],
-        crate::opening::R3[1],
-        crate::opening::R3[2],
         crate::opening::PHI,
     ));
     s
@@ -208,12 +204,9 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
     }
     s.push_str(&format!(
         "const LUX_CONNECT_PASS: u32 = {}u;\nconst LUX_OPENING_PASS: u32 = {}u;\n\
-         const LUX_R3: vec3<u32> = vec3<u32>({}u, {}u, {}u);\nconst LUX_PHI: u32 = {}u;\n",
+         const LUX_PHI: u32 = {}u;\n",
         crate::lightpaths::CONNECT_PASS,
         crate::opening::OPENING_PASS,
-        crate::opening::R3[0],
-        crate::opening::R3[1],
-        crate::opening::R3[2],
         crate::opening::PHI,
     ));
     s

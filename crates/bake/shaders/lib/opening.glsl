@@ -1,7 +1,7 @@
 // A lamp's luminous opening (luxbake::opening, operation for operation): its parts, its
 // samples, its projected area and the per-texel lattice (after rng.glsl, scene.glsl, ies.glsl
 // and lamp.glsl). The opening is lamp rows 6 (half.uvw, near) and 7 (kind, axis, faces, 0)
-// (luxLamp); no emitting faces: a point lamp.
+// (luxLamp); no emitting faces: a point lamp. Row 7's w is the opening's size.
 
 struct LuxOpening {
     int kind;
@@ -9,6 +9,7 @@ struct LuxOpening {
     int faces;
     vec3 halfAxes;
     float near;
+    float size;
 };
 
 LuxOpening luxOpening(int li) {
@@ -20,7 +21,14 @@ LuxOpening luxOpening(int li) {
     o.faces = int(b.z);
     o.halfAxes = a.xyz;
     o.near = a.w;
+    o.size = b.w;
     return o;
+}
+
+// opening::texel_samples: the samples of a texel d from the centre.
+uint luxTexelSamples(LuxOpening o, float d, uint samples) {
+    float f = clamp(2.0 * o.size / d, 1.0, 2.0);
+    return max(uint(float(samples) * f + 0.5), 1u);
 }
 
 // direct cpu::near_opening: the lamp has an opening and p lies within its near distance.
@@ -91,7 +99,7 @@ bool luxFalloff(float u, float s, float lo, float hi, out float t, out float den
 
 // opening::toward: a point (x, y) of a flat part and its density per area, for a receiver h
 // in front of its plane with its foot at foot.
-bool luxToward(vec3 u, float h, vec2 foot, vec2 ext, bool ellipse, out vec2 xy,
+bool luxToward(vec2 u, float h, vec2 foot, vec2 ext, bool ellipse, out vec2 xy,
                out float density) {
     xy = vec2(0.0);
     density = 0.0;
@@ -123,76 +131,104 @@ bool luxToward(vec3 u, float h, vec2 foot, vec2 ext, bool ellipse, out vec2 xy,
     return density > 0.0 && luxFinite(density);
 }
 
-// opening::sample toward a receiver (photometric frame): false when the opening has no
-// emitting area, or the part drawn faces away from the receiver.
-bool luxOpeningSample(LuxOpening o, vec3 u, vec3 receiver, out vec3 point, out vec3 normal,
-                      out float weight) {
+// opening::flat_part: a flat part's plane (the axis of its normal in (u, v, w), its side, its
+// in-plane half-extents, ellipse?); false for a curved part.
+bool luxFlatPart(LuxOpening o, int part, out int axis, out float side, out vec2 ext,
+                 out bool ellipse) {
+    float a = o.halfAxes.x;
+    float b = o.halfAxes.y;
+    float c = o.halfAxes.z;
+    axis = 2;
+    side = 1.0;
+    ext = vec2(0.0);
+    ellipse = false;
+    if (o.kind == 0) {
+        if (part < 2) {
+            axis = 2;
+            side = part == 0 ? -1.0 : 1.0;
+            ext = vec2(a, b);
+        } else if (part < 4) {
+            axis = 0;
+            side = part == 2 ? 1.0 : -1.0;
+            ext = vec2(b, c);
+        } else {
+            axis = 1;
+            side = part == 4 ? 1.0 : -1.0;
+            ext = vec2(a, c);
+        }
+        return true;
+    }
+    if (o.kind == 1 && part < 2) {
+        axis = 2;
+        side = part == 0 ? -1.0 : 1.0;
+        ext = vec2(a, b);
+        ellipse = true;
+        return true;
+    }
+    return false;
+}
+
+// opening::visible_areas: the parts' areas a receiver (photometric frame) can see.
+void luxVisibleAreas(LuxOpening o, vec3 receiver, out float areas[6]) {
+    luxOpeningParts(o, areas);
+    vec3 r = luxToSolid(o.axis, receiver);
+    for (int part = 0; part < 6; ++part) {
+        int axis;
+        float side;
+        vec2 ext;
+        bool ellipse;
+        if (luxFlatPart(o, part, axis, side, ext, ellipse)) {
+            float h = side * (r[axis] - side * o.halfAxes[axis]);
+            if (!(h > 0.0)) {
+                areas[part] = 0.0;
+            }
+        }
+    }
+}
+
+// opening::counts: n samples shared among the parts in proportion to their areas, at least
+// one per part of positive area.
+void luxCounts(float areas[6], uint n, out uint counts[6]) {
+    float total = 0.0;
+    for (int i = 0; i < 6; ++i) {
+        total += areas[i];
+        counts[i] = 0u;
+    }
+    if (!(total > 0.0)) {
+        return;
+    }
+    for (int i = 0; i < 6; ++i) {
+        if (areas[i] > 0.0) {
+            counts[i] = max(uint(float(n) * areas[i] / total + 0.5), 1u);
+        }
+    }
+}
+
+// opening::sample_part toward a receiver (photometric frame): false when it lies behind the
+// flat part, or for a degenerate point.
+bool luxOpeningSamplePart(LuxOpening o, int part, vec2 u, vec3 receiver, out vec3 point,
+                          out vec3 normal, out float weight) {
     const float PI = 3.14159265358979;
     const float TAU = 6.28318530717959;
     point = vec3(0.0);
     normal = vec3(0.0);
     weight = 0.0;
-    float areas[6];
-    luxOpeningParts(o, areas);
-    float total = 0.0;
-    for (int i = 0; i < 6; ++i) {
-        total += areas[i];
-    }
-    if (!(total > 0.0)) {
-        return false;
-    }
-    float target = u.z * total;
-    int part = 0;
-    float run = 0.0;
-    for (int i = 0; i < 6; ++i) {
-        if (areas[i] > 0.0) {
-            part = i;
-            run += areas[i];
-            if (target < run) {
-                break;
-            }
-        }
-    }
-    float chosen = areas[part] / total;
     float a = o.halfAxes.x;
     float b = o.halfAxes.y;
     float c = o.halfAxes.z;
-    vec3 r = luxToSolid(o.axis, receiver);
-    float s0 = 2.0 * u.x - 1.0;
-    float s1 = 2.0 * u.y - 1.0;
     vec3 p;
     vec3 n;
     float element;
-    // A flat part: its plane's axis, side and in-plane extents.
-    int planeAxis = -1;
-    float side = 1.0;
-    vec2 ext = vec2(0.0);
-    bool ellipse = false;
-    if (o.kind == 0) {
-        if (part < 2) {
-            planeAxis = 2;
-            side = part == 0 ? -1.0 : 1.0;
-            ext = vec2(a, b);
-        } else if (part < 4) {
-            planeAxis = 0;
-            side = part == 2 ? 1.0 : -1.0;
-            ext = vec2(b, c);
-        } else {
-            planeAxis = 1;
-            side = part == 4 ? 1.0 : -1.0;
-            ext = vec2(a, c);
-        }
-    } else if (o.kind == 1 && part < 2) {
-        planeAxis = 2;
-        side = part == 0 ? -1.0 : 1.0;
-        ext = vec2(a, b);
-        ellipse = true;
-    }
-    if (planeAxis >= 0) {
-        float plane = side * o.halfAxes[planeAxis];
-        float h = side * (r[planeAxis] - plane);
+    int planeAxis;
+    float side;
+    vec2 ext;
+    bool ellipse;
+    if (luxFlatPart(o, part, planeAxis, side, ext, ellipse)) {
+        vec3 r = luxToSolid(o.axis, receiver);
         int i = planeAxis == 0 ? 1 : 0;
         int j = planeAxis == 2 ? 1 : 2;
+        float plane = side * o.halfAxes[planeAxis];
+        float h = side * (r[planeAxis] - plane);
         vec2 xy;
         float density;
         if (!luxToward(u, h, vec2(r[i], r[j]), ext, ellipse, xy, density)) {
@@ -206,6 +242,7 @@ bool luxOpeningSample(LuxOpening o, vec3 u, vec3 receiver, out vec3 point, out v
         n[planeAxis] = side;
         element = 1.0 / density;
     } else if (o.kind == 1) {
+        float s0 = 2.0 * u.x - 1.0;
         float phi = TAU * u.y;
         float sn = sin(phi);
         float cs = cos(phi);
@@ -231,7 +268,7 @@ bool luxOpeningSample(LuxOpening o, vec3 u, vec3 receiver, out vec3 point, out v
         n = vec3(g.x / len, g.y / len, g.z / len);
         element = 4.0 * PI * len;
     }
-    weight = element / chosen;
+    weight = element;
     point = luxToPhotometric(o.axis, p);
     normal = luxToPhotometric(o.axis, n);
     return true;
@@ -272,13 +309,12 @@ float luxOpeningProjectedArea(LuxOpening o, vec3 w) {
 }
 
 // opening::shift and opening::lattice.
-uvec3 luxOpeningShift(uint texel, uint lamp, uint seed) {
+uvec2 luxOpeningShift(uint texel, uint lamp, uint seed) {
     uint h0 = luxHash(texel, lamp, LUX_OPENING_PASS, seed);
-    uint h1 = luxPcg(h0);
-    return uvec3(h0, h1, luxPcg(h1));
+    return uvec2(h0, luxPcg(h0));
 }
 
-vec3 luxOpeningLattice(uint k, uint n, uvec3 shift) {
+vec2 luxOpeningLattice(uint k, uint n, uvec2 shift) {
     float a = (float(k) + 0.5) / float(n) + luxUnit(shift.x);
-    return vec3(a - floor(a), luxUnit(k * LUX_PHI + shift.y), luxUnit(k * LUX_R3.x + shift.z));
+    return vec2(a - floor(a), luxUnit(k * LUX_PHI + shift.y));
 }

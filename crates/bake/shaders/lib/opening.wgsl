@@ -9,6 +9,7 @@ struct LuxOpening {
     faces: i32,
     half_axes: vec3<f32>,
     near: f32,
+    size: f32,
 }
 
 fn lux_opening(li: u32) -> LuxOpening {
@@ -19,7 +20,14 @@ fn lux_opening(li: u32) -> LuxOpening {
     o.faces = i32(lamp.shape.z);
     o.half_axes = lamp.opening.xyz;
     o.near = lamp.opening.w;
+    o.size = lamp.shape.w;
     return o;
+}
+
+// opening::texel_samples: the samples of a texel d from the centre.
+fn lux_texel_samples(o: LuxOpening, d: f32, samples: u32) -> u32 {
+    let f = clamp(2.0 * o.size / d, 1.0, 2.0);
+    return max(u32(f32(samples) * f + 0.5), 1u);
 }
 
 // direct cpu::near_opening: the lamp has an opening and p lies within its near distance.
@@ -105,7 +113,7 @@ fn lux_falloff(u: f32, s: f32, lo: f32, hi: f32) -> LuxFalloff {
 
 // opening::toward: a point (x, y) of a flat part and its density per area (in z), for a
 // receiver h in front of its plane with its foot at foot; density 0: none.
-fn lux_toward(u: vec3<f32>, h: f32, foot: vec2<f32>, ext: vec2<f32>, ellipse: bool) -> vec3<f32> {
+fn lux_toward(u: vec2<f32>, h: f32, foot: vec2<f32>, ext: vec2<f32>, ellipse: bool) -> vec3<f32> {
     if (!(h > 0.0 && ext.x > 0.0 && ext.y > 0.0)) {
         return vec3<f32>(0.0);
     }
@@ -135,8 +143,85 @@ fn lux_toward(u: vec3<f32>, h: f32, foot: vec2<f32>, ext: vec2<f32>, ellipse: bo
     return vec3<f32>(x, y, density);
 }
 
-// opening::sample toward a receiver (photometric frame): `valid` false when the opening has no
-// emitting area, or the part drawn faces away from the receiver.
+// opening::flat_part: a flat part's plane (the axis of its normal in (u, v, w), its side, its
+// in-plane half-extents, ellipse?); `flat` false for a curved part.
+struct LuxFlatPart {
+    flat: bool,
+    axis: i32,
+    side: f32,
+    ext: vec2<f32>,
+    ellipse: bool,
+}
+
+fn lux_flat_part(o: LuxOpening, part: i32) -> LuxFlatPart {
+    let a = o.half_axes.x;
+    let b = o.half_axes.y;
+    let c = o.half_axes.z;
+    var f: LuxFlatPart;
+    f.axis = 2;
+    f.side = 1.0;
+    if (o.kind == 0) {
+        f.flat = true;
+        if (part < 2) {
+            f.axis = 2;
+            f.side = select(1.0, -1.0, part == 0);
+            f.ext = vec2<f32>(a, b);
+        } else if (part < 4) {
+            f.axis = 0;
+            f.side = select(-1.0, 1.0, part == 2);
+            f.ext = vec2<f32>(b, c);
+        } else {
+            f.axis = 1;
+            f.side = select(-1.0, 1.0, part == 4);
+            f.ext = vec2<f32>(a, c);
+        }
+    } else if (o.kind == 1 && part < 2) {
+        f.flat = true;
+        f.axis = 2;
+        f.side = select(1.0, -1.0, part == 0);
+        f.ext = vec2<f32>(a, b);
+        f.ellipse = true;
+    }
+    return f;
+}
+
+// opening::visible_areas: the parts' areas a receiver (photometric frame) can see.
+fn lux_visible_areas(o: LuxOpening, receiver: vec3<f32>) -> array<f32, 6> {
+    var areas = lux_opening_parts(o);
+    let r = lux_to_solid(o.axis, receiver);
+    for (var part = 0; part < 6; part++) {
+        let f = lux_flat_part(o, part);
+        if (f.flat) {
+            let h = f.side * (r[f.axis] - f.side * o.half_axes[f.axis]);
+            if (!(h > 0.0)) {
+                areas[part] = 0.0;
+            }
+        }
+    }
+    return areas;
+}
+
+// opening::counts: n samples shared among the parts in proportion to their areas, at least
+// one per part of positive area.
+fn lux_counts(areas: array<f32, 6>, n: u32) -> array<u32, 6> {
+    var counts = array<u32, 6>(0u, 0u, 0u, 0u, 0u, 0u);
+    var total = 0.0;
+    for (var i = 0; i < 6; i++) {
+        total += areas[i];
+    }
+    if (!(total > 0.0)) {
+        return counts;
+    }
+    for (var i = 0; i < 6; i++) {
+        if (areas[i] > 0.0) {
+            counts[i] = max(u32(f32(n) * areas[i] / total + 0.5), 1u);
+        }
+    }
+    return counts;
+}
+
+// opening::sample_part toward a receiver (photometric frame): `valid` false when it lies
+// behind the flat part, or for a degenerate point.
 struct LuxOpeningSample {
     valid: bool,
     point: vec3<f32>,
@@ -144,79 +229,34 @@ struct LuxOpeningSample {
     weight: f32,
 }
 
-fn lux_opening_sample(o: LuxOpening, u: vec3<f32>, receiver: vec3<f32>) -> LuxOpeningSample {
+fn lux_opening_sample_part(o: LuxOpening, part: i32, u: vec2<f32>, receiver: vec3<f32>) -> LuxOpeningSample {
     var res: LuxOpeningSample;
-    let areas = lux_opening_parts(o);
-    var total = 0.0;
-    for (var i = 0; i < 6; i++) {
-        total += areas[i];
-    }
-    if (!(total > 0.0)) {
-        return res;
-    }
-    let target_area = u.z * total;
-    var part = 0;
-    var run = 0.0;
-    for (var i = 0; i < 6; i++) {
-        if (areas[i] > 0.0) {
-            part = i;
-            run += areas[i];
-            if (target_area < run) {
-                break;
-            }
-        }
-    }
-    let chosen = areas[part] / total;
     let a = o.half_axes.x;
     let b = o.half_axes.y;
     let c = o.half_axes.z;
-    let r = lux_to_solid(o.axis, receiver);
-    let s0 = 2.0 * u.x - 1.0;
     var p: vec3<f32>;
     var n: vec3<f32>;
     var element: f32;
-    // A flat part: its plane's axis, side and in-plane extents.
-    var plane_axis = -1;
-    var side = 1.0;
-    var ext = vec2<f32>(0.0);
-    var ellipse = false;
-    if (o.kind == 0) {
-        if (part < 2) {
-            plane_axis = 2;
-            side = select(1.0, -1.0, part == 0);
-            ext = vec2<f32>(a, b);
-        } else if (part < 4) {
-            plane_axis = 0;
-            side = select(-1.0, 1.0, part == 2);
-            ext = vec2<f32>(b, c);
-        } else {
-            plane_axis = 1;
-            side = select(-1.0, 1.0, part == 4);
-            ext = vec2<f32>(a, c);
-        }
-    } else if (o.kind == 1 && part < 2) {
-        plane_axis = 2;
-        side = select(1.0, -1.0, part == 0);
-        ext = vec2<f32>(a, b);
-        ellipse = true;
-    }
-    if (plane_axis >= 0) {
-        let plane = side * o.half_axes[plane_axis];
-        let h = side * (r[plane_axis] - plane);
-        let i = select(0, 1, plane_axis == 0);
-        let j = select(2, 1, plane_axis == 2);
-        let t = lux_toward(u, h, vec2<f32>(r[i], r[j]), ext, ellipse);
+    let f = lux_flat_part(o, part);
+    if (f.flat) {
+        let r = lux_to_solid(o.axis, receiver);
+        let i = select(0, 1, f.axis == 0);
+        let j = select(2, 1, f.axis == 2);
+        let plane = f.side * o.half_axes[f.axis];
+        let h = f.side * (r[f.axis] - plane);
+        let t = lux_toward(u, h, vec2<f32>(r[i], r[j]), f.ext, f.ellipse);
         if (!(t.z > 0.0)) {
             return res;
         }
         p = vec3<f32>(0.0);
-        p[plane_axis] = plane;
+        p[f.axis] = plane;
         p[i] = t.x;
         p[j] = t.y;
         n = vec3<f32>(0.0);
-        n[plane_axis] = side;
+        n[f.axis] = f.side;
         element = 1.0 / t.z;
     } else if (o.kind == 1) {
+        let s0 = 2.0 * u.x - 1.0;
         let phi = LUX_TAU * u.y;
         let sn = sin(phi);
         let cs = cos(phi);
@@ -243,7 +283,7 @@ fn lux_opening_sample(o: LuxOpening, u: vec3<f32>, receiver: vec3<f32>) -> LuxOp
         element = 4.0 * LUX_PI * len;
     }
     res.valid = true;
-    res.weight = element / chosen;
+    res.weight = element;
     res.point = lux_to_photometric(o.axis, p);
     res.normal = lux_to_photometric(o.axis, n);
     return res;
@@ -283,13 +323,12 @@ fn lux_opening_projected_area(o: LuxOpening, w: vec3<f32>) -> f32 {
 }
 
 // opening::shift and opening::lattice.
-fn lux_opening_shift(texel: u32, lamp: u32, seed: u32) -> vec3<u32> {
+fn lux_opening_shift(texel: u32, lamp: u32, seed: u32) -> vec2<u32> {
     let h0 = lux_hash(texel, lamp, LUX_OPENING_PASS, seed);
-    let h1 = lux_pcg(h0);
-    return vec3<u32>(h0, h1, lux_pcg(h1));
+    return vec2<u32>(h0, lux_pcg(h0));
 }
 
-fn lux_opening_lattice(k: u32, n: u32, shift: vec3<u32>) -> vec3<f32> {
+fn lux_opening_lattice(k: u32, n: u32, shift: vec2<u32>) -> vec2<f32> {
     let a = (f32(k) + 0.5) / f32(n) + lux_unit(shift.x);
-    return vec3<f32>(a - floor(a), lux_unit(k * LUX_PHI + shift.y), lux_unit(k * LUX_R3.x + shift.z));
+    return vec2<f32>(a - floor(a), lux_unit(k * LUX_PHI + shift.y));
 }

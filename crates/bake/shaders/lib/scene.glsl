@@ -6,7 +6,7 @@ uniform float u_ray_epsilon;
 // u_lamps holds one column per uploaded lamp, its eight rows packed by luxbake::pack: row 0
 // (position.xyz, table), rows 1-3 world-to-photometric matrix rows (xyz, 0), row 4
 // (scale.rgb, 0), row 5 (table offset, table width, table height, 0), rows 6-7 the luminous
-// opening (half.uvw, near), (kind, axis, faces, 0) (opening.glsl).
+// opening (half.uvw, near), (kind, axis, faces, size) (opening.glsl).
 uniform highp sampler2DArray u_lamps;
 
 vec4 luxLamp(int lamp, int row) {

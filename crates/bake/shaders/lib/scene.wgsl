@@ -33,7 +33,7 @@ struct LuxLamp {
     m2: vec4<f32>,
     scale: vec4<f32>,
     table: vec4<u32>,
-    // The luminous opening (opening.wgsl): (half.uvw, near), (kind, axis, faces, 0).
+    // The luminous opening (opening.wgsl): (half.uvw, near), (kind, axis, faces, size).
     opening: vec4<f32>,
     shape: vec4<f32>,
 }

@@ -105,9 +105,9 @@ pub(crate) fn near_opening(lamp: &LampParams, p: [f32; 3]) -> Option<OpeningPara
     (dot(to, to).sqrt() < o.near).then_some(o)
 }
 
-/// The illuminance at `p` (unit normal `n`) from `samples` lattice points of `lamp`'s opening
-/// `o`, before the lamp's scale ([`crate::opening`]'s estimator, each point with its shadow
-/// ray).
+/// The illuminance at `p` (unit normal `n`) from lattice points of `lamp`'s opening `o`
+/// ([`opening::texel_samples`] of `samples`), shared among the parts `p` can see, before the lamp's scale ([`crate::opening`]'s
+/// estimator, each point with its shadow ray).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn from_opening(
     scene: &CpuScene,
@@ -117,7 +117,7 @@ pub(crate) fn from_opening(
     p: [f32; 3],
     n: [f32; 3],
     samples: u32,
-    shift: [u32; 3],
+    shift: [u32; 2],
 ) -> f32 {
     let Some(table) = scene.tables.get(lamp.table as usize) else {
         return 0.0;
@@ -126,55 +126,66 @@ pub(crate) fn from_opening(
     let o0 = offset_origin(p, n, scene.ray_epsilon);
     let off = sub(o0, p);
     let off2 = dot(off, off);
-    let sf = samples as f32;
     // The receiver in the lamp's photometric frame: M·(p − centre).
     let rel = sub(p, lamp.position);
     let receiver = [dot(m[0], rel), dot(m[1], rel), dot(m[2], rel)];
+    let d = dot(rel, rel).sqrt();
+    let n_texel = opening::texel_samples(o, d, samples);
+    let counts = opening::counts(&opening::visible_areas(o, receiver), n_texel);
     let mut sum = 0.0f32;
-    for k in 0..samples {
-        let Some(s) = opening::sample(o, opening::lattice(k, samples, shift), Some(receiver)) else {
-            continue;
-        };
-        // World point: the photometric centre plus Mᵀ·point (M is a rotation).
-        let q = s.point;
-        let x = [0, 1, 2]
-            .map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
-        let to = sub(x, p);
-        let r2 = dot(to, to);
-        let r = r2.sqrt();
-        if !(r > 0.0 && r.is_finite()) {
-            continue;
+    for (part, &count) in counts.iter().enumerate() {
+        let nf = count as f32;
+        let mut part_sum = 0.0f32;
+        for k in 0..count {
+            let u = opening::lattice(k, count, shift);
+            let Some(s) = opening::sample_part(o, part, u, Some(receiver)) else {
+                continue;
+            };
+            // World point: the photometric centre plus Mᵀ·point (M is a rotation).
+            let q = s.point;
+            let x = [0, 1, 2]
+                .map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
+            let to = sub(x, p);
+            let r2 = dot(to, to);
+            let r = r2.sqrt();
+            if !(r > 0.0 && r.is_finite()) {
+                continue;
+            }
+            let w = div(to, r);
+            let cos_p = dot(n, w);
+            if !(cos_p > 0.0) {
+                continue;
+            }
+            let back = [-w[0], -w[1], -w[2]];
+            let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+            let cos_x = dot(s.normal, emit);
+            if !(cos_x > 0.0) {
+                continue;
+            }
+            let area = opening::projected_area(o, emit);
+            if !(area > 0.0) {
+                continue;
+            }
+            let intensity = table.sample(emit);
+            if !(intensity > 0.0) {
+                continue;
+            }
+            let origin = if 16.0 * off2 > r2 { mad(p, n, 0.25 * r) } else { o0 };
+            let dir = sub(x, origin);
+            let len = dot(dir, dir).sqrt();
+            let x_off = sub(offset_origin(x, back, scene.ray_epsilon), x);
+            let stop = dot(x_off, x_off).sqrt().min(0.25 * r);
+            let t_max = 1.0 - stop / len;
+            if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin, dir }, 0.0, t_max, trav)
+            {
+                continue;
+            }
+            let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * nf));
+            part_sum += intensity * cos_x * s.weight / area * cos_p / r2e;
         }
-        let w = div(to, r);
-        let cos_p = dot(n, w);
-        if !(cos_p > 0.0) {
-            continue;
+        if count > 0 {
+            sum += part_sum / nf;
         }
-        let back = [-w[0], -w[1], -w[2]];
-        let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
-        let cos_x = dot(s.normal, emit);
-        if !(cos_x > 0.0) {
-            continue;
-        }
-        let area = opening::projected_area(o, emit);
-        if !(area > 0.0) {
-            continue;
-        }
-        let intensity = table.sample(emit);
-        if !(intensity > 0.0) {
-            continue;
-        }
-        let origin = if 16.0 * off2 > r2 { mad(p, n, 0.25 * r) } else { o0 };
-        let dir = sub(x, origin);
-        let len = dot(dir, dir).sqrt();
-        let x_off = sub(offset_origin(x, back, scene.ray_epsilon), x);
-        let stop = dot(x_off, x_off).sqrt().min(0.25 * r);
-        let t_max = 1.0 - stop / len;
-        if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin, dir }, 0.0, t_max, trav) {
-            continue;
-        }
-        let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * sf));
-        sum += intensity * cos_x * s.weight / area * cos_p / r2e;
     }
-    sum / sf
+    sum
 }

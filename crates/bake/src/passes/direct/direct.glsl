@@ -4,9 +4,9 @@
 // Evaluates the first u_lamp_count uploaded lamps (luxLamp, scene.glsl); near a lamp's
 // luminous opening, u_samples points of it (luxOpening*, opening.glsl).
 
-// cpu::from_opening: the illuminance at p from u_samples lattice points of lamp li's opening,
-// before the lamp's scale.
-float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, uvec3 shift) {
+// cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
+// (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale.
+float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, uvec2 shift) {
     vec4 l0 = luxLamp(li, 0);
     vec3 lampPos = l0.xyz;
     vec3 m0 = luxLamp(li, 1).xyz;
@@ -16,61 +16,72 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, uvec3 shift) {
     vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
     vec3 off = o0 - p;
     float off2 = luxDot(off, off);
-    float sf = float(u_samples);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     vec3 rel = p - lampPos;
     vec3 receiver = vec3(luxDot(m0, rel), luxDot(m1, rel), luxDot(m2, rel));
+    float areas[6];
+    luxVisibleAreas(o, receiver, areas);
+    uint counts[6];
+    luxCounts(areas, luxTexelSamples(o, sqrt(luxDot(rel, rel)), u_samples), counts);
     float sum = 0.0;
-    for (uint k = 0u; k < u_samples; ++k) {
-        vec3 q;
-        vec3 qn;
-        float weight;
-        if (!luxOpeningSample(o, luxOpeningLattice(k, u_samples, shift), receiver, q, qn,
-                              weight)) {
-            continue;
+    for (int part = 0; part < 6; ++part) {
+        uint count = counts[part];
+        float nf = float(count);
+        float partSum = 0.0;
+        for (uint k = 0u; k < count; ++k) {
+            vec3 q;
+            vec3 qn;
+            float weight;
+            if (!luxOpeningSamplePart(o, part, luxOpeningLattice(k, count, shift), receiver, q,
+                                      qn, weight)) {
+                continue;
+            }
+            vec3 x = vec3(lampPos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
+                          lampPos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
+                          lampPos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
+            vec3 to = x - p;
+            float r2 = luxDot(to, to);
+            float r = sqrt(r2);
+            if (!(r > 0.0 && luxFinite(r))) {
+                continue;
+            }
+            vec3 w = vec3(to.x / r, to.y / r, to.z / r);
+            float cosP = luxDot(n, w);
+            if (!(cosP > 0.0)) {
+                continue;
+            }
+            vec3 back = -w;
+            vec3 emit = vec3(luxDot(m0, back), luxDot(m1, back), luxDot(m2, back));
+            float cosX = luxDot(qn, emit);
+            if (!(cosX > 0.0)) {
+                continue;
+            }
+            float area = luxOpeningProjectedArea(o, emit);
+            if (!(area > 0.0)) {
+                continue;
+            }
+            float intensity = luxIesSample(int(l0.w), size, emit);
+            if (!(intensity > 0.0)) {
+                continue;
+            }
+            vec3 origin = 16.0 * off2 > r2 ? p + n * (0.25 * r) : o0;
+            vec3 dir = x - origin;
+            float len = sqrt(luxDot(dir, dir));
+            vec3 xOff = luxOffsetOrigin(x, back, u_ray_epsilon) - x;
+            float stopShort = min(sqrt(luxDot(xOff, xOff)), 0.25 * r);
+            float tMax = 1.0 - stopShort / len;
+            vec3 hit;
+            if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
+                continue;
+            }
+            float r2e = max(max(r2, off2), weight / (LUX_PI * nf));
+            partSum += intensity * cosX * weight / area * cosP / r2e;
         }
-        vec3 x = vec3(lampPos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
-                      lampPos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
-                      lampPos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
-        vec3 to = x - p;
-        float r2 = luxDot(to, to);
-        float r = sqrt(r2);
-        if (!(r > 0.0 && luxFinite(r))) {
-            continue;
+        if (count > 0u) {
+            sum += partSum / nf;
         }
-        vec3 w = vec3(to.x / r, to.y / r, to.z / r);
-        float cosP = luxDot(n, w);
-        if (!(cosP > 0.0)) {
-            continue;
-        }
-        vec3 back = -w;
-        vec3 emit = vec3(luxDot(m0, back), luxDot(m1, back), luxDot(m2, back));
-        float cosX = luxDot(qn, emit);
-        if (!(cosX > 0.0)) {
-            continue;
-        }
-        float area = luxOpeningProjectedArea(o, emit);
-        if (!(area > 0.0)) {
-            continue;
-        }
-        float intensity = luxIesSample(int(l0.w), size, emit);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
-        vec3 origin = 16.0 * off2 > r2 ? p + n * (0.25 * r) : o0;
-        vec3 dir = x - origin;
-        float len = sqrt(luxDot(dir, dir));
-        vec3 xOff = luxOffsetOrigin(x, back, u_ray_epsilon) - x;
-        float stopShort = min(sqrt(luxDot(xOff, xOff)), 0.25 * r);
-        float tMax = 1.0 - stopShort / len;
-        vec3 hit;
-        if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
-            continue;
-        }
-        float r2e = max(max(r2, off2), weight / (LUX_PI * sf));
-        sum += intensity * cosX * weight / area * cosP / r2e;
     }
-    return sum / sf;
+    return sum;
 }
 
 vec4 luxRun(ivec3 c) {
@@ -91,7 +102,7 @@ vec4 luxRun(ivec3 c) {
         vec3 lampPos = luxLamp(li, 0).xyz;
         LuxOpening opening = luxOpening(li);
         if (luxOpeningNear(opening, lampPos, p)) {
-            uvec3 shift = luxOpeningShift(texel, uint(li), u_seed);
+            uvec2 shift = luxOpeningShift(texel, uint(li), u_seed);
             float k = luxFromOpening(li, opening, p, n, shift);
             e += k * luxLamp(li, 4).rgb;
             continue;

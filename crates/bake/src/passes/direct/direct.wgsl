@@ -2,9 +2,10 @@
 // through the BVH (cpu::direct_texel, operation for operation); near a lamp's luminous
 // opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl).
 
-// cpu::from_opening: the illuminance at p from lux_pass.samples lattice points of lamp li's
-// opening, before the lamp's scale.
-fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: vec3<u32>) -> f32 {
+// cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
+// (lux_texel_samples of lux_pass.samples), shared among the parts p can see, before the
+// lamp's scale.
+fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: vec2<u32>) -> f32 {
     let lamp = lux_lamps[li];
     let lamp_pos = lamp.position.xyz;
     let m0 = lamp.m0.xyz;
@@ -13,63 +14,71 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: v
     let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let off = o0 - p;
     let off2 = lux_dot(off, off);
-    let samples = lux_pass.samples;
-    let sf = f32(samples);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     let rel = p - lamp_pos;
     let receiver = vec3<f32>(lux_dot(m0, rel), lux_dot(m1, rel), lux_dot(m2, rel));
+    let n_texel = lux_texel_samples(o, sqrt(lux_dot(rel, rel)), lux_pass.samples);
+    let counts = lux_counts(lux_visible_areas(o, receiver), n_texel);
     var sum = 0.0;
-    for (var k = 0u; k < samples; k++) {
-        let s = lux_opening_sample(o, lux_opening_lattice(k, samples, shift), receiver);
-        if (!s.valid) {
-            continue;
+    for (var part = 0; part < 6; part++) {
+        let count = counts[part];
+        let nf = f32(count);
+        var part_sum = 0.0;
+        for (var k = 0u; k < count; k++) {
+            let s = lux_opening_sample_part(o, part, lux_opening_lattice(k, count, shift), receiver);
+            if (!s.valid) {
+                continue;
+            }
+            let q = s.point;
+            let x = vec3<f32>(lamp_pos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
+                              lamp_pos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
+                              lamp_pos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
+            let to = x - p;
+            let r2 = lux_dot(to, to);
+            let r = sqrt(r2);
+            if (!(r > 0.0 && lux_finite(r))) {
+                continue;
+            }
+            let w = vec3<f32>(to.x / r, to.y / r, to.z / r);
+            let cos_p = lux_dot(n, w);
+            if (!(cos_p > 0.0)) {
+                continue;
+            }
+            let back = -w;
+            let emit = vec3<f32>(lux_dot(m0, back), lux_dot(m1, back), lux_dot(m2, back));
+            let cos_x = lux_dot(s.normal, emit);
+            if (!(cos_x > 0.0)) {
+                continue;
+            }
+            let area = lux_opening_projected_area(o, emit);
+            if (!(area > 0.0)) {
+                continue;
+            }
+            let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), emit);
+            if (!(intensity > 0.0)) {
+                continue;
+            }
+            var origin = o0;
+            if (16.0 * off2 > r2) {
+                origin = p + n * (0.25 * r);
+            }
+            let dir = x - origin;
+            let len = sqrt(lux_dot(dir, dir));
+            let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
+            let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
+            let t_max = 1.0 - stop_short / len;
+            var hit: vec3<f32>;
+            if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
+                continue;
+            }
+            let r2e = max(max(r2, off2), s.weight / (LUX_PI * nf));
+            part_sum += intensity * cos_x * s.weight / area * cos_p / r2e;
         }
-        let q = s.point;
-        let x = vec3<f32>(lamp_pos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
-                          lamp_pos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
-                          lamp_pos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
-        let to = x - p;
-        let r2 = lux_dot(to, to);
-        let r = sqrt(r2);
-        if (!(r > 0.0 && lux_finite(r))) {
-            continue;
+        if (count > 0u) {
+            sum += part_sum / nf;
         }
-        let w = vec3<f32>(to.x / r, to.y / r, to.z / r);
-        let cos_p = lux_dot(n, w);
-        if (!(cos_p > 0.0)) {
-            continue;
-        }
-        let back = -w;
-        let emit = vec3<f32>(lux_dot(m0, back), lux_dot(m1, back), lux_dot(m2, back));
-        let cos_x = lux_dot(s.normal, emit);
-        if (!(cos_x > 0.0)) {
-            continue;
-        }
-        let area = lux_opening_projected_area(o, emit);
-        if (!(area > 0.0)) {
-            continue;
-        }
-        let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), emit);
-        if (!(intensity > 0.0)) {
-            continue;
-        }
-        var origin = o0;
-        if (16.0 * off2 > r2) {
-            origin = p + n * (0.25 * r);
-        }
-        let dir = x - origin;
-        let len = sqrt(lux_dot(dir, dir));
-        let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
-        let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
-        let t_max = 1.0 - stop_short / len;
-        var hit: vec3<f32>;
-        if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
-            continue;
-        }
-        let r2e = max(max(r2, off2), s.weight / (LUX_PI * sf));
-        sum += intensity * cos_x * s.weight / area * cos_p / r2e;
     }
-    return sum / sf;
+    return sum;
 }
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {

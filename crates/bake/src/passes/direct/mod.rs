@@ -18,7 +18,8 @@ param_block! {
         lamp_count: u32,
         /// Seed of the RNG hash (the openings' lattice shift).
         seed: u32,
-        /// Points of a lamp's opening per texel near it ([`crate::opening`]).
+        /// Points of a lamp's opening per texel near it, from twice the opening's size on (up
+        /// to twice as many nearer, [`crate::opening::texel_samples`]).
         samples: u32,
         /// Lamps with an opening among the first `lamp_count` (for the tile plan).
         openings: u32,
@@ -50,7 +51,8 @@ pub const SIGNATURE: Signature = Signature {
 };
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): one shadow ray
-/// per lamp, and at most `samples` per lamp with an opening.
+/// per lamp, and at most twice `samples` per lamp with an opening
+/// ([`crate::opening::texel_samples`]).
 pub fn work(p: &DirectParams) -> u64 {
-    u64::from(p.lamp_count) + u64::from(p.openings) * u64::from(p.samples)
+    u64::from(p.lamp_count) + 2 * u64::from(p.openings) * u64::from(p.samples)
 }
