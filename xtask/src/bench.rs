@@ -25,6 +25,9 @@
 //!   against a 4096-ray reference: relative standard deviation and bias of `E / E_ref`.
 //! - `bench swap` ([`swap`]): the lamp swap on a prepared room (first bake, swap to the
 //!   direct light and to the converged maps, dimming) per backend, as ratios of the first bake.
+//! - `bench nearfield` ([`nearfield`]): the direct light of lamps with a size (their luminous
+//!   openings) against Radiance's opening model in four rooms, per backend, beside the point
+//!   model: mean |relative error|, bias, p95 and max per surface kind, and the cost.
 //! - `bench rays` ([`rays`]): single-thread rays/s of luxbake's CPU traversals against Embree 3
 //!   on the same triangles and rays (built-in scenes and the shared glTF room).
 //!
@@ -47,6 +50,7 @@ use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
 mod grain;
+mod nearfield;
 mod rays;
 mod refcheck;
 mod sampling;
@@ -109,6 +113,9 @@ enum What {
     /// The lamp swap: first bake, swap (direct light, converged maps) and dimming on one
     /// prepared room, per backend, as ratios of the first bake.
     Swap(swap::Args),
+    /// Direct light of lamps with a size against Radiance's luminous-opening references in
+    /// four rooms, per backend, beside the point model.
+    Nearfield(nearfield::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -128,6 +135,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         Some(What::Grain(g)) => grain::run(g, args.quick, &out),
         Some(What::Rays(r)) => rays::run(r, args.quick, args.runs, &out),
         Some(What::Swap(w)) => swap::run(w, args.quick, args.runs, &out),
+        Some(What::Nearfield(n)) => nearfield::run(n, args.quick, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)

@@ -1,0 +1,220 @@
+//! `cargo xtask bench nearfield [--quick] [--rooms A,B] [--backends cpu,glow,wgpu]`: the direct
+//! light of lamps with a size against Radiance's luminous-opening model (issue 27).
+//!
+//! The rooms are `bench/scenes/nearfield_*.toml` (linear, 2 m linear, round and box-shaped
+//! openings closer to surfaces than five times their size); the references
+//! `bench/references/nearfield_<room>.csv` are Radiance's direct illuminance with each file's
+//! opening as emitting geometry (`make_references.py nearfield`, validated there against
+//! closed forms), at points off hard shadow edges and penumbrae. Each room is baked in memory
+//! with its lamps' default model (`auto`) and direct light only (`bounces = 0`) on each backend,
+//! then once with every lamp a point (CPU) for the before/after, and every point is compared
+//! by relative error: mean |rel|, bias, p95 and max per surface kind. The pass time of the area
+//! model is reported as a ratio of the point model's on the same backend in the same run.
+//! `--quick` (CI) bakes at 16 texels/m on the CPU only and checks nothing; the figures are in
+//! the full run's files.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use luxbake::scene::{LampModel, Scene, SettingsPatch};
+use luxbake::sources::scenefile::from_file_patched;
+use luxbake_backends::BackendKind;
+
+use super::refcheck::{self, RefPoint, Stats};
+use super::{machine, open, result_path, timed_bake, utc_now, write};
+
+/// Arguments of `cargo xtask bench nearfield`.
+#[derive(clap::Args)]
+pub struct Args {
+    /// Rooms (`bench/scenes/nearfield_<room>.toml`), comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "dining,office,round,box")]
+    rooms: Vec<String>,
+    /// Backends, comma-separated (an unavailable one is reported, not fatal).
+    #[arg(long, value_delimiter = ',', default_value = "cpu,glow,wgpu")]
+    backends: Vec<BackendKind>,
+}
+
+/// `bench/scenes/` of this checkout.
+fn scenes_dir() -> PathBuf {
+    refcheck::references_dir()
+        .parent()
+        .map_or_else(|| PathBuf::from("bench/scenes"), |b| b.join("scenes"))
+}
+
+/// One room baked on one backend with one model.
+struct Row {
+    room: String,
+    backend: &'static str,
+    model: &'static str,
+    /// Per surface kind (and "all"): the statistics and the largest |relative error|.
+    stats: Vec<(String, Stats, f64)>,
+    pass_s: f64,
+    shadow_rays: u64,
+}
+
+/// Statistics of `values` against `refs` per surface kind, "all" first.
+fn by_surface(refs: &[RefPoint], values: &[f64]) -> Vec<(String, Stats, f64)> {
+    let mut kinds: Vec<String> = refs.iter().map(|r| r.surface.clone()).collect();
+    kinds.sort();
+    kinds.dedup();
+    let mut out = Vec::new();
+    for kind in std::iter::once("all".to_string()).chain(kinds) {
+        let (v, r): (Vec<f64>, Vec<f64>) = refs
+            .iter()
+            .zip(values)
+            .filter(|(p, _)| kind == "all" || p.surface == kind)
+            .map(|(p, v)| (*v, p.lux))
+            .unzip();
+        let max = v
+            .iter()
+            .zip(&r)
+            .filter(|(_, r)| **r > 0.0)
+            .map(|(v, r)| ((v - r) / r).abs())
+            .fold(0.0f64, f64::max);
+        out.push((kind, Stats::of(&v, &r), max));
+    }
+    out
+}
+
+/// Bakes `room` (direct light only, lamps as `model`, or as the file says) on `backend`.
+fn bake_room(
+    room: &str,
+    backend: BackendKind,
+    model: Option<LampModel>,
+    quick: bool,
+) -> Result<Option<Row>, String> {
+    let path = scenes_dir().join(format!("nearfield_{room}.toml"));
+    let patch = SettingsPatch {
+        bounces: Some(0),
+        texels_per_metre: quick.then_some(16.0),
+        ..SettingsPatch::default()
+    };
+    let loader = luxbake_assets::SceneLoader::default();
+    let mut scene: Scene = from_file_patched(&path, Some(&loader), &patch)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    if let Some(m) = model {
+        for l in &mut scene.lamps {
+            l.model = m;
+        }
+    }
+    let ref_path = refcheck::reference_path(&format!("nearfield_{room}"));
+    let refs = refcheck::load(&ref_path)?;
+    let (mut b, _) = match open(backend) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!("nearfield: {} unavailable: {e}", backend.name());
+            return Ok(None);
+        }
+    };
+    let settings = scene.settings.clone();
+    let run = timed_bake(&mut b, &scene, &settings)?;
+    let located = refcheck::locate(&scene, &refs, &refcheck::shown(&ref_path))?;
+    let measured = refcheck::sample(&run.out, &located)?;
+    let values: Vec<f64> = measured.iter().map(|m| m[0]).collect();
+    let used = run.out.report.lamp_models.iter().any(|m| m.area);
+    Ok(Some(Row {
+        room: room.to_string(),
+        backend: backend.name(),
+        model: if used { "area" } else { "point" },
+        stats: by_surface(&refs, &values),
+        pass_s: run.wall(),
+        shadow_rays: run.out.report.shadow_rays,
+    }))
+}
+
+/// Runs the comparison and writes `nearfield-<date>-<machine>.{md,json}`.
+pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
+    let backends: Vec<BackendKind> = if quick {
+        vec![BackendKind::Cpu]
+    } else {
+        args.backends.clone()
+    };
+    let mut rows = Vec::new();
+    for room in &args.rooms {
+        for &backend in &backends {
+            eprintln!("nearfield: {room} on {}", backend.name());
+            let Some(area) = bake_room(room, backend, None, quick)? else {
+                continue;
+            };
+            let point = bake_room(room, backend, Some(LampModel::Point), quick)?;
+            rows.push(area);
+            rows.extend(point);
+        }
+    }
+    let (date, time) = utc_now();
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Near field — direct light against Radiance's luminous openings, {date} {time} UTC\n"
+    );
+    let _ = writeln!(
+        md,
+        "- machine: {}\n- rooms: `bench/scenes/nearfield_*.toml`, references \
+         `bench/references/nearfield_*.csv` (Radiance, openings as emitting geometry, direct \
+         light, points off shadow edges and penumbrae)\n- bakes: each room's lamps as the \
+         file says (`auto`: the opening where a receiver is near, see the manifest's \
+         `model_reason`) and every lamp a point, `bounces = 0`, {} texels/m, default preset \
+         ({} opening samples)\n- relative error = (bake − reference) / reference, in %; \
+         time = the passes' wall time, area over point on the same backend\n",
+        machine(),
+        if quick { 16 } else { 64 },
+        luxbake::scene::Settings::default().opening_samples,
+    );
+    let _ = writeln!(
+        md,
+        "| room | backend | model | surface | points | mean \\|rel\\| | bias | p95 | max | passes s |\n\
+         |---|---|---|---|--:|--:|--:|--:|--:|--:|"
+    );
+    for r in &rows {
+        for (kind, s, max) in &r.stats {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {kind} | {} | {:.2} | {:+.2} | {:.2} | {:.2} | {:.2} |",
+                r.room,
+                r.backend,
+                r.model,
+                s.n,
+                100.0 * s.mean_abs_rel,
+                100.0 * s.bias,
+                100.0 * s.p95_abs_rel,
+                100.0 * max,
+                r.pass_s
+            );
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\n| room | backend | passes area / point | shadow rays area / point |\n|---|---|--:|--:|"
+    );
+    for pair in rows.chunks(2) {
+        if let [a, p] = pair {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {:.2} | {:.1} |",
+                a.room,
+                a.backend,
+                a.pass_s / p.pass_s.max(1e-9),
+                a.shadow_rays as f64 / (p.shadow_rays as f64).max(1.0)
+            );
+        }
+    }
+    let json = serde_json::json!({
+        "date": date, "time_utc": time, "machine": machine(), "quick": quick,
+        "rows": rows.iter().map(|r| serde_json::json!({
+            "room": r.room, "backend": r.backend, "model": r.model, "pass_s": r.pass_s,
+            "shadow_rays": r.shadow_rays,
+            "surfaces": r.stats.iter().map(|(k, s, max)| {
+                let mut j = s.json();
+                j["surface"] = serde_json::json!(k);
+                j["max_abs_rel"] = serde_json::json!(max);
+                j
+            }).collect::<Vec<_>>(),
+        })).collect::<Vec<_>>(),
+    });
+    print!("{md}");
+    write(&result_path(out, "nearfield", "md"), &md)?;
+    write(
+        &result_path(out, "nearfield", "json"),
+        &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
+    )
+}
