@@ -432,6 +432,26 @@ mod tests {
     }
 
     #[test]
+    fn lamp_model_is_per_lamp_with_a_default_for_all() {
+        use luxbake::scene::LampModel;
+        let o = options(
+            r#"{"lampModel":"point","openingSamples":64,"lamps":[{"position":[0,2,0]},{"position":[1,2,0],"lampModel":"area"}]}"#,
+        );
+        assert_eq!(o.settings().unwrap().opening_samples, 64);
+        let lamps = build_lamps(&o, &[IES, IES]).unwrap();
+        assert_eq!(
+            (lamps[0].model, lamps[1].model),
+            (LampModel::Point, LampModel::Area)
+        );
+        let o = options(r#"{"lamps":[{"position":[0,2,0]}]}"#);
+        assert_eq!(build_lamps(&o, &[IES]).unwrap()[0].model, LampModel::Auto);
+        let o = options(r#"{"lamps":[{"position":[0,2,0],"lampModel":"disk"}]}"#);
+        let e = build_lamps(&o, &[IES]).unwrap_err();
+        assert!(e.to_string().contains("`lampModel`"), "{e}");
+        assert_eq!(e.kind(), "lamp");
+    }
+
+    #[test]
     fn lamps_out_of_range_and_bad_gltf_are_named() {
         let o = options(r#"{"lamps":[{"position":[0,2,0],"aim":[0,0,0]}]}"#);
         let e = build_scene(b"{}", &o, &[IES]).unwrap_err();

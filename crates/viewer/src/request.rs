@@ -396,6 +396,17 @@ mod tests {
         assert_eq!(lamp.position, [1.0, 2.0, -0.5]);
         assert_eq!(lamp.multiplier, 0.25);
         assert!((lamp.aim[2] - 1.0).abs() < 1e-6 && lamp.aim[1].abs() < 1e-6);
+        assert_eq!(lamp.model, luxbake::scene::LampModel::Auto);
+        // `lamp_model`, also spelt `lampModel`.
+        for json in [r#"{"lamp_model":"area"}"#, r#"{"lampModel":"area"}"#] {
+            let spec: LampSpec = serde_json::from_str(json).unwrap();
+            let r = BakeRequest {
+                lamp: spec,
+                ..BakeRequest::default()
+            };
+            let scene = build_scene(&r, None).unwrap();
+            assert_eq!(scene.lamps[0].model, luxbake::scene::LampModel::Area);
+        }
     }
 
     #[test]
@@ -418,6 +429,10 @@ mod tests {
                 Box::new(|r| r.lamp.position = Some([0.0, f32::NAN, 0.0])),
             ),
             ("tilt_deg", Box::new(|r| r.lamp.tilt_deg = f32::INFINITY)),
+            (
+                "lamp_model",
+                Box::new(|r| r.lamp.lamp_model = "disk".into()),
+            ),
         ];
         for (name, edit) in cases {
             let mut r = BakeRequest::default();
