@@ -12,9 +12,9 @@
 //! # The estimator
 //! The illuminance of a receiver at `p` (unit normal `n`) is
 //! `E(p) = ∫ L(ω_x)·cos θ_x·cos θ_p / r² · V(x, p) dA_x` over the emitting surface, `ω_x` the
-//! direction from `x` toward `p`. [`sample`] maps three uniforms to a point `x`, its outward
-//! normal `n_x` and a weight `W` (area element over probability), so that
-//! `E[g(x)·W] = ∫ g dA`; with `S` samples
+//! direction from `x` toward `p`. [`sample_part`] maps two uniforms to a point `x` of one part,
+//! its outward normal `n_x` and a weight `W` (area element over probability density), so that
+//! `E[g(x)·W] = ∫ g dA` over the part; with `S` samples ([`texel_samples`])
 //!
 //! ```text
 //! E(p) ≈ Σ_parts 1/S_j · Σ_k I(ω_k)·max(0, n_k·ω_k)·W_k / A_proj(ω_k) · cos θ_p / max(r², off², W_k/(π S_j))
@@ -37,8 +37,8 @@
 //!
 //! # Where it is used
 //! [`OpeningParams::near`]: texels nearer the lamp's photometric centre than that evaluate the
-//! opening, farther ones the point as before (its error there is below the tolerance the
-//! lamp model was chosen with, see [`crate::prepare`]). A lamp without opening parameters is a
+//! opening, farther ones the point as before ([`crate::scene::LampModel`] says how `auto`
+//! chooses the lamps and the distance). A lamp without opening parameters is a
 //! point everywhere and costs exactly what it cost before.
 //!
 //! The shaders' `luxOpening*` (`shaders/lib/opening.glsl`) and `lux_opening_*`
