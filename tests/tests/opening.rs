@@ -171,71 +171,49 @@ fn errors(t: &[(f64, f64, f64)], exact: impl Fn(f64, f64) -> f64, floor: f64) ->
 fn disk_and_rectangle_openings_match_the_closed_forms_on_every_backend() {
     let d = 0.4f64;
     let (a, b) = (0.6f64, 0.15f64);
+    let l_disk = I0 / (std::f64::consts::PI * d * d / 4.0);
+    let l_rect = I0 / (a * b);
+    /// The exact illuminance at floor point (x, z) with the opening h above the origin.
+    type Exact<'a> = &'a dyn Fn(f64, f64, f64) -> f64;
+    let disk_exact = |h: f64, x: f64, z: f64| disk(l_disk, d / 2.0, h, (x * x + z * z).sqrt());
+    // A rectangle a (length, along C0 = +x) × b (width, along C90 = −z).
+    let rect_exact = |h: f64, x: f64, z: f64| {
+        let v = [
+            [-a / 2.0 - x, h, -b / 2.0 - z],
+            [a / 2.0 - x, h, -b / 2.0 - z],
+            [a / 2.0 - x, h, b / 2.0 - z],
+            [-a / 2.0 - x, h, b / 2.0 - z],
+        ];
+        polygon(l_rect, &v, [0.0, 1.0, 0.0])
+    };
+    let openings: [(&str, Arc<Photometry>, f64, Exact<'_>); 2] = [
+        ("disk", lambertian(-d, -d), d, &disk_exact),
+        ("rectangle", lambertian(b, a), a, &rect_exact),
+    ];
     let mut tally = Tally::new("opening_closed_forms");
-    for backend in ALL {
+    'backends: for backend in ALL {
         for ratio in [0.25, 0.5, 1.0, 2.0, 5.0] {
-            // A disk of diameter d.
-            let h = ratio * d;
-            let mut lamp = Lamp::new("disk", lambertian(-d, -d), [0.0, h, 0.0]);
-            lamp.model = LampModel::Area;
-            let scene = floor_scene(lamp, 3.0, 24.0, SAMPLES);
-            let Some(out) = run(&mut tally, backend, &scene) else {
-                break;
-            };
-            let l = I0 / (std::f64::consts::PI * d * d / 4.0);
-            let t = texels(&scene, &out);
-            let exact = |x: f64, z: f64| disk(l, d / 2.0, h, (x * x + z * z).sqrt());
-            let (max, mean, n) = errors(&t, exact, 0.01);
-            if std::env::var("DEBUG_OPENING").is_ok() {
-                for &(x, z, e) in t.iter().filter(|p| p.0.hypot(p.1) < 0.5).step_by(7) {
-                    let w = exact(x, z);
-                    println!(
-                        "  r {:.3} got {e:.2} want {w:.2} rel {:.3}",
-                        x.hypot(z),
-                        (e - w) / w
-                    );
-                }
+            for (name, photometry, size, exact) in &openings {
+                let h = ratio * size;
+                let mut lamp = Lamp::new(*name, photometry.clone(), [0.0, h, 0.0]);
+                lamp.model = LampModel::Area;
+                let scene = floor_scene(lamp, 3.0, 24.0, SAMPLES);
+                let Some(out) = run(&mut tally, backend, &scene) else {
+                    continue 'backends;
+                };
+                let t = texels(&scene, &out);
+                let (max, mean, n) = errors(&t, |x, z| exact(h, x, z), 0.01);
+                println!(
+                    "{backend} {name} h/D = {ratio}: {n} texels, max |rel| {:.3} %, mean {:.3} %",
+                    100.0 * max,
+                    100.0 * mean
+                );
+                assert!(
+                    n > 100 && max < 0.005,
+                    "{backend} {name} h/D {ratio}: max {max}"
+                );
+                tally.compared(1);
             }
-            println!(
-                "{backend} disk h/D = {ratio}: {n} texels, max |rel| {:.3} %, mean {:.3} %",
-                100.0 * max,
-                100.0 * mean
-            );
-            assert!(
-                n > 100 && max < 0.005,
-                "{backend} disk h/D {ratio}: max {max}"
-            );
-            tally.compared(1);
-            // A rectangle a (length, along C0 = +x) × b (width, along C90 = −z).
-            let h = ratio * a;
-            let mut lamp = Lamp::new("rect", lambertian(b, a), [0.0, h, 0.0]);
-            lamp.model = LampModel::Area;
-            let scene = floor_scene(lamp, 3.0, 24.0, SAMPLES);
-            let Some(out) = run(&mut tally, backend, &scene) else {
-                break;
-            };
-            let l = I0 / (a * b);
-            let t = texels(&scene, &out);
-            let exact = |x: f64, z: f64| {
-                let v = [
-                    [-a / 2.0 - x, h, -b / 2.0 - z],
-                    [a / 2.0 - x, h, -b / 2.0 - z],
-                    [a / 2.0 - x, h, b / 2.0 - z],
-                    [-a / 2.0 - x, h, b / 2.0 - z],
-                ];
-                polygon(l, &v, [0.0, 1.0, 0.0])
-            };
-            let (max, mean, n) = errors(&t, exact, 0.01);
-            println!(
-                "{backend} rectangle h/D = {ratio}: {n} texels, max |rel| {:.3} %, mean {:.3} %",
-                100.0 * max,
-                100.0 * mean
-            );
-            assert!(
-                n > 100 && max < 0.005,
-                "{backend} rectangle h/D {ratio}: max {max}"
-            );
-            tally.compared(1);
         }
     }
     tally.finish();

@@ -298,6 +298,23 @@ pub struct Geometry<'a> {
     pub eps: f32,
 }
 
+impl Geometry<'_> {
+    /// Whether nothing lies between `origin` (already offset off its surface) and `target`
+    /// (stopping 10⁻⁴ of the way short of it); `false` when they coincide.
+    fn sees(&self, origin: [f32; 3], target: [f32; 3]) -> bool {
+        let sd = sub(target, origin);
+        let len = dot(sd, sd).sqrt();
+        if !(len > 0.0) {
+            return false;
+        }
+        let ray = Ray {
+            origin,
+            dir: div(sd, len),
+        };
+        !self.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4))
+    }
+}
+
 impl LampPaths {
     /// Casts `pool` rays ([`pool_size`]) from `lamps` (the direct pass's lamps and tables) and
     /// keeps the receivers' front faces they hit with light to pass on.
@@ -388,19 +405,8 @@ impl LampPaths {
                     }
                     // The pool ray left lamp `li`'s centre, which therefore sees `y` — unless it
                     // left a point of the lamp's opening.
-                    if lj != li || l.opening.is_some() {
-                        let sd = sub(l.position, o);
-                        let len = dot(sd, sd).sqrt();
-                        if !(len > 0.0) {
-                            continue;
-                        }
-                        let ray = Ray {
-                            origin: o,
-                            dir: div(sd, len),
-                        };
-                        if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
-                            continue;
-                        }
+                    if (lj != li || l.opening.is_some()) && !g.sees(o, l.position) {
+                        continue;
                     }
                     let back = wl.map(|c| (-c) as f32);
                     let m = &l.world_to_photometric;
@@ -533,16 +539,7 @@ fn from_opening(
             if !(cos_y > 0.0) {
                 continue;
             }
-            let sd = sub(x, origin);
-            let len = dot(sd, sd).sqrt();
-            if !(len > 0.0) {
-                continue;
-            }
-            let ray = Ray {
-                origin,
-                dir: div(sd, len),
-            };
-            if g.wide.any_hit(&ray, 0.0, len * (1.0 - 1e-4)) {
+            if !g.sees(origin, x) {
                 continue;
             }
             let back = w.map(|c| (-c) as f32);

@@ -49,11 +49,12 @@ pub(crate) fn direct_texel(
     let Some(n) = normalize(xyz(nrm)) else {
         return [0.0, 0.0, 0.0, 1.0];
     };
+    let start = Start::new(p, n, scene.ray_epsilon);
     let mut e = [0.0f32; 3];
     for (li, lamp) in scene.lamps.iter().take(params.lamp_count as usize).enumerate() {
         if let Some(o) = near_opening(lamp, p) {
             let shift = opening::shift(texel, li as u32, params.seed);
-            let k = from_opening(scene, trav, lamp, &o, p, n, params.samples, shift);
+            let k = from_opening(scene, trav, lamp, &o, &start, params.samples, shift);
             for (ec, sc) in e.iter_mut().zip(lamp.scale) {
                 *ec += k * sc;
             }
@@ -69,32 +70,64 @@ pub(crate) fn direct_texel(
         else {
             continue;
         };
-        let o0 = offset_origin(p, n, scene.ray_epsilon);
-        let off = sub(o0, p);
-        let off2 = dot(off, off);
-        let o = if 16.0 * off2 > d2 {
-            mad(p, n, 0.25 * d)
-        } else {
-            o0
-        };
-        let dir = sub(lamp.position, o);
-        let len = dot(dir, dir).sqrt();
         let back = [-w[0], -w[1], -w[2]];
-        let lamp_off = sub(
-            offset_origin(lamp.position, back, scene.ray_epsilon),
-            lamp.position,
-        );
-        let stop = dot(lamp_off, lamp_off).sqrt().min(0.25 * d);
-        let t_max = 1.0 - stop / len;
-        if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin: o, dir }, 0.0, t_max, trav) {
+        if !start.sees(scene, trav, lamp.position, back, d, d2) {
             continue;
         }
-        let k = intensity * cos / d2.max(off2);
+        let k = intensity * cos / d2.max(start.off2);
         for (ec, sc) in e.iter_mut().zip(lamp.scale) {
             *ec += k * sc;
         }
     }
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
+}
+
+/// Where a texel's shadow rays start: its point `p`, unit normal `n`, the offset origin `o0`
+/// ([`offset_origin`]) and the offset squared.
+pub(crate) struct Start {
+    p: [f32; 3],
+    n: [f32; 3],
+    o0: [f32; 3],
+    off2: f32,
+}
+
+impl Start {
+    fn new(p: [f32; 3], n: [f32; 3], eps: f32) -> Start {
+        let o0 = offset_origin(p, n, eps);
+        let off = sub(o0, p);
+        Start {
+            p,
+            n,
+            o0,
+            off2: dot(off, off),
+        }
+    }
+
+    /// Whether nothing lies between the texel and `x` — a lamp's centre or a point of its
+    /// opening — `r` away (`r2` its square), `back` the unit direction from `x` toward the
+    /// texel. Within 4 offsets of the texel the ray starts a quarter of the way along its
+    /// normal; it stops short of `x` by `x`'s own offset (at most a quarter of `r`).
+    fn sees(
+        &self,
+        scene: &CpuScene,
+        trav: Trav,
+        x: [f32; 3],
+        back: [f32; 3],
+        r: f32,
+        r2: f32,
+    ) -> bool {
+        let origin = if 16.0 * self.off2 > r2 {
+            mad(self.p, self.n, 0.25 * r)
+        } else {
+            self.o0
+        };
+        let dir = sub(x, origin);
+        let len = dot(dir, dir).sqrt();
+        let x_off = sub(offset_origin(x, back, scene.ray_epsilon), x);
+        let stop = dot(x_off, x_off).sqrt().min(0.25 * r);
+        let t_max = 1.0 - stop / len;
+        !(len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin, dir }, 0.0, t_max, trav))
+    }
 }
 
 /// `lamp`'s opening when `p` lies within its [`OpeningParams::near`] distance.
@@ -108,24 +141,20 @@ pub(crate) fn near_opening(lamp: &LampParams, p: [f32; 3]) -> Option<OpeningPara
 /// The illuminance at `p` (unit normal `n`) from lattice points of `lamp`'s opening `o`
 /// ([`opening::texel_samples`] of `samples`), shared among the parts `p` can see, before the lamp's scale ([`crate::opening`]'s
 /// estimator, each point with its shadow ray).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn from_opening(
     scene: &CpuScene,
     trav: Trav,
     lamp: &LampParams,
     o: &OpeningParams,
-    p: [f32; 3],
-    n: [f32; 3],
+    start: &Start,
     samples: u32,
     shift: [u32; 2],
 ) -> f32 {
     let Some(table) = scene.tables.get(lamp.table as usize) else {
         return 0.0;
     };
+    let (p, n, off2) = (start.p, start.n, start.off2);
     let m = &lamp.world_to_photometric;
-    let o0 = offset_origin(p, n, scene.ray_epsilon);
-    let off = sub(o0, p);
-    let off2 = dot(off, off);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     let rel = sub(p, lamp.position);
     let receiver = [dot(m[0], rel), dot(m[1], rel), dot(m[2], rel)];
@@ -170,14 +199,7 @@ pub(crate) fn from_opening(
             if !(intensity > 0.0) {
                 continue;
             }
-            let origin = if 16.0 * off2 > r2 { mad(p, n, 0.25 * r) } else { o0 };
-            let dir = sub(x, origin);
-            let len = dot(dir, dir).sqrt();
-            let x_off = sub(offset_origin(x, back, scene.ray_epsilon), x);
-            let stop = dot(x_off, x_off).sqrt().min(0.25 * r);
-            let t_max = 1.0 - stop / len;
-            if len > 0.0 && t_max > 0.0 && scene.any_hit(&Ray { origin, dir }, 0.0, t_max, trav)
-            {
+            if !start.sees(scene, trav, x, back, r, r2) {
                 continue;
             }
             let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * nf));

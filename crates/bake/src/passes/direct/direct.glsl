@@ -4,18 +4,28 @@
 // Evaluates the first u_lamp_count uploaded lamps (luxLamp, scene.glsl); near a lamp's
 // luminous opening, u_samples points of it (luxOpening*, opening.glsl).
 
+// cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
+// squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
+bool luxSees(vec3 p, vec3 n, vec3 o0, float off2, vec3 x, vec3 back, float r, float r2) {
+    vec3 origin = 16.0 * off2 > r2 ? p + n * (0.25 * r) : o0;
+    vec3 dir = x - origin;
+    float len = sqrt(luxDot(dir, dir));
+    vec3 xOff = luxOffsetOrigin(x, back, u_ray_epsilon) - x;
+    float stopShort = min(sqrt(luxDot(xOff, xOff)), 0.25 * r);
+    float tMax = 1.0 - stopShort / len;
+    vec3 hit;
+    return !(len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0);
+}
+
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
 // (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale.
-float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, uvec2 shift) {
+float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, uvec2 shift) {
     vec4 l0 = luxLamp(li, 0);
     vec3 lampPos = l0.xyz;
     vec3 m0 = luxLamp(li, 1).xyz;
     vec3 m1 = luxLamp(li, 2).xyz;
     vec3 m2 = luxLamp(li, 3).xyz;
     ivec2 size = ivec2(luxLamp(li, 5).yz);
-    vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
-    vec3 off = o0 - p;
-    float off2 = luxDot(off, off);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     vec3 rel = p - lampPos;
     vec3 receiver = vec3(luxDot(m0, rel), luxDot(m1, rel), luxDot(m2, rel));
@@ -64,14 +74,7 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, uvec2 shift) {
             if (!(intensity > 0.0)) {
                 continue;
             }
-            vec3 origin = 16.0 * off2 > r2 ? p + n * (0.25 * r) : o0;
-            vec3 dir = x - origin;
-            float len = sqrt(luxDot(dir, dir));
-            vec3 xOff = luxOffsetOrigin(x, back, u_ray_epsilon) - x;
-            float stopShort = min(sqrt(luxDot(xOff, xOff)), 0.25 * r);
-            float tMax = 1.0 - stopShort / len;
-            vec3 hit;
-            if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
+            if (!luxSees(p, n, o0, off2, x, back, r, r2)) {
                 continue;
             }
             float r2e = max(max(r2, off2), weight / (LUX_PI * nf));
@@ -97,13 +100,16 @@ vec4 luxRun(ivec3 c) {
     }
     uint texel = luxTexelIndex(uvec2(textureSize(u_position, 0).xy), uint(c.z), uint(c.x),
                                uint(c.y));
+    vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
+    vec3 off = o0 - p;
+    float off2 = luxDot(off, off);
     vec3 e = vec3(0.0);
     for (int li = 0; li < int(u_lamp_count); ++li) {
         vec3 lampPos = luxLamp(li, 0).xyz;
         LuxOpening opening = luxOpening(li);
         if (luxOpeningNear(opening, lampPos, p)) {
             uvec2 shift = luxOpeningShift(texel, uint(li), u_seed);
-            float k = luxFromOpening(li, opening, p, n, shift);
+            float k = luxFromOpening(li, opening, p, n, o0, off2, shift);
             e += k * luxLamp(li, 4).rgb;
             continue;
         }
@@ -115,18 +121,7 @@ vec4 luxRun(ivec3 c) {
         if (!luxLampToward(li, p, n, d2, d, w, cosTheta, intensity)) {
             continue;
         }
-        vec3 back = -w;
-        vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
-        vec3 off = o0 - p;
-        float off2 = luxDot(off, off);
-        vec3 origin = 16.0 * off2 > d2 ? p + n * (0.25 * d) : o0;
-        vec3 dir = lampPos - origin;
-        float len = sqrt(luxDot(dir, dir));
-        vec3 lampOff = luxOffsetOrigin(lampPos, back, u_ray_epsilon) - lampPos;
-        float stopShort = min(sqrt(luxDot(lampOff, lampOff)), 0.25 * d);
-        float tMax = 1.0 - stopShort / len;
-        vec3 hit;
-        if (len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0) {
+        if (!luxSees(p, n, o0, off2, lampPos, -w, d, d2)) {
             continue;
         }
         float k = intensity * cosTheta / max(d2, off2);

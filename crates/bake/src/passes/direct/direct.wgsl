@@ -2,18 +2,33 @@
 // through the BVH (cpu::direct_texel, operation for operation); near a lamp's luminous
 // opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl).
 
+// cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
+// squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
+fn lux_sees(p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32, x: vec3<f32>, back: vec3<f32>,
+            r: f32, r2: f32) -> bool {
+    var origin = o0;
+    if (16.0 * off2 > r2) {
+        origin = p + n * (0.25 * r);
+    }
+    let dir = x - origin;
+    let len = sqrt(lux_dot(dir, dir));
+    let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
+    let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
+    let t_max = 1.0 - stop_short / len;
+    var hit: vec3<f32>;
+    return !(len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0);
+}
+
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
 // (lux_texel_samples of lux_pass.samples), shared among the parts p can see, before the
 // lamp's scale.
-fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: vec2<u32>) -> f32 {
+fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32,
+                    shift: vec2<u32>) -> f32 {
     let lamp = lux_lamps[li];
     let lamp_pos = lamp.position.xyz;
     let m0 = lamp.m0.xyz;
     let m1 = lamp.m1.xyz;
     let m2 = lamp.m2.xyz;
-    let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
-    let off = o0 - p;
-    let off2 = lux_dot(off, off);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     let rel = p - lamp_pos;
     let receiver = vec3<f32>(lux_dot(m0, rel), lux_dot(m1, rel), lux_dot(m2, rel));
@@ -58,17 +73,7 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, shift: v
             if (!(intensity > 0.0)) {
                 continue;
             }
-            var origin = o0;
-            if (16.0 * off2 > r2) {
-                origin = p + n * (0.25 * r);
-            }
-            let dir = x - origin;
-            let len = sqrt(lux_dot(dir, dir));
-            let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
-            let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
-            let t_max = 1.0 - stop_short / len;
-            var hit: vec3<f32>;
-            if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
+            if (!lux_sees(p, n, o0, off2, x, back, r, r2)) {
                 continue;
             }
             let r2e = max(max(r2, off2), s.weight / (LUX_PI * nf));
@@ -95,6 +100,9 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     }
     let texel = lux_texel_index(textureDimensions(lux_position).xy, u32(layer), u32(c.x),
                                 u32(c.y));
+    let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
+    let off = o0 - p;
+    let off2 = lux_dot(off, off);
     var e = vec3<f32>(0.0);
     let count = min(lux_pass.lamp_count, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
@@ -103,7 +111,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         let opening = lux_opening(li);
         if (lux_opening_near(opening, lamp_pos, p)) {
             let shift = lux_opening_shift(texel, li, lux_pass.seed);
-            let k = lux_from_opening(li, opening, p, n, shift);
+            let k = lux_from_opening(li, opening, p, n, o0, off2, shift);
             e += k * lamp.scale.xyz;
             continue;
         }
@@ -115,21 +123,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         let d = view.d;
         let cos_theta = view.cos_theta;
         let intensity = view.intensity;
-        let back = -view.w;
-        let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
-        let off = o0 - p;
-        let off2 = lux_dot(off, off);
-        var origin = o0;
-        if (16.0 * off2 > d2) {
-            origin = p + n * (0.25 * d);
-        }
-        let dir = lamp_pos - origin;
-        let len = sqrt(lux_dot(dir, dir));
-        let lamp_off = lux_offset_origin(lamp_pos, back, lux_scene.ray_epsilon) - lamp_pos;
-        let stop_short = min(sqrt(lux_dot(lamp_off, lamp_off)), 0.25 * d);
-        let t_max = 1.0 - stop_short / len;
-        var hit: vec3<f32>;
-        if (len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0) {
+        if (!lux_sees(p, n, o0, off2, lamp_pos, -view.w, d, d2)) {
             continue;
         }
         let k = intensity * cos_theta / max(d2, off2);
