@@ -838,7 +838,9 @@ impl Photometry {
     /// Luminance in cd/m² of the [emitter](Photometry::emitter) toward `dir` (any length):
     /// [`intensity`](Photometry::intensity) / [`projected_area`](Emitter::projected_area),
     /// 0 where the projected area is zero or there is no emitter. Uniform over the emitting
-    /// parts, this reproduces the file's intensity in the far field.
+    /// parts, this reproduces the file's intensity in the far field. It derives the emitter on
+    /// every call (a pass over the candela grid): for many directions take
+    /// [`Photometry::emitter`] once and divide by its `projected_area`.
     pub fn opening_luminance(&self, dir: [f64; 3]) -> f64 {
         let n = norm(dir);
         if !(n > 0.0 && n.is_finite()) {

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use luxbake::scene::{LampModel, Scene, SettingsPatch};
 use luxbake::sources::scenefile::from_file_patched;
-use luxbake_backends::BackendKind;
+use luxbake_backends::{AnyBackend, BackendKind};
 
 use super::refcheck::{self, RefPoint, Stats};
 use super::{machine, open, result_path, timed_bake, utc_now, write};
@@ -76,13 +76,15 @@ fn by_surface(refs: &[RefPoint], values: &[f64]) -> Vec<(String, Stats, f64)> {
     out
 }
 
-/// Bakes `room` (direct light only, lamps as `model`, or as the file says) on `backend`.
+/// Bakes `room` (direct light only, lamps as `model`, or as the file says) on the opened
+/// `backend` (`kind`).
 fn bake_room(
     room: &str,
-    backend: BackendKind,
+    backend: &mut AnyBackend,
+    kind: BackendKind,
     model: Option<LampModel>,
     quick: bool,
-) -> Result<Option<Row>, String> {
+) -> Result<Row, String> {
     let path = scenes_dir().join(format!("nearfield_{room}.toml"));
     let patch = SettingsPatch {
         bounces: Some(0),
@@ -99,27 +101,20 @@ fn bake_room(
     }
     let ref_path = refcheck::reference_path(&format!("nearfield_{room}"));
     let refs = refcheck::load(&ref_path)?;
-    let (mut b, _) = match open(backend) {
-        Ok(b) => b,
-        Err(e) => {
-            eprintln!("nearfield: {} unavailable: {e}", backend.name());
-            return Ok(None);
-        }
-    };
     let settings = scene.settings.clone();
-    let run = timed_bake(&mut b, &scene, &settings)?;
+    let run = timed_bake(backend, &scene, &settings)?;
     let located = refcheck::locate(&scene, &refs, &refcheck::shown(&ref_path))?;
     let measured = refcheck::sample(&run.out, &located)?;
     let values: Vec<f64> = measured.iter().map(|m| m[0]).collect();
     let used = run.out.report.lamp_models.iter().any(|m| m.area);
-    Ok(Some(Row {
+    Ok(Row {
         room: room.to_string(),
-        backend: backend.name(),
+        backend: kind.name(),
         model: if used { "area" } else { "point" },
         stats: by_surface(&refs, &values),
         pass_s: run.wall(),
         shadow_rays: run.out.report.shadow_rays,
-    }))
+    })
 }
 
 /// Runs the comparison and writes `nearfield-<date>-<machine>.{md,json}`.
@@ -129,16 +124,26 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     } else {
         args.backends.clone()
     };
+    // One backend per kind, kept for every bake (it compiles its programs once).
+    let mut opened: Vec<(BackendKind, AnyBackend)> = Vec::new();
+    for &kind in &backends {
+        match open(kind) {
+            Ok((b, _)) => opened.push((kind, b)),
+            Err(e) => eprintln!("nearfield: {} unavailable: {e}", kind.name()),
+        }
+    }
     let mut rows = Vec::new();
     for room in &args.rooms {
-        for &backend in &backends {
-            eprintln!("nearfield: {room} on {}", backend.name());
-            let Some(area) = bake_room(room, backend, None, quick)? else {
-                continue;
-            };
-            let point = bake_room(room, backend, Some(LampModel::Point), quick)?;
-            rows.push(area);
-            rows.extend(point);
+        for (kind, backend) in &mut opened {
+            eprintln!("nearfield: {room} on {}", kind.name());
+            rows.push(bake_room(room, backend, *kind, None, quick)?);
+            rows.push(bake_room(
+                room,
+                backend,
+                *kind,
+                Some(LampModel::Point),
+                quick,
+            )?);
         }
     }
     let (date, time) = utc_now();
