@@ -369,9 +369,7 @@ impl EncodedScene {
         let triangle_count = i32::try_from(self.triangle_count).unwrap_or(i32::MAX);
         let node_count = i32::try_from(self.node_count).unwrap_or(i32::MAX);
         let mut node = [layout::ROOT_X, layout::ROOT_Y];
-        let mut closest = t_max;
-        let mut best: i32 = -1;
-        let mut bary = [0.0f32; 2];
+        let mut found = Closest::new(t_max);
         let mut steps = 0;
         while steps < node_count && node[0] >= 0 {
             steps += 1;
@@ -379,28 +377,18 @@ impl EncodedScene {
             let lo = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MIN_LAYER);
             let hi = texel_fetch(&self.bounds, self.node_size, node, layout::BOUNDS_MAX_LAYER);
             let link = texel_fetch(link_tex, self.node_size, node, layer);
-            if r.hits_box([lo[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]], t_min, closest) {
+            if r.hits_box([lo[0], lo[1], lo[2]], [hi[0], hi[1], hi[2]], t_min, found.t) {
                 stats.boxes_hit += 1;
-                let end = (hi[3] as i32).min(triangle_count);
-                let mut t = (lo[3] as i32).max(0);
-                while t < end {
-                    stats.triangle_tests += 1;
-                    if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
-                        closest = d;
-                        best = t;
-                        bary = [u, v];
-                        if any {
-                            return hit(best, closest, bary);
-                        }
-                    }
-                    t += 1;
+                let leaf = (lo[3] as i32).max(0)..(hi[3] as i32).min(triangle_count);
+                if self.test_triangles(r, leaf, t_min, &mut found, any, stats) {
+                    return found.hit();
                 }
                 node = [link[0] as i32, link[1] as i32];
             } else {
                 node = [link[2] as i32, link[3] as i32];
             }
         }
-        hit(best, closest, bary)
+        found.hit()
     }
 
     /// Tests every triangle in encoded order (the "no BVH" path).
@@ -413,33 +401,65 @@ impl EncodedScene {
         stats: &mut TraversalStats,
     ) -> Option<Hit> {
         let triangle_count = i32::try_from(self.triangle_count).unwrap_or(i32::MAX);
-        let mut closest = t_max;
-        let mut best: i32 = -1;
-        let mut bary = [0.0f32; 2];
-        let mut t = 0;
-        while t < triangle_count {
+        let mut found = Closest::new(t_max);
+        self.test_triangles(r, 0..triangle_count, t_min, &mut found, any, stats);
+        found.hit()
+    }
+
+    /// Tests encoded triangles `range` in order, narrowing `found`; true when `any` and one was
+    /// hit (the walk stops there).
+    fn test_triangles(
+        &self,
+        r: &WatertightRay,
+        range: std::ops::Range<i32>,
+        t_min: f32,
+        found: &mut Closest,
+        any: bool,
+        stats: &mut TraversalStats,
+    ) -> bool {
+        for t in range {
             stats.triangle_tests += 1;
-            if let Some((d, u, v)) = self.triangle_test(r, t, t_min, closest) {
-                closest = d;
-                best = t;
-                bary = [u, v];
+            if let Some((d, u, v)) = self.triangle_test(r, t, t_min, found.t) {
+                *found = Closest {
+                    t: d,
+                    best: t,
+                    bary: [u, v],
+                };
                 if any {
-                    return hit(best, closest, bary);
+                    return true;
                 }
             }
-            t += 1;
         }
-        hit(best, closest, bary)
+        false
     }
 }
 
-fn hit(best: i32, t: f32, bary: [f32; 2]) -> Option<Hit> {
-    u32::try_from(best).ok().map(|triangle| Hit {
-        t,
-        triangle,
-        u: bary[0],
-        v: bary[1],
-    })
+/// The closest hit so far: its distance (the ray's current end), triangle (-1 for none) and
+/// barycentrics.
+struct Closest {
+    t: f32,
+    best: i32,
+    bary: [f32; 2],
+}
+
+impl Closest {
+    /// No hit yet; the ray ends at `t_max`.
+    fn new(t_max: f32) -> Self {
+        Closest {
+            t: t_max,
+            best: -1,
+            bary: [0.0; 2],
+        }
+    }
+
+    fn hit(&self) -> Option<Hit> {
+        u32::try_from(self.best).ok().map(|triangle| Hit {
+            t: self.t,
+            triangle,
+            u: self.bary[0],
+            v: self.bary[1],
+        })
+    }
 }
 
 #[cfg(test)]
