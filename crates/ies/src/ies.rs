@@ -190,21 +190,9 @@ pub(crate) fn parse(lines: &[&str], options: &ParseOptions) -> Result<Photometry
         "ballast-lamp photometric factor"
     })?;
     let (input_watts, _) = t.number("input watts")?;
-    let mut read_list = |n: usize, what: &str| -> Result<(Vec<f64>, usize), IesError> {
-        let mut out = Vec::with_capacity(n);
-        let mut first_line = t.line_number();
-        for k in 0..n {
-            let (v, line) = t.number(what)?;
-            if k == 0 {
-                first_line = line;
-            }
-            out.push(v);
-        }
-        Ok((out, first_line))
-    };
-    let (vertical_angles, l_v) = read_list(nv, "vertical angle")?;
-    let (horizontal_angles, l_h) = read_list(nh, "horizontal angle")?;
-    let (candela, l_c) = read_list(n_values, "candela value")?;
+    let (vertical_angles, l_v) = t.numbers(nv, "vertical angle")?;
+    let (horizontal_angles, l_h) = t.numbers(nh, "horizontal angle")?;
+    let (candela, l_c) = t.numbers(n_values, "candela value")?;
     if let Some((tok, line)) = t.next_token() {
         warnings.push(Warning {
             line,

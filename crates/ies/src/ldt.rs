@@ -184,24 +184,8 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     // Angles and intensities: read as a token stream (tolerates several values per line).
     let data_lines = &lines[f.next.min(lines.len())..];
     let mut t = Tokens::with_decimal_comma(data_lines, f.next + 1);
-    let mut c_angles = Vec::with_capacity(mc);
-    let mut l_c = t.line_number();
-    for k in 0..mc {
-        let (a, line) = t.number("C angle")?;
-        if k == 0 {
-            l_c = line;
-        }
-        c_angles.push(a);
-    }
-    let mut gammas = Vec::with_capacity(ng);
-    let mut l_g = t.line_number();
-    for k in 0..ng {
-        let (a, line) = t.number("γ angle")?;
-        if k == 0 {
-            l_g = line;
-        }
-        gammas.push(a);
-    }
+    let (c_angles, l_c) = t.numbers(mc, "C angle")?;
+    let (gammas, l_g) = t.numbers(ng, "γ angle")?;
     let unsupported = |detail: String| IesError::UnsupportedAngles {
         line: l_isym,
         detail,
@@ -261,15 +245,7 @@ pub(crate) fn parse(lines: &[&str], limits: &Limits) -> Result<Photometry, IesEr
     }
     let n_values = count.saturating_mul(ng);
     limits.check(l_ng, "number of intensities", n_values, limits.max_values)?;
-    let mut candela = Vec::with_capacity(n_values);
-    let mut l_i = t.line_number();
-    for k in 0..n_values {
-        let (v, line) = t.number("luminous intensity (cd/klm)")?;
-        if k == 0 {
-            l_i = line;
-        }
-        candela.push(v);
-    }
+    let (candela, l_i) = t.numbers(n_values, "luminous intensity (cd/klm)")?;
     let mut warnings = Vec::new();
     if let Some((tok, line)) = t.next_token() {
         warnings.push(Warning {

@@ -282,63 +282,47 @@ impl Emitter {
     /// [`Emitter::sample`] picks them by: (part, exact area, sampling area). Parts that do not
     /// emit have both areas zero.
     fn parts(&self) -> [(Part, f64, f64); 6] {
+        const NONE: (Part, f64, f64) = (Part::None, 0.0, 0.0);
         let [h0, h1, h2] = self.h();
-        let end = |bit| self.has(bit);
+        let s = self.has(Self::SIDES);
         let on = |b: bool, a: f64| if b { a } else { 0.0 };
+        // A part sampled by its exact area.
+        let exact = |part: Part, b: bool, a: f64| (part, on(b, a), on(b, a));
+        let ends = |e: f64| {
+            [
+                exact(Part::EndNeg, self.has(Self::END_NEG), e),
+                exact(Part::EndPos, self.has(Self::END_POS), e),
+            ]
+        };
         match self.kind {
             SolidKind::Box => {
-                let e = 4.0 * h0 * h1;
+                let [neg, pos] = ends(4.0 * h0 * h1);
                 let (fu, fv) = (4.0 * h1 * h2, 4.0 * h0 * h2);
-                let s = self.has(Self::SIDES);
                 [
-                    (
-                        Part::EndNeg,
-                        on(end(Self::END_NEG), e),
-                        on(end(Self::END_NEG), e),
-                    ),
-                    (
-                        Part::EndPos,
-                        on(end(Self::END_POS), e),
-                        on(end(Self::END_POS), e),
-                    ),
-                    (Part::FacePosU, on(s, fu), on(s, fu)),
-                    (Part::FaceNegU, on(s, fu), on(s, fu)),
-                    (Part::FacePosV, on(s, fv), on(s, fv)),
-                    (Part::FaceNegV, on(s, fv), on(s, fv)),
+                    neg,
+                    pos,
+                    exact(Part::FacePosU, s, fu),
+                    exact(Part::FaceNegU, s, fu),
+                    exact(Part::FacePosV, s, fv),
+                    exact(Part::FaceNegV, s, fv),
                 ]
             }
             SolidKind::Cylinder => {
-                let e = PI * h0 * h1;
-                let s = self.has(Self::SIDES);
+                let [neg, pos] = ends(PI * h0 * h1);
                 let mantle = 2.0 * h2 * ellipse_perimeter(h0, h1);
                 let approx = TAU * 2.0 * h2 * ((h0 * h0 + h1 * h1) / 2.0).sqrt();
                 [
-                    (
-                        Part::EndNeg,
-                        on(end(Self::END_NEG), e),
-                        on(end(Self::END_NEG), e),
-                    ),
-                    (
-                        Part::EndPos,
-                        on(end(Self::END_POS), e),
-                        on(end(Self::END_POS), e),
-                    ),
+                    neg,
+                    pos,
                     (Part::Mantle, on(s, mantle), on(s, approx)),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
+                    NONE,
+                    NONE,
+                    NONE,
                 ]
             }
             SolidKind::Ellipsoid => {
-                let a = on(self.has(Self::SIDES), ellipsoid_area(h0, h1, h2));
-                [
-                    (Part::Ellipsoid, a, a),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
-                    (Part::None, 0.0, 0.0),
-                ]
+                let sides = exact(Part::Ellipsoid, s, ellipsoid_area(h0, h1, h2));
+                [sides, NONE, NONE, NONE, NONE, NONE]
             }
         }
     }

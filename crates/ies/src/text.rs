@@ -124,6 +124,25 @@ impl<'a> Tokens<'a> {
         Ok((value, line))
     }
 
+    /// Reads `n` finite numbers; also returns the line of the first (the current line when
+    /// `n` is 0).
+    pub(crate) fn numbers(
+        &mut self,
+        n: usize,
+        expected: &str,
+    ) -> Result<(Vec<f64>, usize), IesError> {
+        let mut out = Vec::with_capacity(n);
+        let mut first_line = self.line_number();
+        for k in 0..n {
+            let (v, line) = self.number(expected)?;
+            if k == 0 {
+                first_line = line;
+            }
+            out.push(v);
+        }
+        Ok((out, first_line))
+    }
+
     /// Reads a number that must be a whole number in `min..=max`.
     pub(crate) fn integer(
         &mut self,
