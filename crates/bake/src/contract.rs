@@ -110,6 +110,9 @@ pub trait ParamBlock: Copy + fmt::Debug {
     fn from_words(words: &[u32]) -> Self;
 }
 
+/// Declares a `#[repr(C)]` parameter block and its [`ParamBlock`] impl: `Name as
+/// "WgslName" { field: type, … }`, every field a [`ParamScalar`], the size a multiple of 16
+/// bytes (`pad*` fields pad it).
 macro_rules! param_block {
     ($(#[$meta:meta])* $name:ident as $wgsl:literal {
         $($(#[$fmeta:meta])* $field:ident: $ty:ty),* $(,)?
@@ -121,22 +124,24 @@ macro_rules! param_block {
             $($(#[$fmeta])* pub $field: $ty),*
         }
 
-        impl ParamBlock for $name {
+        impl $crate::contract::ParamBlock for $name {
             const WGSL_NAME: &'static str = $wgsl;
-            const FIELDS: &'static [Field] = &[$(Field {
+            const FIELDS: &'static [$crate::contract::Field] = &[$($crate::contract::Field {
                 name: stringify!($field),
-                ty: <$ty as ParamScalar>::SCALAR,
+                ty: <$ty as $crate::contract::ParamScalar>::SCALAR,
                 offset: std::mem::offset_of!($name, $field),
             }),*];
 
             fn words(&self) -> Vec<u32> {
-                vec![$(ParamScalar::to_bits(self.$field)),*]
+                vec![$($crate::contract::ParamScalar::to_bits(self.$field)),*]
             }
 
             fn from_words(words: &[u32]) -> Self {
                 let mut it = words.iter().copied();
                 $name {
-                    $($field: <$ty as ParamScalar>::from_bits(it.next().unwrap_or(0))),*
+                    $($field: <$ty as $crate::contract::ParamScalar>::from_bits(
+                        it.next().unwrap_or(0),
+                    )),*
                 }
             }
         }
@@ -242,6 +247,50 @@ pub struct Signature {
     /// The pass file in WGSL: `passes/<label>/<label>.wgsl`.
     pub wgsl: &'static str,
 }
+
+/// Declares a pass's `SIGNATURE` (in `passes/<label>/mod.rs`): its label, which names its
+/// shader files `<label>.glsl` and `<label>.wgsl` beside it, the slots it reads, the
+/// [`SceneNeeds`] it sets (none when `scene` is left out), its parameter block's type (none
+/// when `params` is left out) and its [`Library`] files, in order:
+///
+/// ```ignore
+/// signature! {
+///     upsample {
+///         reads: ["src", "position", "normal"],
+///         params: UpsampleParams,
+///         libraries: [Common, Coarse],
+///     }
+/// }
+/// ```
+macro_rules! signature {
+    ($label:ident {
+        reads: [$($read:literal),* $(,)?],
+        $(scene: [$($need:ident),* $(,)?],)?
+        $(params: $params:ty,)?
+        libraries: [$($library:ident),* $(,)?] $(,)?
+    }) => {
+        /// What the pass reads and which parameters it takes.
+        pub const SIGNATURE: $crate::contract::Signature = $crate::contract::Signature {
+            reads: &[$($read),*],
+            scene: $crate::contract::signature!(@scene $($($need)*)?),
+            params: $crate::contract::signature!(@fields $($params)?),
+            params_wgsl: $crate::contract::signature!(@wgsl $($params)?),
+            libraries: &[$($crate::contract::Library::$library),*],
+            glsl: include_str!(concat!(stringify!($label), ".glsl")),
+            wgsl: include_str!(concat!(stringify!($label), ".wgsl")),
+        };
+    };
+    (@scene) => { $crate::contract::SceneNeeds::NONE };
+    (@scene $($need:ident)+) => {
+        $crate::contract::SceneNeeds { $($need: true,)+ ..$crate::contract::SceneNeeds::NONE }
+    };
+    (@fields) => { &[] };
+    (@fields $params:ty) => { <$params as $crate::contract::ParamBlock>::FIELDS };
+    (@wgsl) => { "" };
+    (@wgsl $params:ty) => { <$params as $crate::contract::ParamBlock>::WGSL_NAME };
+}
+
+pub(crate) use signature;
 
 /// Largest blur radius, texels (a shader's loop bound).
 pub const MAX_BLUR_RADIUS: i32 = 64;

@@ -5,8 +5,8 @@
 //! backend's dispatch are generated from it.
 //!
 //! # Adding a pass
-//! A new folder `passes/<label>/` with `mod.rs` (its `SIGNATURE`, and with parameters its
-//! `param_block!` and `fn work(&Params) -> u64`), `<label>.glsl` defining
+//! A new folder `passes/<label>/` with `mod.rs` (its `SIGNATURE`, declared with `signature!`,
+//! and with parameters its `param_block!` and `fn work(&Params) -> u64`), `<label>.glsl` defining
 //! `vec4 luxRun(ivec3 c)` and `<label>.wgsl` defining `fn lux_run(c: vec2<i32>) -> vec4<f32>`
 //! (the entry points and every declaration are generated, [`crate::shader`]), plus one line in
 //! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing the

@@ -6,15 +6,11 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Library, SceneNeeds, Signature};
+use crate::contract::signature;
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src", "albedo"],
-    scene: SceneNeeds::NONE,
-    params: &[],
-    params_wgsl: "",
-    libraries: &[Library::Common],
-    glsl: include_str!("albedo_mul.glsl"),
-    wgsl: include_str!("albedo_mul.wgsl"),
-};
+signature! {
+    albedo_mul {
+        reads: ["src", "albedo"],
+        libraries: [Common],
+    }
+}

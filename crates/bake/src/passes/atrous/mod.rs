@@ -6,7 +6,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of one iteration of [`Program::Atrous`](crate::program::Program::Atrous)
@@ -37,16 +37,13 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src", "variance", "position", "normal"],
-    scene: SceneNeeds::NONE,
-    params: AtrousParams::FIELDS,
-    params_wgsl: AtrousParams::WGSL_NAME,
-    libraries: &[Library::Common, Library::Guide],
-    glsl: include_str!("atrous.glsl"),
-    wgsl: include_str!("atrous.wgsl"),
-};
+signature! {
+    atrous {
+        reads: ["src", "variance", "position", "normal"],
+        params: AtrousParams,
+        libraries: [Common, Guide],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(_: &AtrousParams) -> u64 {

@@ -6,7 +6,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Blur`](crate::program::Program::Blur) (one axis of the masked
@@ -23,16 +23,13 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src", "normal"],
-    scene: SceneNeeds::NONE,
-    params: BlurParams::FIELDS,
-    params_wgsl: BlurParams::WGSL_NAME,
-    libraries: &[Library::Common],
-    glsl: include_str!("blur.glsl"),
-    wgsl: include_str!("blur.wgsl"),
-};
+signature! {
+    blur {
+        reads: ["src", "normal"],
+        params: BlurParams,
+        libraries: [Common],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(p: &BlurParams) -> u64 {

@@ -6,7 +6,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Combine`](crate::program::Program::Combine): `dst = a_weight · a +
@@ -33,16 +33,13 @@ impl CombineParams {
     };
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["direct", "indirect"],
-    scene: SceneNeeds::NONE,
-    params: CombineParams::FIELDS,
-    params_wgsl: CombineParams::WGSL_NAME,
-    libraries: &[Library::Common],
-    glsl: include_str!("combine.glsl"),
-    wgsl: include_str!("combine.wgsl"),
-};
+signature! {
+    combine {
+        reads: ["direct", "indirect"],
+        params: CombineParams,
+        libraries: [Common],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(_: &CombineParams) -> u64 {

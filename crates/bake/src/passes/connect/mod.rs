@@ -12,7 +12,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Connect`](crate::program::Program::Connect).
@@ -36,21 +36,14 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["position", "normal"],
-    scene: SceneNeeds {
-        bvh: true,
-        lamps: false,
-        regions: false,
-        lamp_paths: true,
-    },
-    params: ConnectParams::FIELDS,
-    params_wgsl: ConnectParams::WGSL_NAME,
-    libraries: &[Library::Common, Library::Rng, Library::Scene, Library::Bvh],
-    glsl: include_str!("connect.glsl"),
-    wgsl: include_str!("connect.wgsl"),
-};
+signature! {
+    connect {
+        reads: ["position", "normal"],
+        scene: [bvh, lamp_paths],
+        params: ConnectParams,
+        libraries: [Common, Rng, Scene, Bvh],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): a shadow ray per
 /// connection.

@@ -6,15 +6,11 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Library, SceneNeeds, Signature};
+use crate::contract::signature;
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src"],
-    scene: SceneNeeds::NONE,
-    params: &[],
-    params_wgsl: "",
-    libraries: &[Library::Common],
-    glsl: include_str!("copy.glsl"),
-    wgsl: include_str!("copy.wgsl"),
-};
+signature! {
+    copy {
+        reads: ["src"],
+        libraries: [Common],
+    }
+}

@@ -8,7 +8,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Direct`](crate::program::Program::Direct): the lamps are the
@@ -26,29 +26,14 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["position", "normal"],
-    scene: SceneNeeds {
-        bvh: true,
-        lamps: true,
-        regions: false,
-        lamp_paths: false,
-    },
-    params: DirectParams::FIELDS,
-    params_wgsl: DirectParams::WGSL_NAME,
-    libraries: &[
-        Library::Common,
-        Library::Rng,
-        Library::Scene,
-        Library::Bvh,
-        Library::Ies,
-        Library::Lamp,
-        Library::Opening,
-    ],
-    glsl: include_str!("direct.glsl"),
-    wgsl: include_str!("direct.wgsl"),
-};
+signature! {
+    direct {
+        reads: ["position", "normal"],
+        scene: [bvh, lamps],
+        params: DirectParams,
+        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Opening],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): one shadow ray
 /// per lamp, and at most twice `samples` per lamp with an opening

@@ -12,18 +12,14 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Library, SceneNeeds, Signature};
+use crate::contract::signature;
 
 /// Texels summed before a run is added to the row's total.
 pub const RUN: u32 = 64;
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src"],
-    scene: SceneNeeds::NONE,
-    params: &[],
-    params_wgsl: "",
-    libraries: &[Library::Common],
-    glsl: include_str!("energy.glsl"),
-    wgsl: include_str!("energy.wgsl"),
-};
+signature! {
+    energy {
+        reads: ["src"],
+        libraries: [Common],
+    }
+}

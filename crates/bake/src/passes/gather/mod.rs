@@ -6,7 +6,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Gather`](crate::program::Program::Gather).
@@ -51,30 +51,14 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["position", "normal", "reflected", "connected"],
-    scene: SceneNeeds {
-        bvh: true,
-        lamps: true,
-        regions: true,
-        lamp_paths: false,
-    },
-    params: GatherParams::FIELDS,
-    params_wgsl: GatherParams::WGSL_NAME,
-    libraries: &[
-        Library::Common,
-        Library::Rng,
-        Library::Scene,
-        Library::Bvh,
-        Library::Ies,
-        Library::Lamp,
-        Library::Gather,
-        Library::Coarse,
-    ],
-    glsl: include_str!("gather.glsl"),
-    wgsl: include_str!("gather.wgsl"),
-};
+signature! {
+    gather {
+        reads: ["position", "normal", "reflected", "connected"],
+        scene: [bvh, lamps, regions],
+        params: GatherParams,
+        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather, Coarse],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(p: &GatherParams) -> u64 {

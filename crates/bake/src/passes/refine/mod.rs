@@ -16,7 +16,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Refine`](crate::program::Program::Refine): progressive refinement
@@ -45,31 +45,16 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["position", "normal", "reflected", "first", "variance"],
-    // The lamps and their tables: the shared gather loop can weight against lamp paths
-    // (the refine pass never does: lamp paths require no refinement).
-    scene: SceneNeeds {
-        bvh: true,
-        lamps: true,
-        regions: true,
-        lamp_paths: false,
-    },
-    params: RefineParams::FIELDS,
-    params_wgsl: RefineParams::WGSL_NAME,
-    libraries: &[
-        Library::Common,
-        Library::Rng,
-        Library::Scene,
-        Library::Bvh,
-        Library::Ies,
-        Library::Lamp,
-        Library::Gather,
-    ],
-    glsl: include_str!("refine.glsl"),
-    wgsl: include_str!("refine.wgsl"),
-};
+signature! {
+    refine {
+        reads: ["position", "normal", "reflected", "first", "variance"],
+        // The lamps and their tables: the shared gather loop can weight against lamp paths
+        // (the refine pass never does: lamp paths require no refinement).
+        scene: [bvh, lamps, regions],
+        params: RefineParams,
+        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(p: &RefineParams) -> u64 {

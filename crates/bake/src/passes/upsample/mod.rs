@@ -8,7 +8,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Upsample`](crate::program::Program::Upsample): the
@@ -25,16 +25,13 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src", "position", "normal"],
-    scene: SceneNeeds::NONE,
-    params: UpsampleParams::FIELDS,
-    params_wgsl: UpsampleParams::WGSL_NAME,
-    libraries: &[Library::Common, Library::Coarse],
-    glsl: include_str!("upsample.glsl"),
-    wgsl: include_str!("upsample.wgsl"),
-};
+signature! {
+    upsample {
+        reads: ["src", "position", "normal"],
+        params: UpsampleParams,
+        libraries: [Common, Coarse],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(_: &UpsampleParams) -> u64 {

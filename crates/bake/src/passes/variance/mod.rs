@@ -8,7 +8,7 @@
 
 pub(crate) mod cpu;
 
-use crate::contract::{Field, Library, ParamBlock, ParamScalar, SceneNeeds, Signature, param_block};
+use crate::contract::{param_block, signature};
 
 param_block! {
     /// Parameters of [`Program::Variance`](crate::program::Program::Variance): the noise variance
@@ -29,16 +29,13 @@ param_block! {
     }
 }
 
-/// What the pass reads and which parameters it takes.
-pub const SIGNATURE: Signature = Signature {
-    reads: &["src", "position", "normal"],
-    scene: SceneNeeds::NONE,
-    params: VarianceParams::FIELDS,
-    params_wgsl: VarianceParams::WGSL_NAME,
-    libraries: &[Library::Common, Library::Guide],
-    glsl: include_str!("variance.glsl"),
-    wgsl: include_str!("variance.wgsl"),
-};
+signature! {
+    variance {
+        reads: ["src", "position", "normal"],
+        params: VarianceParams,
+        libraries: [Common, Guide],
+    }
+}
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(_: &VarianceParams) -> u64 {
