@@ -127,12 +127,7 @@ impl Bin {
     }
 
     fn floats<const N: usize>(&mut self, items: &[[f32; N]], kind: &str, min_max: bool) -> usize {
-        let bytes: Vec<u8> = items
-            .iter()
-            .flatten()
-            .flat_map(|f| f.to_le_bytes())
-            .collect();
-        let view = self.view(&bytes, Some(34962));
+        let view = self.view(&le_bytes(items, f32::to_le_bytes), Some(34962));
         let mut a = json!({ "bufferView": view, "componentType": 5126, "count": items.len(), "type": kind });
         if min_max {
             let mut lo = [f32::INFINITY; N];
@@ -151,15 +146,15 @@ impl Bin {
     }
 
     fn indices(&mut self, tris: &[[u32; 3]]) -> usize {
-        let bytes: Vec<u8> = tris
-            .iter()
-            .flatten()
-            .flat_map(|i| i.to_le_bytes())
-            .collect();
-        let view = self.view(&bytes, Some(34963));
+        let view = self.view(&le_bytes(tris, u32::to_le_bytes), Some(34963));
         self.accessors.push(json!({ "bufferView": view, "componentType": 5125, "count": tris.len() * 3, "type": "SCALAR" }));
         self.accessors.len() - 1
     }
+}
+
+/// The components of `items` in order, each as its little-endian bytes (`to_le`).
+fn le_bytes<T: Copy, const N: usize>(items: &[[T; N]], to_le: fn(T) -> [u8; 4]) -> Vec<u8> {
+    items.iter().flatten().flat_map(|&x| to_le(x)).collect()
 }
 
 /// The scene-wide PNG scale: the 99th percentile of valid illuminance channels (≥ 1e-6).

@@ -30,6 +30,7 @@ use gltf::mesh::Mode;
 use luxbake::scene::{Albedo, AlbedoTexture};
 
 use crate::model::{self, GltfSource, Light, LightKind, Model, RawPart};
+use crate::options::check_limit;
 use crate::{AssetError, ImportOptions, Limits};
 
 /// Extensions this reader understands (a file may require them).
@@ -41,12 +42,6 @@ pub const SUPPORTED_EXTENSIONS: &[&str] = &[
 
 /// Deepest node hierarchy walked.
 const MAX_DEPTH: usize = 256;
-
-/// Reads a `.gltf` or `.glb` file.
-pub fn import(path: &Path, options: &ImportOptions) -> Result<Model, AssetError> {
-    let bytes = crate::options::read_limited(path, options.limits.max_file_bytes)?;
-    import_bytes(&bytes, path, options)
-}
 
 /// Reads glTF or GLB bytes; `path` names the file in errors and is the base of relative URIs.
 pub fn import_bytes(
@@ -130,14 +125,7 @@ pub fn import_bytes(
     for b in doc.buffers() {
         let what = format!("buffer {}", b.index());
         let want = b.length() as u64;
-        if want > limits.max_file_bytes {
-            return Err(AssetError::LimitExceeded {
-                path: path.to_path_buf(),
-                what: "a buffer's byteLength",
-                value: want,
-                limit: limits.max_file_bytes,
-            });
-        }
+        check_limit(path, "a buffer's byteLength", want, limits.max_file_bytes)?;
         let data = match b.source() {
             gltf::buffer::Source::Bin => blob.clone().ok_or_else(|| {
                 gerr(format!(
@@ -379,14 +367,13 @@ impl Cx<'_> {
             .ok_or_else(|| bad("no POSITION attribute".into()))?;
         let n = positions_acc.count();
         self.vertices = self.vertices.saturating_add(n as u64);
-        if self.vertices > self.options.limits.max_vertices {
-            return Err(AssetError::LimitExceeded {
-                path: self.path.to_path_buf(),
-                what: "the vertex count",
-                value: self.vertices,
-                limit: self.options.limits.max_vertices,
-            });
-        }
+        let limits = &self.options.limits;
+        check_limit(
+            self.path,
+            "the vertex count",
+            self.vertices,
+            limits.max_vertices,
+        )?;
         let read3 = |acc: &gltf::Accessor, what: &str| -> Result<Vec<[f32; 3]>, AssetError> {
             let v = read_floats(acc, buffers, &[3], n).map_err(|m| bad(format!("{what}: {m}")))?;
             Ok(v.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect())
@@ -475,14 +462,13 @@ impl Cx<'_> {
             }
         }
         self.triangles = self.triangles.saturating_add(indices.len() as u64);
-        if self.triangles > self.options.limits.max_triangles {
-            return Err(AssetError::LimitExceeded {
-                path: self.path.to_path_buf(),
-                what: "the triangle count",
-                value: self.triangles,
-                limit: self.options.limits.max_triangles,
-            });
-        }
+        let limits = &self.options.limits;
+        check_limit(
+            self.path,
+            "the triangle count",
+            self.triangles,
+            limits.max_triangles,
+        )?;
         // Albedo.
         let pbr = material.pbr_metallic_roughness();
         let f = pbr.base_color_factor();

@@ -50,17 +50,23 @@ pub use luxbake::scene::{Albedo, Mesh};
 pub use model::{GltfSource, Light, LightKind, Model, Part, UvSource};
 pub use options::{ImportOptions, Limits};
 
-/// Reads a model file, choosing the reader by extension (`.gltf`, `.glb`, `.obj`).
+/// Reads a model file (its size checked against [`Limits::max_file_bytes`]), choosing the
+/// reader by extension (`.gltf`, `.glb`: [`gltf_in::import_bytes`]; `.obj`:
+/// [`obj_in::import_bytes`]).
 pub fn import(path: &Path, options: &ImportOptions) -> Result<Model, AssetError> {
     let ext = path
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
-    match ext.as_deref() {
-        Some("gltf") | Some("glb") => gltf_in::import(path, options),
-        Some("obj") => obj_in::import(path, options),
-        _ => Err(AssetError::UnknownFormat {
-            path: path.to_path_buf(),
-        }),
-    }
+    let import_bytes = match ext.as_deref() {
+        Some("gltf") | Some("glb") => gltf_in::import_bytes,
+        Some("obj") => obj_in::import_bytes,
+        _ => {
+            return Err(AssetError::UnknownFormat {
+                path: path.to_path_buf(),
+            });
+        }
+    };
+    let bytes = options::read_limited(path, options.limits.max_file_bytes)?;
+    import_bytes(&bytes, path, options)
 }

@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::sync::Arc;
 
+use glam::{DVec3, Vec3};
 use luxbake::scene::{Albedo, Lamp, Mesh};
 use luxbake_ies::{PhotometricType, Photometry};
 
@@ -370,31 +371,24 @@ fn fix_normals(
     indices: &[[u32; 3]],
 ) -> Vec<[f32; 3]> {
     let n = positions.len();
-    let unit = |v: [f64; 3]| {
-        let l = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-        (l > 1e-20 && l.is_finite()).then(|| v.map(|c| (c / l) as f32))
+    let dvec = |v: &[f32; 3]| Vec3::from_array(*v).as_dvec3();
+    let unit = |v: DVec3| {
+        let l = v.length();
+        (l > 1e-20 && l.is_finite()).then(|| (v / l).as_vec3().to_array())
     };
     let mut out: Vec<Option<[f32; 3]>> = match given {
-        Some(g) if g.len() == n => g.iter().map(|v| unit(v.map(f64::from))).collect(),
+        Some(g) if g.len() == n => g.iter().map(|v| unit(dvec(v))).collect(),
         _ => vec![None; n],
     };
     if out.iter().all(Option::is_some) {
         return out.into_iter().flatten().collect();
     }
-    let mut acc = vec![[0.0f64; 3]; n];
+    let mut acc = vec![DVec3::ZERO; n];
     for t in indices {
-        let p = t.map(|i| positions[i as usize].map(f64::from));
-        let e1 = [p[1][0] - p[0][0], p[1][1] - p[0][1], p[1][2] - p[0][2]];
-        let e2 = [p[2][0] - p[0][0], p[2][1] - p[0][1], p[2][2] - p[0][2]];
-        let c = [
-            e1[1] * e2[2] - e1[2] * e2[1],
-            e1[2] * e2[0] - e1[0] * e2[2],
-            e1[0] * e2[1] - e1[1] * e2[0],
-        ];
+        let [p0, p1, p2] = t.map(|i| dvec(&positions[i as usize]));
+        let c = (p1 - p0).cross(p2 - p0);
         for &i in t {
-            for k in 0..3 {
-                acc[i as usize][k] += c[k];
-            }
+            acc[i as usize] += c;
         }
     }
     for (o, a) in out.iter_mut().zip(acc) {

@@ -18,22 +18,12 @@ use luxbake::scene::Albedo;
 use crate::model::{self, Model, RawPart};
 use crate::{AssetError, ImportOptions};
 
-/// Reads an `.obj` file (and the `.mtl` files it names, relative to its folder).
-pub fn import(path: &Path, options: &ImportOptions) -> Result<Model, AssetError> {
-    let bytes = crate::options::read_limited(path, options.limits.max_file_bytes)?;
-    import_bytes(&bytes, path, options)
-}
-
 /// Parses OBJ bytes; `path` names the file in errors and its folder holds the `.mtl` files.
 pub fn import_bytes(
     bytes: &[u8],
     path: &Path,
     options: &ImportOptions,
 ) -> Result<Model, AssetError> {
-    let oerr = |message: String| AssetError::Obj {
-        path: path.to_path_buf(),
-        message,
-    };
     let base = path.parent().unwrap_or(Path::new("."));
     let warnings = RefCell::new(Vec::new());
     let load_options = tobj::LoadOptions {
@@ -56,7 +46,10 @@ pub fn import_bytes(
             }
         }
     })
-    .map_err(|e| oerr(e.to_string()))?;
+    .map_err(|e| AssetError::Obj {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })?;
     let mut warnings = warnings.into_inner();
     let materials = match materials {
         Ok(m) => m,
@@ -77,14 +70,7 @@ pub fn import_bytes(
         ("the triangle count", triangles, limits.max_triangles),
         ("the vertex count", vertices, limits.max_vertices),
     ] {
-        if value > limit {
-            return Err(AssetError::LimitExceeded {
-                path: path.to_path_buf(),
-                what,
-                value,
-                limit,
-            });
-        }
+        crate::options::check_limit(path, what, value, limit)?;
     }
     let mut textures: HashMap<String, Arc<luxbake::scene::AlbedoTexture>> = HashMap::new();
     let mut names = HashSet::new();

@@ -69,13 +69,24 @@ pub(crate) fn read_limited(path: &Path, limit: u64) -> Result<Vec<u8>, AssetErro
         source,
     };
     let len = std::fs::metadata(path).map_err(io)?.len();
-    if len > limit {
+    check_limit(path, "the file size in bytes", len, limit)?;
+    std::fs::read(path).map_err(io)
+}
+
+/// [`AssetError::LimitExceeded`] for file `path` where `value` (of `what`) is over `limit`.
+pub(crate) fn check_limit(
+    path: &Path,
+    what: &'static str,
+    value: u64,
+    limit: u64,
+) -> Result<(), AssetError> {
+    if value > limit {
         return Err(AssetError::LimitExceeded {
             path: path.to_path_buf(),
-            what: "the file size in bytes",
-            value: len,
+            what,
+            value,
             limit,
         });
     }
-    std::fs::read(path).map_err(io)
+    Ok(())
 }
