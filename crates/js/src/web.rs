@@ -698,26 +698,23 @@ impl Baker {
         let imported = Rc::clone(&loaded.imported);
         let baked = ready.and_then(|()| {
             let gpu = |e: luxbake::BakeError<_>| JsBakeError::Gpu(e.to_string());
+            let (room, on_progress) = (&loaded.room, &mut on_progress);
             if layered {
-                let layers = bake_layers(
-                    &mut backend,
-                    &loaded.room,
-                    &lamps,
-                    &settings,
-                    &mut on_progress,
-                )
-                .map_err(gpu)?;
+                let layers =
+                    bake_layers(&mut backend, room, &lamps, &settings, on_progress).map_err(gpu)?;
                 let states: Vec<LampState> = lamps.iter().map(LampState::of).collect();
                 let out = layers.combine(&states).map_err(|e| layer_error(&e))?;
-                Ok((out, Some(layers)))
-            } else if let Some(direct) = direct {
-                let mut sent = Ok(());
-                let out = luxbake::bake_room_direct_first(
+                return Ok((out, Some(layers)));
+            }
+            // Without a `direct` callback the direct light is not read back early.
+            let mut sent = Ok(());
+            let out = match direct {
+                Some(direct) => luxbake::bake_room_direct_first(
                     &mut backend,
-                    &loaded.room,
+                    room,
                     &lamps,
                     &settings,
-                    &mut on_progress,
+                    on_progress,
                     &mut |maps: &[ObjectMaps]| {
                         sent = objects_of(&imported, maps, &settings).map(|objects| {
                             let event = js_sys::Object::new();
@@ -726,21 +723,12 @@ impl Baker {
                             let _ = direct.call1(&JsValue::NULL, &event);
                         });
                     },
-                )
-                .map_err(gpu)?;
-                sent?;
-                Ok((out, None))
-            } else {
-                let out = luxbake::bake_room(
-                    &mut backend,
-                    &loaded.room,
-                    &lamps,
-                    &settings,
-                    &mut on_progress,
-                )
-                .map_err(gpu)?;
-                Ok((out, None))
+                ),
+                None => luxbake::bake_room(&mut backend, room, &lamps, &settings, on_progress),
             }
+            .map_err(gpu)?;
+            sent?;
+            Ok((out, None))
         });
         // The room stays loaded whatever the bake did; the backend serves the next bake if
         // this one succeeded.
