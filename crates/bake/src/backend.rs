@@ -79,6 +79,17 @@ pub struct LampView {
     pub intensity: f32,
 }
 
+/// The unit direction from `p` toward `q`, the distance and its square; `None` when the
+/// distance is 0 or not finite. The lamp's, an opening point's and a pool point's direction
+/// (the shaders compute it with the same operations).
+#[inline]
+pub(crate) fn toward(p: [f32; 3], q: [f32; 3]) -> Option<([f32; 3], f32, f32)> {
+    let to = sub(q, p);
+    let d2 = dot(to, to);
+    let d = d2.sqrt();
+    (d > 0.0 && d.is_finite()).then(|| (div(to, d), d, d2))
+}
+
 /// `lamp` seen unshadowed from surface point `p` with unit normal `n`: `None` when the lamp
 /// stands at `p`, behind the surface or dark toward it. Shared by the direct pass and the lamp
 /// paths' density ([`crate::lightpaths::density`]); the shaders' `luxLampToward` /
@@ -90,13 +101,7 @@ pub fn lamp_toward(
     n: [f32; 3],
 ) -> Option<LampView> {
     let table = tables.get(lamp.table as usize)?;
-    let to = sub(lamp.position, p);
-    let d2 = dot(to, to);
-    let d = d2.sqrt();
-    if !(d > 0.0 && d.is_finite()) {
-        return None;
-    }
-    let w = div(to, d);
+    let (w, d, d2) = toward(p, lamp.position)?;
     let cos = dot(n, w);
     if cos.is_nan() || cos <= 0.0 {
         return None;

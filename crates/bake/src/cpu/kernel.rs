@@ -71,10 +71,39 @@ pub(crate) trait CpuPass: Prepare + Sync {
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut Self::Scratch);
 }
 
+impl<'a> Ctx<'a> {
+    /// The first `N` read slots, in [`Signature::reads`](crate::program::Signature::reads)
+    /// order.
+    #[inline]
+    pub(crate) fn maps<const N: usize>(&self) -> [View<'a>; N] {
+        std::array::from_fn(|i| self.views[i])
+    }
+}
+
+/// Texel `(x, y)` of `layer` of a texture array: where a pass computes, and what it reads
+/// from each map there ([`View::fetch`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Texel {
+    /// Texture-array layer.
+    pub(crate) layer: u32,
+    /// Column.
+    pub(crate) x: u32,
+    /// Row.
+    pub(crate) y: u32,
+}
+
+#[cfg(test)]
+impl Texel {
+    /// Texel `(x, y)` of layer 0.
+    pub(crate) fn layer0(x: u32, y: u32) -> Texel {
+        Texel { layer: 0, x, y }
+    }
+}
+
 /// A pass computed texel by texel.
 pub(crate) trait TexelPass: Prepare + Sync {
-    /// Texel `(x, y)` of `layer`.
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4];
+    /// The pass's value at `at`.
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4];
 }
 
 impl<T: TexelPass> CpuPass for T {
@@ -84,7 +113,7 @@ impl<T: TexelPass> CpuPass for T {
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], _: &mut ()) {
         let layer = ctx.tile.layer;
         for (x, out) in (ctx.tile.x0..).zip(texels.chunks_exact_mut(4)) {
-            out.copy_from_slice(&self.texel(ctx, layer, x, y));
+            out.copy_from_slice(&self.texel(ctx, Texel { layer, x, y }));
         }
     }
 }
@@ -331,9 +360,10 @@ impl View<'_> {
             .flatten()
     }
 
+    /// The texel at `t`, 0 outside.
     #[inline]
-    pub(crate) fn fetch(&self, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        self.at(self.index(layer, x, y))
+    pub(crate) fn fetch(&self, t: Texel) -> [f32; 4] {
+        self.at(self.index(t.layer, t.x, t.y))
     }
 
     pub(crate) fn same_shape(&self, other: &View<'_>) -> bool {
@@ -345,20 +375,18 @@ pub(crate) fn xyz(t: [f32; 4]) -> [f32; 3] {
     [t[0], t[1], t[2]]
 }
 
-/// The weights of texel `(x, y)`'s grid-cell corners that lie on its surface
+/// The weights of texel `at`'s grid-cell corners that lie on its surface
 /// ([`program::coarse`]), 0 for the others, and their sum.
 pub(crate) fn coarse_weights(
-    pos: View<'_>,
-    nrm: View<'_>,
+    [pos, nrm]: [View<'_>; 2],
     stride: u32,
     reach: f32,
-    layer: u32,
-    x: u32,
-    y: u32,
+    at: Texel,
 ) -> ([([i64; 2], f32); 4], f32) {
+    let Texel { x, y, .. } = at;
     let mut cell = coarse::cell(x, y, stride);
-    let nc = nrm.fetch(layer, x, y);
-    let p = xyz(pos.fetch(layer, x, y));
+    let nc = nrm.fetch(at);
+    let p = xyz(pos.fetch(at));
     let Some(n) = normalize(xyz(nc)) else {
         return (cell.map(|(c, _)| (c, 0.0)), 0.0);
     };
@@ -369,8 +397,8 @@ pub(crate) fn coarse_weights(
         let on_surface =
             *weight > 0.0 && tx < i64::from(pos.size[0]) && ty < i64::from(pos.size[1]) && {
                 let (tx, ty) = (tx as u32, ty as u32);
-                let pt = pos.fetch(layer, tx, ty);
-                let nt = nrm.fetch(layer, tx, ty);
+                let t = Texel { x: tx, y: ty, ..at };
+                let (pt, nt) = (pos.fetch(t), nrm.fetch(t));
                 let d = sub(xyz(pt), p);
                 let (ox, oy) = (tx as i64 - i64::from(x), ty as i64 - i64::from(y));
                 pt[3] > 0.5
@@ -387,20 +415,13 @@ pub(crate) fn coarse_weights(
     (cell, total)
 }
 
-/// The rays the gather casts at texel `(x, y)`: `rays` at every texel at stride 1 and at grid
+/// The rays the gather casts at texel `at`: `rays` at every texel at stride 1 and at grid
 /// texels, `orphan_rays` at orphans, else 0 ([`program::coarse`]).
-pub(crate) fn coarse_rays(
-    pos: View<'_>,
-    nrm: View<'_>,
-    params: &GatherParams,
-    layer: u32,
-    x: u32,
-    y: u32,
-) -> u32 {
+pub(crate) fn coarse_rays(maps: [View<'_>; 2], params: &GatherParams, at: Texel) -> u32 {
     let stride = params.stride;
-    if stride <= 1 || (x.is_multiple_of(stride) && y.is_multiple_of(stride)) {
+    if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
         params.rays
-    } else if coarse_weights(pos, nrm, stride, params.reach, layer, x, y).1 > 0.0 {
+    } else if coarse_weights(maps, stride, params.reach, at).1 > 0.0 {
         0
     } else {
         params.orphan_rays
@@ -424,27 +445,22 @@ pub(crate) struct Guide<'a> {
 }
 
 impl<'a> Guide<'a> {
-    /// The guide of texel `(x, y)` with the chart test's `[reach_min, reach]`; `None` when its
-    /// normal cannot be normalised.
-    #[allow(clippy::too_many_arguments)]
+    /// The guide of texel `at` of `src` (its position and normal in `pos` and `nrm`) with the
+    /// chart test's `[reach_min, reach]`; `None` when its normal cannot be normalised.
     pub(crate) fn new(
-        src: View<'a>,
-        pos: View<'a>,
-        nrm: View<'a>,
+        [src, pos, nrm]: [View<'a>; 3],
         reach: [f32; 2],
-        layer: u32,
-        x: u32,
-        y: u32,
+        at: Texel,
     ) -> Option<Guide<'a>> {
-        let nc = nrm.fetch(layer, x, y);
+        let nc = nrm.fetch(at);
         Some(Guide {
             src,
             pos,
             nrm,
-            layer,
-            x: i64::from(x),
-            y: i64::from(y),
-            p: xyz(pos.fetch(layer, x, y)),
+            layer: at.layer,
+            x: i64::from(at.x),
+            y: i64::from(at.y),
+            p: xyz(pos.fetch(at)),
             n: normalize(xyz(nc))?,
             object: nc[3],
             reach2: reach[1] * reach[1],

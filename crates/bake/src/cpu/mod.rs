@@ -595,8 +595,12 @@ mod tests {
                     w0 * a[0] + u * b[0] + v * c[0],
                     w0 * a[1] + u * b[1] + v * c[1],
                 ];
-                let want =
-                    crate::map::sample_masked(|x, y| map.fetch(layer, x, y), offset, rect, uv);
+                let want = crate::map::sample_masked(
+                    |x, y| map.fetch(Texel { layer, x, y }),
+                    offset,
+                    rect,
+                    uv,
+                );
                 assert_eq!(
                     got.map(f32::to_bits),
                     want.map(f32::to_bits),
@@ -703,24 +707,24 @@ mod tests {
             size,
             layers: 1,
         };
-        let a = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 0, 0);
-        let b = blur_texel(s, n, blur_params([1, 0], 1.0), 0, 1, 0);
+        let a = blur_texel([s, n], blur_params([1, 0], 1.0), Texel::layer0(0, 0));
+        let b = blur_texel([s, n], blur_params([1, 0], 1.0), Texel::layer0(1, 0));
         let w = (-0.5f32).exp();
         let expected_a = (1.0 + 3.0 * w) / (1.0 + w);
         assert!((a[0] - expected_a).abs() < 1e-6, "{a:?}");
         let expected_b = (3.0 + 1.0 * w) / (1.0 + w);
         assert!((b[0] - expected_b).abs() < 1e-6, "{b:?}");
         assert_eq!(
-            blur_texel(s, n, blur_params([1, 0], 1.0), 0, 2, 0),
+            blur_texel([s, n], blur_params([1, 0], 1.0), Texel::layer0(2, 0)),
             [0.0; 4]
         );
         assert_eq!(
-            blur_texel(s, n, blur_params([1, 0], 5.0), 0, 3, 0),
+            blur_texel([s, n], blur_params([1, 0], 5.0), Texel::layer0(3, 0)),
             [100.0, 100.0, 100.0, 1.0]
         );
         // A vertical pass over a one-row image sees only the centre.
         assert_eq!(
-            blur_texel(s, n, blur_params([0, 1], 3.0), 0, 1, 0),
+            blur_texel([s, n], blur_params([0, 1], 3.0), Texel::layer0(1, 0)),
             [3.0, 3.0, 3.0, 1.0]
         );
     }
@@ -758,10 +762,10 @@ mod denoiser_tests {
     }
 
     /// One pass over every texel of a one-layer map of `size`.
-    fn apply(size: [u32; 2], f: impl Fn(u32, u32) -> [f32; 4]) -> Vec<f32> {
+    fn apply(size: [u32; 2], f: impl Fn(Texel) -> [f32; 4]) -> Vec<f32> {
         (0..size[1])
-            .flat_map(|y| (0..size[0]).map(move |x| (x, y)))
-            .flat_map(|(x, y)| f(x, y))
+            .flat_map(|y| (0..size[0]).map(move |x| Texel::layer0(x, y)))
+            .flat_map(f)
             .collect()
     }
 
@@ -822,11 +826,11 @@ mod denoiser_tests {
                 let s = view(&src, size);
                 match params {
                     Params::Variance(p) => {
-                        variance = apply(size, |x, y| variance_texel(s, pos, nrm, p, 0, x, y));
+                        variance = apply(size, |at| variance_texel([s, pos, nrm], p, at));
                     }
                     Params::Atrous(p) => {
                         let v = view(&variance, size);
-                        out = apply(size, |x, y| atrous_texel(s, v, pos, nrm, p, 0, x, y));
+                        out = apply(size, |at| atrous_texel([s, v, pos, nrm], p, at));
                     }
                     other => panic!("{other:?}"),
                 }
@@ -837,18 +841,12 @@ mod denoiser_tests {
         /// The separable Gaussian of the blur passes (U, then V).
         fn gaussian(&self, sigma: f32) -> Vec<f32> {
             let (size, nrm) = (self.size, view(&self.nrm, self.size));
-            let u = apply(size, |x, y| {
-                blur_texel(
-                    view(&self.map, size),
-                    nrm,
-                    blur_params([1, 0], sigma),
-                    0,
-                    x,
-                    y,
-                )
+            let map = view(&self.map, size);
+            let u = apply(size, |at| {
+                blur_texel([map, nrm], blur_params([1, 0], sigma), at)
             });
-            apply(size, |x, y| {
-                blur_texel(view(&u, size), nrm, blur_params([0, 1], sigma), 0, x, y)
+            apply(size, |at| {
+                blur_texel([view(&u, size), nrm], blur_params([0, 1], sigma), at)
             })
         }
     }
@@ -1009,7 +1007,7 @@ mod denoiser_tests {
                 view(&f.pos, f.size),
                 view(&f.nrm, f.size),
             );
-            let guide = Guide::new(src, pos, nrm, reach, 0, 2, 0).expect("normal");
+            let guide = Guide::new([src, pos, nrm], reach, Texel::layer0(2, 0)).expect("normal");
             assert_eq!(guide.tap([8, 0]).is_some(), accepted, "{d}");
             // Within two texels only the upper bound applies.
             assert!(guide.tap([1, 0]).is_some() && guide.tap([0, 0]).is_some());
@@ -1115,7 +1113,7 @@ mod denoiser_tests {
             orphan_rays: 5,
             ..GatherParams::default()
         };
-        coarse_rays(pos, nrm, &params, 0, x, y)
+        coarse_rays([pos, nrm], &params, Texel::layer0(x, y))
     }
 
     /// A 13×13 floor with column 11 and row 11 a one-texel strip of another object, valued
@@ -1181,8 +1179,8 @@ mod denoiser_tests {
             reach: COARSE_REACH,
             ..UpsampleParams::default()
         };
-        let out = apply(size, |x, y| {
-            upsample_texel([view(&f.map, size), pos, nrm], params, 0, x, y)
+        let out = apply(size, |at| {
+            upsample_texel([view(&f.map, size), pos, nrm], params, at)
         });
         let mut compared = 0;
         for y in 0..13 {

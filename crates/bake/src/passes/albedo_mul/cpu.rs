@@ -9,9 +9,8 @@ parameterless_pass! {
 
 impl TexelPass for Pass {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let a = ctx.views[0].fetch(layer, x, y);
-        let b = ctx.views[1].fetch(layer, x, y);
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        let [a, b] = ctx.maps().map(|m| m.fetch(at));
         [
             guard(a[0] * b[0]),
             guard(a[1] * b[1]),

@@ -10,34 +10,27 @@ pub(crate) type Pass = AtrousParams;
 
 impl TexelPass for AtrousParams {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let v = ctx.views;
-        atrous_texel(v[0], v[1], v[2], v[3], *self, layer, x, y)
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        atrous_texel(ctx.maps(), *self, at)
     }
 }
 
 /// One à-trous iteration at one texel (see the module docs).
-#[allow(clippy::too_many_arguments)]
 pub(crate) fn atrous_texel(
-    src: View<'_>,
-    variance: View<'_>,
-    pos: View<'_>,
-    nrm: View<'_>,
+    [src, variance, pos, nrm]: [View<'_>; 4],
     params: AtrousParams,
-    layer: u32,
-    x: u32,
-    y: u32,
+    at: Texel,
 ) -> [f32; 4] {
-    let c = src.fetch(layer, x, y);
+    let c = src.fetch(at);
     if c[3] <= 0.5 {
         return [0.0; 4];
     }
     let kept = [guard(c[0]), guard(c[1]), guard(c[2]), 1.0];
     let reach = [params.reach_min, params.reach];
-    let Some(guide) = Guide::new(src, pos, nrm, reach, layer, x, y) else {
+    let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
         return kept;
     };
-    let scale = params.variance_scale * variance.fetch(layer, x, y)[0];
+    let scale = params.variance_scale * variance.fetch(at)[0];
     let step = i64::from(params.step);
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;

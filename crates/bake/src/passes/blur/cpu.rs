@@ -21,8 +21,8 @@ impl Prepare for BlurKernel {
 
 impl TexelPass for BlurKernel {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        BlurKernel::texel(self, ctx.views[0], layer, x, y)
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        BlurKernel::texel(self, ctx.views[0], at)
     }
 }
 
@@ -73,7 +73,8 @@ impl BlurKernel {
                 .for_each(|(r, row)| {
                     let y = (origin[1] + r as i64) as u32;
                     for (i, n) in row.iter_mut().enumerate() {
-                        let t = nrm.fetch(layer, (origin[0] + i as i64) as u32, y);
+                        let x = (origin[0] + i as i64) as u32;
+                        let t = nrm.fetch(Texel { layer, x, y });
                         let [a, b, c] = normalize(xyz(t)).unwrap_or([f32::NAN; 3]);
                         *n = [a, b, c, t[3]];
                     }
@@ -98,13 +99,13 @@ impl BlurKernel {
         self.normals.get((j * self.columns + i) as usize).copied()
     }
 
-    /// The blurred value of texel `(x, y)` of `src` (a centre of [`BlurKernel::new`]'s).
-    pub(crate) fn texel(&self, src: View<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let centre = src.fetch(layer, x, y);
+    /// The blurred value of texel `at` of `src` (a centre of [`BlurKernel::new`]'s).
+    pub(crate) fn texel(&self, src: View<'_>, at: Texel) -> [f32; 4] {
+        let centre = src.fetch(at);
         if centre[3] <= 0.5 {
             return [0.0; 4];
         }
-        let (x, y) = (i64::from(x), i64::from(y));
+        let (layer, x, y) = (at.layer, i64::from(at.x), i64::from(at.y));
         let Some(nc) = self.normal(x, y) else {
             return centre;
         };
@@ -163,13 +164,7 @@ impl BlurKernel {
 /// One axis of the masked Gaussian at one texel, with a kernel of its own (dispatches prepare
 /// one per tile).
 #[cfg(test)]
-pub(crate) fn blur_texel(
-    src: View<'_>,
-    nrm: View<'_>,
-    params: BlurParams,
-    layer: u32,
-    x: u32,
-    y: u32,
-) -> [f32; 4] {
-    BlurKernel::new(params, nrm, layer, [x, y, x + 1, y + 1]).texel(src, layer, x, y)
+pub(crate) fn blur_texel([src, nrm]: [View<'_>; 2], params: BlurParams, at: Texel) -> [f32; 4] {
+    let Texel { layer, x, y } = at;
+    BlurKernel::new(params, nrm, layer, [x, y, x + 1, y + 1]).texel(src, at)
 }

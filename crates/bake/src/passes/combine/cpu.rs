@@ -9,10 +9,9 @@ pub(crate) type Pass = CombineParams;
 
 impl TexelPass for CombineParams {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
         let w = *self;
-        let a = ctx.views[0].fetch(layer, x, y);
-        let b = ctx.views[1].fetch(layer, x, y);
+        let [a, b] = ctx.maps().map(|m| m.fetch(at));
         [
             guard(w.a_weight * a[0] + w.b_weight * b[0]),
             guard(w.a_weight * a[1] + w.b_weight * b[1]),

@@ -5,7 +5,7 @@
 
 use luxbake_bvh::Ray;
 
-use crate::backend::{LAMP_PATH_TEXELS, offset_origin};
+use crate::backend::{LAMP_PATH_TEXELS, offset_origin, toward};
 use crate::cpu::kernel::*;
 use crate::exact::div;
 use crate::lightpaths::CONNECT_PASS;
@@ -20,12 +20,13 @@ pub(crate) type Pass = ConnectParams;
 const PREFETCH: u32 = 32;
 
 impl TexelPass for ConnectParams {
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let pw = ctx.views[0].fetch(layer, x, y);
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        let Texel { layer, x, y } = at;
+        let [pw, nw] = ctx.maps().map(|m| m.fetch(at));
         if pw[3] <= 0.5 {
             return [0.0; 4];
         }
-        let Some(n) = normalize(xyz(ctx.views[1].fetch(layer, x, y))) else {
+        let Some(n) = normalize(xyz(nw)) else {
             return [0.0, 0.0, 0.0, 1.0];
         };
         let paths = &ctx.scene.lamp_paths;
@@ -65,13 +66,9 @@ impl TexelPass for ConnectParams {
             };
             let (a, b, power) = (at(0), at(1), at(2));
             let (position, normal) = (xyz(a), xyz(b));
-            let to = sub(position, p);
-            let r2 = dot(to, to);
-            let r = r2.sqrt();
-            if !(r > 0.0 && r.is_finite()) {
+            let Some((w, _, r2)) = toward(p, position) else {
                 continue;
-            }
-            let w = div(to, r);
+            };
             let cx = dot(n, w);
             let cy = -dot(normal, w);
             if !(cx > 0.0 && cy > 0.0) {

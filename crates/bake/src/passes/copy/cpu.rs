@@ -9,7 +9,7 @@ parameterless_pass! {
 
 impl TexelPass for Pass {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        ctx.views[0].fetch(layer, x, y)
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        ctx.views[0].fetch(at)
     }
 }

@@ -5,9 +5,8 @@
 
 use luxbake_bvh::Ray;
 
-use crate::backend::{LampParams, LampView, lamp_toward, offset_origin};
+use crate::backend::{LampParams, LampView, lamp_toward, offset_origin, toward};
 use crate::cpu::kernel::*;
-use crate::exact::div;
 use crate::opening::{self, OpeningParams};
 use crate::rng;
 
@@ -18,17 +17,10 @@ pub(crate) type Pass = DirectParams;
 
 impl TexelPass for DirectParams {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let v = ctx.views;
-        let texel = rng::texel_index(ctx.scene.layer_size, layer, x, y);
-        direct_texel(
-            ctx.scene,
-            *self,
-            ctx.trav,
-            texel,
-            v[0].fetch(layer, x, y),
-            v[1].fetch(layer, x, y),
-        )
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        let texel = rng::texel_index(ctx.scene.layer_size, at.layer, at.x, at.y);
+        let [pos, nrm] = ctx.maps().map(|m| m.fetch(at));
+        direct_texel(ctx.scene, *self, ctx.trav, texel, pos, nrm)
     }
 }
 
@@ -174,13 +166,9 @@ pub(crate) fn from_opening(
             let q = s.point;
             let x = [0, 1, 2]
                 .map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
-            let to = sub(x, p);
-            let r2 = dot(to, to);
-            let r = r2.sqrt();
-            if !(r > 0.0 && r.is_finite()) {
+            let Some((w, r, r2)) = toward(p, x) else {
                 continue;
-            }
-            let w = div(to, r);
+            };
             let cos_p = dot(n, w);
             if !(cos_p > 0.0) {
                 continue;

@@ -10,7 +10,7 @@ parameterless_pass! {
 }
 
 impl TexelPass for Pass {
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, _: u32) -> [f32; 4] {
+    fn texel(&self, ctx: &Ctx<'_>, Texel { layer, x, .. }: Texel) -> [f32; 4] {
         let Some(src) = ctx.views.first() else {
             return [0.0, 0.0, 0.0, 1.0];
         };
@@ -20,7 +20,7 @@ impl TexelPass for Pass {
         while x0 < width {
             let mut run = 0.0f32;
             for sx in x0..(x0 + RUN).min(width) {
-                let t = src.fetch(layer, sx, x);
+                let t = src.fetch(Texel { layer, x: sx, y: x });
                 if t[3] > 0.5 {
                     run += (t[0] + t[1]) + t[2];
                 }

@@ -397,16 +397,17 @@ pub(crate) fn gather_row(
     at.clear();
     for (i, texel) in out.chunks_exact_mut(4).enumerate() {
         let x = x0 + i as u32;
-        let pos = pos_map.fetch(layer, x, y);
+        let here = Texel { layer, x, y };
+        let pos = pos_map.fetch(here);
         if pos[3] <= 0.5 {
             texel.copy_from_slice(&[0.0; 4]);
             continue;
         }
         texel.copy_from_slice(&[0.0, 0.0, 0.0, 1.0]);
-        let Some(n) = normalize(xyz(nrm_map.fetch(layer, x, y))) else {
+        let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
             continue;
         };
-        let rays = coarse_rays(pos_map, nrm_map, &params, layer, x, y);
+        let rays = coarse_rays([pos_map, nrm_map], &params, here);
         if rays == 0 {
             continue;
         }
@@ -429,7 +430,11 @@ pub(crate) fn gather_row(
     for ((t, sum), &i) in texels.iter().zip(sums.iter()).zip(at.iter()) {
         let inv = 1.0 / t.rays.len() as f32;
         let c = if params.lamp_paths > 0 {
-            connected.fetch(layer, x0 + i as u32, y)
+            connected.fetch(Texel {
+                layer,
+                x: x0 + i as u32,
+                y,
+            })
         } else {
             [0.0; 4]
         };

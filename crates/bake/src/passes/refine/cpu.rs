@@ -12,37 +12,24 @@ pub(crate) type Pass = RefineParams;
 
 impl TexelPass for RefineParams {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let v = ctx.views;
-        refine_texel(ctx.scene, [v[0], v[1], v[2], v[3], v[4]], ctx.trav, *self, layer, x, y)
-    }
-}
-
-/// [`Program::Refine`] at one texel.
-pub(crate) fn refine_texel(
-    scene: &CpuScene,
-    [pos_map, nrm_map, reflected, first_map, variance]: [View<'_>; 5],
-    trav: Trav,
-    params: RefineParams,
-    layer: u32,
-    x: u32,
-    y: u32,
-) -> [f32; 4] {
-    let pos = pos_map.fetch(layer, x, y);
-    let first = first_map.fetch(layer, x, y);
-    if pos[3] <= 0.5 {
-        return [0.0; 4];
-    }
-    let n = normalize(xyz(nrm_map.fetch(layer, x, y)));
-    let (Some(n), 1..) = (n, params.rays) else {
-        return first;
-    };
-    let noise = variance.fetch(layer, x, y);
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        let [pos_map, nrm_map, reflected, first_map, variance] = ctx.maps();
+        let (scene, params) = (ctx.scene, *self);
+        let pos = pos_map.fetch(at);
+        let first = first_map.fetch(at);
+        if pos[3] <= 0.5 {
+            return [0.0; 4];
+        }
+        let n = normalize(xyz(nrm_map.fetch(at)));
+        let (Some(n), 1..) = (n, params.rays) else {
+            return first;
+        };
+        let noise = variance.fetch(at);
     if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
         return first;
     }
     let texel = GatherTexel {
-        texel: rng::texel_index(scene.layer_size, layer, x, y),
+        texel: rng::texel_index(scene.layer_size, at.layer, at.x, at.y),
         rays: params.first_rays..params.first_rays + params.rays,
         o: offset_origin(xyz(pos), n, scene.ray_epsilon),
         frame: Frame::new(n),
@@ -54,7 +41,7 @@ pub(crate) fn refine_texel(
     gather_sums(
         scene,
         reflected,
-        trav,
+        ctx.trav,
         sampler,
         &[texel],
         &mut chunks,
@@ -71,4 +58,5 @@ pub(crate) fn refine_texel(
         guard((k * first[2] + sum[2]) / total),
         1.0,
     ]
+}
 }

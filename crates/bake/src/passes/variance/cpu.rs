@@ -10,9 +10,8 @@ pub(crate) type Pass = VarianceParams;
 
 impl TexelPass for VarianceParams {
     #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, layer: u32, x: u32, y: u32) -> [f32; 4] {
-        let v = ctx.views;
-        variance_texel(v[0], v[1], v[2], *self, layer, x, y)
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+        variance_texel(ctx.maps(), *self, at)
     }
 }
 
@@ -20,20 +19,11 @@ impl TexelPass for VarianceParams {
 pub(crate) const VARIANCE_DIRECTIONS: [[i64; 2]; 4] = [[1, 0], [0, 1], [1, 1], [1, -1]];
 
 /// The noise variance of the luminance at one texel (see the module docs).
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn variance_texel(
-    src: View<'_>,
-    pos: View<'_>,
-    nrm: View<'_>,
-    params: VarianceParams,
-    layer: u32,
-    x: u32,
-    y: u32,
-) -> [f32; 4] {
-    if src.fetch(layer, x, y)[3] <= 0.5 {
+pub(crate) fn variance_texel(maps: [View<'_>; 3], params: VarianceParams, at: Texel) -> [f32; 4] {
+    if maps[0].fetch(at)[3] <= 0.5 {
         return [0.0; 4];
     }
-    let Some(guide) = Guide::new(src, pos, nrm, [0.0, params.reach], layer, x, y) else {
+    let Some(guide) = Guide::new(maps, [0.0, params.reach], at) else {
         return [0.0, 0.0, 0.0, 1.0];
     };
     // The 5×5 window, row by row: the luminance of each tap on the surface.
