@@ -5,24 +5,12 @@
 use luxbake_ies::{
     Emitter, LuminousOpening, OpeningShape, PhotometricType, Photometry, SolidKind, Units,
 };
+use luxbake_testkit::fibonacci_sphere;
 use proptest::prelude::*;
 use std::f64::consts::PI;
 use std::path::PathBuf;
 
 const KINDS: [SolidKind; 3] = [SolidKind::Box, SolidKind::Cylinder, SolidKind::Ellipsoid];
-
-/// Directions on a Fibonacci sphere.
-fn directions(n: usize) -> Vec<[f64; 3]> {
-    let golden = PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            [r * phi.cos(), r * phi.sin(), z]
-        })
-        .collect()
-}
 
 /// A function of a surface point and its normal.
 type SurfaceFn = dyn Fn([f64; 3], [f64; 3]) -> f64;
@@ -110,7 +98,7 @@ fn emitters() -> Vec<Emitter> {
 
 #[test]
 fn projected_area_is_the_integral_of_the_visible_cosine_over_samples() {
-    let dirs = directions(24);
+    let dirs = fibonacci_sphere(24);
     for e in emitters() {
         if e.area() == 0.0 {
             assert!(e.sample([0.5, 0.5, 0.5]).is_none(), "{e:?}");
@@ -155,7 +143,7 @@ fn sample_weights_integrate_to_the_area() {
 
 #[test]
 fn mean_projected_area_of_a_closed_convex_emitter_is_a_quarter_of_its_area() {
-    let dirs = directions(40_000);
+    let dirs = fibonacci_sphere(40_000);
     for (kind, half) in [
         (SolidKind::Box, [0.3, 0.1, 0.05]),
         (SolidKind::Cylinder, [0.2, 0.08, 0.3]),
@@ -205,7 +193,7 @@ fn areas_in_closed_form() {
     };
     assert!((s.area() - PI).abs() < 1e-12);
     // A sphere shows πr² in every direction; a flat disk πr²|cos|.
-    for d in directions(50) {
+    for d in fibonacci_sphere(50) {
         assert!((s.projected_area(d) - PI / 4.0).abs() < 1e-12);
     }
 }
@@ -308,7 +296,7 @@ fn degenerate_sizes_give_no_nan() {
                 assert!(e.area().is_finite() && e.area() >= 0.0, "{e:?}");
                 assert!(e.mean_square_radius().is_finite(), "{e:?}");
                 assert!(!e.point_model_distance(0.01).is_nan(), "{e:?}");
-                for d in directions(20) {
+                for d in fibonacci_sphere(20) {
                     let a = e.projected_area(d);
                     assert!(a.is_finite() && a >= 0.0, "{e:?}");
                 }
@@ -500,7 +488,7 @@ fn every_shape_maps_to_its_solid() {
 fn luminance_times_projected_area_is_the_intensity() {
     let p = type_c([-0.2, -0.2, 0.3], 100.0, 40.0);
     let e = p.emitter().unwrap();
-    for d in directions(200) {
+    for d in fibonacci_sphere(200) {
         let l = p.opening_luminance(d);
         let i = p.intensity(d);
         assert!(
@@ -584,7 +572,7 @@ fn every_sample_file_gets_an_emitter_consistent_with_its_signs_and_candela() {
         assert_eq!(e.faces & 4 != 0, e.half[2] > 0.0, "{name}: {e:?}");
         // No light is lost: where the file shines, the emitter shows area, and the luminance
         // gives back the intensity.
-        for d in directions(3000) {
+        for d in fibonacci_sphere(3000) {
             let i = p.intensity(d);
             let a = e.projected_area(d);
             if i > 0.0 && d.iter().all(|x| x.abs() > 1e-6) {

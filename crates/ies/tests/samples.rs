@@ -2,6 +2,7 @@
 //! copied into the repository) and the bundled default lamp.
 
 use luxbake_ies::{Format, IesVersion, PhotometricType, Photometry};
+use luxbake_testkit::fibonacci_sphere;
 use std::path::PathBuf;
 
 /// `../shared/photometry`, or `None` after [`luxbake_testkit::skip_or_fail`] (which fails
@@ -43,7 +44,7 @@ fn samples(test: &str) -> Vec<(String, Vec<u8>)> {
     out
 }
 
-const DOWNLIGHT: &str = include_str!("../../bake/lamps/luxbake_downlight.ies");
+const DOWNLIGHT: &str = include_str!("../../scene/lamps/luxbake_downlight.ies");
 
 /// Lumens published for the file: `[_ABSOLUTELUMENS]` for absolute photometry, or for EULUMDAT
 /// the header lumens times the light output ratio (LORL). (The luxpy IES file's ratio is checked
@@ -124,26 +125,13 @@ fn ies_and_ldt_versions_of_the_same_luminaire_agree() {
     assert!((mi / ml - 1.0).abs() < 2e-3, "{mi} {ml}");
 }
 
-/// Directions on a Fibonacci sphere.
-fn directions(n: usize) -> Vec<[f64; 3]> {
-    let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-    (0..n)
-        .map(|i| {
-            let z = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-            let r = (1.0 - z * z).sqrt();
-            let phi = golden * i as f64;
-            [r * phi.cos(), r * phi.sin(), z]
-        })
-        .collect()
-}
-
 /// Tolerance of `GpuTable::sample` against `Photometry::intensity`, relative to the peak:
 /// types C and A: 99 % of 20 000 directions within 1e-4, all within 2 % (the exceptions lie in
 /// the one table cell where a measured range ends on a non-zero value); type B (resampled at
 /// 0.5°): 99 % within 1e-3, all within 5e-3.
 #[test]
 fn gpu_table_reproduces_intensity() {
-    let dirs = directions(20_000);
+    let dirs = fibonacci_sphere(20_000);
     for (name, bytes) in samples("gpu_table_reproduces_intensity") {
         let p = Photometry::parse(&bytes).unwrap();
         let table = p.gpu_table();
@@ -185,7 +173,7 @@ fn written_samples_parse_back_equal() {
                 assert_eq!(p, q, "{name}");
             }
             assert_eq!(q.to_ies(v), text, "{name}: writing is stable");
-            for d in directions(500) {
+            for d in fibonacci_sphere(500) {
                 let (a, b) = (p.intensity(d), q.intensity(d));
                 assert!((a - b).abs() <= 1e-9 * a.abs().max(1.0), "{name}: {a} {b}");
             }

@@ -8,8 +8,8 @@
 //! - **The one seeded generator of test data**: [`SplitMix64`], whose streams are fixed (test
 //!   scenes, rays and expected values are drawn from them);
 //! - small shared helpers: [`shared_data`] (the shared test data), [`temp_dir`] (where a test
-//!   writes files) and [`RelativeError`] (the largest and mean relative error of compared
-//!   values).
+//!   writes files), [`RelativeError`] (the largest and mean relative error of compared
+//!   values) and [`fibonacci_sphere`] (evenly spread test directions).
 //!
 //! ## The skip rule
 //!
@@ -40,10 +40,12 @@
 
 mod ci;
 mod shared;
+mod sphere;
 mod splitmix;
 mod stats;
 
 pub use ci::{ci_requires_everything, or_skip, skip_decision, skip_or_fail};
 pub use shared::{shared_data, temp_dir};
+pub use sphere::fibonacci_sphere;
 pub use splitmix::SplitMix64;
 pub use stats::RelativeError;
