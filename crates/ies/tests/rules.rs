@@ -373,6 +373,32 @@ fn tilt_file_needs_a_resolver() {
 
 // ---------------------------------------------------------------- frame and symmetry
 
+/// A 2002 file of photometric type `t` (3: A, 2: B) with V −90, 0, 90, the H angles `h` (three)
+/// and the candela 1 to 9.
+fn type_ab(t: u32, h: &str) -> Photometry {
+    parse(&ies(
+        "IESNA:LM-63-2002\n[TEST] a",
+        "TILT=NONE",
+        &format!("1 -1 1 3 3 {t} 2 0 0 0"),
+        &format!("-90 0 90\n{h}\n1 2 3\n4 5 6\n7 8 9"),
+    ))
+}
+
+/// `p`'s intensity toward each direction is exactly its value.
+fn assert_intensities(p: &Photometry, cases: &[([f64; 3], f64)]) {
+    for &(d, want) in cases {
+        assert_eq!(p.intensity(d), want, "{d:?}");
+    }
+}
+
+/// `p.direction_at(a, b)` is `want` to 1e-15.
+fn assert_direction(p: &Photometry, (a, b): (f64, f64), want: [f64; 3]) {
+    let d = p.direction_at(a, b);
+    for k in 0..3 {
+        assert!((d[k] - want[k]).abs() < 1e-15, "{a} {b}: {d:?} vs {want:?}");
+    }
+}
+
 /// Type C direction formula: d(γ, C) = (sin γ cos C, sin γ sin C, −cos γ).
 #[test]
 fn type_c_frame() {
@@ -383,86 +409,83 @@ fn type_c_frame() {
         &[5.0, 1.0, 5.0, 2.0, 5.0, 3.0, 5.0, 4.0, 5.0, 1.0],
     ));
     assert_eq!(p.symmetry(), Symmetry::Full);
-    assert_eq!(p.intensity([1.0, 0.0, 0.0]), 1.0); // C0 → +X
-    assert_eq!(p.intensity([0.0, 2.0, 0.0]), 2.0); // C90 → +Y
-    assert_eq!(p.intensity([-1.0, 0.0, 0.0]), 3.0); // C180 → −X
-    assert_eq!(p.intensity([0.0, -1.0, 0.0]), 4.0); // C270 → −Y
-    assert_eq!(p.intensity([0.0, 0.0, -3.0]), 5.0); // nadir → −Z
-    assert_eq!(p.intensity([0.0, 0.0, 1.0]), 0.0); // zenith, not measured
+    assert_intensities(
+        &p,
+        &[
+            ([1.0, 0.0, 0.0], 1.0),  // C0 → +X
+            ([0.0, 2.0, 0.0], 2.0),  // C90 → +Y
+            ([-1.0, 0.0, 0.0], 3.0), // C180 → −X
+            ([0.0, -1.0, 0.0], 4.0), // C270 → −Y
+            ([0.0, 0.0, -3.0], 5.0), // nadir → −Z
+            ([0.0, 0.0, 1.0], 0.0),  // zenith, not measured
+        ],
+    );
     for (g, c) in [(30.0_f64, 40.0_f64), (120.0, 300.0)] {
-        let d = p.direction_at(g, c);
-        let (g, c) = (g.to_radians(), c.to_radians());
-        let want = [g.sin() * c.cos(), g.sin() * c.sin(), -g.cos()];
-        for k in 0..3 {
-            assert!((d[k] - want[k]).abs() < 1e-15);
-        }
+        let (gr, cr) = (g.to_radians(), c.to_radians());
+        assert_direction(
+            &p,
+            (g, c),
+            [gr.sin() * cr.cos(), gr.sin() * cr.sin(), -gr.cos()],
+        );
     }
 }
 
 /// Type A: V elevation (+Z up), H plane about +Z, photometric axis +X.
 #[test]
 fn type_a_frame() {
-    let text = ies(
-        "IESNA:LM-63-2002\n[TEST] a",
-        "TILT=NONE",
-        "1 -1 1 3 3 3 2 0 0 0",
-        "-90 0 90\n-90 0 90\n1 2 3\n4 5 6\n7 8 9",
-    );
-    let p = parse(&text);
+    let p = type_ab(3, "-90 0 90");
     assert_eq!(p.photometric_type(), PhotometricType::A);
     assert_eq!(p.symmetry(), Symmetry::NoneAB);
-    assert_eq!(p.intensity([1.0, 0.0, 0.0]), 5.0); // V 0, H 0: the photometric axis
-    assert_eq!(p.intensity([0.0, 1.0, 0.0]), 8.0); // H +90 → +Y
-    assert_eq!(p.intensity([0.0, -1.0, 0.0]), 2.0); // H −90 → −Y
+    assert_intensities(
+        &p,
+        &[
+            ([1.0, 0.0, 0.0], 5.0),  // V 0, H 0: the photometric axis
+            ([0.0, 1.0, 0.0], 8.0),  // H +90 → +Y
+            ([0.0, -1.0, 0.0], 2.0), // H −90 → −Y
+            ([-1.0, 0.0, 0.0], 0.0), // behind: not measured
+        ],
+    );
     assert!(close(p.intensity([0.0, 0.0, 1.0]), 6.0, 1e-12)); // V +90 → +Z (pole: mean of 3, 6, 9)
-    assert_eq!(p.intensity([-1.0, 0.0, 0.0]), 0.0); // behind: not measured
     assert!(close(
         p.intensity_at(30.0, 20.0),
         p.intensity(p.direction_at(30.0, 20.0)),
         1e-12
     ));
     let (v, h) = (30f64.to_radians(), 20f64.to_radians());
-    let d = p.direction_at(30.0, 20.0);
-    let want = [v.cos() * h.cos(), v.cos() * h.sin(), v.sin()];
-    for k in 0..3 {
-        assert!((d[k] - want[k]).abs() < 1e-15);
-    }
+    assert_direction(
+        &p,
+        (30.0, 20.0),
+        [v.cos() * h.cos(), v.cos() * h.sin(), v.sin()],
+    );
 }
 
 /// Type B: V plane about the transverse axis +Y (positive up toward +Z), H lateral (+Y).
 #[test]
 fn type_b_frame() {
-    let text = ies(
-        "IESNA:LM-63-2002\n[TEST] a",
-        "TILT=NONE",
-        "1 -1 1 3 3 2 2 0 0 0",
-        "-90 0 90\n-90 0 90\n1 2 3\n4 5 6\n7 8 9",
-    );
-    let p = parse(&text);
+    let p = type_ab(2, "-90 0 90");
     assert_eq!(p.photometric_type(), PhotometricType::B);
-    assert_eq!(p.intensity([1.0, 0.0, 0.0]), 5.0); // photometric axis +X
-    assert_eq!(p.intensity([0.0, 0.0, 1.0]), 6.0); // V +90 → +Z
-    assert_eq!(p.intensity([0.0, 0.0, -1.0]), 4.0); // V −90 → −Z
+    assert_intensities(
+        &p,
+        &[
+            ([1.0, 0.0, 0.0], 5.0),  // photometric axis +X
+            ([0.0, 0.0, 1.0], 6.0),  // V +90 → +Z
+            ([0.0, 0.0, -1.0], 4.0), // V −90 → −Z
+            ([-1.0, 0.0, 0.0], 0.0),
+        ],
+    );
     assert!(close(p.intensity([0.0, 1.0, 0.0]), 8.0, 1e-12)); // H +90 → +Y (pole: mean 7 8 9)
-    assert_eq!(p.intensity([-1.0, 0.0, 0.0]), 0.0);
     let (v, h) = (30f64.to_radians(), 20f64.to_radians());
-    let d = p.direction_at(30.0, 20.0);
-    let want = [h.cos() * v.cos(), h.sin(), h.cos() * v.sin()];
-    for k in 0..3 {
-        assert!((d[k] - want[k]).abs() < 1e-15);
-    }
+    assert_direction(
+        &p,
+        (30.0, 20.0),
+        [h.cos() * v.cos(), h.sin(), h.cos() * v.sin()],
+    );
 }
 
 #[test]
 fn type_a_and_b_lateral_symmetry_mirrors() {
     for t in [3, 2] {
-        let text = ies(
-            "IESNA:LM-63-2002\n[TEST] a",
-            "TILT=NONE",
-            &format!("1 -1 1 3 3 {t} 2 0 0 0"),
-            "-90 0 90\n0 45 90\n1 2 3\n4 5 6\n7 8 9",
-        );
-        let p = parse(&text);
+        let p = type_ab(t, "0 45 90");
         assert_eq!(p.symmetry(), Symmetry::Lateral);
         for (v, h) in [(10.0, 30.0), (-40.0, 70.0), (0.0, 45.0)] {
             let a = p.intensity_at(v, h);
