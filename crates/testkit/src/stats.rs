@@ -26,6 +26,30 @@ impl RelativeError {
     }
 }
 
+/// `<n> values, max rel err <max>, mean <mean>` (the errors in scientific notation).
+impl std::fmt::Display for RelativeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "{} values, max rel err {:.2e}, mean {:.2e}",
+            self.n,
+            self.max,
+            self.mean()
+        )
+    }
+}
+
+/// The errors of `(got, want)` pairs, as [`RelativeError::add`] adds them.
+impl FromIterator<(f64, f64)> for RelativeError {
+    fn from_iter<I: IntoIterator<Item = (f64, f64)>>(pairs: I) -> Self {
+        let mut e = RelativeError::default();
+        for (got, want) in pairs {
+            e.add(got, want);
+        }
+        e
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -39,5 +63,8 @@ mod tests {
         assert_eq!(e.n, 2);
         assert!((e.max - 0.25).abs() < 1e-12);
         assert!((e.mean() - 0.175).abs() < 1e-12);
+        let collected: RelativeError = [(1.1, 1.0), (-3.0, -4.0)].into_iter().collect();
+        assert_eq!(collected, e);
+        assert_eq!(e.to_string(), "2 values, max rel err 2.50e-1, mean 1.75e-1");
     }
 }
