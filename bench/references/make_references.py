@@ -115,12 +115,15 @@ def radiance_version(env: dict) -> str:
 def rtrace(octree: Path, rays: np.ndarray, ab: int, ad: int, lw: float, env: dict,
            cwd: Path) -> np.ndarray:
     """Irradiance (W/m^2, RGB) of `rtrace -I` at rows `x y z nx ny nz` (Radiance frame)."""
-    args = ["rtrace", "-I", "-h", "-ab", str(ab), "-ad", str(ad), "-lw", f"{lw:g}", *COMMON,
-            str(octree)]
-    text = "".join(f"{r[0]:.6f} {r[1]:.6f} {r[2]:.6f} {r[3]:.6f} {r[4]:.6f} {r[5]:.6f}\n"
-                   for r in rays)
-    out = subprocess.run(["nice", "-n", "10", *args], input=text, env=env, cwd=cwd,
-                         capture_output=True, text=True, check=True)
+    args = ["-ab", str(ab), "-ad", str(ad), "-lw", f"{lw:g}", *COMMON]
+    return run_rtrace(args, octree, rays, env, cwd)
+
+
+def run_rtrace(args: list, octree: Path, rays: np.ndarray, env: dict, cwd: Path) -> np.ndarray:
+    """The RGB rows of `rtrace -I -h <args> <octree>` (niced) at the rows of `rays`."""
+    text = "".join(" ".join(f"{v:.6f}" for v in r) + "\n" for r in rays)
+    out = subprocess.run(["nice", "-n", "10", "rtrace", "-I", "-h", *args, str(octree)],
+                         input=text, env=env, cwd=cwd, capture_output=True, text=True, check=True)
     vals = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()
                      if line.strip()])
     if vals.shape != (len(rays), 3):
@@ -413,25 +416,31 @@ def acceptable(scene: dict, ti: int, p: np.ndarray, margin: float, rng) -> bool:
     return True
 
 
-def choose_points(scene: dict, counts: dict, seed: int):
-    """Area-uniform random points per surface kind that pass `acceptable`."""
-    rng = np.random.default_rng(seed)
+def margin_of(kind: str) -> float:
+    """How far from a hard shadow edge a point of surface `kind` stays (`acceptable`)."""
+    return MARGIN_ROOM if kind in ("floor", "wall", "ceiling") else MARGIN_FURNITURE
+
+
+def stratified_points(scene: dict, counts: dict, rng, accept, per_point: int = 1):
+    """Area-uniform random points per stratum of `counts` (a surface kind, or kind/facing:
+    up, down or side by the normal), `per_point` times its count, at most 200 tries a point,
+    that `accept(ti, p, margin_of(kind))`. Yields (stratum, count wanted, points got) per
+    stratum with triangles and a count, a point being (p, normal, kind, object name)."""
     tri = scene["tris"]
     area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
     kinds = np.array([surface_kind(scene, i) for i in range(len(tri))])
     ny = scene["normals"][:, 1]
     facing = np.where(ny > 0.5, "up", np.where(ny < -0.5, "down", "side"))
     strata = np.char.add(np.char.add(kinds.astype(str), "/"), facing)
-    chosen = []
     for stratum, count in counts.items():
         kind = stratum.split("/")[0]
         pool = np.flatnonzero((kinds == stratum) | (strata == stratum))
-        if len(pool) == 0:
+        if len(pool) == 0 or count == 0:
             continue
         w = area[pool] / area[pool].sum()
-        margin = MARGIN_ROOM if kind in ("floor", "wall", "ceiling") else MARGIN_FURNITURE
-        got, tries = 0, 0
-        while got < count and tries < 200 * count:
+        count *= per_point
+        got, tries = [], 0
+        while len(got) < count and tries < 200 * count:
             tries += 1
             ti = int(rng.choice(pool, p=w))
             r1, r2 = rng.random(), rng.random()
@@ -439,11 +448,20 @@ def choose_points(scene: dict, counts: dict, seed: int):
                 r1, r2 = 1 - r1, 1 - r2
             t = tri[ti]
             p = t[0] + r1 * (t[1] - t[0]) + r2 * (t[2] - t[0])
-            if acceptable(scene, ti, p, margin, rng):
-                chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
-                got += 1
-        if got < count:
-            print(f"warning: only {got} of {count} {stratum} points")
+            if accept(ti, p, margin_of(kind)):
+                got.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
+        yield stratum, count, got
+
+
+def choose_points(scene: dict, counts: dict, seed: int):
+    """Area-uniform random points per surface kind that pass `acceptable`."""
+    rng = np.random.default_rng(seed)
+    chosen = []
+    for stratum, count, got in stratified_points(
+            scene, counts, rng, lambda ti, p, margin: acceptable(scene, ti, p, margin, rng)):
+        chosen += got
+        if len(got) < count:
+            print(f"warning: only {len(got)} of {count} {stratum} points")
     return chosen
 
 
@@ -1031,58 +1049,25 @@ def nf_choose_points(scene: dict, lamps: list, counts: dict, seed: int):
     (NF_CANDIDATES times the count: `make_nearfield` keeps the first that are lit). Returns the
     points and their strata ("aimed" or the stratum)."""
     rng = np.random.default_rng(seed)
-    tri = scene["tris"]
     chosen = []
-
-    def margin_of(kind):
-        return MARGIN_ROOM if kind in ("floor", "wall", "ceiling") else MARGIN_FURNITURE
-
     for ti, p in nf_candidates(scene, lamps):
         kind = surface_kind(scene, ti)
         if nf_acceptable(scene, lamps, ti, p, margin_of(kind), rng):
             chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
     labels = ["aimed"] * len(chosen)
-    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-    kinds = np.array([surface_kind(scene, i) for i in range(len(tri))])
-    ny = scene["normals"][:, 1]
-    facing = np.where(ny > 0.5, "up", np.where(ny < -0.5, "down", "side"))
-    strata = np.char.add(np.char.add(kinds.astype(str), "/"), facing)
-    for stratum, count in counts.items():
-        kind = stratum.split("/")[0]
-        pool = np.flatnonzero((kinds == stratum) | (strata == stratum))
-        if len(pool) == 0 or count == 0:
-            continue
-        w = area[pool] / area[pool].sum()
-        got, tries = 0, 0
-        count *= NF_CANDIDATES
-        while got < count and tries < 200 * count:
-            tries += 1
-            ti = int(rng.choice(pool, p=w))
-            r1, r2 = rng.random(), rng.random()
-            if r1 + r2 > 1:
-                r1, r2 = 1 - r1, 1 - r2
-            t = tri[ti]
-            p = t[0] + r1 * (t[1] - t[0]) + r2 * (t[2] - t[0])
-            if nf_acceptable(scene, lamps, ti, p, margin_of(kind), rng):
-                chosen.append((p, scene["normals"][ti], kind, scene["names"][scene["object"][ti]]))
-                labels.append(stratum)
-                got += 1
-        if got < count:
-            print(f"note: {got} of {count} {stratum} candidates")
+    for stratum, count, got in stratified_points(
+            scene, counts, rng, lambda ti, p, margin: nf_acceptable(scene, lamps, ti, p, margin, rng),
+            NF_CANDIDATES):
+        chosen += got
+        labels += [stratum] * len(got)
+        if len(got) < count:
+            print(f"note: {len(got)} of {count} {stratum} candidates")
     return chosen, labels
 
 
 def nf_rtrace(octree: Path, rays: np.ndarray, ds: float, env: dict, cwd: Path) -> np.ndarray:
     """Direct illuminance, lux (Rec. 709 Y), of `rtrace -I -ab 0` at rows x y z nx ny nz."""
-    args = ["rtrace", "-I", "-h", *NF_FLAGS, "-ds", f"{ds:g}", str(octree)]
-    text = "".join(" ".join(f"{v:.6f}" for v in r) + "\n" for r in rays)
-    out = subprocess.run(["nice", "-n", "10", *args], input=text, env=env, cwd=cwd,
-                         capture_output=True, text=True, check=True)
-    vals = np.array([[float(v) for v in line.split()] for line in out.stdout.splitlines()
-                     if line.strip()])
-    if vals.shape != (len(rays), 3):
-        raise RuntimeError(f"rtrace returned {vals.shape} for {len(rays)} rays: {out.stderr}")
-    return lux(vals) @ REC709
+    return lux(run_rtrace([*NF_FLAGS, "-ds", f"{ds:g}"], octree, rays, env, cwd)) @ REC709
 
 
 def nf_summary(points, opening, point) -> dict:
