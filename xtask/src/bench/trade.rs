@@ -40,7 +40,7 @@ use plotters::prelude::*;
 use super::refcheck::{self, Comparison};
 use super::{
     Summary, load_average, machine, open, report_heading, result_path, timed_bake, utc_now,
-    write_results,
+    write_load_averages, write_results,
 };
 
 /// The chosen configuration is the cheapest Pareto point whose mean |relative error| against
@@ -264,6 +264,18 @@ struct Measured {
     radiance: Comparison,
 }
 
+/// `base` with one knob set to each of `values` in turn.
+fn around<T: Copy>(base: &Settings, values: &[T], set: impl Fn(&mut Settings, T)) -> Vec<Settings> {
+    values
+        .iter()
+        .map(|&v| {
+            let mut s = base.clone();
+            set(&mut s, v);
+            s
+        })
+        .collect()
+}
+
 /// Runs the trade study; prints and writes the results.
 pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<(), String> {
     let p = preset(quick);
@@ -310,45 +322,17 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
 
     // The grid: one knob at a time around the base (the base itself measured once).
     let knobs: Vec<(&str, Vec<Settings>)> = vec![
-        (
-            "rays",
-            p.rays
-                .iter()
-                .map(|&rays| Settings {
-                    rays,
-                    ..p.base.clone()
-                })
-                .collect(),
-        ),
+        ("rays", around(&p.base, p.rays, |s, v| s.rays = v)),
         (
             "texel density",
-            p.densities
-                .iter()
-                .map(|&texels_per_metre| Settings {
-                    texels_per_metre,
-                    ..p.base.clone()
-                })
-                .collect(),
+            around(&p.base, p.densities, |s, v| s.texels_per_metre = v),
         ),
-        (
-            "bounces",
-            p.bounces
-                .iter()
-                .map(|&bounces| Settings {
-                    bounces,
-                    ..p.base.clone()
-                })
-                .collect(),
-        ),
+        ("bounces", around(&p.base, p.bounces, |s, v| s.bounces = v)),
         (
             "blur",
-            p.blurs
-                .iter()
-                .map(|b| Settings {
-                    blur: b.map_or(Blur::None, Blur::Sigma),
-                    ..p.base.clone()
-                })
-                .collect(),
+            around(&p.base, p.blurs, |s, v| {
+                s.blur = v.map_or(Blur::None, Blur::Sigma)
+            }),
         ),
         // The methods side by side at the grid's density: the paper's pipeline with its
         // measured defaults, and every preset of the converged method.
@@ -364,14 +348,10 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         ),
         (
             "rays at 3 bounces",
-            p.rays_3_bounces
-                .iter()
-                .map(|&rays| Settings {
-                    rays,
-                    bounces: 3,
-                    ..p.base.clone()
-                })
-                .collect(),
+            around(&p.base, p.rays_3_bounces, |s, rays| {
+                s.rays = rays;
+                s.bounces = 3;
+            }),
         ),
     ];
     let mut measured: Vec<Measured> = Vec::new();
@@ -462,10 +442,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
          front and the choice use its mean |rel|); `RMSE`, `mean rel`, `p95 lx`: against the \
          luxbake reference (self-consistency only)"
     );
-    let _ = writeln!(
-        md,
-        "- load average (1/5/15 min) before: {load_before}, after: {load_after}\n"
-    );
+    write_load_averages(&mut md, &load_before, &load_after);
     let _ = writeln!(
         md,
         "| knob | rays | texels/m | bounces | blur | texels | pass ms | RMSE lx | mean rel % | p95 lx \
