@@ -42,6 +42,7 @@
 //! a shared machine where wall time does not.
 
 use std::collections::BTreeMap;
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use luxbake::backend::GpuBackend;
@@ -298,6 +299,14 @@ pub fn machine() -> String {
         .unwrap_or_else(|| std::env::consts::ARCH.to_owned());
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     format!("{model} ×{cores}")
+}
+
+/// Writes a report's line of the load averages before and after the measurements.
+pub fn write_load_averages(md: &mut String, before: &str, after: &str) {
+    let _ = writeln!(
+        md,
+        "- load average (1/5/15 min) before: {before}, after: {after}\n"
+    );
 }
 
 /// The 1-, 5- and 15-minute load averages (`/proc/loadavg`), or "unknown".

@@ -24,7 +24,8 @@ use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backends::BackendKind;
 
 use super::{
-    load_average, machine, open_sampling_room, report_heading, timed_bake, utc_now, write_results,
+    load_average, machine, open_sampling_room, report_heading, timed_bake, utc_now,
+    write_load_averages, write_results,
 };
 
 /// First-bounce rays per texel of the reference (the figure).
@@ -233,10 +234,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         reference_run.out.report.bounces_run,
         reference_run.wall()
     );
-    let _ = writeln!(
-        md,
-        "- load average (1/5/15 min) before: {load_before}, after: {load_after}\n"
-    );
+    write_load_averages(&mut md, &load_before, &load_after);
     let _ = writeln!(
         md,
         "| bake | floor grain | floor bias | ceiling grain | ceiling bias | walls grain | walls bias | passes s |"

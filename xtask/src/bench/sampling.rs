@@ -19,12 +19,13 @@ use std::path::Path;
 use std::time::Instant;
 
 use luxbake::bake::BakeOutput;
+use luxbake::rng::Draw;
 use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
 use super::{
     load_average, log_log_slope, machine, open_sampling_room, report_heading, timed_bake, utc_now,
-    write_results,
+    write_load_averages, write_results,
 };
 
 /// Rays per texel of each reference bake (full run).
@@ -240,10 +241,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         SEED + 1,
         SEED + bakes
     );
-    let _ = writeln!(
-        md,
-        "- load average (1/5/15 min) before: {load_before}, after: {load_after}\n"
-    );
+    write_load_averages(&mut md, &load_before, &load_after);
     let _ = writeln!(
         md,
         "| rays | hash rel RMSE | Sobol rel RMSE | hash / Sobol | hash gather s | Sobol gather s |"

@@ -8,7 +8,8 @@ use luxbake::scene::{Blur, BvhMode, Scene, Settings};
 use luxbake_backends::{AnyBackend, BackendKind};
 
 use super::{
-    Args, Opened, Summary, load_average, machine, open, timed_bake, utc_now, write_results,
+    Args, Opened, Summary, load_average, machine, open, timed_bake, utc_now, write_load_averages,
+    write_results,
 };
 
 /// The scenes of Table 1.
@@ -210,10 +211,7 @@ pub fn run(args: &Args, runs: usize, out: &Path) -> Result<(), String> {
         args.budget,
         if quick { "; --quick" } else { "" }
     );
-    let _ = writeln!(
-        md,
-        "- load average (1/5/15 min) before: {load_before}, after: {load_after}\n"
-    );
+    write_load_averages(&mut md, &load_before, &load_after);
     let _ = writeln!(
         md,
         "Pass time = sum of the bake's passes (no asset load, layout, rasterisation or BVH \
