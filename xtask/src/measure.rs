@@ -38,16 +38,25 @@ pub struct Args {
     tolerance: f64,
 }
 
+/// The rows of a comma-separated text: `(line number, trimmed line, trimmed fields)`, blank
+/// lines and `#` comments skipped.
+pub fn csv_rows(text: &str) -> impl Iterator<Item = (usize, &str, Vec<&str>)> {
+    text.lines().enumerate().filter_map(|(i, line)| {
+        let line = line.trim();
+        (!line.is_empty() && !line.starts_with('#'))
+            .then(|| (i + 1, line, line.split(',').map(str::trim).collect()))
+    })
+}
+
+/// `path`'s text; the error names the file.
+pub fn read_text(path: &Path) -> Result<String, String> {
+    std::fs::read_to_string(path).map_err(|e| format!("cannot read {}: {e}", path.display()))
+}
+
 /// Parses the points file: `(line number, [x, y, z])` per row.
 pub fn parse_points(text: &str) -> Result<Vec<(usize, [f64; 3])>, String> {
     let mut points = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let line = line.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+    for (line_no, line, fields) in csv_rows(text) {
         let values: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
         match values {
             Ok(v) if v.len() == 3 && v.iter().all(|c| c.is_finite()) => {
@@ -117,8 +126,7 @@ pub type Row = ([f64; 3], [f64; 3]);
 
 /// Measures the points of `points_file` in the bake in `dir` (see the module docs).
 pub fn measure(dir: &Path, points_file: &Path, tolerance: f64) -> Result<Vec<Row>, String> {
-    let points_text = std::fs::read_to_string(points_file)
-        .map_err(|e| format!("cannot read {}: {e}", points_file.display()))?;
+    let points_text = read_text(points_file)?;
     let points =
         parse_points(&points_text).map_err(|e| format!("{}: {e}", points_file.display()))?;
     measure_points(dir, &points, &points_file.display().to_string(), tolerance)
@@ -154,8 +162,7 @@ pub fn measure_points(
     tolerance: f64,
 ) -> Result<Vec<Row>, String> {
     let manifest_path = dir.join("manifest.json");
-    let text = std::fs::read_to_string(&manifest_path)
-        .map_err(|e| format!("cannot read {}: {e}", manifest_path.display()))?;
+    let text = read_text(&manifest_path)?;
     let manifest: Value =
         serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
     let scene = rebuild_scene(&manifest)?;

@@ -118,13 +118,7 @@ pub fn parse(text: &str) -> Result<Vec<RefPoint>, String> {
     let mut header: Option<Vec<String>> = None;
     let mut col = BTreeMap::new();
     let mut points = Vec::new();
-    for (i, raw) in text.lines().enumerate() {
-        let line_no = i + 1;
-        let line = raw.trim();
-        if line.is_empty() || line.starts_with('#') {
-            continue;
-        }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+    for (line_no, _, fields) in measure::csv_rows(text) {
         let Some(names) = &header else {
             let names: Vec<String> = fields.iter().map(|f| f.to_ascii_lowercase()).collect();
             for (k, n) in names.iter().enumerate() {
@@ -186,8 +180,7 @@ pub fn parse(text: &str) -> Result<Vec<RefPoint>, String> {
 
 /// Reads and parses a reference CSV.
 pub fn load(path: &Path) -> Result<Vec<RefPoint>, String> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let text = measure::read_text(path)?;
     parse(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
