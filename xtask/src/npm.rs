@@ -139,7 +139,7 @@ pub const MAX_SET_LAMP_MS: f64 = 20.0;
 /// Bundled photometry of the example: `(file in the repository, name in the package)`.
 const EXAMPLE_LAMPS: [(&str, &str); 3] = [
     (
-        "crates/bake/lamps/luxbake_downlight.ies",
+        "crates/scene/lamps/luxbake_downlight.ies",
         "luxbake_downlight.ies",
     ),
     (
@@ -586,18 +586,18 @@ fn run_checks(
     for key in ["texelsPerMetre", "rays", "bounces", "blurSigma", "seed"] {
         url.push_str(&format!("&{key}={}", settings[key]));
     }
-    s.navigate(&url)?;
 
     // 1. The example bakes; its maps agree with the native bake.
     let t = Instant::now();
-    s.wait_for(
+    s.open(
+        &url,
         "window.luxbakeExample && ['baked', 'error', 'fatal'].includes(window.luxbakeExample.state)",
         Duration::from_secs(900),
     )?;
     let state = s.eval("window.luxbakeExample.state")?;
     let errors = s.eval("window.luxbakeExample.errors")?;
     if state != json!("baked") {
-        let status = s.eval("document.getElementById('status').textContent")?;
+        let status = s.status()?;
         return Err(format!(
             "the example did not bake: state {state}, errors {errors}, status {status}"
         ));

@@ -364,18 +364,23 @@ impl Session {
         )
     }
 
-    /// Polls `expr` until it is true.
-    /// Opens `url` in the session's tab.
-    pub(crate) fn navigate(&self, url: &str) -> Result<(), String> {
+    /// The page's status line.
+    pub(crate) fn status(&self) -> Result<Value, String> {
+        self.eval("document.getElementById('status').textContent")
+    }
+
+    /// Opens `url` in the session's tab and waits (up to `limit`) until `expr` is true.
+    pub(crate) fn open(&self, url: &str, expr: &str, limit: Duration) -> Result<(), String> {
         webdriver(
             self.port,
             "POST",
             &self.path("/url"),
             Some(&json!({ "url": url })),
-        )
-        .map(|_| ())
+        )?;
+        self.wait_for(expr, limit)
     }
 
+    /// Polls `expr` until it is true.
     pub(crate) fn wait_for(&self, expr: &str, limit: Duration) -> Result<(), String> {
         let start = Instant::now();
         loop {
@@ -384,7 +389,7 @@ impl Session {
             }
             if start.elapsed() > limit {
                 let errors = self.eval("(window.luxbake || window.luxbakeExample || {}).errors")?;
-                let status = self.eval("document.getElementById('status').textContent")?;
+                let status = self.status()?;
                 return Err(format!(
                     "timed out after {limit:?} waiting for `{expr}`; status: {status}; errors: {errors}"
                 ));
@@ -492,8 +497,8 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     )?);
     let s = driver.session.as_ref().ok_or("no session")?;
     let url = format!("http://127.0.0.1:{page_port}/?scene=chairs_01");
-    s.navigate(&url)?;
-    s.wait_for(
+    s.open(
+        &url,
         "window.luxbake && window.luxbake.state === 'fatal'",
         Duration::from_secs(60),
     )?;
@@ -589,16 +594,16 @@ fn run_checks(
         request.blur_sigma,
         request.seed
     );
-    s.navigate(&url)?;
     let t = Instant::now();
-    s.wait_for(
+    s.open(
+        &url,
         "window.luxbake && (window.luxbake.bakeCount >= 1 || window.luxbake.state === 'fatal' || window.luxbake.state === 'error')",
         Duration::from_secs(900),
     )?;
     let errors = s.eval("window.luxbake.errors")?;
     let state = s.eval("window.luxbake.state")?;
     if state != json!("baked") || errors.as_array().is_some_and(|e| !e.is_empty()) {
-        let status = s.eval("document.getElementById('status').textContent")?;
+        let status = s.status()?;
         return Err(format!(
             "the page did not bake: state {state}, errors {errors}, status {status}"
         ));
