@@ -725,34 +725,42 @@ mod tests {
         assert!(b.create_texture(&desc([8, 8], 1)).is_err());
     }
 
-    #[test]
-    fn tiles_split_the_work_and_report_progress_without_changing_the_result() {
+    /// `chairs_01` baked small (4 rays, one bounce, 6 texels per metre, `blur`) with
+    /// `options`; `None` where [`backend`] skips.
+    fn bake_chairs(
+        test: &str,
+        blur: Blur,
+        options: WgpuOptions,
+        progress: &mut dyn FnMut(&Progress<'_>),
+    ) -> Option<luxbake::bake::BakeOutput> {
         let settings = Settings {
             rays: 4,
             bounces: 1,
-            blur: Blur::Sigma(1.0),
+            blur,
             texels_per_metre: 6.0,
             ..Settings::default()
         };
         let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let mut b = backend(test, options)?;
+        Some(bake(&mut b, &scene, &settings, progress).expect("bake"))
+    }
+
+    #[test]
+    fn tiles_split_the_work_and_report_progress_without_changing_the_result() {
         let mut maps = Vec::new();
         for tile_work in [DEFAULT_TILE_WORK, 1] {
-            let Some(mut b) = backend(
-                "tiles",
-                WgpuOptions {
-                    tile_work,
-                    ..WgpuOptions::default()
-                },
-            ) else {
-                return;
-            };
             let mut fractions: Vec<(usize, f32)> = Vec::new();
-            let out = bake(&mut b, &scene, &settings, &mut |p| {
+            let options = WgpuOptions {
+                tile_work,
+                ..WgpuOptions::default()
+            };
+            let Some(out) = bake_chairs("tiles", Blur::Sigma(1.0), options, &mut |p| {
                 if let Progress::PassProgress { index, fraction } = p {
                     fractions.push((*index, *fraction));
                 }
-            })
-            .expect("bake");
+            }) else {
+                return;
+            };
             // Every pass reports, monotonically, up to 1.
             for pass in 0..out.graph.passes.len() {
                 let f: Vec<f32> = fractions
@@ -783,29 +791,17 @@ mod tests {
 
     #[test]
     fn buffers_and_textures_give_the_same_bake() {
-        let settings = Settings {
-            rays: 4,
-            bounces: 1,
-            texels_per_metre: 6.0,
-            ..Settings::default()
-        };
-        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
         let mut maps = Vec::new();
         for bvh_storage in [BvhStorage::Buffers, BvhStorage::Textures] {
-            let Some(mut b) = backend(
-                "storage",
-                WgpuOptions {
-                    bvh_storage,
-                    ..WgpuOptions::default()
-                },
-            ) else {
+            let options = WgpuOptions {
+                bvh_storage,
+                ..WgpuOptions::default()
+            };
+            let blur = Settings::default().blur;
+            let Some(out) = bake_chairs("storage", blur, options, &mut |_| {}) else {
                 return;
             };
-            maps.push(
-                bake(&mut b, &scene, &settings, &mut |_| {})
-                    .expect("bake")
-                    .maps,
-            );
+            maps.push(out.maps);
         }
         assert_eq!(maps[0], maps[1]);
     }
