@@ -28,7 +28,8 @@
 use luxbake_bvh::layout;
 
 use crate::program::{
-    BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Signature, TileParams,
+    BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Scalar, Signature,
+    TileParams,
 };
 use crate::rng::Sampler;
 use crate::scene::BvhMode;
@@ -155,60 +156,55 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
     s
 }
 
-/// The generated GLSL constants: BVH layout, traversal ids and the choice `bvh`, blur
-/// constants, sampler ids.
-pub fn glsl_constants(bvh: BvhMode) -> String {
-    let mut s = format!(
-        "{}#define LUX_TRAVERSAL_MTBVH 0\n#define LUX_TRAVERSAL_TBVH 1\n\
-         #define LUX_TRAVERSAL_NONE 2\n#define LUX_TRAVERSAL {}\n\
-         #define LUX_BLUR_NORMAL_COS {:?}\n#define LUX_MAX_BLUR_RADIUS {}\n",
-        layout::glsl_defines(),
-        traversal_id(bvh),
-        BLUR_NORMAL_COS,
-        MAX_BLUR_RADIUS,
-    );
+/// The generated constants after the BVH layout's, in order: the traversal ids and the choice
+/// `bvh`, the blur constants, the sampler ids and the RNG passes; each a name, its type and its
+/// value as both languages write it.
+fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
+    let int = |name: &str, v: i32| (name.to_string(), Scalar::I32, v.to_string());
+    let uint = |name: String, v: u32| (name, Scalar::U32, format!("{v}u"));
+    let mut c = vec![
+        int("LUX_TRAVERSAL_MTBVH", 0),
+        int("LUX_TRAVERSAL_TBVH", 1),
+        int("LUX_TRAVERSAL_NONE", 2),
+        int("LUX_TRAVERSAL", traversal_id(bvh)),
+        (
+            "LUX_BLUR_NORMAL_COS".to_string(),
+            Scalar::F32,
+            format!("{BLUR_NORMAL_COS:?}"),
+        ),
+        int("LUX_MAX_BLUR_RADIUS", MAX_BLUR_RADIUS),
+    ];
     for sampler in Sampler::ALL {
-        s.push_str(&format!(
-            "#define LUX_SAMPLER_{} {}u\n",
-            sampler.name().to_ascii_uppercase(),
-            sampler.id()
-        ));
+        let name = sampler.name().to_ascii_uppercase();
+        c.push(uint(format!("LUX_SAMPLER_{name}"), sampler.id()));
     }
-    s.push_str(&format!(
-        "#define LUX_CONNECT_PASS {}u\n#define LUX_OPENING_PASS {}u\n#define LUX_PHI {}u\n",
+    c.push(uint(
+        "LUX_CONNECT_PASS".into(),
         crate::lightpaths::CONNECT_PASS,
-        crate::opening::OPENING_PASS,
-        crate::opening::PHI,
     ));
+    c.push(uint(
+        "LUX_OPENING_PASS".into(),
+        crate::opening::OPENING_PASS,
+    ));
+    c.push(uint("LUX_PHI".into(), crate::opening::PHI));
+    c
+}
+
+/// The generated GLSL constants: BVH layout, then [`constants`] as `#define`s.
+pub fn glsl_constants(bvh: BvhMode) -> String {
+    let mut s = layout::glsl_defines();
+    for (name, _, value) in constants(bvh) {
+        s.push_str(&format!("#define {name} {value}\n"));
+    }
     s
 }
 
-/// The generated WGSL constants: BVH layout, traversal ids and the choice `bvh`, blur
-/// constants, sampler ids.
+/// The generated WGSL constants: BVH layout, then [`constants`] as `const`s.
 pub fn wgsl_constants(bvh: BvhMode) -> String {
-    let mut s = format!(
-        "{}const LUX_TRAVERSAL_MTBVH: i32 = 0;\nconst LUX_TRAVERSAL_TBVH: i32 = 1;\n\
-         const LUX_TRAVERSAL_NONE: i32 = 2;\nconst LUX_TRAVERSAL: i32 = {};\n\
-         const LUX_BLUR_NORMAL_COS: f32 = {:?};\nconst LUX_MAX_BLUR_RADIUS: i32 = {};\n",
-        layout::wgsl_constants(),
-        traversal_id(bvh),
-        BLUR_NORMAL_COS,
-        MAX_BLUR_RADIUS,
-    );
-    for sampler in Sampler::ALL {
-        s.push_str(&format!(
-            "const LUX_SAMPLER_{}: u32 = {}u;\n",
-            sampler.name().to_ascii_uppercase(),
-            sampler.id()
-        ));
+    let mut s = layout::wgsl_constants();
+    for (name, ty, value) in constants(bvh) {
+        s.push_str(&format!("const {name}: {} = {value};\n", ty.wgsl()));
     }
-    s.push_str(&format!(
-        "const LUX_CONNECT_PASS: u32 = {}u;\nconst LUX_OPENING_PASS: u32 = {}u;\n\
-         const LUX_PHI: u32 = {}u;\n",
-        crate::lightpaths::CONNECT_PASS,
-        crate::opening::OPENING_PASS,
-        crate::opening::PHI,
-    ));
     s
 }
 
