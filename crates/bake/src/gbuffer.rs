@@ -430,6 +430,35 @@ mod tests {
         (l, g)
     }
 
+    /// A scene of one grey receiver, `mesh` placed by `transform`, baked with `settings`.
+    fn one_receiver(mesh: Mesh, transform: Transform, settings: Settings) -> Scene {
+        Scene {
+            objects: vec![Object {
+                name: "r".into(),
+                mesh,
+                transform,
+                albedo: Albedo::grey(0.5),
+                receiver: true,
+                texel_scale: 1.0,
+            }],
+            lamps: Vec::new(),
+            settings,
+        }
+    }
+
+    /// One layer of `size` texels, all of it the first object's region.
+    fn whole_layer(size: [u32; 2]) -> Layout {
+        Layout {
+            layer_size: size,
+            layers: 1,
+            regions: vec![Some(Region {
+                layer: 0,
+                offset: [0, 0],
+                size,
+            })],
+        }
+    }
+
     /// Distance from `q` to triangle `t` (3D, brute force, for tests).
     fn point_triangle_distance(q: DVec3, t: [DVec3; 3]) -> f64 {
         let n = (t[1] - t[0]).cross(t[2] - t[0]);
@@ -612,22 +641,14 @@ mod tests {
     /// the plane's bounds, never in empty space.
     #[test]
     fn edge_texels_sample_the_surface_border() {
-        let plane = Object {
-            name: "p".into(),
-            mesh: meshes::plane([1.0, 1.0], 0.13),
-            transform: Transform::from_trs([0.0, 1.0, 0.0], [0.0; 3], [1.0; 3]),
-            albedo: Albedo::grey(0.5),
-            receiver: true,
-            texel_scale: 1.0,
-        };
-        let s = Scene {
-            objects: vec![plane],
-            lamps: Vec::new(),
-            settings: Settings {
+        let s = one_receiver(
+            meshes::plane([1.0, 1.0], 0.13),
+            Transform::from_trs([0.0, 1.0, 0.0], [0.0; 3], [1.0; 3]),
+            Settings {
                 texels_per_metre: 10.3,
                 ..Settings::default()
             },
-        };
+        );
         let (_, g) = raster(&s);
         let (mut valid, mut full) = (0, 0);
         for (p, a) in g.position.chunks_exact(4).zip(g.albedo.chunks_exact(4)) {
@@ -685,29 +706,8 @@ mod tests {
         // Zero-area triangle with two zero normals: the third one still gives a direction.
         mesh.normals[4] = [0.0; 3];
         mesh.normals[5] = [0.0; 3];
-        let o = Object {
-            name: "bad".into(),
-            mesh,
-            transform: Transform::IDENTITY,
-            albedo: Albedo::grey(0.5),
-            receiver: true,
-            texel_scale: 1.0,
-        };
-        let s = Scene {
-            objects: vec![o],
-            lamps: Vec::new(),
-            settings: Settings::default(),
-        };
-        let l = Layout {
-            layer_size: [64, 64],
-            layers: 1,
-            regions: vec![Some(Region {
-                layer: 0,
-                offset: [0, 0],
-                size: [64, 64],
-            })],
-        };
-        let g = rasterize(&s, &l);
+        let s = one_receiver(mesh, Transform::IDENTITY, Settings::default());
+        let g = rasterize(&s, &whole_layer([64, 64]));
         assert!(
             g.position
                 .iter()
@@ -753,21 +753,9 @@ mod tests {
                 mesh.normals.extend_from_slice(&[[0.0, 1.0, 0.0]; 3]);
                 mesh.indices.push([base, base + 1, base + 2]);
             }
-            let o = Object {
-                name: "r".into(),
-                mesh,
-                transform: Transform::IDENTITY,
-                albedo: Albedo::grey(0.5),
-                receiver: true,
-                texel_scale: 1.0,
-            };
             let size = [size.0, size.1];
-            let s = Scene { objects: vec![o], lamps: Vec::new(), settings: Settings::default() };
-            let l = Layout {
-                layer_size: size,
-                layers: 1,
-                regions: vec![Some(Region { layer: 0, offset: [0, 0], size })],
-            };
+            let s = one_receiver(mesh, Transform::IDENTITY, Settings::default());
+            let l = whole_layer(size);
             let g = rasterize(&s, &l);
             check(&s, &l, &g, 1);
             for (_, uv) in &tris {
