@@ -83,6 +83,13 @@ fn dominant_axis(d: [f32; 3]) -> usize {
     }
 }
 
+/// The watertight test's axes `[kx, ky, kz]` for dominant axis `kz`: the other two in cyclic
+/// order, swapped where `dir[kz]` is negative (preserving the winding).
+pub(crate) const fn permuted_axes(kz: usize, negative: bool) -> [usize; 3] {
+    let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
+    if negative { [ky, kx, kz] } else { [kx, ky, kz] }
+}
+
 fn sub(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
     [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
@@ -122,11 +129,7 @@ impl WatertightRay {
         if !finite || d[kz] == 0.0 {
             return None;
         }
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let [kx, ky, kz] = permuted_axes(kz, d[kz] < 0.0);
         let parallel = d.map(|c| c.abs() < layout::PARALLEL_EPSILON);
         let inv = [0, 1, 2].map(|a| 1.0 / select(parallel[a], 1.0, d[a]));
         Some(WatertightRay {

@@ -41,7 +41,7 @@ use std::mem::MaybeUninit;
 
 use crate::encode::EncodedScene;
 use crate::layout;
-use crate::traverse::{Hit, Ray, WatertightRay};
+use crate::traverse::{Hit, Ray, WatertightRay, permuted_axes};
 
 /// Children (lanes) per wide node.
 const WIDTH: usize = 8;
@@ -685,8 +685,7 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
         return None;
     }
     // `dominant_axis` and the permuted axes without branches (with branches on the random
-    // axis of a gather ray the set-up mispredicted): kz, then (kx, ky) = (kz + 1, kz + 2)
-    // mod 3, swapped where `dir[kz] < 0`, from a table.
+    // axis of a gather ray the set-up mispredicted): kz, then `permuted_axes` from a table.
     let (a0, a1, a2) = (dx.abs(), dy.abs(), dz.abs());
     let x_dominates = usize::from(a0 >= a1) & usize::from(a0 >= a2);
     let kz = (1 - x_dominates) * (2 - usize::from(a1 >= a2));
@@ -696,14 +695,17 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
         return None;
     }
     let signs = _mm_movemask_ps(d) as usize;
-    const AXES: [[i32; 4]; 6] = [
-        [1, 2, 0, 3],
-        [2, 1, 0, 3],
-        [2, 0, 1, 3],
-        [0, 2, 1, 3],
-        [0, 1, 2, 3],
-        [1, 0, 2, 3],
-    ];
+    // Lanes `[kx, ky, kz, 3]` by `2·kz + (dir[kz] < 0)`.
+    const AXES: [[i32; 4]; 6] = {
+        let mut table = [[0; 4]; 6];
+        let mut i = 0;
+        while i < 6 {
+            let [kx, ky, kz] = permuted_axes(i / 2, i % 2 == 1);
+            table[i] = [kx as i32, ky as i32, kz as i32, 3];
+            i += 1;
+        }
+        table
+    };
     let axes = AXES[2 * kz + ((signs >> kz) & 1)];
     let (kx, ky) = (axes[0] as usize, axes[1] as usize);
     // SAFETY: an unaligned load of four `i32`s.
