@@ -504,16 +504,19 @@ mod tests {
             .collect()
     }
 
+    /// Whether every channel of `g`'s maps is finite.
+    fn all_finite(g: &GBuffer) -> bool {
+        g.position
+            .iter()
+            .chain(&g.normal)
+            .chain(&g.albedo)
+            .all(|v| v.is_finite())
+    }
+
     /// Checks the invariants of every texel and returns the number of valid ones checked
     /// against their surface (every `stride`-th).
     fn check(scene: &Scene, l: &Layout, g: &GBuffer, stride: usize) -> usize {
-        assert!(
-            g.position
-                .iter()
-                .chain(&g.normal)
-                .chain(&g.albedo)
-                .all(|v| v.is_finite())
-        );
+        assert!(all_finite(g));
         let tris: Vec<_> = scene.objects.iter().map(world_tris).collect();
         let mut checked = 0;
         for (k, t) in g.position.chunks_exact(4).enumerate() {
@@ -708,13 +711,7 @@ mod tests {
         mesh.normals[5] = [0.0; 3];
         let s = one_receiver(mesh, Transform::IDENTITY, Settings::default());
         let g = rasterize(&s, &whole_layer([64, 64]));
-        assert!(
-            g.position
-                .iter()
-                .chain(&g.normal)
-                .chain(&g.albedo)
-                .all(|v| v.is_finite())
-        );
+        assert!(all_finite(&g));
         assert!(g.valid_texels() > 100);
         for n in g.normal.chunks_exact(4) {
             let len = Vec3::from_slice(n).length();
