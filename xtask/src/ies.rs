@@ -203,7 +203,7 @@ mod tests {
     #[test]
     fn json_report_of_the_bundled_lamp() {
         let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../crates/bake/lamps/luxbake_downlight.ies");
+            .join("../crates/scene/lamps/luxbake_downlight.ies");
         let lamp = Photometry::parse(&std::fs::read(&file).unwrap()).unwrap();
         let j = report_json(&file, &lamp);
         assert_eq!(j["format"], "LM-63-2002");

@@ -225,7 +225,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     #[test]
     fn rng_is_bit_exact() {
-        use luxbake::rng::{hash, sobol2, sobol2_bits, texel_index, uniform2};
+        use luxbake::rng::{Draw, hash, sobol2, sobol2_bits, texel_index, uniform2};
         // Skipped (outside CI) only without an adapter: a driver that fails to open fails.
         let Some(gpu) = luxbake_testkit::or_skip(
             "rng_is_bit_exact",

@@ -292,8 +292,9 @@ macro_rules! signature {
 
 pub(crate) use signature;
 
-/// Largest blur radius, texels (a shader's loop bound).
-pub const MAX_BLUR_RADIUS: i32 = 64;
+/// Largest blur radius, texels (a shader's loop bound; the scene crate's, which sizes chart
+/// padding by it).
+pub use luxbake_scene::MAX_BLUR_RADIUS;
 /// Blur taps whose normal deviates more than this cosine (25°) from the centre's are skipped.
 pub const BLUR_NORMAL_COS: f32 = 0.906_307_8;
 /// The B3-spline kernel of the à-trous filter, one axis: taps `−2 ..= 2` (Dammertz et al.

@@ -31,8 +31,6 @@
 //! The functions are `#[inline]` and take `[f32; 3]` as the hot loops store their vectors, so
 //! calling them costs nothing over the hand-written expressions.
 
-use glam::DVec3;
-
 /// `a·b` summed left to right: `a[0]·b[0] + a[1]·b[1] + a[2]·b[2]`.
 ///
 /// GLSL: `luxDot` (`shaders/lib/common.glsl`); WGSL: `lux_dot` (`shaders/lib/common.wgsl`).
@@ -95,18 +93,9 @@ pub fn normalize(v: [f32; 3]) -> Option<[f32; 3]> {
     (l > 0.0 && l.is_finite()).then(|| div(v, l))
 }
 
-/// [`normalize`] in double precision: `v / |v|` with `|v| = √(v·v)` summed left to right,
-/// dividing (glam's `DVec3::normalize`/`try_normalize` multiply by the reciprocal); `None` for
-/// a zero or non-finite length.
-///
-/// No shader twin: the G-buffer's normals ([`crate::gbuffer`]) and the scene's transformed
-/// normals and lamp aims ([`crate::scene::Transform::normal`]) are computed on the CPU in
-/// `f64` and rounded to `f32` once, for every backend.
-#[inline]
-pub fn normalize_f64(v: DVec3) -> Option<DVec3> {
-    let l = v.length();
-    (l > 0.0 && l.is_finite()).then(|| v / l)
-}
+/// [`normalize`] in double precision (the scene crate's, re-exported here beside its `f32`
+/// twin).
+pub use luxbake_scene::normalize_f64;
 
 /// Orthonormal basis `(t, b)` around unit `n` (Duff et al. 2017, "Building an Orthonormal
 /// Basis, Revisited"): with `s = ±1` the sign of `n.z` (of `-0.0` too), `a = −1 / (s + n.z)`,
@@ -152,6 +141,8 @@ pub fn luminance(c: [f32; 3]) -> f32 {
 
 #[cfg(test)]
 mod tests {
+    use glam::DVec3;
+
     use super::*;
 
     #[test]

@@ -336,7 +336,7 @@ fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Opti
 /// Whether the triangle `p` and the unit texel square with top-left corner `cell` overlap
 /// with positive area (separating-axis test; touching along an edge does not count). Points
 /// are `DVec2`s or `[f64; 2]`s.
-pub(crate) fn overlaps<P: Into<DVec2> + Copy>(p: &[P; 3], cell: impl Into<DVec2>) -> bool {
+pub fn overlaps<P: Into<DVec2> + Copy>(p: &[P; 3], cell: impl Into<DVec2>) -> bool {
     const EPS: f64 = 1e-9;
     let (p, cell) = (p.map(Into::into), cell.into());
     for k in 0..2 {

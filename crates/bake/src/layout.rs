@@ -23,35 +23,13 @@
 
 use glam::{DVec3, Vec2};
 
-use crate::scene::{Blur, Object, Scene};
+use crate::scene::{Object, Scene};
 
 /// Empty texels between two regions of the same layer.
 pub const REGION_GAP: u32 = 4;
 
-/// The least chart padding, texels: 2 for bilinear support and conservative rasterisation (a
-/// chart's valid texels reach up to one texel past its edge, and a bilinear look-up reads one
-/// more), doubled so the first mip level of the dilated maps still keeps a texel of gutter.
-pub const MIN_CHART_PADDING_TEXELS: f32 = 4.0;
-
-/// Chart padding for a bake with `blur`, texels at the object's density: the one rule of the
-/// built-in meshes, scene-file meshes and generated UVs.
-///
-/// `max(`[`MIN_CHART_PADDING_TEXELS`]`, 2 + R)` with `R =`
-/// [`blur_radius`](crate::program::blur_radius)`(σ) = ⌈3σ⌉` (0 without blur). The reach that
-/// matters is the method paper's Gaussian blur: it masks its taps by object and normal only,
-/// so two charts of one object that face the same way would exchange light through a gap of
-/// `R` texels or less. With this padding the valid texels of two charts (each up to one texel
-/// wider than its chart, by conservative rasterisation) stay at least `R + 1` texels apart.
-/// The converged method's filters (coarse interpolation, à-trous) test world-space distance
-/// and never cross charts, so for it the blur term is conservative: σ 1 (default) gives 5
-/// texels, σ 2 (paper, final) 8, no blur (draft) 4.
-pub fn chart_padding_texels(blur: Blur) -> f32 {
-    let reach = match blur {
-        Blur::Sigma(s) => crate::program::blur_radius(s),
-        Blur::None => 0,
-    };
-    (2.0 + reach as f32).max(MIN_CHART_PADDING_TEXELS)
-}
+/// The chart-padding rule the scene's meshes are built with (the scene crate's).
+pub use luxbake_scene::{MIN_CHART_PADDING_TEXELS, chart_padding_texels};
 
 /// Errors of [`Layout::new`].
 #[derive(Debug, thiserror::Error)]

@@ -36,9 +36,40 @@
 //! tiles ([`program::TilePlan`]) and calls [`GpuBackend::dispatch`] per tile: a backend binds
 //! and dispatches, and knows no pass kinds.
 //!
-//! ## Crate layout
-//! Modules by concern; each imports only what lies below it (arrows: "imports"), and no
-//! files import each other in a circle (a test of `xtask` checks every crate):
+//! ## Crates, and the route of one bake
+//! The workspace by concern (arrows: "depends on", pointing down to what is depended on):
+//!
+//! ```text
+//!   xtask (CLI) · luxbake-js (npm) · luxbake-viewer (wasm) · luxbake-tests
+//!        │ each bake goes through
+//!        ▼
+//!   luxbake-backends ───────────────▶ luxbake-backend-glow, luxbake-backend-wgpu
+//!        │ (a backend by kind,            │ GLSL / WGSL of every pass, bind and dispatch
+//!        │  the image diff)               │
+//!        ├──▶ luxbake-output              │ EXR / PNG / manifest of a bake
+//!        │    luxbake-assets              │ glTF/OBJ in, light-map UVs, glTF out
+//!        ▼                                ▼
+//!   luxbake (this crate)  layout, G-buffer, the host nodes, one folder per pass (signature,
+//!        │                parameters, CPU reference, shaders), the graph, the driver,
+//!        │                GpuBackend and the CPU reference backend
+//!        ▼
+//!   luxbake-scene         Scene, Object, Mesh, Lamp, Settings + SettingsPatch; built-in rooms,
+//!        │                scene files, procedural meshes (here as `scene` and `sources`)
+//!        ▼
+//!   luxbake-ies · luxbake-bvh   photometry (tables, openings) · SAH BVH, encodings, traversal
+//! ```
+//!
+//! One bake, `cargo xtask bake room.toml --texels-per-metre 32`: xtask turns the flags into a
+//! [`SettingsPatch`](scene::SettingsPatch) → `luxbake-scene` reads the file, applies the patch
+//! to its `[settings]` and only then builds the objects (their chart padding follows the final
+//! density), reading each lamp's file with `luxbake-ies` → [`bake()`]: prepare (the layout, the
+//! G-buffer, one `luxbake-bvh` build, unocclusion, the lamps' tables, reach and paths) → build
+//! the [`BakeGraph`] → execute it on the backend `luxbake-backends` opened (cpu here, or glow,
+//! wgpu) → collect the maps → `luxbake-output` writes the EXRs, PNGs and `manifest.json`.
+//!
+//! ## Modules
+//! Each imports only what lies below it (arrows: "imports"), and no files import each other in
+//! a circle (a test of `xtask` checks every crate):
 //!
 //! ```text
 //!   bake                         bake(), bake_room(): prepare → build → execute → collect
@@ -60,16 +91,15 @@
 //!     │
 //!     ▼
 //!   contract                     signature, parameter blocks, scene needs, libraries
-//!
-//!   sources ─▶ scene             where scenes come from (builtin, scene file, meshes) and
-//!                                the model: Scene, Object, Mesh, Lamp, Transform, Albedo,
-//!                                Settings and SettingsPatch (one Settings::validate)
 //! ```
 //!
-//! The pipeline never reads a scene file and the model imports no source and no writer, so
-//! an engine can build a [`Scene`](scene::Scene) itself and call [`bake()`]. The sources stay
-//! in this crate because the `Scene` constructors are inherent methods.
-//!
+//! The pipeline never reads a scene file and the scene model imports no source and no writer,
+//! so an engine can build a [`Scene`](scene::Scene) itself and call [`bake()`]. The scene
+//! model and its sources were this crate's `scene` and `sources` modules: they are the crate
+//! `luxbake-scene` now, re-exported under the same paths (`luxbake::scene::Scene`,
+//! `luxbake::sources::scenefile`, …), so code written against them keeps working; the gather's
+//! draws of a [`Sampler`](scene::Sampler) are [`rng::Draw`]'s.
+
 //! ## Physics
 //! - Surfaces are **Lambertian** (diffuse); no specular, no spectra: RGB is a lamp tint times
 //!   an albedo, each channel baked independently.
@@ -133,7 +163,6 @@ pub mod layers;
 pub mod layout;
 pub mod lightpaths;
 pub mod map;
-mod names;
 pub mod opening;
 pub mod pack;
 pub mod passes;
@@ -142,11 +171,12 @@ pub mod probe;
 pub mod program;
 pub mod report;
 pub mod rng;
-pub mod scene;
 pub mod series;
 pub mod shader;
-pub mod sources;
 pub mod validity;
+
+pub use luxbake_scene as scene;
+pub use luxbake_scene::sources;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{

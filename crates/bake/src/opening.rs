@@ -57,7 +57,7 @@ pub const OPENING_PASS: u32 = 0x6f70_656e;
 pub const PHI: u32 = 2_654_435_769;
 
 /// Opening samples per texel at most ([`crate::scene::Settings::opening_samples`]).
-pub const MAX_SAMPLES: u32 = 1024;
+pub use luxbake_scene::MAX_OPENING_SAMPLES as MAX_SAMPLES;
 
 /// A lamp's luminous opening as the shaders see it: [`luxbake_ies::Emitter`] in `f32`, and the
 /// distance within which texels use it.

@@ -51,11 +51,8 @@ impl Program {
     }
 }
 
-/// Taps on each side of a Gaussian of standard deviation `sigma` texels:
-/// `min(⌈3σ⌉, MAX_BLUR_RADIUS)`, at least 0.
-pub fn blur_radius(sigma: f32) -> i32 {
-    ((3.0 * sigma).ceil() as i32).clamp(0, MAX_BLUR_RADIUS)
-}
+/// Taps on each side of a Gaussian (the scene crate's rule: chart padding follows it).
+pub use luxbake_scene::blur_radius;
 
 /// The parameter block of a blur along `step` with standard deviation `sigma` texels.
 pub fn blur_params(step: [i32; 2], sigma: f32) -> BlurParams {

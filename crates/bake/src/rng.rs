@@ -80,7 +80,6 @@
 //! platform's functions.) The shaders compare `GatherParams::sampler` with the ids
 //! [`Sampler::id`] generated into their prefix ([`crate::shader`]).
 
-use std::fmt;
 use std::ops::Range;
 
 /// The PCG-RXS-M-XS 32-bit permutation used as a hash (see the module docs).
@@ -127,63 +126,24 @@ fn hash_uniforms(h: u32) -> [f32; 2] {
     [unit_f32(h), unit_f32(pcg(h))]
 }
 
-/// Which generator draws the gather directions' uniforms (see the module docs).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
-pub enum Sampler {
-    /// Independent hashes per ray ([`uniform2`]): the paper's sampling; RMSE falls as N^-1/2.
-    #[default]
-    Hash,
-    /// The per-texel shuffled, Owen-scrambled Sobol (0,2)-sequence ([`sobol2`]).
-    Sobol,
+pub use luxbake_scene::Sampler;
+
+/// The draws of a [`Sampler`] (the enum is a setting of the scene crate; its numbers are this
+/// module's).
+pub trait Draw {
+    /// The two uniforms of ray `sample` of `texel` in bounce `pass`.
+    fn uniform2(self, texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2];
 }
 
-impl Sampler {
-    /// Every sampler.
-    pub const ALL: [Sampler; 2] = [Sampler::Hash, Sampler::Sobol];
-
-    /// The lower-case name used by the CLI and scene files.
-    pub fn name(self) -> &'static str {
-        match self {
-            Sampler::Hash => "hash",
-            Sampler::Sobol => "sobol",
-        }
-    }
-
-    /// The id a shader compares `GatherParams::sampler` with (`LUX_SAMPLER_<NAME>` in the
-    /// generated prefix): 0 hash, 1 Sobol.
-    pub fn id(self) -> u32 {
-        match self {
-            Sampler::Hash => 0,
-            Sampler::Sobol => 1,
-        }
-    }
-
-    /// The sampler of id `id`; any id but Sobol's draws with the hash, as the shaders do.
-    pub fn from_id(id: u32) -> Sampler {
-        if id == Sampler::Sobol.id() {
-            Sampler::Sobol
-        } else {
-            Sampler::Hash
-        }
-    }
-
-    /// The two uniforms of ray `sample` of `texel` in bounce `pass`.
+impl Draw for Sampler {
     #[inline]
-    pub fn uniform2(self, texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
+    fn uniform2(self, texel: u32, sample: u32, pass: u32, seed: u32) -> [f32; 2] {
         match self {
             Sampler::Hash => uniform2(texel, sample, pass, seed),
             Sampler::Sobol => sobol2(texel, sample, pass, seed),
         }
     }
 }
-
-impl fmt::Display for Sampler {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-crate::names::from_str_by_name!(Sampler);
 
 /// One pass's draws of a [`Sampler`], what does not depend on the texel computed once: the
 /// same numbers as [`Sampler::uniform2`], bit for bit, for loops that draw many rays per

@@ -4,7 +4,7 @@ use criterion::{Criterion, Throughput, criterion_group, criterion_main};
 use luxbake_ies::Photometry;
 use std::hint::black_box;
 
-const DOWNLIGHT: &str = include_str!("../../bake/lamps/luxbake_downlight.ies");
+const DOWNLIGHT: &str = include_str!("../../scene/lamps/luxbake_downlight.ies");
 
 /// The bundled lamp, plus the largest shared sample files when `../shared` is present.
 fn inputs() -> Vec<(String, Vec<u8>)> {

@@ -4,7 +4,7 @@
 use luxbake_ies::{IesVersion, Photometry};
 use proptest::prelude::*;
 
-const DOWNLIGHT: &str = include_str!("../../bake/lamps/luxbake_downlight.ies");
+const DOWNLIGHT: &str = include_str!("../../scene/lamps/luxbake_downlight.ies");
 
 /// `n` strictly increasing angles from `lo` to `hi` (inclusive) with random spacing.
 fn angles(n: usize, lo: f64, hi: f64) -> impl Strategy<Value = Vec<f64>> {

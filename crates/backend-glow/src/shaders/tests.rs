@@ -223,7 +223,7 @@ const RNG_FS: &str = "uniform uint u_sample;\n\
 
 #[test]
 fn rng_is_bit_exact() {
-    use luxbake::rng::{Sampler, hash, sobol2_bits, texel_index, uniform2};
+    use luxbake::rng::{Draw, Sampler, hash, sobol2_bits, texel_index, uniform2};
     let Some(ctx) = context_or_skip("rng_is_bit_exact") else {
         return;
     };
@@ -297,7 +297,7 @@ fn ies_sampling_matches_the_cpu_table() {
         return;
     };
     // The repo's downlight (rotationally symmetric) and a random asymmetric table.
-    let downlight = Photometry::parse(include_bytes!("../../../bake/lamps/luxbake_downlight.ies"))
+    let downlight = Photometry::parse(include_bytes!("../../../scene/lamps/luxbake_downlight.ies"))
         .unwrap()
         .gpu_table();
     let mut rng = SplitMix64::new(7);

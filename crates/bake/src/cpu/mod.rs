@@ -348,6 +348,7 @@ mod tests {
     use crate::program::DirectParams;
     use crate::program::blur_params;
     use crate::rng;
+    use crate::rng::Draw;
     use luxbake_bvh::{Hit, Traversal, WideBvh};
 
     #[test]

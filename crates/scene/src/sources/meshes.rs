@@ -9,15 +9,14 @@
 //! the rectangle's border), and the rectangle is mapped onto [0, 1]² (u and v scaled
 //! separately, so one metre of surface spans the same number of texels along u and v once the
 //! layout sizes the rectangle). Pass `padding` = (padding in texels) / (texels per metre); the
-//! built-in scenes use [`crate::layout::chart_padding_texels`] texels.
+//! built-in scenes use [`crate::chart_padding_texels`] texels.
 //!
 //! Shared positions along chart seams are computed from the same inputs in the same order, so
 //! closed meshes are watertight bit for bit (a ray cannot leak through a seam).
 
 use glam::{DVec2, DVec3, Vec2Swizzles, dvec3};
 
-use crate::exact::normalize_f64;
-use crate::scene::Mesh;
+use crate::{Mesh, normalize_f64};
 
 /// Per-part albedos of the room (linear RGB), applied as vertex colours.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -657,8 +656,6 @@ mod tests {
     use glam::Vec3;
 
     use super::*;
-    use crate::layout::map_size;
-    use crate::scene::{Albedo, Object, Transform};
 
     const D: f32 = 64.0;
     const PAD: f32 = 4.0 / D;
@@ -678,17 +675,6 @@ mod tests {
             ("chair", chair(4.0 / (D * 2.8)), false),
             ("sofa", sofa(4.0 / (D * 1.9)), false),
         ]
-    }
-
-    fn object(mesh: Mesh) -> Object {
-        Object {
-            name: "t".into(),
-            mesh,
-            transform: Transform::IDENTITY,
-            albedo: Albedo::grey(0.5),
-            receiver: true,
-            texel_scale: 1.0,
-        }
     }
 
     /// The positions of a triangle's corners, in double precision.
@@ -825,66 +811,6 @@ mod tests {
         }
     }
 
-    /// Conservatively rasterises every triangle at the map size the layout would give at
-    /// density `D`, labelling texels with the triangle's chart (charts found by shared UV
-    /// points). No texel may belong to two charts, and no two charts may touch, even
-    /// diagonally: the padding leaves empty texels between them.
-    #[test]
-    fn charts_do_not_overlap_and_are_padded() {
-        for (name, m, _) in all_meshes() {
-            let scale = match name {
-                "chair" => 2.8,
-                "sofa" => 1.9,
-                _ => 1.0,
-            };
-            let mut o = object(m.clone());
-            o.texel_scale = scale;
-            let size = map_size(&o, D, 8192).expect("size");
-            let chart = charts(&m);
-            let (w, h) = (size[0] as usize, size[1] as usize);
-            let mut label = vec![u32::MAX; w * h];
-            for (ti, t) in m.indices.iter().enumerate() {
-                let p = t.map(|i| {
-                    let uv = m.lightmap_uvs[i as usize];
-                    [f64::from(uv[0]) * w as f64, f64::from(uv[1]) * h as f64]
-                });
-                for y in 0..h {
-                    for x in 0..w {
-                        if crate::gbuffer::overlaps(&p, [x as f64, y as f64]) {
-                            let l = &mut label[y * w + x];
-                            assert!(
-                                *l == u32::MAX || *l == chart[ti],
-                                "{name}: texel ({x}, {y}) in charts {} and {}",
-                                *l,
-                                chart[ti]
-                            );
-                            *l = chart[ti];
-                        }
-                    }
-                }
-            }
-            for y in 0..h {
-                for x in 0..w {
-                    let l = label[y * w + x];
-                    if l == u32::MAX {
-                        continue;
-                    }
-                    for (dx, dy) in [(1, 0), (0, 1), (1, 1), (-1, 1)] {
-                        let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                            continue;
-                        }
-                        let n = label[ny as usize * w + nx as usize];
-                        assert!(
-                            n == u32::MAX || n == l,
-                            "{name}: charts {l} and {n} touch at ({x}, {y})"
-                        );
-                    }
-                }
-            }
-        }
-    }
-
     /// Within the charts, no two triangles overlap: every point of a fine sample grid lies
     /// strictly inside at most one triangle.
     #[test]
@@ -924,59 +850,5 @@ mod tests {
                 "{name}: a UV point lies inside {worst} triangles"
             );
         }
-    }
-
-    /// Boxes are charted at exactly uniform metric scale; the sphere and the rounded parts
-    /// of the sofa within modest distortion.
-    #[test]
-    fn charts_have_uniform_texel_density() {
-        for (name, m, _) in all_meshes() {
-            let o = object(m.clone());
-            let e = crate::layout::lightmap_extent(&o).expect("extent");
-            let tol = match name {
-                "sphere" | "inward sphere" => 0.35,
-                "sofa" => 0.6,
-                _ => 1e-3,
-            };
-            for t in &m.indices {
-                let p = corners(&m, t);
-                let uv = t.map(|i| DVec2::from(m.lightmap_uvs[i as usize].map(f64::from)));
-                let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
-                let (d1, d2) = (uv[1] - uv[0], uv[2] - uv[0]);
-                let det = d1.perp_dot(d2);
-                let dpdu = (d2.y * e1 - d1.y * e2) / det;
-                let dpdv = (-d2.x * e1 + d1.x * e2) / det;
-                let su = dpdu.length() / e[0];
-                let sv = dpdv.length() / e[1];
-                assert!(
-                    (su - 1.0).abs() < tol && (sv - 1.0).abs() < tol,
-                    "{name}: stretch {su} {sv}"
-                );
-            }
-        }
-    }
-
-    /// Chart id per triangle: triangles sharing a light-map UV point are in the same chart.
-    fn charts(m: &Mesh) -> Vec<u32> {
-        let mut parent: Vec<usize> = (0..m.indices.len()).collect();
-        fn find(p: &mut [usize], mut i: usize) -> usize {
-            while p[i] != i {
-                p[i] = p[p[i]];
-                i = p[i];
-            }
-            i
-        }
-        let mut first: HashMap<[u32; 2], usize> = HashMap::new();
-        for (ti, t) in m.indices.iter().enumerate() {
-            for &i in t {
-                let k = m.lightmap_uvs[i as usize].map(f32::to_bits);
-                let other = *first.entry(k).or_insert(ti);
-                let (a, b) = (find(&mut parent, ti), find(&mut parent, other));
-                parent[a] = b;
-            }
-        }
-        (0..m.indices.len())
-            .map(|i| find(&mut parent, i) as u32)
-            .collect()
     }
 }

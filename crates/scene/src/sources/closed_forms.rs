@@ -14,8 +14,8 @@ use std::sync::Arc;
 
 use luxbake_ies::Photometry;
 
-use crate::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
 use crate::sources::meshes::{self, RoomAlbedo};
+use crate::{Albedo, Lamp, Object, Scene, Settings, Transform};
 
 /// Flux of the source of test case 5.8, lumens.
 pub const CIE_5_8_FLUX: f64 = 10_000.0;
@@ -23,13 +23,13 @@ pub const CIE_5_8_FLUX: f64 = 10_000.0;
 pub const CIE_5_8_EDGE: f32 = 4.0;
 
 /// Chart padding of these scenes' procedural meshes at `settings`' density, metres: the
-/// least padding, [`MIN_CHART_PADDING_TEXELS`](crate::layout::MIN_CHART_PADDING_TEXELS)
+/// least padding, [`MIN_CHART_PADDING_TEXELS`](crate::MIN_CHART_PADDING_TEXELS)
 /// whatever the blur. Their charts (the cube's six faces, the sphere's six cube-sphere faces)
 /// face different ways or meet in the world along their seams, so the method paper's blur,
 /// which masks by normal, never carries light from one to another through the padding; the
 /// area means these scenes are tested by stay on the layouts they were measured with.
 fn padding(settings: &Settings) -> f32 {
-    crate::layout::MIN_CHART_PADDING_TEXELS / settings.texels_per_metre
+    crate::MIN_CHART_PADDING_TEXELS / settings.texels_per_metre
 }
 
 /// CIE 171:2006 test case 5.8 at reflectance `rho` and `settings`, and its exact area-mean

@@ -1,38 +1,3 @@
-//! The scene model: objects, lamps and bake settings, as plain data. It imports no scene
-//! source: built-in scenes, scene files and procedural meshes are in [`crate::sources`], on top
-//! of it.
-//!
-//! # Conventions
-//! - Units: metres for lengths, candela for intensities (from the IES file), lux (lm/m²) for
-//!   illuminance, lm/m² for exitance.
-//! - World frame: right-handed, **+Y up**, as glTF.
-//! - A lamp's photometric frame (see [`Lamp`]) maps to world with nadir along −Y, the C0 plane
-//!   toward +X and the C90 plane toward −Z (horizontal angles run counter-clockwise seen from
-//!   above, as LM-63 defines them); `aim` and `rotation_deg` rotate that frame.
-//! - Light-map UVs: origin (0, 0) at the **top-left texel corner** of the object's light-map
-//!   rectangle, u to the right (+x texel), v downward (+y texel, row index), both in [0, 1]
-//!   over the rectangle. Row 0 of every texture is the first row in memory. A point at light-map
-//!   UV `(u, v)` of an object lies in texel `region.offset + floor((u, v) * region.size)` of its
-//!   [`Region`](crate::layout::Region).
-//! - Object transforms: `world = T · Rz · Ry · Rx · S · p` ([`Transform::from_trs`]): scale
-//!   first, then rotations about the fixed world X, Y and Z axes in that order, then translation.
-//!
-//! # The lamp frame, precisely
-//! `luxbake-ies` answers intensities in its photometric frame: nadir (γ = 0°) along −Z, the
-//! C0 half-plane toward +X, C90 toward +Y. [`Lamp::world_to_photometric_matrix`] maps a world
-//! direction into that frame. It is built in three steps:
-//! 1. **Default frame** (`aim = [0, -1, 0]`, `rotation_deg = 0`): photometric +X (C0) is world
-//!    +X, photometric +Y (C90) is world −Z, photometric +Z (zenith) is world +Y. So world −Y is
-//!    the nadir and, seen from above, C angles grow counter-clockwise from +X toward −Z.
-//! 2. **Aim**: the default frame is turned by the *smallest* rotation that takes world −Y onto
-//!    the normalised `aim` (rotation axis `(−Y) × aim`). When `aim` points straight up (+Y) that
-//!    axis is undefined and the turn is 180° about world +X (C0 stays +X, C90 becomes +Z). An
-//!    `aim` of zero length or with non-finite components counts as the default `[0, -1, 0]`.
-//! 3. **Rotation**: the aimed frame is then turned by `rotation_deg` about the photometric
-//!    zenith axis (−aim), right-handed. Positive angles move the C0 plane toward where C90 was:
-//!    with the default aim, `rotation_deg = 90` puts C0 at world −Z and C90 at world −X, i.e.
-//!    counter-clockwise seen from above (from behind the lamp, looking along `aim`).
-
 use std::fmt;
 use std::path::PathBuf;
 use std::str::FromStr;
@@ -44,7 +9,55 @@ use luxbake_ies::Photometry;
 use serde::de::IntoDeserializer;
 use serde::de::value::MapDeserializer;
 
-use crate::exact::normalize_f64;
+/// Opening samples per texel at most ([`Settings::opening_samples`]; `luxbake::opening`).
+pub const MAX_OPENING_SAMPLES: u32 = 1024;
+
+/// Largest blur radius, texels (the blur shaders' loop bound).
+pub const MAX_BLUR_RADIUS: i32 = 64;
+
+/// Taps on each side of a Gaussian of standard deviation `sigma` texels:
+/// `min(⌈3σ⌉, MAX_BLUR_RADIUS)`, at least 0.
+pub fn blur_radius(sigma: f32) -> i32 {
+    ((3.0 * sigma).ceil() as i32).clamp(0, MAX_BLUR_RADIUS)
+}
+
+/// The least chart padding, texels: 2 for bilinear support and conservative rasterisation (a
+/// chart's valid texels reach up to one texel past its edge, and a bilinear look-up reads one
+/// more), doubled so the first mip level of the dilated maps still keeps a texel of gutter.
+pub const MIN_CHART_PADDING_TEXELS: f32 = 4.0;
+
+/// Chart padding for a bake with `blur`, texels at the object's density: the one rule of the
+/// built-in meshes, scene-file meshes and generated UVs.
+///
+/// `max(`[`MIN_CHART_PADDING_TEXELS`]`, 2 + R)` with `R =`
+/// [`blur_radius`]`(σ) = ⌈3σ⌉` (0 without blur). The reach that
+/// matters is the method paper's Gaussian blur: it masks its taps by object and normal only,
+/// so two charts of one object that face the same way would exchange light through a gap of
+/// `R` texels or less. With this padding the valid texels of two charts (each up to one texel
+/// wider than its chart, by conservative rasterisation) stay at least `R + 1` texels apart.
+/// The converged method's filters (coarse interpolation, à-trous) test world-space distance
+/// and never cross charts, so for it the blur term is conservative: σ 1 (default) gives 5
+/// texels, σ 2 (paper, final) 8, no blur (draft) 4.
+pub fn chart_padding_texels(blur: Blur) -> f32 {
+    let reach = match blur {
+        Blur::Sigma(s) => blur_radius(s),
+        Blur::None => 0,
+    };
+    (2.0 + reach as f32).max(MIN_CHART_PADDING_TEXELS)
+}
+
+/// `v / |v|` in double precision with `|v| = √(v·v)` summed left to right, dividing (glam's
+/// `DVec3::normalize`/`try_normalize` multiply by the reciprocal); `None` for a zero or
+/// non-finite length.
+///
+/// No shader twin: the G-buffer's normals (`luxbake::gbuffer`) and the scene's transformed
+/// normals and lamp aims ([`Transform::normal`]) are computed on the CPU in `f64` and rounded
+/// to `f32` once, for every backend.
+#[inline]
+pub fn normalize_f64(v: DVec3) -> Option<DVec3> {
+    let l = v.length();
+    (l > 0.0 && l.is_finite()).then(|| v / l)
+}
 
 /// Errors of scene construction, scene files and mesh validation.
 #[derive(Debug, thiserror::Error)]
@@ -264,7 +277,7 @@ pub struct Transform {
     /// Columns of the 3×3 linear part.
     pub linear: [[f32; 3]; 3],
     /// Translation, metres, in double precision so that a room placed kilometres from the
-    /// origin keeps its millimetres (f32 has a 1 mm step at 10 km): [`crate::bake::bake`]
+    /// origin keeps its millimetres (f32 has a 1 mm step at 10 km): `luxbake::bake::bake`
     /// moves such a scene next to the origin before anything is rounded to f32.
     pub translation: [f64; 3],
 }
@@ -396,7 +409,7 @@ pub struct Lamp {
 /// How a lamp emits ([`Lamp::model`]; the scene file's `lamp_model`).
 ///
 /// - [`LampModel::Point`]: from its photometric centre, the file's intensity table alone.
-/// - [`LampModel::Area`]: from its file's luminous opening ([`crate::opening`]), at every
+/// - [`LampModel::Area`]: from its file's luminous opening (`luxbake::opening`), at every
 ///   texel; a file without an opening (all sizes 0) stays a point.
 /// - [`LampModel::Auto`]: the opening where a receiver lies nearer the lamp than
 ///   [`LampModel::AUTO_TOLERANCE`]'s distance ([`luxbake_ies::Emitter::point_model_distance`]),
@@ -550,7 +563,54 @@ impl Lamp {
     }
 }
 
-pub use crate::rng::Sampler;
+/// Which generator draws the gather directions' uniforms (the draws themselves are
+/// `luxbake::rng`'s, the same in every backend).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+pub enum Sampler {
+    /// Independent hashes per ray (`luxbake::rng::uniform2`): the paper's sampling; RMSE falls
+    /// as N^-1/2.
+    #[default]
+    Hash,
+    /// The per-texel shuffled, Owen-scrambled Sobol (0,2)-sequence (`luxbake::rng::sobol2`).
+    Sobol,
+}
+
+impl Sampler {
+    /// Every sampler.
+    pub const ALL: [Sampler; 2] = [Sampler::Hash, Sampler::Sobol];
+
+    /// The lower-case name used by the CLI and scene files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sampler::Hash => "hash",
+            Sampler::Sobol => "sobol",
+        }
+    }
+
+    /// The id a shader compares `GatherParams::sampler` with (`LUX_SAMPLER_<NAME>` in the
+    /// generated prefix): 0 hash, 1 Sobol.
+    pub fn id(self) -> u32 {
+        match self {
+            Sampler::Hash => 0,
+            Sampler::Sobol => 1,
+        }
+    }
+
+    /// The sampler of id `id`; any id but Sobol's draws with the hash, as the shaders do.
+    pub fn from_id(id: u32) -> Sampler {
+        if id == Sampler::Sobol.id() {
+            Sampler::Sobol
+        } else {
+            Sampler::Hash
+        }
+    }
+}
+
+impl fmt::Display for Sampler {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
 
 /// Which pipeline a bake runs.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -560,7 +620,7 @@ pub enum Method {
     /// hash sampling.
     Paper,
     /// Every bounce: explicit bounce increments until the series' tail can be estimated
-    /// ([`crate::series`]), the tail added, only the noisy indirect light filtered; the direct
+    /// (`luxbake::series`), the tail added, only the noisy indirect light filtered; the direct
     /// light is reported unblurred.
     Converged,
 }
@@ -578,7 +638,7 @@ impl Method {
     }
 }
 
-crate::names::from_str_by_name!(Method, Quality, BvhMode, LampModel);
+crate::names::from_str_by_name!(Method, Quality, BvhMode, LampModel, Sampler);
 
 /// Quality preset of the converged method ([`Settings::preset`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -704,12 +764,12 @@ impl BvhMode {
 /// | `rays`             | 1 ..= [`MAX_RAYS`](Settings::MAX_RAYS) (65536)            |
 /// | `bounces`          | 0 ..= [`MAX_BOUNCES`](Settings::MAX_BOUNCES) (64)         |
 /// | `blur`             | `None`, or a sigma in (0, [`MAX_BLUR_SIGMA`](Settings::MAX_BLUR_SIGMA)] (64) texels |
-/// | `texels_per_metre` | finite, > 0; the maps it gives must fit [`Layout::MAX_TEXELS`](crate::layout::Layout::MAX_TEXELS), checked when the layout is sized |
+/// | `texels_per_metre` | finite, > 0; the maps it gives must fit `luxbake::layout::Layout::MAX_TEXELS`, checked when the layout is sized |
 /// | `higher_rays`      | 1 ..= `MAX_RAYS`                                           |
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
 /// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 and no refinement only (else reported as skipped) |
-/// | `opening_samples`  | 1 ..= [`MAX_SAMPLES`](crate::opening::MAX_SAMPLES) (1024) |
+/// | `opening_samples`  | 1 ..= [`MAX_OPENING_SAMPLES`] (1024) |
 /// | `tail`, `bvh`, `seed`, `backend` | any value                                     |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -726,7 +786,7 @@ pub struct Settings {
     /// at [`Settings::tail_tolerance`]), without it exactly this many; 0 = direct light only.
     pub bounces: u32,
     /// [`Method::Converged`]: after the explicit bounces, add the extrapolated rest of the
-    /// inter-reflection series ([`crate::series`]). The presets set it; [`Settings::paper`]
+    /// inter-reflection series (`luxbake::series`). The presets set it; [`Settings::paper`]
     /// does not, and the paper's method ignores it. A [`SettingsPatch`] that sets `bounces`
     /// without `tail` turns it off: an explicit count gives exactly that many bounces.
     pub tail: bool,
@@ -734,7 +794,7 @@ pub struct Settings {
     /// the indirect increments only.
     pub blur: Blur,
     /// [`Method::Converged`]: explicit bounces stop once the estimated tail, or its uncertainty,
-    /// is under this fraction of the total ([`crate::series`]).
+    /// is under this fraction of the total (`luxbake::series`).
     pub tail_tolerance: f32,
     /// Light-map texel density, texels per metre.
     pub texels_per_metre: f32,
@@ -743,11 +803,11 @@ pub struct Settings {
     /// Seed of the stateless random-number hash.
     pub seed: u32,
     /// Sampler of the gather directions: the paper's independent hash, or the per-texel
-    /// scrambled Sobol sequence ([`crate::rng`]).
+    /// scrambled Sobol sequence (`luxbake::rng`).
     pub sampler: Sampler,
     /// [`Method::Converged`]: the first bounce is gathered on a grid of every `stride`-th
     /// texel per axis (and on texels with no grid texel on their surface) and interpolated on
-    /// each surface ([`crate::program::coarse`]); 1 = every texel.
+    /// each surface (`luxbake::program::coarse`); 1 = every texel.
     pub stride: u32,
     /// [`Method::Converged`]: rays per gathered texel of the bounces after the first. Higher
     /// bounces are smooth (the sum of many paths) and their noise is averaged by the next
@@ -758,18 +818,18 @@ pub struct Settings {
     pub higher_stride: u32,
     /// [`Method::Converged`]: progressive refinement of the first bounce — texels whose
     /// estimated relative standard error after `rays` exceeds [`Settings::refine_error`] get
-    /// this many more rays ([`crate::program::Program::Refine`]); 0 = off.
+    /// this many more rays (`luxbake::program::Program::Refine`); 0 = off.
     pub refine_rays: u32,
     /// [`Method::Converged`]: the relative standard error per texel that refinement aims at.
     pub refine_error: f32,
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance
-    /// sampling ([`crate::lightpaths`]); 0 = the gather alone ([`Method::Paper`] ignores it).
+    /// sampling (`luxbake::lightpaths`); 0 = the gather alone ([`Method::Paper`] ignores it).
     /// Used when the first bounce is gathered at every texel without refinement (`stride`
     /// 1, `refine_rays` 0); otherwise the bake reports them skipped.
     pub lamp_paths: u32,
     /// Points of a lamp's luminous opening, each with its shadow ray, per texel near a lamp
-    /// that has one ([`crate::opening`], [`LampModel`]); texels farther away and lamps
+    /// that has one (`luxbake::opening`, [`LampModel`]); texels farther away and lamps
     /// without an opening cast one shadow ray as before.
     pub opening_samples: u32,
 }
@@ -972,8 +1032,8 @@ impl Settings {
                 format!("{}; expected 0..={max}", self.lamp_paths),
             );
         }
-        if !(1..=crate::opening::MAX_SAMPLES).contains(&self.opening_samples) {
-            let max = crate::opening::MAX_SAMPLES;
+        if !(1..=MAX_OPENING_SAMPLES).contains(&self.opening_samples) {
+            let max = MAX_OPENING_SAMPLES;
             return invalid(
                 "opening_samples",
                 format!("{}; expected 1..={max}", self.opening_samples),
@@ -1346,7 +1406,7 @@ impl Scene {
 
     /// The same scene moved by `offset` metres: object translations and lamp positions (f64).
     /// Every light map keeps its size and every texel its place on the surface; moved back
-    /// by [`crate::bake::bake`]'s re-centring, a scene at 10 km bakes like the original
+    /// by `luxbake::bake::bake`'s re-centring, a scene at 10 km bakes like the original
     /// (the sums are exact while the offset and the coordinates fit f64's 53 bits together).
     pub fn translated(&self, offset: [f64; 3]) -> Scene {
         let mut s = self.clone();
@@ -1404,7 +1464,7 @@ impl Scene {
 
 /// The three vertex indices of a triangle as `usize`, if all are in range of every per-vertex
 /// array the consumers read.
-pub(crate) fn tri_indices(tri: &[u32; 3], m: &Mesh) -> Option<[usize; 3]> {
+pub fn tri_indices(tri: &[u32; 3], m: &Mesh) -> Option<[usize; 3]> {
     let n = m
         .positions
         .len()
@@ -1663,31 +1723,6 @@ mod tests {
             assert!(
                 close(p, [0.0, 0.0, -1.0]),
                 "aim {aim:?} is the nadir: {p:?}"
-            );
-        }
-    }
-
-    #[test]
-    fn scaling_a_scene_keeps_its_maps() {
-        let s = Scene::builtin("chairs_01").expect("builtin");
-        for f in [1e-3f32, 1e3] {
-            let t = s.scaled(f);
-            // At 1/1000 scale: 64 000 texels per metre, as valid as 64.
-            assert_eq!(t.settings.texels_per_metre, 64.0 / f);
-            assert_eq!(t.settings.validate(), Ok(()), "scale {f}");
-            let (a, b) = (
-                crate::layout::Layout::new(&s, 4096, 64).expect("layout"),
-                crate::layout::Layout::new(&t, 4096, 64).expect("layout"),
-            );
-            assert_eq!(a, b, "scale {f}");
-            let p = s.objects[1].transform.point([0.1, 0.2, 0.3]);
-            let q = t.objects[1].transform.point([0.1, 0.2, 0.3]);
-            for k in 0..3 {
-                assert!((q[k] - p[k] * f).abs() <= 1e-5 * f.max(1.0), "{p:?} {q:?}");
-            }
-            assert_eq!(
-                t.lamps[0].position,
-                s.lamps[0].position.map(|v| v * f64::from(f))
             );
         }
     }

@@ -19,16 +19,17 @@
 //! this module for the exact numbers).
 //!
 //! The lamp of the furnished scenes is [`default_photometry`], a recessed downlight authored
-//! for this project as an LM-63-2002 file (`crates/bake/lamps/luxbake_downlight.ies`,
+//! for this project as an LM-63-2002 file (`crates/scene/lamps/luxbake_downlight.ies`,
 //! embedded in the binary), hanging at the ceiling's centre aimed straight down.
 
 use std::sync::{Arc, OnceLock};
 
 use luxbake_ies::Photometry;
 
-use crate::layout::chart_padding_texels;
-use crate::scene::{Albedo, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform};
 use crate::sources::meshes::{self, RoomAlbedo};
+use crate::{
+    Albedo, Lamp, Mesh, Object, Scene, SceneError, Settings, Transform, chart_padding_texels,
+};
 
 impl Scene {
     /// A built-in scene by name (see [`Scene::builtin_names`] and [`crate::sources::builtin`]),
@@ -123,7 +124,7 @@ pub fn default_photometry() -> Result<Arc<Photometry>, SceneError> {
     .clone()
     .map_err(|e| SceneError::Photometry {
         key: "builtin:downlight".into(),
-        file: "crates/bake/lamps/luxbake_downlight.ies".into(),
+        file: "crates/scene/lamps/luxbake_downlight.ies".into(),
         source: e.into(),
     })
 }
@@ -372,27 +373,15 @@ mod tests {
         }
     }
 
-    /// Chart padding follows the density the scene is built for.
+    /// Chart padding follows the density the scene is built for (what it does to the layout:
+    /// `luxbake`'s `tests/scene_layout.rs`).
     #[test]
     fn padding_follows_the_density() {
         let coarse = Settings {
             texels_per_metre: 16.0,
             ..Settings::default()
         };
-        let s = Scene::builtin_with_settings("chairs_01", coarse.clone()).expect("builtin");
-        let d = Scene::builtin("chairs_01").expect("builtin");
-        let l = crate::layout::Layout::new(&s, 4096, 8).expect("layout");
-        let r = l.regions[1].expect("chair");
-        let rd = crate::layout::Layout::new(&d, 4096, 8)
-            .expect("layout")
-            .regions[1]
-            .expect("chair");
-        // A quarter of the density, but padding stays 5 texels: more than a quarter the size.
-        assert!(
-            r.size[0] * 4 > rd.size[0] && r.size[0] * 3 < rd.size[0],
-            "{r:?} vs {rd:?}"
-        );
-        assert_eq!(Settings::default().blur, crate::scene::Blur::Sigma(1.0));
+        assert_eq!(Settings::default().blur, crate::Blur::Sigma(1.0));
         assert_eq!(padding_m(&coarse, 2.0), 5.0 / 32.0);
         let paper = Settings {
             texels_per_metre: 16.0,

@@ -1,10 +1,10 @@
-//! Scene sources: where a [`Scene`](crate::scene::Scene) comes from. They build on the scene
-//! model ([`crate::scene`]), which knows none of them.
+//! Scene sources: where a [`Scene`](crate::Scene) comes from. They build on the scene
+//! model ([`crate`]), which knows none of them.
 //!
 //! - [`builtin`]: the built-in scenes and lamps of the paper's test cases and the analytic
-//!   checks ([`Scene::builtin`](crate::scene::Scene::builtin)).
+//!   checks ([`Scene::builtin`](crate::Scene::builtin)).
 //! - [`scenefile`]: the TOML scene-file format
-//!   ([`Scene::from_toml_file`](crate::scene::Scene::from_toml_file)); file meshes come in
+//!   ([`Scene::from_toml_file`](crate::Scene::from_toml_file)); file meshes come in
 //!   through its [`MeshLoader`](scenefile::MeshLoader).
 //! - [`closed_forms`]: scenes with closed-form answers (CIE 171:2006 test case 5.8, the closed
 //!   sphere) and their exact values.
