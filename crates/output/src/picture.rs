@@ -358,11 +358,9 @@ mod tests {
 
     #[test]
     fn srgb_endpoints_and_guards() {
-        assert_eq!(srgb_byte(0.0), 0);
-        assert_eq!(srgb_byte(1.0), 255);
-        assert_eq!(srgb_byte(2.0), 255);
-        assert_eq!(srgb_byte(f32::NAN), 0);
-        assert_eq!(srgb_byte(0.5), 188);
+        for (linear, byte) in [(0.0, 0), (1.0, 255), (2.0, 255), (f32::NAN, 0), (0.5, 188)] {
+            assert_eq!(srgb_byte(linear), byte, "{linear}");
+        }
     }
 
     #[test]
