@@ -25,11 +25,12 @@
 //! same texels with the same random numbers.
 #![warn(missing_docs)]
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use luxbake::bake::BakeOutput;
 use luxbake::graph::Figure5;
-use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Settings};
+use luxbake::map::MapImage;
+use luxbake::scene::{Blur, BvhMode, Method, Quality, Sampler, Scene, Settings};
 use luxbake_backends::image_diff::{DiffStats, Tolerance, diff, write_failure_images};
 use luxbake_backends::{AnyBackend, BackendKind, OpenError};
 
@@ -259,6 +260,21 @@ fn open(kind: BackendKind, test: &str) -> Option<AnyBackend> {
     )
 }
 
+/// Writes the expected, actual and difference PNGs of a failed comparison as `file` in
+/// `folder` under [`output_dir`]; says where they are, or why they are not there.
+pub fn failure_images(
+    folder: impl AsRef<Path>,
+    file: &str,
+    expected: &MapImage,
+    actual: &MapImage,
+) -> String {
+    let dir = output_dir().join(folder);
+    match write_failure_images(&dir, file, expected, actual) {
+        Ok(()) => format!("images in {}", dir.display()),
+        Err(err) => format!("images not written: {err}"),
+    }
+}
+
 /// What one test compared, and which backends it skipped through [`Tally::open`].
 /// [`Tally::finish`] reports it ([`Tally::verdict`]): a test that compared nothing is never a
 /// pass — outside CI it is skipped by the workspace's rule
@@ -291,6 +307,24 @@ impl Tally {
             self.skipped.push(kind);
         }
         opened
+    }
+
+    /// Bakes `scene` at its own settings on `kind` ([`Tally::open`]: `None` when skipped); a
+    /// failed bake, or a texel of any stage that is not finite and non-negative, fails the test.
+    pub fn bake(&mut self, kind: BackendKind, scene: &Scene) -> Option<BakeOutput> {
+        let mut backend = self.open(kind)?;
+        let out = luxbake::bake::bake(&mut backend, scene, &scene.settings, &mut |_| {})
+            .unwrap_or_else(|e| panic!("{kind} bake: {e}"));
+        for m in &out.maps {
+            for stage in m.stages.iter().flatten() {
+                assert!(
+                    stage.texels.iter().all(|v| v.is_finite() && *v >= 0.0),
+                    "{kind} {}",
+                    m.name
+                );
+            }
+        }
+        Some(out)
     }
 
     /// Counts `cases` compared cases (backend pairs, passes, closed forms: the test's unit).
@@ -439,12 +473,8 @@ pub fn compare(
             let s = diff(ei, ai);
             pooled.pool(&s);
             if !s.within(tolerance) {
-                let dir = output_dir().join(&name).join(case.name());
                 let file = format!("{}_{}", e.name, Figure5::NAMES[stage].replace(' ', "_"));
-                let written = match write_failure_images(&dir, &file, ei, ai) {
-                    Ok(()) => format!("images in {}", dir.display()),
-                    Err(err) => format!("images not written: {err}"),
-                };
+                let written = failure_images(Path::new(&name).join(case.name()), &file, ei, ai);
                 failures.push(format!(
                     "{name} {} `{}` stage ({}) {}: {s:?} exceeds {tolerance:?}; {written}",
                     case.name(),

@@ -12,7 +12,7 @@
 
 use luxbake::bake::bake;
 use luxbake::graph::Figure5;
-use luxbake::scene::Scene;
+use luxbake::scene::{Method, Quality, Sampler, Scene};
 use luxbake_backends::BackendKind;
 use luxbake_tests::{Pair, SCENES, SceneCase, Tally, compare};
 
@@ -20,6 +20,29 @@ fn run(case: &SceneCase) {
     let settings = case.settings();
     let scene = Scene::builtin_with_settings(case.scene, settings.clone()).expect("built-in scene");
     run_scene(case, &scene);
+}
+
+/// The case of `chairs_01` at the converged `default` preset ([`SCENES`]`[4]`, its
+/// tolerances) for a variant of the scene called `scene`.
+fn converged_chairs_01(scene: &'static str) -> SceneCase {
+    let base = SCENES[4];
+    assert_eq!(
+        (
+            base.scene,
+            base.method,
+            base.sampler,
+            base.quality,
+            base.refine_rays
+        ),
+        (
+            "chairs_01",
+            Method::Converged,
+            Sampler::Sobol,
+            Quality::Default,
+            0
+        )
+    );
+    SceneCase { scene, ..base }
 }
 
 /// Bakes `scene` (with `case`'s settings) on every backend and compares every pair with
@@ -113,7 +136,7 @@ fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
 fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
     use std::sync::Arc;
 
-    use luxbake::scene::{Albedo, Lamp, Method, Object, Quality, Sampler, Transform};
+    use luxbake::scene::{Albedo, Lamp, Object, Transform};
     use luxbake::sources::meshes;
 
     let case = SceneCase {
@@ -157,20 +180,9 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
 fn chairs_01_with_two_lamps_and_lamp_paths_agrees_across_backends() {
     use std::sync::Arc;
 
-    use luxbake::scene::{Lamp, Method, Quality, Sampler};
+    use luxbake::scene::Lamp;
 
-    let case = SceneCase {
-        scene: "chairs_01_two_lamps",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: SCENES[4].stages,
-    };
-    assert_eq!(
-        (SCENES[4].scene, SCENES[4].method, SCENES[4].quality),
-        ("chairs_01", Method::Converged, Quality::Default)
-    );
+    let case = converged_chairs_01("chairs_01_two_lamps");
     let settings = case.settings();
     assert!(settings.lamp_paths > 0, "{settings:?}");
     let mut scene = Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01");
@@ -191,16 +203,9 @@ fn chairs_01_with_two_lamps_and_lamp_paths_agrees_across_backends() {
 fn chairs_01_with_luminous_openings_agrees_across_backends() {
     use std::sync::Arc;
 
-    use luxbake::scene::{Lamp, LampModel, Method, Quality, Sampler};
+    use luxbake::scene::{Lamp, LampModel};
 
-    let case = SceneCase {
-        scene: "chairs_01_openings",
-        method: Method::Converged,
-        sampler: Sampler::Sobol,
-        quality: Quality::Default,
-        refine_rays: 0,
-        stages: SCENES[4].stages,
-    };
+    let case = converged_chairs_01("chairs_01_openings");
     let Some(path) = luxbake_testkit::shared_data(
         "cross_backend::chairs_01_openings",
         "photometry/real-world/rw_1.IES",

@@ -13,12 +13,13 @@
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeOutput, bake};
+use luxbake::bake::BakeOutput;
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Albedo, Blur, Lamp, LampModel, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes;
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
+use luxbake_testkit::RelativeError;
 use luxbake_tests::Tally;
 
 const ALL: [BackendKind; 3] = [BackendKind::Cpu, BackendKind::Glow, BackendKind::Wgpu];
@@ -76,19 +77,6 @@ fn floor_scene(lamp: Lamp, size: f32, texels_per_metre: f32, samples: u32) -> Sc
     }
 }
 
-/// Bakes `scene` on `backend` (`None`: skipped, recorded in `tally`); every map finite.
-fn run(tally: &mut Tally, backend: BackendKind, scene: &Scene) -> Option<BakeOutput> {
-    let mut b = tally.open(backend)?;
-    let out = bake(&mut b, scene, &scene.settings, &mut |_| {})
-        .unwrap_or_else(|e| panic!("{backend} bake: {e}"));
-    for m in &out.maps {
-        for stage in m.stages.iter().flatten() {
-            assert!(stage.texels.iter().all(|v| v.is_finite() && *v >= 0.0));
-        }
-    }
-    Some(out)
-}
-
 /// The floor's texels as `(x, z, lux)` (green channel; the lamp is white).
 fn texels(scene: &Scene, out: &BakeOutput) -> Vec<(f64, f64, f64)> {
     let g = rasterize(scene, &out.layout);
@@ -96,6 +84,29 @@ fn texels(scene: &Scene, out: &BakeOutput) -> Vec<(f64, f64, f64)> {
     maps.texels(&g, maps.illuminance())
         .map(|(p, t)| (p[0], p[2], f64::from(t[1])))
         .collect()
+}
+
+/// The lamp models compared on a disk's axis.
+const MODELS: [LampModel; 2] = [LampModel::Point, LampModel::Area];
+
+/// The floor's texels ([`texels`]) under a Lambertian disk of diameter `d`, `h` above its
+/// centre, as each of [`MODELS`] (`None`: skipped); `floor` is [`floor_scene`]'s size,
+/// density and opening samples.
+fn point_and_area(
+    tally: &mut Tally,
+    backend: BackendKind,
+    d: f64,
+    h: f64,
+    (size, texels_per_metre, samples): (f32, f32, u32),
+) -> Option<[Vec<(f64, f64, f64)>; 2]> {
+    let mut t = [Vec::new(), Vec::new()];
+    for (t, model) in t.iter_mut().zip(MODELS) {
+        let mut lamp = Lamp::new("disk", lambertian(-d, -d), [0.0, h, 0.0]);
+        lamp.model = model;
+        let scene = floor_scene(lamp, size, texels_per_metre, samples);
+        *t = texels(&scene, &tally.bake(backend, &scene)?);
+    }
+    Some(t)
 }
 
 /// Illuminance of a horizontal receiver at horizontal distance `r` from the axis of a
@@ -150,21 +161,13 @@ fn lamberts_contour_integral_gives_the_corner_formula() {
     }
 }
 
-/// Relative errors of the texels where the exact illuminance is at least `floor` of its peak:
-/// (max |rel|, mean |rel|, count).
-fn errors(t: &[(f64, f64, f64)], exact: impl Fn(f64, f64) -> f64, floor: f64) -> (f64, f64, usize) {
+/// Relative errors of the texels where the exact illuminance is at least `floor` of its peak.
+fn errors(t: &[(f64, f64, f64)], exact: impl Fn(f64, f64) -> f64, floor: f64) -> RelativeError {
     let peak = t.iter().map(|&(x, z, _)| exact(x, z)).fold(0.0, f64::max);
-    let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
-    for &(x, z, e) in t {
-        let want = exact(x, z);
-        if want >= floor * peak {
-            let r = (e - want).abs() / want;
-            max = max.max(r);
-            sum += r;
-            n += 1;
-        }
-    }
-    (max, sum / n.max(1) as f64, n)
+    t.iter()
+        .map(|&(x, z, e)| (e, exact(x, z)))
+        .filter(|&(_, want)| want >= floor * peak)
+        .collect()
 }
 
 #[test]
@@ -198,19 +201,21 @@ fn disk_and_rectangle_openings_match_the_closed_forms_on_every_backend() {
                 let mut lamp = Lamp::new(*name, photometry.clone(), [0.0, h, 0.0]);
                 lamp.model = LampModel::Area;
                 let scene = floor_scene(lamp, 3.0, 24.0, SAMPLES);
-                let Some(out) = run(&mut tally, backend, &scene) else {
+                let Some(out) = tally.bake(backend, &scene) else {
                     continue 'backends;
                 };
                 let t = texels(&scene, &out);
-                let (max, mean, n) = errors(&t, |x, z| exact(h, x, z), 0.01);
+                let err = errors(&t, |x, z| exact(h, x, z), 0.01);
                 println!(
-                    "{backend} {name} h/D = {ratio}: {n} texels, max |rel| {:.3} %, mean {:.3} %",
-                    100.0 * max,
-                    100.0 * mean
+                    "{backend} {name} h/D = {ratio}: {} texels, max |rel| {:.3} %, mean {:.3} %",
+                    err.n,
+                    100.0 * err.max,
+                    100.0 * err.mean()
                 );
                 assert!(
-                    n > 100 && max < 0.005,
-                    "{backend} {name} h/D {ratio}: max {max}"
+                    err.n > 100 && err.max < 0.005,
+                    "{backend} {name} h/D {ratio}: max {}",
+                    err.max
                 );
                 tally.compared(1);
             }
@@ -227,28 +232,27 @@ fn the_point_models_error_on_a_disks_axis_and_its_far_field() {
         // (h/D, (E_area − E_point) / E_point on the axis): −1/(1 + (2h/D)²).
         for (ratio, table) in [(1.0, -0.20), (2.0, -0.059), (3.0, -0.027), (5.0, -0.0099)] {
             let h = ratio * d;
-            let mut axis = [0.0; 2];
-            for (i, model) in [LampModel::Point, LampModel::Area].into_iter().enumerate() {
-                let mut lamp = Lamp::new("disk", lambertian(-d, -d), [0.0, h, 0.0]);
-                lamp.model = model;
-                let scene = floor_scene(lamp, 0.5, 64.0, 256);
-                let Some(out) = run(&mut tally, backend, &scene) else {
-                    return tally.finish();
-                };
-                // The texel nearest the axis, corrected to the axis by the closed forms'
-                // ratio there (texel centres are a third of a texel off it at most).
-                let t = texels(&scene, &out);
-                let &(x, z, e) = t
-                    .iter()
-                    .min_by(|p, q| (p.0.hypot(p.1)).total_cmp(&q.0.hypot(q.1)))
-                    .expect("texels");
-                let r = x.hypot(z);
-                let exact_at = |r: f64| match model {
-                    LampModel::Point => I0 * h.powi(2) / (h * h + r * r).powi(2),
-                    _ => disk(I0 / (std::f64::consts::PI * d * d / 4.0), d / 2.0, h, r),
-                };
-                axis[i] = e * exact_at(0.0) / exact_at(r);
-            }
+            let Some(t) = point_and_area(&mut tally, backend, d, h, (0.5, 64.0, 256)) else {
+                return tally.finish();
+            };
+            let axis: Vec<f64> = MODELS
+                .iter()
+                .zip(&t)
+                .map(|(model, t)| {
+                    // The texel nearest the axis, corrected to the axis by the closed forms'
+                    // ratio there (texel centres are a third of a texel off it at most).
+                    let &(x, z, e) = t
+                        .iter()
+                        .min_by(|p, q| (p.0.hypot(p.1)).total_cmp(&q.0.hypot(q.1)))
+                        .expect("texels");
+                    let r = x.hypot(z);
+                    let exact_at = |r: f64| match model {
+                        LampModel::Point => I0 * h.powi(2) / (h * h + r * r).powi(2),
+                        _ => disk(I0 / (std::f64::consts::PI * d * d / 4.0), d / 2.0, h, r),
+                    };
+                    e * exact_at(0.0) / exact_at(r)
+                })
+                .collect();
             let got = (axis[1] - axis[0]) / axis[0];
             let want = -1.0 / (1.0 + (2.0 * ratio).powi(2));
             println!(
@@ -266,16 +270,10 @@ fn the_point_models_error_on_a_disks_axis_and_its_far_field() {
         }
         // 10 D away the opening gives what the point gives, within 0.3 %.
         let h = 10.0 * d;
-        let mut sums = [0.0f64; 2];
-        for (i, model) in [LampModel::Point, LampModel::Area].into_iter().enumerate() {
-            let mut lamp = Lamp::new("disk", lambertian(-d, -d), [0.0, h, 0.0]);
-            lamp.model = model;
-            let scene = floor_scene(lamp, 3.0, 8.0, 64);
-            let Some(out) = run(&mut tally, backend, &scene) else {
-                return tally.finish();
-            };
-            sums[i] = texels(&scene, &out).iter().map(|t| t.2).sum();
-        }
+        let Some(t) = point_and_area(&mut tally, backend, d, h, (3.0, 8.0, 64)) else {
+            return tally.finish();
+        };
+        let sums = t.map(|t| t.iter().map(|t| t.2).sum::<f64>());
         let rel = (sums[1] - sums[0]).abs() / sums[0];
         println!("{backend} 10 D: area vs point {:.3} %", 100.0 * rel);
         assert!(rel < 0.003, "{backend}: {rel}");

@@ -5,8 +5,8 @@ use luxbake::bake::{BakeOutput, bake};
 use luxbake::graph::Figure5;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
 use luxbake_backends::BackendKind;
-use luxbake_backends::image_diff::{Tolerance, diff, write_failure_images};
-use luxbake_tests::{Tally, output_dir};
+use luxbake_backends::image_diff::{Tolerance, diff};
+use luxbake_tests::{Tally, failure_images};
 
 /// Every traversal finds the same closest hit (the same triangle, bit-identical `t` and
 /// barycentrics) except at exact ties in `t` between triangles sharing an edge, where the
@@ -69,12 +69,9 @@ fn mtbvh_tbvh_and_brute_force_give_the_same_images() {
                         .count();
                     let s = diff(e, a);
                     if !s.within(TOLERANCE) {
-                        let dir = output_dir().join(format!("{}-traversals", backend.name()));
+                        let folder = format!("{}-traversals", backend.name());
                         let file = format!("{mode:?}_{}_{}", r.name, name.replace(' ', "_"));
-                        let images = match write_failure_images(&dir, &file, e, a) {
-                            Ok(()) => format!("images in {}", dir.display()),
-                            Err(err) => format!("no images ({err})"),
-                        };
+                        let images = failure_images(folder, &file, e, a);
                         failures.push(format!(
                             "{}: {mode:?} vs Mtbvh, `{}` stage {name}: {s:?}; {images}",
                             backend.name(),
