@@ -72,11 +72,11 @@ void luxOpeningParts(LuxOpening o, out float areas[6]) {
 
 // opening::to_photometric, opening::to_solid.
 vec3 luxToPhotometric(int axis, vec3 s) {
-    return axis == 0 ? vec3(s.z, s.x, s.y) : (axis == 1 ? vec3(s.y, s.z, s.x) : s);
+    return axis == 0 ? s.zxy : (axis == 1 ? s.yzx : s);
 }
 
 vec3 luxToSolid(int axis, vec3 p) {
-    return axis == 0 ? vec3(p.y, p.z, p.x) : (axis == 1 ? vec3(p.z, p.x, p.y) : p);
+    return axis == 0 ? p.yzx : (axis == 1 ? p.zxy : p);
 }
 
 // opening::falloff: a draw t in [lo, hi] of the density ~ (s² + t²)^(-3/2) and that density;

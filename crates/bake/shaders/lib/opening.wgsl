@@ -68,23 +68,11 @@ fn lux_opening_parts(o: LuxOpening) -> array<f32, 6> {
 
 // opening::to_photometric, opening::to_solid.
 fn lux_to_photometric(axis: i32, s: vec3<f32>) -> vec3<f32> {
-    if (axis == 0) {
-        return vec3<f32>(s.z, s.x, s.y);
-    }
-    if (axis == 1) {
-        return vec3<f32>(s.y, s.z, s.x);
-    }
-    return s;
+    return select(select(s, s.yzx, axis == 1), s.zxy, axis == 0);
 }
 
 fn lux_to_solid(axis: i32, p: vec3<f32>) -> vec3<f32> {
-    if (axis == 0) {
-        return vec3<f32>(p.y, p.z, p.x);
-    }
-    if (axis == 1) {
-        return vec3<f32>(p.z, p.x, p.y);
-    }
-    return p;
+    return select(select(p, p.zxy, axis == 1), p.yzx, axis == 0);
 }
 
 // opening::falloff: a draw t in [lo, hi] of the density ~ (s² + t²)^(-3/2) and that density;
