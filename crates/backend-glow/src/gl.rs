@@ -487,7 +487,7 @@ mod tests {
 
     use super::{Program, Target, TextureArray};
     use crate::GlowError;
-    use crate::testutil::context_or_skip;
+    use crate::testutil::{context_or_skip, with_gl};
 
     const PATTERN_FS: &str = "uniform int u_layer;\n\
         out vec4 o;\n\
@@ -508,125 +508,117 @@ mod tests {
 
     #[test]
     fn renders_into_array_layers_and_reads_back_exactly() {
-        let Some(ctx) = context_or_skip("renders_into_array_layers_and_reads_back_exactly") else {
-            return;
-        };
-        let gl = ctx.gl().unwrap();
-        let (w, h, layers) = (37, 23, 3);
-        let tex = TextureArray::new(gl, "test", w, h, layers).unwrap();
-        let target = Target::new(gl).unwrap();
-        let program = Program::new(gl, "pattern", "", &[PATTERN_FS]).unwrap();
-        // Layer 1 stays as uploaded, layers 0 and 2 are rendered, layer 2 in two tiles.
-        let uploaded: Vec<f32> = (0..w * h * 4).map(|i| i as f32 * 0.37 - 11.0).collect();
-        tex.upload(gl, "test", 1, &uploaded).unwrap();
-        for (layer, tiles) in [
-            (0u32, vec![[0, 0, w, h]]),
-            (2, vec![[0, 0, w, 10], [0, 10, w, 13]]),
-        ] {
-            target.bind(gl, "pattern", &tex, layer).unwrap();
-            // SAFETY: binding the program just linked and setting its one uniform.
-            unsafe {
-                gl.use_program(Some(program.raw));
-                gl.uniform_1_i32(program.uniform("u_layer"), layer as i32);
-            }
-            for rect in tiles {
-                target.draw(gl, "pattern", rect).unwrap();
-            }
-        }
-        for layer in 0..layers {
-            let back = target.read(gl, "test", &tex, layer).unwrap();
-            if layer == 1 {
-                assert_eq!(back, uploaded);
-                continue;
-            }
-            for y in 0..h {
-                for x in 0..w {
-                    let i = ((y * w + x) * 4) as usize;
-                    assert_eq!(
-                        back[i..i + 4],
-                        pattern(x, y, layer),
-                        "texel ({x}, {y}) layer {layer}"
-                    );
+        with_gl("renders_into_array_layers_and_reads_back_exactly", |gl| {
+            let (w, h, layers) = (37, 23, 3);
+            let tex = TextureArray::new(gl, "test", w, h, layers).unwrap();
+            let target = Target::new(gl).unwrap();
+            let program = Program::new(gl, "pattern", "", &[PATTERN_FS]).unwrap();
+            // Layer 1 stays as uploaded, layers 0 and 2 are rendered, layer 2 in two tiles.
+            let uploaded: Vec<f32> = (0..w * h * 4).map(|i| i as f32 * 0.37 - 11.0).collect();
+            tex.upload(gl, "test", 1, &uploaded).unwrap();
+            for (layer, tiles) in [
+                (0u32, vec![[0, 0, w, h]]),
+                (2, vec![[0, 0, w, 10], [0, 10, w, 13]]),
+            ] {
+                target.bind(gl, "pattern", &tex, layer).unwrap();
+                // SAFETY: binding the program just linked and setting its one uniform.
+                unsafe {
+                    gl.use_program(Some(program.raw));
+                    gl.uniform_1_i32(program.uniform("u_layer"), layer as i32);
+                }
+                for rect in tiles {
+                    target.draw(gl, "pattern", rect).unwrap();
                 }
             }
-        }
-        program.delete(gl);
-        target.delete(gl);
-        tex.delete(gl);
+            for layer in 0..layers {
+                let back = target.read(gl, "test", &tex, layer).unwrap();
+                if layer == 1 {
+                    assert_eq!(back, uploaded);
+                    continue;
+                }
+                for y in 0..h {
+                    for x in 0..w {
+                        let i = ((y * w + x) * 4) as usize;
+                        assert_eq!(
+                            back[i..i + 4],
+                            pattern(x, y, layer),
+                            "texel ({x}, {y}) layer {layer}"
+                        );
+                    }
+                }
+            }
+            program.delete(gl);
+            target.delete(gl);
+            tex.delete(gl);
+        });
     }
 
     #[test]
     fn compile_errors_name_the_pass_and_carry_the_log() {
-        let Some(ctx) = context_or_skip("compile_errors_name_the_pass_and_carry_the_log") else {
-            return;
-        };
-        let gl = ctx.gl().unwrap();
-        let err = Program::new(
-            gl,
-            "broken pass",
-            "",
-            &["out vec4 o; void main() { o = nope; }"],
-        )
-        .unwrap_err();
-        assert!(
-            matches!(
-                err,
-                GlowError::Compile {
-                    stage: "fragment",
-                    ..
-                }
-            ),
-            "{err}"
-        );
-        let msg = err.to_string();
-        assert!(msg.contains("broken pass") && msg.contains("nope"), "{msg}");
+        with_gl("compile_errors_name_the_pass_and_carry_the_log", |gl| {
+            let err = Program::new(
+                gl,
+                "broken pass",
+                "",
+                &["out vec4 o; void main() { o = nope; }"],
+            )
+            .unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    GlowError::Compile {
+                        stage: "fragment",
+                        ..
+                    }
+                ),
+                "{err}"
+            );
+            let msg = err.to_string();
+            assert!(msg.contains("broken pass") && msg.contains("nope"), "{msg}");
+        });
     }
 
     #[test]
     fn more_than_sixteen_textures_per_pass_is_an_error() {
-        let Some(ctx) = context_or_skip("more_than_sixteen_textures_per_pass_is_an_error") else {
-            return;
-        };
-        let gl = ctx.gl().unwrap();
-        let tex = TextureArray::new(gl, "t", 1, 1, 1).unwrap();
-        let program = Program::new(gl, "units", "", &[PATTERN_FS]).unwrap();
-        let names: Vec<String> = (0..17).map(|i| format!("u_t{i}")).collect();
-        let samplers: Vec<(&str, &TextureArray)> =
-            names.iter().map(|n| (n.as_str(), &tex)).collect();
-        assert!(program.use_with(gl, "units", &samplers[..16]).is_ok());
-        let err = program.use_with(gl, "units", &samplers).unwrap_err();
-        assert!(
-            matches!(
-                err,
-                GlowError::Limit {
-                    requested: 17,
-                    allowed: 16,
-                    ..
-                }
-            ),
-            "{err}"
-        );
-        program.delete(gl);
-        tex.delete(gl);
+        with_gl("more_than_sixteen_textures_per_pass_is_an_error", |gl| {
+            let tex = TextureArray::new(gl, "t", 1, 1, 1).unwrap();
+            let program = Program::new(gl, "units", "", &[PATTERN_FS]).unwrap();
+            let names: Vec<String> = (0..17).map(|i| format!("u_t{i}")).collect();
+            let samplers: Vec<(&str, &TextureArray)> =
+                names.iter().map(|n| (n.as_str(), &tex)).collect();
+            assert!(program.use_with(gl, "units", &samplers[..16]).is_ok());
+            let err = program.use_with(gl, "units", &samplers).unwrap_err();
+            assert!(
+                matches!(
+                    err,
+                    GlowError::Limit {
+                        requested: 17,
+                        allowed: 16,
+                        ..
+                    }
+                ),
+                "{err}"
+            );
+            program.delete(gl);
+            tex.delete(gl);
+        });
     }
 
     #[test]
     fn gl_errors_name_the_pass_and_the_error() {
-        let Some(ctx) = context_or_skip("gl_errors_name_the_pass_and_the_error") else {
-            return;
-        };
-        let gl = ctx.gl().unwrap();
-        assert!(super::check(gl, "clean", "nothing").is_ok());
-        // SAFETY: an invalid enum only sets the error flag.
-        unsafe { gl.enable(0xFFFF) };
-        let err = super::check(gl, "some pass", "enabling").unwrap_err();
-        let msg = err.to_string();
-        assert!(
-            msg.contains("some pass") && msg.contains("GL_INVALID_ENUM"),
-            "{msg}"
-        );
-        // The flag is drained: the next check sees no stale error.
-        assert!(super::check(gl, "clean", "nothing").is_ok());
+        with_gl("gl_errors_name_the_pass_and_the_error", |gl| {
+            assert!(super::check(gl, "clean", "nothing").is_ok());
+            // SAFETY: an invalid enum only sets the error flag.
+            unsafe { gl.enable(0xFFFF) };
+            let err = super::check(gl, "some pass", "enabling").unwrap_err();
+            let msg = err.to_string();
+            assert!(
+                msg.contains("some pass") && msg.contains("GL_INVALID_ENUM"),
+                "{msg}"
+            );
+            // The flag is drained: the next check sees no stale error.
+            assert!(super::check(gl, "clean", "nothing").is_ok());
+        });
     }
 
     #[test]

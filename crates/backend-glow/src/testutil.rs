@@ -8,6 +8,13 @@ pub(crate) fn context_or_skip(test: &str) -> Option<GlContext> {
     luxbake_testkit::or_skip(test, GlContext::headless(), GlowError::is_driver_missing)
 }
 
+/// Runs `body` on a headless context's GL, or skips as [`context_or_skip`] does.
+pub(crate) fn with_gl(test: &str, body: impl FnOnce(&glow::Context)) {
+    if let Some(ctx) = context_or_skip(test) {
+        body(ctx.gl().unwrap());
+    }
+}
+
 use crate::gl::{Program, Target, TextureArray};
 use luxbake::scene::BvhMode;
 use luxbake::shader;

@@ -10,7 +10,7 @@ use luxbake::shader::glsl_library;
 use super::{Pass, program_sources};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
-use crate::testutil::{context_or_skip, render};
+use crate::testutil::{context_or_skip, render, with_gl};
 use luxbake_testkit::SplitMix64;
 
 const TRACE_FS: &str = "uniform highp sampler2DArray u_rays;\n\
@@ -370,18 +370,16 @@ fn ies_sampling_matches_the_cpu_table() {
 
 #[test]
 fn every_pass_program_compiles_for_every_traversal() {
-    let Some(ctx) = context_or_skip("every_pass_program_compiles_for_every_traversal") else {
-        return;
-    };
-    let gl = ctx.gl().unwrap();
-    for pass in Pass::ALL {
-        for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
-            let (prefix, sources) = program_sources(pass, t);
-            let p = crate::gl::Program::new(gl, pass.label(), &prefix, &sources)
-                .unwrap_or_else(|e| panic!("{e}"));
-            p.delete(gl);
+    with_gl("every_pass_program_compiles_for_every_traversal", |gl| {
+        for pass in Pass::ALL {
+            for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
+                let (prefix, sources) = program_sources(pass, t);
+                let p = crate::gl::Program::new(gl, pass.label(), &prefix, &sources)
+                    .unwrap_or_else(|e| panic!("{e}"));
+                p.delete(gl);
+            }
         }
-    }
+    });
 }
 
 /// `source` (GLSL ES 3.00 as the GL backend compiles it, after the `#version` header) as the
