@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::run;
+use common::{assert_finite, run};
 
 use std::sync::Arc;
 
@@ -13,7 +13,7 @@ use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
-use luxbake::sources::meshes;
+use luxbake::sources::{closed_forms, meshes};
 use luxbake_ies::Photometry;
 use luxbake_testkit::{RelativeError, shared_data};
 
@@ -27,25 +27,13 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     }
 }
 
-fn gbuffer(scene: &Scene, out: &BakeOutput) -> GBuffer {
-    rasterize(scene, &out.layout)
-}
-
-fn assert_finite(out: &BakeOutput) {
-    for m in &out.maps {
-        for (s, stage) in m.stages.iter().enumerate() {
-            if let Some(stage) = stage {
-                for v in &stage.texels {
-                    assert!(
-                        v.is_finite() && *v >= 0.0,
-                        "{} stage {}: {v}",
-                        m.name,
-                        s + 1
-                    );
-                }
-            }
-        }
-    }
+/// `scene` baked on the CPU backend (every texel of every stage finite and non-negative) and
+/// the G-buffer of its layout.
+fn bake_checked(scene: &Scene) -> (BakeOutput, GBuffer) {
+    let out = run(scene);
+    assert_finite(&out);
+    let g = rasterize(scene, &out.layout);
+    (out, g)
 }
 
 const I0: f64 = 1000.0;
@@ -69,19 +57,17 @@ fn isotropic(cd: f64, position: [f32; 3]) -> Lamp {
 fn floor_inverse_square_cosine() {
     let h = 2.0f64;
     let scene = floor_scene(8.0, isotropic(I0, [0.0, h as f32, 0.0]));
-    let out = run(&scene);
-    assert_finite(&out);
-    let g = gbuffer(&scene, &out);
+    let (out, g) = bake_checked(&scene);
     let maps = &out.maps[0];
     let closed = |p: [f64; 3]| {
         let r2 = p[0] * p[0] + p[2] * p[2];
         let dy = h - p[1];
         I0 * dy / (dy * dy + r2).powf(1.5)
     };
-    let mut all = RelativeError::default();
-    for (p, t) in maps.texels(&g, maps.illuminance()) {
-        all.add(f64::from(t[0]), closed(p));
-    }
+    let all: RelativeError = maps
+        .texels(&g, maps.illuminance())
+        .map(|(p, t)| (f64::from(t[0]), closed(p)))
+        .collect();
     // 20 calculation points along a spiral, read back bilinearly like `xtask measure`.
     let mut points = RelativeError::default();
     for k in 0..20 {
@@ -92,13 +78,7 @@ fn floor_inverse_square_cosine() {
         let e = maps.illuminance().sample(sp.uv)[0];
         points.add(f64::from(e), closed(p));
     }
-    println!(
-        "floor isotropic: {} texels max {:.2e} mean {:.2e}; 20 points (bilinear) max {:.2e}",
-        all.n,
-        all.max,
-        all.mean(),
-        points.max
-    );
+    println!("floor isotropic, texels: {all}; 20 points (bilinear): {points}");
     assert!(all.n > 10_000);
     assert!(all.max < 0.005, "{all:?}");
     assert!(points.max < 0.005, "{points:?}");
@@ -144,9 +124,7 @@ fn floor_type_c_lamp_and_turned_lamp() {
         ("turned 90°", turned, Some(frame)),
     ] {
         let scene = floor_scene(8.0, l.clone());
-        let out = run(&scene);
-        assert_finite(&out);
-        let g = gbuffer(&scene, &out);
+        let (out, g) = bake_checked(&scene);
         let maps = &out.maps[0];
         let mut err = RelativeError::default();
         let mut moved = 0usize;
@@ -173,12 +151,7 @@ fn floor_type_c_lamp_and_turned_lamp() {
                 err.add(f64::from(t[0]), want);
             }
         }
-        println!(
-            "floor {name}: {} texels compared, max {:.2e} mean {:.2e}",
-            err.n,
-            err.max,
-            err.mean()
-        );
+        println!("floor {name}, texels compared: {err}");
         assert!(err.n > 1000, "{name}: {err:?}");
         assert!(err.max < 0.005, "{name}: {err:?}");
         if expect_frame.is_some() {
@@ -215,9 +188,7 @@ fn the_tilt_factor_at_the_aim_scales_the_direct_light() {
             lamp.tilt_deg()
         );
         let scene = floor_scene(8.0, lamp);
-        let out = run(&scene);
-        assert_finite(&out);
-        let g = gbuffer(&scene, &out);
+        let (out, g) = bake_checked(&scene);
         let maps = &out.maps[0];
         let t: Vec<([f64; 3], [f32; 4])> = maps.texels(&g, maps.illuminance()).collect();
         t
@@ -289,45 +260,22 @@ fn an_absurd_density_is_an_error_not_an_allocation() {
     );
 }
 
-fn fine_sphere_scene(radius: f32, albedo: f32, bounces: u32) -> Scene {
-    let density = 12.0 / radius;
-    let mesh = meshes::sphere(radius, 64, true, 4.0 / density);
-    Scene {
-        objects: vec![Object {
-            name: "sphere".into(),
-            mesh,
-            transform: Transform::IDENTITY,
-            albedo: Albedo::grey(albedo),
-            receiver: true,
-            texel_scale: 1.0,
-        }],
-        lamps: vec![isotropic(I0, [0.0; 3])],
-        settings: settings(density, bounces, 16),
-    }
-}
-
 // Test 2: closed sphere, E = (I/R²)·Σ_{i=0..k} ρ^i within 1 % for k = 0..3.
 #[test]
 fn closed_sphere_interreflection_series() {
     let (r, rho) = (1.0f64, 0.5f64);
     for k in 0..=3u32 {
-        let scene = fine_sphere_scene(r as f32, rho as f32, k);
-        let out = run(&scene);
-        assert_finite(&out);
+        let settings = settings(12.0 / r as f32, k, 16);
+        let (scene, _) = closed_forms::closed_sphere(r as f32, rho as f32, I0, settings);
+        let (out, g) = bake_checked(&scene);
         assert_eq!(out.report.bounces_run, k);
-        let g = gbuffer(&scene, &out);
         let maps = &out.maps[0];
         let want = I0 / (r * r) * (0..=k).map(|i| rho.powi(i as i32)).sum::<f64>();
-        let mut err = RelativeError::default();
-        for (_, t) in maps.texels(&g, maps.illuminance()) {
-            err.add(f64::from(t[0]), want);
-        }
-        println!(
-            "sphere k={k}: {} texels, E want {want:.3} lux, max err {:.2e} mean {:.2e}",
-            err.n,
-            err.max,
-            err.mean()
-        );
+        let err: RelativeError = maps
+            .texels(&g, maps.illuminance())
+            .map(|(_, t)| (f64::from(t[0]), want))
+            .collect();
+        println!("sphere k={k}, E want {want:.3} lux, texels: {err}");
         assert!(err.n > 1000);
         assert!(err.max < 0.01, "k={k}: {err:?}");
     }
@@ -431,9 +379,7 @@ fn lamp_at_wall_scene() -> Scene {
 #[test]
 fn lamp_one_millimetre_from_a_wall() {
     let scene = lamp_at_wall_scene();
-    let out = run(&scene);
-    assert_finite(&out);
-    let g = gbuffer(&scene, &out);
+    let (out, g) = bake_checked(&scene);
     let maps = &out.maps[0];
     let l = scene.lamps[0].position.map(f64::from);
     let mut err = RelativeError::default();
@@ -448,12 +394,7 @@ fn lamp_one_millimetre_from_a_wall() {
             brightest = brightest.max(f64::from(t[0]));
         }
     }
-    println!(
-        "lamp 1 mm from wall: {} wall texels, max err {:.2e} mean {:.2e}, brightest {brightest:.3e} lux",
-        err.n,
-        err.max,
-        err.mean()
-    );
+    println!("lamp 1 mm from wall, wall texels: {err}; brightest {brightest:.3e} lux");
     assert!(err.n > 500);
     assert!(err.max < 0.005, "{err:?}");
 }
@@ -486,12 +427,7 @@ fn scaled_scenes_scale_as_inverse_square() {
                 err.add(f64::from(b[0]) * scale, f64::from(a[0]));
             }
         }
-        println!(
-            "scale {s:e}: {} texels, E·s² vs unscaled max {:.2e} mean {:.2e}",
-            err.n,
-            err.max,
-            err.mean()
-        );
+        println!("scale {s:e}, texels' E·s² vs unscaled: {err}");
         assert!(err.n > 1000);
         assert!(err.max < 1e-3, "scale {s}: {err:?}");
     }
@@ -502,9 +438,7 @@ fn scaled_scenes_scale_as_inverse_square() {
 fn grazing_incidence_and_a_million_candela() {
     for (h, cd) in [(0.01f64, I0), (2.0, 1e6)] {
         let scene = floor_scene(8.0, isotropic(cd, [0.0, h as f32, 0.0]));
-        let out = run(&scene);
-        assert_finite(&out);
-        let g = gbuffer(&scene, &out);
+        let (out, g) = bake_checked(&scene);
         let maps = &out.maps[0];
         let mut err = RelativeError::default();
         let mut min_cos = 1.0f64;
@@ -517,12 +451,7 @@ fn grazing_incidence_and_a_million_candela() {
                 min_cos = min_cos.min(dy / (dy * dy + r2).sqrt());
             }
         }
-        println!(
-            "floor h={h} m, {cd:e} cd: {} texels, max err {:.2e} mean {:.2e}, grazing cos down to {min_cos:.1e}",
-            err.n,
-            err.max,
-            err.mean()
-        );
+        println!("floor h={h} m, {cd:e} cd, texels: {err}; grazing cos down to {min_cos:.1e}");
         assert!(err.max < 0.005, "h={h}: {err:?}");
     }
 }
@@ -583,10 +512,8 @@ fn degenerate_slivers_and_silhouette_edges() {
     });
     scene.settings.bounces = 1;
     scene.settings.rays = 8;
-    let out = run(&scene);
-    assert_finite(&out);
     // Silhouette texels of the floor: partially covered (coverage < 1) yet exact.
-    let g = gbuffer(&scene, &out);
+    let (out, g) = bake_checked(&scene);
     let floor = &out.maps[0];
     let r = floor.region;
     let mut edge = RelativeError::default();
@@ -640,9 +567,7 @@ fn gather_matches_form_factor_quadrature() {
         lamps: vec![isotropic(I0, [0.0, h_lamp as f32, 0.0])],
         settings: settings(density, 1, 1024),
     };
-    let out = run(&scene);
-    assert_finite(&out);
-    let g = gbuffer(&scene, &out);
+    let (out, g) = bake_checked(&scene);
     let patch = &out.maps[1];
     let indirect = patch.indirect().expect("one bounce");
     let n = 400;

@@ -4,12 +4,23 @@
 //! to a hard shadow's edge. The GPU backends run the cube and sphere checks in the workspace's
 //! `tests/` crate.
 
-use luxbake::bake::{BakeOutput, Skipped, bake};
-use luxbake::cpu::CpuBackend;
+mod common;
+
+use common::run;
+
+use luxbake::bake::{BakeOutput, Skipped};
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Object, Scene, Settings, SettingsPatch, Transform};
 use luxbake::sources::closed_forms::{cie_171_5_8, closed_sphere};
 use luxbake::sources::{builtin, meshes};
+
+/// The default preset at `texels_per_metre`.
+fn default_preset(texels_per_metre: f32) -> Settings {
+    Settings {
+        texels_per_metre,
+        ..Settings::default()
+    }
+}
 
 /// Mean over every valid texel of every map of `f(total, direct)` (green channel).
 fn mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> (f64, usize) {
@@ -30,12 +41,8 @@ fn mean(out: &BakeOutput, f: impl Fn(f64, f64) -> f64) -> (f64, usize) {
 #[test]
 fn cie_171_test_5_8_closed_cube() {
     for rho in [0.5f32, 0.8, 0.95] {
-        let settings = Settings {
-            texels_per_metre: 6.0,
-            ..Settings::default()
-        };
-        let (scene, want) = cie_171_5_8(rho, settings.clone());
-        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let (scene, want) = cie_171_5_8(rho, default_preset(6.0));
+        let out = run(&scene);
         let (indirect, texels) = mean(&out, |e, d| e - d);
         let err = indirect / want - 1.0;
         println!(
@@ -65,8 +72,7 @@ fn bounces_without_the_tail_are_exact() {
         }
         .settings()
         .expect("settings");
-        let (scene, _) = cie_171_5_8(0.5, settings.clone());
-        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let out = run(&cie_171_5_8(0.5, settings).0);
         let (mean_e, _) = mean(&out, |e, _| e);
         (out.report, mean_e)
     };
@@ -100,12 +106,8 @@ fn bounces_without_the_tail_are_exact() {
 #[test]
 fn closed_sphere_converges_to_the_whole_series() {
     for rho in [0.5f32, 0.8, 0.95] {
-        let settings = Settings {
-            texels_per_metre: 12.0,
-            ..Settings::default()
-        };
-        let (scene, want) = closed_sphere(1.0, rho, 1000.0, settings.clone());
-        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let (scene, want) = closed_sphere(1.0, rho, 1000.0, default_preset(12.0));
+        let out = run(&scene);
         let (e, texels) = mean(&out, |e, _| e);
         let (worst, _) = mean(&out, |e, _| (e / want - 1.0).abs());
         println!(
@@ -162,8 +164,8 @@ fn a_point_5_cm_from_a_hard_shadow_edge_reads_its_closed_form() {
         })
         .collect();
     let worst = |settings: Settings| {
-        let scene = shadow_edge_scene(settings.clone());
-        let out = bake(&mut CpuBackend::new(), &scene, &settings, &mut |_| {}).expect("bake");
+        let scene = shadow_edge_scene(settings);
+        let out = run(&scene);
         let floor = &out.maps[0];
         assert_eq!(floor.name, "floor");
         let mut worst: f64 = 0.0;

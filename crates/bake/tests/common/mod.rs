@@ -20,3 +20,21 @@ pub fn small_room() -> Scene {
     };
     Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01")
 }
+
+/// Every texel of every stage of every map of `out` is finite and non-negative.
+pub fn assert_finite(out: &BakeOutput) {
+    for m in &out.maps {
+        for (s, stage) in m.stages.iter().enumerate() {
+            if let Some(stage) = stage {
+                for v in &stage.texels {
+                    assert!(
+                        v.is_finite() && *v >= 0.0,
+                        "{} stage {}: {v}",
+                        m.name,
+                        s + 1
+                    );
+                }
+            }
+        }
+    }
+}
