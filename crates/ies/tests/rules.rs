@@ -499,31 +499,27 @@ fn type_a_and_b_lateral_symmetry_mirrors() {
 #[test]
 fn type_c_symmetries_expand() {
     let v = [0.0, 45.0, 90.0];
+    // Three planes `h`, γ 0, 45 and 90 each: 9 at the nadir, 1, 2 and 3 at 45°, 0 at 90°.
+    let planes = |h: &[f64]| {
+        parse(&type_c(
+            &v,
+            h,
+            &[9.0, 1.0, 0.0, 9.0, 2.0, 0.0, 9.0, 3.0, 0.0],
+        ))
+    };
     // 0–90: quadrant.
-    let q = parse(&type_c(
-        &v,
-        &[0.0, 30.0, 90.0],
-        &[9.0, 1.0, 0.0, 9.0, 2.0, 0.0, 9.0, 3.0, 0.0],
-    ));
+    let q = planes(&[0.0, 30.0, 90.0]);
     assert_eq!(q.symmetry(), Symmetry::Quadrant);
     for c in [30.0, 150.0, 210.0, 330.0] {
         assert!(close(q.intensity_at(45.0, c), 2.0, 1e-12), "{c}");
     }
     // 0–180: mirror about the 0–180 plane.
-    let b = parse(&type_c(
-        &v,
-        &[0.0, 60.0, 180.0],
-        &[9.0, 1.0, 0.0, 9.0, 2.0, 0.0, 9.0, 3.0, 0.0],
-    ));
+    let b = planes(&[0.0, 60.0, 180.0]);
     assert_eq!(b.symmetry(), Symmetry::Bilateral0To180);
     assert!(close(b.intensity_at(45.0, 300.0), 2.0, 1e-12));
     assert!(close(b.intensity_at(45.0, 60.0), 2.0, 1e-12));
     // 90–270: mirror about the 90–270 plane (C ↦ 180 − C).
-    let m = parse(&type_c(
-        &v,
-        &[90.0, 120.0, 270.0],
-        &[9.0, 1.0, 0.0, 9.0, 2.0, 0.0, 9.0, 3.0, 0.0],
-    ));
+    let m = planes(&[90.0, 120.0, 270.0]);
     assert_eq!(m.symmetry(), Symmetry::Bilateral90To270);
     assert!(close(m.intensity_at(45.0, 60.0), 2.0, 1e-12));
     assert!(close(m.intensity_at(45.0, 120.0), 2.0, 1e-12));
