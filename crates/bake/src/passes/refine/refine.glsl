@@ -3,7 +3,7 @@
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays (samples
 // u_first_rays .. u_first_rays + u_rays of its sequence) and the ray-count-weighted mean of
-// both; every other texel keeps the first gather's value (cpu::refine_texel).
+// both; every other texel keeps the first gather's value (cpu.rs).
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);

@@ -3,7 +3,7 @@
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
 // (samples first_rays .. first_rays + rays of its sequence) and the ray-count-weighted mean of
-// both; every other texel keeps the first gather's value (cpu::refine_texel).
+// both; every other texel keeps the first gather's value (cpu.rs).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let layer = i32(lux_tile.layer);
