@@ -25,6 +25,7 @@ use std::collections::{HashMap, HashSet};
 use std::path::Path;
 use std::sync::Arc;
 
+use glam::{DMat3, DMat4, Mat4, Vec3};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::mesh::Mode;
 use luxbake::scene::{Albedo, AlbedoTexture};
@@ -171,8 +172,11 @@ pub fn import_bytes(
     };
     let mut raws = Vec::new();
     let mut lights = Vec::new();
-    let mut stack: Vec<(gltf::Node, [[f64; 4]; 4], usize)> =
-        roots.into_iter().rev().map(|n| (n, IDENTITY, 0)).collect();
+    let mut stack: Vec<(gltf::Node, DMat4, usize)> = roots
+        .into_iter()
+        .rev()
+        .map(|n| (n, DMat4::IDENTITY, 0))
+        .collect();
     let mut visits = 0usize;
     while let Some((node, parent, depth)) = stack.pop() {
         visits += 1;
@@ -182,14 +186,14 @@ pub fn import_bytes(
                 node.index()
             )));
         }
-        let local = node.transform().matrix().map(|c| c.map(f64::from));
-        if !local.iter().flatten().all(|c| c.is_finite()) {
+        let local = Mat4::from_cols_array_2d(&node.transform().matrix()).as_dmat4();
+        if !local.is_finite() {
             return Err(gerr(format!(
                 "node {} has a non-finite transform",
                 node.index()
             )));
         }
-        let world = mul(&parent, &local);
+        let world = parent * local;
         let node_name = node
             .name()
             .map(str::to_string)
@@ -274,38 +278,23 @@ fn mark_shared_atlases(raws: &mut [RawPart]) {
     }
 }
 
-const IDENTITY: [[f64; 4]; 4] = [
-    [1.0, 0.0, 0.0, 0.0],
-    [0.0, 1.0, 0.0, 0.0],
-    [0.0, 0.0, 1.0, 0.0],
-    [0.0, 0.0, 0.0, 1.0],
-];
-
-/// Column-major 4×4 product `a · b`.
-fn mul(a: &[[f64; 4]; 4], b: &[[f64; 4]; 4]) -> [[f64; 4]; 4] {
-    std::array::from_fn(|c| std::array::from_fn(|r| (0..4).map(|k| a[k][r] * b[c][k]).sum()))
+/// `p` moved by the affine transform `m`, rounded to `f32`.
+fn point(m: &DMat4, p: [f32; 3]) -> [f32; 3] {
+    m.transform_point3(Vec3::from(p).as_dvec3())
+        .as_vec3()
+        .to_array()
 }
 
-fn point(m: &[[f64; 4]; 4], p: [f32; 3]) -> [f32; 3] {
-    let p = p.map(f64::from);
-    std::array::from_fn(|r| (m[0][r] * p[0] + m[1][r] * p[1] + m[2][r] * p[2] + m[3][r]) as f32)
-}
-
-/// Cofactor matrix of the 3×3 part (columns), i.e. the inverse transpose times the determinant,
-/// and the determinant.
-fn normal_matrix(m: &[[f64; 4]; 4]) -> ([[f64; 3]; 3], f64) {
-    let c = |i: usize| [m[i][0], m[i][1], m[i][2]];
-    let (a, b, cc) = (c(0), c(1), c(2));
-    let x = |u: [f64; 3], v: [f64; 3]| {
-        [
-            u[1] * v[2] - u[2] * v[1],
-            u[2] * v[0] - u[0] * v[2],
-            u[0] * v[1] - u[1] * v[0],
-        ]
-    };
-    let cof = [x(b, cc), x(cc, a), x(a, b)];
-    let det = a[0] * cof[0][0] + a[1] * cof[0][1] + a[2] * cof[0][2];
-    (cof, det)
+/// Cofactor matrix of the 3×3 part, i.e. the inverse transpose times the determinant, and the
+/// determinant.
+fn normal_matrix(m: &DMat4) -> (DMat3, f64) {
+    let (a, b, c) = (
+        m.x_axis.truncate(),
+        m.y_axis.truncate(),
+        m.z_axis.truncate(),
+    );
+    let cof = DMat3::from_cols(b.cross(c), c.cross(a), a.cross(b));
+    (cof, a.dot(cof.x_axis))
 }
 
 struct Cx<'a> {
@@ -324,7 +313,7 @@ impl Cx<'_> {
     fn primitive(
         &mut self,
         prim: &gltf::Primitive,
-        world: &[[f64; 4]; 4],
+        world: &DMat4,
         label: &str,
     ) -> Result<Option<RawPart>, AssetError> {
         let mode = prim.mode();
@@ -399,11 +388,8 @@ impl Cx<'_> {
                 read3(&acc, "NORMAL")?
                     .into_iter()
                     .map(|v| {
-                        let v = v.map(f64::from);
-                        let w: [f64; 3] = std::array::from_fn(|r| {
-                            (cof[0][r] * v[0] + cof[1][r] * v[1] + cof[2][r] * v[2]) * det.signum()
-                        });
-                        w.map(|c| c as f32)
+                        let w = cof * Vec3::from(v).as_dvec3() * det.signum();
+                        w.as_vec3().to_array()
                     })
                     .collect(),
             ),
@@ -570,7 +556,7 @@ impl Cx<'_> {
     fn light(
         &mut self,
         light: &gltf::khr_lights_punctual::Light,
-        world: &[[f64; 4]; 4],
+        world: &DMat4,
         node_name: &str,
         out: &mut Vec<Light>,
     ) {
@@ -596,10 +582,10 @@ impl Cx<'_> {
             }
         };
         let position = point(world, [0.0; 3]);
-        let d = [-world[2][0], -world[2][1], -world[2][2]];
-        let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let d = -world.z_axis.truncate();
+        let l = d.length();
         let direction = if l > 0.0 && l.is_finite() {
-            d.map(|c| (c / l) as f32)
+            (d / l).as_vec3().to_array()
         } else {
             [0.0, -1.0, 0.0]
         };
@@ -852,20 +838,10 @@ mod tests {
 
     #[test]
     fn matrices_compose_column_major() {
-        let t = [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-            [1.0, 2.0, 3.0, 1.0],
-        ];
-        let s = [
-            [2.0, 0.0, 0.0, 0.0],
-            [0.0, 2.0, 0.0, 0.0],
-            [0.0, 0.0, 2.0, 0.0],
-            [0.0, 0.0, 0.0, 1.0],
-        ];
-        assert_eq!(point(&mul(&t, &s), [1.0, 1.0, 1.0]), [3.0, 4.0, 5.0]);
-        assert_eq!(point(&mul(&s, &t), [0.0; 3]), [2.0, 4.0, 6.0]);
+        let t = DMat4::from_translation(glam::DVec3::new(1.0, 2.0, 3.0));
+        let s = DMat4::from_scale(glam::DVec3::splat(2.0));
+        assert_eq!(point(&(t * s), [1.0, 1.0, 1.0]), [3.0, 4.0, 5.0]);
+        assert_eq!(point(&(s * t), [0.0; 3]), [2.0, 4.0, 6.0]);
         let (_, det) = normal_matrix(&s);
         assert_eq!(det, 8.0);
     }
