@@ -301,6 +301,11 @@ pub fn machine() -> String {
     format!("{model} ×{cores}")
 }
 
+/// Rec. 709 luminance (photometric Y) of a map value's RGB (its first three channels), in f64.
+pub fn luminance_f64(rgb: &[f32]) -> f64 {
+    0.2126 * f64::from(rgb[0]) + 0.7152 * f64::from(rgb[1]) + 0.0722 * f64::from(rgb[2])
+}
+
 /// Writes a report's line of the load averages before and after the measurements.
 pub fn write_load_averages(md: &mut String, before: &str, after: &str) {
     let _ = writeln!(

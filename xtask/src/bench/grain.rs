@@ -24,7 +24,7 @@ use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backends::BackendKind;
 
 use super::{
-    load_average, machine, open_sampling_room, report_heading, timed_bake, utc_now,
+    load_average, luminance_f64, machine, open_sampling_room, report_heading, timed_bake, utc_now,
     write_load_averages, write_results,
 };
 
@@ -93,7 +93,7 @@ fn total(out: &BakeOutput, texels: &[(usize, u32, u32, usize)]) -> Result<Vec<f6
                 .ok_or("a bake with fewer maps than the reference")?
                 .illuminance()
                 .texel(x, y);
-            Ok(0.2126 * f64::from(t[0]) + 0.7152 * f64::from(t[1]) + 0.0722 * f64::from(t[2]))
+            Ok(luminance_f64(&t))
         })
         .collect()
 }

@@ -24,8 +24,8 @@ use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
 use super::{
-    load_average, log_log_slope, machine, open_sampling_room, report_heading, timed_bake, utc_now,
-    write_load_averages, write_results,
+    load_average, log_log_slope, luminance_f64, machine, open_sampling_room, report_heading,
+    timed_bake, utc_now, write_load_averages, write_results,
 };
 
 /// Rays per texel of each reference bake (full run).
@@ -72,7 +72,7 @@ fn indirect(out: &BakeOutput, texels: &[(usize, u32, u32)]) -> Result<Vec<f64>, 
                 .and_then(|o| o.stages[4].as_ref())
                 .ok_or("a bake without the indirect stage")?;
             let t = map.texel(x, y);
-            Ok(0.2126 * f64::from(t[0]) + 0.7152 * f64::from(t[1]) + 0.0722 * f64::from(t[2]))
+            Ok(luminance_f64(&t))
         })
         .collect()
 }

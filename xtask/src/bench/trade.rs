@@ -39,8 +39,8 @@ use plotters::prelude::*;
 
 use super::refcheck::{self, Comparison};
 use super::{
-    Summary, load_average, machine, open, report_heading, result_path, timed_bake, utc_now,
-    write_load_averages, write_results,
+    Summary, load_average, luminance_f64, machine, open, report_heading, result_path, timed_bake,
+    utc_now, write_load_averages, write_results,
 };
 
 /// The chosen configuration is the cheapest Pareto point whose mean |relative error| against
@@ -181,11 +181,7 @@ fn values(scene: &Scene, out: &BakeOutput, points: &[Point]) -> Result<Vec<f64>,
                 .copied()
                 .flatten()
                 .map_or([0.0; 3], |m| m.illuminance().sample(uv));
-            Ok(
-                0.2126 * f64::from(rgb[0])
-                    + 0.7152 * f64::from(rgb[1])
-                    + 0.0722 * f64::from(rgb[2]),
-            )
+            Ok(luminance_f64(&rgb))
         })
         .collect()
 }
