@@ -371,7 +371,7 @@ mod tests {
     use super::*;
     use luxbake::scene::{Blur, Quality};
 
-    const IES: &[u8] = include_bytes!("../../bake/lamps/luxbake_downlight.ies");
+    const IES: &[u8] = include_bytes!("../../scene/lamps/luxbake_downlight.ies");
 
     fn options(json: &str) -> BakeOptions {
         BakeOptions::from_json(json).unwrap()
