@@ -594,14 +594,7 @@ fn run_checks(
         "window.luxbakeExample && ['baked', 'error', 'fatal'].includes(window.luxbakeExample.state)",
         Duration::from_secs(900),
     )?;
-    let state = s.eval("window.luxbakeExample.state")?;
-    let errors = s.eval("window.luxbakeExample.errors")?;
-    if state != json!("baked") {
-        let status = s.status()?;
-        return Err(format!(
-            "the example did not bake: state {state}, errors {errors}, status {status}"
-        ));
-    }
+    s.expect_baked("window.luxbakeExample", "the example", false)?;
     let timings = s.eval("window.luxbakeExample.timings")?;
     let renderer = s.eval("window.luxbakeExample.baker.renderer")?;
     let report = s.eval("window.luxbakeExample.result.report")?;

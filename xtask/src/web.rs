@@ -369,6 +369,20 @@ impl Session {
         self.eval("document.getElementById('status').textContent")
     }
 
+    /// Fails, naming `what` and the page's state, errors and status line, unless `object`'s
+    /// state is `baked` and, when `clean`, its error list is empty.
+    pub(crate) fn expect_baked(&self, object: &str, what: &str, clean: bool) -> Result<(), String> {
+        let state = self.eval(&format!("{object}.state"))?;
+        let errors = self.eval(&format!("{object}.errors"))?;
+        if state != json!("baked") || (clean && errors.as_array().is_some_and(|e| !e.is_empty())) {
+            let status = self.status()?;
+            return Err(format!(
+                "{what} did not bake: state {state}, errors {errors}, status {status}"
+            ));
+        }
+        Ok(())
+    }
+
     /// Opens `url` in the session's tab and waits (up to `limit`) until `expr` is true.
     pub(crate) fn open(&self, url: &str, expr: &str, limit: Duration) -> Result<(), String> {
         webdriver(
@@ -600,14 +614,7 @@ fn run_checks(
         "window.luxbake && (window.luxbake.bakeCount >= 1 || window.luxbake.state === 'fatal' || window.luxbake.state === 'error')",
         Duration::from_secs(900),
     )?;
-    let errors = s.eval("window.luxbake.errors")?;
-    let state = s.eval("window.luxbake.state")?;
-    if state != json!("baked") || errors.as_array().is_some_and(|e| !e.is_empty()) {
-        let status = s.status()?;
-        return Err(format!(
-            "the page did not bake: state {state}, errors {errors}, status {status}"
-        ));
-    }
+    s.expect_baked("window.luxbake", "the page", true)?;
     let gpu = s.eval("document.getElementById('gpu').textContent")?;
     let back: Value = serde_json::from_str(
         s.eval("window.luxbake.readback()")?
