@@ -13,7 +13,6 @@ struct LuxCoarse {
 fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
     var r: LuxCoarse;
     let s = i32(max(stride, 1u));
-    let layer = i32(lux_tile.layer);
     let x0 = c.x / s * s;
     let y0 = c.y / s * s;
     let fx = f32(c.x - x0) / f32(s);
@@ -24,8 +23,8 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
                                  fx * fy);
     r.weights = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
     r.total = 0.0;
-    let nc = textureLoad(lux_normal, c, layer, 0);
-    let p = textureLoad(lux_position, c, layer, 0).xyz;
+    let nc = lux_load(lux_normal, c);
+    let p = lux_load(lux_position, c).xyz;
     var n: vec3<f32>;
     if (!lux_normalize(nc.xyz, &n)) {
         return r;
@@ -36,11 +35,11 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
         if (!(bilinear[i] > 0.0) || t.x >= i32(lux_tile.layer_w) || t.y >= i32(lux_tile.layer_h)) {
             continue;
         }
-        let pt = textureLoad(lux_position, t, layer, 0);
+        let pt = lux_load(lux_position, t);
         if (pt.w <= 0.5) {
             continue;
         }
-        let nt = textureLoad(lux_normal, t, layer, 0);
+        let nt = lux_load(lux_normal, t);
         var n1: vec3<f32>;
         if (nt.w != nc.w || !lux_normalize(nt.xyz, &n1) || lux_dot(n, n1) < LUX_BLUR_NORMAL_COS) {
             continue;

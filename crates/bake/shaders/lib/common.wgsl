@@ -59,6 +59,11 @@ fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
     return vec2<i32>(i32(lux_tile.x0 + gid.x), i32(lux_tile.y0 + gid.y));
 }
 
+// Texel c of the tile's layer of map `t` (GLSL: texelFetch(u_<slot>, c, 0), c.z the layer).
+fn lux_load(t: texture_2d_array<f32>, c: vec2<i32>) -> vec4<f32> {
+    return textureLoad(t, c, i32(lux_tile.layer), 0);
+}
+
 fn lux_store(c: vec2<i32>, value: vec4<f32>) {
     textureStore(lux_out, c, i32(lux_tile.layer), value);
 }

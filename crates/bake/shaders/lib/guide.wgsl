@@ -14,10 +14,9 @@ struct LuxGuide {
 // cpu::Guide::new with the chart test's [reach_min, reach]: false when the centre's normal
 // cannot be normalised.
 fn lux_guide(c: vec2<i32>, reach_min: f32, reach: f32, g: ptr<function, LuxGuide>) -> bool {
-    let layer = i32(lux_tile.layer);
-    let nc = textureLoad(lux_normal, c, layer, 0);
+    let nc = lux_load(lux_normal, c);
     (*g).c = c;
-    (*g).p = textureLoad(lux_position, c, layer, 0).xyz;
+    (*g).p = lux_load(lux_position, c).xyz;
     (*g).object = nc.w;
     (*g).reach2 = reach * reach;
     (*g).reach_min2 = reach_min * reach_min;
@@ -37,16 +36,15 @@ fn lux_tap(g: LuxGuide, offset: vec2<i32>, value: ptr<function, vec4<f32>>,
     if (t.x < 0 || t.y < 0 || t.x >= i32(lux_tile.layer_w) || t.y >= i32(lux_tile.layer_h)) {
         return false;
     }
-    let layer = i32(lux_tile.layer);
-    *value = textureLoad(lux_src, t, layer, 0);
+    *value = lux_load(lux_src, t);
     if ((*value).a <= 0.5) {
         return false;
     }
-    let nt = textureLoad(lux_normal, t, layer, 0);
+    let nt = lux_load(lux_normal, t);
     if (nt.w != g.object) {
         return false;
     }
-    let d = textureLoad(lux_position, t, layer, 0).xyz - g.p;
+    let d = lux_load(lux_position, t).xyz - g.p;
     let d2 = lux_dot(d, d);
     let o2 = f32(offset.x * offset.x + offset.y * offset.y);
     let m = max(max(abs(offset.x), abs(offset.y)) - 2, 0);

@@ -3,8 +3,7 @@
 
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let a = textureLoad(lux_src, c, layer, 0);
-    let b = textureLoad(lux_albedo, c, layer, 0);
+    let a = lux_load(lux_src, c);
+    let b = lux_load(lux_albedo, c);
     return vec4<f32>(lux_guard3(a.rgb * b.rgb), a.a);
 }

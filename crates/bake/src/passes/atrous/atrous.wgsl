@@ -10,8 +10,7 @@ fn lux_b3(i: i32) -> f32 {
 }
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let centre = textureLoad(lux_src, c, layer, 0);
+    let centre = lux_load(lux_src, c);
     if (centre.a <= 0.5) {
         return vec4<f32>(0.0);
     }
@@ -20,7 +19,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_guide(c, lux_pass.reach_min, lux_pass.reach, &g)) {
         return kept;
     }
-    let scale = lux_pass.variance_scale * textureLoad(lux_variance, c, layer, 0).r;
+    let scale = lux_pass.variance_scale * lux_load(lux_variance, c).r;
     // A step beyond the layer only reaches the centre (and cannot overflow).
     let size = vec2<i32>(i32(lux_tile.layer_w), i32(lux_tile.layer_h));
     var step = lux_pass.step;

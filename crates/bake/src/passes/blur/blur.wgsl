@@ -5,12 +5,11 @@
 
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let centre = textureLoad(lux_src, c, layer, 0);
+    let centre = lux_load(lux_src, c);
     if (centre.a <= 0.5) {
         return vec4<f32>(0.0);
     }
-    let nc = textureLoad(lux_normal, c, layer, 0);
+    let nc = lux_load(lux_normal, c);
     let object = nc.w;
     var n0: vec3<f32>;
     if (!lux_normalize(nc.xyz, &n0)) {
@@ -26,11 +25,11 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         if (t.x < 0 || t.y < 0 || t.x >= size.x || t.y >= size.y) {
             continue;
         }
-        let tv = textureLoad(lux_src, t, layer, 0);
+        let tv = lux_load(lux_src, t);
         if (tv.a <= 0.5) {
             continue;
         }
-        let nt = textureLoad(lux_normal, t, layer, 0);
+        let nt = lux_load(lux_normal, t);
         if (nt.w != object) {
             continue;
         }

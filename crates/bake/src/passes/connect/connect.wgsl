@@ -4,13 +4,12 @@
 // operation). The pool: lux_path_point (scene.wgsl).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let pw = textureLoad(lux_position, c, layer, 0);
+    let pw = lux_load(lux_position, c);
     if (pw.w <= 0.5) {
         return vec4<f32>(0.0);
     }
     var n: vec3<f32>;
-    if (!lux_normalize(textureLoad(lux_normal, c, layer, 0).xyz, &n)) {
+    if (!lux_normalize(lux_load(lux_normal, c).xyz, &n)) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let count = min(lux_pass.count, lux_path_point_count());
@@ -18,7 +17,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let p = pw.xyz;
-    let texel = lux_texel_index(textureDimensions(lux_position).xy, u32(layer), u32(c.x), u32(c.y));
+    let texel = lux_texel_index(textureDimensions(lux_position).xy, lux_tile.layer, u32(c.x),
+                                u32(c.y));
     let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let nc = f32(lux_pass.rays);
     let kf = f32(lux_pass.k);

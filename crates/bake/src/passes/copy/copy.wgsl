@@ -2,5 +2,5 @@
 
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    return textureLoad(lux_src, c, i32(lux_tile.layer), 0);
+    return lux_load(lux_src, c);
 }

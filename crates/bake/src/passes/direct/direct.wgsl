@@ -87,9 +87,8 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
 }
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let pos = textureLoad(lux_position, c, layer, 0);
-    let nrm = textureLoad(lux_normal, c, layer, 0);
+    let pos = lux_load(lux_position, c);
+    let nrm = lux_load(lux_normal, c);
     if (pos.w <= 0.5) {
         return vec4<f32>(0.0);
     }
@@ -98,7 +97,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(nrm.xyz, &n)) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
-    let texel = lux_texel_index(textureDimensions(lux_position).xy, u32(layer), u32(c.x),
+    let texel = lux_texel_index(textureDimensions(lux_position).xy, lux_tile.layer, u32(c.x),
                                 u32(c.y));
     let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let off = o0 - p;

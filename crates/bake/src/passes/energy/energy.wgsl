@@ -4,14 +4,13 @@
 // leaves a check's energy in one texel per layer.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
     let width = i32(textureDimensions(lux_src).x);
     var total = 0.0;
     for (var x0 = 0; x0 < width; x0 += 64) {
         var run = 0.0;
         let x1 = min(x0 + 64, width);
         for (var x = x0; x < x1; x += 1) {
-            let t = textureLoad(lux_src, vec2<i32>(x, c.x), layer, 0);
+            let t = lux_load(lux_src, vec2<i32>(x, c.x));
             if (t.a > 0.5) {
                 run += (t.r + t.g) + t.b;
             }

@@ -7,9 +7,8 @@
 // is added.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let pos = textureLoad(lux_position, c, layer, 0);
-    let nrm = textureLoad(lux_normal, c, layer, 0);
+    let pos = lux_load(lux_position, c);
+    let nrm = lux_load(lux_normal, c);
     if (pos.w <= 0.5) {
         return vec4<f32>(0.0);
     }
@@ -28,7 +27,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let inv = 1.0 / f32(rays);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u) {
-        paths = textureLoad(lux_connected, c, layer, 0).rgb;
+        paths = lux_load(lux_connected, c).rgb;
     }
     return vec4<f32>(lux_guard3(sum * inv + paths), 1.0);
 }

@@ -6,18 +6,17 @@
 // both; every other texel keeps the first gather's value (cpu.rs).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    let pos = textureLoad(lux_position, c, layer, 0);
-    let first = textureLoad(lux_first, c, layer, 0);
+    let pos = lux_load(lux_position, c);
+    let first = lux_load(lux_first, c);
     if (pos.w <= 0.5) {
         return vec4<f32>(0.0);
     }
     var n: vec3<f32>;
     let rays = lux_pass.rays;
-    if (!lux_normalize(textureLoad(lux_normal, c, layer, 0).xyz, &n) || rays == 0u) {
+    if (!lux_normalize(lux_load(lux_normal, c).xyz, &n) || rays == 0u) {
         return first;
     }
-    let noise = textureLoad(lux_variance, c, layer, 0);
+    let noise = lux_load(lux_variance, c);
     if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
         return first;
     }

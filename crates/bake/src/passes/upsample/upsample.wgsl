@@ -4,11 +4,10 @@
 // Parameters (program::UpsampleParams): the gather's stride and reach.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    let layer = i32(lux_tile.layer);
-    if (textureLoad(lux_position, c, layer, 0).w <= 0.5) {
+    if (lux_load(lux_position, c).w <= 0.5) {
         return vec4<f32>(0.0);
     }
-    let own = textureLoad(lux_src, c, layer, 0);
+    let own = lux_load(lux_src, c);
     let k = lux_coarse_weights(c, lux_pass.stride, lux_pass.reach);
     let total = k.total;
     if (!(total > 0.0)) {
@@ -17,7 +16,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     var sum = vec3<f32>(0.0);
     for (var i = 0; i < 4; i++) {
         if (k.weights[i] > 0.0) {
-            sum += k.weights[i] * textureLoad(lux_src, k.corners[i], layer, 0).rgb;
+            sum += k.weights[i] * lux_load(lux_src, k.corners[i]).rgb;
         }
     }
     return vec4<f32>(lux_guard3(vec3<f32>(sum.x / total, sum.y / total, sum.z / total)), 1.0);

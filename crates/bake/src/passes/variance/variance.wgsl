@@ -41,7 +41,7 @@ fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
 }
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
-    if (textureLoad(lux_src, c, i32(lux_tile.layer), 0).a <= 0.5) {
+    if (lux_load(lux_src, c).a <= 0.5) {
         return vec4<f32>(0.0);
     }
     var g: LuxGuide;
