@@ -160,12 +160,64 @@ pub fn sampling_room_path() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../bench/scenes/sampling_room.toml")
 }
 
-/// The sampling room ([`sampling_room_path`]) and backend `kind` opened, with its renderer.
-pub fn open_sampling_room(kind: BackendKind) -> Result<(Scene, AnyBackend, String), String> {
-    let path = sampling_room_path();
-    let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let (backend, renderer) = open(kind).map_err(|e| format!("{}: {e}", kind.name()))?;
-    Ok((scene, backend, renderer))
+/// A study on the sampling room (`bench grain`, `bench sampling`): when, on what and under
+/// what load it began, which its report's heading and its JSON state.
+pub struct SamplingRoomStudy {
+    kind: BackendKind,
+    renderer: String,
+    quick: bool,
+    date: String,
+    time: String,
+    load_before: String,
+}
+
+impl SamplingRoomStudy {
+    /// Begins a study: the load average and the date first, then the sampling room
+    /// ([`sampling_room_path`]) and backend `kind` opened.
+    pub fn begin(kind: BackendKind, quick: bool) -> Result<(Self, Scene, AnyBackend), String> {
+        let load_before = load_average();
+        let (date, time) = utc_now();
+        let path = sampling_room_path();
+        let scene = Scene::from_toml_file(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let (backend, renderer) = open(kind).map_err(|e| format!("{}: {e}", kind.name()))?;
+        let study = SamplingRoomStudy {
+            kind,
+            renderer,
+            quick,
+            date,
+            time,
+            load_before,
+        };
+        Ok((study, scene, backend))
+    }
+
+    /// The report begun: [`report_heading`] with `title` (noting `--quick`), the `lines`, then
+    /// the load averages before the study and `load_after`.
+    pub fn report(&self, title: &str, lines: &[String], load_after: &str) -> String {
+        let quick = if self.quick { "; --quick" } else { "" };
+        let when = (self.date.as_str(), self.time.as_str());
+        let mut md = report_heading(title, when, self.kind.name(), &self.renderer, quick);
+        for line in lines {
+            let _ = writeln!(md, "{line}");
+        }
+        write_load_averages(&mut md, &self.load_before, load_after);
+        md
+    }
+
+    /// The results' JSON: the study's `fields` (an object) and the run's own: scene, date,
+    /// time, machine, backend, renderer, `--quick` and the load averages.
+    pub fn json(&self, mut fields: serde_json::Value, load_after: &str) -> serde_json::Value {
+        let run = serde_json::json!({
+            "scene": "bench/scenes/sampling_room.toml", "date": self.date, "time_utc": self.time,
+            "machine": machine(), "backend": self.kind.name(), "renderer": self.renderer,
+            "quick": self.quick,
+            "load_average_before": self.load_before, "load_average_after": load_after,
+        });
+        if let (Some(f), serde_json::Value::Object(run)) = (fields.as_object_mut(), run) {
+            f.extend(run);
+        }
+        fields
+    }
 }
 
 /// One bake and its process CPU time per pass label.

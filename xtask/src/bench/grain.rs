@@ -23,10 +23,7 @@ use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backends::BackendKind;
 
-use super::{
-    load_average, luminance_f64, machine, open_sampling_room, report_heading, timed_bake, utc_now,
-    write_load_averages, write_results,
-};
+use super::{SamplingRoomStudy, load_average, luminance_f64, timed_bake, write_results};
 
 /// First-bounce rays per texel of the reference (the issue's figure).
 pub const REFERENCE_RAYS: u32 = 4096;
@@ -138,9 +135,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     let reference_rays = args
         .reference_rays
         .unwrap_or(if quick { 256 } else { REFERENCE_RAYS });
-    let load_before = load_average();
-    let (date, time) = utc_now();
-    let (scene, mut backend, renderer) = open_sampling_room(args.backend)?;
+    let (study, scene, mut backend) = SamplingRoomStudy::begin(args.backend, quick)?;
     let with = |s: Settings| Settings {
         texels_per_metre: density,
         seed: SEED,
@@ -211,30 +206,24 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     }
     let load_after = load_average();
 
-    let mut md = report_heading(
-        "Grain of flat, evenly lit surfaces — sampling_room",
-        (&date, &time),
-        args.backend.name(),
-        &renderer,
-        if quick { "; --quick" } else { "" },
-    );
-    let _ = writeln!(
-        md,
-        "- scene: bench/scenes/sampling_room.toml at {density} texels/m, every bounce; value: \
-         total illuminance per texel; grain = relative standard deviation of E / E_ref, bias = \
-         its mean − 1"
-    );
-    let _ = writeln!(
-        md,
-        "- reference: converged, {reference_rays} first-bounce rays, {} later, stride 1, no \
-         refinement, no denoising, tail tolerance 0.2 %, seed {} ({} explicit bounces, passes \
-         {:.1} s)",
-        reference_settings.higher_rays,
-        SEED + 1,
-        reference_run.out.report.bounces_run,
-        reference_run.wall()
-    );
-    write_load_averages(&mut md, &load_before, &load_after);
+    let lines = [
+        format!(
+            "- scene: bench/scenes/sampling_room.toml at {density} texels/m, every bounce; value: \
+             total illuminance per texel; grain = relative standard deviation of E / E_ref, \
+             bias = its mean − 1"
+        ),
+        format!(
+            "- reference: converged, {reference_rays} first-bounce rays, {} later, stride 1, no \
+             refinement, no denoising, tail tolerance 0.2 %, seed {} ({} explicit bounces, \
+             passes {:.1} s)",
+            reference_settings.higher_rays,
+            SEED + 1,
+            reference_run.out.report.bounces_run,
+            reference_run.wall()
+        ),
+    ];
+    let title = "Grain of flat, evenly lit surfaces — sampling_room";
+    let mut md = study.report(title, &lines, &load_after);
     let _ = writeln!(
         md,
         "| bake | floor grain | floor bias | ceiling grain | ceiling bias | walls grain | walls bias | passes s |"
@@ -281,13 +270,10 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     print!("{md}");
 
     let json = serde_json::json!({
-        "scene": "bench/scenes/sampling_room.toml", "date": date, "time_utc": time,
-        "machine": machine(), "backend": args.backend.name(), "renderer": renderer,
-        "quick": quick, "texels_per_metre": density,
+        "texels_per_metre": density,
         "reference": { "rays": reference_rays, "higher_rays": reference_settings.higher_rays,
                        "seed": SEED + 1, "pass_s": reference_run.wall(),
                        "explicit_bounces": reference_run.out.report.bounces_run },
-        "load_average_before": load_before, "load_average_after": load_after,
         "bakes": measured.iter().map(|m| serde_json::json!({
             "bake": m.name, "pass_s": m.pass_s,
             "kinds": KINDS.iter().zip(&m.kinds).map(|(k, g)| serde_json::json!({
@@ -297,7 +283,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         })).collect::<Vec<_>>(),
         "target_walls_grain_at_default": TARGET_GRAIN,
     });
-    write_results(out, "grain", &md, &json)
+    write_results(out, "grain", &md, &study.json(json, &load_after))
 }
 
 #[cfg(test)]

@@ -24,8 +24,7 @@ use luxbake::scene::{Sampler, Scene, Settings};
 use luxbake_backends::BackendKind;
 
 use super::{
-    load_average, log_log_slope, luminance_f64, machine, open_sampling_room, report_heading,
-    timed_bake, utc_now, write_load_averages, write_results,
+    SamplingRoomStudy, load_average, log_log_slope, luminance_f64, timed_bake, write_results,
 };
 
 /// Rays per texel of each reference bake (full run).
@@ -137,9 +136,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     let reference_rays = args
         .reference_rays
         .unwrap_or(if quick { 1024 } else { REFERENCE_RAYS });
-    let load_before = load_average();
-    let (date, time) = utc_now();
-    let (scene, mut backend, renderer) = open_sampling_room(args.backend)?;
+    let (study, scene, mut backend) = SamplingRoomStudy::begin(args.backend, quick)?;
     let settings = |sampler, rays, seed| Settings {
         sampler,
         rays,
@@ -221,27 +218,22 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         _ => None,
     };
 
-    let mut md = report_heading(
-        "Gather sampling: error vs rays — sampling_room",
-        (&date, &time),
-        args.backend.name(),
-        &renderer,
-        if quick { "; --quick" } else { "" },
-    );
-    let _ = writeln!(
-        md,
-        "- scene: bench/scenes/sampling_room.toml; {} floor texels; value: the floor's indirect \
-         illuminance (1 bounce, no blur), mean {reference_mean:.4} lx in the reference",
-        texels.len()
-    );
-    let _ = writeln!(
-        md,
-        "- reference: mean of {bakes} Sobol bake(s) of {reference_rays} rays (seeds {}..={}), \
-         gather {reference_s:.1} s in all; measured bakes: seed {SEED}",
-        SEED + 1,
-        SEED + bakes
-    );
-    write_load_averages(&mut md, &load_before, &load_after);
+    let lines = [
+        format!(
+            "- scene: bench/scenes/sampling_room.toml; {} floor texels; value: the floor's \
+             indirect illuminance (1 bounce, no blur), mean {reference_mean:.4} lx in the \
+             reference",
+            texels.len()
+        ),
+        format!(
+            "- reference: mean of {bakes} Sobol bake(s) of {reference_rays} rays (seeds \
+             {}..={}), gather {reference_s:.1} s in all; measured bakes: seed {SEED}",
+            SEED + 1,
+            SEED + bakes
+        ),
+    ];
+    let title = "Gather sampling: error vs rays — sampling_room";
+    let mut md = study.report(title, &lines, &load_after);
     let _ = writeln!(
         md,
         "| rays | hash rel RMSE | Sobol rel RMSE | hash / Sobol | hash gather s | Sobol gather s |"
@@ -311,14 +303,11 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     print!("{md}");
 
     let json = serde_json::json!({
-        "scene": "bench/scenes/sampling_room.toml", "date": date, "time_utc": time,
-        "machine": machine(), "backend": args.backend.name(), "renderer": renderer,
-        "quick": quick, "floor_texels": texels.len(), "reference_mean_lux": reference_mean,
+        "floor_texels": texels.len(), "reference_mean_lux": reference_mean,
         "reference": { "sampler": "sobol", "rays": reference_rays, "bakes": bakes,
                        "seeds": (SEED + 1..=SEED + bakes).collect::<Vec<_>>(),
                        "gather_s": reference_s },
         "seed": SEED,
-        "load_average_before": load_before, "load_average_after": load_after,
         "points": measured.iter().map(|m| serde_json::json!({
             "sampler": m.sampler.name(), "rays": m.rays, "rel_rmse": m.error,
             "mean_bias": m.mean_bias, "gather_s": m.gather_s,
@@ -329,7 +318,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
         "targets": { "sobol_slope_at_most": TARGET_SLOPE,
                      "ratio_at_least": TARGET_RATIOS.iter().map(|(n, r)| serde_json::json!({ "rays": n, "ratio": r })).collect::<Vec<_>>() },
     });
-    write_results(out, "sampling", &md, &json)
+    write_results(out, "sampling", &md, &study.json(json, &load_after))
 }
 
 #[cfg(test)]
