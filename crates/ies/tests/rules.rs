@@ -28,6 +28,16 @@ fn type_c(v: &[f64], h: &[f64], cd: &[f64]) -> String {
     )
 }
 
+/// The header line of one 1000 lm lamp, multiplier 1, two vertical angles and one plane, type
+/// C, metres.
+const HEADER: &str = "1 1000 1 2 1 1 2 0 0 0";
+
+/// A file of one plane at γ 0 and 90° (100 cd at the nadir, none at 90°) with `head`, `tilt`
+/// and the header line `header`.
+fn nadir(head: &str, tilt: &str, header: &str) -> String {
+    ies(head, tilt, header, "0 90\n0\n100 0")
+}
+
 fn parse(s: &str) -> Photometry {
     Photometry::parse(s.as_bytes()).unwrap_or_else(|e| panic!("{e}\n{s}"))
 }
@@ -82,11 +92,10 @@ fn lm63_1986_label_lines_are_kept() {
 
 #[test]
 fn lm63_2019_file_generation_type_is_not_a_multiplier() {
-    let text = ies(
+    let text = nadir(
         "IES:LM-63-2019\n[TEST] a\n[FILEGENINFO] made by hand\n[ISSUEDATE] 2024-01-01",
         "TILT=NONE",
         "1 -1 1 2 1 1 2 0 0 0",
-        "0 90\n0\n100 0",
     )
     .replace("1 1 50", "1 1.10001 50");
     let p = parse(&text);
@@ -102,24 +111,17 @@ fn ballast_lamp_factor_multiplies_only_in_old_versions() {
         ("IESNA91\n[TEST] a", 50.0),
         ("IESNA:LM-63-2002\n[TEST] a", 100.0),
     ] {
-        let text = ies(
-            head,
-            "TILT=NONE",
-            "1 1000 1 2 1 1 2 0 0 0",
-            "0 90\n0\n100 0",
-        )
-        .replace("1 1 50", "1 0.5 50");
+        let text = nadir(head, "TILT=NONE", HEADER).replace("1 1 50", "1 0.5 50");
         assert_eq!(parse(&text).intensity([0.0, 0.0, -1.0]), expect, "{head}");
     }
 }
 
 #[test]
 fn multipliers_and_header_values() {
-    let text = ies(
+    let text = nadir(
         "IESNA:LM-63-2002\n[TEST] a",
         "TILT=NONE",
         "3 1200 2.5 2 1 1 1 -0.5 -0.5 0",
-        "0 90\n0\n100 0",
     )
     .replace("1 1 50", "0.8 1 42.5");
     let p = parse(&text);
@@ -178,11 +180,10 @@ fn opening_shapes_follow_the_signs() {
 
 #[test]
 fn keywords_in_order_with_more_joined() {
-    let p = parse(&ies(
+    let p = parse(&nadir(
         "IESNA:LM-63-2002\n[TEST] T1  \n[LUMINAIRE] first line\n[MORE] second line\n[_CUSTOM]x\n[TEST] again",
         "TILT=NONE",
-        "1 1000 1 2 1 1 2 0 0 0",
-        "0 90\n0\n100 0",
+        HEADER,
     ));
     let kw: Vec<_> = p
         .keywords()
@@ -203,11 +204,10 @@ fn keywords_in_order_with_more_joined() {
 
 #[test]
 fn stray_lines_in_the_keyword_block_are_warnings() {
-    let p = parse(&ies(
+    let p = parse(&nadir(
         "IESNA:LM-63-2002\n[MORE] orphan\nno brackets here",
         "TILT=NONE",
-        "1 1000 1 2 1 1 2 0 0 0",
-        "0 90\n0\n100 0",
+        HEADER,
     ));
     assert_eq!(p.warnings().len(), 2);
     assert_eq!(p.warnings()[0].line, 2);
@@ -263,12 +263,7 @@ const TILT_BLOCK: &str = "TILT=INCLUDE\n1\n3\n0 45 90\n1 0.8 0.5";
 
 #[test]
 fn tilt_include_is_parsed_and_applied() {
-    let p = parse(&ies(
-        "IESNA:LM-63-2002\n[TEST] a",
-        TILT_BLOCK,
-        "1 1000 1 2 1 1 2 0 0 0",
-        "0 90\n0\n100 0",
-    ));
+    let p = parse(&nadir("IESNA:LM-63-2002\n[TEST] a", TILT_BLOCK, HEADER));
     let Tilt::Include(d) = p.tilt() else {
         panic!("{:?}", p.tilt())
     };
@@ -317,12 +312,7 @@ fn tilted_queries_scale_by_the_interpolated_factor() {
 
 #[test]
 fn tilt_file_needs_a_resolver() {
-    let text = ies(
-        "IESNA:LM-63-2002\n[TEST] a",
-        "TILT=lamp.tlt",
-        "1 1000 1 2 1 1 2 0 0 0",
-        "0 90\n0\n100 0",
-    );
+    let text = nadir("IESNA:LM-63-2002\n[TEST] a", "TILT=lamp.tlt", HEADER);
     match Photometry::parse(text.as_bytes()) {
         Err(e @ IesError::TiltFileUnresolved { line: 3, .. }) => {
             assert!(e.to_string().contains("lamp.tlt"), "{e}")
