@@ -627,7 +627,7 @@ mod tests {
             let mut lit = scene.clone();
             lit.lamps[0].photometry = read_photometry(Path::new(file)).expect("photometry");
             let whole = bake(
-                &mut luxbake::cpu::CpuBackend::new(),
+                &mut luxbake_backend_cpu::CpuBackend::new(),
                 &lit,
                 &lit.settings,
                 &mut |_| {},

@@ -275,7 +275,7 @@ mod tests {
     #[test]
     fn a_scene_file_is_rebuilt_with_the_baked_settings() {
         use luxbake::bake::bake;
-        use luxbake::cpu::CpuBackend;
+        use luxbake_backend_cpu::CpuBackend;
         use luxbake_output::write_bake;
         let dir = std::env::temp_dir().join(format!("luxbake-rebuild-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("temp dir");
@@ -302,7 +302,7 @@ mod tests {
     #[test]
     fn measures_a_bake_against_the_closed_form() {
         use luxbake::bake::bake;
-        use luxbake::cpu::CpuBackend;
+        use luxbake_backend_cpu::CpuBackend;
         use luxbake_output::write_bake;
         let settings = Settings {
             rays: 4,

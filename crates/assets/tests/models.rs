@@ -12,11 +12,11 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Albedo, Lamp, Object, Scene, Settings, Transform};
 use luxbake::sources::meshes::{self, RoomAlbedo};
 use luxbake_assets::uv::{self, UnwrapOptions};
 use luxbake_assets::{GltfSource, ImportOptions, Limits, Model, UvSource, export, import};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
 fn settings() -> Settings {

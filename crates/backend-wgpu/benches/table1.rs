@@ -20,8 +20,8 @@ use std::collections::BTreeMap;
 
 use luxbake::backend::GpuBackend;
 use luxbake::bake::bake;
-use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Blur, BvhMode, Scene, Settings};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_backend_wgpu::{BvhStorage, WgpuBackend, WgpuOptions};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {

@@ -23,8 +23,9 @@ use std::fmt;
 use std::str::FromStr;
 
 use luxbake::backend::{Dispatch, GpuBackend, Limits, SceneData};
-use luxbake::cpu::{CpuBackend, CpuError, CpuScene, CpuTexture};
+use luxbake::cpu::CpuScene;
 use luxbake::graph::TexDesc;
+use luxbake_backend_cpu::{CpuBackend, CpuError, CpuTexture};
 use luxbake_backend_glow::{GlowBackend, GlowError, GlowScene, GlowTexture};
 use luxbake_backend_wgpu::{WgpuBackend, WgpuError, WgpuScene, WgpuTexture};
 

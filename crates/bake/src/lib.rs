@@ -24,8 +24,9 @@
 //! [`bake_room`] bakes a prepared room under other lamps without repeating its work;
 //! [`layers::bake_layers`] keeps each lamp's light apart, so that dimming, tinting or switching
 //! a lamp recombines the maps without a ray ([`layers::LampLayers::combine`]).
-//! [`cpu::CpuBackend`] is the reference backend and the oracle for GPU backends; the crate
-//! `luxbake-output` (formerly `luxbake::output`) writes EXR/PNG/JSON files.
+//! The passes' CPU references ([`cpu`]) are the oracle for GPU backends; the crate
+//! `luxbake-backend-cpu` (formerly `luxbake::cpu::CpuBackend`) runs them as a backend, and the
+//! crate `luxbake-output` (formerly `luxbake::output`) writes EXR/PNG/JSON files.
 //!
 //! ## The pass contract
 //! Each computed pass runs a [`program::Program`] whose [`program::Signature`] is data: the
@@ -43,15 +44,15 @@
 //!   xtask (CLI) · luxbake-js (npm) · luxbake-viewer (wasm) · luxbake-tests
 //!        │ each bake goes through
 //!        ▼
-//!   luxbake-backends ───────────────▶ luxbake-backend-glow, luxbake-backend-wgpu
-//!        │ (a backend by kind,            │ GLSL / WGSL of every pass, bind and dispatch
-//!        │  the image diff)               │
+//!   luxbake-backends ───────────────▶ luxbake-backend-cpu, -glow, -wgpu
+//!        │ (a backend by kind,            │ textures, bind and dispatch each pass's CPU
+//!        │  the image diff)               │ reference, GLSL or WGSL
 //!        ├──▶ luxbake-output              │ EXR / PNG / manifest of a bake
 //!        │    luxbake-assets              │ glTF/OBJ in, light-map UVs, glTF out
 //!        ▼                                ▼
 //!   luxbake (this crate)  layout, G-buffer, the host nodes, one folder per pass (signature,
-//!        │                parameters, CPU reference, shaders), the graph, the driver,
-//!        │                GpuBackend and the CPU reference backend
+//!        │                parameters, CPU reference, shaders), the graph, the driver, the
+//!        │                GpuBackend contract
 //!        ▼
 //!   luxbake-scene         Scene, Object, Mesh, Lamp, Settings + SettingsPatch; built-in rooms,
 //!        │                scene files, procedural meshes (here as `scene` and `sources`)

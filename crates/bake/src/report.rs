@@ -329,3 +329,21 @@ pub struct BakeOutput {
     /// Statistics and timings.
     pub report: BakeReport,
 }
+
+impl BakeOutput {
+    /// The first texel of any stage of any object's maps that is not a finite, non-negative
+    /// number, as `(object name, stage 1..=8, value)`; `None` — as every bake promises (no NaN
+    /// or infinity reaches a map) — for tools and tests that check the promise.
+    pub fn first_invalid_texel(&self) -> Option<(&str, usize, f32)> {
+        self.maps.iter().find_map(|m| {
+            m.stages.iter().enumerate().find_map(|(s, stage)| {
+                let v = stage
+                    .as_ref()?
+                    .texels
+                    .iter()
+                    .find(|v| !(v.is_finite() && **v >= 0.0))?;
+                Some((m.name.as_str(), s + 1, *v))
+            })
+        })
+    }
+}

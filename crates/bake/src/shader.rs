@@ -190,7 +190,8 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
     c
 }
 
-/// The generated GLSL constants: BVH layout, then [`constants`] as `#define`s.
+/// The generated GLSL constants: BVH layout, then the shared constants (blur, sampler ids,
+/// RNG passes, the lattice step) as `#define`s.
 pub fn glsl_constants(bvh: BvhMode) -> String {
     let mut s = layout::glsl_defines();
     for (name, _, value) in constants(bvh) {
@@ -199,7 +200,7 @@ pub fn glsl_constants(bvh: BvhMode) -> String {
     s
 }
 
-/// The generated WGSL constants: BVH layout, then [`constants`] as `const`s.
+/// The generated WGSL constants: BVH layout, then the shared constants as `const`s.
 pub fn wgsl_constants(bvh: BvhMode) -> String {
     let mut s = layout::wgsl_constants();
     for (name, ty, value) in constants(bvh) {

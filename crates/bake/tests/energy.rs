@@ -6,10 +6,10 @@
 use luxbake::GpuBackend;
 use luxbake::backend::{Dispatch, SceneData};
 use luxbake::bake::{Room, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::graph::{TexDesc, TexFormat};
 use luxbake::program::{Program, TilePlan};
 use luxbake::scene::{BvhMode, Quality, Scene, Settings};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_testkit::SplitMix64;
 
 fn settings() -> Settings {

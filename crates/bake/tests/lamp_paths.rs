@@ -6,8 +6,8 @@
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Blur, Lamp, Method, Quality, Scene, Settings};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
 /// One explicit bounce, no filter, converged method: the first bounce as gathered.

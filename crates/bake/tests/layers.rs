@@ -8,9 +8,9 @@ use std::sync::Arc;
 
 use luxbake::GpuBackend;
 use luxbake::bake::{BakeOutput, Room};
-use luxbake::cpu::CpuBackend;
 use luxbake::layers::{LampLayers, LampState, LayerError, bake_layers};
 use luxbake::scene::{Lamp, Scene};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
 use common::{run, small_room};

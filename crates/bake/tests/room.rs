@@ -8,11 +8,11 @@ mod common;
 use std::sync::Arc;
 
 use luxbake::bake::{BakeError, BakeOutput, Room, bake_room};
-use luxbake::cpu::CpuBackend;
 use luxbake::graph::PassKind;
 use luxbake::prepare::PrepareError;
 use luxbake::scene::{Lamp, Scene, Settings};
 use luxbake::{GpuBackend, Progress};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
 use common::{run, small_room};

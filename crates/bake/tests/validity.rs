@@ -4,11 +4,11 @@
 
 use luxbake::backend::{SceneBvh, ray_epsilon};
 use luxbake::bake::bake;
-use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::scene::{Scene, Settings};
 use luxbake::validity::unocclude;
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, encode};
 
 /// World xz corners of the floor contacts (chair legs, sofa feet) of a built-in scene.

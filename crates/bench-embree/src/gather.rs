@@ -23,15 +23,16 @@ use std::hint::black_box;
 use std::sync::Arc;
 
 use luxbake::backend::{Dispatch, SceneData, offset_origin};
-use luxbake::cpu::{CpuBackend, CpuError, CpuScene, CpuTexture, cosine_direction};
+use luxbake::cpu::{CpuScene, cosine_direction};
 use luxbake::exact::{guard, normalize};
 use luxbake::graph::TexDesc;
 use luxbake::layout::Region;
 use luxbake::map::sample_masked;
 use luxbake::program::{GatherParams, Params};
-use luxbake::rng::{Sampler, texel_index};
+use luxbake::rng::{Draw, Sampler, texel_index};
 use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake::{GpuBackend, Limits};
+use luxbake_backend_cpu::{CpuBackend, CpuError, CpuTexture};
 use luxbake_bvh::{EncodedScene, Ray, WideBvh};
 use serde_json::json;
 

@@ -500,7 +500,7 @@ mod tests {
             ..settings.clone()
         };
         assert!(!room.fits(&denser) && !room.fits(&blurred));
-        let mut backend = luxbake::cpu::CpuBackend::new();
+        let mut backend = luxbake_backend_cpu::CpuBackend::new();
         let out = luxbake::bake(
             &mut backend,
             &built.scene,

@@ -584,7 +584,7 @@ mod tests {
     #[test]
     fn a_floor_bake_meets_the_floor_reference() {
         use luxbake::bake::bake;
-        use luxbake::cpu::CpuBackend;
+        use luxbake_backend_cpu::CpuBackend;
         let refs = load(&reference_path("floor")).expect("floor reference");
         let settings = Settings {
             rays: 1,

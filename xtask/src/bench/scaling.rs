@@ -4,8 +4,8 @@
 
 use std::fmt::Write as _;
 
-use luxbake::cpu::CpuBackend;
 use luxbake::scene::{Blur, BvhMode, Object, Scene, Settings, Transform};
+use luxbake_backend_cpu::CpuBackend;
 
 use super::{log_log_slope, timed_bake};
 

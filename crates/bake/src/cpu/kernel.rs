@@ -12,7 +12,7 @@ use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, TriangleAttributes, WideBvh
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
-use crate::backend::LampParams;
+use crate::backend::{LampParams, SceneData};
 use crate::contract::{BLUR_NORMAL_COS, ParamBlock, TileParams, coarse};
 pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::layout::Region;
@@ -272,6 +272,22 @@ pub(crate) fn traversal(mode: BvhMode) -> Trav {
 }
 
 impl CpuScene {
+    /// The scene of a bake as the passes' CPU references read it: the BVHs shared, each
+    /// triangle's attributes decoded once, the lamps, tables, regions and lamp paths copied.
+    pub fn new(scene: &SceneData<'_>) -> CpuScene {
+        CpuScene {
+            bvh: Arc::clone(&scene.bvh.encoded),
+            wide: Arc::clone(&scene.bvh.wide),
+            attributes: decode_attributes(&scene.bvh.encoded),
+            lamps: scene.lamps.to_vec(),
+            tables: scene.ies_tables.to_vec(),
+            regions: scene.regions.to_vec(),
+            layer_size: scene.layer_size,
+            ray_epsilon: scene.ray_epsilon,
+            lamp_paths: scene.lamp_paths.to_vec(),
+        }
+    }
+
     #[inline]
     pub(crate) fn closest_hit(&self, ray: &Ray, t_min: f32, t_max: f32, trav: Trav) -> Option<Hit> {
         match trav {
@@ -311,12 +327,20 @@ pub(crate) fn decode_attributes(bvh: &EncodedScene) -> Vec<HitAttributes> {
 #[repr(C, align(64))]
 pub(crate) struct HitAttributes(pub(crate) TriangleAttributes);
 
-/// Read access to one RGBA32F texture array.
+/// Read access to one RGBA32F texture array: `layers` layers of `size` texels, row 0 first,
+/// four floats a texel.
 #[derive(Clone, Copy)]
-pub(crate) struct View<'a> {
+pub struct View<'a> {
     pub(crate) data: &'a [f32],
     pub(crate) size: [u32; 2],
     pub(crate) layers: u32,
+}
+
+impl<'a> View<'a> {
+    /// A view of `data`, a texture of `layers` layers of `size` texels.
+    pub fn new(data: &'a [f32], size: [u32; 2], layers: u32) -> View<'a> {
+        View { data, size, layers }
+    }
 }
 
 impl View<'_> {

@@ -1,6 +1,7 @@
-//! The CPU reference backend: every pass in plain Rust (rayon over texel rows), tracing rays
-//! through the 8-wide BVH collapsed from the encoded scene ([`WideBvh`](luxbake_bvh::WideBvh), the default
-//! [`BvhMode::Wide`](crate::scene::BvhMode::Wide)) or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`](luxbake_bvh::EncodedScene)'s CPU
+//! The passes' CPU references and what runs them: every pass in plain Rust (rayon over texel
+//! rows), tracing rays through the 8-wide BVH collapsed from the encoded scene
+//! ([`WideBvh`](luxbake_bvh::WideBvh), the default [`BvhMode::Wide`](crate::scene::BvhMode::Wide))
+//! or, with `mtbvh`, `tbvh` or `none`, through [`EncodedScene`](luxbake_bvh::EncodedScene)'s CPU
 //! traversal of the *encoded textures* — the same data the shaders read. Both use the same
 //! watertight triangle test and agree up to ties. Everything is `f32` and each texel's value is
 //! computed as a fragment shader would compute it, so that it is the oracle every GPU backend is
@@ -9,6 +10,12 @@
 //! fetches the previous chunk's look-ups (so that the look-ups' cache misses overlap), and then
 //! sums each texel's rays in order (`gather_sums`); the blur computes its tap
 //! weights and the normalised normals once per dispatch.
+//!
+//! The backend that stores the textures and dispatches the passes here is the crate
+//! `luxbake-backend-cpu` (`CpuBackend`, formerly `luxbake::cpu::CpuBackend`), beside
+//! `luxbake-backend-glow` and `luxbake-backend-wgpu`: this module is to it what the passes'
+//! shaders are to them. It calls [`run`] per dispatch on the [`CpuScene`] it uploaded with
+//! [`CpuScene::new`].
 //!
 //! # Pass semantics (what every backend must compute)
 //! For a texel at `(layer, x, y)` with G-buffer position `p` (w = 1 valid), normal `n` (w =
@@ -85,9 +92,7 @@
 //! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
 //! NaN or infinity ever reaches a map.
 
-use std::sync::Arc;
-
-use crate::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
+use crate::backend::Dispatch;
 use crate::graph::TexDesc;
 use crate::passes::with_registry;
 use crate::program::Program;
@@ -95,220 +100,30 @@ use crate::program::Program;
 pub(crate) mod kernel;
 
 pub use crate::exact::{basis, guard, normalize};
-pub use kernel::{CpuScene, Frame, cosine_direction, sin_cos_turns};
-use kernel::{Ctx, View, decode_attributes, traversal};
+pub use kernel::{CpuScene, Frame, View, cosine_direction, sin_cos_turns};
+use kernel::{Ctx, traversal};
 
-/// Errors of the CPU backend (all are misuse of the [`GpuBackend`] contract).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum CpuError {
-    /// A texture handle that this backend did not create.
-    #[error("unknown texture {0}")]
-    UnknownTexture(usize),
-    /// An upload with the wrong number of floats.
-    #[error("upload of {got} floats into a layer of {expected}")]
-    WrongSize {
-        /// Floats per layer.
-        expected: usize,
-        /// Floats given.
-        got: usize,
-    },
-    /// A layer index beyond the texture's layers.
-    #[error("layer {layer} of a texture with {layers} layers")]
-    LayerOutOfRange {
-        /// The layer asked for.
-        layer: u32,
-        /// Layers of the texture.
-        layers: u32,
-    },
-    /// A pass was given the wrong number of textures or textures of different sizes.
-    #[error("pass `{pass}`: {reason}")]
-    BadBindings {
-        /// The pass label.
-        pass: &'static str,
-        /// What is wrong.
-        reason: String,
-    },
-    /// A lamp refers to a table that was not uploaded.
-    #[error("lamp {lamp} refers to intensity table {table}, but {tables} were uploaded")]
-    MissingTable {
-        /// Lamp index.
-        lamp: usize,
-        /// Table index.
-        table: u32,
-        /// Number of tables.
-        tables: usize,
-    },
-    /// A texture too large to address.
-    #[error("texture {size:?} × {layers} layers is too large")]
-    TooLarge {
-        /// Layer size.
-        size: [u32; 2],
-        /// Layers.
-        layers: u32,
-    },
-}
-
-/// Handle of a CPU texture.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct CpuTexture(usize);
-
-/// The CPU reference backend.
-#[derive(Debug, Default)]
-pub struct CpuBackend {
-    textures: Vec<(TexDesc, Vec<f32>)>,
-}
-
-impl CpuBackend {
-    /// A backend with no textures.
-    pub fn new() -> CpuBackend {
-        CpuBackend::default()
-    }
-
-    fn get(&self, t: &CpuTexture) -> Result<&(TexDesc, Vec<f32>), CpuError> {
-        self.textures.get(t.0).ok_or(CpuError::UnknownTexture(t.0))
-    }
-}
-
-impl GpuBackend for CpuBackend {
-    type Texture = CpuTexture;
-    type Scene = CpuScene;
-    type Error = CpuError;
-
-    fn name(&self) -> &'static str {
-        "cpu"
-    }
-
-    fn tile_work(&self) -> u64 {
-        DEFAULT_TILE_WORK
-    }
-
-    fn limits(&self) -> Limits {
-        Limits {
-            max_texture_size: 16_384,
-            max_array_layers: 2048,
-            max_texture_units: 16,
-        }
-    }
-
-    fn create_texture(&mut self, desc: &TexDesc) -> Result<CpuTexture, CpuError> {
-        let n = (desc.size[0] as usize)
-            .checked_mul(desc.size[1] as usize)
-            .and_then(|n| n.checked_mul(desc.layers as usize))
-            .and_then(|n| n.checked_mul(4))
-            .filter(|&n| n <= isize::MAX as usize / 4)
-            .ok_or(CpuError::TooLarge {
-                size: desc.size,
-                layers: desc.layers,
-            })?;
-        self.textures.push((desc.clone(), vec![0.0; n]));
-        Ok(CpuTexture(self.textures.len() - 1))
-    }
-
-    fn upload(&mut self, texture: &CpuTexture, layer: u32, texels: &[f32]) -> Result<(), CpuError> {
-        let (desc, data) = self
-            .textures
-            .get_mut(texture.0)
-            .ok_or(CpuError::UnknownTexture(texture.0))?;
-        if layer >= desc.layers {
-            return Err(CpuError::LayerOutOfRange {
-                layer,
-                layers: desc.layers,
-            });
-        }
-        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
-        if texels.len() != per_layer {
-            return Err(CpuError::WrongSize {
-                expected: per_layer,
-                got: texels.len(),
-            });
-        }
-        let start = layer as usize * per_layer;
-        data[start..start + per_layer].copy_from_slice(texels);
-        Ok(())
-    }
-
-    fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<CpuScene, CpuError> {
-        for (i, l) in scene.lamps.iter().enumerate() {
-            if l.table as usize >= scene.ies_tables.len() {
-                return Err(CpuError::MissingTable {
-                    lamp: i,
-                    table: l.table,
-                    tables: scene.ies_tables.len(),
-                });
-            }
-        }
-        Ok(CpuScene {
-            bvh: Arc::clone(&scene.bvh.encoded),
-            wide: Arc::clone(&scene.bvh.wide),
-            attributes: decode_attributes(&scene.bvh.encoded),
-            lamps: scene.lamps.to_vec(),
-            tables: scene.ies_tables.to_vec(),
-            regions: scene.regions.to_vec(),
-            layer_size: scene.layer_size,
-            ray_epsilon: scene.ray_epsilon,
-            lamp_paths: scene.lamp_paths.to_vec(),
-        })
-    }
-
-    fn release(&mut self) -> Result<(), CpuError> {
-        self.textures.clear();
-        Ok(())
-    }
-
-    fn dispatch(&mut self, call: &Dispatch<'_, CpuTexture, CpuScene>) -> Result<(), CpuError> {
-        let out_index = call.write.0;
-        let (desc, mut out) = {
-            let (d, data) = self
-                .textures
-                .get_mut(out_index)
-                .ok_or(CpuError::UnknownTexture(out_index))?;
-            (d.clone(), std::mem::take(data))
-        };
-        let result = (|| {
-            let mut views = Vec::with_capacity(call.reads.len());
-            for r in call.reads {
-                let (d, data) = self.get(r)?;
-                views.push(View {
-                    data,
-                    size: d.size,
-                    layers: d.layers,
-                });
-            }
-            let sizes: Vec<_> = views.iter().map(|v| (v.size, v.layers)).collect();
-            call.check((desc.size, desc.layers), &sizes, call.scene.layer_size)
-                .map_err(|reason| CpuError::BadBindings {
-                    pass: call.label,
-                    reason,
-                })?;
-            let ctx = Ctx {
-                scene: call.scene,
-                views: &views,
-                trav: traversal(call.bvh),
-                tile: call.tile,
-            };
-            let shape = [4 * desc.size[0] as usize, desc.size[1] as usize];
-            run_on_cpu(call.program, call.params, &ctx, &mut out, shape);
-            Ok(())
-        })();
-        if let Some((_, data)) = self.textures.get_mut(out_index) {
-            *data = out;
-        }
-        result
-    }
-
-    fn read_back(&mut self, texture: &CpuTexture, layer: u32) -> Result<Vec<f32>, CpuError> {
-        let (desc, data) = self.get(texture)?;
-        if layer >= desc.layers {
-            return Err(CpuError::LayerOutOfRange {
-                layer,
-                layers: desc.layers,
-            });
-        }
-        let per_layer = 4 * desc.size[0] as usize * desc.size[1] as usize;
-        let start = layer as usize * per_layer;
-        Ok(data[start..start + per_layer].to_vec())
-    }
+/// Runs one dispatch of a pass — its CPU reference — over the dispatch's tile: `reads` are its
+/// read slots' textures in order, `out` the data of the texture it writes, described by
+/// `write`. `Err` says why the textures do not fit the pass ([`Dispatch::check`]); `out` is
+/// then unchanged.
+pub fn run<T: PartialEq>(
+    call: &Dispatch<'_, T, CpuScene>,
+    reads: &[View<'_>],
+    write: &TexDesc,
+    out: &mut [f32],
+) -> Result<(), String> {
+    let sizes: Vec<_> = reads.iter().map(|v| (v.size, v.layers)).collect();
+    call.check((write.size, write.layers), &sizes, call.scene.layer_size)?;
+    let ctx = Ctx {
+        scene: call.scene,
+        views: reads,
+        trav: traversal(call.bvh),
+        tile: call.tile,
+    };
+    let shape = [4 * write.size[0] as usize, write.size[1] as usize];
+    run_on_cpu(call.program, call.params, &ctx, out, shape);
+    Ok(())
 }
 
 /// Generates [`run_on_cpu`] from the pass registry.
@@ -337,6 +152,8 @@ with_registry!(cpu_dispatch);
 
 #[cfg(test)]
 mod tests {
+    use std::sync::Arc;
+
     use super::*;
     use crate::backend::LampParams;
     use crate::cpu::kernel::*;

@@ -2,8 +2,8 @@
 #![allow(dead_code)]
 
 use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::scene::Scene;
+use luxbake_backend_cpu::CpuBackend;
 pub use luxbake_testkit::temp_dir;
 
 /// `scene` baked on the CPU backend at its own settings.

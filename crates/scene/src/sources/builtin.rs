@@ -374,7 +374,7 @@ mod tests {
     }
 
     /// Chart padding follows the density the scene is built for (what it does to the layout:
-    /// `luxbake`'s `tests/scene_layout.rs`).
+    /// the workspace's `tests/tests/scene_layout.rs`).
     #[test]
     fn padding_follows_the_density() {
         let coarse = Settings {

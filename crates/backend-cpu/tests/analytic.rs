@@ -1,21 +1,22 @@
 //! Closed-form checks of the CPU reference backend (issue #4, tests 1–4): blur off wherever a
 //! closed form is compared. Each test prints the errors it measured (`--nocapture`).
 
-mod common;
-
-use common::{assert_finite, run};
-
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, bake};
-use luxbake::cpu::CpuBackend;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::probe::locate;
 use luxbake::scene::{Albedo, Blur, Lamp, Mesh, Object, Scene, Settings, Transform};
 use luxbake::sources::{closed_forms, meshes};
+use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 use luxbake_testkit::{RelativeError, shared_data};
+
+/// `scene` baked on the CPU backend at its own settings.
+fn run_cpu(scene: &Scene) -> BakeOutput {
+    luxbake_backend_cpu::bake(scene).expect("bake")
+}
 
 fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
     Settings {
@@ -30,8 +31,8 @@ fn settings(texels_per_metre: f32, bounces: u32, rays: u32) -> Settings {
 /// `scene` baked on the CPU backend (every texel of every stage finite and non-negative) and
 /// the G-buffer of its layout.
 fn bake_checked(scene: &Scene) -> (BakeOutput, GBuffer) {
-    let out = run(scene);
-    assert_finite(&out);
+    let out = run_cpu(scene);
+    assert_eq!(out.first_invalid_texel(), None);
     let g = rasterize(scene, &out.layout);
     (out, g)
 }
@@ -224,8 +225,8 @@ fn a_scene_at_a_thousandth_of_the_scale_bakes_the_same_texels() {
     let full = floor_scene(16.0, isotropic(I0, [0.0, 2.0, 0.0]));
     let small = full.scaled(1e-3);
     assert!(small.settings.texels_per_metre > 10_000.0);
-    let (a, b) = (run(&full), run(&small));
-    assert_finite(&b);
+    let (a, b) = (run_cpu(&full), run_cpu(&small));
+    assert_eq!(b.first_invalid_texel(), None);
     assert_eq!(a.layout, b.layout);
     let mut err = RelativeError::default();
     let (ea, eb) = (a.maps[0].illuminance(), b.maps[0].illuminance());
@@ -308,8 +309,8 @@ fn room_scene(albedo_factor: Option<f32>, multiplier: f32) -> Scene {
 #[test]
 fn zero_albedo_gives_no_indirect() {
     let scene = room_scene(Some(0.0), 1.0);
-    let out = run(&scene);
-    assert_finite(&out);
+    let out = run_cpu(&scene);
+    assert_eq!(out.first_invalid_texel(), None);
     let mut lit = 0;
     for m in &out.maps {
         let ind = m.indirect().expect("one bounce");
@@ -328,8 +329,8 @@ fn zero_albedo_gives_no_indirect() {
 // Test 3b: doubling the lamp multiplier doubles every texel of every stage.
 #[test]
 fn doubling_the_multiplier_doubles_every_texel() {
-    let a = run(&room_scene(None, 1.0));
-    let b = run(&room_scene(None, 2.0));
+    let a = run_cpu(&room_scene(None, 1.0));
+    let b = run_cpu(&room_scene(None, 2.0));
     let mut worst = 0.0f64;
     let mut compared = 0usize;
     for (ma, mb) in a.maps.iter().zip(&b.maps) {
@@ -404,15 +405,15 @@ fn lamp_one_millimetre_from_a_wall() {
 fn scaled_scenes_scale_as_inverse_square() {
     let h = 2.0f32;
     let base = floor_scene(4.0, isotropic(I0, [0.0, h, 0.0]));
-    let reference = run(&base);
+    let reference = run_cpu(&base);
     let reference_maps = &reference.maps[0];
     for s in [1e-3f32, 1e3] {
         let mut scene = base.clone();
         scene.objects[0].transform = Transform::from_trs([0.0; 3], [0.0; 3], [s; 3]);
         scene.lamps[0].position = [0.0, f64::from(h * s), 0.0];
         scene.settings.texels_per_metre = 4.0 / s;
-        let out = run(&scene);
-        assert_finite(&out);
+        let out = run_cpu(&scene);
+        assert_eq!(out.first_invalid_texel(), None);
         let m = &out.maps[0];
         assert_eq!(m.region.size, reference_maps.region.size, "same texel grid");
         let mut err = RelativeError::default();

@@ -17,7 +17,7 @@ fn layout(s: &Scene) -> Layout {
 }
 
 fn example() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/scenes/living_room.toml")
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../crates/scene/scenes/living_room.toml")
 }
 
 /// `--texels-per-metre 32` over a scene file (the one overlay, applied before the objects are

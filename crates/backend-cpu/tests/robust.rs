@@ -2,16 +2,17 @@
 //! lamp far away, bakes like the room at the origin, shadows included. CPU reference backend;
 //! each test prints what it measured (`--nocapture`).
 
-mod common;
-
-use common::run;
-
 use std::sync::Arc;
 
 use luxbake::bake::{BakeOutput, recentring_shift};
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Blur, BvhMode, Lamp, Scene, Settings};
 use luxbake_ies::Photometry;
+
+/// `scene` baked on the CPU backend at its own settings.
+fn run_cpu(scene: &Scene) -> BakeOutput {
+    luxbake_backend_cpu::bake(scene).expect("bake")
+}
 
 /// 10 km along x and z.
 const FAR: [f64; 3] = [10_000.0, 0.0, 10_000.0];
@@ -102,7 +103,7 @@ fn a_room_ten_kilometres_out_bakes_like_the_room_at_the_origin() {
     lamp_far_away
         .lamps
         .push(far_lamp([10_000.0, 1.0, 10_000.0]));
-    let reference = run(&home);
+    let reference = run_cpu(&home);
     let (shadow_home, n) = floor_near_chair(&home, &reference, [0.0; 3], 0.12);
     let (open_home, m) = floor_near_chair(&home, &reference, [0.0; 3], 0.6);
     assert!(n >= 4 && m > n, "{n} {m} floor texels near the chair");
@@ -112,7 +113,7 @@ fn a_room_ten_kilometres_out_bakes_like_the_room_at_the_origin() {
         ("room at (10 km, 0, 10 km)", &far, FAR, true),
         ("a 1 cd lamp 10 km away", &lamp_far_away, [0.0; 3], false),
     ] {
-        let out = run(scene);
+        let out = run_cpu(scene);
         let (shadow, _) = floor_near_chair(scene, &out, origin, 0.12);
         let (open, _) = floor_near_chair(scene, &out, origin, 0.6);
         let direct = difference(&reference, &out, 1);
@@ -158,7 +159,7 @@ fn a_room_ten_kilometres_out_bakes_like_the_room_at_the_origin() {
 fn a_room_at_an_odd_far_offset_bakes_like_the_room_at_the_origin() {
     let home = Scene::builtin_with_settings("chairs_01", settings()).expect("chairs_01");
     let far = home.translated([10_000.3, 2.0, -7_770.0]);
-    let (a, b) = (run(&home), run(&far));
+    let (a, b) = (run_cpu(&home), run_cpu(&far));
     let direct = difference(&a, &b, 1);
     let combined = difference(&a, &b, 6);
     println!("odd offset: direct {direct:?}, combined {combined:?}");
