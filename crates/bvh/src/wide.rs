@@ -41,7 +41,7 @@ use std::mem::MaybeUninit;
 
 use crate::encode::EncodedScene;
 use crate::layout;
-use crate::traverse::{Hit, Ray, WatertightRay, permuted_axes};
+use crate::traverse::{Hit, Ray, WatertightRay};
 
 /// Children (lanes) per wide node.
 const WIDTH: usize = 8;
@@ -700,7 +700,7 @@ fn setup_avx(ray: &Ray) -> Option<(BoxRay, PacketRay)> {
         let mut table = [[0; 4]; 6];
         let mut i = 0;
         while i < 6 {
-            let [kx, ky, kz] = permuted_axes(i / 2, i % 2 == 1);
+            let [kx, ky, kz] = crate::traverse::permuted_axes(i / 2, i % 2 == 1);
             table[i] = [kx as i32, ky as i32, kz as i32, 3];
             i += 1;
         }
