@@ -10,9 +10,10 @@
 //! `vec4 luxRun(ivec3 c)` and `<label>.wgsl` defining `fn lux_run(c: vec2<i32>) -> vec4<f32>`
 //! (the entry points and every declaration are generated, [`crate::shader`]), plus one line in
 //! the registry. `cpu.rs` beside them is the pass's CPU reference: a `Pass` implementing the
-//! CPU backend's `TexelPass` (texel by texel) or `CpuPass` (row by row; `cpu/kernel.rs`),
+//! CPU kernel's `TexelPass` (texel by texel) or `CpuPass` (row by row; `cpu/kernel.rs`),
 //! built from the parameter words (its `Prepare`: usually the parameter block itself). The
-//! backends, the CPU backend's dispatch and the shader generator need no change.
+//! backends (`luxbake-backend-cpu`, `-glow`, `-wgpu`), the CPU dispatch ([`crate::cpu::run`])
+//! and the shader generator need no change.
 
 use crate::contract::{Field, ParamBlock, Signature};
 
