@@ -1,4 +1,4 @@
-//! `cargo xtask ies FILE [--json] [--at V H]`: what a lighting engineer checks first in a
+//! `luxbake ies FILE [--json] [--at V H]`: what a lighting engineer checks first in a
 //! photometric file.
 
 use luxbake_ies::{Photometry, Tilt};
@@ -6,7 +6,7 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Arguments of `cargo xtask ies`.
+/// Arguments of `luxbake ies` (and `cargo xtask ies`).
 #[derive(clap::Args)]
 pub struct Args {
     /// The IES (.ies) or EULUMDAT (.ldt) file.
