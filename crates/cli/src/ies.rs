@@ -202,8 +202,8 @@ mod tests {
 
     #[test]
     fn json_report_of_the_bundled_lamp() {
-        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../crates/scene/lamps/luxbake_downlight.ies");
+        let file =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/lamps/luxbake_downlight.ies");
         let lamp = Photometry::parse(&std::fs::read(&file).unwrap()).unwrap();
         let j = report_json(&file, &lamp);
         assert_eq!(j["format"], "LM-63-2002");

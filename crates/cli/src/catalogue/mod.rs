@@ -234,7 +234,10 @@ mod tests {
             ])),
             Ok(2)
         );
-        assert_eq!(index_from_env(env(&[("AWS_BATCH_JOB_ARRAY_INDEX", "0")])), Ok(0));
+        assert_eq!(
+            index_from_env(env(&[("AWS_BATCH_JOB_ARRAY_INDEX", "0")])),
+            Ok(0)
+        );
         let e = index_from_env(env(&[("JOB_COMPLETION_INDEX", "x")])).expect_err("bad");
         assert!(e.message().contains("JOB_COMPLETION_INDEX") && e.code() == USAGE);
         assert_eq!(index_from_env(env(&[])).map_err(|e| e.code()), Err(USAGE));

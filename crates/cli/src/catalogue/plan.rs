@@ -127,7 +127,8 @@ pub fn plan(catalogue: &Path) -> Result<Vec<Row>, Failure> {
     for (r, room) in file.rooms.iter().enumerate() {
         let (scene, name, scene_inputs) = match (&room.scene, &room.builtin) {
             (Some(path), None) => {
-                let path = absolute(&base.join(path)).map_err(|e| usage(format!("room {r}: {e}")))?;
+                let path =
+                    absolute(&base.join(path)).map_err(|e| usage(format!("room {r}: {e}")))?;
                 let inputs = scene_inputs(&path).map_err(|e| usage(format!("room {r}: {e}")))?;
                 let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
                 (path.display().to_string(), stem.unwrap_or_default(), inputs)
@@ -195,7 +196,11 @@ fn settings_json(table: &toml::Table) -> Result<Map<String, Value>, String> {
         if k == "quality" || k == "backend" {
             return Err(format!(
                 "settings.{k}: give it as the catalogue's `{}` instead",
-                if k == "quality" { "qualities" } else { "backend" }
+                if k == "quality" {
+                    "qualities"
+                } else {
+                    "backend"
+                }
             ));
         }
         let v = serde_json::to_value(v).map_err(|e| format!("settings.{k}: {e}"))?;
@@ -206,9 +211,14 @@ fn settings_json(table: &toml::Table) -> Result<Map<String, Value>, String> {
 
 /// The settings patch of a row: its quality preset, then the catalogue's `[settings]` (as flags
 /// over a scene file's `[settings]`); checked.
-pub(crate) fn row_patch(settings: &Map<String, Value>, quality: &str) -> Result<SettingsPatch, String> {
-    let mut entries: Vec<(String, Value)> =
-        settings.iter().map(|(k, v)| (k.clone(), v.clone())).collect();
+pub(crate) fn row_patch(
+    settings: &Map<String, Value>,
+    quality: &str,
+) -> Result<SettingsPatch, String> {
+    let mut entries: Vec<(String, Value)> = settings
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .collect();
     entries.push(("quality".into(), Value::from(quality)));
     let patch = SettingsPatch::from_entries(&entries)
         .map_err(|e| format!("settings.{}: {}", e.key, e.message))?;
@@ -236,7 +246,10 @@ fn lamp_files(base: &Path, entries: &[String]) -> Result<Vec<(String, PathBuf)>,
                 })
                 .collect();
             if found.is_empty() {
-                return Err(format!("lamps: {} holds no .ies or .ldt file", path.display()));
+                return Err(format!(
+                    "lamps: {} holds no .ies or .ldt file",
+                    path.display()
+                ));
             }
             found.sort();
             files.extend(found);
@@ -354,7 +367,10 @@ fn mesh_resources(mesh: &Path) -> Vec<PathBuf> {
             }
         }
     } else if ext == "obj" {
-        for lib in text.lines().filter_map(|l| l.trim().strip_prefix("mtllib ")) {
+        for lib in text
+            .lines()
+            .filter_map(|l| l.trim().strip_prefix("mtllib "))
+        {
             for name in lib.split_whitespace() {
                 let mtl = base.join(name);
                 if let Ok(mtl_text) = std::fs::read_to_string(&mtl) {
@@ -430,9 +446,13 @@ pub fn read_manifest(path: &Path) -> Result<Vec<Row>, Failure> {
     let usage = |m: String| Failure::Usage(format!("{}: {m}", path.display()));
     let text = std::fs::read_to_string(path).map_err(|e| usage(e.to_string()))?;
     let mut rows = Vec::new();
-    for (n, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-        let row: Row = serde_json::from_str(line)
-            .map_err(|e| usage(format!("line {}: {e}", n + 1)))?;
+    for (n, line) in text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty())
+    {
+        let row: Row =
+            serde_json::from_str(line).map_err(|e| usage(format!("line {}: {e}", n + 1)))?;
         if row.index != rows.len() {
             return Err(usage(format!(
                 "line {}: row index {} where {} was expected",
@@ -442,7 +462,10 @@ pub fn read_manifest(path: &Path) -> Result<Vec<Row>, Failure> {
             )));
         }
         if row.key.len() != 64 || !row.key.bytes().all(|b| b.is_ascii_hexdigit()) {
-            return Err(usage(format!("line {}: the key is not 64 hex digits", n + 1)));
+            return Err(usage(format!(
+                "line {}: the key is not 64 hex digits",
+                n + 1
+            )));
         }
         rows.push(row);
     }
@@ -482,11 +505,19 @@ mod tests {
         let rows = plan(&dir.join("c.toml")).expect("plan");
         assert_eq!(rows.len(), 2 * 2 * 2);
         assert_eq!(
-            (rows[0].room.as_str(), rows[0].lamp_name.as_str(), rows[0].quality.as_str()),
+            (
+                rows[0].room.as_str(),
+                rows[0].lamp_name.as_str(),
+                rows[0].quality.as_str()
+            ),
             ("room", "a", "draft")
         );
         assert_eq!(rows[4].placement, "two");
-        let roles: Vec<_> = rows[0].inputs.iter().map(|i| (i.role.as_str(), i.sha256 == MISSING)).collect();
+        let roles: Vec<_> = rows[0]
+            .inputs
+            .iter()
+            .map(|i| (i.role.as_str(), i.sha256 == MISSING))
+            .collect();
         assert_eq!(roles, [("scene", false), ("mesh", true), ("lamp", false)]);
         let keys: HashSet<_> = rows.iter().map(|r| r.key.clone()).collect();
         assert_eq!(keys.len(), rows.len());
@@ -505,15 +536,30 @@ mod tests {
         assert!(again.iter().zip(&changed).all(|(a, b)| a.key == b.key));
         // Errors name the key.
         for (text, needle) in [
-            ("lamps = [\"lamps\"]\n[settings]\nrays = 0\n[[room]]\nbuiltin = \"floor\"\n", "settings.rays"),
-            ("lamps = [\"lamps\"]\n[settings]\nquality = \"draft\"\n[[room]]\nbuiltin = \"floor\"\n", "qualities"),
-            ("lamps = [\"nope.ies\"]\n[[room]]\nbuiltin = \"floor\"\n", "nope.ies"),
-            ("lamps = [\"lamps\"]\n[[room]]\nbuiltin = \"floor\"\nscene = \"room.toml\"\n", "exactly one"),
+            (
+                "lamps = [\"lamps\"]\n[settings]\nrays = 0\n[[room]]\nbuiltin = \"floor\"\n",
+                "settings.rays",
+            ),
+            (
+                "lamps = [\"lamps\"]\n[settings]\nquality = \"draft\"\n[[room]]\nbuiltin = \"floor\"\n",
+                "qualities",
+            ),
+            (
+                "lamps = [\"nope.ies\"]\n[[room]]\nbuiltin = \"floor\"\n",
+                "nope.ies",
+            ),
+            (
+                "lamps = [\"lamps\"]\n[[room]]\nbuiltin = \"floor\"\nscene = \"room.toml\"\n",
+                "exactly one",
+            ),
             ("lamps = [\"lamps\"]\nrooms = 1\n", "unknown field"),
         ] {
             std::fs::write(moved.join("bad.toml"), text).expect("catalogue");
             let e = plan(&moved.join("bad.toml")).expect_err(needle);
-            assert!(e.code() == super::super::USAGE && e.message().contains(needle), "{e:?}");
+            assert!(
+                e.code() == super::super::USAGE && e.message().contains(needle),
+                "{e:?}"
+            );
         }
         std::fs::remove_dir_all(&moved).ok();
     }

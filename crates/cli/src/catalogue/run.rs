@@ -88,8 +88,8 @@ pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
         Err(message) => return Err(record_error(row, out, &message)),
     };
     let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
-    let output = bake(&mut backend, &scene, &scene.settings, &mut |_| {})
-        .map_err(|e| retry("bake", &e))?;
+    let output =
+        bake(&mut backend, &scene, &scene.settings, &mut |_| {}).map_err(|e| retry("bake", &e))?;
     let temp = out.join(format!(
         "{TEMP_PREFIX}{}-{}-{}",
         row.key,
@@ -159,9 +159,11 @@ fn load(row: &Row) -> Result<(Scene, BackendKind), String> {
     };
     let photometry = read_photometry(Path::new(&row.lamp)).map_err(|e| format!("{e}"))?;
     if let Some(positions) = &row.positions {
-        let template = scene.lamps.first().cloned().ok_or_else(|| {
-            format!("{}: the scene has no lamp to place", row.scene)
-        })?;
+        let template = scene
+            .lamps
+            .first()
+            .cloned()
+            .ok_or_else(|| format!("{}: the scene has no lamp to place", row.scene))?;
         scene.lamps = positions
             .iter()
             .enumerate()
@@ -177,7 +179,10 @@ fn load(row: &Row) -> Result<(Scene, BackendKind), String> {
             .collect();
     }
     if scene.lamps.is_empty() {
-        return Err(format!("{}: the scene has no lamp to take the lamp file", row.scene));
+        return Err(format!(
+            "{}: the scene has no lamp to take the lamp file",
+            row.scene
+        ));
     }
     for lamp in &mut scene.lamps {
         lamp.photometry = photometry.clone();
@@ -200,7 +205,10 @@ fn check_inputs(row: &Row) -> Result<(), String> {
     });
     for input in row.inputs.iter().chain(&now) {
         if input.sha256 == MISSING {
-            return Err(format!("{} ({}): the file is missing", input.path, input.role));
+            return Err(format!(
+                "{} ({}): the file is missing",
+                input.path, input.role
+            ));
         }
     }
     if now != row.inputs {
@@ -233,7 +241,11 @@ fn record_error(row: &Row, out: &Path, message: &str) -> Failure {
         "error": message,
     });
     let dir = out.join(ERRORS_DIR);
-    let temp = dir.join(format!("{TEMP_PREFIX}{}-{}.json", row.key, std::process::id()));
+    let temp = dir.join(format!(
+        "{TEMP_PREFIX}{}-{}.json",
+        row.key,
+        std::process::id()
+    ));
     let written = std::fs::create_dir_all(&dir)
         .and_then(|()| std::fs::write(&temp, format!("{text:#}\n")))
         .and_then(|()| std::fs::rename(&temp, &record));
@@ -366,15 +378,19 @@ pub(crate) fn verify(dir: &Path, key: &str) -> bool {
     let Ok(row) = serde_json::from_str::<Value>(&text) else {
         return false;
     };
-    let (Some(files), Some(true)) = (row["files"].as_array(), row["key"].as_str().map(|k| k == key))
-    else {
+    let (Some(files), Some(true)) = (
+        row["files"].as_array(),
+        row["key"].as_str().map(|k| k == key),
+    ) else {
         return false;
     };
     !files.is_empty()
         && files.iter().all(|f| {
-            let (Some(rel), Some(size), Some(hash)) =
-                (f["path"].as_str(), f["bytes"].as_u64(), f["sha256"].as_str())
-            else {
+            let (Some(rel), Some(size), Some(hash)) = (
+                f["path"].as_str(),
+                f["bytes"].as_u64(),
+                f["sha256"].as_str(),
+            ) else {
                 return false;
             };
             let path = Path::new(rel);
