@@ -1,11 +1,11 @@
 //! `luxbake catalogue plan|run|status`: catalogue bakes on a batch engine.
 //!
 //! A catalogue (`catalogue.toml`, format in `docs/catalogue.md`) names rooms, lamp files,
-//! placements and qualities. [`plan`] expands it into a **manifest**: JSON lines, one [`Row`]
+//! placements and qualities. [`plan()`] expands it into a **manifest**: JSON lines, one [`Row`]
 //! per room × lamp × placement × quality, each with a **content key**, the SHA-256 of
 //! luxbake's version, every input file's bytes (the scene file, the meshes and photometric
-//! files it references, the row's lamp file) and the row's settings. [`run`] bakes one row (or
-//! every row with `--all`) into `OUT/<key>/`; [`status`] reports which rows are done, failed
+//! files it references, the row's lamp file) and the row's settings. [`run_row`] bakes one row
+//! ([`run_all`]: every row) into `OUT/<key>/`; [`status()`] reports which rows are done, failed
 //! and missing.
 //!
 //! # Publication
@@ -31,6 +31,7 @@
 //! With `--all`, the worst outcome decides: 1 if any row failed for a retryable reason, else 3
 //! if any row failed permanently, else 0.
 
+mod failure;
 mod plan;
 mod run;
 mod status;
@@ -38,17 +39,10 @@ mod status;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+pub use failure::{Failure, PERMANENT, RETRYABLE, USAGE};
 pub use plan::{Input, Row, plan, read_manifest};
 pub use run::{RowOutcome, run_all, run_row};
 pub use status::{Status, status};
-
-/// The exit code of a permanent input error (a Kubernetes `podFailurePolicy` maps it to
-/// `FailIndex`).
-pub const PERMANENT: u8 = 3;
-/// The exit code of a usage error (clap's own code for bad flags).
-pub const USAGE: u8 = 2;
-/// The exit code of a failure worth retrying.
-pub const RETRYABLE: u8 = 1;
 
 /// The environment variables a batch engine gives an array task's index in, in the order they
 /// are read: Kubernetes Indexed Job, AWS Batch array job, SLURM job array.
@@ -57,41 +51,6 @@ pub const INDEX_VARIABLES: [&str; 3] = [
     "AWS_BATCH_JOB_ARRAY_INDEX",
     "SLURM_ARRAY_TASK_ID",
 ];
-
-/// Why a catalogue command failed, and so its exit code.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum Failure {
-    /// Bad flags, an unreadable catalogue or manifest, an index out of range (exit 2).
-    Usage(String),
-    /// A permanent input error of a row (exit 3); its record is in `OUT/errors/<key>.json`.
-    Permanent(String),
-    /// A failure that may pass on a retry (exit 1).
-    Retryable(String),
-}
-
-impl Failure {
-    /// The process exit code ([`USAGE`], [`PERMANENT`] or [`RETRYABLE`]).
-    pub fn code(&self) -> u8 {
-        match self {
-            Failure::Usage(_) => USAGE,
-            Failure::Permanent(_) => PERMANENT,
-            Failure::Retryable(_) => RETRYABLE,
-        }
-    }
-
-    /// The message, for stderr.
-    pub fn message(&self) -> &str {
-        match self {
-            Failure::Usage(m) | Failure::Permanent(m) | Failure::Retryable(m) => m,
-        }
-    }
-
-    /// Prints the message on stderr and gives the exit code.
-    pub fn report(self) -> ExitCode {
-        eprintln!("error: {}", self.message());
-        ExitCode::from(self.code())
-    }
-}
 
 /// Arguments of `luxbake catalogue`.
 #[derive(clap::Args)]

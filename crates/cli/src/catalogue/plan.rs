@@ -11,7 +11,7 @@ use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value, json};
 use sha2::{Digest, Sha256};
 
-use super::Failure;
+use super::failure::Failure;
 
 /// The `sha256` of an input that was missing when it was hashed: the row fails at run time with
 /// a permanent error naming the file.
@@ -557,7 +557,7 @@ mod tests {
             std::fs::write(moved.join("bad.toml"), text).expect("catalogue");
             let e = plan(&moved.join("bad.toml")).expect_err(needle);
             assert!(
-                e.code() == super::super::USAGE && e.message().contains(needle),
+                e.code() == crate::catalogue::USAGE && e.message().contains(needle),
                 "{e:?}"
             );
         }

@@ -12,8 +12,8 @@ use luxbake_backends::BackendKind;
 use luxbake_output::write_bake;
 use serde_json::{Value, json};
 
+use super::failure::{Failure, PERMANENT, RETRYABLE};
 use super::plan::{Input, MISSING, Row, row_patch, scene_inputs, sha256_hex};
-use super::{Failure, PERMANENT, RETRYABLE};
 
 /// The prefix of a row's temporary folder (`.tmp-<key>-<pid>-<nanos>`) and of an error
 /// record's temporary file: a dot name, which `status` and a front end ignore.

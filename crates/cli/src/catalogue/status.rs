@@ -5,7 +5,7 @@ use std::path::Path;
 
 use serde_json::{Value, json};
 
-use super::Failure;
+use super::failure::Failure;
 use super::plan::Row;
 use super::run::{TEMP_PREFIX, describe, error_record, verify};
 
