@@ -386,3 +386,72 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
     assert_eq!(records(&faulty), records(&serial));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A broken glTF, a scene whose mesh is missing and a scene file that is not TOML are
+/// permanent errors of their rows only: each gets its record and exit 3, the other row bakes.
+#[test]
+fn broken_rooms_fail_alone_with_their_records() {
+    let test = "broken_rooms_fail_alone_with_their_records";
+    let Some(lamps) = real_lamps(test, 1) else {
+        return;
+    };
+    let dir = temp_dir("cli-catalogue", "broken");
+    std::fs::create_dir_all(&dir).expect("dir");
+    std::fs::write(dir.join("broken.glb"), b"glTF\x02\x00\x00\x00 not a glb").expect("glb");
+    let scene = |mesh: &str| {
+        format!(
+            "[[lamp]]\nies = \"isotropic:100\"\nposition = [0, 2, 0]\n\
+             [[object]]\nprimitive = \"plane\"\nsize = [2, 2]\n\
+             [[object]]\nmesh = \"{mesh}\"\n"
+        )
+    };
+    std::fs::write(dir.join("gltf.toml"), scene("broken.glb")).expect("scene");
+    std::fs::write(dir.join("missing.toml"), scene("gone.glb")).expect("scene");
+    std::fs::write(dir.join("toml.toml"), "[[lamp]\nies = ").expect("scene");
+    let catalogue = format!(
+        "qualities = [\"draft\"]\nlamps = [{:?}]\n[settings]\ntexels_per_metre = 8\n\
+         [[room]]\nscene = \"gltf.toml\"\n[[room]]\nscene = \"missing.toml\"\n\
+         [[room]]\nscene = \"toml.toml\"\n[[room]]\nbuiltin = \"floor\"\n",
+        lamps[0].display().to_string()
+    );
+    std::fs::write(dir.join("catalogue.toml"), catalogue).expect("catalogue");
+    let manifest = dir.join("manifest.jsonl");
+    assert_eq!(plan(&dir.join("catalogue.toml"), &manifest), 4);
+    let out = dir.join("out");
+    for (i, needle) in [(0, "broken.glb"), (1, "gone.glb"), (2, "toml.toml")] {
+        let o = output(&[
+            "catalogue",
+            "run",
+            &manifest.display().to_string(),
+            "--index",
+            &i.to_string(),
+            "--out",
+            &out.display().to_string(),
+        ]);
+        let stderr = text(&o.stderr);
+        assert_eq!(o.status.code(), Some(3), "row {i}: {stderr}");
+        assert!(
+            stderr.contains(needle) && stderr.contains("recorded in"),
+            "row {i}: {stderr}"
+        );
+    }
+    let o = luxbake()
+        .args(["catalogue", "run", &manifest.display().to_string(), "--out"])
+        .arg(&out)
+        .env("SLURM_ARRAY_TASK_ID", "3")
+        .output()
+        .expect("run");
+    assert!(o.status.success(), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stdout).starts_with("row 3 baked "),
+        "{}",
+        text(&o.stdout)
+    );
+    let s = status_json(&manifest, &out);
+    assert_eq!(
+        (s["done"].clone(), s["missing"].clone()),
+        (serde_json::json!([3]), serde_json::json!([]))
+    );
+    assert_eq!(s["failed"].as_array().map(Vec::len), Some(3), "{s}");
+    std::fs::remove_dir_all(&dir).ok();
+}
