@@ -183,7 +183,8 @@ fn hidden(out: &Path) -> Vec<String> {
 /// time in a clean serial run, and it is retried until it exits 0 — or 3, the permanent error,
 /// which is never retried. After every kill no visible entry of OUT is anything but a complete,
 /// verified row or the error records; afterwards every row is byte-identical to the serial run
-/// (`timings.json` aside), no temporary folder is left, the rows of the malformed lamp file
+/// (`timings.json` aside), no temporary folder is left (also none planted as a killed writer
+/// would leave it), the rows of the malformed lamp file
 /// failed once each with their record, and a second full run bakes nothing (its lines say
 /// `skipped`, never `baked`).
 #[test]
@@ -263,6 +264,29 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
                 .to_owned()
         })
         .collect();
+    // What a run killed while writing leaves (a killed kill may land anywhere, so leave it
+    // for sure too): a temporary row folder and a temporary error record, which `status`
+    // lists and the rows' next runs remove.
+    let stale = faulty.join(format!(".tmp-{}-999999-0", keys[0]));
+    std::fs::create_dir_all(&stale).expect("stale folder");
+    std::fs::write(stale.join("floor_illuminance.exr"), b"partial").expect("stale file");
+    std::fs::create_dir_all(faulty.join("errors")).expect("errors");
+    std::fs::write(
+        faulty
+            .join("errors")
+            .join(format!(".tmp-{}-999999.json", keys[2])),
+        b"{",
+    )
+    .expect("stale record");
+    let s = status_json(&manifest, &faulty);
+    assert_eq!(
+        (
+            s["temporary"].as_array().map(Vec::len),
+            s["missing"].as_array().map(Vec::len)
+        ),
+        (Some(2), Some(rows)),
+        "{s}"
+    );
     let t = Instant::now();
     for (i, seconds) in row_seconds.iter().enumerate() {
         for attempt in 0.. {
@@ -278,7 +302,11 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
                         child.kill().expect("SIGKILL");
                         child.wait().expect("reap");
                         kills += 1;
-                        left_temporary += usize::from(!hidden(&faulty).is_empty());
+                        left_temporary += usize::from(
+                            hidden(&faulty)
+                                .iter()
+                                .any(|n| n.contains(&keys[i]) && !n.contains("-999999")),
+                        );
                         break None;
                     }
                     std::thread::sleep(Duration::from_millis(2));
