@@ -1,18 +1,19 @@
 //! `cargo xtask` — luxbake's project commands. Each command lives in its own module; this file
-//! only parses the command line and dispatches.
+//! only parses the command line and dispatches. `bake`, `measure`, `ies` and `export-scene` are
+//! the `luxbake` binary's (`luxbake-cli`) own code, run with the same flags.
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
-mod bake;
 mod bench;
-mod export;
-mod ies;
 #[cfg(test)]
 mod import_cycles;
-mod measure;
 mod npm;
 mod web;
+
+// The commands a container runs live in the `luxbake` binary's library; `cargo xtask` runs the
+// same code with the same flags.
+use luxbake_cli::{bake, export, ies, measure};
 
 /// luxbake project commands.
 #[derive(Parser)]

@@ -1,4 +1,4 @@
-//! `cargo xtask ies FILE [--json] [--at V H]`: what a lighting engineer checks first in a
+//! `luxbake ies FILE [--json] [--at V H]`: what a lighting engineer checks first in a
 //! photometric file.
 
 use luxbake_ies::{Photometry, Tilt};
@@ -6,7 +6,7 @@ use serde_json::json;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// Arguments of `cargo xtask ies`.
+/// Arguments of `luxbake ies` (and `cargo xtask ies`).
 #[derive(clap::Args)]
 pub struct Args {
     /// The IES (.ies) or EULUMDAT (.ldt) file.
@@ -202,8 +202,8 @@ mod tests {
 
     #[test]
     fn json_report_of_the_bundled_lamp() {
-        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-            .join("../crates/scene/lamps/luxbake_downlight.ies");
+        let file =
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../scene/lamps/luxbake_downlight.ies");
         let lamp = Photometry::parse(&std::fs::read(&file).unwrap()).unwrap();
         let j = report_json(&file, &lamp);
         assert_eq!(j["format"], "LM-63-2002");

@@ -1,4 +1,4 @@
-//! `cargo xtask export-scene NAME OUT.glb [--texels-per-metre D]`: writes a built-in scene (or,
+//! `luxbake export NAME OUT.glb [--texels-per-metre D]`: writes a built-in scene (or,
 //! with a `.toml` path for NAME, a scene file) as glTF 2.0 binary: meshes with light-map UVs
 //! (`TEXCOORD_1`), albedo, lamps in `extras` — so other tools (Blender, ...) can bake the very
 //! same scene. See `luxbake_assets::export` for the layout of the file.
@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use luxbake::scene::{Scene, Settings};
 
-/// Arguments of `cargo xtask export-scene`.
+/// Arguments of `luxbake export` (and `cargo xtask export-scene`).
 #[derive(clap::Args)]
 pub struct Args {
     /// A built-in scene (chairs_01, chairs_03, chairs_05, chairs_10, sofa_01, floor, sphere)

@@ -1,4 +1,4 @@
-//! `cargo xtask measure DIR --points FILE.csv`: illuminance at calculation points, read back
+//! `luxbake measure DIR --points FILE.csv`: illuminance at calculation points, read back
 //! from a bake's light maps.
 //!
 //! `FILE.csv` has one point per row, `x,y,z` in metres (world), on baked surfaces; blank
@@ -25,10 +25,10 @@ use luxbake_output::picture::luminance;
 use luxbake_output::read_exr;
 use serde_json::Value;
 
-/// Arguments of `cargo xtask measure`.
+/// Arguments of `luxbake measure` (and `cargo xtask measure`).
 #[derive(clap::Args)]
 pub struct Args {
-    /// A folder written by `cargo xtask bake`.
+    /// A folder written by `luxbake bake` (or `cargo xtask bake`).
     dir: PathBuf,
     /// CSV file of points, one `x,y,z` row each, metres.
     #[arg(long)]
@@ -154,7 +154,7 @@ pub fn locate_points(
 }
 
 /// Measures `points` (`(line, [x, y, z])`, as [`parse_points`] returns them; `label` names
-/// their source in errors) in the bake in `dir`: the look-up of `cargo xtask measure`.
+/// their source in errors) in the bake in `dir`: the look-up of `luxbake measure`.
 pub fn measure_points(
     dir: &Path,
     points: &[(usize, [f64; 3])],

@@ -1,4 +1,4 @@
-//! `cargo xtask bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
+//! `luxbake bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
 //! [--tail true|false] [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N]
 //! [--refine-rays N] [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none]
@@ -9,7 +9,7 @@
 //! photometric file, every lamp of the scene taking that file, into `OUT/<file stem>/`: the
 //! room's host work (layout, rasterising, BVH, unocclusion) runs once for all of them.
 //! `--lamp-layers` also bakes each lamp's light apart and writes it as a bake folder of its own,
-//! `OUT/lamps/<index>_<lamp name>/` (each readable by `cargo xtask measure`), the maps in `OUT`
+//! `OUT/lamps/<index>_<lamp name>/` (each readable by `luxbake measure`), the maps in `OUT`
 //! being their sum ([`luxbake::layers`]).
 //!
 //! With no arguments it bakes the built-in `chairs_05` with the default lamp into `./out`, with
@@ -38,7 +38,7 @@ use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
 use luxbake_output::{file_stem, write_bake};
 
-/// Arguments of `cargo xtask bake`.
+/// Arguments of `luxbake bake` (and `cargo xtask bake`).
 #[derive(clap::Args)]
 pub struct Args {
     /// A TOML scene file (see the `luxbake::sources::scenefile` docs).
@@ -534,7 +534,7 @@ mod tests {
     const CUBE_OBJ: &str = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\nv 0 1 1\n\
         f 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n";
 
-    /// `cargo xtask bake scene.toml --texels-per-metre 32` builds the objects as
+    /// `luxbake bake scene.toml --texels-per-metre 32` builds the objects as
     /// `texels_per_metre = 32` in the file does: chart padding (procedural and the mesh
     /// loader's) follows the flag.
     #[test]
