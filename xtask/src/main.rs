@@ -11,10 +11,6 @@ mod import_cycles;
 mod npm;
 mod web;
 
-// The commands a container runs live in the `luxbake` binary's library; `cargo xtask` runs the
-// same code with the same flags.
-use luxbake_cli::{bake, export, ies, measure};
-
 /// luxbake project commands.
 #[derive(Parser)]
 #[command(name = "cargo xtask", about = "luxbake project commands")]
@@ -25,17 +21,13 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Inspect a photometric file (IES LM-63 or EULUMDAT): header, symmetry, lumens, peak.
-    Ies(ies::Args),
-    /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
-    Bake(bake::Args),
+    /// The `luxbake` binary's commands (bake, measure, ies, export alias export-scene,
+    /// catalogue): the same code with the same flags.
+    #[command(flatten)]
+    Luxbake(luxbake_cli::Command),
     /// Measured runs: the paper's Table 1 on every backend, scaling, and (`bench trade`) the
     /// speed/accuracy trade; `--quick` for CI.
     Bench(bench::Args),
-    /// Write a built-in scene (or a scene file) as glTF 2.0 binary (.glb) for other tools.
-    ExportScene(export::Args),
-    /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
-    Measure(measure::Args),
     /// Build the `luxbake` npm package into `target/npm/` and pack it (`--check`: install it
     /// with three.js in a scratch project and test it in headless Chromium).
     Npm(npm::Args),
@@ -45,21 +37,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Ies(args) => ies::run(&args),
-        Command::Bake(args) => bake::run(&args),
+    luxbake_cli::exit_code(match Cli::parse().command {
+        Command::Luxbake(command) => return command.run(),
         Command::Bench(args) => bench::run(&args),
-        Command::ExportScene(args) => export::run(&args),
-        Command::Measure(args) => measure::run(&args),
         Command::Npm(args) => npm::run(&args),
         Command::Web(args) => web::run(&args),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::FAILURE
-        }
-    }
+    })
 }

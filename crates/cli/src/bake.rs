@@ -303,29 +303,34 @@ fn finish(
     Ok(())
 }
 
+/// The `.ies` and `.ldt` files of folder `dir` (any case), in name order.
+pub(crate) fn photometric_files_in(dir: &Path) -> std::io::Result<Vec<PathBuf>> {
+    let mut found: Vec<PathBuf> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && p.extension()
+                    .is_some_and(|x| x.eq_ignore_ascii_case("ies") || x.eq_ignore_ascii_case("ldt"))
+        })
+        .collect();
+    found.sort();
+    Ok(found)
+}
+
 /// The photometric files `--lamp` names, each with its output folder's name (the file stem,
 /// made unique), read and parsed; a folder gives its `.ies` and `.ldt` files in name order.
 fn lamp_files(paths: &[PathBuf]) -> Result<Vec<(String, Arc<Photometry>)>, String> {
     let mut files = Vec::new();
     for path in paths {
         if path.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(path)
-                .map_err(|e| format!("--lamp {}: {e}", path.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| {
-                    p.is_file()
-                        && p.extension().is_some_and(|x| {
-                            x.eq_ignore_ascii_case("ies") || x.eq_ignore_ascii_case("ldt")
-                        })
-                })
-                .collect();
+            let found = photometric_files_in(path)
+                .map_err(|e| format!("--lamp {}: {e}", path.display()))?;
             if found.is_empty() {
                 return Err(format!(
                     "--lamp {}: the folder holds no .ies or .ldt file",
                     path.display()
                 ));
             }
-            found.sort();
             files.extend(found);
         } else {
             files.push(path.clone());

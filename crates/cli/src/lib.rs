@@ -25,3 +25,53 @@ pub mod catalogue;
 pub mod export;
 pub mod ies;
 pub mod measure;
+
+use std::process::ExitCode;
+
+/// The commands of the `luxbake` binary; `cargo xtask` runs the same ones (flattened into its
+/// own), so both parse the same flags and run the same code.
+#[derive(clap::Subcommand)]
+pub enum Command {
+    /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
+    Bake(bake::Args),
+    /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
+    Measure(measure::Args),
+    /// Inspect a photometric file (IES LM-63 or EULUMDAT): header, symmetry, lumens, peak.
+    Ies(ies::Args),
+    /// Write a built-in scene (or a scene file) as glTF 2.0 binary (.glb) for other tools.
+    #[command(visible_alias = "export-scene")]
+    Export(export::Args),
+    /// Catalogue bakes: plan rooms × lamps × placements × qualities into a manifest, bake its
+    /// rows (one per batch task, or all locally), report their status.
+    Catalogue(catalogue::Args),
+}
+
+impl Command {
+    /// Runs the command; an error is printed to stderr as `error: …`. The exit code: 0 success,
+    /// 1 a failure worth retrying, 2 a usage error, 3 (`catalogue run`) a permanent input
+    /// error of the row.
+    pub fn run(self) -> ExitCode {
+        let result = match self {
+            Command::Bake(args) => bake::run(&args),
+            Command::Measure(args) => measure::run(&args),
+            Command::Ies(args) => ies::run(&args),
+            Command::Export(args) => export::run(&args),
+            Command::Catalogue(args) => {
+                return catalogue::run(&args).unwrap_or_else(|f| f.report());
+            }
+        };
+        exit_code(result)
+    }
+}
+
+/// `ExitCode::SUCCESS` for `Ok`; for `Err` the message printed to stderr as `error: …` and
+/// `ExitCode::FAILURE`.
+pub fn exit_code(result: Result<(), String>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(message) => {
+            eprintln!("error: {message}");
+            ExitCode::FAILURE
+        }
+    }
+}

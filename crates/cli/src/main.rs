@@ -5,46 +5,16 @@
 
 use std::process::ExitCode;
 
-use clap::{Parser, Subcommand};
-use luxbake_cli::{bake, catalogue, export, ies, measure};
+use clap::Parser;
 
 /// luxbake: physically based light maps, in lux, for rooms lit by IES/EULUMDAT lamps.
 #[derive(Parser)]
 #[command(name = "luxbake", version, about)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
-}
-
-#[derive(Subcommand)]
-enum Command {
-    /// Bake a scene's light maps (default: the built-in `chairs_05` into `./out`).
-    Bake(bake::Args),
-    /// Illuminance at calculation points (`x,y,z` rows) read back from a bake's light maps.
-    Measure(measure::Args),
-    /// Inspect a photometric file (IES LM-63 or EULUMDAT): header, symmetry, lumens, peak.
-    Ies(ies::Args),
-    /// Write a built-in scene (or a scene file) as glTF 2.0 binary (.glb) for other tools.
-    Export(export::Args),
-    /// Catalogue bakes: plan rooms × lamps × placements × qualities into a manifest, bake its
-    /// rows (one per batch task, or all locally), report their status.
-    Catalogue(catalogue::Args),
+    command: luxbake_cli::Command,
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
-    let result = match cli.command {
-        Command::Bake(args) => bake::run(&args),
-        Command::Measure(args) => measure::run(&args),
-        Command::Ies(args) => ies::run(&args),
-        Command::Export(args) => export::run(&args),
-        Command::Catalogue(args) => return catalogue::run(&args).unwrap_or_else(|f| f.report()),
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(message) => {
-            eprintln!("error: {message}");
-            ExitCode::FAILURE
-        }
-    }
+    Cli::parse().command.run()
 }

@@ -27,7 +27,7 @@ use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
 use super::{machine, open, result_path, timed_bake, utc_now, write};
-use crate::measure;
+use luxbake_cli::measure;
 
 /// Largest distance from a reference point to a baked surface, metres (`measure`'s default;
 /// the points sit 1 mm off their surface).

@@ -235,23 +235,14 @@ fn lamp_files(base: &Path, entries: &[String]) -> Result<Vec<(String, PathBuf)>,
     for entry in entries {
         let path = absolute(&base.join(entry)).map_err(|e| format!("lamps: {e}"))?;
         if path.is_dir() {
-            let mut found: Vec<PathBuf> = std::fs::read_dir(&path)
-                .map_err(|e| format!("lamps: {}: {e}", path.display()))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| {
-                    p.is_file()
-                        && p.extension().is_some_and(|x| {
-                            x.eq_ignore_ascii_case("ies") || x.eq_ignore_ascii_case("ldt")
-                        })
-                })
-                .collect();
+            let found = crate::bake::photometric_files_in(&path)
+                .map_err(|e| format!("lamps: {}: {e}", path.display()))?;
             if found.is_empty() {
                 return Err(format!(
                     "lamps: {} holds no .ies or .ldt file",
                     path.display()
                 ));
             }
-            found.sort();
             files.extend(found);
         } else {
             files.push(path);
