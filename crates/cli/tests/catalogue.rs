@@ -436,17 +436,27 @@ fn broken_rooms_fail_alone_with_their_records() {
     std::fs::write(dir.join("gltf.toml"), scene("broken.glb")).expect("scene");
     std::fs::write(dir.join("missing.toml"), scene("gone.glb")).expect("scene");
     std::fs::write(dir.join("toml.toml"), "[[lamp]\nies = ").expect("scene");
+    // Loads, but its maps cannot fit any backend's textures: the bake refuses it every time.
+    let huge = "[[lamp]]\nies = \"isotropic:100\"\nposition = [0, 2, 0]\n\
+                [[object]]\nprimitive = \"plane\"\nsize = [5000, 5000]\n";
+    std::fs::write(dir.join("huge.toml"), huge).expect("scene");
     let catalogue = format!(
         "qualities = [\"draft\"]\nlamps = [{:?}]\n[settings]\ntexels_per_metre = 8\n\
          [[room]]\nscene = \"gltf.toml\"\n[[room]]\nscene = \"missing.toml\"\n\
-         [[room]]\nscene = \"toml.toml\"\n[[room]]\nbuiltin = \"floor\"\n",
+         [[room]]\nscene = \"toml.toml\"\n[[room]]\nscene = \"huge.toml\"\n\
+         [[room]]\nbuiltin = \"floor\"\n",
         lamps[0].display().to_string()
     );
     std::fs::write(dir.join("catalogue.toml"), catalogue).expect("catalogue");
     let manifest = dir.join("manifest.jsonl");
-    assert_eq!(plan(&dir.join("catalogue.toml"), &manifest), 4);
+    assert_eq!(plan(&dir.join("catalogue.toml"), &manifest), 5);
     let out = dir.join("out");
-    for (i, needle) in [(0, "broken.glb"), (1, "gone.glb"), (2, "toml.toml")] {
+    for (i, needle) in [
+        (0, "broken.glb"),
+        (1, "gone.glb"),
+        (2, "toml.toml"),
+        (3, "bake: "),
+    ] {
         let o = output(&[
             "catalogue",
             "run",
@@ -466,20 +476,20 @@ fn broken_rooms_fail_alone_with_their_records() {
     let o = luxbake()
         .args(["catalogue", "run", &manifest.display().to_string(), "--out"])
         .arg(&out)
-        .env("SLURM_ARRAY_TASK_ID", "3")
+        .env("SLURM_ARRAY_TASK_ID", "4")
         .output()
         .expect("run");
     assert!(o.status.success(), "{}", text(&o.stderr));
     assert!(
-        text(&o.stdout).starts_with("row 3 baked "),
+        text(&o.stdout).starts_with("row 4 baked "),
         "{}",
         text(&o.stdout)
     );
     let s = status_json(&manifest, &out);
     assert_eq!(
         (s["done"].clone(), s["missing"].clone()),
-        (serde_json::json!([3]), serde_json::json!([]))
+        (serde_json::json!([4]), serde_json::json!([]))
     );
-    assert_eq!(s["failed"].as_array().map(Vec::len), Some(3), "{s}");
+    assert_eq!(s["failed"].as_array().map(Vec::len), Some(4), "{s}");
     std::fs::remove_dir_all(&dir).ok();
 }

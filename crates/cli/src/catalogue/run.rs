@@ -5,7 +5,7 @@ use std::path::{Component, Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use luxbake::bake::bake;
+use luxbake::bake::{BakeError, bake};
 use luxbake::scene::{Lamp, Scene};
 use luxbake::sources::scenefile::{from_file_patched, read_photometry};
 use luxbake_backends::BackendKind;
@@ -88,8 +88,14 @@ pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
         Err(message) => return Err(record_error(row, out, &message)),
     };
     let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
-    let output =
-        bake(&mut backend, &scene, &scene.settings, &mut |_| {}).map_err(|e| retry("bake", &e))?;
+    let output = match bake(&mut backend, &scene, &scene.settings, &mut |_| {}) {
+        Ok(output) => output,
+        // What the host work refuses (a setting out of range, maps over the backend's
+        // limits, a BVH that cannot be built) fails the same way on every try: the row's
+        // inputs are at fault, as for a file that does not load.
+        Err(BakeError::Prepare(e)) => return Err(record_error(row, out, &format!("bake: {e}"))),
+        Err(e) => return Err(retry("bake", &e)),
+    };
     let temp = out.join(format!(
         "{TEMP_PREFIX}{}-{}-{}",
         row.key,
