@@ -177,6 +177,7 @@ fn bake_room_inner<B: GpuBackend>(
             u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
                 .unwrap_or(u32::MAX),
         ),
+        luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
     });
     graph.validate()?;
 

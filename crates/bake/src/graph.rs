@@ -303,6 +303,10 @@ pub struct GraphConfig {
     /// Points of a lamp's luminous opening per texel near it, and how many of the lamps have
     /// an opening ([`DirectParams::samples`], [`DirectParams::openings`]).
     pub openings: (u32, u32),
+    /// [`Method::Converged`]: the denoiser's and refinement's power of two for luminances
+    /// ([`AtrousConfig::luminance_scale`], [`crate::program::luminance_scale_for`]); 1:
+    /// unscaled.
+    pub luminance_scale: f32,
 }
 
 /// The bake's textures and passes, in execution order.
@@ -789,6 +793,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         ];
         let denoise = AtrousConfig {
             texel_size: config.texel_size,
+            luminance_scale: config.luminance_scale,
             ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
@@ -833,6 +838,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                         Params::Variance(VarianceParams {
                             reach: denoise.reach(),
                             min_pairs: ATROUS_MIN_PAIRS,
+                            luminance_scale: denoise.luminance_scale(),
                             ..VarianceParams::default()
                         }),
                     );
@@ -1215,6 +1221,7 @@ mod tests {
             lamp_paths: (0, 0.0),
             lamp_path_count: 0,
             openings: (0, 0),
+            luminance_scale: 1.0,
         }
     }
 
@@ -1389,6 +1396,7 @@ mod tests {
             lamp_paths: (4, 0.5),
             lamp_path_count: 100,
             openings: (0, 0),
+            luminance_scale: 1.0,
             ..converged(2, Blur::Sigma(1.5))
         });
         let reduced = BakeGraph::build(&GraphConfig {
@@ -1508,6 +1516,7 @@ mod tests {
             lamp_paths: (4, 0.5),
             lamp_path_count: 1000,
             openings: (0, 0),
+            luminance_scale: 1.0,
             ..config(3, Blur::Sigma(1.0))
         };
         let g = BakeGraph::build(&config);

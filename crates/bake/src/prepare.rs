@@ -375,6 +375,22 @@ pub struct Lamps {
 }
 
 impl Lamps {
+    /// The used lamps' peak intensities, each weighted by the luminance of its colour and
+    /// multiplier, summed: candela, the illuminance in lux they could give at 1 m (what
+    /// [`crate::program::luminance_scale_for`] sizes the denoiser's arithmetic by).
+    pub fn peak_candela(&self) -> f64 {
+        self.params
+            .iter()
+            .map(|l| {
+                let peak = self
+                    .tables
+                    .get(l.table as usize)
+                    .map_or(0.0, |t| t.values.iter().fold(0.0f32, |m, &v| m.max(v)));
+                f64::from(crate::exact::luminance(l.scale)) * f64::from(peak)
+            })
+            .sum()
+    }
+
     /// Runs the lamps' host nodes for `lamps` (already placed in the room,
     /// [`Room::place_lamps`]) and `settings`.
     pub fn prepare(

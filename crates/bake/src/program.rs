@@ -112,6 +112,13 @@ pub struct AtrousConfig {
     pub early_iterations: u32,
     /// Width of the luminance term of the first [`AtrousConfig::early_iterations`].
     pub early_sigma_luminance: f32,
+    /// A power of two the variance pass multiplies every luminance by, and the à-trous
+    /// iterations every luminance difference, before squaring: the lux of a lamp of 10³⁰ cd
+    /// would square past f32's 3.4·10³⁸, and an infinite variance turns the luminance term
+    /// off. [`luminance_scale_for`] picks it from the lamps; being a power of two it changes
+    /// no bit of the result where nothing overflows (`Δl²/σ²` is the same quotient), and 1
+    /// is the unscaled filter.
+    pub luminance_scale: f32,
 }
 
 impl AtrousConfig {
@@ -127,6 +134,7 @@ impl AtrousConfig {
             sigma_luminance: ATROUS_SIGMA_LUMINANCE,
             early_iterations: ATROUS_EARLY_ITERATIONS,
             early_sigma_luminance: ATROUS_EARLY_SIGMA_LUMINANCE,
+            luminance_scale: 1.0,
         }
     }
 
@@ -136,12 +144,31 @@ impl AtrousConfig {
         finite_or_zero(self.texel_size[1] * self.chart_tolerance)
     }
 
+    /// [`AtrousConfig::luminance_scale`] when it is a usable scale (finite, > 0), else 1.
+    pub fn luminance_scale(&self) -> f32 {
+        let s = self.luminance_scale;
+        if s.is_finite() && s > 0.0 { s } else { 1.0 }
+    }
+
     /// Nearest a tap on the centre's chart lies per texel of offset beyond the first two:
     /// smallest texel size / chart tolerance, metres (0 when not finite and ≥ 0: no lower
     /// bound).
     pub fn reach_min(&self) -> f32 {
         finite_or_zero(self.texel_size[0] / self.chart_tolerance)
     }
+}
+
+/// [`AtrousConfig::luminance_scale`] for lamps whose luminance-weighted peak intensities sum
+/// to `peak_cd` (candela; the illuminance they give at 1 m, in lux): the power of two nearest
+/// `1 / peak_cd`, within `2^±96`, so a map's luminances come out near 1 at a metre from the
+/// lamps and their squares stay far inside f32 from a millimetre to kilometres away. 1 when
+/// `peak_cd` is not finite and positive.
+pub fn luminance_scale_for(peak_cd: f64) -> f32 {
+    if !(peak_cd.is_finite() && peak_cd > 0.0) {
+        return 1.0;
+    }
+    let e = (-peak_cd.log2()).round().clamp(-96.0, 96.0) as i32;
+    2f32.powi(e)
 }
 
 fn finite_or_zero(v: f32) -> f32 {
@@ -244,11 +271,13 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         };
         f64::from(s) * f64::from(s)
     };
+    let luminance_scale = config.luminance_scale();
     let mut steps = vec![(
         Program::Variance,
         Params::Variance(VarianceParams {
             reach,
             min_pairs: ATROUS_MIN_PAIRS,
+            luminance_scale,
             ..VarianceParams::default()
         }),
     )];
@@ -261,6 +290,7 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
                 reach_min,
                 normal_log2: config.normal_log2,
                 variance_scale: (sigma2(i) * b3_noise_factor(i)) as f32,
+                luminance_scale,
                 ..AtrousParams::default()
             }),
         )
@@ -371,6 +401,32 @@ mod tests {
         assert!(Program::Blur.takes(&Params::Blur(b)));
         assert!(!Program::Gather.takes(&Params::Blur(b)));
         assert!(Program::Copy.takes(&Params::None));
+    }
+
+    #[test]
+    fn the_luminance_scale_is_the_power_of_two_nearest_one_over_the_peak() {
+        assert_eq!(luminance_scale_for(1.0), 1.0);
+        assert_eq!(luminance_scale_for(1000.0), 2f32.powi(-10));
+        // log2(10³⁰) ≈ 99.7: clamped to 2⁻⁹⁶.
+        assert_eq!(luminance_scale_for(1e30), 2f32.powi(-96));
+        assert_eq!(luminance_scale_for(1e-3), 2f32.powi(10));
+        assert_eq!(luminance_scale_for(1e300), 2f32.powi(-96));
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert_eq!(luminance_scale_for(bad), 1.0, "{bad}");
+        }
+        // An unusable configured scale falls back to 1; the steps carry the usable one.
+        let mut config = AtrousConfig::new(2, 0.04);
+        for (bad, want) in [(0.0, 1.0), (f32::NAN, 1.0), (-2.0, 1.0), (0.25, 0.25)] {
+            config.luminance_scale = bad;
+            assert_eq!(config.luminance_scale(), want);
+            for (_, params) in atrous_steps(&config) {
+                match params {
+                    Params::Variance(v) => assert_eq!(v.luminance_scale, want),
+                    Params::Atrous(a) => assert_eq!(a.luminance_scale, want),
+                    other => panic!("{other:?}"),
+                }
+            }
+        }
     }
 
     #[test]

@@ -5,7 +5,8 @@
 // taken relative to the centre, which is itself a tap: a constant field is returned exactly.
 // Parameters (program::AtrousParams): u_step = 2^i; u_reach, u_reach_min: the chart test's
 // farthest and nearest distance per texel of offset, metres; u_normal_log2: the cosine's exponent is 2^u_normal_log2; u_variance_scale =
-// sigma_l^2 x the noise factor of the iterations before.
+// sigma_l^2 x the noise factor of the iterations before; u_luminance_scale: the variance
+// pass's power of two, applied to the luminance differences.
 
 float luxB3(int i) {
     return i == 0 ? 0.375 : (i == 1 || i == -1 ? 0.25 : 0.0625);
@@ -44,7 +45,7 @@ vec4 luxRun(ivec3 c) {
                 wn *= wn;
             }
             vec3 d = t.rgb - centre.rgb;
-            float dl = luxLuminance(d);
+            float dl = luxLuminance(d) * u_luminance_scale;
             float wl;
             if (dl == 0.0) {
                 wl = 1.0;

@@ -43,7 +43,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
                 wn *= wn;
             }
             let d = t.rgb - centre.rgb;
-            let dl = lux_luminance(d);
+            let dl = lux_luminance(d) * lux_pass.luminance_scale;
             var wl: f32;
             if (dl == 0.0) {
                 wl = 1.0;

@@ -51,7 +51,7 @@ pub(crate) fn atrous_texel(
                 wn *= wn;
             }
             let d = [t[0] - c[0], t[1] - c[1], t[2] - c[2]];
-            let dl = luminance(d);
+            let dl = luminance(d) * params.luminance_scale;
             let wl = if dl == 0.0 {
                 1.0
             } else if scale > 0.0 {

@@ -28,8 +28,10 @@ param_block! {
         /// ([`AtrousConfig::sigma_luminance`](crate::program::AtrousConfig::sigma_luminance),
         /// [`b3_noise_factor`](crate::program::b3_noise_factor)).
         variance_scale: f32,
-        /// Padding.
-        pad0: u32,
+        /// The variance pass's power of two: luminance differences are multiplied by it
+        /// before they are compared with the variance
+        /// ([`AtrousConfig::luminance_scale`](crate::program::AtrousConfig::luminance_scale)).
+        luminance_scale: f32,
         /// Padding.
         pad1: u32,
         /// Padding.

@@ -31,7 +31,9 @@ pub(crate) fn variance_texel(maps: [View<'_>; 3], params: VarianceParams, at: Te
     for (k, w) in window.iter_mut().enumerate() {
         let o = [k as i64 % 5 - 2, k as i64 / 5 - 2];
         *w = match guide.tap(o) {
-            Some((t, cos)) if cos >= BLUR_NORMAL_COS => Some(luminance(xyz(t))),
+            Some((t, cos)) if cos >= BLUR_NORMAL_COS => {
+                Some(luminance(xyz(t)) * params.luminance_scale)
+            }
             _ => None,
         };
     }

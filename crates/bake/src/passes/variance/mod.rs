@@ -22,8 +22,10 @@ param_block! {
         /// Fewest texel pairs a direction needs to give an estimate
         /// ([`ATROUS_MIN_PAIRS`](crate::program::ATROUS_MIN_PAIRS)).
         min_pairs: u32,
-        /// Padding.
-        pad0: u32,
+        /// A power of two the luminances are multiplied by before their differences are
+        /// squared ([`AtrousConfig::luminance_scale`](crate::program::AtrousConfig::luminance_scale)):
+        /// the variance and the mean come out in those units.
+        luminance_scale: f32,
         /// Padding.
         pad1: u32,
     }

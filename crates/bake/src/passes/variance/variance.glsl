@@ -7,7 +7,8 @@
 // then with the centre left out -- refinement's decision must not depend on the centre's own
 // noise -- the mean luminance of the taps and their variance, 1).
 // Parameters (program::VarianceParams): u_reach = the chart test's farthest distance per
-// texel of offset, metres; u_min_pairs.
+// texel of offset, metres; u_min_pairs; u_luminance_scale, a power of two every luminance is
+// multiplied by first (its squares stay inside f32; the output is in those units).
 
 // The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
 float luxWindowVariance(float lum[25], bool ok[25]) {
@@ -57,7 +58,7 @@ vec4 luxRun(ivec3 c) {
         float cosine;
         ok[k] = luxTap(g, ivec2(k % 5 - 2, k / 5 - 2), t, cosine)
             && cosine >= LUX_BLUR_NORMAL_COS;
-        lum[k] = ok[k] ? luxLuminance(t.rgb) : 0.0;
+        lum[k] = ok[k] ? luxLuminance(t.rgb) * u_luminance_scale : 0.0;
     }
     float withCentre = luxWindowVariance(lum, ok);
     ok[12] = false;

@@ -56,7 +56,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         var cosine: f32;
         ok[k] = lux_tap(g, vec2<i32>(k % 5 - 2, k / 5 - 2), &t, &cosine)
             && cosine >= LUX_BLUR_NORMAL_COS;
-        lum[k] = select(0.0, lux_luminance(t.rgb), ok[k]);
+        lum[k] = select(0.0, lux_luminance(t.rgb) * lux_pass.luminance_scale, ok[k]);
     }
     let with_centre = lux_window_variance(lum, ok);
     ok[12] = false;
