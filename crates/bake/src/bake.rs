@@ -102,7 +102,50 @@ pub fn bake_room<B: GpuBackend>(
     settings: &Settings,
     progress: &mut dyn FnMut(&Progress<'_>),
 ) -> Result<BakeOutput, BakeError<B::Error>> {
-    bake_room_inner(backend, room, lamps, settings, progress, None)
+    bake_room_reading(
+        backend,
+        room,
+        lamps,
+        settings,
+        ReadBack::ALL,
+        progress,
+        None,
+    )
+}
+
+/// The Figure 5 stages a bake reads back from the backend at its end; the others stay `None`
+/// in its [`ObjectMaps`]. Each stage is one RGBA f32 texture array: on a GPU, reading back
+/// what nobody shows is the bake's largest transfer (8 stages ≈ 128 bytes per texel of the
+/// layout), and in a browser it is where WebGL's deferred work waits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReadBack([bool; 8]);
+
+impl ReadBack {
+    /// Every stage the graph computes (what [`bake()`] and [`bake_room`] read).
+    pub const ALL: ReadBack = ReadBack([true; 8]);
+    /// What a viewer shows: the final illuminance and the blurred direct illuminance
+    /// (stages 7 and 3, [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`], exactly as
+    /// [`ReadBack::ALL`] reads them): a quarter of its bytes.
+    pub const LIGHT: ReadBack = ReadBack([false, false, true, false, false, false, true, false]);
+
+    /// Whether stage `index` (0-based, [`crate::graph::Figure5::NAMES`]) is read back.
+    pub fn reads(self, index: usize) -> bool {
+        self.0.get(index).copied().unwrap_or(false)
+    }
+}
+
+/// [`bake_room`] reading back only the stages `read_back` names, and with `direct`, handing
+/// the direct light to it as soon as it exists ([`bake_room_direct_first`]).
+pub fn bake_room_reading<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    lamps: &[Lamp],
+    settings: &Settings,
+    read_back: ReadBack,
+    progress: &mut dyn FnMut(&Progress<'_>),
+    direct: Option<OnDirect<'_>>,
+) -> Result<BakeOutput, BakeError<B::Error>> {
+    bake_room_inner(backend, room, lamps, settings, read_back, progress, direct)
 }
 
 /// [`bake_room`], handing the direct light to `direct` as soon as it exists: per receiver,
@@ -117,7 +160,15 @@ pub fn bake_room_direct_first<B: GpuBackend>(
     progress: &mut dyn FnMut(&Progress<'_>),
     direct: &mut dyn FnMut(&[ObjectMaps]),
 ) -> Result<BakeOutput, BakeError<B::Error>> {
-    bake_room_inner(backend, room, lamps, settings, progress, Some(direct))
+    bake_room_inner(
+        backend,
+        room,
+        lamps,
+        settings,
+        ReadBack::ALL,
+        progress,
+        Some(direct),
+    )
 }
 
 fn bake_room_inner<B: GpuBackend>(
@@ -125,6 +176,7 @@ fn bake_room_inner<B: GpuBackend>(
     room: &Room,
     lamps: &[Lamp],
     settings: &Settings,
+    read_back: ReadBack,
     progress: &mut dyn FnMut(&Progress<'_>),
     direct: Option<OnDirect<'_>>,
 ) -> Result<BakeOutput, BakeError<B::Error>> {
@@ -186,7 +238,7 @@ fn bake_room_inner<B: GpuBackend>(
         execute::run(backend, (room, &lamps), &graph, settings, progress, direct).map_err(be)?;
     progress(&Progress::Setup("read back"));
     let t = Instant::now();
-    let maps = execute::collect(backend, room, &graph, &run.textures).map_err(be)?;
+    let maps = execute::collect(backend, room, &graph, &run.textures, read_back).map_err(be)?;
     // The maps are on the host: the backend frees the bake's textures and scene, and keeps
     // what it compiled for the next bake.
     backend.release().map_err(be)?;

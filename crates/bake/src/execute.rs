@@ -25,6 +25,7 @@ use web_time::Instant;
 use rayon::prelude::*;
 
 use crate::backend::{Dispatch, GpuBackend, SceneData};
+use crate::bake::ReadBack;
 use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId};
 use crate::layout::Region;
 use crate::map::MapImage;
@@ -395,7 +396,8 @@ pub(crate) fn run<B: GpuBackend>(
     })
 }
 
-/// Reads the Figure 5 stages back and crops each receiver's maps, one stage at a time: its
+/// Reads the Figure 5 stages `read_back` names back and crops each receiver's maps, one
+/// stage at a time: its
 /// layers read back, every object's region cropped (in parallel), the layers dropped before
 /// the next stage's are read.
 pub(crate) fn collect<B: GpuBackend>(
@@ -403,12 +405,14 @@ pub(crate) fn collect<B: GpuBackend>(
     room: &Room,
     graph: &BakeGraph,
     textures: &[B::Texture],
+    read_back: ReadBack,
 ) -> Result<Vec<ObjectMaps>, B::Error> {
     let stages: Vec<(usize, TexId)> = graph
         .figure5
         .stages
         .iter()
         .enumerate()
+        .filter(|&(i, _)| read_back.reads(i))
         .filter_map(|(i, t)| Some((i, (*t)?)))
         .collect();
     collect_stages(backend, room, textures, &stages)

@@ -7,7 +7,7 @@ mod common;
 
 use std::sync::Arc;
 
-use luxbake::bake::{BakeError, BakeOutput, Room, bake_room};
+use luxbake::bake::{BakeError, BakeOutput, ReadBack, Room, bake_room, bake_room_reading};
 use luxbake::graph::PassKind;
 use luxbake::prepare::PrepareError;
 use luxbake::scene::{Lamp, Scene, Settings};
@@ -245,4 +245,53 @@ fn progress_follows_the_work_and_the_direct_light_comes_first() {
     let jump = work.windows(2).map(|w| w[1] - w[0]).fold(work[0], f32::max);
     assert!(jump < 0.35, "largest step {jump}: {work:?}");
     assert!(out.report.bounces_run < scene.settings.bounces);
+}
+
+#[test]
+fn reading_back_the_light_only_gives_the_same_illuminance_and_direct_light() {
+    let scene = small_room();
+    let room = prepare(&scene);
+    let mut backend = CpuBackend::new();
+    let all = bake_room(
+        &mut backend,
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |_| {},
+    )
+    .expect("all stages");
+    let mut early = 0;
+    let light = bake_room_reading(
+        &mut backend,
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        ReadBack::LIGHT,
+        &mut |_| {},
+        Some(&mut |_: &[luxbake::bake::ObjectMaps]| early += 1),
+    )
+    .expect("light only");
+    assert_eq!(early, 1, "the direct light is still handed over first");
+    assert!(all.report.bounces_run > 0);
+    assert_eq!(light.maps.len(), all.maps.len());
+    let bits =
+        |m: &luxbake::map::MapImage| m.texels.iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+    for (l, a) in light.maps.iter().zip(&all.maps) {
+        for (i, (ls, als)) in l.stages.iter().zip(&a.stages).enumerate() {
+            assert!(als.is_some(), "{}: stage {i} was computed", a.name);
+            assert_eq!(
+                ls.is_some(),
+                ReadBack::LIGHT.reads(i),
+                "{}: stage {i}",
+                l.name
+            );
+        }
+        assert!(
+            l.illuminance().texels.iter().any(|&v| v > 0.0),
+            "{}",
+            l.name
+        );
+        assert_eq!(bits(l.illuminance()), bits(a.illuminance()), "{}", l.name);
+        assert_eq!(bits(l.direct()), bits(a.direct()), "{}", l.name);
+    }
 }

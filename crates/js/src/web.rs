@@ -19,7 +19,7 @@ use luxbake::bake::ObjectMaps;
 use luxbake::layers::{LampLayers, LampState, LayerError, bake_layers};
 use luxbake::map::MapImage;
 use luxbake::scene::{Scene, Settings};
-use luxbake::{BakeOutput, Progress, Room};
+use luxbake::{BakeOutput, Progress, ReadBack, Room};
 use luxbake_backend_glow::{GlContext, GlowBackend};
 use serde::Deserialize;
 use serde_json::json;
@@ -706,26 +706,30 @@ impl Baker {
                 let out = layers.combine(&states).map_err(|e| layer_error(&e))?;
                 return Ok((out, Some(layers)));
             }
-            // Without a `direct` callback the direct light is not read back early.
+            // Without a `direct` callback the direct light is not read back early. The page
+            // shows the illuminance and the direct light: only those stages come back.
             let mut sent = Ok(());
-            let out = match direct {
-                Some(direct) => luxbake::bake_room_direct_first(
-                    &mut backend,
-                    room,
-                    &lamps,
-                    &settings,
-                    on_progress,
-                    &mut |maps: &[ObjectMaps]| {
-                        sent = objects_of(&imported, maps, &settings).map(|objects| {
-                            let event = js_sys::Object::new();
-                            let _ = set(&event, "objects", array_of(objects).into());
-                            // A throwing callback must not stop the bake.
-                            let _ = direct.call1(&JsValue::NULL, &event);
-                        });
-                    },
-                ),
-                None => luxbake::bake_room(&mut backend, room, &lamps, &settings, on_progress),
-            }
+            let mut on_direct = |maps: &[ObjectMaps]| {
+                if let Some(direct) = &direct {
+                    sent = objects_of(&imported, maps, &settings).map(|objects| {
+                        let event = js_sys::Object::new();
+                        let _ = set(&event, "objects", array_of(objects).into());
+                        // A throwing callback must not stop the bake.
+                        let _ = direct.call1(&JsValue::NULL, &event);
+                    });
+                }
+            };
+            let out = luxbake::bake_room_reading(
+                &mut backend,
+                room,
+                &lamps,
+                &settings,
+                ReadBack::LIGHT,
+                on_progress,
+                direct
+                    .is_some()
+                    .then_some(&mut on_direct as &mut dyn FnMut(&[ObjectMaps])),
+            )
             .map_err(gpu)?;
             sent?;
             Ok((out, None))
