@@ -5,10 +5,23 @@
 //! on each world-space triangle, in `f64`), and accepts it when the distance is within the
 //! tolerance. The light-map UV is the barycentric interpolation of the triangle's UVs at that
 //! closest point; the value is then read with the masked bilinear rule of [`crate::map`].
+//!
+//! [`direct_at`] computes the direct illuminance at the points themselves instead, as a
+//! lighting-calculation program does at its calculation points: the direct pass run on a
+//! G-buffer of the points (shadow rays, each lamp's model as a bake of the room chooses it,
+//! its luminous opening sampled with as many points as asked). A light map holds the direct
+//! light at its texels' centres and interpolates between them, which is off where the light
+//! bends within a texel — a luminaire's cut-off, the foot of a wall washer, a shadow edge;
+//! at a point the direct light has no such error.
 
 use glam::{DVec2, DVec3, Vec2};
 
-use crate::scene::Scene;
+use crate::backend::{GpuBackend, SceneData};
+use crate::bake::BakeError;
+use crate::graph::{TexDesc, TexFormat};
+use crate::prepare::{Lamps, Room};
+use crate::program::{DirectParams, Params, Program, TilePlan};
+use crate::scene::{Lamp, Scene, Settings};
 
 /// A point located on a receiving surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -111,6 +124,125 @@ pub fn locate(scene: &Scene, point: [f64; 3], tolerance: f64) -> Option<SurfaceP
         }
     }
     best
+}
+
+/// A calculation point of [`direct_at`]: a world position on a receiving surface and the
+/// unit normal of the side that receives the light.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CalcPoint {
+    /// World position, metres.
+    pub position: [f64; 3],
+    /// Unit normal (the receiving side).
+    pub normal: [f64; 3],
+}
+
+/// The direct illuminance, lux (RGB, before albedo), at each of `points` in the prepared
+/// `room` lit by `lamps`, computed by `backend`'s direct pass at the points (see the module
+/// docs) with `settings` and `opening_samples` points per luminous opening (the direct
+/// pass's rule: up to twice that near an opening, [`crate::opening::texel_samples`]). A
+/// point gets what a texel centred there with that normal would get; the lamps' models are
+/// those a bake of `room` under `lamps` with `settings` picks. Points are processed in
+/// batches that fit the backend's textures.
+pub fn direct_at<B: GpuBackend>(
+    backend: &mut B,
+    room: &Room,
+    lamps: &[Lamp],
+    settings: &Settings,
+    opening_samples: u32,
+    points: &[CalcPoint],
+) -> Result<Vec<[f32; 3]>, BakeError<B::Error>> {
+    let name = backend.name();
+    let be = |source| BakeError::Backend {
+        backend: name,
+        source,
+    };
+    // The traversal a bake of the room uses.
+    let bvh = if room.triangles <= crate::bake::BRUTE_FORCE_MAX_TRIANGLES {
+        crate::scene::BvhMode::None
+    } else {
+        settings.bvh
+    };
+    let direct_only = Settings {
+        bounces: 0,
+        opening_samples,
+        ..settings.clone()
+    };
+    let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only, &mut |_| {});
+    let params = Params::Direct(DirectParams {
+        lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
+        seed: settings.seed,
+        samples: opening_samples,
+        openings: u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
+            .unwrap_or(u32::MAX),
+    });
+    // As the room's geometry is moved back toward the origin, bit for bit.
+    let shift = room.shift.unwrap_or([0.0; 3]);
+    let width = backend.limits().max_texture_size.clamp(1, 4096) as usize;
+    let mut out = Vec::with_capacity(points.len());
+    for batch in points.chunks(width * width) {
+        let size = [
+            batch.len().min(width) as u32,
+            batch.len().div_ceil(width) as u32,
+        ];
+        let texels = size[0] as usize * size[1] as usize;
+        let (mut position, mut normal) = (vec![0.0f32; 4 * texels], vec![0.0f32; 4 * texels]);
+        for (i, p) in batch.iter().enumerate() {
+            let at = [0, 1, 2].map(|c| (p.position[c] + -shift[c]) as f32);
+            position[4 * i..4 * i + 4].copy_from_slice(&[at[0], at[1], at[2], 1.0]);
+            let n = p.normal.map(|c| c as f32);
+            normal[4 * i..4 * i + 4].copy_from_slice(&[n[0], n[1], n[2], 0.0]);
+        }
+        let desc = |label| TexDesc {
+            label,
+            size,
+            layers: 1,
+            format: TexFormat::Rgba32F,
+        };
+        let run = |backend: &mut B| -> Result<Vec<f32>, B::Error> {
+            let textures = [
+                backend.create_texture(&desc("position"))?,
+                backend.create_texture(&desc("normal"))?,
+                backend.create_texture(&desc("direct"))?,
+            ];
+            backend.upload(&textures[0], 0, &position)?;
+            backend.upload(&textures[1], 0, &normal)?;
+            let scene = backend.upload_scene(&SceneData {
+                bvh: &room.bvh,
+                lamps: &lamps.params,
+                ies_tables: &lamps.tables,
+                regions: &[],
+                layer_size: size,
+                layers: 1,
+                ray_epsilon: room.ray_epsilon,
+                lamp_paths: &[],
+            })?;
+            let words = params.words();
+            let plan = TilePlan::new(size, 1, params.work_per_texel(), backend.tile_work());
+            for tile in plan.tiles() {
+                backend.dispatch(&crate::backend::Dispatch {
+                    label: "direct at points",
+                    program: Program::Direct,
+                    bvh,
+                    reads: &[&textures[0], &textures[1]],
+                    write: &textures[2],
+                    scene: &scene,
+                    params: &words,
+                    tile,
+                })?;
+            }
+            let texels = backend.read_back(&textures[2], 0)?;
+            backend.release()?;
+            Ok(texels)
+        };
+        let texels = run(backend).map_err(be)?;
+        out.extend(
+            texels
+                .chunks_exact(4)
+                .take(batch.len())
+                .map(|t| [t[0], t[1], t[2]]),
+        );
+    }
+    Ok(out)
 }
 
 #[cfg(test)]
