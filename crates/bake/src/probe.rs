@@ -14,7 +14,7 @@
 //! bends within a texel — a luminaire's cut-off, the foot of a wall washer, a shadow edge;
 //! at a point the direct light has no such error.
 
-use glam::{DVec2, DVec3, Vec2};
+use glam::{DVec2, DVec3, Vec2, Vec3};
 
 use crate::backend::{GpuBackend, SceneData};
 use crate::bake::BakeError;
@@ -32,6 +32,12 @@ pub struct SurfacePoint {
     pub uv: [f32; 2],
     /// Distance from the query point to the surface, metres.
     pub distance: f64,
+    /// The closest point of the surface, world, metres.
+    pub position: [f64; 3],
+    /// The surface's unit normal there, world: the vertex normals interpolated and
+    /// transformed as the G-buffer does; the face's own (counter-clockwise front) where they
+    /// cancel.
+    pub normal: [f64; 3],
 }
 
 /// Barycentric weights `(w0, w1, w2)` of the point of triangle `abc` closest to `p`
@@ -116,10 +122,24 @@ pub fn locate(scene: &Scene, point: [f64; 3], tolerance: f64) -> Option<SurfaceP
             let uv = (uvs[0] * w.x + uvs[1] * w.y + uvs[2] * w.z)
                 .as_vec2()
                 .to_array();
+            let shading = idx.map(|i| {
+                m.normals
+                    .get(i)
+                    .map_or(DVec3::ZERO, |n| Vec3::from(*n).as_dvec3())
+            });
+            let n = shading[0] * w.x + shading[1] * w.y + shading[2] * w.z;
+            let face = (b - a).cross(c - a);
+            let normal = obj
+                .transform
+                .normal_f64(n.to_array())
+                .or_else(|| face.try_normalize().map(|v| v.to_array()))
+                .unwrap_or([0.0, 0.0, 0.0]);
             best = Some(SurfacePoint {
                 object: o,
                 uv,
                 distance: d,
+                position: (a * w.x + b * w.y + c * w.z).to_array(),
+                normal,
             });
         }
     }

@@ -12,15 +12,27 @@
 //! precision), so every magnitude keeps its significant digits: a scene at 1000 × scale
 //! (E ≈ 2·10⁻⁵ lx) as well as one in metres. A point on no baked surface is an error naming
 //! its row.
+//!
+//! `--direct-at-points` adds two columns, `direct_at_point_lux` and `total_at_point_lux`: the
+//! direct light computed at each point itself (`luxbake::probe::direct_at` on the CPU: the
+//! bake's lamps, their models and opening samples, shadow rays from the located surface
+//! point along its normal), and that plus the maps' indirect part. A lighting-calculation
+//! program computes its points so; a light map holds texel centres and interpolates, which is
+//! off where the light bends within a texel (a luminaire's cut-off, the foot of a wall
+//! washer). The bake's lamps must be the scene file's (a bake with `--lamp` files is refused:
+//! its manifest does not keep the photometric files).
 
 use std::collections::HashMap;
 use std::collections::hash_map::Entry;
 use std::path::{Path, PathBuf};
 
+use luxbake::GpuBackend;
+use luxbake::bake::Room;
 use luxbake::map::MapImage;
-use luxbake::probe::{SurfacePoint, locate};
+use luxbake::probe::{CalcPoint, SurfacePoint, direct_at, locate};
 use luxbake::scene::{Scene, SettingsPatch};
 use luxbake::sources::scenefile::from_file_patched;
+use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 use luxbake_output::read_exr;
 use serde_json::Value;
@@ -36,6 +48,10 @@ pub struct Args {
     /// Largest distance from a point to a baked surface, metres.
     #[arg(long, default_value_t = 0.01)]
     tolerance: f64,
+    /// Also compute the direct light at each point itself (columns `direct_at_point_lux`,
+    /// `total_at_point_lux`; see the command's docs).
+    #[arg(long)]
+    direct_at_points: bool,
 }
 
 /// The rows of a comma-separated text: `(line number, trimmed line, trimmed fields)`, blank
@@ -220,10 +236,95 @@ pub fn csv(rows: &[Row]) -> String {
     out
 }
 
+/// The direct illuminance, lux (Rec. 709 luminance), computed at each of `points` in the
+/// bake in `dir` (`--direct-at-points`, see the module docs).
+pub fn direct_at_points(
+    dir: &Path,
+    points: &[(usize, [f64; 3])],
+    label: &str,
+    tolerance: f64,
+) -> Result<Vec<f64>, String> {
+    let manifest_path = dir.join("manifest.json");
+    let text = read_text(&manifest_path)?;
+    let manifest: Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    let scene = rebuild_scene(&manifest)?;
+    same_lamps(&manifest, &scene)?;
+    let located = locate_points(&scene, points, label, tolerance)?;
+    let calc: Vec<CalcPoint> = located
+        .iter()
+        .map(|sp| CalcPoint {
+            position: sp.position,
+            normal: sp.normal,
+        })
+        .collect();
+    let mut backend = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
+    let settings = &scene.settings;
+    let room = Room::prepare(&scene, settings, backend.limits(), &mut |_| {})
+        .map_err(|e| e.to_string())?;
+    let lux = direct_at(
+        &mut backend,
+        &room,
+        &scene.lamps,
+        settings,
+        settings.opening_samples,
+        &calc,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok(lux.iter().map(|&e| f64::from(luminance(e))).collect())
+}
+
+/// Checks that the rebuilt scene's lamps are the baked ones (names, positions, multipliers
+/// and colours as the manifest lists them).
+fn same_lamps(manifest: &Value, scene: &Scene) -> Result<(), String> {
+    let baked = manifest["lamps"]
+        .as_array()
+        .ok_or("manifest: lamps missing")?;
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let same = baked.len() == scene.lamps.len()
+        && baked.iter().zip(&scene.lamps).all(|(b, l)| {
+            b["name"].as_str() == Some(l.name.as_str())
+                && (0..3).all(|c| f(&b["position"][c]) == l.position[c])
+                && f(&b["multiplier"]) == f64::from(l.multiplier)
+                && (0..3).all(|c| f(&b["color"][c]) == f64::from(l.color[c]))
+        });
+    if same {
+        Ok(())
+    } else {
+        Err(
+            "--direct-at-points: the bake's lamps are not its scene's (baked with --lamp files, \
+             whose photometry the manifest does not keep); measure it without the flag"
+                .to_string(),
+        )
+    }
+}
+
+/// The CSV of `rows` with the columns of `--direct-at-points`: `at_point[i]` the direct lux
+/// computed at row `i`'s point.
+pub fn csv_at_points(rows: &[Row], at_point: &[f64]) -> String {
+    let mut out = String::from(
+        "x,y,z,direct_lux,indirect_lux,total_lux,direct_at_point_lux,total_at_point_lux\n",
+    );
+    for ((p, e), &d) in rows.iter().zip(at_point) {
+        let [dm, i, t] = e.map(lux);
+        let (da, ta) = (lux(d), lux(d + e[1]));
+        out += &format!("{},{},{},{dm},{i},{t},{da},{ta}\n", p[0], p[1], p[2]);
+    }
+    out
+}
+
 /// Runs the measurement and prints the CSV; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
     let rows = measure(&args.dir, &args.points, args.tolerance)?;
-    print!("{}", csv(&rows));
+    if args.direct_at_points {
+        let text = read_text(&args.points)?;
+        let points = parse_points(&text).map_err(|e| format!("{}: {e}", args.points.display()))?;
+        let label = args.points.display().to_string();
+        let at = direct_at_points(&args.dir, &points, &label, args.tolerance)?;
+        print!("{}", csv_at_points(&rows, &at));
+    } else {
+        print!("{}", csv(&rows));
+    }
     Ok(())
 }
 
@@ -326,6 +427,27 @@ mod tests {
             assert!((t - want).abs() / want < 0.005, "{p:?}: {t} vs {want}");
             assert_eq!((d, i), (t, 0.0));
         }
+        // At the points themselves (between texels): the closed form to f32's precision.
+        let parsed = parse_points("3,0,4\n-5,0,2.5\n").expect("parse");
+        let at = direct_at_points(&dir, &parsed, "points", 0.01).expect("at points");
+        for ((_, p), e) in parsed.iter().zip(&at) {
+            let want = 1000.0 * 2.0 / (4.0 + p[0] * p[0] + p[2] * p[2]).powf(1.5);
+            assert!((e - want).abs() / want < 1e-5, "{p:?}: {e} vs {want}");
+        }
+        let text = csv_at_points(&measure(&dir, &points, 0.01).expect("measure"), &at);
+        assert!(text.starts_with(
+            "x,y,z,direct_lux,indirect_lux,total_lux,direct_at_point_lux,total_at_point_lux\n"
+        ));
+        assert_eq!(text.lines().count(), 3);
+        // A bake whose lamps are not its scene's is refused.
+        let manifest_path = dir.join("manifest.json");
+        let original = std::fs::read_to_string(&manifest_path).expect("manifest");
+        let mut m: Value = serde_json::from_str(&original).expect("json");
+        m["lamps"][0]["position"][1] = Value::from(2.5);
+        std::fs::write(&manifest_path, m.to_string()).expect("write");
+        let err = direct_at_points(&dir, &parsed, "points", 0.01).unwrap_err();
+        assert!(err.contains("--lamp"), "{err}");
+        std::fs::write(&manifest_path, original).expect("restore");
         std::fs::write(&points, "0,1,0\n").expect("points");
         let err = measure(&dir, &points, 0.01).unwrap_err();
         assert!(
