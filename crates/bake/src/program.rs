@@ -115,9 +115,9 @@ pub struct AtrousConfig {
     /// A power of two the variance pass multiplies every luminance by, and the à-trous
     /// iterations every luminance difference, before squaring: the lux of a lamp of 10³⁰ cd
     /// would square past f32's 3.4·10³⁸, and an infinite variance turns the luminance term
-    /// off. [`luminance_scale_for`] picks it from the lamps; being a power of two it changes
-    /// no bit of the result where nothing overflows (`Δl²/σ²` is the same quotient), and 1
-    /// is the unscaled filter.
+    /// off. [`luminance_scale_for`] picks it from the lamps: 1 (the unscaled filter) for
+    /// every real lamp; being a power of two it changes no bit of the result where nothing
+    /// overflows or underflows (`Δl²/σ²` is the same quotient).
     pub luminance_scale: f32,
 }
 
@@ -159,17 +159,24 @@ impl AtrousConfig {
 }
 
 /// [`AtrousConfig::luminance_scale`] for lamps whose luminance-weighted peak intensities sum
-/// to `peak_cd` (candela; the illuminance they give at 1 m, in lux): the power of two nearest
-/// `1 / peak_cd`, within `2^±96`, so a map's luminances come out near 1 at a metre from the
-/// lamps and their squares stay far inside f32 from a millimetre to kilometres away. 1 when
-/// `peak_cd` is not finite and positive.
+/// to `peak_cd` (candela; the illuminance they give at 1 m, in lux): 1 up to
+/// [`UNSCALED_PEAK_CD`], so every real lamp is filtered in plain lux (bit for bit as without
+/// a scale, on GPUs that flush subnormals too), else the power of two that brings `peak_cd`
+/// down to at most that (within `2⁻⁹⁶`): a receiver a millimetre from the lamp then gets
+/// 10¹⁸ lux at most, whose square f32 still holds. 1 when `peak_cd` is not finite and
+/// positive.
 pub fn luminance_scale_for(peak_cd: f64) -> f32 {
-    if !(peak_cd.is_finite() && peak_cd > 0.0) {
+    if !(peak_cd.is_finite() && peak_cd > UNSCALED_PEAK_CD) {
         return 1.0;
     }
-    let e = (-peak_cd.log2()).round().clamp(-96.0, 96.0) as i32;
-    2f32.powi(e)
+    let e = (peak_cd / UNSCALED_PEAK_CD).log2().ceil().min(96.0) as i32;
+    2f32.powi(-e)
 }
+
+/// The brightest lamps (peak candela) whose maps the denoiser filters unscaled: 10¹², a
+/// million times the brightest searchlight, whose 10¹⁸ lux a millimetre away square to
+/// 10³⁶ < f32's 3.4·10³⁸.
+pub const UNSCALED_PEAK_CD: f64 = 1e12;
 
 fn finite_or_zero(v: f32) -> f32 {
     if v.is_finite() && v >= 0.0 { v } else { 0.0 }
@@ -404,12 +411,14 @@ mod tests {
     }
 
     #[test]
-    fn the_luminance_scale_is_the_power_of_two_nearest_one_over_the_peak() {
-        assert_eq!(luminance_scale_for(1.0), 1.0);
-        assert_eq!(luminance_scale_for(1000.0), 2f32.powi(-10));
-        // log2(10³⁰) ≈ 99.7: clamped to 2⁻⁹⁶.
-        assert_eq!(luminance_scale_for(1e30), 2f32.powi(-96));
-        assert_eq!(luminance_scale_for(1e-3), 2f32.powi(10));
+    fn the_luminance_scale_is_one_for_real_lamps_and_a_power_of_two_beyond() {
+        for real in [1e-3, 1.0, 1000.0, 1e9, UNSCALED_PEAK_CD] {
+            assert_eq!(luminance_scale_for(real), 1.0, "{real}");
+        }
+        // 10³⁰ cd: 10¹⁸ over the bound, ⌈log2 10¹⁸⌉ = 60.
+        assert_eq!(luminance_scale_for(1e30), 2f32.powi(-60));
+        assert!(1e30 * f64::from(luminance_scale_for(1e30)) <= UNSCALED_PEAK_CD);
+        assert_eq!(luminance_scale_for(2.0 * UNSCALED_PEAK_CD), 0.5);
         assert_eq!(luminance_scale_for(1e300), 2f32.powi(-96));
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
             assert_eq!(luminance_scale_for(bad), 1.0, "{bad}");
