@@ -1295,7 +1295,7 @@ fn validate_glbs(project: &Path, rows: &[WebRow]) -> Result<(), String> {
     Ok(())
 }
 
-/// 10. The page loads each row of `catalogue/out/index.json` with `GLTFLoader` and
+/// Check 10: the page loads each row of `catalogue/out/index.json` with `GLTFLoader` and
 /// `registerWebGLB`; the room's decoded light map, drawn into a float target and read back,
 /// agrees with the row's EXR.
 fn check_web_glb(s: &Session, rows: &[WebRow]) -> Result<(), String> {

@@ -318,7 +318,7 @@ const LIGHTMAP_SAMPLER: &str =
 /// The least and largest Rec. 709 luminance over the valid texels of `map`, or `None`.
 fn lux_range(map: &MapImage) -> Option<[f32; 2]> {
     map.valid_rgb()
-        .map(|c| luxbake_output::picture::luminance(c))
+        .map(luxbake_output::picture::luminance)
         .filter(|v| v.is_finite())
         .fold(None, |r, v| match r {
             None => Some([v, v]),

@@ -39,7 +39,7 @@ fn chunks(glb: &[u8]) -> (Value, &[u8]) {
     assert_eq!(u32_at(glb, 8), glb.len(), "length");
     let json_len = u32_at(glb, 12);
     assert_eq!(&glb[16..20], b"JSON");
-    assert_eq!(json_len % 4, 0);
+    assert!(json_len.is_multiple_of(4));
     let json: Value = serde_json::from_slice(&glb[20..20 + json_len]).expect("JSON chunk");
     let bin_at = 20 + json_len;
     let bin_len = u32_at(glb, bin_at);
@@ -49,7 +49,7 @@ fn chunks(glb: &[u8]) -> (Value, &[u8]) {
     let buffer = json["buffers"][0]["byteLength"]
         .as_u64()
         .expect("byteLength") as usize;
-    assert!(buffer <= bin_len && bin_len - buffer <= 3 && bin_len % 4 == 0);
+    assert!(buffer <= bin_len && bin_len - buffer <= 3 && bin_len.is_multiple_of(4));
     (json, &glb[bin_at + 8..])
 }
 
