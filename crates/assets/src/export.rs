@@ -26,7 +26,9 @@
 //!   (the node's `extras` hold the same object). Bake settings go to `asset.extras.luxbake`.
 //!
 //! # The web GLB ([`export_web`])
-//! The same nodes, meshes (`TEXCOORD_1` the light-map UVs) and materials, with the light maps
+//! The same nodes, meshes (`TEXCOORD_1` the light-map UVs; `TEXCOORD_0` the material UVs, or
+//! the light-map UVs again for a mesh without any: glTF numbers sets without gaps) and
+//! materials, with the light maps
 //! under Mozilla Hubs' light-map extension and the lamps as `EXT_lights_ies`; three.js reads
 //! it with `GLTFLoader` and the `luxbake` npm package's `registerWebGLB` (`docs/catalogue.md`):
 //! - per receiver, a material extension `"MOZ_lightmap": { "index": T, "texCoord": 1,
@@ -383,6 +385,14 @@ fn encode(scene: &Scene, maps_of: Maps, path: &Path) -> Result<Encoded, AssetErr
         );
         if let Some(uv0) = &m.material_uvs {
             attributes.insert("TEXCOORD_0".into(), json!(bin.floats(uv0, "VEC2", false)));
+        } else if web {
+            // glTF numbers a semantic's sets from 0 without gaps: TEXCOORD_1 needs a
+            // TEXCOORD_0 (the Khronos validator's MESH_PRIMITIVE_INDEXED_SEMANTIC_CONTINUITY);
+            // without material UVs it is the light-map UVs again.
+            attributes.insert(
+                "TEXCOORD_0".into(),
+                json!(bin.floats(&m.lightmap_uvs, "VEC2", false)),
+            );
         }
         attributes.insert(
             "TEXCOORD_1".into(),
