@@ -28,6 +28,9 @@
 //! - `bench nearfield` ([`nearfield`]): the direct light of lamps with a size (their luminous
 //!   openings) against Radiance's opening model in four rooms, per backend, beside the point
 //!   model: mean |relative error|, bias, p95 and max per surface kind, and the cost.
+//! - `bench web` ([`web`]): the light-map encodings for the catalogue's web GLB (Radiance
+//!   RGBE, RGBE/RGBM/LogLuv PNG, half-float KTX2) on catalogue bakes: size against the EXRs,
+//!   relative error against the float maps between 1 lx and the maximum.
 //! - `bench rays` ([`rays`]): single-thread rays/s of luxbake's CPU traversals against Embree 3
 //!   on the same triangles and rays (built-in scenes and the shared glTF room).
 //!
@@ -59,6 +62,7 @@ mod scaling;
 mod swap;
 mod table1;
 mod trade;
+mod web;
 
 /// Arguments of `cargo xtask bench`.
 #[derive(clap::Args)]
@@ -117,6 +121,9 @@ enum What {
     /// Direct light of lamps with a size against Radiance's luminous-opening references in
     /// four rooms, per backend, beside the point model.
     Nearfield(nearfield::Args),
+    /// Light-map encodings for the web GLB (Radiance RGBE, RGBE/RGBM/LogLuv PNG, half-float
+    /// KTX2): size against the EXRs and error against the float maps on catalogue bakes.
+    Web(web::Args),
 }
 
 /// Runs the command; the error is a message for stderr.
@@ -137,6 +144,7 @@ pub fn run(args: &Args) -> Result<(), String> {
         Some(What::Rays(r)) => rays::run(r, args.quick, args.runs, &out),
         Some(What::Swap(w)) => swap::run(w, args.quick, args.runs, &out),
         Some(What::Nearfield(n)) => nearfield::run(n, args.quick, &out),
+        Some(What::Web(w)) => web::run(w, args.quick, &out),
         None => {
             let runs = args.runs.unwrap_or(if args.quick { 1 } else { 3 }).max(1);
             table1::run(args, runs, &out)

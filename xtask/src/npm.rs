@@ -41,7 +41,15 @@
 //!    lights removed or kept, `setExposure`'s tone mapping, a bake of the room at another
 //!    density (read again, as a fresh bake), a disposed room (the example's
 //!    first bake, 1, goes through `baker.load` and `room.bake` with `onDirect`);
-//! 9. after `dispose()` a bake rejects with `disposed`; the page logged no error.
+//! 9. after `dispose()` a bake rejects with `disposed`; the page logged no error;
+//! 10. the catalogue's web output (issue 28): `chairs_01` × [`WEB_LAMPS`] planned and run as
+//!     catalogue rows (draft, 16 texels/m) into `project/catalogue/out/`; every `web.glb`
+//!     passes the Khronos glTF validator ([`GLTF_VALIDATOR_VERSION`], no error); the page
+//!     reads `index.json` as a front end would, loads each row's GLB with three.js's
+//!     `GLTFLoader` and the package's `registerWebGLB`, finds the room's light map on `uv1`
+//!     and the lamps' IES profiles, draws the decoded map texel by texel into a float target
+//!     and reads it back; every valid texel of at least 1 lx agrees with the row's EXR within
+//!     [`MAX_WEB_LUX_ERROR`] in lux.
 //!
 //! Bake and first-frame times are printed and written to `<target dir>/npm-check/report.json`,
 //! the swap's ratios to `swap.json`.
@@ -132,6 +140,18 @@ const JS_DIFF: &str = "const diff = (a, b, scale) => { let worst = 0, n = 0; \
        for (let t = 0; t < y.length; t++) { if (t % 4 === 3) continue; n++; \
          worst = Math.max(worst, Math.abs(x[t] - scale * y[t]) / Math.max(max, 1e-30)); } }); \
      return {worst, n}; };";
+
+/// The Khronos glTF validator the check runs on the catalogue's web GLBs (npm registry).
+pub const GLTF_VALIDATOR_VERSION: &str = "2.0.0-dev.3.10";
+
+/// The web output's lamps: a manufacturer's IES file and a EULUMDAT file (converted to IES in
+/// the GLB's `EXT_lights_ies`).
+pub const WEB_LAMPS: [&str; 2] = [CHECK_LAMP, "../shared/photometry/acrux_452lm.ldt"];
+
+/// The largest relative error of a texel's lux the page may read back from a web GLB against
+/// the row's EXR (issue 28: 1 % between 1 lx and the maximum; LogLuv is within 0.21 % on the
+/// catalogue's rooms, `cargo xtask bench web`).
+pub const MAX_WEB_LUX_ERROR: f64 = 0.01;
 
 /// Most milliseconds a `setLamp` may take in headless Chromium (issue #26).
 pub const MAX_SET_LAMP_MS: f64 = 20.0;
@@ -350,6 +370,7 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
             .args(["install", "--no-audit", "--no-fund", "--loglevel=error"])
             .arg(tgz)
             .arg(format!("three@{}", args.three))
+            .arg(format!("gltf-validator@{GLTF_VALIDATOR_VERSION}"))
             .current_dir(&project),
     )?;
     println!(
@@ -404,6 +425,9 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
         return Ok(());
     };
 
+    let web_rows = web_catalogue(root, &project)?;
+    validate_glbs(&project, &web_rows)?;
+
     // Page server and Chromium.
     let listener = TcpListener::bind("127.0.0.1:0").map_err(|e| e.to_string())?;
     let page_port = listener.local_addr().map_err(|e| e.to_string())?.port();
@@ -416,7 +440,8 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     let result = run_checks(s, page_port, &settings, &native, &dir)
         .and_then(|()| check_generated_uvs(s, &sofa_settings, &sofa_native))
         .and_then(|()| check_swap(s, &swap_native, &dir))
-        .and_then(|()| check_dispose(s));
+        .and_then(|()| check_dispose(s))
+        .and_then(|()| check_web_glb(s, &web_rows));
     if let Some(s) = driver.session.take() {
         let _ = webdriver(driver.port, "DELETE", &s.path(""), None);
     }
@@ -1174,6 +1199,197 @@ fn check_dispose(s: &Session) -> Result<(), String> {
     let errors = s.eval("window.luxbakeExample.errors")?;
     if errors.as_array().is_some_and(|e| !e.is_empty()) {
         return Err(format!("the example reported errors: {errors}"));
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------- the catalogue's web GLB
+
+/// A web row of the check: its key and folder under the served project.
+struct WebRow {
+    key: String,
+    dir: PathBuf,
+}
+
+/// Plans and runs `chairs_01` × [`WEB_LAMPS`] as catalogue rows into `project/catalogue/out`
+/// (with its `index.json`).
+fn web_catalogue(root: &Path, project: &Path) -> Result<Vec<WebRow>, String> {
+    use luxbake_cli::catalogue::{plan, run_row, write_index};
+    let dir = project.join("catalogue");
+    std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let lamps: Vec<String> = WEB_LAMPS
+        .iter()
+        .map(|l| format!("{:?}", root.join(l).display().to_string()))
+        .collect();
+    let catalogue = dir.join("catalogue.toml");
+    std::fs::write(
+        &catalogue,
+        format!(
+            "qualities = [\"draft\"]\nlamps = [{}]\n[settings]\ntexels_per_metre = 16\n\
+             [[room]]\nbuiltin = \"chairs_01\"\n",
+            lamps.join(", ")
+        ),
+    )
+    .map_err(|e| e.to_string())?;
+    let rows = plan(&catalogue).map_err(|e| e.message().to_owned())?;
+    let out = dir.join("out");
+    for row in &rows {
+        run_row(row, &out).map_err(|e| e.message().to_owned())?;
+    }
+    write_index(&rows, &out).map_err(|e| e.message().to_owned())?;
+    Ok(rows
+        .iter()
+        .map(|r| WebRow {
+            key: r.key.clone(),
+            dir: out.join(&r.key),
+        })
+        .collect())
+}
+
+/// The Khronos glTF validator (node, from the npm registry) on every row's `web.glb`: no error.
+fn validate_glbs(project: &Path, rows: &[WebRow]) -> Result<(), String> {
+    let script = "const v = require('gltf-validator'); const fs = require('fs'); \
+        v.validateBytes(new Uint8Array(fs.readFileSync(process.argv[1]))) \
+         .then(r => console.log(JSON.stringify(r.issues))) \
+         .catch(e => { console.error(String(e)); process.exit(1); });";
+    for row in rows {
+        let glb = row.dir.join("web.glb");
+        let out = Command::new("node")
+            .args(["-e", script])
+            .arg(&glb)
+            .current_dir(project)
+            .output()
+            .map_err(|e| format!("running node: {e}"))?;
+        if !out.status.success() {
+            return Err(format!(
+                "gltf-validator on {}: {}",
+                glb.display(),
+                String::from_utf8_lossy(&out.stderr)
+            ));
+        }
+        let issues: Value = serde_json::from_slice(&out.stdout)
+            .map_err(|e| format!("gltf-validator's report: {e}"))?;
+        let messages: Vec<String> = issues["messages"]
+            .as_array()
+            .map(|m| {
+                m.iter()
+                    .map(|i| format!("{} {} {}", i["severity"], i["code"], i["message"]))
+                    .collect()
+            })
+            .unwrap_or_default();
+        println!(
+            "gltf-validator: {} errors, {} warnings, {} infos in {}{}",
+            issues["numErrors"],
+            issues["numWarnings"],
+            issues["numInfos"],
+            glb.display(),
+            messages
+                .iter()
+                .map(|m| format!("\n  {m}"))
+                .collect::<String>()
+        );
+        if issues["numErrors"].as_u64() != Some(0) {
+            return Err(format!("gltf-validator found errors in {}", glb.display()));
+        }
+    }
+    Ok(())
+}
+
+/// Check 10: the page loads each row of `catalogue/out/index.json` with `GLTFLoader` and
+/// `registerWebGLB`; the room's decoded light map, drawn into a float target and read back,
+/// agrees with the row's EXR.
+fn check_web_glb(s: &Session, rows: &[WebRow]) -> Result<(), String> {
+    let got = s.script(
+        "(async () => { const T = window.luxbakeExample.THREE; \
+           const { registerWebGLB } = await import('luxbake'); \
+           const { GLTFLoader } = await import('three/addons/loaders/GLTFLoader.js'); \
+           const index = await (await fetch('/catalogue/out/index.json')).json(); \
+           const renderer = new T.WebGLRenderer({canvas: document.createElement('canvas')}); \
+           const rows = []; \
+           for (const e of index.entries) { \
+             const gltf = await registerWebGLB(new GLTFLoader(), T).loadAsync('/catalogue/out/' + e.glb); \
+             let room = null; const ies = []; \
+             gltf.scene.traverse(o => { if (o.isMesh && o.name === 'room') room = o; \
+               if (o.userData.ies) ies.push(o.userData.ies.text.split('\\n')[0]); }); \
+             const map = room.material.lightMap; const w = map.image.width, h = map.image.height; \
+             const target = new T.WebGLRenderTarget(w, h, {type: T.FloatType}); \
+             const quad = new T.Mesh(new T.PlaneGeometry(2, 2), new T.ShaderMaterial({uniforms: {map: {value: map}}, \
+               vertexShader: 'void main() { gl_Position = vec4(position.xy, 0.0, 1.0); }', \
+               fragmentShader: 'uniform sampler2D map; void main() { gl_FragColor = texelFetch(map, ivec2(gl_FragCoord.xy), 0); }'})); \
+             quad.frustumCulled = false; const scene = new T.Scene(); scene.add(quad); \
+             renderer.setRenderTarget(target); renderer.render(scene, new T.OrthographicCamera()); \
+             const px = new Float32Array(4 * w * h); renderer.readRenderTargetPixels(target, 0, 0, w, h, px); \
+             renderer.setRenderTarget(null); target.dispose(); \
+             rows.push({key: e.key, w, h, px: Array.from(px), channel: map.channel, uv1: !!room.geometry.attributes.uv1, \
+               intensity: room.material.lightMapIntensity, type: map.type === T.HalfFloatType ? 'half' : String(map.type), ies}); } \
+           renderer.dispose(); done({rows}); })().catch(e => done({thrown: String(e)}));",
+    )?;
+    if got.get("thrown").is_some() {
+        return Err(format!("loading the web GLBs failed: {got}"));
+    }
+    let page_rows = got["rows"].as_array().ok_or("no rows")?;
+    if page_rows.len() != rows.len() {
+        return Err(format!(
+            "the page read {} rows from index.json, the catalogue has {}",
+            page_rows.len(),
+            rows.len()
+        ));
+    }
+    let lux =
+        |c: &[f32]| 0.2126 * f64::from(c[0]) + 0.7152 * f64::from(c[1]) + 0.0722 * f64::from(c[2]);
+    for r in page_rows {
+        let key = r["key"].as_str().unwrap_or("");
+        let row = rows.iter().find(|w| w.key == key).ok_or("unknown key")?;
+        let ies_ok = r["ies"]
+            .as_array()
+            .is_some_and(|l| !l.is_empty() && l.iter().all(|t| t == "IESNA:LM-63-2002"));
+        if r["channel"] != json!(1)
+            || r["uv1"] != json!(true)
+            || r["intensity"] != json!(1)
+            || !ies_ok
+        {
+            return Err(format!(
+                "row {key}: light map or lamps not as the GLB says: {r}"
+            ));
+        }
+        let exr = luxbake_output::read_exr(&row.dir.join("room_illuminance.exr"))
+            .map_err(|e| e.to_string())?;
+        let (w, h) = (r["w"].as_u64().unwrap_or(0), r["h"].as_u64().unwrap_or(0));
+        if (w, h) != (u64::from(exr.width), u64::from(exr.height)) {
+            return Err(format!(
+                "row {key}: page map {w}×{h}, EXR {}×{}",
+                exr.width, exr.height
+            ));
+        }
+        let px: Vec<f32> = r["px"]
+            .as_array()
+            .map(|a| {
+                a.iter()
+                    .map(|v| v.as_f64().unwrap_or(f64::NAN) as f32)
+                    .collect()
+            })
+            .unwrap_or_default();
+        let (mut worst, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+        for (e, p) in exr.texels.chunks_exact(4).zip(px.chunks_exact(4)) {
+            if e[3] > 0.5 && lux(e) >= 1.0 {
+                let err = (lux(p) - lux(e)).abs() / lux(e);
+                worst = worst.max(err);
+                sum += err;
+                n += 1;
+            }
+        }
+        println!(
+            "web GLB {key} in three.js ({} light map): {n} texels ≥ 1 lx, lux error mean {:.3} %, max {:.3} % (bound {:.0} %)",
+            r["type"],
+            100.0 * sum / n.max(1) as f64,
+            100.0 * worst,
+            100.0 * MAX_WEB_LUX_ERROR
+        );
+        if n == 0 || !at_most(worst, MAX_WEB_LUX_ERROR) {
+            return Err(format!(
+                "row {key}: the light map three.js decoded is {worst} off the EXR in lux (over {n} texels)"
+            ));
+        }
     }
     Ok(())
 }

@@ -1,5 +1,5 @@
-//! glTF 2.0 export: a baked scene with its light maps ([`export_baked`]), or a scene as it
-//! goes into a bake ([`export_scene`]), as one binary `.glb`.
+//! glTF 2.0 export: a baked scene with its light maps ([`export_baked`]; for web pages
+//! [`export_web`]), or a scene as it goes into a bake ([`export_scene`]), as one binary `.glb`.
 //!
 //! # What is written
 //! - One node per object (its transform as a column-major `matrix`), one mesh with one
@@ -25,6 +25,34 @@
 //!   `name`, `position`, `aim`, `rotationDeg`, `multiplier`, `color` and `peakCandela`
 //!   (the node's `extras` hold the same object). Bake settings go to `asset.extras.luxbake`.
 //!
+//! # The web GLB ([`export_web`])
+//! The same nodes, meshes (`TEXCOORD_1` the light-map UVs; `TEXCOORD_0` the material UVs, or
+//! the light-map UVs again for a mesh without any: glTF numbers sets without gaps) and
+//! materials, with the light maps
+//! under Mozilla Hubs' light-map extension and the lamps as `EXT_lights_ies`; three.js reads
+//! it with `GLTFLoader` and the `luxbake` npm package's `registerWebGLB` (`docs/catalogue.md`):
+//! - per receiver, a material extension `"MOZ_lightmap": { "index": T, "texCoord": 1,
+//!   "intensity": 1 }` naming texture `T`, whose `"LUXBAKE_texture_logluv": { "source": I }`
+//!   ([`LOGLUV_EXTENSION`]) names a PNG image (a `bufferView`): the object's illuminance in
+//!   lux before albedo as 32-bit LogLuv ([`luxbake_output::logluv`]: a texel's lux within
+//!   0.14 % plus the 8-bit chromaticity's share), dilated into its chart padding as the EXRs
+//!   are. The texture has no core `source` (glTF 2.0 lets an extension supply it): a loader
+//!   that does not know the encoding gets no light map rather than a wrong one. Its sampler
+//!   is bilinear without mipmaps, clamped (the decoded floats are filtered, never the bytes).
+//!   three.js shades a light map `E` as `E · intensity · albedo / π`: with intensity 1 a
+//!   texel's value is lux and the shaded value is luminance in cd/m².
+//!   The material's `extras.luxbake` holds `quantity` (`illuminance_lux`), the map's `size` and
+//!   its `lux` range (least and largest luminance of its texels).
+//! - per lamp, a node at its position whose `rotation` turns the `EXT_lights_ies` frame (nadir
+//!   −Z, C0 +X, C90 +Y: luxbake's photometric frame) onto its aim and C-plane rotation, with
+//!   `"EXT_lights_ies": { "light": L, "multiplier": m, "color": c }`; the profile `L` in
+//!   `extensions.EXT_lights_ies.lights` is the lamp's photometry written as IES LM-63-2002
+//!   (`luxbake_ies`'s writer: EULUMDAT files are converted, `TILT=<file>` inlined) in a
+//!   `bufferView` (`mimeType` `application/x-ies-lm-63`), one per distinct photometry. A colour
+//!   component above 1 moves into the multiplier (the extension's colour is in [0, 1]).
+//! - `extensionsUsed` lists `MOZ_lightmap`, `LUXBAKE_texture_logluv` and `EXT_lights_ies`
+//!   (none is required: without them the room loads unlit).
+//!
 //! # Using the light maps
 //! - **three.js**: `GLTFLoader` puts the extras in `material.userData.luxbake`; load the
 //!   texture with `parser.getDependency('texture', userData.luxbake.lightMap.index)`, set
@@ -41,9 +69,11 @@
 
 use std::path::{Path, PathBuf};
 
+use glam::{DMat3, DQuat, DVec3};
 use luxbake::bake::BakeOutput;
 use luxbake::map::MapImage;
-use luxbake::scene::{Object, Scene};
+use luxbake::scene::{Lamp, Object, Scene};
+use luxbake_ies::IesVersion;
 use serde_json::{Value, json};
 
 use crate::AssetError;
@@ -62,7 +92,7 @@ pub struct ExportReport {
 /// Writes `scene` (meshes, albedo, light-map UVs, lamps in `extras`) as a `.glb`, without
 /// light maps: the same scene another tool can bake.
 pub fn export_scene(scene: &Scene, path: &Path) -> Result<(), AssetError> {
-    let glb = encode(scene, None, path)?;
+    let glb = encode(scene, Maps::None, path)?;
     write(path, &glb.bytes)
 }
 
@@ -73,7 +103,7 @@ pub fn export_baked(
     output: &BakeOutput,
     path: &Path,
 ) -> Result<ExportReport, AssetError> {
-    let glb = encode(scene, Some(output), path)?;
+    let glb = encode(scene, Maps::Extras(output), path)?;
     write(path, &glb.bytes)?;
     let dir = path.parent().unwrap_or(Path::new("."));
     let mut exr = Vec::new();
@@ -89,6 +119,36 @@ pub fn export_baked(
     })
 }
 
+/// What [`export_web`] wrote.
+#[derive(Debug, Clone, PartialEq)]
+pub struct WebReport {
+    /// The `.glb`'s size, bytes.
+    pub bytes: u64,
+    /// The bytes of its light maps (the LogLuv PNGs inside it).
+    pub lightmap_bytes: u64,
+    /// The least and the largest illuminance (lux, the Rec. 709 luminance of the RGB) over the
+    /// receivers' texels; `[0, 0]` when no texel was baked.
+    pub lux: [f32; 2],
+}
+
+/// Writes a baked scene as the web `.glb` at `path` (see the module docs, *The web GLB*): the
+/// light maps under `MOZ_lightmap` as LogLuv PNGs on `TEXCOORD_1`, the
+/// lamps as `EXT_lights_ies` with their profiles. The bytes depend on the scene and the bake
+/// only (no time, no path).
+pub fn export_web(
+    scene: &Scene,
+    output: &BakeOutput,
+    path: &Path,
+) -> Result<WebReport, AssetError> {
+    let glb = encode(scene, Maps::Web(output), path)?;
+    write(path, &glb.bytes)?;
+    Ok(WebReport {
+        bytes: glb.bytes.len() as u64,
+        lightmap_bytes: glb.lightmap_bytes,
+        lux: glb.lux,
+    })
+}
+
 fn write(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
     std::fs::write(path, bytes).map_err(|source| AssetError::Io {
         path: path.to_path_buf(),
@@ -96,11 +156,33 @@ fn write(path: &Path, bytes: &[u8]) -> Result<(), AssetError> {
     })
 }
 
+/// Which light maps a `.glb` carries.
+#[derive(Clone, Copy)]
+enum Maps<'a> {
+    /// None: the scene as it goes into a bake.
+    None,
+    /// sRGB PNGs named by `extras`, EXRs beside the file ([`export_baked`]).
+    Extras(&'a BakeOutput),
+    /// LogLuv PNGs under `MOZ_lightmap`, lamps as `EXT_lights_ies` ([`export_web`]).
+    Web(&'a BakeOutput),
+}
+
+impl<'a> Maps<'a> {
+    fn output(self) -> Option<&'a BakeOutput> {
+        match self {
+            Maps::None => None,
+            Maps::Extras(o) | Maps::Web(o) => Some(o),
+        }
+    }
+}
+
 /// An encoded `.glb` and the files that go beside it.
 struct Encoded {
     bytes: Vec<u8>,
     side_files: Vec<(String, Vec<u8>)>,
     lux_per_unit: f32,
+    lightmap_bytes: u64,
+    lux: [f32; 2],
 }
 
 /// The binary chunk under construction.
@@ -224,7 +306,52 @@ fn matrix(o: &Object) -> Vec<serde_json::Value> {
     m
 }
 
-fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Encoded, AssetError> {
+/// The texture extension naming a light map's LogLuv PNG ([`luxbake_output::logluv`]).
+pub const LOGLUV_EXTENSION: &str = "LUXBAKE_texture_logluv";
+
+/// The media type of an IES LM-63 profile in `EXT_lights_ies`.
+const IES_MIME_TYPE: &str = "application/x-ies-lm-63";
+
+/// The light maps' sampler: bilinear without mipmaps (the maps are dilated into their chart
+/// padding for bilinear look-ups only), clamped at the edges.
+const LIGHTMAP_SAMPLER: &str =
+    r#"{"magFilter": 9729, "minFilter": 9729, "wrapS": 33071, "wrapT": 33071}"#;
+
+/// The least and largest Rec. 709 luminance over the valid texels of `map`, or `None`.
+fn lux_range(map: &MapImage) -> Option<[f32; 2]> {
+    map.valid_rgb()
+        .map(luxbake_output::picture::luminance)
+        .filter(|v| v.is_finite())
+        .fold(None, |r, v| match r {
+            None => Some([v, v]),
+            Some([lo, hi]) => Some([lo.min(v), hi.max(v)]),
+        })
+}
+
+/// The node rotation (quaternion `[x, y, z, w]`) that turns the `EXT_lights_ies` frame (nadir
+/// −Z, C0 +X, C90 +Y — luxbake's photometric frame) into the lamp's world orientation.
+fn lamp_rotation(lamp: &Lamp) -> [f64; 4] {
+    // The rows of the world-to-photometric matrix are the world directions of the photometric
+    // axes: the columns of the node's rotation.
+    let [x, y, z] = lamp.frame_f64().map(DVec3::from);
+    let q = DQuat::from_mat3(&DMat3::from_cols(x, y, z)).normalize();
+    [q.x, q.y, q.z, q.w]
+}
+
+/// `EXT_lights_ies`'s `multiplier` and `color` (linear, in [0, 1]) for a lamp: a colour
+/// component above 1 moves into the multiplier.
+fn ies_multiplier_color(lamp: &Lamp) -> (f32, [f32; 3]) {
+    let top = lamp.color.iter().copied().fold(0.0f32, f32::max);
+    if top > 1.0 {
+        (lamp.multiplier * top, lamp.color.map(|c| c / top))
+    } else {
+        (lamp.multiplier, lamp.color)
+    }
+}
+
+fn encode(scene: &Scene, maps_of: Maps, path: &Path) -> Result<Encoded, AssetError> {
+    let output = maps_of.output();
+    let web = matches!(maps_of, Maps::Web(_));
     scene.validate().map_err(|e| AssetError::Export {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -239,6 +366,10 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
     );
     let mut side_files = Vec::new();
     let scale = output.map_or(1.0, lux_per_unit);
+    let (mut lightmap_bytes, mut lux) = (0u64, None::<[f32; 2]>);
+    let mut used = std::collections::BTreeSet::new();
+    // EXT_lights_ies profiles (IES LM-63-2002 text), one per distinct photometry.
+    let mut profiles: Vec<(String, Value)> = Vec::new();
     let file_stem = stem(path);
     let mut albedo_textures: Vec<(*const luxbake::scene::AlbedoTexture, usize)> = Vec::new();
     for (oi, o) in scene.objects.iter().enumerate() {
@@ -254,6 +385,14 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
         );
         if let Some(uv0) = &m.material_uvs {
             attributes.insert("TEXCOORD_0".into(), json!(bin.floats(uv0, "VEC2", false)));
+        } else if web {
+            // glTF numbers a semantic's sets from 0 without gaps: TEXCOORD_1 needs a
+            // TEXCOORD_0 (the Khronos validator's MESH_PRIMITIVE_INDEXED_SEMANTIC_CONTINUITY);
+            // without material UVs it is the light-map UVs again.
+            attributes.insert(
+                "TEXCOORD_0".into(),
+                json!(bin.floats(&m.lightmap_uvs, "VEC2", false)),
+            );
         }
         attributes.insert(
             "TEXCOORD_1".into(),
@@ -288,7 +427,38 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
             pbr["baseColorTexture"] = json!({ "index": tex, "texCoord": 0 });
         }
         let mut material = json!({ "name": o.name, "pbrMetallicRoughness": pbr });
-        if let Some(out) = output
+        if let Maps::Web(out) = maps_of
+            && let Some(maps) = out.maps.iter().find(|mp| mp.object == oi)
+        {
+            let lm = maps.illuminance();
+            let range = lux_range(lm);
+            if let Some([lo, hi]) = range {
+                lux = Some(lux.map_or([lo, hi], |[a, b]: [f32; 2]| [a.min(lo), b.max(hi)]));
+            }
+            let passes = luxbake_output::dilation_passes(&out.settings);
+            let png =
+                luxbake_output::logluv::encode_logluv_png(&lm.dilated(passes)).map_err(|e| {
+                    AssetError::Export {
+                        path: path.to_path_buf(),
+                        message: e.to_string(),
+                    }
+                })?;
+            lightmap_bytes += png.len() as u64;
+            let view = bin.view(&png, None);
+            images.push(json!({ "bufferView": view, "mimeType": "image/png", "name": format!("{}_lightmap", o.name) }));
+            textures.push(
+                json!({ "name": format!("{}_lightmap", o.name), "sampler": 0,
+                "extensions": { LOGLUV_EXTENSION: { "source": images.len() - 1 } } }),
+            );
+            material["extensions"] = json!({ "MOZ_lightmap": { "index": textures.len() - 1, "texCoord": 1, "intensity": 1.0 } });
+            material["extras"] = json!({ "luxbake": {
+                "quantity": "illuminance_lux",
+                "size": [lm.width, lm.height],
+                "lux": range,
+            }});
+            used.extend(["MOZ_lightmap", LOGLUV_EXTENSION]);
+        }
+        if let Maps::Extras(out) = maps_of
             && let Some(maps) = out.maps.iter().find(|mp| mp.object == oi)
         {
             let lm = maps.illuminance();
@@ -339,7 +509,25 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
             "name": l.name, "position": l.position, "aim": l.aim, "rotationDeg": l.rotation_deg,
             "multiplier": l.multiplier, "color": l.color, "peakCandela": peak,
         });
-        nodes.push(json!({ "name": format!("lamp_{}", l.name), "translation": l.position, "extras": { "luxbake": { "lamp": info.clone() } } }));
+        let mut node = json!({ "name": format!("lamp_{}", l.name), "translation": l.position, "extras": { "luxbake": { "lamp": info.clone() } } });
+        if web {
+            let text = l.photometry.to_ies(IesVersion::Lm63_2002);
+            let light = match profiles.iter().position(|(t, _)| *t == text) {
+                Some(i) => i,
+                None => {
+                    let view = bin.view(text.as_bytes(), None);
+                    let profile =
+                        json!({ "name": l.name, "bufferView": view, "mimeType": IES_MIME_TYPE });
+                    profiles.push((text, profile));
+                    profiles.len() - 1
+                }
+            };
+            let (multiplier, color) = ies_multiplier_color(l);
+            node["rotation"] = json!(lamp_rotation(l));
+            node["extensions"] = json!({ "EXT_lights_ies": { "light": light, "multiplier": multiplier, "color": color } });
+            used.insert("EXT_lights_ies");
+        }
+        nodes.push(node);
         lamps.push(info);
     }
     let s = &scene.settings;
@@ -359,6 +547,20 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
     if !images.is_empty() {
         root["images"] = json!(images);
         root["textures"] = json!(textures);
+    }
+    if web && textures.iter().any(|t| t.get("sampler").is_some()) {
+        let sampler: Value =
+            serde_json::from_str(LIGHTMAP_SAMPLER).map_err(|e| AssetError::Export {
+                path: path.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        root["samplers"] = json!([sampler]);
+    }
+    if !profiles.is_empty() {
+        root["extensions"] = json!({ "EXT_lights_ies": { "lights": profiles.into_iter().map(|(_, p)| p).collect::<Vec<_>>() } });
+    }
+    if !used.is_empty() {
+        root["extensionsUsed"] = json!(used);
     }
     let mut json_bytes = serde_json::to_vec(&root).map_err(|e| AssetError::Export {
         path: path.to_path_buf(),
@@ -394,5 +596,7 @@ fn encode(scene: &Scene, output: Option<&BakeOutput>, path: &Path) -> Result<Enc
         bytes,
         side_files,
         lux_per_unit: scale,
+        lightmap_bytes,
+        lux: lux.unwrap_or([0.0; 2]),
     })
 }

@@ -127,6 +127,10 @@ fn a_catalogue_of_three_rooms_and_eight_real_lamps_runs_on_two_jobs() {
     let s = status_json(&manifest, &out);
     assert_eq!(s["done"].as_array().map(Vec::len), Some(24), "{s}");
     eprintln!("{test}: 24 rows baked with --jobs 2 in {seconds:.1} s");
+    let index: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("index.json")).expect("index.json"))
+            .expect("index JSON");
+    assert_eq!(index["listed"].as_u64(), Some(24), "{index}");
     let second = output(&run);
     assert!(second.status.success(), "rerun: {}", text(&second.stderr));
     let lines = text(&second.stdout);

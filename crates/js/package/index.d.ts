@@ -209,3 +209,24 @@ export class Luxbake {
  * lit by `lux` at `key` (default 0.8) before tone mapping; returns the exposure.
  */
 export function setExposure(renderer: object, THREE: object, lux: number, options?: { albedo?: number; key?: number }): number;
+
+/** A lamp's `EXT_lights_ies` profile, as `registerWebGLB` puts it in the lamp node's `userData.ies`. */
+export interface IesProfile {
+  name: string;
+  /** The profile as IES LM-63 text (a bufferView of the GLB), or... */
+  text?: string;
+  /** ...its URI when the file names one. */
+  uri?: string;
+  multiplier: number;
+  /** Linear RGB in [0, 1]. */
+  color: [number, number, number];
+}
+
+/**
+ * Registers on three.js's `GLTFLoader` the plugins that read a catalogue row's `web.glb`:
+ * `MOZ_lightmap` (light map on `TEXCOORD_1`, lux), `LUXBAKE_texture_logluv` (LogLuv PNGs,
+ * decoded into linear float textures: half floats, or 32-bit with `type: THREE.FloatType`) and
+ * `EXT_lights_ies` (`userData.ies` on lamp nodes). `THREE` is the three.js module. Returns the
+ * loader.
+ */
+export function registerWebGLB<L extends { register(callback: (parser: any) => unknown): unknown }>(loader: L, THREE: object, options?: { type?: number }): L;

@@ -758,3 +758,212 @@ export class BakeResult {
     this.#baker = null;
   }
 }
+
+// ------------------------------------------------------------ the catalogue's web GLB
+
+/** Reads an 8-bit RGBA PNG (not interlaced) into its bytes, exactly (no colour management). */
+async function readPngRgba(bytes) {
+  const fail = (why) => { throw new LuxbakeError('scene', `a LogLuv light map: ${why}`); };
+  const view = new DataView(bytes.buffer, bytes.byteOffset, bytes.byteLength);
+  const signature = [137, 80, 78, 71, 13, 10, 26, 10];
+  if (bytes.length < 8 || signature.some((b, i) => bytes[i] !== b)) fail('not a PNG');
+  let width = 0, height = 0;
+  const idat = [];
+  for (let at = 8; at + 8 <= bytes.length;) {
+    const length = view.getUint32(at);
+    const type = String.fromCharCode(...bytes.subarray(at + 4, at + 8));
+    if (at + 12 + length > bytes.length) fail('truncated');
+    const data = bytes.subarray(at + 8, at + 8 + length);
+    if (type === 'IHDR') {
+      width = view.getUint32(at + 8); height = view.getUint32(at + 12);
+      if (data[8] !== 8 || data[9] !== 6 || data[12] !== 0) fail('not 8-bit RGBA without interlacing');
+    } else if (type === 'IDAT') {
+      idat.push(data);
+    } else if (type === 'IEND') {
+      break;
+    }
+    at += 12 + length;
+  }
+  if (!width || !height || idat.length === 0) fail('no image data');
+  const stream = new Blob(idat).stream().pipeThrough(new DecompressionStream('deflate'));
+  const raw = new Uint8Array(await new Response(stream).arrayBuffer());
+  const stride = 4 * width;
+  if (raw.length < (stride + 1) * height) fail('truncated image data');
+  const out = new Uint8Array(stride * height);
+  for (let y = 0; y < height; y++) {
+    const filter = raw[y * (stride + 1)];
+    const line = raw.subarray(y * (stride + 1) + 1, (y + 1) * (stride + 1));
+    const row = y * stride, up = row - stride;
+    for (let x = 0; x < stride; x++) {
+      const a = x >= 4 ? out[row + x - 4] : 0;
+      const b = y > 0 ? out[up + x] : 0;
+      const c = x >= 4 && y > 0 ? out[up + x - 4] : 0;
+      let predicted;
+      switch (filter) {
+        case 0: predicted = 0; break;
+        case 1: predicted = a; break;
+        case 2: predicted = b; break;
+        case 3: predicted = (a + b) >> 1; break;
+        case 4: {
+          const p = a + b - c, pa = Math.abs(p - a), pb = Math.abs(p - b), pc = Math.abs(p - c);
+          predicted = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
+          break;
+        }
+        default: fail(`unknown row filter ${filter}`);
+      }
+      out[row + x] = (line[x] + predicted) & 0xff;
+    }
+  }
+  return { width, height, data: out };
+}
+
+/** CIE XYZ to linear Rec. 709 RGB: `luxbake_output::logluv::XYZ_TO_RGB`. */
+const XYZ_TO_RGB = [
+  [3.2406254773, -1.5372079722, -0.4986285987],
+  [-0.9689307147, 1.8757560609, 0.0415175238],
+  [0.0557101204, -0.2040210506, 1.0569959423],
+];
+
+/**
+ * Decodes 32-bit LogLuv bytes (R, G: 256 · (log2 Y + 64) big-endian; B, A: 410 · u′, 410 · v′)
+ * into linear RGB floats, alpha 1 — the rule of `luxbake_output::logluv`.
+ */
+function decodeLogLuv(bytes) {
+  const rgba = new Float32Array(bytes.length);
+  for (let i = 0; i < bytes.length; i += 4) {
+    const le = (bytes[i] << 8) | bytes[i + 1];
+    rgba[i + 3] = 1;
+    if (le === 0 || bytes[i + 3] === 0) continue;
+    const Y = 2 ** (le / 256 - 64);
+    const u = bytes[i + 2] / 410, v = bytes[i + 3] / 410;
+    const X = (Y * 9 * u) / (4 * v), Z = (Y * (12 - 3 * u - 20 * v)) / (4 * v);
+    for (let c = 0; c < 3; c++) {
+      const m = XYZ_TO_RGB[c];
+      rgba[i + c] = Math.max(0, m[0] * X + m[1] * Y + m[2] * Z);
+    }
+  }
+  return rgba;
+}
+
+/**
+ * `LUXBAKE_texture_logluv`: a texture whose image is a LogLuv PNG, decoded here into a linear
+ * float texture (half floats unless `type` is `THREE.FloatType`).
+ */
+class TextureLogLuvPlugin {
+  constructor(parser, THREE, type) {
+    this.name = 'LUXBAKE_texture_logluv';
+    this.parser = parser;
+    this.THREE = THREE;
+    this.type = type;
+  }
+
+  loadTexture(textureIndex) {
+    const parser = this.parser;
+    const def = parser.json.textures[textureIndex];
+    const ext = def.extensions?.[this.name];
+    if (!ext) return null;
+    const image = parser.json.images?.[ext.source];
+    if (!image || image.bufferView === undefined) {
+      return Promise.reject(new LuxbakeError('scene', `texture ${textureIndex}: LUXBAKE_texture_logluv needs an image in a bufferView`));
+    }
+    return parser.getDependency('bufferView', image.bufferView).then(async (buffer) => {
+      const T = this.THREE;
+      const png = await readPngRgba(new Uint8Array(buffer));
+      const rgba = decodeLogLuv(png.data);
+      const half = this.type !== T.FloatType;
+      const data = half ? Uint16Array.from(rgba, (v) => T.DataUtils.toHalfFloat(Math.min(v, 65504))) : rgba;
+      const texture = new T.DataTexture(data, png.width, png.height, T.RGBAFormat, half ? T.HalfFloatType : T.FloatType);
+      texture.colorSpace = T.LinearSRGBColorSpace;
+      texture.flipY = false;
+      texture.magFilter = T.LinearFilter;
+      texture.minFilter = T.LinearFilter;
+      texture.generateMipmaps = false;
+      texture.wrapS = texture.wrapT = T.ClampToEdgeWrapping;
+      texture.name = def.name ?? image.name ?? '';
+      texture.needsUpdate = true;
+      parser.associations.set(texture, { textures: textureIndex });
+      return texture;
+    });
+  }
+}
+
+/**
+ * `MOZ_lightmap` (Mozilla Hubs): the material's light map, on the UV set `texCoord` (1, i.e.
+ * `TEXCOORD_1`), scaled by `intensity`. With luxbake's maps a texel is illuminance in lux, and
+ * a `MeshStandardMaterial` shades it as luminance `E · intensity · albedo / π` (cd/m²).
+ */
+class LightmapPlugin {
+  constructor(parser) {
+    this.name = 'MOZ_lightmap';
+    this.parser = parser;
+  }
+
+  async extendMaterialParams(materialIndex, params) {
+    const def = this.parser.json.materials[materialIndex];
+    const ext = def.extensions?.[this.name];
+    if (!ext) return;
+    const texture = await this.parser.getDependency('texture', ext.index);
+    if (!texture) {
+      throw new LuxbakeError('scene', `material ${materialIndex} (${def.name ?? ''}): its MOZ_lightmap texture ${ext.index} did not load`);
+    }
+    texture.channel = ext.texCoord ?? 1;
+    params.lightMap = texture;
+    params.lightMapIntensity = ext.intensity ?? 1;
+  }
+}
+
+/**
+ * `EXT_lights_ies`: each lamp node gets `userData.ies = { name, text, multiplier, color }`, its
+ * profile as IES LM-63 text (for three.js's `IESLoader`); no light is added, since the light
+ * maps already hold the lamps' light.
+ */
+class LightsIesPlugin {
+  constructor(parser) {
+    this.name = 'EXT_lights_ies';
+    this.parser = parser;
+  }
+
+  async afterRoot(gltf) {
+    const json = this.parser.json;
+    const lights = json.extensions?.[this.name]?.lights;
+    if (!lights) return;
+    const profiles = await Promise.all(lights.map(async (light) => {
+      if (light.bufferView === undefined) return { name: light.name ?? '', uri: light.uri };
+      const bytes = await this.parser.getDependency('bufferView', light.bufferView);
+      return { name: light.name ?? '', text: new TextDecoder().decode(bytes) };
+    }));
+    for (const scene of gltf.scenes) {
+      scene.traverse((object) => {
+        const node = this.parser.associations.get(object)?.nodes;
+        const ext = node === undefined ? undefined : json.nodes[node].extensions?.[this.name];
+        if (!ext) return;
+        const profile = profiles[ext.light];
+        if (!profile) throw new LuxbakeError('scene', `node ${node}: EXT_lights_ies light ${ext.light} does not exist`);
+        object.userData.ies = { ...profile, multiplier: ext.multiplier ?? 1, color: ext.color ?? [1, 1, 1] };
+      });
+    }
+  }
+}
+
+/**
+ * Registers on three.js's `GLTFLoader` what reads a catalogue row's `web.glb`: its light maps
+ * (`MOZ_lightmap` naming `LUXBAKE_texture_logluv` textures, decoded into linear float
+ * textures in lux) and its lamps' IES profiles (`EXT_lights_ies`). `THREE` is the three.js
+ * module; `options.type` `THREE.FloatType` keeps 32-bit floats (default `THREE.HalfFloatType`,
+ * filterable everywhere, up to 65504 lx). Returns the loader.
+ *
+ *   const loader = registerWebGLB(new GLTFLoader(), THREE);
+ *   const gltf = await loader.loadAsync('out/<key>/web.glb');
+ */
+export function registerWebGLB(loader, THREE, { type } = {}) {
+  if (!loader || typeof loader.register !== 'function') {
+    throw new LuxbakeError('options', 'registerWebGLB: the first argument must be a three.js GLTFLoader');
+  }
+  if (!THREE || typeof THREE.DataTexture !== 'function' || !THREE.DataUtils) {
+    throw new LuxbakeError('options', 'registerWebGLB: the second argument must be the three.js module');
+  }
+  loader.register((parser) => new TextureLogLuvPlugin(parser, THREE, type ?? THREE.HalfFloatType));
+  loader.register((parser) => new LightmapPlugin(parser));
+  loader.register((parser) => new LightsIesPlugin(parser));
+  return loader;
+}

@@ -50,6 +50,7 @@
 
 #![warn(missing_docs)]
 
+pub mod logluv;
 pub mod picture;
 
 use std::path::{Path, PathBuf};
@@ -83,7 +84,7 @@ pub enum OutputError {
         /// The codec's message.
         message: String,
     },
-    /// PNG encoding failed.
+    /// PNG encoding (or decoding, [`logluv::decode_logluv_png`]) failed.
     #[error("PNG `{path}`: {message}")]
     Png {
         /// The path.

@@ -1,4 +1,4 @@
-//! `luxbake catalogue plan|run|status`: catalogue bakes on a batch engine.
+//! `luxbake catalogue plan|run|status|index`: catalogue bakes on a batch engine.
 //!
 //! A catalogue (`catalogue.toml`, format in `docs/catalogue.md`) names rooms, lamp files,
 //! placements and qualities. [`plan()`] expands it into a **manifest**: JSON lines, one [`Row`]
@@ -6,7 +6,12 @@
 //! luxbake's version, every input file's bytes (the scene file, the meshes and photometric
 //! files it references, the row's lamp file) and the row's settings. [`run_row`] bakes one row
 //! ([`run_all`]: every row) into `OUT/<key>/`; [`status()`] reports which rows are done, failed
-//! and missing.
+//! and missing; [`write_index`] lists the published rows in `OUT/index.json` for a front end.
+//!
+//! A published row holds the bake's files (`luxbake_output::write_bake`: EXR light maps in lux,
+//! PNG previews, `manifest.json`), the web GLB `web.glb`
+//! (`luxbake_assets::export::export_web`: light maps as LogLuv PNGs under `MOZ_lightmap`,
+//! lamps as `EXT_lights_ies`) and `row.json`.
 //!
 //! # Publication
 //!
@@ -32,6 +37,7 @@
 //! if any row failed permanently, else 0.
 
 mod failure;
+mod index;
 mod plan;
 mod run;
 mod status;
@@ -40,6 +46,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 pub use failure::{Failure, PERMANENT, RETRYABLE, USAGE};
+pub use index::{INDEX_FILE, write_index};
 pub use plan::{Input, Row, plan, read_manifest};
 pub use run::{RowOutcome, run_all, run_row};
 pub use status::{Status, status};
@@ -90,6 +97,16 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write OUT/index.json, what a shop's front end reads: every published and verified row
+    /// (room, lamp, placement, quality, key, web GLB, files with sizes, lux range), atomically.
+    /// `run --all` writes it when it ends; after an array job, run this once.
+    Index {
+        /// The manifest written by `catalogue plan`.
+        manifest: PathBuf,
+        /// The output folder.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Which rows of a manifest are done (published and verified), failed (an error record)
     /// and missing in OUT.
     Status {
@@ -123,6 +140,7 @@ pub fn run(args: &Args) -> Result<ExitCode, Failure> {
             let rows = read_manifest(manifest)?;
             if *all {
                 let code = run_all(&rows, out, *jobs)?;
+                print_index(&rows, out)?;
                 return Ok(ExitCode::from(code));
             }
             let index = match index {
@@ -137,6 +155,11 @@ pub fn run(args: &Args) -> Result<ExitCode, Failure> {
             })?;
             let outcome = run_row(row, out)?;
             println!("{}", outcome.line(row));
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Index { manifest, out } => {
+            let rows = read_manifest(manifest)?;
+            print_index(&rows, out)?;
             Ok(ExitCode::SUCCESS)
         }
         Command::Status {
@@ -154,6 +177,17 @@ pub fn run(args: &Args) -> Result<ExitCode, Failure> {
             Ok(ExitCode::SUCCESS)
         }
     }
+}
+
+/// Writes the index of `rows` in `out` and says how many it lists.
+fn print_index(rows: &[Row], out: &std::path::Path) -> Result<(), Failure> {
+    let listed = write_index(rows, out)?;
+    println!(
+        "index: {listed} of {} rows in {}",
+        rows.len(),
+        out.join(INDEX_FILE).display()
+    );
+    Ok(())
 }
 
 /// The row index a batch engine gives (the first of [`INDEX_VARIABLES`] that `var` finds).

@@ -13,6 +13,11 @@ use sha2::{Digest, Sha256};
 
 use super::failure::Failure;
 
+/// The version of what a published row holds (`row.json`'s `version`). It is part of every
+/// content key, so rows published in an older layout are baked again under new keys.
+/// 2: the web GLB and `row.json`'s `web`.
+pub(crate) const ROW_VERSION: u32 = 2;
+
 /// The `sha256` of an input that was missing when it was hashed: the row fails at run time with
 /// a permanent error naming the file.
 pub(crate) const MISSING: &str = "missing";
@@ -401,14 +406,16 @@ fn percent_decode(uri: &str) -> String {
     String::from_utf8_lossy(&out).into_owned()
 }
 
-/// The content key of a row: the SHA-256 of luxbake's version, its inputs' hashes (by role,
-/// not by path: a catalogue moved elsewhere keeps its keys), the built-in scene's name, the
-/// placement's positions, the quality, the backend and the settings.
+/// The content key of a row: the SHA-256 of luxbake's version, the layout of a published row
+/// ([`ROW_VERSION`]), its inputs' hashes (by role, not by path: a catalogue moved elsewhere
+/// keeps its keys), the built-in scene's name, the placement's positions, the quality, the
+/// backend and the settings.
 pub(crate) fn content_key(row: &Row) -> String {
     let doc = json!({
         "format": "luxbake-catalogue-key",
         "version": 1,
         "luxbake": env!("CARGO_PKG_VERSION"),
+        "row": ROW_VERSION,
         "builtin": row.scene.strip_prefix("builtin:"),
         "inputs": row.inputs.iter().map(|i| [&i.role, &i.sha256]).collect::<Vec<_>>(),
         "positions": row.positions,

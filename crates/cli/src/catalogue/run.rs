@@ -8,12 +8,13 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use luxbake::bake::{BakeError, bake};
 use luxbake::scene::{Lamp, Scene};
 use luxbake::sources::scenefile::{from_file_patched, read_photometry};
+use luxbake_assets::export::{WebReport, export_web};
 use luxbake_backends::BackendKind;
 use luxbake_output::write_bake;
 use serde_json::{Value, json};
 
 use super::failure::{Failure, PERMANENT, RETRYABLE};
-use super::plan::{Input, MISSING, Row, row_patch, scene_inputs, sha256_hex};
+use super::plan::{Input, MISSING, ROW_VERSION, Row, row_patch, scene_inputs, sha256_hex};
 
 /// The prefix of a row's temporary folder (`.tmp-<key>-<pid>-<nanos>`) and of an error
 /// record's temporary file: a dot name, which `status` and a front end ignore.
@@ -24,6 +25,8 @@ pub(crate) const ROW_FILE: &str = "row.json";
 pub(crate) const TIMINGS_FILE: &str = "timings.json";
 /// The folder of error records, `OUT/errors/<key>.json`.
 pub(crate) const ERRORS_DIR: &str = "errors";
+/// A row's web GLB (`luxbake_assets::export::export_web`).
+pub(crate) const WEB_GLB: &str = "web.glb";
 
 /// What a run of a row did.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -105,7 +108,8 @@ pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
             .map_or(0, |d| d.as_nanos())
     ));
     let written = write_bake(&temp, &scene, &output, &row.scene).map_err(|e| retry("write", &e))?;
-    seal(&temp, &row.key, written).map_err(|e| retry("write", &e))?;
+    let web = export_web(&scene, &output, &temp.join(WEB_GLB)).map_err(|e| retry("write", &e))?;
+    seal(&temp, &row.key, written, &web).map_err(|e| retry("write", &e))?;
     publish(&temp, &published, &row.key).map_err(|e| retry("publish", &e))?;
     Ok(RowOutcome::Baked)
 }
@@ -314,9 +318,9 @@ fn files_under(dir: &Path) -> std::io::Result<Vec<String>> {
 }
 
 /// Finishes a baked folder: the timings move from `manifest.json` to `timings.json`, every
-/// other file is listed with its size and SHA-256 in `row.json` (written last), and all of it
-/// is synced to disk.
-fn seal(dir: &Path, key: &str, mut manifest: Value) -> std::io::Result<()> {
+/// other file is listed with its size and SHA-256 in `row.json` (written last, with the web
+/// GLB's name and lux range), and all of it is synced to disk.
+fn seal(dir: &Path, key: &str, mut manifest: Value, web: &WebReport) -> std::io::Result<()> {
     let timings = manifest
         .as_object_mut()
         .and_then(|m| m.remove("timings"))
@@ -334,9 +338,10 @@ fn seal(dir: &Path, key: &str, mut manifest: Value) -> std::io::Result<()> {
     }
     let row = json!({
         "format": "luxbake-catalogue-row",
-        "version": 1,
+        "version": ROW_VERSION,
         "key": key,
         "files": files,
+        "web": {"glb": WEB_GLB, "lux": {"min": web.lux[0], "max": web.lux[1]}},
     });
     std::fs::write(dir.join(ROW_FILE), pretty(&row)?)?;
     for rel in files_under(dir)? {
