@@ -200,10 +200,9 @@ pub fn direct_at<B: GpuBackend>(
     let width = backend.limits().max_texture_size.clamp(1, 4096) as usize;
     let mut out = Vec::with_capacity(points.len());
     for batch in points.chunks(width * width) {
-        let size = [
-            batch.len().min(width) as u32,
-            batch.len().div_ceil(width) as u32,
-        ];
+        // A square of texels, as a light map's layer is.
+        let side = (batch.len() as f64).sqrt().ceil() as usize;
+        let size = [side as u32, batch.len().div_ceil(side.max(1)) as u32];
         let texels = size[0] as usize * size[1] as usize;
         let (mut position, mut normal) = (vec![0.0f32; 4 * texels], vec![0.0f32; 4 * texels]);
         for (i, p) in batch.iter().enumerate() {
