@@ -476,6 +476,7 @@ mod tests {
                 normal_log2: 7,
                 // The first two iterations: σ_l = 64 (see the docs), then 4.
                 variance_scale: 4096.0,
+                luminance_scale: 1.0,
                 ..AtrousParams::default()
             })
         );
