@@ -134,20 +134,6 @@ impl ReadBack {
     }
 }
 
-/// [`bake_room`] reading back only the stages `read_back` names, and with `direct`, handing
-/// the direct light to it as soon as it exists ([`bake_room_direct_first`]).
-pub fn bake_room_reading<B: GpuBackend>(
-    backend: &mut B,
-    room: &Room,
-    lamps: &[Lamp],
-    settings: &Settings,
-    read_back: ReadBack,
-    progress: &mut dyn FnMut(&Progress<'_>),
-    direct: Option<OnDirect<'_>>,
-) -> Result<BakeOutput, BakeError<B::Error>> {
-    bake_room_inner(backend, room, lamps, settings, read_back, progress, direct)
-}
-
 /// [`bake_room`], handing the direct light to `direct` as soon as it exists: per receiver,
 /// [`ObjectMaps`] with only the blurred direct illuminance (Figure 5 stage 3, which
 /// [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`] return), before the bounces run.
@@ -160,7 +146,7 @@ pub fn bake_room_direct_first<B: GpuBackend>(
     progress: &mut dyn FnMut(&Progress<'_>),
     direct: &mut dyn FnMut(&[ObjectMaps]),
 ) -> Result<BakeOutput, BakeError<B::Error>> {
-    bake_room_inner(
+    bake_room_reading(
         backend,
         room,
         lamps,
@@ -171,7 +157,9 @@ pub fn bake_room_direct_first<B: GpuBackend>(
     )
 }
 
-fn bake_room_inner<B: GpuBackend>(
+/// [`bake_room`] reading back only the stages `read_back` names, and with `direct`, handing
+/// the direct light to it as soon as it exists ([`bake_room_direct_first`]).
+pub fn bake_room_reading<B: GpuBackend>(
     backend: &mut B,
     room: &Room,
     lamps: &[Lamp],

@@ -6,24 +6,12 @@ mod common;
 
 use std::sync::Arc;
 
-use luxbake::GpuBackend;
-use luxbake::bake::Room;
 use luxbake::probe::{CalcPoint, direct_at};
 use luxbake::scene::{Lamp, Scene};
 use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
-use common::{run, small_room};
-
-fn prepare(scene: &Scene) -> Room {
-    Room::prepare(
-        scene,
-        &scene.settings,
-        CpuBackend::new().limits(),
-        &mut |_| {},
-    )
-    .expect("room")
-}
+use common::{prepare, run, small_room};
 
 #[test]
 fn at_a_texel_the_points_direct_light_is_the_maps() {

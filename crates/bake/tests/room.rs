@@ -15,7 +15,7 @@ use luxbake::{GpuBackend, Progress};
 use luxbake_backend_cpu::CpuBackend;
 use luxbake_ies::Photometry;
 
-use common::{run, small_room};
+use common::{prepare, run, small_room};
 
 /// The bit patterns of every stage of every object's maps.
 fn bits(out: &BakeOutput) -> Vec<Vec<u32>> {
@@ -89,17 +89,6 @@ fn a_prepared_room_bakes_other_lamps_as_a_whole_bake_does() {
         "the lamps changed nothing"
     );
     assert_eq!(swapped.lamps_used, [0, 1]);
-}
-
-/// `scene` prepared for its own settings and the CPU backend's limits.
-fn prepare(scene: &Scene) -> Room {
-    Room::prepare(
-        scene,
-        &scene.settings,
-        CpuBackend::new().limits(),
-        &mut |_| {},
-    )
-    .expect("room")
 }
 
 #[test]

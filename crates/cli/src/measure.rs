@@ -137,6 +137,16 @@ fn rebuild_scene(manifest: &Value) -> Result<Scene, String> {
     }
 }
 
+/// The manifest of the bake in `dir` and its scene, rebuilt ([`rebuild_scene`]).
+fn baked(dir: &Path) -> Result<(Value, Scene), String> {
+    let manifest_path = dir.join("manifest.json");
+    let text = read_text(&manifest_path)?;
+    let manifest: Value =
+        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    let scene = rebuild_scene(&manifest)?;
+    Ok((manifest, scene))
+}
+
 /// One measured point: position and `[direct, indirect, total]` lux.
 pub type Row = ([f64; 3], [f64; 3]);
 
@@ -177,11 +187,7 @@ pub fn measure_points(
     label: &str,
     tolerance: f64,
 ) -> Result<Vec<Row>, String> {
-    let manifest_path = dir.join("manifest.json");
-    let text = read_text(&manifest_path)?;
-    let manifest: Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
-    let scene = rebuild_scene(&manifest)?;
+    let (manifest, scene) = baked(dir)?;
     let objects = manifest["objects"]
         .as_array()
         .ok_or("manifest: objects missing")?;
@@ -244,11 +250,7 @@ pub fn direct_at_points(
     label: &str,
     tolerance: f64,
 ) -> Result<Vec<f64>, String> {
-    let manifest_path = dir.join("manifest.json");
-    let text = read_text(&manifest_path)?;
-    let manifest: Value =
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
-    let scene = rebuild_scene(&manifest)?;
+    let (manifest, scene) = baked(dir)?;
     same_lamps(&manifest, &scene)?;
     let located = locate_points(&scene, points, label, tolerance)?;
     let calc: Vec<CalcPoint> = located

@@ -165,6 +165,18 @@ fn bake_room(
     })
 }
 
+/// A table row's cells `| lead | kind | points | mean | bias | p95 | max |`, in %.
+fn stats_cells(lead: &str, kind: &str, s: &Stats, max: f64) -> String {
+    format!(
+        "| {lead} | {kind} | {} | {:.2} | {:+.2} | {:.2} | {:.2} |",
+        s.n,
+        100.0 * s.mean_abs_rel,
+        100.0 * s.bias,
+        100.0 * s.p95_abs_rel,
+        100.0 * max
+    )
+}
+
 /// Per surface kind: the statistics, the kind and the largest |relative error|.
 fn surfaces_json(stats: &[(String, Stats, f64)]) -> Vec<serde_json::Value> {
     stats
@@ -233,17 +245,11 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     );
     for r in &rows {
         for (kind, s, max) in &r.stats {
+            let lead = format!("{} | {} | {}", r.room, r.backend, r.model);
             let _ = writeln!(
                 md,
-                "| {} | {} | {} | {kind} | {} | {:.2} | {:+.2} | {:.2} | {:.2} | {:.2} |",
-                r.room,
-                r.backend,
-                r.model,
-                s.n,
-                100.0 * s.mean_abs_rel,
-                100.0 * s.bias,
-                100.0 * s.p95_abs_rel,
-                100.0 * max,
+                "{} {:.2} |",
+                stats_cells(&lead, kind, s, *max),
                 r.pass_s
             );
         }
@@ -263,18 +269,8 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     for r in &rows {
         for (samples, stats) in &r.at_points {
             for (kind, s, max) in stats {
-                let _ = writeln!(
-                    md,
-                    "| {} | {} | {} | {samples} | {kind} | {} | {:.2} | {:+.2} | {:.2} | {:.2} |",
-                    r.room,
-                    r.backend,
-                    r.model,
-                    s.n,
-                    100.0 * s.mean_abs_rel,
-                    100.0 * s.bias,
-                    100.0 * s.p95_abs_rel,
-                    100.0 * max,
-                );
+                let lead = format!("{} | {} | {} | {samples}", r.room, r.backend, r.model);
+                let _ = writeln!(md, "{}", stats_cells(&lead, kind, s, *max));
             }
         }
     }

@@ -1,12 +1,25 @@
 //! What the bake's integration tests share. Each test file uses a part of it.
 #![allow(dead_code)]
 
-use luxbake::bake::BakeOutput;
+use luxbake::GpuBackend;
+use luxbake::bake::{BakeOutput, Room};
 use luxbake::scene::{Quality, Scene, Settings};
+use luxbake_backend_cpu::CpuBackend;
 
 /// `scene` baked on the CPU backend at its own settings.
 pub fn run(scene: &Scene) -> BakeOutput {
     luxbake_backend_cpu::bake(scene).expect("bake")
+}
+
+/// `scene` prepared for its own settings and the CPU backend's limits.
+pub fn prepare(scene: &Scene) -> Room {
+    Room::prepare(
+        scene,
+        &scene.settings,
+        CpuBackend::new().limits(),
+        &mut |_| {},
+    )
+    .expect("room")
 }
 
 /// `chairs_01` at the default preset with 4 rays at 8 texels/m: a small room whose bakes take
