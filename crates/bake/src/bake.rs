@@ -41,7 +41,7 @@ use crate::graph::{BakeGraph, GraphConfig, GraphError};
 use crate::prepare::{Lamps, PrepareError};
 pub use crate::prepare::{Room, recentring_shift};
 pub use crate::report::{
-    BakeOutput, BakeReport, ObjectMaps, OnDirect, PassTiming, Progress, Skipped,
+    BakeOutput, BakeReport, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped,
 };
 use crate::scene::{BvhMode, Lamp, Method, Scene, Settings};
 
@@ -111,27 +111,6 @@ pub fn bake_room<B: GpuBackend>(
         progress,
         None,
     )
-}
-
-/// The Figure 5 stages a bake reads back from the backend at its end; the others stay `None`
-/// in its [`ObjectMaps`]. Each stage is one RGBA f32 texture array: on a GPU, reading back
-/// what nobody shows is the bake's largest transfer (8 stages ≈ 128 bytes per texel of the
-/// layout), and in a browser it is where WebGL's deferred work waits.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct ReadBack([bool; 8]);
-
-impl ReadBack {
-    /// Every stage the graph computes (what [`bake()`] and [`bake_room`] read).
-    pub const ALL: ReadBack = ReadBack([true; 8]);
-    /// What a viewer shows: the final illuminance and the blurred direct illuminance
-    /// (stages 7 and 3, [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`], exactly as
-    /// [`ReadBack::ALL`] reads them): a quarter of its bytes.
-    pub const LIGHT: ReadBack = ReadBack([false, false, true, false, false, false, true, false]);
-
-    /// Whether stage `index` (0-based, [`crate::graph::Figure5::NAMES`]) is read back.
-    pub fn reads(self, index: usize) -> bool {
-        self.0.get(index).copied().unwrap_or(false)
-    }
 }
 
 /// [`bake_room`], handing the direct light to `direct` as soon as it exists: per receiver,

@@ -25,13 +25,12 @@ use web_time::Instant;
 use rayon::prelude::*;
 
 use crate::backend::{Dispatch, GpuBackend, SceneData};
-use crate::bake::ReadBack;
 use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId};
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
 use crate::program::{CombineParams, Params, Program, TilePlan};
-use crate::report::{ObjectMaps, OnDirect, PassTiming, Progress, Skipped};
+use crate::report::{ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
 

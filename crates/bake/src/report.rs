@@ -46,6 +46,27 @@ pub enum Progress<'a> {
     Work(f32),
 }
 
+/// The Figure 5 stages a bake reads back from the backend at its end; the others stay `None`
+/// in its [`ObjectMaps`]. Each stage is one RGBA f32 texture array: on a GPU, reading back
+/// what nobody shows is the bake's largest transfer (8 stages ≈ 128 bytes per texel of the
+/// layout), and in a browser it is where WebGL's deferred work waits.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ReadBack([bool; 8]);
+
+impl ReadBack {
+    /// Every stage the graph computes (what [`crate::bake()`] and [`crate::bake::bake_room`] read).
+    pub const ALL: ReadBack = ReadBack([true; 8]);
+    /// What a viewer shows: the final illuminance and the blurred direct illuminance
+    /// (stages 7 and 3, [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`], exactly as
+    /// [`ReadBack::ALL`] reads them): a quarter of its bytes.
+    pub const LIGHT: ReadBack = ReadBack([false, false, true, false, false, false, true, false]);
+
+    /// Whether stage `index` (0-based, [`crate::graph::Figure5::NAMES`]) is read back.
+    pub fn reads(self, index: usize) -> bool {
+        self.0.get(index).copied().unwrap_or(false)
+    }
+}
+
 /// Receives the direct light of a bake as soon as it exists
 /// ([`crate::bake::bake_room_direct_first`]).
 pub type OnDirect<'a> = &'a mut dyn FnMut(&[ObjectMaps]);
