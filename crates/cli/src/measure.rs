@@ -188,20 +188,41 @@ pub fn measure_points(
     tolerance: f64,
 ) -> Result<Vec<Row>, String> {
     let (manifest, scene) = baked(dir)?;
+    // Locate every point first, so that a bad row fails before anything is measured.
+    let located = locate_points(&scene, points, label, tolerance)?;
+    read_rows(dir, &manifest, points, &located)
+}
+
+/// [`measure_points`] and, per point, the direct lux computed at the point itself
+/// (`--direct-at-points`, see the module docs): one reading of the bake, one location of the
+/// points.
+pub fn measure_points_at(
+    dir: &Path,
+    points: &[(usize, [f64; 3])],
+    label: &str,
+    tolerance: f64,
+) -> Result<(Vec<Row>, Vec<f64>), String> {
+    let (manifest, scene) = baked(dir)?;
+    same_lamps(&manifest, &scene)?;
+    let located = locate_points(&scene, points, label, tolerance)?;
+    let rows = read_rows(dir, &manifest, points, &located)?;
+    Ok((rows, direct_at_located(&scene, &located)?))
+}
+
+/// The maps' `[direct, indirect, total]` lux at each located point of `points`, read from the
+/// bake in `dir` that `manifest` describes.
+fn read_rows(
+    dir: &Path,
+    manifest: &Value,
+    points: &[(usize, [f64; 3])],
+    located: &[SurfacePoint],
+) -> Result<Vec<Row>, String> {
     let objects = manifest["objects"]
         .as_array()
         .ok_or("manifest: objects missing")?;
-
-    // Locate every point first, so that a bad row fails before anything is measured.
-    let located: Vec<([f64; 3], SurfacePoint)> = points
-        .iter()
-        .map(|&(_, p)| p)
-        .zip(locate_points(&scene, points, label, tolerance)?)
-        .collect();
-
     let mut cache: HashMap<usize, (MapImage, MapImage)> = HashMap::new();
     let mut rows = Vec::with_capacity(located.len());
-    for (p, sp) in located {
+    for (&(_, p), sp) in points.iter().zip(located) {
         let (direct, total) = match cache.entry(sp.object) {
             Entry::Occupied(e) => e.into_mut(),
             Entry::Vacant(v) => {
@@ -242,17 +263,9 @@ pub fn csv(rows: &[Row]) -> String {
     out
 }
 
-/// The direct illuminance, lux (Rec. 709 luminance), computed at each of `points` in the
-/// bake in `dir` (`--direct-at-points`, see the module docs).
-pub fn direct_at_points(
-    dir: &Path,
-    points: &[(usize, [f64; 3])],
-    label: &str,
-    tolerance: f64,
-) -> Result<Vec<f64>, String> {
-    let (manifest, scene) = baked(dir)?;
-    same_lamps(&manifest, &scene)?;
-    let located = locate_points(&scene, points, label, tolerance)?;
+/// The direct illuminance, lux (Rec. 709 luminance), computed at each of the `located`
+/// points of `scene` (their surface point and normal) on the CPU backend.
+fn direct_at_located(scene: &Scene, located: &[SurfacePoint]) -> Result<Vec<f64>, String> {
     let calc: Vec<CalcPoint> = located
         .iter()
         .map(|sp| CalcPoint {
@@ -262,8 +275,8 @@ pub fn direct_at_points(
         .collect();
     let mut backend = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
     let settings = &scene.settings;
-    let room = Room::prepare(&scene, settings, backend.limits(), &mut |_| {})
-        .map_err(|e| e.to_string())?;
+    let room =
+        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
     let lux = direct_at(
         &mut backend,
         &room,
@@ -317,15 +330,17 @@ pub fn csv_at_points(rows: &[Row], at_point: &[f64]) -> String {
 
 /// Runs the measurement and prints the CSV; the error is a message for stderr.
 pub fn run(args: &Args) -> Result<(), String> {
-    let rows = measure(&args.dir, &args.points, args.tolerance)?;
     if args.direct_at_points {
         let text = read_text(&args.points)?;
         let points = parse_points(&text).map_err(|e| format!("{}: {e}", args.points.display()))?;
         let label = args.points.display().to_string();
-        let at = direct_at_points(&args.dir, &points, &label, args.tolerance)?;
+        let (rows, at) = measure_points_at(&args.dir, &points, &label, args.tolerance)?;
         print!("{}", csv_at_points(&rows, &at));
     } else {
-        print!("{}", csv(&rows));
+        print!(
+            "{}",
+            csv(&measure(&args.dir, &args.points, args.tolerance)?)
+        );
     }
     Ok(())
 }
@@ -431,12 +446,13 @@ mod tests {
         }
         // At the points themselves (between texels): the closed form to f32's precision.
         let parsed = parse_points("3,0,4\n-5,0,2.5\n").expect("parse");
-        let at = direct_at_points(&dir, &parsed, "points", 0.01).expect("at points");
+        let (rows, at) = measure_points_at(&dir, &parsed, "points", 0.01).expect("at points");
+        assert_eq!(rows, measure(&dir, &points, 0.01).expect("measure"));
         for ((_, p), e) in parsed.iter().zip(&at) {
             let want = 1000.0 * 2.0 / (4.0 + p[0] * p[0] + p[2] * p[2]).powf(1.5);
             assert!((e - want).abs() / want < 1e-5, "{p:?}: {e} vs {want}");
         }
-        let text = csv_at_points(&measure(&dir, &points, 0.01).expect("measure"), &at);
+        let text = csv_at_points(&rows, &at);
         assert!(text.starts_with(
             "x,y,z,direct_lux,indirect_lux,total_lux,direct_at_point_lux,total_at_point_lux\n"
         ));
@@ -447,7 +463,7 @@ mod tests {
         let mut m: Value = serde_json::from_str(&original).expect("json");
         m["lamps"][0]["position"][1] = Value::from(2.5);
         std::fs::write(&manifest_path, m.to_string()).expect("write");
-        let err = direct_at_points(&dir, &parsed, "points", 0.01).unwrap_err();
+        let err = measure_points_at(&dir, &parsed, "points", 0.01).unwrap_err();
         assert!(err.contains("--lamp"), "{err}");
         std::fs::write(&manifest_path, original).expect("restore");
         std::fs::write(&points, "0,1,0\n").expect("points");
