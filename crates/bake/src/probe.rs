@@ -162,7 +162,8 @@ pub struct CalcPoint {
 /// pass's rule: up to twice that near an opening, [`crate::opening::texel_samples`]). A
 /// point gets what a texel centred there with that normal would get; the lamps' models are
 /// those a bake of `room` under `lamps` with `settings` picks. Points are processed in
-/// batches that fit the backend's textures.
+/// batches that fit the backend's textures; after each the backend frees its textures and
+/// scene ([`GpuBackend::release`]), as a bake does when its maps are read back.
 ///
 /// Known issue: under Mesa's software drivers (llvmpipe, lavapipe) the glow and wgpu
 /// backends returned 0 at some points of the `bench nearfield` rooms with 1024 opening
