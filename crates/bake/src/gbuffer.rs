@@ -32,8 +32,12 @@
 //! from the triangle nearest its centre among the triangles overlapping it (distance 0 when
 //! the centre is inside): the point of that triangle closest to the texel centre (clamped
 //! barycentrics), nudged 0.1 % of the way toward the triangle's centroid so it lies strictly
-//! inside the surface rather than on an edge that another surface shares. So an edge texel
-//! samples the surface at the chart's border, never empty space.
+//! inside the surface rather than on an edge that another surface shares. A centre that lies
+//! on an edge itself (or nearer to it than the nudge: a texel grid aligned with a room's
+//! corner) is nudged the same way: sampled on the corner line, the floor would see the wall
+//! edge-on and a texel row along the corner read 25–45 % dark (issue 29's box room at 16
+//! texels/m, its first bounce).
+//! So an edge texel samples the surface at the chart's border, never empty space.
 //!
 //! Triangles with zero (or non-finite) UV area cover no texel and are skipped; triangles with
 //! zero world area still give finite positions (their interpolated normal, else their first
@@ -288,7 +292,8 @@ fn rasterize_band(
 fn texel(o: &Object, verts: &WorldVerts, index: u32, b: Best, mask: u16) -> Option<Texel> {
     let m = &o.mesh;
     let idx = tri_indices(m.indices.get(b.tri as usize)?, m)?;
-    let bary = if b.dist > 0.0 {
+    // A clamped sample, or a centre on (or within the nudge of) an edge: nudged inside.
+    let bary = if b.dist > 0.0 || b.bary.min_element() < EDGE_NUDGE / 3.0 {
         b.bary * (1.0 - EDGE_NUDGE) + EDGE_NUDGE / 3.0
     } else {
         b.bary
@@ -667,6 +672,34 @@ mod tests {
             valid >= 11 * 11 && full < valid,
             "{valid} valid, {full} fully covered"
         );
+    }
+
+    /// The box room of issue 29 at 16 texels/m: its floor's texel grid lies on the corner
+    /// lines, so some texel centres lie exactly on the floor's edge that the walls share.
+    /// Every floor sample lies strictly inside the floor, so a gather from it sees the walls.
+    #[test]
+    fn texel_centres_on_a_shared_edge_are_nudged_inside() {
+        let settings = Settings {
+            texels_per_metre: 16.0,
+            ..Settings::default()
+        };
+        let padding = crate::sources::builtin::padding_m(&settings, 1.0);
+        let room = meshes::room(
+            [4.0, 2.5, 3.0],
+            meshes::RoomAlbedo::uniform([0.5; 3]),
+            padding,
+        );
+        let s = one_receiver(room, Transform::IDENTITY, settings);
+        let (_, g) = raster(&s);
+        let (mut floor, mut nearest) = (0, f32::INFINITY);
+        for (p, n) in g.position.chunks_exact(4).zip(g.normal.chunks_exact(4)) {
+            if p[3] == 1.0 && n[1] > 0.9 {
+                floor += 1;
+                nearest = nearest.min(2.0 - p[0].abs()).min(1.5 - p[2].abs());
+            }
+        }
+        assert!(floor >= 64 * 48, "{floor} floor texels");
+        assert!(nearest >= 5e-4, "a floor sample {nearest} m from a wall");
     }
 
     #[test]
