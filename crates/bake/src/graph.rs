@@ -794,7 +794,11 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         let denoise = AtrousConfig {
             texel_size: config.texel_size,
             luminance_scale: config.luminance_scale,
-            ..AtrousConfig::new(atrous_iterations(config.blur), config.texel_size[0])
+            ..AtrousConfig::for_rays(
+                atrous_iterations(config.blur),
+                config.texel_size[0],
+                config.rays,
+            )
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))

@@ -1,8 +1,9 @@
 // Pass "atrous": one iteration of the edge-stopping a-trous wavelet filter (Dammertz et al.
 // 2010, SVGF; cpu::atrous_texel, program::atrous_steps). 5x5 taps u_step texels apart on the
 // centre's surface, weighted by the B3 spline, a power of the normals' cosine and a Gaussian
-// of the luminance difference in units of the centre's noise (the variance map). The sum is
-// taken relative to the centre, which is itself a tap: a constant field is returned exactly.
+// of the luminance difference in units of the centre's noise (the variance map), in mirrored
+// pairs (program::atrous_steps, "Mirrored pairs"). The sum is taken relative to the centre,
+// which is itself a tap: a constant field is returned exactly.
 // Parameters (program::AtrousParams): u_step = 2^i; u_reach, u_reach_min: the chart test's
 // farthest and nearest distance per texel of offset, metres; u_normal_log2: the cosine's exponent is 2^u_normal_log2; u_variance_scale =
 // sigma_l^2 x the noise factor of the iterations before; u_luminance_scale: the variance
@@ -30,15 +31,26 @@ vec4 luxRun(ivec3 c) {
     }
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
-    for (int j = -2; j <= 2; ++j) {
-        for (int i = -2; i <= 2; ++i) {
-            vec4 t;
-            float cosine;
-            if (!luxTap(g, ivec2(i * step, j * step), t, cosine) || !(cosine > 0.0)) {
-                continue;
-            }
-            float wn = cosine;
-            for (uint k = 0u; k < u_normal_log2; ++k) {
+    // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
+    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge.
+    for (int k = 0; k < 13; ++k) {
+        int i = k % 5 - 2;
+        int j = k / 5 - 2;
+        vec4 tn;
+        vec4 tf;
+        float cn;
+        float cf;
+        if (!luxTap(g, ivec2(i * step, j * step), tn, cn) || !(cn > 0.0)) {
+            continue;
+        }
+        bool pair = k != 12;
+        if (pair && (!luxTap(g, ivec2(-i * step, -j * step), tf, cf) || !(cf > 0.0))) {
+            continue;
+        }
+        for (int side = 0; side < (pair ? 2 : 1); ++side) {
+            vec4 t = side == 0 ? tn : tf;
+            float wn = side == 0 ? cn : cf;
+            for (uint e = 0u; e < u_normal_log2; ++e) {
                 if (wn == 0.0 || wn == 1.0) {
                     break;
                 }

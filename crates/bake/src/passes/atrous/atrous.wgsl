@@ -1,9 +1,9 @@
 // Pass "atrous": one iteration of the edge-stopping a-trous wavelet filter (Dammertz et al.
 // 2010, SVGF; cpu::atrous_texel, program::atrous_steps). 5x5 taps lux_pass.step texels apart
 // on the centre's surface, weighted by the B3 spline, a power of the normals' cosine and a
-// Gaussian of the luminance difference in units of the centre's noise (the variance map). The
-// sum is taken relative to the centre, which is itself a tap: a constant field is returned
-// exactly.
+// Gaussian of the luminance difference in units of the centre's noise (the variance map), in
+// mirrored pairs (program::atrous_steps, "Mirrored pairs"). The sum is taken relative to the
+// centre, which is itself a tap: a constant field is returned exactly.
 
 fn lux_b3(i: i32) -> f32 {
     return select(select(0.0625, 0.25, i == 1 || i == -1), 0.375, i == 0);
@@ -28,15 +28,27 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     }
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
-    for (var j = -2; j <= 2; j++) {
-        for (var i = -2; i <= 2; i++) {
-            var t: vec4<f32>;
-            var cosine: f32;
-            if (!lux_tap(g, vec2<i32>(i * step, j * step), &t, &cosine) || !(cosine > 0.0)) {
-                continue;
-            }
-            var wn = cosine;
-            for (var k = 0u; k < lux_pass.normal_log2; k++) {
+    // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
+    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge.
+    for (var k = 0; k < 13; k++) {
+        let i = k % 5 - 2;
+        let j = k / 5 - 2;
+        var tn: vec4<f32>;
+        var tf: vec4<f32>;
+        var cn: f32;
+        var cf: f32;
+        if (!lux_tap(g, vec2<i32>(i * step, j * step), &tn, &cn) || !(cn > 0.0)) {
+            continue;
+        }
+        let pair = k != 12;
+        if (pair && (!lux_tap(g, vec2<i32>(-i * step, -j * step), &tf, &cf) || !(cf > 0.0))) {
+            continue;
+        }
+        let sides = select(1, 2, pair);
+        for (var side = 0; side < sides; side++) {
+            let t = select(tf, tn, side == 0);
+            var wn = select(cf, cn, side == 0);
+            for (var e = 0u; e < lux_pass.normal_log2; e++) {
                 if (wn == 0.0 || wn == 1.0) {
                     break;
                 }

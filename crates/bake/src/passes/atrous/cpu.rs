@@ -34,15 +34,24 @@ pub(crate) fn atrous_texel(
     let step = i64::from(params.step);
     let mut sum = [0.0f32; 3];
     let mut wsum = 0.0f32;
-    for (j, &bj) in B3.iter().enumerate() {
-        for (i, &bi) in B3.iter().enumerate() {
-            let o = [(i as i64 - 2) * step, (j as i64 - 2) * step];
-            let Some((t, cos)) = guide.tap(o) else {
-                continue;
-            };
-            if cos.is_nan() || cos <= 0.0 {
-                continue;
-            }
+    // A tap on the surface facing the centre's side.
+    let tap = |a: usize, b: usize| {
+        let o = [(a as i64 - 2) * step, (b as i64 - 2) * step];
+        guide.tap(o).filter(|&(_, cos)| cos > 0.0)
+    };
+    // Taps in mirrored pairs `o`, `−o` (the centre alone last): a pair counts only when both
+    // of its taps are on the surface, so the kernel stays point-symmetric at a chart's edge
+    // or a contact and a linear gradient is not biased there.
+    for k in 0..13usize {
+        let (i, j) = (k % 5, k / 5);
+        let Some(near) = tap(i, j) else {
+            continue;
+        };
+        let far = if k == 12 { None } else { tap(4 - i, 4 - j) };
+        if k != 12 && far.is_none() {
+            continue;
+        }
+        for (t, cos) in std::iter::once(near).chain(far) {
             let mut wn = cos;
             for _ in 0..params.normal_log2 {
                 if wn == 0.0 || wn == 1.0 {
@@ -59,7 +68,7 @@ pub(crate) fn atrous_texel(
             } else {
                 0.0
             };
-            let w = bi * bj * wn * wl;
+            let w = B3[i] * B3[j] * wn * wl;
             if w.is_nan() || w <= 0.0 {
                 continue;
             }
