@@ -52,7 +52,10 @@ fn cie_171_test_5_8_closed_cube() {
             100.0 * out.report.tail_fraction,
             100.0 * err
         );
-        assert!(err.abs() < 0.02, "ρ = {rho}: {indirect} vs {want}");
+        // Issue 29 asks 1 % at ρ = 0.95 (measured +0.57 %; −1.61 % at ρ = 0.5, where the
+        // denoiser's averaging of the cube faces' curvature at 6 texels/m costs −1.2 %).
+        let bound = if rho >= 0.95 { 0.01 } else { 0.02 };
+        assert!(err.abs() < bound, "ρ = {rho}: {indirect} vs {want}");
     }
 }
 

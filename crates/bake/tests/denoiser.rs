@@ -4,7 +4,9 @@
 //! not compute — the one-bounce integral evaluated by quadrature below — next to the raw
 //! estimate of the same bake. As the rays grow the denoised error must follow the raw one
 //! (within 1.2× at 1 024 and 4 096 rays), and the band of texels within three texels of the
-//! walls, where the filter's kernel is one-sided, must not be biased (±0.5 %).
+//! walls, where the filter's kernel is one-sided, must not be biased (±0.5 %). A second case
+//! has a steep gradient: a wall lit by a floor's bright spot at grazing angles (see
+//! [`grazing_scene`]), its first bounce measured row by row.
 //!
 //! # The reference
 //! The floor sees only the walls and the ceiling, lit directly by the lamp (`E = I cos θ / d²`,
@@ -16,7 +18,7 @@
 //! the wall patches are graded from 4 mm at the floor (where a texel 3 cm from the wall sees
 //! the wall's bottom under a wide angle) to 5 cm. Checked here: the factors from any floor
 //! point to the five faces sum to 1 (a closed box), and halving every patch changes the
-//! reference at the floor's edge texels by under 0.02 %.
+//! reference at the floor's edge texels by under 0.02 % (the grazing case's below: 0.05 %).
 
 use luxbake::bake::BakeOutput;
 use luxbake::gbuffer::rasterize;
@@ -104,104 +106,102 @@ fn cuts(len: f64, first: f64, ratio: f64, most: f64, graded: bool) -> Vec<f64> {
     c
 }
 
-/// The walls' and the ceiling's patches, each `scale` times the size described in the module
-/// docs, with their exitance (`uniform`: 1 everywhere, for the closed-box check).
-fn patches(scale: f64, uniform: bool) -> Vec<Patch> {
-    let [hx, hy, hz] = [SIZE[0] / 2.0, SIZE[1], SIZE[2] / 2.0];
-    // Faces: origin, u axis (length), v axis (length), inward normal.
-    let faces: [(V3, V3, f64, V3, f64, V3, bool); 5] = [
-        (
-            [-hx, 0.0, -hz],
-            [1.0, 0.0, 0.0],
-            2.0 * hx,
-            [0.0, 1.0, 0.0],
-            hy,
-            [0.0, 0.0, 1.0],
-            true,
-        ),
-        (
-            [-hx, 0.0, hz],
-            [1.0, 0.0, 0.0],
-            2.0 * hx,
-            [0.0, 1.0, 0.0],
-            hy,
-            [0.0, 0.0, -1.0],
-            true,
-        ),
-        (
-            [-hx, 0.0, -hz],
-            [0.0, 0.0, 1.0],
-            2.0 * hz,
-            [0.0, 1.0, 0.0],
-            hy,
-            [1.0, 0.0, 0.0],
-            true,
-        ),
-        (
-            [hx, 0.0, -hz],
-            [0.0, 0.0, 1.0],
-            2.0 * hz,
-            [0.0, 1.0, 0.0],
-            hy,
-            [-1.0, 0.0, 0.0],
-            true,
-        ),
-        (
-            [-hx, hy, -hz],
-            [1.0, 0.0, 0.0],
-            2.0 * hx,
-            [0.0, 0.0, 1.0],
-            2.0 * hz,
-            [0.0, -1.0, 0.0],
-            false,
-        ),
-    ];
+/// A rectangle of a surface: corner `origin`, sides along the unit vectors `u` and `v` of
+/// lengths `lengths`, unit normal `normal` (toward the receivers).
+struct Face {
+    origin: V3,
+    u: V3,
+    v: V3,
+    lengths: [f64; 2],
+    normal: V3,
+}
+
+/// An isotropic lamp of `candela` at `position` lighting a surface of albedo `rho`.
+#[derive(Clone, Copy)]
+struct Light {
+    candela: f64,
+    position: V3,
+    rho: f64,
+}
+
+/// `face` cut at `us` × `vs` (distances along `u` and `v`) into patches, each with the mean
+/// exitance over 2 × 2 Gauss points under `light` (`None`: exitance 1, for the closed-box
+/// check).
+fn face_patches(face: &Face, us: &[f64], vs: &[f64], light: Option<Light>) -> Vec<Patch> {
     let g = 0.5 / 3f64.sqrt();
+    let at = |a: f64, b: f64| -> V3 {
+        [0, 1, 2].map(|k| face.origin[k] + a * face.u[k] + b * face.v[k])
+    };
     let mut out = Vec::new();
-    for (o, u, ul, v, vl, n, wall) in faces {
-        let us = cuts(ul, 0.05 * scale, 1.0, 0.05 * scale, false);
-        // Walls are graded toward the floor, where the floor's edge texels see them closest.
-        let vs = cuts(vl, 0.004 * scale, 1.25, 0.05 * scale, wall);
-        let at = |a: f64, b: f64| -> V3 {
-            [
-                o[0] + a * u[0] + b * v[0],
-                o[1] + a * u[1] + b * v[1],
-                o[2] + a * u[2] + b * v[2],
-            ]
-        };
-        for j in 0..vs.len() - 1 {
-            for i in 0..us.len() - 1 {
-                let (a0, a1, b0, b1) = (us[i], us[i + 1], vs[j], vs[j + 1]);
-                let exitance = if uniform {
-                    1.0
-                } else {
+    for j in 0..vs.len() - 1 {
+        for i in 0..us.len() - 1 {
+            let (a0, a1, b0, b1) = (us[i], us[i + 1], vs[j], vs[j + 1]);
+            let exitance = match light {
+                None => 1.0,
+                Some(l) => {
                     let mut m = 0.0;
                     for ga in [0.5 - g, 0.5 + g] {
                         for gb in [0.5 - g, 0.5 + g] {
                             let q = at(a0 + ga * (a1 - a0), b0 + gb * (b1 - b0));
-                            let d = sub(LAMP, q);
+                            let d = sub(l.position, q);
                             let r = norm(d);
-                            m += RHO * CANDELA * dot(n, d) / (r * r * r);
+                            m += l.rho * l.candela * dot(face.normal, d).max(0.0) / (r * r * r);
                         }
                     }
                     m / 4.0
-                };
-                let mut corners = [at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)];
-                // Orient so that the contour integral from inside the room is positive.
-                let e = cross(sub(corners[1], corners[0]), sub(corners[2], corners[1]));
-                if dot(e, n) < 0.0 {
-                    corners.reverse();
                 }
-                out.push(Patch { corners, exitance });
-            }
+            };
+            let corners = [at(a0, b0), at(a1, b0), at(a1, b1), at(a0, b1)];
+            out.push(Patch { corners, exitance });
         }
     }
     out
 }
 
-/// Configuration factor from a differential area at `p` with normal +y to the polygon
-/// `corners` (Lambert's contour integral).
-fn factor(p: V3, corners: &[V3; 4]) -> f64 {
+/// The box room's walls' and ceiling's patches, each `scale` times the size described in the
+/// module docs, with their exitance (`uniform`: 1 everywhere, for the closed-box check).
+fn patches(scale: f64, uniform: bool) -> Vec<Patch> {
+    let [hx, hy, hz] = [SIZE[0] / 2.0, SIZE[1], SIZE[2] / 2.0];
+    let (x, y, z) = ([1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]);
+    let wall = |origin: V3, u: V3, length: f64, normal: V3| Face {
+        origin,
+        u,
+        v: y,
+        lengths: [length, hy],
+        normal,
+    };
+    let faces = [
+        wall([-hx, 0.0, -hz], x, 2.0 * hx, z),
+        wall([-hx, 0.0, hz], x, 2.0 * hx, [0.0, 0.0, -1.0]),
+        wall([-hx, 0.0, -hz], z, 2.0 * hz, x),
+        wall([hx, 0.0, -hz], z, 2.0 * hz, [-1.0, 0.0, 0.0]),
+        Face {
+            origin: [-hx, hy, -hz],
+            u: x,
+            v: z,
+            lengths: [2.0 * hx, 2.0 * hz],
+            normal: [0.0, -1.0, 0.0],
+        },
+    ];
+    let light = (!uniform).then_some(Light {
+        candela: CANDELA,
+        position: LAMP,
+        rho: RHO,
+    });
+    let mut out = Vec::new();
+    for (k, face) in faces.iter().enumerate() {
+        let us = cuts(face.lengths[0], 0.05 * scale, 1.0, 0.05 * scale, false);
+        // Walls are graded toward the floor, where the floor's edge texels see them closest.
+        let vs = cuts(face.lengths[1], 0.004 * scale, 1.25, 0.05 * scale, k < 4);
+        out.extend(face_patches(face, &us, &vs, light));
+    }
+    out
+}
+
+/// Configuration factor from a differential area at `p` with unit normal `n` to the polygon
+/// `corners`, which lies wholly in front of it (Lambert's contour integral; its sign follows
+/// the corners' order, so the magnitude is taken).
+fn factor(p: V3, n: V3, corners: &[V3; 4]) -> f64 {
     let mut sum = 0.0;
     for i in 0..4 {
         let (a, b) = (sub(corners[i], p), sub(corners[(i + 1) % 4], p));
@@ -211,14 +211,13 @@ fn factor(p: V3, corners: &[V3; 4]) -> f64 {
             continue;
         }
         let gamma = cn.atan2(dot(a, b));
-        sum += gamma * c[1] / cn;
+        sum += gamma * dot(n, c) / cn;
     }
-    // The patch's normal faces the point: the contour runs clockwise seen from `p`.
-    -sum / (2.0 * std::f64::consts::PI)
+    sum.abs() / (2.0 * std::f64::consts::PI)
 }
 
-/// The reference indirect illuminance at each of `points` (on the floor).
-fn reference(points: &[V3], patches: &[Patch]) -> Vec<f64> {
+/// The reference indirect illuminance at each of `points` (normal `n`) from `patches`.
+fn reference_at(points: &[V3], n: V3, patches: &[Patch]) -> Vec<f64> {
     let threads = std::thread::available_parallelism().map_or(1, |n| n.get());
     let chunk = points.len().div_ceil(threads).max(1);
     std::thread::scope(|s| {
@@ -230,7 +229,7 @@ fn reference(points: &[V3], patches: &[Patch]) -> Vec<f64> {
                         .map(|&p| {
                             patches
                                 .iter()
-                                .map(|q| q.exitance * factor(p, &q.corners))
+                                .map(|q| q.exitance * factor(p, n, &q.corners))
                                 .sum::<f64>()
                         })
                         .collect::<Vec<_>>()
@@ -241,6 +240,11 @@ fn reference(points: &[V3], patches: &[Patch]) -> Vec<f64> {
             .flat_map(|j| j.join().expect("thread"))
             .collect()
     })
+}
+
+/// The box room's reference at floor points.
+fn reference(points: &[V3], patches: &[Patch]) -> Vec<f64> {
+    reference_at(points, [0.0, 1.0, 0.0], patches)
 }
 
 /// A floor texel: its map coordinates, its G-buffer position and its distance from the
@@ -339,6 +343,23 @@ fn the_reference_quadrature_closes_the_box_and_has_converged() {
     for (x, y) in a.iter().zip(&b) {
         assert!((x / y - 1.0).abs() < 2e-4, "{x} vs {y}");
     }
+    // The grazing case's wall, from its foot up.
+    let wall = [
+        [0.0, 0.001, -1.5],
+        [0.0, 0.03, -1.5],
+        [0.0, 0.2, -1.5],
+        [1.9, 0.001, -1.5],
+        [-1.0, 0.45, -1.5],
+    ];
+    let n = [0.0, 0.0, 1.0];
+    let (a, b) = (
+        reference_at(&wall, n, &grazing_patches(GRAZING_PATCH_SCALE)),
+        reference_at(&wall, n, &grazing_patches(GRAZING_PATCH_SCALE / 2.0)),
+    );
+    for (x, y) in a.iter().zip(&b) {
+        println!("grazing reference {x} vs {y} with patches halved");
+        assert!((x / y - 1.0).abs() < 5e-4, "{x} vs {y}");
+    }
 }
 
 /// The indirect illuminance of the floor's texels of `scene`'s bake and the reference at
@@ -403,4 +424,171 @@ fn the_denoised_first_bounce_follows_the_raw_one_as_rays_grow() {
         assert!(band.abs() < 0.005, "{rays} rays: edge band bias {band}");
         assert!(inner.abs() < 0.005, "{rays} rays: inner bias {inner}");
     }
+}
+
+/// The grazing case: a floor (4 × 3 m, albedo 0.5) and one wall standing on its far edge,
+/// lit by a 100 cd isotropic lamp 0.3 m above the floor and 0.3 m in front of the wall. The
+/// floor's exitance peaks under the lamp and the wall sees it at grazing angles, so the
+/// wall's first bounce falls steeply with height over its lowest half metre.
+fn grazing_scene(rays: u32, blur: Blur) -> Scene {
+    let settings = Settings {
+        rays,
+        bounces: 1,
+        tail: false,
+        blur,
+        texels_per_metre: GRAZING_TEXELS_PER_METRE,
+        ..Settings::preset(Quality::Default)
+    };
+    let padding = builtin::padding_m(
+        &Settings {
+            blur: Blur::Sigma(1.0),
+            ..settings.clone()
+        },
+        1.0,
+    );
+    let plane = |name: &str, size: [f32; 2], transform: Transform| Object {
+        name: name.into(),
+        mesh: meshes::plane(size, padding),
+        transform,
+        albedo: Albedo::grey(0.5),
+        receiver: true,
+        texel_scale: 1.0,
+    };
+    Scene {
+        objects: vec![
+            plane("floor", [4.0, 3.0], Transform::IDENTITY),
+            plane(
+                "wall",
+                [4.0, 2.5],
+                Transform::from_trs([0.0, 1.25, -1.5], [90.0, 0.0, 0.0], [1.0; 3]),
+            ),
+        ],
+        lamps: vec![builtin::isotropic_lamp(100.0, GRAZING_LAMP)],
+        settings,
+    }
+}
+
+const GRAZING_LAMP: V3 = [0.0, 0.3, -1.2];
+const GRAZING_TEXELS_PER_METRE: f32 = 32.0;
+/// The grazing case's floor patches: 1.25 cm across, 1 mm to 1.25 cm deep from the wall out.
+const GRAZING_PATCH_SCALE: f64 = 0.5;
+
+/// The grazing case's floor patches, graded toward the wall.
+fn grazing_patches(scale: f64) -> Vec<Patch> {
+    let floor = Face {
+        origin: [-2.0, 0.0, -1.5],
+        u: [1.0, 0.0, 0.0],
+        v: [0.0, 0.0, 1.0],
+        lengths: [4.0, 3.0],
+        normal: [0.0, 1.0, 0.0],
+    };
+    let us = cuts(4.0, 0.025 * scale, 1.0, 0.025 * scale, false);
+    let vs = cuts(3.0, 0.002 * scale, 1.25, 0.025 * scale, true);
+    let light = Light {
+        candela: 100.0,
+        position: GRAZING_LAMP,
+        rho: 0.5,
+    };
+    face_patches(&floor, &us, &vs, Some(light))
+}
+
+/// Per row of the wall's lowest half metre (texels above the floor), the mean relative error
+/// of the wall's indirect illuminance against the quadrature, and the relative RMSE over the
+/// rows.
+fn grazing_rows(
+    rays: u32,
+    blur: Blur,
+    reference: &mut Option<(Vec<V3>, Vec<f64>)>,
+) -> (Vec<f64>, f64) {
+    let scene = grazing_scene(rays, blur);
+    let out = luxbake_backend_cpu::bake(&scene).expect("bake");
+    let g = rasterize(&scene, &out.layout);
+    let maps = &out.maps[1];
+    assert_eq!(maps.name, "wall");
+    let r = maps.region;
+    let rows = (0.5 * GRAZING_TEXELS_PER_METRE) as usize;
+    let mut texels = Vec::new();
+    for y in 0..r.size[1] {
+        for x in 0..r.size[0] {
+            let i = g.index(r.layer, r.offset[0] + x, r.offset[1] + y);
+            let p = [0, 1, 2].map(|k| f64::from(g.position[i + k]));
+            let row = (p[1] * f64::from(GRAZING_TEXELS_PER_METRE)) as usize;
+            if g.position[i + 3] > 0.5 && g.normal[i + 2] > 0.9 && row < rows {
+                texels.push((x, y, p, row));
+            }
+        }
+    }
+    let points: Vec<V3> = texels.iter().map(|t| t.2).collect();
+    if reference.as_ref().is_none_or(|(p, _)| *p != points) {
+        let want = reference_at(
+            &points,
+            [0.0, 0.0, 1.0],
+            &grazing_patches(GRAZING_PATCH_SCALE),
+        );
+        *reference = Some((points, want));
+    }
+    let want = &reference.as_ref().expect("reference").1;
+    let (e, d) = (maps.illuminance(), maps.direct());
+    let y = |v: [f32; 4]| {
+        0.2126 * f64::from(v[0]) + 0.7152 * f64::from(v[1]) + 0.0722 * f64::from(v[2])
+    };
+    let (mut sum, mut n, mut sq) = (vec![0.0; rows], vec![0usize; rows], 0.0);
+    for (t, w) in texels.iter().zip(want) {
+        let got = y(e.texel(t.0, t.1)) - y(d.texel(t.0, t.1));
+        let err = got / w - 1.0;
+        sum[t.3] += err;
+        n[t.3] += 1;
+        sq += err * err;
+    }
+    assert!(n.iter().all(|&n| n >= 100), "{n:?} texels per row");
+    let rows: Vec<f64> = sum.iter().zip(&n).map(|(s, &n)| s / n as f64).collect();
+    (rows, (sq / texels.len() as f64).sqrt())
+}
+
+/// The wall's first bounce under the grazing case, raw and denoised, at the default preset's 4
+/// rays and at 64 and 1 024: the denoised rows' bias falls as the rays grow (the filter is
+/// consistent on a steep gradient too), and from 1 024 rays on every row is within 1 % and the
+/// denoised error under 1.2× the raw one. At the default's 4 rays the rows over the lowest
+/// 10 cm are still 2–3.4 % low (the early iterations' wide luminance term averages across
+/// the gradient's curvature): measured here and bounded, not yet what issue 29 asks (0.5 %).
+#[test]
+fn a_wall_lit_at_grazing_incidence_keeps_its_steep_first_bounce() {
+    let mut reference = None;
+    let mut mean_bias = Vec::new();
+    for rays in [4, 64, 1024] {
+        let (raw, raw_rmse) = grazing_rows(rays, Blur::None, &mut reference);
+        let (den, den_rmse) = grazing_rows(rays, Blur::Sigma(1.0), &mut reference);
+        let want = &reference.as_ref().expect("reference").1;
+        let worst = den.iter().fold(0.0f64, |m, b| m.max(b.abs()));
+        let mean = den.iter().map(|b| b.abs()).sum::<f64>() / den.len() as f64;
+        println!(
+            "{rays} rays: the wall's lowest 0.5 m ({:.2} … {:.2} lx): relative RMSE raw {:.2} %, \
+             denoised {:.2} %; denoised rows' bias mean |·| {:.2} %, worst {:.2} %",
+            want.iter().cloned().fold(f64::INFINITY, f64::min),
+            want.iter().cloned().fold(0.0, f64::max),
+            100.0 * raw_rmse,
+            100.0 * den_rmse,
+            100.0 * mean,
+            100.0 * worst
+        );
+        for (k, (r, d)) in raw.iter().zip(&den).enumerate() {
+            println!(
+                "  row {k}: raw {:+.3} %, denoised {:+.3} %",
+                100.0 * r,
+                100.0 * d
+            );
+        }
+        assert!(den_rmse < raw_rmse, "{rays} rays: {den_rmse} vs {raw_rmse}");
+        if rays >= 1024 {
+            assert!(den_rmse <= 1.2 * raw_rmse, "{rays} rays");
+            assert!(worst < 0.01, "{rays} rays: a row {worst} off");
+        } else {
+            assert!(worst < 0.04, "{rays} rays: a row {worst} off");
+        }
+        mean_bias.push(mean);
+    }
+    assert!(
+        mean_bias.windows(2).all(|w| w[1] < w[0]),
+        "the rows' bias does not fall with the rays: {mean_bias:?}"
+    );
 }
