@@ -20,7 +20,7 @@
 //! point to the five faces sum to 1 (a closed box), and halving every patch changes the
 //! reference at the floor's edge texels by under 0.02 % (the grazing case's below: 0.05 %).
 
-use luxbake::bake::BakeOutput;
+use luxbake::bake::{BakeOutput, ObjectMaps};
 use luxbake::gbuffer::rasterize;
 use luxbake::scene::{Albedo, Blur, Object, Quality, Scene, Settings, Transform};
 use luxbake::sources::builtin;
@@ -51,24 +51,28 @@ fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }
 
-/// The box room at `settings`, one bounce, no tail.
-fn box_room(rays: u32, blur: Blur) -> Scene {
+/// The default preset with `rays` and `blur` at `texels_per_metre`, one bounce, no tail, and
+/// the padding (metres) of its denoised bake: raw and denoised bakes get the same layout, the
+/// same texels.
+fn one_bounce(rays: u32, blur: Blur, texels_per_metre: f32) -> (Settings, f32) {
     let settings = Settings {
         rays,
         bounces: 1,
         tail: false,
         blur,
-        texels_per_metre: TEXELS_PER_METRE,
+        texels_per_metre,
         ..Settings::preset(Quality::Default)
     };
-    // Both bakes at the padding of the denoised one: the same layout, the same texels.
-    let padding = builtin::padding_m(
-        &Settings {
-            blur: Blur::Sigma(1.0),
-            ..settings.clone()
-        },
-        1.0,
-    );
+    let denoised = Settings {
+        blur: Blur::Sigma(1.0),
+        ..settings.clone()
+    };
+    (settings, builtin::padding_m(&denoised, 1.0))
+}
+
+/// The box room, one bounce, no tail.
+fn box_room(rays: u32, blur: Blur) -> Scene {
+    let (settings, padding) = one_bounce(rays, blur, TEXELS_PER_METRE);
     let size = SIZE.map(|s| s as f32);
     Scene {
         objects: vec![Object {
@@ -280,18 +284,19 @@ fn floor_texels(scene: &Scene, out: &BakeOutput) -> Vec<FloorTexel> {
     texels
 }
 
-/// Photometric Y of the indirect illuminance (total − direct) of the floor texels.
+/// Photometric Y of the indirect illuminance (total − direct) at texel `(x, y)` of `maps`.
+fn indirect_at(maps: &ObjectMaps, x: u32, y: u32) -> f64 {
+    let lum = |v: [f32; 4]| {
+        0.2126 * f64::from(v[0]) + 0.7152 * f64::from(v[1]) + 0.0722 * f64::from(v[2])
+    };
+    lum(maps.illuminance().texel(x, y)) - lum(maps.direct().texel(x, y))
+}
+
+/// The indirect illuminance of the floor texels.
 fn indirect(out: &BakeOutput, texels: &[FloorTexel]) -> Vec<f64> {
-    let (e, d) = (out.maps[0].illuminance(), out.maps[0].direct());
     texels
         .iter()
-        .map(|t| {
-            let (a, b) = (e.texel(t.x, t.y), d.texel(t.x, t.y));
-            let y = |v: [f32; 4]| {
-                0.2126 * f64::from(v[0]) + 0.7152 * f64::from(v[1]) + 0.0722 * f64::from(v[2])
-            };
-            y(a) - y(b)
-        })
+        .map(|t| indirect_at(&out.maps[0], t.x, t.y))
         .collect()
 }
 
@@ -431,21 +436,7 @@ fn the_denoised_first_bounce_follows_the_raw_one_as_rays_grow() {
 /// floor's exitance peaks under the lamp and the wall sees it at grazing angles, so the
 /// wall's first bounce falls steeply with height over its lowest half metre.
 fn grazing_scene(rays: u32, blur: Blur) -> Scene {
-    let settings = Settings {
-        rays,
-        bounces: 1,
-        tail: false,
-        blur,
-        texels_per_metre: GRAZING_TEXELS_PER_METRE,
-        ..Settings::preset(Quality::Default)
-    };
-    let padding = builtin::padding_m(
-        &Settings {
-            blur: Blur::Sigma(1.0),
-            ..settings.clone()
-        },
-        1.0,
-    );
+    let (settings, padding) = one_bounce(rays, blur, GRAZING_TEXELS_PER_METRE);
     let plane = |name: &str, size: [f32; 2], transform: Transform| Object {
         name: name.into(),
         mesh: meshes::plane(size, padding),
@@ -528,13 +519,9 @@ fn grazing_rows(
         *reference = Some((points, want));
     }
     let want = &reference.as_ref().expect("reference").1;
-    let (e, d) = (maps.illuminance(), maps.direct());
-    let y = |v: [f32; 4]| {
-        0.2126 * f64::from(v[0]) + 0.7152 * f64::from(v[1]) + 0.0722 * f64::from(v[2])
-    };
     let (mut sum, mut n, mut sq) = (vec![0.0; rows], vec![0usize; rows], 0.0);
     for (t, w) in texels.iter().zip(want) {
-        let got = y(e.texel(t.0, t.1)) - y(d.texel(t.0, t.1));
+        let got = indirect_at(maps, t.0, t.1);
         let err = got / w - 1.0;
         sum[t.3] += err;
         n[t.3] += 1;

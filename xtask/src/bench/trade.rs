@@ -3,7 +3,8 @@
 //! One knob at a time is varied around a base configuration of the paper's method (rays per
 //! texel, texel density, bounces, blur), and the `method` curve puts `--method paper` with its
 //! defaults beside every preset of the converged method (draft, default, final) at the grid's
-//! density, on the same chart. Every bake is compared with the **independent Radiance reference**
+//! density, on the same chart; the `default denoised` and `default raw` curves vary the
+//! default's first-bounce rays with its denoiser and without it. Every bake is compared with the **independent Radiance reference**
 //! `bench/references/chairs_05.csv` (see [`super::refcheck`]): mean |relative error|, bias and
 //! p95 |relative error| at its calculation points, read with `cargo xtask measure`'s look-up.
 //! That error decides the Pareto front and the suggested defaults.
@@ -65,6 +66,8 @@ struct Preset {
     blurs: &'static [Option<f32>],
     /// Rays per texel of the "3 bounces" curve (bounces and rays together).
     rays_3_bounces: &'static [u32],
+    /// First-bounce rays of the converged default's denoised and raw curves.
+    converged_rays: &'static [u32],
     points: usize,
 }
 
@@ -89,6 +92,7 @@ fn preset(quick: bool) -> Preset {
             bounces: &[0, 1, 2, 3],
             blurs: &[None, Some(1.0), Some(2.0)],
             rays_3_bounces: &[2, 8],
+            converged_rays: &[4, 16],
             points: 4_000,
         }
     } else {
@@ -104,9 +108,23 @@ fn preset(quick: bool) -> Preset {
             bounces: &[0, 1, 2, 3],
             blurs: &[None, Some(1.0), Some(2.0), Some(4.0)],
             rays_3_bounces: &[4, 16, 64],
+            converged_rays: &[4, 16, 64, 256],
             points: 20_000,
         }
     }
+}
+
+/// The converged default at the grid's density for each of `p.converged_rays`, with `blur`.
+fn converged_rays(p: &Preset, blur: Blur) -> Vec<Settings> {
+    p.converged_rays
+        .iter()
+        .map(|&rays| Settings {
+            rays,
+            blur,
+            texels_per_metre: p.base.texels_per_metre,
+            ..Settings::preset(Quality::Default)
+        })
+        .collect()
 }
 
 /// A surface point: triangle index and barycentric weights.
@@ -342,6 +360,10 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 })
                 .collect(),
         ),
+        // The converged default's rays with its denoiser and without (issue 29): the
+        // denoised curve must approach the raw one as the rays grow.
+        ("default denoised", converged_rays(&p, Blur::Sigma(1.0))),
+        ("default raw", converged_rays(&p, Blur::None)),
         (
             "rays at 3 bounces",
             around(&p.base, p.rays_3_bounces, |s, rays| {
@@ -585,7 +607,16 @@ fn plot(
         .x_desc("pass time [s] (wall)")
         .y_desc("mean |relative error| vs Radiance [%]")
         .draw()?;
-    let colors = [BLUE, GREEN, MAGENTA, CYAN, BLACK];
+    let colors = [
+        BLUE,
+        GREEN,
+        MAGENTA,
+        CYAN,
+        BLACK,
+        RGBColor(230, 120, 0),
+        RGBColor(120, 60, 160),
+        RGBColor(128, 128, 128),
+    ];
     for (k, (name, idx)) in curves.iter().enumerate() {
         let color = colors[k % colors.len()];
         let mut pts: Vec<(f64, f64)> = idx
