@@ -124,6 +124,7 @@ impl GpuBackend for CpuBackend {
             max_texture_size: 16_384,
             max_array_layers: 2048,
             max_texture_units: 16,
+            loop_iterations: None,
         }
     }
 

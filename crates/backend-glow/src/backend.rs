@@ -122,6 +122,7 @@ impl GpuBackend for GlowBackend {
             max_texture_size: caps.max_texture_size,
             max_array_layers: caps.max_array_layers,
             max_texture_units: caps.texture_units,
+            loop_iterations: Limits::loop_iterations_of(&caps.renderer),
         }
     }
 

@@ -329,6 +329,7 @@ impl GpuBackend for WgpuBackend {
             max_texture_size: l.max_texture_dimension_2d,
             max_array_layers: l.max_texture_array_layers,
             max_texture_units: l.max_sampled_textures_per_shader_stage,
+            loop_iterations: Limits::loop_iterations_of(&self.adapter_info().name),
         }
     }
 

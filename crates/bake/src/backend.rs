@@ -36,15 +36,46 @@ pub struct Limits {
     pub max_array_layers: u32,
     /// Most textures one pass may sample (WebGL2 guarantees 16).
     pub max_texture_units: u32,
+    /// Most loop iterations one shader invocation runs, all its loops together, before the
+    /// driver ends them silently (`None`: no such limit). Mesa's software drivers (llvmpipe
+    /// for OpenGL ES, lavapipe for Vulkan) have one ([`MESA_LOOP_ITERATIONS`]): a texel whose
+    /// rays or opening samples need more loses the rest, and its light reads low.
+    pub loop_iterations: Option<u32>,
 }
 
+/// The loop limit of Mesa's software drivers: `LP_MAX_TGSI_LOOP_ITERATIONS` in gallivm,
+/// "shared between every loop" of a shader invocation.
+pub const MESA_LOOP_ITERATIONS: u32 = 65_535;
+
+/// Most rays (or opening samples, or lamp paths) per texel a bake asks of one shader
+/// invocation before a loop-limited driver ([`Limits::loop_iterations`]) may cut it short:
+/// each ray's traversal loops count too, so where it lies depends on the scene. Measured under
+/// llvmpipe against the CPU backend, first bounce, raw: the box room (12 triangles) exact at
+/// 512 rays, one texel 0.08 % off at 1 024, 70 % of the texels off by > 1 % (−3 % on average)
+/// at 2 048; `chairs_05` at 16 texels/m (1 212 triangles, longer traversals) as at 32 rays up
+/// to 256 (one chart's 14 texels differ from 32 rays on, brighter on the GPU: a cross-backend
+/// gap, not a cut), then 28 % of its texels off at 512. So this bound keeps a factor 2–4 from
+/// where furnished rooms start to lose rays.
+pub const LOOP_LIMITED_SAMPLES: u32 = 128;
+
 impl Limits {
-    /// The minimums WebGL2 guarantees: 2048² textures, 256 array layers, 16 texture units.
+    /// The minimums WebGL2 guarantees: 2048² textures, 256 array layers, 16 texture units,
+    /// no loop limit.
     pub const WEBGL2: Limits = Limits {
         max_texture_size: 2048,
         max_array_layers: 256,
         max_texture_units: 16,
+        loop_iterations: None,
     };
+
+    /// The loop limit of the GPU driver named `renderer` (`GL_RENDERER`, or a Vulkan
+    /// adapter's name): [`MESA_LOOP_ITERATIONS`] for Mesa's llvmpipe, lavapipe (whose
+    /// adapter is named llvmpipe too) and softpipe, else `None`.
+    pub fn loop_iterations_of(renderer: &str) -> Option<u32> {
+        let r = renderer.to_ascii_lowercase();
+        (r.contains("llvmpipe") || r.contains("softpipe") || r.contains("lavapipe"))
+            .then_some(MESA_LOOP_ITERATIONS)
+    }
 }
 
 /// One lamp as the direct pass sees it (a uniform block entry in a shader).
@@ -377,6 +408,57 @@ pub const DEFAULT_TILE_WORK: u64 = 1 << 20;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn mesa_software_drivers_have_a_loop_limit_and_a_bake_that_exceeds_it_says_so() {
+        use crate::report::Skipped;
+        use crate::scene::Settings;
+        for r in ["llvmpipe (LLVM 15.0.6, 256 bits)", "softpipe", "lavapipe"] {
+            assert_eq!(
+                Limits::loop_iterations_of(r),
+                Some(MESA_LOOP_ITERATIONS),
+                "{r}"
+            );
+        }
+        for r in [
+            "NVIDIA GeForce RTX 4090",
+            "ANGLE (Google, Vulkan 1.3.0 (SwiftShader Device))",
+        ] {
+            assert_eq!(Limits::loop_iterations_of(r), None, "{r}");
+        }
+        let mesa = Limits {
+            loop_iterations: Some(MESA_LOOP_ITERATIONS),
+            ..Limits::WEBGL2
+        };
+        let at = |rays: u32, opening_samples: u32, area: bool, limits: &Limits| {
+            let s = Settings {
+                rays,
+                opening_samples,
+                ..Settings::default()
+            };
+            Skipped::loop_limit(&s, area, limits)
+        };
+        // The presets stay within it; more rays, or many opening samples of a lamp with a
+        // size, do not, and only on a limited driver.
+        assert_eq!(at(4, 48, true, &mesa), None);
+        assert_eq!(at(128, 128, true, &mesa), None);
+        let warned = at(512, 48, false, &mesa).expect("512 rays");
+        assert_eq!(
+            warned,
+            Skipped::LoopLimit {
+                samples: 512,
+                limit: MESA_LOOP_ITERATIONS
+            }
+        );
+        assert!(warned.to_string().contains("65535"), "{warned}");
+        assert_eq!(
+            at(4, 1024, false, &mesa),
+            None,
+            "point lamps take no opening samples"
+        );
+        assert!(at(4, 1024, true, &mesa).is_some());
+        assert_eq!(at(4096, 1024, true, &Limits::WEBGL2), None);
+    }
 
     #[test]
     fn the_binding_check_names_what_is_wrong() {

@@ -168,6 +168,8 @@ pub fn bake_room_reading<B: GpuBackend>(
         bvh = BvhMode::None;
     }
     skipped.extend(lamps.skipped.iter().cloned());
+    let area = lamps.models.iter().any(|m| m.area);
+    skipped.extend(Skipped::loop_limit(settings, area, &backend.limits()));
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: room.layout.layer_size,
         layers: room.layout.layers,

@@ -134,6 +134,34 @@ pub enum Skipped {
         /// Triangles in the scene.
         triangles: usize,
     },
+    /// The backend's driver ends a shader invocation's loops after `limit` iterations in all
+    /// ([`crate::Limits::loop_iterations`]) and the bake asks up to `samples` rays, opening
+    /// samples or lamp paths of one texel: beyond
+    /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) the driver may leave
+    /// some of them out, and those texels read low. Nothing is changed; the bake says so.
+    LoopLimit {
+        /// Most rays, opening samples or lamp paths one texel asks of one invocation.
+        samples: u32,
+        /// The driver's limit.
+        limit: u32,
+    },
+}
+
+impl Skipped {
+    /// [`Skipped::LoopLimit`] when `limits` has a loop limit and `settings` (with `area`: a
+    /// lamp modelled by its opening) asks more than
+    /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) of one texel.
+    pub fn loop_limit(settings: &Settings, area: bool, limits: &crate::Limits) -> Option<Skipped> {
+        let limit = limits.loop_iterations?;
+        let mut samples = settings.rays.max(settings.higher_rays);
+        samples = samples.max(settings.rays.saturating_add(settings.refine_rays));
+        samples = samples.max(settings.lamp_paths);
+        if area {
+            samples = samples.max(settings.opening_samples);
+        }
+        (samples > crate::backend::LOOP_LIMITED_SAMPLES)
+            .then_some(Skipped::LoopLimit { samples, limit })
+    }
 }
 
 impl fmt::Display for Skipped {
@@ -160,6 +188,14 @@ impl fmt::Display for Skipped {
                 f,
                 "BVH `{}`: {triangles} triangles, brute force is cheaper",
                 requested.name()
+            ),
+            Skipped::LoopLimit { samples, limit } => write!(
+                f,
+                "up to {samples} rays or samples per texel: this GPU driver (Mesa's software \
+                 rasterizer) ends a shader's loops after {limit} iterations in all and may \
+                 leave some out, so texels can read low; keep to {} per texel, or bake with \
+                 `--backend cpu`",
+                crate::backend::LOOP_LIMITED_SAMPLES
             ),
         }
     }
