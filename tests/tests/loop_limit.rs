@@ -55,7 +55,7 @@ fn run(backend: &mut AnyBackend, scene: &Scene) -> BakeOutput {
 
 #[test]
 fn a_loop_limited_driver_is_reported_and_a_bake_beyond_it_says_so() {
-    assert!(RAYS > LOOP_LIMITED_SAMPLES);
+    const { assert!(RAYS > LOOP_LIMITED_SAMPLES) };
     let scene = scene();
     let mut tally = Tally::new("a_loop_limited_driver_is_reported_and_a_bake_beyond_it_says_so");
     let mut cpu = tally.open(BackendKind::Cpu).expect("the CPU backend");
