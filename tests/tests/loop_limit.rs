@@ -1,15 +1,18 @@
 //! Mesa's software drivers (llvmpipe for glow, lavapipe for wgpu) end a shader invocation's
 //! loops after 65 535 iterations in all (`luxbake::backend::MESA_LOOP_ITERATIONS`): a texel
-//! that asks for more rays than fit loses the rest and reads low. The backends report the
-//! limit (`Limits::loop_iterations`) and a bake beyond `LOOP_LIMITED_SAMPLES` says so in its
-//! skipped list. Here the box room's first bounce at 2 048 rays, on each GPU backend and the
-//! CPU: on a limited driver the warning is there and the light is measurably low (the reason
-//! for it); on a driver without the limit there is no warning and the backends agree.
+//! that asks for more rays than fit would lose the rest and read low (the box room's first
+//! bounce at 2 048 rays in one pass: −3.2 % on glow, −3.4 % on wgpu). The backends report the
+//! limit (`Limits::loop_iterations`); there the gathers split a texel's rays over passes
+//! (`GraphConfig::gather_chunk`), and what is not split yet (lamp paths, opening samples,
+//! refinement rays) is reported in the skipped list beyond `LOOP_LIMITED_SAMPLES`. Here the box
+//! room's first bounce at 2 048 rays on each GPU backend agrees with the CPU's, with no
+//! warning; 256 lamp paths are warned about on a limited driver only.
 
 use luxbake::GpuBackend;
 use luxbake::backend::{LOOP_LIMITED_SAMPLES, MESA_LOOP_ITERATIONS};
 use luxbake::bake::{BakeOutput, Skipped, bake};
 use luxbake::scene::{Blur, Scene, Settings};
+use luxbake::sources::closed_forms::cie_171_5_8;
 use luxbake_backends::{AnyBackend, BackendKind};
 use luxbake_tests::Tally;
 
@@ -54,10 +57,11 @@ fn run(backend: &mut AnyBackend, scene: &Scene) -> BakeOutput {
 }
 
 #[test]
-fn a_loop_limited_driver_is_reported_and_a_bake_beyond_it_says_so() {
+fn gathers_beyond_a_drivers_loop_limit_are_split_and_agree_with_the_cpu() {
     const { assert!(RAYS > LOOP_LIMITED_SAMPLES) };
     let scene = scene();
-    let mut tally = Tally::new("a_loop_limited_driver_is_reported_and_a_bake_beyond_it_says_so");
+    let mut tally =
+        Tally::new("gathers_beyond_a_drivers_loop_limit_are_split_and_agree_with_the_cpu");
     let mut cpu = tally.open(BackendKind::Cpu).expect("the CPU backend");
     assert_eq!(cpu.limits().loop_iterations, None);
     let reference = run(&mut cpu, &scene);
@@ -75,28 +79,41 @@ fn a_loop_limited_driver_is_reported_and_a_bake_beyond_it_says_so() {
         };
         let limit = backend.limits().loop_iterations;
         let out = run(&mut backend, &scene);
-        let warned = out.report.skipped.iter().find_map(|s| match s {
-            Skipped::LoopLimit { samples, limit } => Some((*samples, *limit)),
-            _ => None,
-        });
+        let warned = out
+            .report
+            .skipped
+            .iter()
+            .any(|s| matches!(s, Skipped::LoopLimit { .. }));
         let got = mean_indirect(&out);
         println!(
-            "{kind}: loop limit {limit:?}, warning {warned:?}, mean indirect {got:.5} lx against \
-             the CPU's {want:.5} ({:+.2} %)",
+            "{kind}: loop limit {limit:?}, mean indirect {got:.5} lx against the CPU's \
+             {want:.5} ({:+.4} %)",
             100.0 * (got / want - 1.0)
         );
-        match limit {
-            Some(limit) => {
-                assert_eq!(limit, MESA_LOOP_ITERATIONS);
-                assert_eq!(warned, Some((RAYS, limit)), "{kind}");
-                // What the warning is for: the driver left rays out.
-                assert!(got < want * 0.995, "{kind}: {got} vs {want}");
-            }
-            None => {
-                assert_eq!(warned, None, "{kind}");
-                assert!((got / want - 1.0).abs() < 1e-3, "{kind}: {got} vs {want}");
-            }
+        assert!(
+            !warned,
+            "{kind}: the gathers are split, nothing to warn about"
+        );
+        assert!((got / want - 1.0).abs() < 1e-4, "{kind}: {got} vs {want}");
+        if let Some(limit) = limit {
+            assert_eq!(limit, MESA_LOOP_ITERATIONS);
         }
+        // Lamp paths are not split yet: 256 of them per texel are reported there.
+        let settings = Settings {
+            lamp_paths: 256,
+            rays: 4,
+            bounces: 1,
+            texels_per_metre: 2.0,
+            ..Settings::default()
+        };
+        let (cube, _) = cie_171_5_8(0.5, settings);
+        let out = run(&mut backend, &cube);
+        let warned = out
+            .report
+            .skipped
+            .iter()
+            .find(|s| matches!(s, Skipped::LoopLimit { .. }));
+        assert_eq!(warned.is_some(), limit.is_some(), "{kind}: {warned:?}");
         tally.compared(1);
     }
     tally.finish();

@@ -199,6 +199,11 @@ pub fn bake_room_reading<B: GpuBackend>(
                 .unwrap_or(u32::MAX),
         ),
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
+        gather_chunk: if backend.limits().loop_iterations.is_some() {
+            crate::graph::GATHER_CHUNK_RAYS
+        } else {
+            0
+        },
     });
     graph.validate()?;
 

@@ -307,7 +307,16 @@ pub struct GraphConfig {
     /// ([`AtrousConfig::luminance_scale`], [`crate::program::luminance_scale_for`]); 1:
     /// unscaled.
     pub luminance_scale: f32,
+    /// Most rays of a texel one gather pass traces ([`GatherParams::chunk_rays`]; 0: all):
+    /// [`GATHER_CHUNK_RAYS`] on a backend whose driver cuts long shader loops
+    /// ([`crate::Limits::loop_iterations`]), else 0.
+    pub gather_chunk: u32,
 }
+
+/// [`GraphConfig::gather_chunk`] on a loop-limited driver: 64 rays per texel and pass, a
+/// factor 4–8 inside where Mesa's llvmpipe starts to cut them in a furnished room
+/// ([`crate::backend::LOOP_LIMITED_SAMPLES`]).
+pub const GATHER_CHUNK_RAYS: u32 = 64;
 
 /// The bake's textures and passes, in execution order.
 #[derive(Debug, Clone, PartialEq)]
@@ -624,14 +633,19 @@ struct GatherSampling {
     /// Lamp paths combined with this gather, their density scale and the uploaded lamps
     /// ([`GatherParams::lamp_paths`]); 0 paths: none.
     lamp_paths: (u32, f32, u32),
+    /// Most rays of a texel per dispatch ([`GraphConfig::gather_chunk`]); 0: all at once.
+    chunk: u32,
 }
 
 /// Stage (5): one bounce of indirect light gathered from `reflected` into `indirect`; a
-/// reduced-resolution gather goes through `coarse` and is upsampled into `indirect`.
+/// reduced-resolution gather goes through `coarse` and is upsampled into `indirect`. With
+/// [`GatherSampling::chunk`] a texel's rays are split over several gather passes, each adding
+/// to the one before, alternating between the target and `spare` (which holds nothing live
+/// during the gather) so that the last lands in the target.
 fn gather_stage(
     b: &mut Builder,
     g: GBufferTex,
-    [reflected, indirect, coarse]: [TexId; 3],
+    [reflected, indirect, coarse, spare]: [TexId; 4],
     bounce: u32,
     sampling: GatherSampling,
 ) {
@@ -642,26 +656,46 @@ fn gather_stage(
         Some(c) if paths > 0 => c,
         _ => reflected,
     };
-    b.pass(
-        PassKind::Run(Program::Gather),
-        "gather",
-        vec![g.position, g.normal, reflected, connected],
-        vec![if reduced { coarse } else { indirect }],
-        bounce,
-        Params::Gather(GatherParams {
-            rays: sampling.rays,
+    let target = if reduced { coarse } else { indirect };
+    let orphan_rays = coarse::orphan_rays(sampling.rays, sampling.stride);
+    let most = sampling.rays.max(orphan_rays);
+    let chunks = if sampling.chunk > 0 && spare != target {
+        most.div_ceil(sampling.chunk).max(1)
+    } else {
+        1
+    };
+    let mut prior = reflected;
+    for c in 0..chunks {
+        // The last chunk writes the target: count back from it, alternating.
+        let out = if (chunks - 1 - c) % 2 == 0 {
+            target
+        } else {
+            spare
+        };
+        b.pass(
+            PassKind::Run(Program::Gather),
+            "gather",
+            // Before the first chunk nothing is added: `reflected` stands in for `prior`.
+            vec![g.position, g.normal, reflected, connected, prior],
+            vec![out],
             bounce,
-            seed: sampling.seed,
-            sampler: sampling.sampler.id(),
-            stride: sampling.stride.max(1),
-            reach: sampling.reach,
-            orphan_rays: coarse::orphan_rays(sampling.rays, sampling.stride),
-            lamp_paths: if g.connected.is_some() { paths } else { 0 },
-            density_scale,
-            lamp_count: lamps,
-            ..GatherParams::default()
-        }),
-    );
+            Params::Gather(GatherParams {
+                rays: sampling.rays,
+                bounce,
+                seed: sampling.seed,
+                sampler: sampling.sampler.id(),
+                stride: sampling.stride.max(1),
+                reach: sampling.reach,
+                orphan_rays,
+                lamp_paths: if g.connected.is_some() { paths } else { 0 },
+                density_scale,
+                lamp_count: lamps,
+                first_ray: c * sampling.chunk,
+                chunk_rays: if chunks > 1 { sampling.chunk } else { 0 },
+            }),
+        );
+        prior = out;
+    }
     if reduced {
         b.pass(
             PassKind::Run(Program::Upsample),
@@ -825,6 +859,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 } else {
                     (0, 0.0, 0)
                 },
+                chunk: config.gather_chunk,
             };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
@@ -832,7 +867,11 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 (1, Some((more, max_error)), Some(variance)) if config.stride <= 1 => {
                     // Progressive refinement: the first gather into `scratch`, its variance
                     // estimate, then more rays where the estimate misses the target.
-                    gather_stage(&mut b, g, [source, scratch, scratch], k, sampling);
+                    let sampling = GatherSampling {
+                        chunk: 0,
+                        ..sampling
+                    };
+                    gather_stage(&mut b, g, [source, scratch, scratch, scratch], k, sampling);
                     b.pass(
                         PassKind::Run(Program::Variance),
                         "refine_variance",
@@ -863,10 +902,12 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                         }),
                     );
                 }
+                // `scratch` holds nothing live during a bounce's gather (the tail writes it
+                // only when the bake stops).
                 _ => gather_stage(
                     &mut b,
                     g,
-                    [source, delta, coarse.unwrap_or(scratch)],
+                    [source, delta, coarse.unwrap_or(scratch), scratch],
                     k,
                     sampling,
                 ),
@@ -1004,8 +1045,16 @@ impl BakeGraph {
                     stride: 1,
                     reach: 0.0,
                     lamp_paths: (0, 0.0, 0),
+                    chunk: config.gather_chunk,
                 };
-                gather_stage(&mut b, g, [reflected, indirect, indirect], k, sampling);
+                // `combined` is rewritten from this gather's result: free during it.
+                gather_stage(
+                    &mut b,
+                    g,
+                    [reflected, indirect, indirect, combined],
+                    k,
+                    sampling,
+                );
                 combine_stage(&mut b, direct, indirect, combined, k);
                 blur_stage(
                     &mut b,
@@ -1226,6 +1275,7 @@ mod tests {
             lamp_path_count: 0,
             openings: (0, 0),
             luminance_scale: 1.0,
+            gather_chunk: 0,
         }
     }
 
@@ -1292,6 +1342,52 @@ mod tests {
         GraphConfig {
             method: Method::Converged,
             ..config(bounces, blur)
+        }
+    }
+
+    /// On a loop-limited driver a texel's rays are split over gather passes of
+    /// `gather_chunk` rays that add up, alternating with a spare texture so that the last
+    /// writes where the unsplit gather would; both methods, and the graph stays valid.
+    #[test]
+    fn chunked_gathers_add_up_into_the_same_texture() {
+        for method in [Method::Converged, Method::Paper] {
+            let base = GraphConfig {
+                method,
+                rays: 200,
+                higher_rays: 200,
+                ..config(2, Blur::None)
+            };
+            let whole = BakeGraph::build(&base);
+            let split = BakeGraph::build(&GraphConfig {
+                gather_chunk: 64,
+                ..base.clone()
+            });
+            split.validate().expect("valid");
+            let (w, s) = (gather_passes(&whole), gather_passes(&split));
+            assert_eq!((w.len(), s.len()), (2, 8), "{method:?}");
+            for bounce in 0..2 {
+                let chunks = &s[4 * bounce..4 * bounce + 4];
+                assert_eq!(chunks[3].writes, w[bounce].writes, "{method:?}");
+                for (c, p) in chunks.iter().enumerate() {
+                    let Params::Gather(g) = p.params else {
+                        panic!("gather params");
+                    };
+                    assert_eq!((g.first_ray, g.chunk_rays), (64 * c as u32, 64));
+                    assert_eq!(p.reads[..4], w[bounce].reads[..4]);
+                    if c > 0 {
+                        assert_eq!(
+                            p.reads[4],
+                            chunks[c - 1].writes[0],
+                            "reads the chunk before"
+                        );
+                        assert_ne!(p.writes[0], chunks[c - 1].writes[0]);
+                    }
+                }
+                let Params::Gather(g) = w[bounce].params else {
+                    panic!("gather params");
+                };
+                assert_eq!((g.first_ray, g.chunk_rays), (0, 0));
+            }
         }
     }
 
@@ -1610,10 +1706,11 @@ mod tests {
         assert_eq!(rw[3], (vec![f[2], gb.normal], vec![tmp]));
         assert_eq!(rw[4], (vec![tmp, gb.normal], vec![f[2]]));
         assert_eq!(rw[5], (vec![f[2], gb.albedo], vec![f[3]]));
-        // Without lamp paths the gather's `connected` slot holds `reflected` (never read).
+        // Without lamp paths the gather's `connected` slot holds `reflected` (never read), and
+        // so does `prior` of an unsplit gather.
         assert_eq!(
             rw[6],
-            (vec![gb.position, gb.normal, f[3], f[3]], vec![f[4]])
+            (vec![gb.position, gb.normal, f[3], f[3], f[3]], vec![f[4]])
         );
         assert_eq!(rw[7], (vec![f[1], f[4]], vec![f[5]]));
         assert_eq!(rw[8], (vec![f[5]], vec![f[6]]));

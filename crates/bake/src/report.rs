@@ -135,8 +135,9 @@ pub enum Skipped {
         triangles: usize,
     },
     /// The backend's driver ends a shader invocation's loops after `limit` iterations in all
-    /// ([`crate::Limits::loop_iterations`]) and the bake asks up to `samples` rays, opening
-    /// samples or lamp paths of one texel: beyond
+    /// ([`crate::Limits::loop_iterations`]) and the bake asks up to `samples` refinement
+    /// rays, opening samples or lamp paths of one texel (the gathers' rays are split over
+    /// passes there): beyond
     /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) the driver may leave
     /// some of them out, and those texels read low. Nothing is changed; the bake says so.
     LoopLimit {
@@ -153,9 +154,10 @@ impl Skipped {
     /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) of one texel.
     pub fn loop_limit(settings: &Settings, area: bool, limits: &crate::Limits) -> Option<Skipped> {
         let limit = limits.loop_iterations?;
-        let mut samples = settings.rays.max(settings.higher_rays);
-        samples = samples.max(settings.rays.saturating_add(settings.refine_rays));
-        samples = samples.max(settings.lamp_paths);
+        // The gathers split a texel's rays over passes on such a driver
+        // ([`crate::graph::GraphConfig::gather_chunk`]); refinement, lamp paths and opening
+        // samples do not yet.
+        let mut samples = settings.refine_rays.max(settings.lamp_paths);
         if area {
             samples = samples.max(settings.opening_samples);
         }
@@ -191,7 +193,7 @@ impl fmt::Display for Skipped {
             ),
             Skipped::LoopLimit { samples, limit } => write!(
                 f,
-                "up to {samples} rays or samples per texel: this GPU driver (Mesa's software \
+                "up to {samples} refinement rays, lamp paths or opening samples per texel: this GPU driver (Mesa's software \
                  rasterizer) ends a shader's loops after {limit} iterations in all and may \
                  leave some out, so texels can read low; keep to {} per texel, or bake with \
                  `--backend cpu`",

@@ -19,7 +19,7 @@ impl CpuPass for GatherParams {
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut GatherScratch) {
         let v = ctx.views;
-        let views = [v[0], v[1], v[2], v[3]];
+        let views = [v[0], v[1], v[2], v[3], v[4]];
         let (layer, x0) = (ctx.tile.layer, ctx.tile.x0);
         gather_row(ctx.scene, views, ctx.trav, *self, layer, x0, y, texels, scratch);
     }
@@ -378,7 +378,7 @@ pub(crate) struct GatherScratch {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_row(
     scene: &CpuScene,
-    [pos_map, nrm_map, reflected, connected]: [View<'_>; 4],
+    [pos_map, nrm_map, reflected, connected, prior]: [View<'_>; 5],
     trav: Trav,
     params: GatherParams,
     layer: u32,
@@ -411,9 +411,16 @@ pub(crate) fn gather_row(
         if rays == 0 {
             continue;
         }
+        // A chunk of the rays (see `GatherParams::chunk_rays`).
+        let first = params.first_ray.min(rays);
+        let count = if params.chunk_rays > 0 {
+            params.chunk_rays.min(rays - first)
+        } else {
+            rays - first
+        };
         texels.push(GatherTexel {
             texel: rng::texel_index(scene.layer_size, layer, x, y),
-            rays: 0..rays,
+            rays: first..first + count,
             o: offset_origin(xyz(pos), n, scene.ray_epsilon),
             frame: Frame::new(n),
             mis: Mis {
@@ -428,20 +435,26 @@ pub(crate) fn gather_row(
     let sampler = [params.sampler, params.bounce, params.seed];
     gather_sums(scene, reflected, trav, sampler, texels, chunks, sums);
     for ((t, sum), &i) in texels.iter().zip(sums.iter()).zip(at.iter()) {
-        let inv = 1.0 / t.rays.len() as f32;
-        let c = if params.lamp_paths > 0 {
-            connected.fetch(Texel {
-                layer,
-                x: x0 + i as u32,
-                y,
-            })
+        let inv = 1.0 / t.mis.rays as f32;
+        let here = Texel {
+            layer,
+            x: x0 + i as u32,
+            y,
+        };
+        let c = if params.lamp_paths > 0 && params.first_ray == 0 {
+            connected.fetch(here)
+        } else {
+            [0.0; 4]
+        };
+        let p = if params.first_ray > 0 {
+            prior.fetch(here)
         } else {
             [0.0; 4]
         };
         out[4 * i..4 * i + 4].copy_from_slice(&[
-            guard(sum[0] * inv + c[0]),
-            guard(sum[1] * inv + c[1]),
-            guard(sum[2] * inv + c[2]),
+            guard(p[0] + (sum[0] * inv + c[0])),
+            guard(p[1] + (sum[1] * inv + c[1])),
+            guard(p[2] + (sum[2] * inv + c[2])),
             1.0,
         ]);
     }

@@ -3,7 +3,8 @@
 // With u_stride > 1 only the coarse grid's texels (u_rays) and its orphans (u_orphan_rays) are
 // gathered (coarse.glsl); the others are written as 0 for the upsample pass to fill. With
 // u_lamp_paths > 0 each hit is weighted against the lamp paths, whose part (u_connected,
-// computed by the connect pass) is added.
+// computed by the connect pass) is added. With u_chunk_rays > 0 a texel's rays are split
+// over dispatches, each adding its share to the one before (u_prior).
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);
@@ -19,9 +20,15 @@ vec4 luxRun(ivec3 c) {
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
-    vec3 sum = luxGatherSum(origin, n, texel, 0u, rays, u_sampler, u_bounce, u_seed,
+    // A chunk of the rays (u_chunk_rays > 0): those from u_first_ray on, added to the chunks
+    // before (u_prior); the lamp paths' part comes with the first chunk.
+    uint first = min(u_first_ray, rays);
+    uint count = u_chunk_rays > 0u ? min(u_chunk_rays, rays - first) : rays - first;
+    vec3 sum = luxGatherSum(origin, n, texel, first, count, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, rays, u_density_scale, int(u_lamp_count));
     float inv = 1.0 / float(rays);
-    vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
-    return vec4(luxGuard3(sum * inv + paths), 1.0);
+    vec3 paths = u_lamp_paths > 0u && u_first_ray == 0u ? texelFetch(u_connected, c, 0).rgb
+                                                         : vec3(0.0);
+    vec3 prior = u_first_ray > 0u ? texelFetch(u_prior, c, 0).rgb : vec3(0.0);
+    return vec4(luxGuard3(prior + (sum * inv + paths)), 1.0);
 }

@@ -4,7 +4,8 @@
 // orphans (lux_pass.orphan_rays) are gathered (coarse.wgsl); the others are written as 0 for
 // the upsample pass to fill. With lux_pass.lamp_paths > 0 each hit is weighted against the
 // lamp paths, whose part (lux_connected, computed by the connect pass)
-// is added.
+// is added. With lux_pass.chunk_rays > 0 a texel's rays are split over dispatches, each
+// adding its share to the one before (lux_prior).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pos = lux_load(lux_position, c);
@@ -21,13 +22,24 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
                                 lux_tile.layer, u32(c.x), u32(c.y));
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
-    let sum = lux_gather_sum(origin, n, texel, 0u, rays, lux_pass.sampler, lux_pass.bounce,
+    // A chunk of the rays (chunk_rays > 0): those from first_ray on, added to the chunks
+    // before (lux_prior); the lamp paths' part comes with the first chunk.
+    let first = min(lux_pass.first_ray, rays);
+    var count = rays - first;
+    if (lux_pass.chunk_rays > 0u) {
+        count = min(lux_pass.chunk_rays, rays - first);
+    }
+    let sum = lux_gather_sum(origin, n, texel, first, count, lux_pass.sampler, lux_pass.bounce,
                              lux_pass.seed, lux_pass.lamp_paths, rays, lux_pass.density_scale,
                              lux_pass.lamp_count);
     let inv = 1.0 / f32(rays);
     var paths = vec3<f32>(0.0);
-    if (lux_pass.lamp_paths > 0u) {
+    if (lux_pass.lamp_paths > 0u && lux_pass.first_ray == 0u) {
         paths = lux_load(lux_connected, c).rgb;
     }
-    return vec4<f32>(lux_guard3(sum * inv + paths), 1.0);
+    var prior = vec3<f32>(0.0);
+    if (lux_pass.first_ray > 0u) {
+        prior = lux_load(lux_prior, c).rgb;
+    }
+    return vec4<f32>(lux_guard3(prior + (sum * inv + paths)), 1.0);
 }

@@ -44,16 +44,21 @@ param_block! {
         density_scale: f32,
         /// Lamps uploaded (the density of [`crate::lightpaths::density`] sums over them).
         lamp_count: u32,
-        /// Padding.
-        pad0: u32,
-        /// Padding.
-        pad1: u32,
+        /// With [`GatherParams::chunk_rays`]: the first of each texel's rays this dispatch
+        /// traces; from the second chunk on (> 0) the slot `prior` holds the chunks before,
+        /// which the output adds to, and the lamp paths' part is not added again.
+        first_ray: u32,
+        /// Most of a texel's rays one dispatch traces (0: all): a texel's rays split over
+        /// dispatches, each adding its share (`sum / rays`) to the ones before, so that one
+        /// shader invocation stays within a driver's loop limit
+        /// ([`crate::Limits::loop_iterations`]).
+        chunk_rays: u32,
     }
 }
 
 signature! {
     gather {
-        reads: ["position", "normal", "reflected", "connected"],
+        reads: ["position", "normal", "reflected", "connected", "prior"],
         scene: [bvh, lamps, regions],
         params: GatherParams,
         libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather, Coarse],
@@ -62,5 +67,9 @@ signature! {
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]).
 pub fn work(p: &GatherParams) -> u64 {
-    u64::from(p.rays)
+    if p.chunk_rays > 0 {
+        u64::from(p.rays.min(p.chunk_rays))
+    } else {
+        u64::from(p.rays)
+    }
 }
