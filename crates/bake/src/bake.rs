@@ -154,7 +154,8 @@ pub fn bake_room_reading<B: GpuBackend>(
         source,
     };
     settings.validate().map_err(PrepareError::from)?;
-    room.check(settings, backend.limits())?;
+    let limits = backend.limits();
+    room.check(settings, limits)?;
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), settings, progress);
 
     // Build: the graph of the passes, for this room's layout and these lamps.
@@ -169,7 +170,7 @@ pub fn bake_room_reading<B: GpuBackend>(
     }
     skipped.extend(lamps.skipped.iter().cloned());
     let area = lamps.models.iter().any(|m| m.area);
-    skipped.extend(Skipped::loop_limit(settings, area, &backend.limits()));
+    skipped.extend(Skipped::loop_limit(settings, area, &limits));
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: room.layout.layer_size,
         layers: room.layout.layers,
@@ -199,7 +200,7 @@ pub fn bake_room_reading<B: GpuBackend>(
                 .unwrap_or(u32::MAX),
         ),
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
-        gather_chunk: if backend.limits().loop_iterations.is_some() {
+        gather_chunk: if limits.loop_iterations.is_some() {
             crate::graph::GATHER_CHUNK_RAYS
         } else {
             0

@@ -659,11 +659,15 @@ fn gather_stage(
     let target = if reduced { coarse } else { indirect };
     let orphan_rays = coarse::orphan_rays(sampling.rays, sampling.stride);
     let most = sampling.rays.max(orphan_rays);
-    let chunks = if sampling.chunk > 0 && spare != target {
+    let chunks = if sampling.chunk > 0 {
         most.div_ceil(sampling.chunk).max(1)
     } else {
         1
     };
+    debug_assert!(
+        chunks == 1 || spare != target,
+        "a split gather needs a spare texture"
+    );
     let mut prior = reflected;
     for c in 0..chunks {
         // The last chunk writes the target: count back from it, alternating.
@@ -866,12 +870,9 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             match (k, refine, variance) {
                 (1, Some((more, max_error)), Some(variance)) if config.stride <= 1 => {
                     // Progressive refinement: the first gather into `scratch`, its variance
-                    // estimate, then more rays where the estimate misses the target.
-                    let sampling = GatherSampling {
-                        chunk: 0,
-                        ..sampling
-                    };
-                    gather_stage(&mut b, g, [source, scratch, scratch, scratch], k, sampling);
+                    // estimate, then more rays where the estimate misses the target
+                    // (`delta`, which the refinement writes last, is free until then).
+                    gather_stage(&mut b, g, [source, scratch, scratch, delta], k, sampling);
                     b.pass(
                         PassKind::Run(Program::Variance),
                         "refine_variance",
@@ -1347,14 +1348,20 @@ mod tests {
 
     /// On a loop-limited driver a texel's rays are split over gather passes of
     /// `gather_chunk` rays that add up, alternating with a spare texture so that the last
-    /// writes where the unsplit gather would; both methods, and the graph stays valid.
+    /// writes where the unsplit gather would; both methods and refinement, and the graph
+    /// stays valid.
     #[test]
     fn chunked_gathers_add_up_into_the_same_texture() {
-        for method in [Method::Converged, Method::Paper] {
+        for (method, refine) in [
+            (Method::Converged, None),
+            (Method::Converged, Some((16, 0.1))),
+            (Method::Paper, None),
+        ] {
             let base = GraphConfig {
                 method,
                 rays: 200,
                 higher_rays: 200,
+                refine,
                 ..config(2, Blur::None)
             };
             let whole = BakeGraph::build(&base);
@@ -1374,6 +1381,7 @@ mod tests {
                     };
                     assert_eq!((g.first_ray, g.chunk_rays), (64 * c as u32, 64));
                     assert_eq!(p.reads[..4], w[bounce].reads[..4]);
+                    assert!(!p.reads.contains(&p.writes[0]), "reads what it writes");
                     if c > 0 {
                         assert_eq!(
                             p.reads[4],

@@ -193,10 +193,10 @@ impl fmt::Display for Skipped {
             ),
             Skipped::LoopLimit { samples, limit } => write!(
                 f,
-                "up to {samples} refinement rays, lamp paths or opening samples per texel: this GPU driver (Mesa's software \
-                 rasterizer) ends a shader's loops after {limit} iterations in all and may \
-                 leave some out, so texels can read low; keep to {} per texel, or bake with \
-                 `--backend cpu`",
+                "up to {samples} refinement rays, lamp paths or opening samples per texel: \
+                 this GPU driver (Mesa's software rasterizer) ends a shader's loops after \
+                 {limit} iterations in all and may leave some out, so texels can read low; \
+                 keep to {} per texel, or bake with `--backend cpu`",
                 crate::backend::LOOP_LIMITED_SAMPLES
             ),
         }

@@ -132,9 +132,11 @@ fn bake_room(
         })
         .collect();
     let mut at_points = Vec::new();
-    // On the CPU only: under Mesa's software drivers the GPU backends' direct pass returned 0
-    // at some points with 1024 samples (up to 2048 near an opening) while their bakes with
-    // 1024 matched the CPU's (issue 27's notes); at 48 they match the CPU here too.
+    // On the CPU only: Mesa's software drivers end a shader invocation's loops after 65 535
+    // iterations in all (`luxbake::backend::MESA_LOOP_ITERATIONS`), and the direct pass does
+    // not yet split an opening's samples over passes, so at 1024 samples (up to 2048 near an
+    // opening) the GPU backends' direct light came out short — 0 at some points, and 1–7 %
+    // low at some texels of their bakes; at 48 they match the CPU here too.
     let counts = if kind == BackendKind::Cpu {
         vec![settings.opening_samples, POINT_SAMPLES]
     } else {
