@@ -47,9 +47,10 @@ pub struct Limits {
 /// "shared between every loop" of a shader invocation.
 pub const MESA_LOOP_ITERATIONS: u32 = 65_535;
 
-/// Most rays (or opening samples, or lamp paths) per texel a bake asks of one shader
-/// invocation before a loop-limited driver ([`Limits::loop_iterations`]) may cut it short
-/// (the gathers stay under it by passes of [`crate::graph::GATHER_CHUNK_RAYS`]):
+/// Most rays (or lamp paths) per texel a bake asks of one shader invocation before a
+/// loop-limited driver ([`Limits::loop_iterations`]) may cut it short (the gathers stay under
+/// it by passes of [`crate::graph::GATHER_CHUNK_RAYS`], the direct pass by passes of
+/// [`crate::graph::DIRECT_CHUNK_SAMPLES`] opening samples):
 /// each ray's traversal loops count too, so where it lies depends on the scene. Measured under
 /// llvmpipe against the CPU backend, first bounce, raw: the box room (12 triangles) exact at
 /// 512 rays, one texel 0.08 % off at 1 024, 70 % of the texels off by > 1 % (−3 % on average)
@@ -431,21 +432,21 @@ mod tests {
             loop_iterations: Some(MESA_LOOP_ITERATIONS),
             ..Limits::WEBGL2
         };
-        let at = |lamp_paths: u32, opening_samples: u32, area: bool, limits: &Limits| {
+        let at = |lamp_paths: u32, opening_samples: u32, limits: &Limits| {
             let s = Settings {
                 rays: 4096,
                 lamp_paths,
                 opening_samples,
                 ..Settings::default()
             };
-            Skipped::loop_limit(&s, area, limits)
+            Skipped::loop_limit(&s, limits)
         };
-        // The presets stay within it, and the gathers' rays are split over passes there;
-        // many lamp paths, or opening samples of a lamp with a size, are not, and only a
-        // limited driver warns.
-        assert_eq!(at(12, 48, true, &mesa), None);
-        assert_eq!(at(128, 128, true, &mesa), None);
-        let warned = at(512, 48, false, &mesa).expect("512 lamp paths");
+        // The presets stay within it, and the gathers' rays and the openings' samples are
+        // split over passes there; many lamp paths are not, and only a limited driver warns.
+        assert_eq!(at(12, 48, &mesa), None);
+        assert_eq!(at(128, 128, &mesa), None);
+        assert_eq!(at(12, 2048, &mesa), None, "opening samples are split");
+        let warned = at(512, 48, &mesa).expect("512 lamp paths");
         assert_eq!(
             warned,
             Skipped::LoopLimit {
@@ -454,13 +455,7 @@ mod tests {
             }
         );
         assert!(warned.to_string().contains("65535"), "{warned}");
-        assert_eq!(
-            at(12, 1024, false, &mesa),
-            None,
-            "point lamps take no opening samples"
-        );
-        assert!(at(12, 1024, true, &mesa).is_some());
-        assert_eq!(at(1024, 1024, true, &Limits::WEBGL2), None);
+        assert_eq!(at(1024, 1024, &Limits::WEBGL2), None);
     }
 
     #[test]

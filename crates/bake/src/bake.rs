@@ -169,8 +169,7 @@ pub fn bake_room_reading<B: GpuBackend>(
         bvh = BvhMode::None;
     }
     skipped.extend(lamps.skipped.iter().cloned());
-    let area = lamps.models.iter().any(|m| m.area);
-    skipped.extend(Skipped::loop_limit(settings, area, &limits));
+    skipped.extend(Skipped::loop_limit(settings, &limits));
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: room.layout.layer_size,
         layers: room.layout.layers,
@@ -202,6 +201,11 @@ pub fn bake_room_reading<B: GpuBackend>(
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
         gather_chunk: if limits.loop_iterations.is_some() {
             crate::graph::GATHER_CHUNK_RAYS
+        } else {
+            0
+        },
+        direct_chunk: if limits.loop_iterations.is_some() {
+            crate::graph::DIRECT_CHUNK_SAMPLES
         } else {
             0
         },

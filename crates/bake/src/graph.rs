@@ -59,6 +59,12 @@
 //! Every light-map texture carries the texel mask in its alpha channel (1 = a valid texel of a
 //! receiver's chart, 0 = empty), which the blur and the gather's bilinear look-up use.
 //!
+//! On a driver that cuts long shader loops ([`crate::Limits::loop_iterations`]) a gather's
+//! rays ([`GraphConfig::gather_chunk`]) and the direct pass's opening samples
+//! ([`GraphConfig::direct_chunk`]) are split over several passes, each reading the one before
+//! (a `prior` slot) and adding its share, alternating with a texture that holds nothing live
+//! then, so that the last writes where the unsplit pass would.
+//!
 //! # Reads, writes and parameters
 //! Each computed pass runs one [`Program`]; its reads follow the program's
 //! [`Signature::reads`](crate::program::Signature::reads) slots, it writes one texture and carries
@@ -311,12 +317,21 @@ pub struct GraphConfig {
     /// [`GATHER_CHUNK_RAYS`] on a backend whose driver cuts long shader loops
     /// ([`crate::Limits::loop_iterations`]), else 0.
     pub gather_chunk: u32,
+    /// Most samples of a lamp's opening one direct pass takes per texel
+    /// ([`DirectParams::chunk_samples`]; 0: all): [`DIRECT_CHUNK_SAMPLES`] on a backend
+    /// whose driver cuts long shader loops, else 0.
+    pub direct_chunk: u32,
 }
 
 /// [`GraphConfig::gather_chunk`] on a loop-limited driver: 64 rays per texel and pass, a
 /// factor 4–8 inside where Mesa's llvmpipe starts to cut them in a furnished room
 /// ([`crate::backend::LOOP_LIMITED_SAMPLES`]).
 pub const GATHER_CHUNK_RAYS: u32 = 64;
+
+/// [`GraphConfig::direct_chunk`] on a loop-limited driver: 64 opening samples per lamp,
+/// texel and pass, as many shadow rays as [`GATHER_CHUNK_RAYS`] gather rays (a shadow ray
+/// stops at its first hit, so its traversal is at most a gather ray's).
+pub const DIRECT_CHUNK_SAMPLES: u32 = 64;
 
 /// The bake's textures and passes, in execution order.
 #[derive(Debug, Clone, PartialEq)]
@@ -544,22 +559,41 @@ fn connect_stage(b: &mut Builder, g: GBufferTex, params: ConnectParams) {
 }
 
 /// Stage (2): direct illuminance from the first `lamp_count` uploaded lamps; with bounces,
-/// its energy is measured for the bounces' checks.
-fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig) -> TexId {
+/// its energy is measured for the bounces' checks. With [`GraphConfig::direct_chunk`] an
+/// opening's samples are split over several direct passes, each adding to the one before,
+/// alternating between the target and `spare` (which holds nothing live before the direct
+/// light is done) so that the last lands in the target.
+fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: TexId) -> TexId {
     let direct = b.texture("direct");
-    b.pass(
-        PassKind::Run(Program::Direct),
-        "direct",
-        vec![g.position, g.normal],
-        vec![direct],
-        0,
-        Params::Direct(DirectParams {
-            lamp_count: config.lamp_count,
-            seed: config.seed,
-            samples: config.openings.0,
-            openings: config.openings.1,
-        }),
-    );
+    let (samples, openings) = config.openings;
+    let chunks = crate::passes::direct::chunks(samples, openings, config.direct_chunk);
+    let mut prior = g.position;
+    for c in 0..chunks {
+        // The last chunk writes the target: count back from it, alternating.
+        let out = if (chunks - 1 - c).is_multiple_of(2) {
+            direct
+        } else {
+            spare
+        };
+        b.pass(
+            PassKind::Run(Program::Direct),
+            "direct",
+            // Before the first chunk nothing is added: `position` stands in for `prior`.
+            vec![g.position, g.normal, prior],
+            vec![out],
+            0,
+            Params::Direct(DirectParams {
+                lamp_count: config.lamp_count,
+                seed: config.seed,
+                samples,
+                openings,
+                first_sample: c * config.direct_chunk,
+                chunk_samples: if chunks > 1 { config.direct_chunk } else { 0 },
+                ..DirectParams::default()
+            }),
+        );
+        prior = out;
+    }
     if config.bounces > 0 {
         b.last().then = Some(Check::DirectEnergy(direct));
     }
@@ -671,7 +705,7 @@ fn gather_stage(
     let mut prior = reflected;
     for c in 0..chunks {
         // The last chunk writes the target: count back from it, alternating.
-        let out = if (chunks - 1 - c) % 2 == 0 {
+        let out = if (chunks - 1 - c).is_multiple_of(2) {
             target
         } else {
             spare
@@ -797,9 +831,10 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let lamp_paths =
         config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
     let g = gbuffer_stage(&mut b, lamp_paths);
-    let direct = direct_stage(&mut b, g, config);
-    // The direct light carries no Monte Carlo noise: it is reflected unfiltered.
+    // The direct light carries no Monte Carlo noise: it is reflected unfiltered. Until then
+    // its texture is the split direct pass's spare.
     let reflected_direct = b.texture("reflected_direct");
+    let direct = direct_stage(&mut b, g, config, reflected_direct);
     albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
     connect_stage(
         &mut b,
@@ -1000,8 +1035,9 @@ impl BakeGraph {
         }
         let mut b = Builder::new(config);
         let g = gbuffer_stage(&mut b, false);
-        let direct = direct_stage(&mut b, g, config);
+        // Written after the direct light: until then the split direct pass's spare.
         let direct_blurred = b.texture("direct_blurred");
+        let direct = direct_stage(&mut b, g, config, direct_blurred);
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
         // The blur scratch texture exists only when a blur runs.
         let tmp = blurs.then(|| b.texture("blur_tmp"));
@@ -1277,6 +1313,7 @@ mod tests {
             openings: (0, 0),
             luminance_scale: 1.0,
             gather_chunk: 0,
+            direct_chunk: 0,
         }
     }
 
@@ -1395,6 +1432,59 @@ mod tests {
                     panic!("gather params");
                 };
                 assert_eq!((g.first_ray, g.chunk_rays), (0, 0));
+            }
+        }
+    }
+
+    /// On a loop-limited driver an opening's samples are split over direct passes of
+    /// `direct_chunk` samples that add up, alternating with a texture that is written only
+    /// after the direct light, so that the last writes where the unsplit pass would and
+    /// carries the direct light's check; both methods, and the graph stays valid.
+    #[test]
+    fn chunked_direct_passes_add_up_into_the_same_texture() {
+        let direct_passes = |g: &BakeGraph| -> Vec<PassDesc> {
+            g.passes
+                .iter()
+                .filter(|p| p.kind == PassKind::Run(Program::Direct))
+                .cloned()
+                .collect()
+        };
+        for method in [Method::Converged, Method::Paper] {
+            for (openings, chunks) in [((48, 1), 2), ((100, 2), 4), ((1024, 0), 1)] {
+                let base = GraphConfig {
+                    method,
+                    openings,
+                    ..config(2, Blur::None)
+                };
+                let whole = BakeGraph::build(&base);
+                let split = BakeGraph::build(&GraphConfig {
+                    direct_chunk: 64,
+                    ..base.clone()
+                });
+                split.validate().expect("valid");
+                let (w, s) = (direct_passes(&whole), direct_passes(&split));
+                assert_eq!((w.len(), s.len()), (1, chunks), "{method:?} {openings:?}");
+                assert_eq!(s[chunks - 1].writes, w[0].writes);
+                assert_eq!(s[chunks - 1].then, w[0].then);
+                assert_eq!(w[0].writes, vec![whole.direct]);
+                for (c, p) in s.iter().enumerate() {
+                    let Params::Direct(d) = p.params else {
+                        panic!("direct params");
+                    };
+                    let chunk = if chunks > 1 { 64 } else { 0 };
+                    assert_eq!((d.first_sample, d.chunk_samples), (64 * c as u32, chunk));
+                    assert_eq!(p.reads[..2], w[0].reads[..2]);
+                    assert!(!p.reads.contains(&p.writes[0]), "reads what it writes");
+                    if c > 0 {
+                        assert_eq!(p.reads[2], s[c - 1].writes[0], "reads the chunk before");
+                        assert_ne!(p.writes[0], s[c - 1].writes[0]);
+                        assert!(p.then.is_none() || c == chunks - 1);
+                    }
+                }
+                let Params::Direct(d) = w[0].params else {
+                    panic!("direct params");
+                };
+                assert_eq!((d.first_sample, d.chunk_samples), (0, 0));
             }
         }
     }
@@ -1709,7 +1799,11 @@ mod tests {
             .map(|(rw, _)| rw)
             .collect();
         assert_eq!(rw[0], (vec![], vec![gb.position, gb.normal, gb.albedo]));
-        assert_eq!(rw[1], (vec![gb.position, gb.normal], vec![f[1]]));
+        // Unsplit: `position` stands in for the prior chunk, which is not read.
+        assert_eq!(
+            rw[1],
+            (vec![gb.position, gb.normal, gb.position], vec![f[1]])
+        );
         assert_eq!(rw[2], (vec![f[1]], vec![f[2]]));
         assert_eq!(rw[3], (vec![f[2], gb.normal], vec![tmp]));
         assert_eq!(rw[4], (vec![tmp, gb.normal], vec![f[2]]));

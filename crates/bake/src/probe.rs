@@ -165,11 +165,9 @@ pub struct CalcPoint {
 /// batches that fit the backend's textures; after each the backend frees its textures and
 /// scene ([`GpuBackend::release`]), as a bake does when its maps are read back.
 ///
-/// Known issue: under Mesa's software drivers (llvmpipe, lavapipe) the glow and wgpu
-/// backends returned 0 at some points of the `bench nearfield` rooms with 1024 opening
-/// samples (up to 2048 per point near an opening), where the CPU backend and their own bakes
-/// at 1024 samples agree; at 48 they agree with the CPU. `luxbake measure` and the bench use
-/// the CPU backend.
+/// On a backend whose driver cuts long shader loops ([`crate::Limits::loop_iterations`]:
+/// Mesa's llvmpipe and lavapipe) an opening's samples are split over dispatches of
+/// [`crate::graph::DIRECT_CHUNK_SAMPLES`], each adding to the one before, as in a bake.
 pub fn direct_at<B: GpuBackend>(
     backend: &mut B,
     room: &Room,
@@ -195,13 +193,27 @@ pub fn direct_at<B: GpuBackend>(
         ..settings.clone()
     };
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only, &mut |_| {});
-    let params = Params::Direct(DirectParams {
-        lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
-        seed: settings.seed,
-        samples: opening_samples,
-        openings: u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
-            .unwrap_or(u32::MAX),
-    });
+    let openings = u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
+        .unwrap_or(u32::MAX);
+    let chunk = if backend.limits().loop_iterations.is_some() {
+        crate::graph::DIRECT_CHUNK_SAMPLES
+    } else {
+        0
+    };
+    let chunks = crate::passes::direct::chunks(opening_samples, openings, chunk);
+    let params: Vec<Params> = (0..chunks)
+        .map(|c| {
+            Params::Direct(DirectParams {
+                lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
+                seed: settings.seed,
+                samples: opening_samples,
+                openings,
+                first_sample: c * chunk,
+                chunk_samples: if chunks > 1 { chunk } else { 0 },
+                ..DirectParams::default()
+            })
+        })
+        .collect();
     // As the room's geometry is moved back toward the origin, bit for bit.
     let shift = room.shift.unwrap_or([0.0; 3]);
     let width = backend.limits().max_texture_size.clamp(1, 4096) as usize;
@@ -229,6 +241,7 @@ pub fn direct_at<B: GpuBackend>(
                 backend.create_texture(&desc("position"))?,
                 backend.create_texture(&desc("normal"))?,
                 backend.create_texture(&desc("direct"))?,
+                backend.create_texture(&desc("direct_spare"))?,
             ];
             backend.upload(&textures[0], 0, &position)?;
             backend.upload(&textures[1], 0, &normal)?;
@@ -242,19 +255,30 @@ pub fn direct_at<B: GpuBackend>(
                 ray_epsilon: room.ray_epsilon,
                 lamp_paths: &[],
             })?;
-            let words = params.words();
-            let plan = TilePlan::new(size, 1, params.work_per_texel(), backend.tile_work());
-            for tile in plan.tiles() {
-                backend.dispatch(&crate::backend::Dispatch {
-                    label: "direct at points",
-                    program: Program::Direct,
-                    bvh,
-                    reads: &[&textures[0], &textures[1]],
-                    write: &textures[2],
-                    scene: &scene,
-                    params: &words,
-                    tile,
-                })?;
+            // The chunks alternate between the two last textures, the last writing `direct`
+            // (`position` stands in for the prior of the first, which reads none).
+            let mut prior = 0;
+            for (c, chunk) in params.iter().enumerate() {
+                let out = if (params.len() - 1 - c).is_multiple_of(2) {
+                    2
+                } else {
+                    3
+                };
+                let words = chunk.words();
+                let plan = TilePlan::new(size, 1, chunk.work_per_texel(), backend.tile_work());
+                for tile in plan.tiles() {
+                    backend.dispatch(&crate::backend::Dispatch {
+                        label: "direct at points",
+                        program: Program::Direct,
+                        bvh,
+                        reads: &[&textures[0], &textures[1], &textures[prior]],
+                        write: &textures[out],
+                        scene: &scene,
+                        params: &words,
+                        tile,
+                    })?;
+                }
+                prior = out;
             }
             let texels = backend.read_back(&textures[2], 0)?;
             backend.release()?;

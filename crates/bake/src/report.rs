@@ -136,12 +136,12 @@ pub enum Skipped {
     },
     /// The backend's driver ends a shader invocation's loops after `limit` iterations in all
     /// ([`crate::Limits::loop_iterations`]) and the bake asks up to `samples` refinement
-    /// rays, opening samples or lamp paths of one texel (the gathers' rays are split over
-    /// passes there): beyond
+    /// rays or lamp paths of one texel (the gathers' rays and the openings' samples are split
+    /// over passes there): beyond
     /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) the driver may leave
     /// some of them out, and those texels read low. Nothing is changed; the bake says so.
     LoopLimit {
-        /// Most rays, opening samples or lamp paths one texel asks of one invocation.
+        /// Most refinement rays or lamp paths one texel asks of one invocation.
         samples: u32,
         /// The driver's limit.
         limit: u32,
@@ -149,18 +149,15 @@ pub enum Skipped {
 }
 
 impl Skipped {
-    /// [`Skipped::LoopLimit`] when `limits` has a loop limit and `settings` (with `area`: a
-    /// lamp modelled by its opening) asks more than
-    /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) of one texel.
-    pub fn loop_limit(settings: &Settings, area: bool, limits: &crate::Limits) -> Option<Skipped> {
+    /// [`Skipped::LoopLimit`] when `limits` has a loop limit and `settings` asks more than
+    /// [`LOOP_LIMITED_SAMPLES`](crate::backend::LOOP_LIMITED_SAMPLES) refinement rays or lamp
+    /// paths of one texel.
+    pub fn loop_limit(settings: &Settings, limits: &crate::Limits) -> Option<Skipped> {
         let limit = limits.loop_iterations?;
         // The gathers split a texel's rays over passes on such a driver
-        // ([`crate::graph::GraphConfig::gather_chunk`]); refinement, lamp paths and opening
-        // samples do not yet.
-        let mut samples = settings.refine_rays.max(settings.lamp_paths);
-        if area {
-            samples = samples.max(settings.opening_samples);
-        }
+        // ([`crate::graph::GraphConfig::gather_chunk`]), the direct pass an opening's samples
+        // ([`crate::graph::GraphConfig::direct_chunk`]); refinement and lamp paths do not yet.
+        let samples = settings.refine_rays.max(settings.lamp_paths);
         (samples > crate::backend::LOOP_LIMITED_SAMPLES)
             .then_some(Skipped::LoopLimit { samples, limit })
     }
@@ -193,7 +190,7 @@ impl fmt::Display for Skipped {
             ),
             Skipped::LoopLimit { samples, limit } => write!(
                 f,
-                "up to {samples} refinement rays, lamp paths or opening samples per texel: \
+                "up to {samples} refinement rays or lamp paths per texel: \
                  this GPU driver (Mesa's software rasterizer) ends a shader's loops after \
                  {limit} iterations in all and may leave some out, so texels can read low; \
                  keep to {} per texel, or bake with `--backend cpu`",

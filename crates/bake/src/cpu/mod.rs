@@ -449,6 +449,10 @@ mod tests {
         seed: 0,
         samples: 0,
         openings: 0,
+        first_sample: 0,
+        chunk_samples: 0,
+        pad0: 0,
+        pad1: 0,
     };
 
     #[test]
@@ -472,6 +476,7 @@ mod tests {
                 0,
                 p,
                 n,
+                [0.0; 3],
             );
             assert!(
                 e.iter().all(|v| v.is_finite() && *v >= 0.0),
@@ -493,6 +498,7 @@ mod tests {
             0,
             p,
             n,
+            [0.0; 3],
         );
         assert!((f64::from(e[0]) - 1e12).abs() < 1e12 * 1e-5, "{e:?}");
     }

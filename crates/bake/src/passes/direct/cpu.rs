@@ -19,13 +19,19 @@ impl TexelPass for DirectParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
         let texel = rng::texel_index(ctx.scene.layer_size, at.layer, at.x, at.y);
-        let [pos, nrm] = ctx.maps().map(|m| m.fetch(at));
-        direct_texel(ctx.scene, *self, ctx.trav, texel, pos, nrm)
+        let [pos, nrm, prior] = ctx.maps().map(|m| m.fetch(at));
+        // Before the first chunk nothing is added (the slot holds a stand-in).
+        let prior = if self.first_sample > 0 {
+            xyz(prior)
+        } else {
+            [0.0; 3]
+        };
+        direct_texel(ctx.scene, *self, ctx.trav, texel, pos, nrm, prior)
     }
 }
 
-/// The direct illuminance at one texel (see the module docs); `texel` its index
-/// ([`rng::texel_index`]).
+/// The direct illuminance at one texel (see the module docs) added to `prior` (the chunks
+/// before, [`DirectParams::first_sample`]); `texel` its index ([`rng::texel_index`]).
 pub(crate) fn direct_texel(
     scene: &CpuScene,
     params: DirectParams,
@@ -33,6 +39,7 @@ pub(crate) fn direct_texel(
     texel: u32,
     pos: [f32; 4],
     nrm: [f32; 4],
+    prior: [f32; 3],
 ) -> [f32; 4] {
     if pos[3] <= 0.5 {
         return [0.0; 4];
@@ -42,14 +49,34 @@ pub(crate) fn direct_texel(
         return [0.0, 0.0, 0.0, 1.0];
     };
     let start = Start::new(p, n, scene.ray_epsilon);
-    let mut e = [0.0f32; 3];
+    // A chunk of the opening samples: flattened indices `first..end` of each opening's.
+    let first = params.first_sample;
+    let end = if params.chunk_samples > 0 {
+        first.saturating_add(params.chunk_samples)
+    } else {
+        u32::MAX
+    };
+    let mut e = prior;
     for (li, lamp) in scene.lamps.iter().take(params.lamp_count as usize).enumerate() {
         if let Some(o) = near_opening(lamp, p) {
             let shift = opening::shift(texel, li as u32, params.seed);
-            let k = from_opening(scene, trav, lamp, &o, &start, params.samples, shift);
+            let k = from_opening(
+                scene,
+                trav,
+                lamp,
+                &o,
+                &start,
+                params.samples,
+                shift,
+                [first, end],
+            );
             for (ec, sc) in e.iter_mut().zip(lamp.scale) {
                 *ec += k * sc;
             }
+            continue;
+        }
+        // A lamp without an opening is the first chunk's.
+        if first > 0 {
             continue;
         }
         let Some(LampView {
@@ -131,8 +158,11 @@ pub(crate) fn near_opening(lamp: &LampParams, p: [f32; 3]) -> Option<OpeningPara
 }
 
 /// The illuminance at `p` (unit normal `n`) from lattice points of `lamp`'s opening `o`
-/// ([`opening::texel_samples`] of `samples`), shared among the parts `p` can see, before the lamp's scale ([`crate::opening`]'s
-/// estimator, each point with its shadow ray).
+/// ([`opening::texel_samples`] of `samples`), shared among the parts `p` can see, before the
+/// lamp's scale ([`crate::opening`]'s estimator, each point with its shadow ray): the share of
+/// the points whose index, counted over the parts in order, lies in `range` (all of them:
+/// `[0, u32::MAX]`).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn from_opening(
     scene: &CpuScene,
     trav: Trav,
@@ -141,6 +171,7 @@ pub(crate) fn from_opening(
     start: &Start,
     samples: u32,
     shift: [u32; 2],
+    range: [u32; 2],
 ) -> f32 {
     let Some(table) = scene.tables.get(lamp.table as usize) else {
         return 0.0;
@@ -154,10 +185,15 @@ pub(crate) fn from_opening(
     let n_texel = opening::texel_samples(o, d, samples);
     let counts = opening::counts(&opening::visible_areas(o, receiver), n_texel);
     let mut sum = 0.0f32;
+    // Index of the part's first point among all the opening's.
+    let mut base = 0u32;
     for (part, &count) in counts.iter().enumerate() {
         let nf = count as f32;
         let mut part_sum = 0.0f32;
-        for k in 0..count {
+        let lo = range[0].saturating_sub(base).min(count);
+        let hi = range[1].saturating_sub(base).min(count);
+        base = base.saturating_add(count);
+        for k in lo..hi {
             let u = opening::lattice(k, count, shift);
             let Some(s) = opening::sample_part(o, part, u, Some(receiver)) else {
                 continue;

@@ -2,7 +2,9 @@
 // through the BVH (cpu::direct_texel, operation for operation).
 //
 // Evaluates the first u_lamp_count uploaded lamps (luxLamp, scene.glsl); near a lamp's
-// luminous opening, u_samples points of it (luxOpening*, opening.glsl).
+// luminous opening, u_samples points of it (luxOpening*, opening.glsl). With
+// u_chunk_samples > 0 an opening's samples are split over dispatches, each adding its share
+// to the one before (u_prior); the lamps without an opening come with the first.
 
 // cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
 // squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
@@ -18,8 +20,10 @@ bool luxSees(vec3 p, vec3 n, vec3 o0, float off2, vec3 x, vec3 back, float r, fl
 }
 
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
-// (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale.
-float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, uvec2 shift) {
+// (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale;
+// the points whose index over the parts lies in [first, end).
+float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, uvec2 shift,
+                     uint first, uint end) {
     vec4 l0 = luxLamp(li, 0);
     vec3 lampPos = l0.xyz;
     vec3 m0 = luxLamp(li, 1).xyz;
@@ -34,11 +38,16 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
     uint counts[6];
     luxCounts(areas, luxTexelSamples(o, sqrt(luxDot(rel, rel)), u_samples), counts);
     float sum = 0.0;
+    // Index of the part's first point among all the opening's.
+    uint base = 0u;
     for (int part = 0; part < 6; ++part) {
         uint count = counts[part];
         float nf = float(count);
         float partSum = 0.0;
-        for (uint k = 0u; k < count; ++k) {
+        uint lo = min(first - min(first, base), count);
+        uint hi = min(end - min(end, base), count);
+        base += count;
+        for (uint k = lo; k < hi; ++k) {
             vec3 q;
             vec3 qn;
             float weight;
@@ -103,14 +112,22 @@ vec4 luxRun(ivec3 c) {
     vec3 o0 = luxOffsetOrigin(p, n, u_ray_epsilon);
     vec3 off = o0 - p;
     float off2 = luxDot(off, off);
-    vec3 e = vec3(0.0);
+    // A chunk of the opening samples: flattened indices first..end of each opening's.
+    uint first = u_first_sample;
+    uint end = u_chunk_samples > 0u ? first + min(u_chunk_samples, 0xffffffffu - first)
+                                    : 0xffffffffu;
+    vec3 e = first > 0u ? texelFetch(u_prior, c, 0).rgb : vec3(0.0);
     for (int li = 0; li < int(u_lamp_count); ++li) {
         vec3 lampPos = luxLamp(li, 0).xyz;
         LuxOpening opening = luxOpening(li);
         if (luxOpeningNear(opening, lampPos, p)) {
             uvec2 shift = luxOpeningShift(texel, uint(li), u_seed);
-            float k = luxFromOpening(li, opening, p, n, o0, off2, shift);
+            float k = luxFromOpening(li, opening, p, n, o0, off2, shift, first, end);
             e += k * luxLamp(li, 4).rgb;
+            continue;
+        }
+        // A lamp without an opening is the first chunk's.
+        if (first > 0u) {
             continue;
         }
         float d2;

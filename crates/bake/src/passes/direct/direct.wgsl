@@ -1,6 +1,8 @@
 // Pass "direct" (paper Figure 4, box 2): illuminance from the pass's lamps, with shadow rays
 // through the BVH (cpu::direct_texel, operation for operation); near a lamp's luminous
-// opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl).
+// opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl). With
+// lux_pass.chunk_samples > 0 an opening's samples are split over dispatches, each adding its
+// share to the one before (lux_prior); the lamps without an opening come with the first.
 
 // cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
 // squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
@@ -21,9 +23,9 @@ fn lux_sees(p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32, x: vec3<f32>, 
 
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
 // (lux_texel_samples of lux_pass.samples), shared among the parts p can see, before the
-// lamp's scale.
+// lamp's scale; the points whose index over the parts lies in [first, end).
 fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32,
-                    shift: vec2<u32>) -> f32 {
+                    shift: vec2<u32>, first: u32, end: u32) -> f32 {
     let lamp = lux_lamps[li];
     let lamp_pos = lamp.position.xyz;
     let m0 = lamp.m0.xyz;
@@ -35,11 +37,16 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
     let n_texel = lux_texel_samples(o, sqrt(lux_dot(rel, rel)), lux_pass.samples);
     let counts = lux_counts(lux_visible_areas(o, receiver), n_texel);
     var sum = 0.0;
+    // Index of the part's first point among all the opening's.
+    var base = 0u;
     for (var part = 0; part < 6; part++) {
         let count = counts[part];
         let nf = f32(count);
         var part_sum = 0.0;
-        for (var k = 0u; k < count; k++) {
+        let lo = min(first - min(first, base), count);
+        let hi = min(end - min(end, base), count);
+        base += count;
+        for (var k = lo; k < hi; k++) {
             let s = lux_opening_sample_part(o, part, lux_opening_lattice(k, count, shift), receiver);
             if (!s.valid) {
                 continue;
@@ -102,7 +109,16 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let o0 = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let off = o0 - p;
     let off2 = lux_dot(off, off);
+    // A chunk of the opening samples: flattened indices first..end of each opening's.
+    let first = lux_pass.first_sample;
+    var end = 0xffffffffu;
+    if (lux_pass.chunk_samples > 0u) {
+        end = first + min(lux_pass.chunk_samples, 0xffffffffu - first);
+    }
     var e = vec3<f32>(0.0);
+    if (first > 0u) {
+        e = lux_load(lux_prior, c).rgb;
+    }
     let count = min(lux_pass.lamp_count, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
         let lamp = lux_lamps[li];
@@ -110,8 +126,12 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         let opening = lux_opening(li);
         if (lux_opening_near(opening, lamp_pos, p)) {
             let shift = lux_opening_shift(texel, li, lux_pass.seed);
-            let k = lux_from_opening(li, opening, p, n, o0, off2, shift);
+            let k = lux_from_opening(li, opening, p, n, o0, off2, shift, first, end);
             e += k * lamp.scale.xyz;
+            continue;
+        }
+        // A lamp without an opening is the first chunk's.
+        if (first > 0u) {
             continue;
         }
         let view = lux_lamp_toward(li, p, n);

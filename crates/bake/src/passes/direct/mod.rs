@@ -23,12 +23,26 @@ param_block! {
         samples: u32,
         /// Lamps with an opening among the first `lamp_count` (for the tile plan).
         openings: u32,
+        /// With [`DirectParams::chunk_samples`]: the first of each opening's samples (counted
+        /// over its parts in order) this dispatch takes; from the second chunk on (> 0) the
+        /// slot `prior` holds the chunks before, which the output adds to, and the lamps
+        /// without an opening (done by the first chunk) are not evaluated again.
+        first_sample: u32,
+        /// Most samples of one opening one dispatch takes (0: all): a texel's opening samples
+        /// split over dispatches, each adding its share (a part's `sum / count`) to the ones
+        /// before, so that one shader invocation stays within a driver's loop limit
+        /// ([`crate::Limits::loop_iterations`]).
+        chunk_samples: u32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
     }
 }
 
 signature! {
     direct {
-        reads: ["position", "normal"],
+        reads: ["position", "normal", "prior"],
         scene: [bvh, lamps],
         params: DirectParams,
         libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Opening],
@@ -37,7 +51,22 @@ signature! {
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): one shadow ray
 /// per lamp, and at most twice `samples` per lamp with an opening
-/// ([`crate::opening::texel_samples`]).
+/// ([`crate::opening::texel_samples`]), or a chunk of them.
 pub fn work(p: &DirectParams) -> u64 {
-    u64::from(p.lamp_count) + 2 * u64::from(p.openings) * u64::from(p.samples)
+    let mut per_opening = 2 * u64::from(p.samples);
+    if p.chunk_samples > 0 {
+        per_opening = per_opening.min(u64::from(p.chunk_samples));
+    }
+    u64::from(p.lamp_count) + u64::from(p.openings) * per_opening
+}
+
+/// The chunks a texel's opening samples take at most with `chunk_samples` per dispatch (0:
+/// all in one): twice `samples` near an opening ([`crate::opening::texel_samples`]); one
+/// without openings.
+pub fn chunks(samples: u32, openings: u32, chunk_samples: u32) -> u32 {
+    if chunk_samples == 0 || openings == 0 {
+        1
+    } else {
+        samples.saturating_mul(2).div_ceil(chunk_samples).max(1)
+    }
 }
