@@ -1,4 +1,5 @@
-//! `cargo xtask bench nearfield [--quick] [--rooms A,B] [--backends cpu,glow,wgpu]`: the direct
+//! `cargo xtask bench nearfield [--quick] [--rooms A,B] [--backends cpu,glow,wgpu]
+//! [--texels-per-metre D]`: the direct
 //! light of lamps with a size against Radiance's luminous-opening model (issue 27).
 //!
 //! The rooms are `bench/scenes/nearfield_*.toml` (linear, 2 m linear, round and box-shaped
@@ -8,7 +9,8 @@
 //! closed forms), at points off hard shadow edges and penumbrae. Each room is baked in memory
 //! with its lamps' default model (`auto`) and direct light only (`bounces = 0`) on each backend,
 //! then once with every lamp a point (CPU) for the before/after, and every point is compared
-//! by relative error: mean |rel|, bias, p95 and max per surface kind. The pass time of the area
+//! by relative error: mean |rel|, bias, p95 and max per surface kind, read from the maps and
+//! computed at the points themselves, with the worst points listed. The pass time of the area
 //! model is reported as a ratio of the point model's on the same backend in the same run.
 //! `--quick` (CI) bakes at 16 texels/m on the CPU only and checks nothing; the figures are in
 //! the full run's files.
@@ -36,6 +38,9 @@ pub struct Args {
     /// Backends, comma-separated (an unavailable one is reported, not fatal).
     #[arg(long, value_delimiter = ',', default_value = "cpu,glow,wgpu")]
     backends: Vec<BackendKind>,
+    /// Light-map resolution of the bakes (default: 64, 16 with `--quick`).
+    #[arg(long)]
+    texels_per_metre: Option<f32>,
 }
 
 /// `bench/scenes/` of this checkout.
@@ -49,6 +54,21 @@ fn scenes_dir() -> PathBuf {
 /// lattice's noise (about 1 % at the default's 48 near a bright opening) is far below the
 /// model's error, which is what that evaluation shows.
 const POINT_SAMPLES: u32 = 1024;
+
+/// Points listed per room and backend where the maps are farthest from the reference.
+const WORST_POINTS: usize = 3;
+
+/// A reference point where the map is far from the reference: its CSV line, surface kind,
+/// position, the reference, the map's value and the direct light computed at the point with
+/// each count of opening samples of [`Row::at_points`], lux.
+struct Worst {
+    line: usize,
+    surface: String,
+    position: [f64; 3],
+    reference: f64,
+    map: f64,
+    at: Vec<f64>,
+}
 
 /// Per surface kind (and "all"): the statistics and the largest |relative error|.
 type BySurface = Vec<(String, Stats, f64)>;
@@ -64,6 +84,8 @@ struct Row {
     /// The same, the direct light computed at the reference points themselves
     /// ([`luxbake::probe::direct_at`]), per count of opening samples ([`POINT_SAMPLES`]).
     at_points: Vec<(u32, BySurface)>,
+    /// The points whose map value is farthest from the reference ([`WORST_POINTS`]).
+    worst: Vec<Worst>,
     pass_s: f64,
     shadow_rays: u64,
 }
@@ -99,12 +121,12 @@ fn bake_room(
     backend: &mut AnyBackend,
     kind: BackendKind,
     model: Option<LampModel>,
-    quick: bool,
+    texels_per_metre: f32,
 ) -> Result<Row, String> {
     let path = scenes_dir().join(format!("nearfield_{room}.toml"));
     let patch = SettingsPatch {
         bounces: Some(0),
-        texels_per_metre: quick.then_some(16.0),
+        texels_per_metre: Some(texels_per_metre),
         ..SettingsPatch::default()
     };
     let loader = luxbake_assets::SceneLoader::default();
@@ -132,16 +154,8 @@ fn bake_room(
         })
         .collect();
     let mut at_points = Vec::new();
-    // On the CPU only: Mesa's software drivers end a shader invocation's loops after 65 535
-    // iterations in all (`luxbake::backend::MESA_LOOP_ITERATIONS`), and the direct pass does
-    // not yet split an opening's samples over passes, so at 1024 samples (up to 2048 near an
-    // opening) the GPU backends' direct light came out short — 0 at some points, and 1–7 %
-    // low at some texels of their bakes; at 48 they match the CPU here too.
-    let counts = if kind == BackendKind::Cpu {
-        vec![settings.opening_samples, POINT_SAMPLES]
-    } else {
-        Vec::new()
-    };
+    let mut at_values = Vec::new();
+    let counts = [settings.opening_samples, POINT_SAMPLES];
     for samples in counts {
         let exact = direct_at(
             backend,
@@ -154,7 +168,23 @@ fn bake_room(
         .map_err(|e| format!("{room}: direct at the points: {e}"))?;
         let lux: Vec<f64> = exact.iter().map(|&e| f64::from(luminance(e))).collect();
         at_points.push((samples, by_surface(&refs, &lux)));
+        at_values.push(lux);
     }
+    let rel = |i: usize| ((values[i] - refs[i].lux) / refs[i].lux).abs();
+    let mut order: Vec<usize> = (0..refs.len()).filter(|&i| refs[i].lux > 0.0).collect();
+    order.sort_by(|&a, &b| rel(b).total_cmp(&rel(a)));
+    let worst = order
+        .into_iter()
+        .take(WORST_POINTS)
+        .map(|i| Worst {
+            line: refs[i].line,
+            surface: refs[i].surface.clone(),
+            position: refs[i].position,
+            reference: refs[i].lux,
+            map: values[i],
+            at: at_values.iter().map(|v| v[i]).collect(),
+        })
+        .collect();
     let used = run.out.report.lamp_models.iter().any(|m| m.area);
     Ok(Row {
         room: room.to_string(),
@@ -162,6 +192,7 @@ fn bake_room(
         model: if used { "area" } else { "point" },
         stats: by_surface(&refs, &values),
         at_points,
+        worst,
         pass_s: run.wall(),
         shadow_rays: run.out.report.shadow_rays,
     })
@@ -207,17 +238,20 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
             Err(e) => eprintln!("nearfield: {} unavailable: {e}", kind.name()),
         }
     }
+    let texels_per_metre = args
+        .texels_per_metre
+        .unwrap_or(if quick { 16.0 } else { 64.0 });
     let mut rows = Vec::new();
     for room in &args.rooms {
         for (kind, backend) in &mut opened {
             eprintln!("nearfield: {room} on {}", kind.name());
-            rows.push(bake_room(room, backend, *kind, None, quick)?);
+            rows.push(bake_room(room, backend, *kind, None, texels_per_metre)?);
             rows.push(bake_room(
                 room,
                 backend,
                 *kind,
                 Some(LampModel::Point),
-                quick,
+                texels_per_metre,
             )?);
         }
     }
@@ -237,7 +271,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
          ({} opening samples)\n- relative error = (bake − reference) / reference, in %; \
          time = the passes' wall time, area over point on the same backend\n",
         machine(),
-        if quick { 16 } else { 64 },
+        texels_per_metre,
         luxbake::scene::Settings::default().opening_samples,
     );
     let _ = writeln!(
@@ -259,7 +293,7 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
     let _ = writeln!(
         md,
         "\nThe direct light computed at the reference points themselves \
-         (`luxbake::probe::direct_at` on the CPU backend, the same lamps' models), not read \
+         (`luxbake::probe::direct_at` on each backend, the same lamps' models), not read \
          from the light maps, with the default's opening samples and with {POINT_SAMPLES}: \
          the maps add \
          their texel interpolation where the light bends within a texel (a luminaire's \
@@ -274,6 +308,36 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
                 let lead = format!("{} | {} | {} | {samples}", r.room, r.backend, r.model);
                 let _ = writeln!(md, "{}", stats_cells(&lead, kind, s, *max));
             }
+        }
+    }
+    let _ = writeln!(
+        md,
+        "\nThe {WORST_POINTS} points per room and backend where the maps (lamps as the file \
+         says) are farthest from the reference, with the direct light computed at the point \
+         itself (relative errors in %): a map far off where the point is not is the texel \
+         interpolation; both off with the default's samples but not with {POINT_SAMPLES}, the \
+         samples' noise.\n\n\
+         | room | backend | line | surface | position m | reference lx | map | at point, \
+         default samples | at point, {POINT_SAMPLES} |\n|---|---|--:|---|---|--:|--:|--:|--:|"
+    );
+    for r in rows.iter().filter(|r| r.model == "area") {
+        for w in &r.worst {
+            let pct = |v: f64| format!("{v:.4} ({:+.2})", 100.0 * (v / w.reference - 1.0));
+            let at: Vec<String> = w.at.iter().map(|&v| pct(v)).collect();
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {:.3}, {:.3}, {:.3} | {:.4} | {} | {} |",
+                r.room,
+                r.backend,
+                w.line,
+                w.surface,
+                w.position[0],
+                w.position[1],
+                w.position[2],
+                w.reference,
+                pct(w.map),
+                at.join(" | ")
+            );
         }
     }
     let _ = writeln!(
@@ -300,6 +364,14 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
             "surfaces": surfaces_json(&r.stats),
             "at_points": r.at_points.iter().map(|(samples, stats)| serde_json::json!({
                 "opening_samples": samples, "surfaces": surfaces_json(stats),
+            })).collect::<Vec<_>>(),
+            "worst": r.worst.iter().map(|w| serde_json::json!({
+                "line": w.line, "surface": w.surface, "position": w.position,
+                "reference_lux": w.reference, "map_lux": w.map,
+                "at_point_lux": r.at_points.iter().zip(&w.at)
+                    .map(|((samples, _), v)| serde_json::json!({
+                        "opening_samples": samples, "lux": v,
+                    })).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
         })).collect::<Vec<_>>(),
     });
