@@ -156,7 +156,7 @@ pub fn bake_room_reading<B: GpuBackend>(
     settings.validate().map_err(PrepareError::from)?;
     let limits = backend.limits();
     room.check(settings, limits)?;
-    let lamps = Lamps::prepare(room, &room.place_lamps(lamps), settings, progress);
+    let mut lamps = Lamps::prepare(room, &room.place_lamps(lamps), settings);
 
     // Build: the graph of the passes, for this room's layout and these lamps.
     let mut skipped = room.skipped.clone();
@@ -186,13 +186,14 @@ pub fn bake_room_reading<B: GpuBackend>(
         higher_stride: settings.higher_stride,
         refine: Some((settings.refine_rays, settings.refine_error)),
         texel_size: room.texel_sizes(),
-        lamp_paths: lamps
-            .paths
-            .as_ref()
-            .map_or((0, 0.0), |p| (settings.lamp_paths, p.1)),
-        lamp_path_count: lamps.paths.as_ref().map_or(0, |p| {
-            u32::try_from(p.0.len() / (4 * crate::backend::LAMP_PATH_TEXELS)).unwrap_or(u32::MAX)
-        }),
+        // The pool is traced after the direct pass: its size and density scale go into the
+        // passes then ([`execute::run`]).
+        lamp_paths: if lamps.paths_wanted {
+            (settings.lamp_paths, 0.0)
+        } else {
+            (0, 0.0)
+        },
+        lamp_path_count: 0,
         openings: (
             settings.opening_samples,
             u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
@@ -213,8 +214,17 @@ pub fn bake_room_reading<B: GpuBackend>(
     graph.validate()?;
 
     // Execute, then collect.
-    let run =
-        execute::run(backend, (room, &lamps), &graph, settings, progress, direct).map_err(be)?;
+    let run = execute::run(
+        backend,
+        (room, &mut lamps),
+        &graph,
+        settings,
+        progress,
+        direct,
+    )
+    .map_err(be)?;
+    // The graph as it ran: with the pool's size and density scale.
+    let graph = graph.with_lamp_paths(lamps.pool());
     progress(&Progress::Setup("read back"));
     let t = Instant::now();
     let maps = execute::collect(backend, room, &graph, &run.textures, read_back).map_err(be)?;

@@ -25,7 +25,9 @@ use web_time::Instant;
 use rayon::prelude::*;
 
 use crate::backend::{Dispatch, GpuBackend, SceneData};
-use crate::graph::{BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId};
+use crate::graph::{
+    BakeGraph, Check, PassDesc, PassKind, RunWhen, Runtime, TexId, with_lamp_paths,
+};
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
@@ -237,7 +239,7 @@ fn work_to_come(graph: &BakeGraph, room: &Room, index: usize, stop: u32) -> f64 
 /// shows) as soon as the graph has computed them.
 pub(crate) fn run<B: GpuBackend>(
     backend: &mut B,
-    (room, lamps): (&Room, &Lamps),
+    (room, lamps): (&Room, &mut Lamps),
     graph: &BakeGraph,
     settings: &Settings,
     progress: &mut dyn FnMut(&Progress<'_>),
@@ -251,17 +253,20 @@ pub(crate) fn run<B: GpuBackend>(
         .map(|d| backend.create_texture(d))
         .collect::<Result<Vec<_>, _>>()?;
     let layout = &room.layout;
-    let scene = backend.upload_scene(&SceneData {
-        bvh: &room.bvh,
-        lamps: &lamps.params,
-        ies_tables: &lamps.tables,
-        regions: &layout.regions,
-        layer_size: layout.layer_size,
-        layers: layout.layers,
-        ray_epsilon: room.ray_epsilon,
-        lamp_paths: lamps.paths.as_ref().map_or(&[][..], |p| &p.0),
-    })?;
-    let upload_seconds = t.elapsed().as_secs_f64();
+    let upload = |backend: &mut B, lamps: &Lamps| {
+        backend.upload_scene(&SceneData {
+            bvh: &room.bvh,
+            lamps: &lamps.params,
+            ies_tables: &lamps.tables,
+            regions: &layout.regions,
+            layer_size: layout.layer_size,
+            layers: layout.layers,
+            ray_epsilon: room.ray_epsilon,
+            lamp_paths: lamps.paths.as_ref().map_or(&[][..], |p| &p.0),
+        })
+    };
+    let mut scene = upload(backend, lamps)?;
+    let mut upload_seconds = t.elapsed().as_secs_f64();
 
     let layer_floats = 4 * layout.layer_size[0] as usize * layout.layer_size[1] as usize;
     let mut decisions = Decisions::default();
@@ -277,6 +282,14 @@ pub(crate) fn run<B: GpuBackend>(
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
             continue;
+        }
+        // The lamp paths' pool is traced (on the host) and uploaded with the scene when the
+        // first pass that reads it comes, after the direct light.
+        if lamps.paths_wanted && lamps.paths.is_none() && reads_lamp_paths(&pass.params) {
+            lamps.trace_paths(room, settings, progress);
+            let t = Instant::now();
+            scene = upload(backend, lamps)?;
+            upload_seconds += t.elapsed().as_secs_f64();
         }
         let work = pass_work(pass, room);
         let to_come = work_to_come(graph, room, index, decisions.expected_stop(settings));
@@ -315,7 +328,7 @@ pub(crate) fn run<B: GpuBackend>(
         if let (Some(program), Some(write)) = (pass.kind.program(), pass.writes.first()) {
             // `graph.validate()` checked the slots, the parameter block and the sizes.
             let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
-            let params = decisions.params(pass).words();
+            let params = with_lamp_paths(decisions.params(pass), lamps.pool()).words();
             let plan = TilePlan::new(
                 graph.textures[write.index()].size,
                 layout.layers,
@@ -393,6 +406,16 @@ pub(crate) fn run<B: GpuBackend>(
         upload_seconds,
         decisions,
     })
+}
+
+/// Whether a pass with `params` uses the lamp paths' pool: the connect pass, and a gather
+/// that combines its hits with lamp paths (their density scale).
+fn reads_lamp_paths(params: &Params) -> bool {
+    match params {
+        Params::Connect(_) => true,
+        Params::Gather(g) => g.lamp_paths > 0,
+        _ => false,
+    }
 }
 
 /// Reads the Figure 5 stages `read_back` names back and crops each receiver's maps, one

@@ -1027,7 +1027,33 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     })
 }
 
+/// `params` with the lamp paths' pool once traced (`pool`: its points and density scale,
+/// [`crate::prepare::Lamps::pool`]; the graph is built before, with 0 for both): a connect
+/// pass's count and density scale, and the density scale of a gather that combines lamp
+/// paths; anything else unchanged.
+pub fn with_lamp_paths(params: Params, pool: Option<(u32, f32)>) -> Params {
+    match (params, pool) {
+        (Params::Connect(c), Some((count, density_scale))) => Params::Connect(ConnectParams {
+            count,
+            density_scale,
+            ..c
+        }),
+        (Params::Gather(g), Some((_, density_scale))) if g.lamp_paths > 0 => {
+            Params::Gather(GatherParams { density_scale, ..g })
+        }
+        (p, _) => p,
+    }
+}
+
 impl BakeGraph {
+    /// The graph with the traced lamp paths' pool in its passes ([`with_lamp_paths`]).
+    pub fn with_lamp_paths(mut self, pool: Option<(u32, f32)>) -> BakeGraph {
+        for p in &mut self.passes {
+            p.params = with_lamp_paths(p.params, pool);
+        }
+        self
+    }
+
     /// Builds the graph of `config.method`'s pipeline (see the module docs).
     pub fn build(config: &GraphConfig) -> BakeGraph {
         if config.method == Method::Converged {

@@ -8,8 +8,10 @@
 //!   Room::prepare (the scene and its texel density; not the lamps)
 //!     recentre → layout → rasterise → BVH build (once) → unocclude
 //!   Lamps::prepare (the room and the lamps)
-//!     lamp tables → lamp reach → lamp paths (the pool traced once; the backend connects
-//!     every texel to it, pass `connect`)
+//!     lamp tables → lamp reach
+//!   Lamps::trace_paths, once the direct pass has run (the direct light comes first)
+//!     lamp paths (the pool traced once; the backend connects every texel to it, pass
+//!     `connect`)
 //! ```
 //!
 //! A [`Room`] holds everything that does not depend on the lamps: the layout, the G-buffer
@@ -362,9 +364,14 @@ pub struct Lamps {
     pub params: Vec<LampParams>,
     /// Shadow rays the direct pass casts: valid texels each used lamp faces.
     pub shadow_rays: u64,
-    /// The lamp paths' pool, traced on the host: its points packed for the scene upload
-    /// ([`LampPaths::packed`]) and its [`density_scale`](LampPaths::density_scale); the
-    /// backend connects every texel to them (`connect`).
+    /// Whether the bake connects its texels to lamp paths ([`lightpaths`]): the pool is then
+    /// traced by [`Lamps::trace_paths`], after the direct light (it is the first bounce's
+    /// work, and the direct light is shown first).
+    pub paths_wanted: bool,
+    /// The lamp paths' pool once traced on the host ([`Lamps::trace_paths`]): its points
+    /// packed for the scene upload ([`LampPaths::packed`]) and its
+    /// [`density_scale`](LampPaths::density_scale); the backend connects every texel to them
+    /// (`connect`).
     pub paths: Option<(Vec<f32>, f32)>,
     /// Lamps that light nothing or miss receivers, and lamp paths left out.
     pub skipped: Vec<Skipped>,
@@ -393,13 +400,8 @@ impl Lamps {
 
     /// Runs the lamps' host nodes for `lamps` (already placed in the room,
     /// [`Room::place_lamps`]) and `settings`.
-    pub fn prepare(
-        room: &Room,
-        lamps: &[Lamp],
-        settings: &Settings,
-        progress: &mut dyn FnMut(&Progress<'_>),
-    ) -> Lamps {
-        let mut timings = Vec::new();
+    pub fn prepare(room: &Room, lamps: &[Lamp], settings: &Settings) -> Lamps {
+        let timings = Vec::new();
         let mut skipped = Vec::new();
         // Not timed: evaluating each lamp once per valid texel, without rays, is cheap.
         let tables: Vec<GpuTable> = lamps
@@ -452,29 +454,60 @@ impl Lamps {
             }
         }
         let params: Vec<LampParams> = used.iter().map(|&l| all[l]).collect();
-        let paths = match lamp_paths_wanted(settings, params.is_empty()) {
+        let paths_wanted = match lamp_paths_wanted(settings, params.is_empty()) {
             Err(reason) => {
                 skipped.push(Skipped::LampPaths { reason });
-                None
+                false
             }
-            Ok(false) => None,
-            Ok(true) => Some(timed(HostNode::LampPaths, &mut timings, progress, || {
-                let geometry = room.geometry();
-                let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
-                let pool = LampPaths::trace(&geometry, &params, &tables, size, settings.seed);
-                (pool.packed(), pool.density_scale)
-            })),
+            Ok(wanted) => wanted,
         };
         Lamps {
             tables,
             used,
             params,
             shadow_rays,
-            paths,
+            paths_wanted,
+            paths: None,
             skipped,
             models,
             timings,
         }
+    }
+
+    /// Traces the lamp paths' pool ([`HostNode::LampPaths`], timed into
+    /// [`Lamps::timings`]) when the bake wants one ([`Lamps::paths_wanted`]) and it is not
+    /// traced yet; the same pool whenever it runs (its draws depend on the seed only).
+    pub fn trace_paths(
+        &mut self,
+        room: &Room,
+        settings: &Settings,
+        progress: &mut dyn FnMut(&Progress<'_>),
+    ) {
+        if !self.paths_wanted || self.paths.is_some() {
+            return;
+        }
+        let Lamps {
+            params,
+            tables,
+            timings,
+            ..
+        } = self;
+        let traced = timed(HostNode::LampPaths, timings, progress, || {
+            let geometry = room.geometry();
+            let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
+            let pool = LampPaths::trace(&geometry, params, tables, size, settings.seed);
+            (pool.packed(), pool.density_scale)
+        });
+        self.paths = Some(traced);
+    }
+
+    /// Points in the traced pool and its density scale (`None` before
+    /// [`Lamps::trace_paths`] or without lamp paths).
+    pub fn pool(&self) -> Option<(u32, f32)> {
+        self.paths.as_ref().map(|(packed, scale)| {
+            let count = packed.len() / (4 * crate::backend::LAMP_PATH_TEXELS);
+            (u32::try_from(count).unwrap_or(u32::MAX), *scale)
+        })
     }
 }
 

@@ -192,7 +192,7 @@ pub fn direct_at<B: GpuBackend>(
         opening_samples,
         ..settings.clone()
     };
-    let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only, &mut |_| {});
+    let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only);
     let openings = u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
         .unwrap_or(u32::MAX);
     let chunk = if backend.limits().loop_iterations.is_some() {

@@ -166,6 +166,8 @@ enum Event {
     Work(f32),
     Start(u32),
     Direct,
+    /// The lamp paths' pool traced (a host step).
+    LampPaths,
 }
 
 #[test]
@@ -182,6 +184,7 @@ fn progress_follows_the_work_and_the_direct_light_comes_first() {
         &mut |p| match p {
             Progress::Work(f) => events.borrow_mut().push(Event::Work(*f)),
             Progress::PassStart { bounce, .. } => events.borrow_mut().push(Event::Start(*bounce)),
+            Progress::Setup("lamp paths") => events.borrow_mut().push(Event::LampPaths),
             _ => {}
         },
         &mut |maps| {
@@ -202,6 +205,15 @@ fn progress_follows_the_work_and_the_direct_light_comes_first() {
         .position(|e| matches!(e, Event::Start(b) if *b >= 1))
         .expect("a bounce ran");
     assert!(direct_at < first_bounce, "{events:?}");
+    // The lamp paths' pool is the first bounce's: traced after the direct light is out.
+    let paths_at = events
+        .iter()
+        .position(|e| *e == Event::LampPaths)
+        .expect("the bake traces lamp paths");
+    assert!(
+        direct_at < paths_at && paths_at < first_bounce,
+        "{events:?}"
+    );
     let shown = shown.expect("direct maps");
     assert_eq!(shown.len(), out.maps.len());
     for (a, b) in shown.iter().zip(&out.maps) {

@@ -26,7 +26,7 @@ use std::time::Instant;
 use luxbake::GpuBackend;
 use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room, bake_room_direct_first};
 use luxbake::layers::{LampState, bake_layers};
-use luxbake::scene::{Lamp, Quality, Scene, Settings};
+use luxbake::scene::{Lamp, LampModel, Quality, Scene, Settings};
 use luxbake::sources::scenefile::read_photometry;
 use luxbake_backends::BackendKind;
 use serde_json::{Value, json};
@@ -54,23 +54,33 @@ pub struct Args {
     /// Texel density (default: the preset's; `--quick`: 16).
     #[arg(long)]
     texels_per_metre: Option<f32>,
+    /// How both lamps emit (default `auto`: `rw_5.IES` at [0, 2, 0] gets its opening, the
+    /// chair backs being within its 1 % distance; `point`: what a shop that asks
+    /// `lampModel: 'point'` gets).
+    #[arg(long)]
+    lamp_model: Option<LampModel>,
 }
 
 /// The first lamp and its position, and the lamp swapped in.
 const FIRST: (&str, [f64; 3]) = ("rw_7.IES", [0.0, 2.5, 0.0]);
 const SWAPPED: (&str, [f64; 3]) = ("rw_5.IES", [0.0, 2.0, 0.0]);
 
-/// `../shared/photometry/real-world/<name>` as a lamp at `position`.
-fn lamp((name, position): (&str, [f64; 3])) -> Result<Lamp, String> {
+/// `../shared/photometry/real-world/<name>` as a lamp at `position`, emitting as `model`
+/// says (`None`: the default, `auto`).
+fn lamp((name, position): (&str, [f64; 3]), model: Option<LampModel>) -> Result<Lamp, String> {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../../shared/photometry/real-world")
         .join(name);
     let photometry = read_photometry(&path).map_err(|e| e.to_string())?;
-    Ok(Lamp::new(name, photometry, position))
+    let mut lamp = Lamp::new(name, photometry, position);
+    if let Some(model) = model {
+        lamp.model = model;
+    }
+    Ok(lamp)
 }
 
 /// The scene `name` with the first lamp, at `settings`.
-fn scene(name: &str, settings: &Settings) -> Result<Scene, String> {
+fn scene(name: &str, settings: &Settings, model: Option<LampModel>) -> Result<Scene, String> {
     let mut scene = match name {
         "furnished_room" => {
             let path =
@@ -86,7 +96,7 @@ fn scene(name: &str, settings: &Settings) -> Result<Scene, String> {
         }
         _ => Scene::builtin_with_settings(name, settings.clone()).map_err(|e| e.to_string())?,
     };
-    scene.lamps = vec![lamp(FIRST)?];
+    scene.lamps = vec![lamp(FIRST, model)?];
     Ok(scene)
 }
 
@@ -111,9 +121,13 @@ fn host_seconds(out: &BakeOutput) -> f64 {
     out.report.setup.iter().map(|(_, s)| s).sum()
 }
 
-fn measure_once(kind: BackendKind, scene: &Scene) -> Result<(Measured, String), String> {
+fn measure_once(
+    kind: BackendKind,
+    scene: &Scene,
+    model: Option<LampModel>,
+) -> Result<(Measured, String), String> {
     let settings = &scene.settings;
-    let swapped = vec![lamp(SWAPPED)?];
+    let swapped = vec![lamp(SWAPPED, model)?];
     let t = Instant::now();
     let (mut backend, renderer) = open(kind)?;
     let room =
@@ -212,8 +226,13 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     let _ = writeln!(
         md,
         "\nRatios against the first bake (fresh backend: room prepared, programs compiled, \
-         {} at {:?}) in the same run; the swap puts {} at {:?} on the same room.\n",
-        FIRST.0, FIRST.1, SWAPPED.0, SWAPPED.1
+         {} at {:?}) in the same run; the swap puts {} at {:?} on the same room; lamp model \
+         `{}`.\n",
+        FIRST.0,
+        FIRST.1,
+        SWAPPED.0,
+        SWAPPED.1,
+        args.lamp_model.unwrap_or_default().name()
     );
     let _ = writeln!(
         md,
@@ -222,12 +241,12 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
     let mut rows = Vec::new();
     for name in &scenes {
-        let scene = scene(name, &settings)?;
+        let scene = scene(name, &settings, args.lamp_model)?;
         for &kind in &args.backends {
             let mut all = Vec::new();
             let mut renderer = String::new();
             for _ in 0..runs {
-                match measure_once(kind, &scene) {
+                match measure_once(kind, &scene, args.lamp_model) {
                     Ok((m, r)) => {
                         all.push(m);
                         renderer = r;
@@ -277,6 +296,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         "texels_per_metre": settings.texels_per_metre, "runs": runs,
         "first": {"lamp": FIRST.0, "position": FIRST.1},
         "swapped": {"lamp": SWAPPED.0, "position": SWAPPED.1},
+        "lamp_model": args.lamp_model.unwrap_or_default().name(),
         "rows": Value::Array(rows),
     });
     write_results(out, "swap", &md, &json)
