@@ -22,22 +22,29 @@ use luxbake_tests::Tally;
 
 const RAYS: u32 = 2048;
 
+/// `bench/scenes/<file>` baked with `settings`.
+fn bench_scene(file: &str, settings: Settings) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../bench/scenes")
+        .join(file);
+    let mut scene = Scene::from_toml_file(&path).expect(file);
+    scene.settings = settings;
+    scene
+}
+
 /// The box room of `bench sampling` (4 × 2.5 × 3 m, albedo 0.5, 10 cd at 2.25 m) at 6
 /// texels/m, the paper's one bounce of `RAYS` rays, unblurred.
 fn scene() -> Scene {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../bench/scenes/sampling_room.toml"
-    );
-    let mut scene = Scene::from_toml_file(std::path::Path::new(path)).expect("sampling room");
-    scene.settings = Settings {
-        rays: RAYS,
-        bounces: 1,
-        blur: Blur::None,
-        texels_per_metre: 6.0,
-        ..Settings::paper()
-    };
-    scene
+    bench_scene(
+        "sampling_room.toml",
+        Settings {
+            rays: RAYS,
+            bounces: 1,
+            blur: Blur::None,
+            texels_per_metre: 6.0,
+            ..Settings::paper()
+        },
+    )
 }
 
 /// Mean indirect illuminance (green, total − direct) over the valid texels.
@@ -130,18 +137,15 @@ const OPENING_SAMPLES: u32 = 1024;
 /// `bench/scenes/nearfield_office.toml` (a 2 m linear luminaire 0.5 m over a desk, its
 /// opening used everywhere in the room), direct light only, 6 texels/m.
 fn office() -> Scene {
-    let path = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../bench/scenes/nearfield_office.toml"
-    );
-    let mut scene = Scene::from_toml_file(std::path::Path::new(path)).expect("office");
-    scene.settings = Settings {
-        bounces: 0,
-        texels_per_metre: 6.0,
-        opening_samples: OPENING_SAMPLES,
-        ..Settings::default()
-    };
-    scene
+    bench_scene(
+        "nearfield_office.toml",
+        Settings {
+            bounces: 0,
+            texels_per_metre: 6.0,
+            opening_samples: OPENING_SAMPLES,
+            ..Settings::default()
+        },
+    )
 }
 
 /// Points on the desk top (0.75 m, the luminaire 0.5 m above) and on the floor beside it,
