@@ -190,6 +190,11 @@ impl GatherChunk {
                         (texels[3], w[3]),
                     ])
                 });
+                // Nothing to weigh where the hit reflects no light (the weight is finite):
+                // the sum's bits are those of adding `weight × 0`.
+                if m == [0.0; 3] {
+                    continue;
+                }
                 let weight = gather_weight(scene, hit, lookup.normal, dir, t);
                 for c in 0..3 {
                     sum[c] += weight * m[c];
