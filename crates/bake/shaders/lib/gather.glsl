@@ -132,7 +132,8 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
                        w0 * uv01.y + u * uv01.w + v * uv2Object.y);
         vec3 m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
         float weight = 1.0;
-        if (lampPaths > 0u) {
+        // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
+        if (lampPaths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {
             vec3 ny;
             if (!luxNormalize(nh, ny)) {
                 ny = vec3(0.0);

@@ -133,7 +133,8 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, c
         let m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
                                   uv);
         var weight = 1.0;
-        if (lamp_paths > 0u) {
+        // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
+        if (lamp_paths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {
             var ny: vec3<f32>;
             if (!lux_normalize(nh, &ny)) {
                 ny = vec3<f32>(0.0);
