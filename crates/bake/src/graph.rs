@@ -302,9 +302,12 @@ pub struct GraphConfig {
     /// texel combined with the first gather ([`crate::lightpaths`]) and their
     /// [`density_scale`](crate::lightpaths::LampPaths::density_scale); 0: none. With lamp
     /// paths a `connect` pass ([`Program::Connect`]) writes a fourth G-buffer texture,
-    /// [`GBufferTex::connected`].
+    /// [`GBufferTex::connected`]. A bake builds its graph before the pool is traced (after
+    /// the direct light) with a density scale of 0, and puts the traced pool's in when it
+    /// runs those passes ([`with_lamp_paths`]).
     pub lamp_paths: (u32, f32),
-    /// Points in the lamp paths' pool ([`crate::backend::SceneData::lamp_paths`]).
+    /// Points in the lamp paths' pool ([`crate::backend::SceneData::lamp_paths`]; 0 in a
+    /// bake's graph until the pool is traced, [`with_lamp_paths`]).
     pub lamp_path_count: u32,
     /// Points of a lamp's luminous opening per texel near it, and how many of the lamps have
     /// an opening ([`DirectParams::samples`], [`DirectParams::openings`]).
