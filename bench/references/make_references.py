@@ -63,7 +63,7 @@ import numpy as np
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent.parent
-DOWNLIGHT_IES = REPO / "crates" / "bake" / "lamps" / "luxbake_downlight.ies"
+DOWNLIGHT_IES = REPO / "crates" / "scene" / "lamps" / "luxbake_downlight.ies"
 EFFICACY = 179.0  # Radiance's luminous efficacy of white light, lm/W
 REC709 = np.array([0.2126, 0.7152, 0.0722])
 RADIANCE_Y = np.array([0.265, 0.670, 0.065])

@@ -40,8 +40,8 @@ pub const MIN_DIRECT_LUX: f64 = 1.0;
 /// Arguments of `cargo xtask bench refcheck`.
 #[derive(clap::Args)]
 pub struct Args {
-    /// Built-in scene with a reference in `bench/references/` (chairs_01, chairs_05,
-    /// sofa_01, floor, sphere).
+    /// Built-in scene with a reference in `bench/references/` (chairs_01, chairs_03,
+    /// chairs_05, chairs_10, sofa_01, floor, sphere).
     #[arg(long, default_value = "chairs_05")]
     scene: String,
     /// Compare this folder written by `cargo xtask bake` (of the same scene) instead of baking.
