@@ -170,6 +170,7 @@ pub fn bake_room_reading<B: GpuBackend>(
     }
     skipped.extend(lamps.skipped.iter().cloned());
     skipped.extend(Skipped::loop_limit(settings, &limits));
+    let (gather_chunk, direct_chunk) = crate::graph::loop_chunks(&limits);
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: room.layout.layer_size,
         layers: room.layout.layers,
@@ -200,16 +201,8 @@ pub fn bake_room_reading<B: GpuBackend>(
                 .unwrap_or(u32::MAX),
         ),
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
-        gather_chunk: if limits.loop_iterations.is_some() {
-            crate::graph::GATHER_CHUNK_RAYS
-        } else {
-            0
-        },
-        direct_chunk: if limits.loop_iterations.is_some() {
-            crate::graph::DIRECT_CHUNK_SAMPLES
-        } else {
-            0
-        },
+        gather_chunk,
+        direct_chunk,
     });
     graph.validate()?;
 

@@ -336,6 +336,17 @@ pub const GATHER_CHUNK_RAYS: u32 = 64;
 /// stops at its first hit, so its traversal is at most a gather ray's).
 pub const DIRECT_CHUNK_SAMPLES: u32 = 64;
 
+/// The [`GraphConfig::gather_chunk`] and [`GraphConfig::direct_chunk`] of a backend with
+/// `limits`: [`GATHER_CHUNK_RAYS`] and [`DIRECT_CHUNK_SAMPLES`] where its driver cuts long
+/// shader loops ([`crate::Limits::loop_iterations`]), else 0 (nothing split).
+pub fn loop_chunks(limits: &crate::Limits) -> (u32, u32) {
+    if limits.loop_iterations.is_some() {
+        (GATHER_CHUNK_RAYS, DIRECT_CHUNK_SAMPLES)
+    } else {
+        (0, 0)
+    }
+}
+
 /// The bake's textures and passes, in execution order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BakeGraph {
@@ -568,12 +579,18 @@ fn connect_stage(b: &mut Builder, g: GBufferTex, params: ConnectParams) {
 /// light is done) so that the last lands in the target.
 fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: TexId) -> TexId {
     let direct = b.texture("direct");
-    let (samples, openings) = config.openings;
-    let chunks = crate::passes::direct::chunks(samples, openings, config.direct_chunk);
+    let whole = DirectParams {
+        lamp_count: config.lamp_count,
+        seed: config.seed,
+        samples: config.openings.0,
+        openings: config.openings.1,
+        ..DirectParams::default()
+    };
+    let chunks = whole.chunked(config.direct_chunk);
     let mut prior = g.position;
-    for c in 0..chunks {
+    for (c, params) in chunks.iter().enumerate() {
         // The last chunk writes the target: count back from it, alternating.
-        let out = if (chunks - 1 - c).is_multiple_of(2) {
+        let out = if (chunks.len() - 1 - c).is_multiple_of(2) {
             direct
         } else {
             spare
@@ -585,15 +602,7 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: Tex
             vec![g.position, g.normal, prior],
             vec![out],
             0,
-            Params::Direct(DirectParams {
-                lamp_count: config.lamp_count,
-                seed: config.seed,
-                samples,
-                openings,
-                first_sample: c * config.direct_chunk,
-                chunk_samples: if chunks > 1 { config.direct_chunk } else { 0 },
-                ..DirectParams::default()
-            }),
+            Params::Direct(*params),
         );
         prior = out;
     }

@@ -193,27 +193,19 @@ pub fn direct_at<B: GpuBackend>(
         ..settings.clone()
     };
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only);
-    let openings = u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
-        .unwrap_or(u32::MAX);
-    let chunk = if backend.limits().loop_iterations.is_some() {
-        crate::graph::DIRECT_CHUNK_SAMPLES
-    } else {
-        0
-    };
-    let chunks = crate::passes::direct::chunks(opening_samples, openings, chunk);
-    let params: Vec<Params> = (0..chunks)
-        .map(|c| {
-            Params::Direct(DirectParams {
-                lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
-                seed: settings.seed,
-                samples: opening_samples,
-                openings,
-                first_sample: c * chunk,
-                chunk_samples: if chunks > 1 { chunk } else { 0 },
-                ..DirectParams::default()
-            })
-        })
-        .collect();
+    let (_, chunk) = crate::graph::loop_chunks(&backend.limits());
+    let params: Vec<Params> = DirectParams {
+        lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
+        seed: settings.seed,
+        samples: opening_samples,
+        openings: u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
+            .unwrap_or(u32::MAX),
+        ..DirectParams::default()
+    }
+    .chunked(chunk)
+    .into_iter()
+    .map(Params::Direct)
+    .collect();
     // As the room's geometry is moved back toward the origin, bit for bit.
     let shift = room.shift.unwrap_or([0.0; 3]);
     let width = backend.limits().max_texture_size.clamp(1, 4096) as usize;

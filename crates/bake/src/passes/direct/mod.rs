@@ -60,13 +60,23 @@ pub fn work(p: &DirectParams) -> u64 {
     u64::from(p.lamp_count) + u64::from(p.openings) * per_opening
 }
 
-/// The chunks a texel's opening samples take at most with `chunk_samples` per dispatch (0:
-/// all in one): twice `samples` near an opening ([`crate::opening::texel_samples`]); one
-/// without openings.
-pub fn chunks(samples: u32, openings: u32, chunk_samples: u32) -> u32 {
-    if chunk_samples == 0 || openings == 0 {
-        1
-    } else {
-        samples.saturating_mul(2).div_ceil(chunk_samples).max(1)
+impl DirectParams {
+    /// This direct pass split into passes that take at most `chunk_samples` of an opening's
+    /// samples per texel (0: one pass, unchanged), in order: as many as a texel near an
+    /// opening needs (twice `samples`, [`crate::opening::texel_samples`]), one without
+    /// openings.
+    pub fn chunked(self, chunk_samples: u32) -> Vec<DirectParams> {
+        let chunks = if chunk_samples == 0 || self.openings == 0 {
+            1
+        } else {
+            self.samples.saturating_mul(2).div_ceil(chunk_samples).max(1)
+        };
+        (0..chunks)
+            .map(|c| DirectParams {
+                first_sample: c * chunk_samples,
+                chunk_samples: if chunks > 1 { chunk_samples } else { 0 },
+                ..self
+            })
+            .collect()
     }
 }
