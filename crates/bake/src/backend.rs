@@ -61,6 +61,21 @@ pub const MESA_LOOP_ITERATIONS: u32 = 65_535;
 pub const LOOP_LIMITED_SAMPLES: u32 = 128;
 
 impl Limits {
+    /// The [`crate::graph::GraphConfig::gather_chunk`] and
+    /// [`crate::graph::GraphConfig::direct_chunk`] of a backend with these limits:
+    /// [`crate::graph::GATHER_CHUNK_RAYS`] and [`crate::graph::DIRECT_CHUNK_SAMPLES`] where its
+    /// driver cuts long shader loops ([`Limits::loop_iterations`]), else 0 (nothing split).
+    pub fn loop_chunks(&self) -> (u32, u32) {
+        if self.loop_iterations.is_some() {
+            (
+                crate::graph::GATHER_CHUNK_RAYS,
+                crate::graph::DIRECT_CHUNK_SAMPLES,
+            )
+        } else {
+            (0, 0)
+        }
+    }
+
     /// The minimums WebGL2 guarantees: 2048² textures, 256 array layers, 16 texture units,
     /// no loop limit.
     pub const WEBGL2: Limits = Limits {

@@ -170,7 +170,7 @@ pub fn bake_room_reading<B: GpuBackend>(
     }
     skipped.extend(lamps.skipped.iter().cloned());
     skipped.extend(Skipped::loop_limit(settings, &limits));
-    let (gather_chunk, direct_chunk) = crate::graph::loop_chunks(&limits);
+    let (gather_chunk, direct_chunk) = limits.loop_chunks();
     let graph = BakeGraph::build(&GraphConfig {
         layer_size: room.layout.layer_size,
         layers: room.layout.layers,

@@ -336,17 +336,6 @@ pub const GATHER_CHUNK_RAYS: u32 = 64;
 /// stops at its first hit, so its traversal is at most a gather ray's).
 pub const DIRECT_CHUNK_SAMPLES: u32 = 64;
 
-/// The [`GraphConfig::gather_chunk`] and [`GraphConfig::direct_chunk`] of a backend with
-/// `limits`: [`GATHER_CHUNK_RAYS`] and [`DIRECT_CHUNK_SAMPLES`] where its driver cuts long
-/// shader loops ([`crate::Limits::loop_iterations`]), else 0 (nothing split).
-pub fn loop_chunks(limits: &crate::Limits) -> (u32, u32) {
-    if limits.loop_iterations.is_some() {
-        (GATHER_CHUNK_RAYS, DIRECT_CHUNK_SAMPLES)
-    } else {
-        (0, 0)
-    }
-}
-
 /// The bake's textures and passes, in execution order.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BakeGraph {

@@ -193,7 +193,7 @@ pub fn direct_at<B: GpuBackend>(
         ..settings.clone()
     };
     let lamps = Lamps::prepare(room, &room.place_lamps(lamps), &direct_only);
-    let (_, chunk) = crate::graph::loop_chunks(&backend.limits());
+    let (_, chunk) = backend.limits().loop_chunks();
     let params: Vec<Params> = DirectParams {
         lamp_count: u32::try_from(lamps.params.len()).unwrap_or(u32::MAX),
         seed: settings.seed,
