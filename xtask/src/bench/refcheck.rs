@@ -13,7 +13,8 @@
 //! separate the lamp model from the inter-reflections.
 //!
 //! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults (override
-//! with `--rays`, `--bounces`, `--texels-per-metre`, `--blur`, `--backend`). `bench trade`
+//! with `--rays`, `--bounces` (exactly that many explicit bounces, no tail, as `cargo xtask
+//! bake --bounces`), `--texels-per-metre`, `--blur`, `--backend`). `bench trade`
 //! calls [`evaluate`] for every bake of its grid.
 
 use std::collections::BTreeMap;
@@ -56,7 +57,8 @@ pub struct Args {
     /// Gather rays per texel per bounce (default: `cargo xtask bake`'s).
     #[arg(long)]
     rays: Option<u32>,
-    /// Indirect bounces (default: `cargo xtask bake`'s).
+    /// Indirect bounces (default: `cargo xtask bake`'s): as `cargo xtask bake --bounces`,
+    /// exactly this many explicit bounces, without the series' tail.
     #[arg(long)]
     bounces: Option<u32>,
     /// Light-map density, texels per metre (default: `cargo xtask bake`'s).
@@ -419,6 +421,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
             }
             if let Some(v) = args.bounces {
                 s.bounces = v;
+                s.tail = false;
             }
             if let Some(v) = args.texels_per_metre {
                 s.texels_per_metre = v;
