@@ -248,6 +248,7 @@ pub fn bake_room_reading<B: GpuBackend>(
         } else {
             None
         },
+        series: converged.then(|| decisions.series.clone()),
         bvh,
         bounces_run,
         setup,

@@ -93,9 +93,12 @@ impl Decisions {
                     self.stop(bounce, settings.bounces, added);
                 }
             }
-            Check::ConvergedBounce { bounce, last, .. } => {
+            Check::Increment { bounce, .. } => {
                 self.bounces_run = bounce;
                 self.series.increments.push(energy);
+            }
+            Check::ConvergedBounce { bounce, last, .. } => {
+                self.series.reflected.push(energy);
                 // Without the tail an explicit count of bounces runs to the last one, and
                 // adds nothing after it.
                 if last {
@@ -365,9 +368,7 @@ pub(crate) fn run<B: GpuBackend>(
         }
         // The check's read-back waits for the pass's GPU work: it is part of the pass's time.
         if let Some(check) = pass.then {
-            let (Check::DirectEnergy(tex)
-            | Check::PaperBounce { indirect: tex, .. }
-            | Check::ConvergedBounce { delta: tex, .. }) = check;
+            let tex = check.texture();
             // A reduction's one texel per layer; the map itself where the f32 sum overflowed
             // (or without a reduction).
             let reduced = match (pass.kind, pass.writes.first()) {

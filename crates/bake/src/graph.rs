@@ -50,7 +50,7 @@
 //! ```text
 //! per bounce k = 1 ..= bounces:                 (RunWhen::Bounce(k))
 //!   Gather k  reflected increment of k − 1      → delta     (reduced: coarse, then Upsample)
-//!   accumulate sum_(k−1) + delta                → sum_k     (two textures alternate)
+//!   accumulate sum_(k−1) + delta                → sum_k      + Check::Increment
 //!   AlbedoMul delta                             → reflected  + Check::ConvergedBounce
 //!   tail k    sum_k + f · delta                 → indirect  (RunWhen::StoppedAt(k), f decided)
 //! once: Variance, Atrous… (denoise indirect), Combine direct + indirect, AlbedoMul
@@ -193,18 +193,40 @@ pub enum Check {
         /// Whether it is the last bounce of the graph.
         last: bool,
     },
-    /// [`Method::Converged`], end of bounce `bounce`: the energy of the bounce's increment; the
-    /// bake stops when the series' tail is estimated within the tolerance
+    /// [`Method::Converged`], bounce `bounce`: the energy of its increment `Δ_k`, recorded
+    /// ([`crate::series::Series::increments`]); the bounce's [`Check::ConvergedBounce`]
+    /// follows.
+    Increment {
+        /// The bounce.
+        bounce: u32,
+        /// Its increment.
+        delta: TexId,
+    },
+    /// [`Method::Converged`], end of bounce `bounce`: the energy of the light its increment
+    /// reflects, `ρ·Δ_k` ([`crate::series::Series::reflected`]); the bake stops when the
+    /// series' tail is estimated within the tolerance
     /// ([`crate::series::Series::converged`]), or at the last bounce, and then sets
     /// [`Runtime::TailWeight`].
     ConvergedBounce {
         /// The bounce that ends.
         bounce: u32,
-        /// Its increment.
-        delta: TexId,
+        /// The reflected increment, which the next bounce gathers.
+        reflected: TexId,
         /// Whether it is the last bounce of the graph.
         last: bool,
     },
+}
+
+impl Check {
+    /// The texture whose energy the check measures.
+    pub fn texture(&self) -> TexId {
+        match *self {
+            Check::DirectEnergy(t)
+            | Check::PaperBounce { indirect: t, .. }
+            | Check::Increment { delta: t, .. }
+            | Check::ConvergedBounce { reflected: t, .. } => t,
+        }
+    }
 }
 
 /// A parameter a pass takes from the driver's decisions.
@@ -434,11 +456,7 @@ impl Builder {
                 self.passes.push(p);
                 continue;
             };
-            let (Check::DirectEnergy(checked)
-            | Check::PaperBounce {
-                indirect: checked, ..
-            }
-            | Check::ConvergedBounce { delta: checked, .. }) = check;
+            let checked = check.texture();
             let (when, bounce) = (p.when, p.bounce);
             self.passes.push(p);
             // Two small textures, shared by every check (each is read back before the next).
@@ -969,10 +987,11 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     Params::Combine(CombineParams::SUM),
                 );
             }
+            b.last().then = Some(Check::Increment { bounce: k, delta });
             albedo_stage(&mut b, g, delta, reflected, k, "albedo_delta");
             b.last().then = Some(Check::ConvergedBounce {
                 bounce: k,
-                delta,
+                reflected,
                 last: k == config.bounces,
             });
             // The tail Σ_{j>k} Δ_j ≈ f · Δ_k when the bake stops at bounce k; the driver
@@ -1219,9 +1238,7 @@ impl BakeGraph {
                 return Err(fail("only a combine takes the tail weight".into()));
             }
             if let Some(check) = p.then {
-                let (Check::DirectEnergy(t)
-                | Check::PaperBounce { indirect: t, .. }
-                | Check::ConvergedBounce { delta: t, .. }) = check;
+                let t = check.texture();
                 if self.texture(t).is_none() {
                     return Err(fail(format!(
                         "its check reads texture {}, not in the graph",
@@ -1300,10 +1317,18 @@ mod tests {
         &g.passes[first..]
     }
 
-    /// The converged graph's increment: what its bounce checks measure.
+    /// The converged graph's increment: what its increment checks measure.
     fn delta(g: &BakeGraph) -> Option<TexId> {
         g.passes.iter().find_map(|p| match p.then {
-            Some(Check::ConvergedBounce { delta, .. }) => Some(delta),
+            Some(Check::Increment { delta, .. }) => Some(delta),
+            _ => None,
+        })
+    }
+
+    /// The converged graph's reflected increment: what its bounce checks measure.
+    fn reflected(g: &BakeGraph) -> Option<TexId> {
+        g.passes.iter().find_map(|p| match p.then {
+            Some(Check::ConvergedBounce { reflected, .. }) => Some(reflected),
             _ => None,
         })
     }
@@ -1549,7 +1574,8 @@ mod tests {
                     assert_eq!(g.illuminance, g.direct);
                     continue;
                 }
-                // Each bounce ends with its check, then its own tail, which runs only if the
+                // Each bounce measures its increment after accumulating it and ends with its
+                // check of the reflected increment, then its own tail, which runs only if the
                 // bake stops there: the running sum after the bounce (two textures
                 // alternate) plus the tail weight times the increment.
                 let mut sums = Vec::new();
@@ -1559,10 +1585,35 @@ mod tests {
                         end.then,
                         Some(Check::ConvergedBounce {
                             bounce: k,
-                            delta: delta(&g).expect("delta"),
+                            reflected: reflected(&g).expect("reflected"),
                             last: k == bounces
                         })
                     );
+                    // Each check sits on the second of its two reductions, right after the
+                    // pass it follows; the first reads the checked texture.
+                    let passes: Vec<&PassDesc> = g.bounce(k).collect();
+                    let checks: Vec<(usize, Check)> = passes
+                        .iter()
+                        .enumerate()
+                        .filter_map(|(i, p)| p.then.map(|c| (i, c)))
+                        .collect();
+                    let [(i, increment), (j, _)] = checks[..] else {
+                        panic!("bounce {k}: {checks:?}")
+                    };
+                    assert_eq!(
+                        increment,
+                        Check::Increment {
+                            bounce: k,
+                            delta: delta(&g).expect("delta")
+                        }
+                    );
+                    assert_eq!(j, passes.len() - 1);
+                    for (at, checked) in [(i, delta(&g)), (j, reflected(&g))] {
+                        assert_eq!(passes[at - 1].reads, [checked.expect("checked")]);
+                    }
+                    assert_eq!(passes[j - 2].label, "albedo_delta");
+                    assert_eq!(passes[j - 2].writes, [reflected(&g).expect("reflected")]);
+                    assert_eq!(passes[i - 2].label, "accumulate");
                     let tails: Vec<&PassDesc> = g
                         .passes
                         .iter()

@@ -229,6 +229,11 @@ pub struct BakeReport {
     /// tail is extrapolated with when [`Settings::tail`] is on (`None` before a second bounce
     /// or for the paper's method).
     pub bounce_ratio: Option<f64>,
+    /// [`Method::Converged`](crate::scene::Method::Converged): the energies of the series the
+    /// bake decided on ([`crate::series::Series`]: Σ (r + g + b) over the valid texels of the
+    /// direct illuminance, then of each explicit bounce's increment), so that its ratios and
+    /// its tail can be checked; `None` for the paper's method.
+    pub series: Option<crate::series::Series>,
     /// Set-up steps and their wall time, seconds.
     pub setup: Vec<(&'static str, f64)>,
     /// Every executed pass.

@@ -45,7 +45,10 @@
 //! `stats` (texels, region_texels, triangles, shadow_rays, gather_rays, bvh, bounces_run,
 //! `explicit_bounces` (= bounces_run), `tail_fraction` (the estimated share of the total
 //! illuminance that the converged method added for the bounces it did not run explicitly),
-//! `bounce_ratio` (the ratio λ it extrapolated with, or null)),
+//! `bounce_ratio` (the ratio λ it extrapolated with, or null), `series` (the converged
+//! method's energies: `direct`, per explicit bounce `increments` and the light they
+//! `reflected`, Σ (r + g + b) over the valid texels, and `tail_factor`, the factor of the last increment that the tail adds, when it adds one; or
+//! null)),
 //! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
 
 #![warn(missing_docs)]
@@ -436,6 +439,12 @@ pub fn write_bake(
             "explicit_bounces": rep.bounces_run,
             "tail_fraction": rep.tail_fraction,
             "bounce_ratio": rep.bounce_ratio,
+            "series": rep.series.as_ref().map(|s| json!({
+                "direct": s.direct,
+                "increments": s.increments,
+                "reflected": s.reflected,
+                "tail_factor": s.tail_factor(),
+            })),
         },
         "timings": {
             "setup": rep.setup.iter().map(|(k, t)| json!({"label": k, "seconds": t})).collect::<Vec<_>>(),
