@@ -1,6 +1,6 @@
 // Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide: whether a
-// tap lies on the centre's surface (inside the layer, valid, the centre's object, a normal,
-// within the chart reach). For programs reading the slots src, position and normal.
+// tap lies on the centre's surface (inside the layer, valid, the centre's object, within the
+// chart reach). For programs reading the slots src, position and normal.
 
 struct LuxGuide {
     ivec3 c;
@@ -50,10 +50,7 @@ bool luxTap(LuxGuide g, ivec2 offset, out vec4 value, out float cosine) {
     if (o2 > 0.0 && !(d2 <= g.reach2 * o2 && d2 >= g.reachMin2 * float(m * m))) {
         return false;
     }
-    vec3 n1;
-    if (!luxNormalize(nt.xyz, n1)) {
-        return false;
-    }
-    cosine = luxDot(g.n, n1);
+    // The G-buffer's normals are unit: used as stored.
+    cosine = luxDot(g.n, nt.xyz);
     return true;
 }

@@ -1,6 +1,6 @@
 // Shared by the denoiser passes (variance, atrous), mirroring luxbake::cpu's Guide: whether a
-// tap lies on the centre's surface (inside the layer, valid, the centre's object, a normal,
-// within the chart reach). For programs reading the slots src, position and normal.
+// tap lies on the centre's surface (inside the layer, valid, the centre's object, within the
+// chart reach). For programs reading the slots src, position and normal.
 
 struct LuxGuide {
     c: vec2<i32>,
@@ -51,10 +51,7 @@ fn lux_tap(g: LuxGuide, offset: vec2<i32>, value: ptr<function, vec4<f32>>,
     if (o2 > 0.0 && !(d2 <= g.reach2 * o2 && d2 >= g.reach_min2 * f32(m * m))) {
         return false;
     }
-    var n1: vec3<f32>;
-    if (!lux_normalize(nt.xyz, &n1)) {
-        return false;
-    }
-    *cosine = lux_dot(g.n, n1);
+    // The G-buffer's normals are unit: used as stored.
+    *cosine = lux_dot(g.n, nt.xyz);
     return true;
 }

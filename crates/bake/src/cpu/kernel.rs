@@ -407,30 +407,13 @@ pub(crate) fn coarse_weights(
     reach: f32,
     at: Texel,
 ) -> ([([i64; 2], f32); 4], f32) {
-    let Texel { x, y, .. } = at;
-    let mut cell = coarse::cell(x, y, stride);
-    let nc = nrm.fetch(at);
-    let p = xyz(pos.fetch(at));
-    let Some(n) = normalize(xyz(nc)) else {
+    let mut cell = coarse::cell(at.x, at.y, stride);
+    let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
         return (cell.map(|(c, _)| (c, 0.0)), 0.0);
     };
-    let reach2 = reach * reach;
     let mut total = 0.0f32;
     for (corner, weight) in &mut cell {
-        let [tx, ty] = *corner;
-        let on_surface =
-            *weight > 0.0 && tx < i64::from(pos.size[0]) && ty < i64::from(pos.size[1]) && {
-                let (tx, ty) = (tx as u32, ty as u32);
-                let t = Texel { x: tx, y: ty, ..at };
-                let (pt, nt) = (pos.fetch(t), nrm.fetch(t));
-                let d = sub(xyz(pt), p);
-                let (ox, oy) = (tx as i64 - i64::from(x), ty as i64 - i64::from(y));
-                pt[3] > 0.5
-                    && nt[3] == nc[3]
-                    && normalize(xyz(nt)).is_some_and(|n1| dot(n, n1) >= BLUR_NORMAL_COS)
-                    && dot(d, d) <= reach2 * (ox * ox + oy * oy) as f32
-            };
-        if on_surface {
+        if *weight > 0.0 && centre.on_surface(*corner) {
             total += *weight;
         } else {
             *weight = 0.0;
@@ -439,13 +422,76 @@ pub(crate) fn coarse_weights(
     (cell, total)
 }
 
+/// Whether any grid corner of [`coarse_weights`] lies on texel `at`'s surface (its total
+/// weight is positive), stopping at the first that does.
+fn coarse_covered([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32, at: Texel) -> bool {
+    let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
+        return false;
+    };
+    coarse::cell(at.x, at.y, stride)
+        .iter()
+        .any(|&(corner, weight)| weight > 0.0 && centre.on_surface(corner))
+}
+
+/// A texel of [`coarse_weights`] and the test of its grid corners.
+struct CoarseCentre<'a> {
+    pos: View<'a>,
+    nrm: View<'a>,
+    at: Texel,
+    p: [f32; 3],
+    n: [f32; 3],
+    object: f32,
+    reach2: f32,
+}
+
+impl<'a> CoarseCentre<'a> {
+    /// `None` when the texel's normal cannot be normalised.
+    fn new([pos, nrm]: [View<'a>; 2], reach: f32, at: Texel) -> Option<CoarseCentre<'a>> {
+        let nc = nrm.fetch(at);
+        Some(CoarseCentre {
+            pos,
+            nrm,
+            at,
+            p: xyz(pos.fetch(at)),
+            n: normalize(xyz(nc))?,
+            object: nc[3],
+            reach2: reach * reach,
+        })
+    }
+
+    /// Whether grid texel `corner` is valid and on the centre's surface: same object, normals
+    /// within [`BLUR_NORMAL_COS`], within the reach per texel of offset.
+    fn on_surface(&self, [tx, ty]: [i64; 2]) -> bool {
+        let (pos, nrm) = (self.pos, self.nrm);
+        if tx >= i64::from(pos.size[0]) || ty >= i64::from(pos.size[1]) {
+            return false;
+        }
+        let (tx, ty) = (tx as u32, ty as u32);
+        let t = Texel {
+            x: tx,
+            y: ty,
+            ..self.at
+        };
+        let (pt, nt) = (pos.fetch(t), nrm.fetch(t));
+        let d = sub(xyz(pt), self.p);
+        let (ox, oy) = (
+            tx as i64 - i64::from(self.at.x),
+            ty as i64 - i64::from(self.at.y),
+        );
+        pt[3] > 0.5
+            && nt[3] == self.object
+            && normalize(xyz(nt)).is_some_and(|n1| dot(self.n, n1) >= BLUR_NORMAL_COS)
+            && dot(d, d) <= self.reach2 * (ox * ox + oy * oy) as f32
+    }
+}
+
 /// The rays the gather casts at texel `at`: `rays` at every texel at stride 1 and at grid
 /// texels, `orphan_rays` at orphans, else 0 ([`program::coarse`]).
 pub(crate) fn coarse_rays(maps: [View<'_>; 2], params: &GatherParams, at: Texel) -> u32 {
     let stride = params.stride;
     if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
         params.rays
-    } else if coarse_weights(maps, stride, params.reach, at).1 > 0.0 {
+    } else if coarse_covered(maps, stride, params.reach, at) {
         0
     } else {
         params.orphan_rays
@@ -493,7 +539,8 @@ impl<'a> Guide<'a> {
         })
     }
 
-    /// The tap at `offset` texels: its value and `n̂·n̂ₜ` when it lies on the centre's surface.
+    /// The tap at `offset` texels: its value and `n̂·nₜ` (the tap's normal as stored, unit)
+    /// when it lies on the centre's surface.
     pub(crate) fn tap(&self, offset: [i64; 2]) -> Option<([f32; 4], f32)> {
         let (tx, ty) = (self.x + offset[0], self.y + offset[1]);
         let size = self.src.size;
@@ -527,7 +574,8 @@ impl<'a> Guide<'a> {
         if o2 > 0.0 && !(d2 <= self.reach2 * o2 && d2 >= self.reach_min2 * (m * m) as f32) {
             return None;
         }
-        Some((t, dot(self.n, normalize(xyz(nt))?)))
+        // The G-buffer's normals are unit: used as stored (module docs of `crate::cpu`).
+        Some((t, dot(self.n, xyz(nt))))
     }
 }
 
