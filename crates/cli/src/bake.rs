@@ -75,8 +75,8 @@ pub struct Args {
     /// inter-reflection series (the presets: true; `--bounces` alone: false).
     #[arg(long)]
     tail: Option<bool>,
-    /// Converged: stop explicit bounces when the estimated tail (or its uncertainty) is under
-    /// this fraction of the total.
+    /// Converged: stop explicit bounces when the estimated tail is under this fraction of the
+    /// total, or (from bounce 5 on) two successive estimates of the total agree within it.
     #[arg(long)]
     tail_tolerance: Option<f32>,
     /// Light-map density, texels per metre.

@@ -793,8 +793,9 @@ pub struct Settings {
     /// [`Method::Paper`]: blur of the direct and combined maps. [`Method::Converged`]: filter of
     /// the indirect increments only.
     pub blur: Blur,
-    /// [`Method::Converged`]: explicit bounces stop once the estimated tail, or its uncertainty,
-    /// is under this fraction of the total (`luxbake::series`).
+    /// [`Method::Converged`]: explicit bounces stop once the estimated tail is under this
+    /// fraction of the total, or (from bounce 5 on) two successive estimates of the converged
+    /// total agree within it (`luxbake::series`).
     pub tail_tolerance: f32,
     /// Light-map texel density, texels per metre.
     pub texels_per_metre: f32,
