@@ -288,8 +288,7 @@ pub(crate) fn run<B: GpuBackend>(
         }
         // The lamp paths' pool is traced (on the host) and uploaded with the scene when the
         // first pass that reads it comes, after the direct light.
-        if lamps.paths_wanted && lamps.paths.is_none() && reads_lamp_paths(&pass.params) {
-            lamps.trace_paths(room, settings, progress);
+        if reads_lamp_paths(&pass.params) && lamps.trace_paths(room, settings, progress) {
             let t = Instant::now();
             scene = upload(backend, lamps)?;
             upload_seconds += t.elapsed().as_secs_f64();

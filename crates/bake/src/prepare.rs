@@ -477,14 +477,15 @@ impl Lamps {
     /// Traces the lamp paths' pool ([`HostNode::LampPaths`], timed into
     /// [`Lamps::timings`]) when the bake wants one ([`Lamps::paths_wanted`]) and it is not
     /// traced yet; the same pool whenever it runs (its draws depend on the seed only).
+    /// Whether it traced it now (the scene then needs it uploaded).
     pub fn trace_paths(
         &mut self,
         room: &Room,
         settings: &Settings,
         progress: &mut dyn FnMut(&Progress<'_>),
-    ) {
+    ) -> bool {
         if !self.paths_wanted || self.paths.is_some() {
-            return;
+            return false;
         }
         let Lamps {
             params,
@@ -499,6 +500,7 @@ impl Lamps {
             (pool.packed(), pool.density_scale)
         });
         self.paths = Some(traced);
+        true
     }
 
     /// Points in the traced pool and its density scale (`None` before

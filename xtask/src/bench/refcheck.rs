@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 
 use luxbake::bake::BakeOutput;
 use luxbake::probe::SurfacePoint;
-use luxbake::scene::{Blur, Scene, Settings};
+use luxbake::scene::{Blur, Scene, Settings, SettingsPatch};
 use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
@@ -415,20 +415,17 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
             )
         }
         None => {
-            let mut s = Settings::default();
-            if let Some(v) = args.rays {
-                s.rays = v;
+            // The flags as `cargo xtask bake`'s: a patch over the default (`--bounces` alone
+            // then bakes exactly that many bounces, without the tail).
+            let s = SettingsPatch {
+                rays: args.rays,
+                bounces: args.bounces,
+                texels_per_metre: args.texels_per_metre,
+                blur: args.blur,
+                ..SettingsPatch::default()
             }
-            if let Some(v) = args.bounces {
-                s.bounces = v;
-                s.tail = false;
-            }
-            if let Some(v) = args.texels_per_metre {
-                s.texels_per_metre = v;
-            }
-            if let Some(v) = args.blur {
-                s.blur = v;
-            }
+            .settings()
+            .map_err(|e| e.to_string())?;
             let scene =
                 Scene::builtin_with_settings(&args.scene, s.clone()).map_err(|e| e.to_string())?;
             let (mut backend, renderer) =
