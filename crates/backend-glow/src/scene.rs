@@ -3,6 +3,7 @@
 //! `texelFetch`.
 
 use luxbake::backend::SceneData;
+use luxbake::lightpaths::{DensityProxy, PROXY_NODES};
 use luxbake::pack;
 use luxbake_bvh::{EncodedScene, layout};
 use luxbake_ies::GpuTable;
@@ -16,7 +17,8 @@ use luxbake::scene::BvhMode;
 #[derive(Debug)]
 pub(crate) struct GpuScene {
     pub(crate) bvh: BvhTextures,
-    /// One layer per intensity table, four table columns per texel (see `ies.glsl`).
+    /// One layer per intensity table, four table columns per texel, its density proxy's rows
+    /// below (see `ies.glsl`).
     pub(crate) ies: TextureArray,
     /// One column per object id: (layer, offset.x, offset.y, receiver), (width, height, 0, 0).
     pub(crate) regions: TextureArray,
@@ -39,13 +41,15 @@ fn checked_size(caps: &Capabilities, what: &'static str, v: usize) -> Result<u32
     }
 }
 
-/// The IES tables as one texture array (layer = table index).
+/// The IES tables as one texture array (layer = table index): the table's rows, then in the
+/// rows below them (from row `height` on) its [`DensityProxy`]'s `PROXY_NODES` rows.
 pub(crate) fn ies_texture(
     gl: &glow::Context,
     caps: &Capabilities,
     tables: &[GpuTable],
 ) -> Result<TextureArray> {
-    let texels_wide = |t: &GpuTable| (t.width as usize).div_ceil(4);
+    let nodes = PROXY_NODES as usize;
+    let texels_wide = |t: &GpuTable| (t.width as usize).div_ceil(4).max(nodes.div_ceil(4));
     let w = checked_size(
         caps,
         "IES table width / 4",
@@ -53,8 +57,12 @@ pub(crate) fn ies_texture(
     )?;
     let h = checked_size(
         caps,
-        "IES table height",
-        tables.iter().map(|t| t.height as usize).max().unwrap_or(1),
+        "IES table height with its density proxy",
+        tables
+            .iter()
+            .map(|t| t.height as usize + nodes)
+            .max()
+            .unwrap_or(1),
     )?;
     let layers = u32::try_from(tables.len().max(1))
         .ok()
@@ -74,6 +82,11 @@ pub(crate) fn ies_texture(
             .enumerate()
         {
             let start = row * w as usize * 4;
+            data[start..start + values.len()].copy_from_slice(values);
+        }
+        let proxy = DensityProxy::new(t);
+        for (row, values) in proxy.values.chunks(nodes).enumerate() {
+            let start = (t.height as usize + row) * w as usize * 4;
             data[start..start + values.len()].copy_from_slice(values);
         }
         tex.upload(gl, "ies_tables", layer as u32, &data)?;

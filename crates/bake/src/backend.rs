@@ -139,9 +139,8 @@ pub(crate) fn toward(p: [f32; 3], q: [f32; 3]) -> Option<([f32; 3], f32, f32)> {
 }
 
 /// `lamp` seen unshadowed from surface point `p` with unit normal `n`: `None` when the lamp
-/// stands at `p`, behind the surface or dark toward it. Shared by the direct pass and the lamp
-/// paths' density ([`crate::lightpaths::density`]); the shaders' `luxLampToward` /
-/// `lux_lamp_toward` mirror it operation for operation.
+/// stands at `p`, behind the surface or dark toward it. The direct pass's; the shaders'
+/// `luxLampToward` / `lux_lamp_toward` mirror it operation for operation.
 pub fn lamp_toward(
     lamp: &LampParams,
     tables: &[GpuTable],

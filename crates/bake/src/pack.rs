@@ -12,10 +12,12 @@
 //!   `(layer, offset.x, offset.y, receiver ? 1 : 0)`, `(width, height, 0, 0)`; zero rows for
 //!   non-receivers, which reflect nothing.
 //! - **Intensity tables** ([`ies_values`]): every table's `width × height` candela values,
-//!   row-major, concatenated.
+//!   row-major, each followed by its [`DensityProxy`]'s `PROXY_NODES²` values (so a lamp's
+//!   proxy starts at its table's offset `+ width × height`), concatenated.
 
 use crate::backend::{LampParams, SceneData};
 use crate::layout::Region;
+use crate::lightpaths::{DensityProxy, PROXY_NODES};
 
 /// Rows of one packed lamp.
 pub const LAMP_ROWS: usize = 8;
@@ -109,12 +111,15 @@ fn table_offsets(scene: &SceneData<'_>) -> Vec<u32> {
     let mut at = 0u32;
     for t in scene.ies_tables {
         offsets.push(at);
-        at = at.saturating_add(t.width.saturating_mul(t.height));
+        at = at
+            .saturating_add(t.width.saturating_mul(t.height))
+            .saturating_add(PROXY_NODES * PROXY_NODES);
     }
     offsets
 }
 
-/// Every table's `width × height` values, concatenated (short tables padded with zeros).
+/// Every table's `width × height` values (short tables padded with zeros), each followed by
+/// its [`DensityProxy`]'s values, concatenated.
 pub fn ies_values(scene: &SceneData<'_>) -> Vec<f32> {
     let mut values = Vec::new();
     for t in scene.ies_tables {
@@ -122,6 +127,7 @@ pub fn ies_values(scene: &SceneData<'_>) -> Vec<f32> {
         let start = values.len();
         values.extend(t.values.iter().take(n));
         values.resize(start + n, 0.0);
+        values.extend(DensityProxy::new(t).values);
     }
     values
 }
@@ -173,12 +179,21 @@ mod tests {
             lamp_paths: &[],
         };
         let values = ies_values(&scene);
-        let n0 = (tables[0].width * tables[0].height) as usize;
+        let proxy = (PROXY_NODES * PROXY_NODES) as usize;
+        let t0 = (tables[0].width * tables[0].height) as usize;
+        let n0 = t0 + proxy;
         assert_eq!(
             values.len(),
-            n0 + (tables[1].width * tables[1].height) as usize
+            n0 + (tables[1].width * tables[1].height) as usize + proxy
         );
+        // Each table, then its proxy.
+        assert_eq!(values[..t0], tables[0].values[..]);
+        assert_eq!(values[t0..n0], DensityProxy::new(&tables[0]).values[..]);
         assert_eq!(values[n0], tables[1].values[0]);
+        assert_eq!(
+            values[n0 + (tables[1].width * tables[1].height) as usize..],
+            DensityProxy::new(&tables[1]).values[..]
+        );
         let rows = lamp_rows(&scene);
         assert_eq!(rows[0].floats[0], [1.0, 2.0, 3.0, 1.0]);
         assert_eq!(rows[0].floats[4], [0.5, 0.25, 2.0, 0.0]);

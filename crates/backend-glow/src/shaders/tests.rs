@@ -287,13 +287,14 @@ const IES_FS: &str = "uniform highp sampler2DArray u_dirs;\n\
     uniform ivec2 u_size;\n\
     void main() {\n\
         vec3 d = texelFetch(u_dirs, luxTexel(), 0).xyz;\n\
-        o_color = vec4(luxIesSample(u_table, u_size, d), 0.0, 0.0, 1.0);\n\
+        o_color = vec4(luxIesSample(u_table, u_size, d), luxProxySample(u_table, u_size.y, d),\n\
+                       0.0, 1.0);\n\
     }\n";
 
 #[test]
-fn ies_sampling_matches_the_cpu_table() {
+fn ies_sampling_and_the_density_proxy_match_the_cpu() {
     use luxbake_ies::{GpuTable, Photometry};
-    let Some(ctx) = context_or_skip("ies_sampling_matches_the_cpu_table") else {
+    let Some(ctx) = context_or_skip("ies_sampling_and_the_density_proxy_match_the_cpu") else {
         return;
     };
     // The repo's downlight (rotationally symmetric) and a random asymmetric table.
@@ -348,7 +349,8 @@ fn ies_sampling_matches_the_cpu_table() {
             size,
         );
         let max = table.values.iter().fold(0.0f32, |m, &v| m.max(v));
-        let mut worst = 0.0f32;
+        let proxy = luxbake::lightpaths::DensityProxy::new(table);
+        let (mut worst, mut worst_proxy) = (0.0f32, 0.0f32);
         for (i, d) in dirs.iter().enumerate() {
             let cpu = table.sample(*d);
             let err = (out[i * 4] - cpu).abs() / max;
@@ -358,9 +360,27 @@ fn ies_sampling_matches_the_cpu_table() {
                 "table {ti}, dir {d:?}: gpu {} cpu {cpu}",
                 out[i * 4]
             );
+            // The density proxy's grid, stored below the table.
+            let cpu = proxy.sample(*d);
+            let err = (out[i * 4 + 1] - cpu).abs() / max;
+            worst_proxy = worst_proxy.max(err);
+            assert!(
+                err <= 1e-5,
+                "table {ti}, dir {d:?}: gpu proxy {} cpu {cpu}",
+                out[i * 4 + 1]
+            );
         }
+        assert!(
+            dirs.iter()
+                .enumerate()
+                .filter(|&(i, _)| out[i * 4 + 1] > 0.1 * max)
+                .count()
+                > dirs.len() / 10,
+            "table {ti}: the proxy read nothing"
+        );
         eprintln!(
-            "table {ti} ({}x{}): worst error {worst:e} of the maximum",
+            "table {ti} ({}x{}): worst error {worst:e} of the maximum, its density proxy \
+             {worst_proxy:e}",
             table.width, table.height
         );
     }

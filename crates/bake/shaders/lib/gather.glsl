@@ -59,17 +59,27 @@ vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
 }
 
 // lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
-// n) over the first `lamps` uploaded lamps, the lamp paths' density proxy.
+// n) over the first `lamps` uploaded lamps, each lamp's intensity from its density proxy, the
+// lamp paths' density proxy.
 float luxLampDensity(vec3 y, vec3 n, int lamps) {
     float sum = 0.0;
     for (int li = 0; li < lamps; ++li) {
-        float d2;
-        float d;
-        vec3 w;
-        float c;
-        float intensity;
-        if (luxLampToward(li, y, n, d2, d, w, c, intensity)) {
-            sum += luxLuminance(luxLamp(li, 4).rgb) * (intensity * c / d2);
+        vec4 l0 = luxLamp(li, 0);
+        vec3 to = l0.xyz - y;
+        float d2 = luxDot(to, to);
+        if (!(d2 > 0.0 && luxFinite(d2))) {
+            continue;
+        }
+        float c = luxDot(n, to);
+        if (!(c > 0.0)) {
+            continue;
+        }
+        vec3 back = -to;
+        vec3 photometric = vec3(luxDot(luxLamp(li, 1).xyz, back), luxDot(luxLamp(li, 2).xyz, back),
+                                luxDot(luxLamp(li, 3).xyz, back));
+        float intensity = luxProxySample(int(l0.w), int(luxLamp(li, 5).z), photometric);
+        if (intensity > 0.0) {
+            sum += luxLuminance(luxLamp(li, 4).rgb) * (intensity * c / (d2 * sqrt(d2)));
         }
     }
     return sum;

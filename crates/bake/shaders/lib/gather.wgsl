@@ -59,14 +59,28 @@ fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f3
 }
 
 // lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
-// n) over the first `lamps` uploaded lamps, the lamp paths' density proxy.
+// n) over the first `lamps` uploaded lamps, each lamp's intensity from its density proxy, the
+// lamp paths' density proxy.
 fn lux_lamp_density(y: vec3<f32>, n: vec3<f32>, lamps: u32) -> f32 {
     var sum = 0.0;
     let count = min(lamps, arrayLength(&lux_lamps));
     for (var li = 0u; li < count; li++) {
-        let v = lux_lamp_toward(li, y, n);
-        if (v.valid) {
-            sum += lux_luminance(lux_lamps[li].scale.xyz) * (v.intensity * v.cos_theta / v.d2);
+        let lamp = lux_lamps[li];
+        let to = lamp.position.xyz - y;
+        let d2 = lux_dot(to, to);
+        if (!(d2 > 0.0 && lux_finite(d2))) {
+            continue;
+        }
+        let c = lux_dot(n, to);
+        if (!(c > 0.0)) {
+            continue;
+        }
+        let back = -to;
+        let photometric = vec3<f32>(lux_dot(lamp.m0.xyz, back), lux_dot(lamp.m1.xyz, back),
+                                    lux_dot(lamp.m2.xyz, back));
+        let intensity = lux_proxy_sample(lamp.table.x + lamp.table.y * lamp.table.z, photometric);
+        if (intensity > 0.0) {
+            sum += lux_luminance(lamp.scale.xyz) * (intensity * c / (d2 * sqrt(d2)));
         }
     }
     return sum;

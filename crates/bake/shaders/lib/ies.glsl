@@ -99,3 +99,33 @@ float luxIesSample(int table, ivec2 size, vec3 dir) {
     return a + (b - a) * ty;
 }
 
+
+// lightpaths::DensityProxy::sample: the density proxy's octahedral grid of table `table`
+// (LUX_PROXY_CELLS + 1 nodes per side), stored from row `height` of the table's layer (scene.rs).
+float luxProxySample(int table, int height, vec3 dir) {
+    float s = abs(dir.x) + abs(dir.y) + abs(dir.z);
+    if (!(s > 0.0 && luxFinite(s))) {
+        return 0.0;
+    }
+    float r = 1.0 / s;
+    float p = dir.x * r;
+    float q = dir.y * r;
+    if (dir.z > 0.0) {
+        float ap = abs(p);
+        float aq = abs(q);
+        p = (1.0 - aq) * (p >= 0.0 ? 1.0 : -1.0);
+        q = (1.0 - ap) * (q >= 0.0 ? 1.0 : -1.0);
+    }
+    float n = float(LUX_PROXY_CELLS);
+    float fu = clamp((p * 0.5 + 0.5) * n, 0.0, n);
+    float fv = clamp((q * 0.5 + 0.5) * n, 0.0, n);
+    int i = min(int(fu), LUX_PROXY_CELLS - 1);
+    int j = min(int(fv), LUX_PROXY_CELLS - 1);
+    float tu = fu - float(i);
+    float tv = fv - float(j);
+    int row = height + j;
+    float a = luxIesAt(table, row, i) + (luxIesAt(table, row, i + 1) - luxIesAt(table, row, i)) * tu;
+    float b = luxIesAt(table, row + 1, i)
+        + (luxIesAt(table, row + 1, i + 1) - luxIesAt(table, row + 1, i)) * tu;
+    return a + (b - a) * tv;
+}

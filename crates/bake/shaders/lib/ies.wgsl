@@ -100,3 +100,34 @@ fn lux_ies_sample(offset: u32, size: vec2<i32>, dir: vec3<f32>) -> f32 {
     return a + (b - a) * ty;
 }
 
+
+// lightpaths::DensityProxy::sample: the density proxy's octahedral grid (LUX_PROXY_CELLS + 1
+// nodes per side) at `offset` in lux_ies (right after its table, pack::ies_values).
+fn lux_proxy_sample(offset: u32, dir: vec3<f32>) -> f32 {
+    let s = abs(dir.x) + abs(dir.y) + abs(dir.z);
+    if (!(s > 0.0 && lux_finite(s))) {
+        return 0.0;
+    }
+    let r = 1.0 / s;
+    var p = dir.x * r;
+    var q = dir.y * r;
+    if (dir.z > 0.0) {
+        let ap = abs(p);
+        let aq = abs(q);
+        p = (1.0 - aq) * select(-1.0, 1.0, p >= 0.0);
+        q = (1.0 - ap) * select(-1.0, 1.0, q >= 0.0);
+    }
+    let n = f32(LUX_PROXY_CELLS);
+    let fu = clamp((p * 0.5 + 0.5) * n, 0.0, n);
+    let fv = clamp((q * 0.5 + 0.5) * n, 0.0, n);
+    let i = min(i32(fu), LUX_PROXY_CELLS - 1);
+    let j = min(i32(fv), LUX_PROXY_CELLS - 1);
+    let tu = fu - f32(i);
+    let tv = fv - f32(j);
+    let w = LUX_PROXY_CELLS + 1;
+    let a = lux_ies_at(offset, w, j, i)
+        + (lux_ies_at(offset, w, j, i + 1) - lux_ies_at(offset, w, j, i)) * tu;
+    let b = lux_ies_at(offset, w, j + 1, i)
+        + (lux_ies_at(offset, w, j + 1, i + 1) - lux_ies_at(offset, w, j + 1, i)) * tu;
+    return a + (b - a) * tv;
+}

@@ -1,4 +1,4 @@
-// A lamp seen from a surface point, shared by the direct pass and the lamp paths' density
+// A lamp seen from a surface point, for the direct pass
 // (after scene.glsl and ies.glsl).
 
 // backend::lamp_toward: uploaded lamp `li` seen unshadowed from surface point p with unit

@@ -152,6 +152,8 @@ pub struct CpuScene {
     pub(crate) attributes: Vec<HitAttributes>,
     pub(crate) lamps: Vec<LampParams>,
     pub(crate) tables: Vec<GpuTable>,
+    /// One [`crate::lightpaths::DensityProxy`] per table, for the gather's MIS weight.
+    pub(crate) proxies: Vec<crate::lightpaths::DensityProxy>,
     pub(crate) regions: Vec<Option<Region>>,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
@@ -273,7 +275,8 @@ pub(crate) fn traversal(mode: BvhMode) -> Trav {
 
 impl CpuScene {
     /// The scene of a bake as the passes' CPU references read it: the BVHs shared, each
-    /// triangle's attributes decoded once, the lamps, tables, regions and lamp paths copied.
+    /// triangle's attributes decoded once, the lamps, tables (and their density proxies), regions
+    /// and lamp paths copied.
     pub fn new(scene: &SceneData<'_>) -> CpuScene {
         CpuScene {
             bvh: Arc::clone(&scene.bvh.encoded),
@@ -281,6 +284,11 @@ impl CpuScene {
             attributes: decode_attributes(&scene.bvh.encoded),
             lamps: scene.lamps.to_vec(),
             tables: scene.ies_tables.to_vec(),
+            proxies: scene
+                .ies_tables
+                .iter()
+                .map(crate::lightpaths::DensityProxy::new)
+                .collect(),
             regions: scene.regions.to_vec(),
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,

@@ -299,6 +299,9 @@ mod tests {
                 opening: None,
             }],
             tables: vec![luxbake_ies::Photometry::isotropic(1e6).gpu_table()],
+            proxies: vec![crate::lightpaths::DensityProxy::new(
+                &luxbake_ies::Photometry::isotropic(1e6).gpu_table(),
+            )],
             regions: vec![None],
             layer_size: [1, 1],
             ray_epsilon: crate::backend::ray_epsilon(1.0),

@@ -266,7 +266,7 @@ pub(crate) fn gather_weight(scene: &CpuScene, hit: &Hit, nh: [f32; 3], dir: [f32
     let ny = normalize(nh).unwrap_or([0.0; 3]);
     let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
     let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
-    let lamp_density = lightpaths::density(lamps, &scene.tables, y, ny);
+    let lamp_density = lightpaths::density(lamps, &scene.proxies, y, ny);
     lightpaths::gather_weight(
         mis.rays,
         mis.lamp_paths,

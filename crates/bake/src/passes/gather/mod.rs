@@ -61,7 +61,7 @@ signature! {
         reads: ["position", "normal", "reflected", "connected", "prior"],
         scene: [bvh, lamps, regions],
         params: GatherParams,
-        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather, Coarse],
+        libraries: [Common, Rng, Scene, Bvh, Ies, Gather, Coarse],
     }
 }
 

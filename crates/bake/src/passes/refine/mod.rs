@@ -52,7 +52,7 @@ signature! {
         // (the refine pass never does: lamp paths require no refinement).
         scene: [bvh, lamps, regions],
         params: RefineParams,
-        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather],
+        libraries: [Common, Rng, Scene, Bvh, Ies, Gather],
     }
 }
 
