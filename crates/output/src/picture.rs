@@ -72,8 +72,28 @@ impl Picture {
 /// Rec. 709 luminance of linear RGB (the passes' [`luxbake::exact::luminance`]).
 pub use luxbake::exact::luminance;
 
-/// The sRGB transfer function of a linear value in [0, 1], as a byte.
+/// The sRGB transfer function of a linear value in [0, 1], as a byte: exactly
+/// `round(255·(1.055·x^(1/2.4) − 0.055))` (`12.92·x` up to 0.0031308) with `f32::powf`, as
+/// [`srgb_byte_by_powf`] computes it, but from a table: the byte of the 1/4096-wide bin `x`
+/// falls in, raised while `x` reaches the next byte's threshold (the least `x` that
+/// `srgb_byte_by_powf` maps to it; at most two steps). Every texel of every preview takes
+/// three, and `powf` was 2 % of a whole default bake. Non-finite input gives 0.
 pub fn srgb_byte(x: f32) -> u8 {
+    let x = if x.is_finite() {
+        x.clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    let t = srgb_table();
+    let mut b = t.start[((x * SRGB_BINS as f32) as usize).min(SRGB_BINS - 1)];
+    while b < 255 && x >= t.threshold[usize::from(b) + 1] {
+        b += 1;
+    }
+    b
+}
+
+/// [`srgb_byte`] computed with `powf`: its definition.
+pub fn srgb_byte_by_powf(x: f32) -> u8 {
     let x = if x.is_finite() {
         x.clamp(0.0, 1.0)
     } else {
@@ -85,6 +105,40 @@ pub fn srgb_byte(x: f32) -> u8 {
         1.055 * x.powf(1.0 / 2.4) - 0.055
     };
     (s * 255.0 + 0.5).clamp(0.0, 255.0) as u8
+}
+
+/// Bins of [`srgb_byte`]'s first guess.
+const SRGB_BINS: usize = 4096;
+
+/// [`srgb_byte`]'s table: per bin the byte of its lower end, per byte `b ≥ 1` the least `x`
+/// in [0, 1] that [`srgb_byte_by_powf`] maps to `b` or more (`threshold[0]` unused).
+struct SrgbTable {
+    start: Vec<u8>,
+    threshold: [f32; 256],
+}
+
+fn srgb_table() -> &'static SrgbTable {
+    static TABLE: std::sync::OnceLock<SrgbTable> = std::sync::OnceLock::new();
+    TABLE.get_or_init(|| {
+        let start = (0..SRGB_BINS)
+            .map(|i| srgb_byte_by_powf(i as f32 / SRGB_BINS as f32))
+            .collect();
+        let mut threshold = [0.0f32; 256];
+        for (b, t) in threshold.iter_mut().enumerate().skip(1) {
+            // Bisection over the bit patterns of [0, 1], which order as the values do.
+            let (mut lo, mut hi) = (0u32, 1.0f32.to_bits());
+            while hi - lo > 1 {
+                let mid = lo + (hi - lo) / 2;
+                if usize::from(srgb_byte_by_powf(f32::from_bits(mid))) >= b {
+                    hi = mid;
+                } else {
+                    lo = mid;
+                }
+            }
+            *t = f32::from_bits(hi);
+        }
+        SrgbTable { start, threshold }
+    })
 }
 
 /// The shared exposure of a set of exitance maps (see the module docs).
@@ -354,6 +408,31 @@ mod tests {
             t.copy_from_slice(&[value, value, value, 1.0]);
         }
         m
+    }
+
+    #[test]
+    fn the_srgb_table_gives_the_bytes_of_powf() {
+        // Around every byte's threshold, a few ulps either side, and evenly over [0, 1].
+        let t = srgb_table();
+        let mut checked = 0;
+        for &x in &t.threshold[1..] {
+            for d in -8i32..=8 {
+                let v = f32::from_bits(x.to_bits().saturating_add_signed(d));
+                if v <= 1.0 {
+                    assert_eq!(srgb_byte(v), srgb_byte_by_powf(v), "{v:e}");
+                    checked += 1;
+                }
+            }
+        }
+        for i in 0..=1_000_000u32 {
+            let v = i as f32 / 1e6;
+            assert_eq!(srgb_byte(v), srgb_byte_by_powf(v), "{v:e}");
+        }
+        assert!(checked > 255 * 16, "{checked}");
+        // Every byte is reached.
+        let bytes: std::collections::HashSet<u8> =
+            t.threshold.iter().map(|&x| srgb_byte(x)).collect();
+        assert_eq!(bytes.len(), 256);
     }
 
     #[test]
