@@ -519,7 +519,9 @@ pub(crate) struct Guide<'a> {
     pub(crate) object: f32,
     pub(crate) reach2: f32,
     pub(crate) reach_min2: f32,
-    pub(crate) same_shape: bool,
+    /// When the three maps have one shape (every dispatch's do): the centre's offset in
+    /// them, from which a tap's is a sum ([`Guide::tap`]).
+    pub(crate) centre: Option<usize>,
 }
 
 impl<'a> Guide<'a> {
@@ -543,24 +545,30 @@ impl<'a> Guide<'a> {
             object: nc[3],
             reach2: reach[1] * reach[1],
             reach_min2: reach[0] * reach[0],
-            same_shape: src.same_shape(&pos) && src.same_shape(&nrm),
+            centre: (src.same_shape(&pos) && src.same_shape(&nrm))
+                .then(|| src.index(at.layer, at.x, at.y))
+                .flatten(),
         })
     }
 
     /// The tap at `offset` texels: its value and `n̂·nₜ` (the tap's normal as stored, unit)
     /// when it lies on the centre's surface.
+    #[inline]
     pub(crate) fn tap(&self, offset: [i64; 2]) -> Option<([f32; 4], f32)> {
         let (tx, ty) = (self.x + offset[0], self.y + offset[1]);
         let size = self.src.size;
         if tx < 0 || ty < 0 || tx >= i64::from(size[0]) || ty >= i64::from(size[1]) {
             return None;
         }
-        let (tx, ty) = (tx as u32, ty as u32);
-        // One offset for the three maps when they have one shape (every dispatch's do).
-        let (is, ip, inr) = if self.same_shape {
-            let i = self.src.index(self.layer, tx, ty);
+        // One offset for the three maps when they have one shape (every dispatch's do): the
+        // centre's plus the tap's offset, the same as `View::index` of the tap, inside the
+        // layer (just checked).
+        let (is, ip, inr) = if let Some(c) = self.centre {
+            let d = 4 * (offset[1] * i64::from(size[0]) + offset[0]);
+            let i = Some((c as i64 + d) as usize);
             (i, i, i)
         } else {
+            let (tx, ty) = (tx as u32, ty as u32);
             (
                 self.src.index(self.layer, tx, ty),
                 self.pos.index(self.layer, tx, ty),
