@@ -553,7 +553,7 @@ impl<'a> Guide<'a> {
 
     /// The tap at `offset` texels: its value and `n̂·nₜ` (the tap's normal as stored, unit)
     /// when it lies on the centre's surface.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn tap(&self, offset: [i64; 2]) -> Option<([f32; 4], f32)> {
         let (tx, ty) = (self.x + offset[0], self.y + offset[1]);
         let size = self.src.size;
