@@ -35,8 +35,8 @@ float luxCoarseWeights(ivec3 c, uint stride, float reach, out ivec2 corners[4],
             continue;
         }
         vec4 nt = texelFetch(u_normal, tc, 0);
-        vec3 n1;
-        if (nt.w != nc.w || !luxNormalize(nt.xyz, n1) || luxDot(n, n1) < LUX_BLUR_NORMAL_COS) {
+        // The G-buffer's normals are unit: used as stored (as cpu::kernel::CoarseCentre).
+        if (nt.w != nc.w || !(luxDot(n, nt.xyz) >= LUX_BLUR_NORMAL_COS)) {
             continue;
         }
         vec3 d = pt.xyz - p;

@@ -40,8 +40,8 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
             continue;
         }
         let nt = lux_load(lux_normal, t);
-        var n1: vec3<f32>;
-        if (nt.w != nc.w || !lux_normalize(nt.xyz, &n1) || lux_dot(n, n1) < LUX_BLUR_NORMAL_COS) {
+        // The G-buffer's normals are unit: used as stored (as cpu::kernel::CoarseCentre).
+        if (nt.w != nc.w || !(lux_dot(n, nt.xyz) >= LUX_BLUR_NORMAL_COS)) {
             continue;
         }
         let d = pt.xyz - p;

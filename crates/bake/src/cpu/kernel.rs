@@ -488,7 +488,8 @@ impl<'a> CoarseCentre<'a> {
         );
         pt[3] > 0.5
             && nt[3] == self.object
-            && normalize(xyz(nt)).is_some_and(|n1| dot(self.n, n1) >= BLUR_NORMAL_COS)
+            // The G-buffer's normals are unit: used as stored (module docs of `crate::cpu`).
+            && dot(self.n, xyz(nt)) >= BLUR_NORMAL_COS
             && dot(d, d) <= self.reach2 * (ox * ox + oy * oy) as f32
     }
 }

@@ -91,7 +91,8 @@
 //! cosine is `n̂·n_t`, the centre's normal normalised, the tap's as the G-buffer stores it (unit,
 //! [`crate::gbuffer`]; normalising it again cost a square root and three divisions per tap,
 //! about 5 % of a default bake on the CPU, for a change of a rounding); a tap whose normal is zero
-//! or not finite has cosine 0 or NaN, which every pass's cosine test rejects.
+//! or not finite has cosine 0 or NaN, which every pass's cosine test rejects. The coarse grid's
+//! corners ([`program::coarse`](crate::program::coarse)) are tested the same way.
 //!
 //! Every output passes through a guard that maps NaN to 0 and clamps to `[0, f32::MAX]`, so no
 //! NaN or infinity ever reaches a map.
