@@ -143,39 +143,65 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     /// Runs [`RNG_CS`] on the device for `cases` (sample, pass, seed, layer) and reads back
     /// its words.
     fn rng_words(gpu: &crate::device::Gpu, cases: &[[u32; 4]], texels: u32) -> Vec<u32> {
-        use wgpu::util::DeviceExt;
         let source = format!(
             "{}{}\n{RNG_CS}",
             wgsl_constants(BvhMode::None),
             wgsl_library(Library::Rng, BvhStorage::Buffers).concat()
         );
-        validate("debug rng", &source);
-        let bytes = 4 * 10 * u64::from(texels) * cases.len() as u64;
+        let input: Vec<u8> = cases
+            .iter()
+            .flatten()
+            .flat_map(|w| w.to_le_bytes())
+            .collect();
+        compute_words(
+            gpu,
+            "debug rng",
+            &source,
+            &[&input],
+            10 * u64::from(texels) * cases.len() as u64,
+            [texels.div_ceil(64), cases.len() as u32],
+        )
+    }
+
+    /// Runs the compute shader `source` (entry `main`) on the device: its bindings 0, 1, …
+    /// of group 0 are read-only storage buffers holding `inputs`, the next one `words` words
+    /// it writes, read back after `groups` workgroups (x, y).
+    fn compute_words(
+        gpu: &crate::device::Gpu,
+        label: &str,
+        source: &str,
+        inputs: &[&[u8]],
+        words: u64,
+        groups: [u32; 2],
+    ) -> Vec<u32> {
+        use wgpu::util::DeviceExt;
+        validate(label, source);
+        let bytes = 4 * words;
         let d = &gpu.device;
         let read = gpu
-            .scoped("debug rng", || {
+            .scoped(label, || {
                 let module = d.create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some("debug rng"),
+                    label: Some(label),
                     source: wgpu::ShaderSource::Wgsl(source.into()),
                 });
                 let pipeline = d.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some("debug rng"),
+                    label: Some(label),
                     layout: None,
                     module: &module,
                     entry_point: Some("main"),
                     compilation_options: Default::default(),
                     cache: None,
                 });
-                let input: Vec<u8> = cases
+                let buffers: Vec<wgpu::Buffer> = inputs
                     .iter()
-                    .flatten()
-                    .flat_map(|w| w.to_le_bytes())
+                    .map(|contents| {
+                        d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some(label),
+                            contents,
+                            usage: wgpu::BufferUsages::STORAGE,
+                        })
+                    })
                     .collect();
-                let cases_buf = d.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some("cases"),
-                    contents: &input,
-                    usage: wgpu::BufferUsages::STORAGE,
-                });
                 let out = d.create_buffer(&wgpu::BufferDescriptor {
                     label: Some("words"),
                     size: bytes,
@@ -188,39 +214,151 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
                     mapped_at_creation: false,
                 });
+                let entries: Vec<wgpu::BindGroupEntry<'_>> = buffers
+                    .iter()
+                    .chain(std::iter::once(&out))
+                    .enumerate()
+                    .map(|(i, b)| wgpu::BindGroupEntry {
+                        binding: i as u32,
+                        resource: b.as_entire_binding(),
+                    })
+                    .collect();
                 let group = d.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some("debug rng"),
+                    label: Some(label),
                     layout: &pipeline.get_bind_group_layout(0),
-                    entries: &[
-                        wgpu::BindGroupEntry {
-                            binding: 0,
-                            resource: cases_buf.as_entire_binding(),
-                        },
-                        wgpu::BindGroupEntry {
-                            binding: 1,
-                            resource: out.as_entire_binding(),
-                        },
-                    ],
+                    entries: &entries,
                 });
                 let mut encoder = d.create_command_encoder(&Default::default());
                 {
                     let mut pass = encoder.begin_compute_pass(&Default::default());
                     pass.set_pipeline(&pipeline);
                     pass.set_bind_group(0, &group, &[]);
-                    pass.dispatch_workgroups(texels.div_ceil(64), cases.len() as u32, 1);
+                    pass.dispatch_workgroups(groups[0], groups[1], 1);
                 }
                 encoder.copy_buffer_to_buffer(&out, 0, &read, 0, bytes);
                 gpu.queue.submit([encoder.finish()]);
                 read
             })
-            .expect("debug rng dispatch");
+            .unwrap_or_else(|e| panic!("{label} dispatch: {e}"));
         read.slice(..)
             .map_async(wgpu::MapMode::Read, |r| r.expect("map"));
-        gpu.wait("debug rng").expect("wait");
+        gpu.wait(label).expect("wait");
         let view = read.slice(..).get_mapped_range().expect("mapped range");
         view.chunks_exact(4)
             .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
             .collect()
+    }
+
+    /// Per direction: the table's sample and its density proxy's, through `lux_ies_sample`
+    /// and `lux_proxy_sample` (`lux_ies` as `pack::ies_values` lays it out: the table of
+    /// `size` values, then its proxy).
+    const IES_CS: &str = "@group(0) @binding(0) var<storage, read> lux_ies: array<f32>;
+@group(0) @binding(1) var<storage, read> size: vec2<i32>;
+@group(0) @binding(2) var<storage, read> dirs: array<vec4<f32>>;
+@group(0) @binding(3) var<storage, read_write> words: array<f32>;
+@compute @workgroup_size(64)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    if (gid.x >= arrayLength(&dirs)) {
+        return;
+    }
+    let d = dirs[gid.x].xyz;
+    words[2u * gid.x] = lux_ies_sample(0u, size, d);
+    words[2u * gid.x + 1u] = lux_proxy_sample(u32(size.x * size.y), d);
+}
+";
+
+    #[test]
+    fn ies_sampling_and_the_density_proxy_match_the_cpu() {
+        use luxbake::lightpaths::DensityProxy;
+        use luxbake_ies::{GpuTable, Photometry};
+        let Some(gpu) = luxbake_testkit::or_skip(
+            "ies_sampling_and_the_density_proxy_match_the_cpu",
+            crate::device::Gpu::open(wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all())),
+            crate::WgpuError::is_driver_missing,
+        ) else {
+            return;
+        };
+        let downlight =
+            Photometry::parse(include_bytes!("../../scene/lamps/luxbake_downlight.ies"))
+                .expect("downlight")
+                .gpu_table();
+        let mut rng = luxbake_testkit::SplitMix64::new(11);
+        let random = GpuTable {
+            width: 24,
+            height: 13,
+            values: (0..24 * 13).map(|_| rng.range(0.0, 1000.0)).collect(),
+        };
+        let mut dirs: Vec<[f32; 3]> = vec![
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 0.0],
+            [1.0, -0.0, 0.0],
+            [1.0, 1e-9, 0.3],
+            [-1.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0],
+            [3.0, 4.0, -12.0],
+        ];
+        while dirs.len() < 4096 {
+            dirs.push([0, 1, 2].map(|_| rng.range(-2.0, 2.0)));
+        }
+        let dir_bytes: Vec<u8> = dirs
+            .iter()
+            .flat_map(|d| [d[0], d[1], d[2], 0.0])
+            .flat_map(f32::to_le_bytes)
+            .collect();
+        // The common library's tile helpers name the output and the tile of a pass: declared
+        // (in a group the entry point does not use, so not bound).
+        let source = format!(
+            "{}{}@group(1) @binding(0) var lux_out: texture_storage_2d_array<rgba32float, write>;\n\
+             @group(1) @binding(1) var<uniform> lux_tile: {};\n{}{}\n{IES_CS}",
+            wgsl_constants(BvhMode::None),
+            luxbake::shader::wgsl_struct(TileParams::WGSL_NAME, TileParams::FIELDS),
+            TileParams::WGSL_NAME,
+            wgsl_library(Library::Common, BvhStorage::Buffers).concat(),
+            wgsl_library(Library::Ies, BvhStorage::Buffers).concat()
+        );
+        for (ti, table) in [downlight, random].iter().enumerate() {
+            let proxy = DensityProxy::new(table);
+            let values: Vec<u8> = table
+                .values
+                .iter()
+                .chain(&proxy.values)
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            let size: Vec<u8> = [table.width as i32, table.height as i32]
+                .iter()
+                .flat_map(|v| v.to_le_bytes())
+                .collect();
+            let out = compute_words(
+                &gpu,
+                "debug ies",
+                &source,
+                &[&values, &size, &dir_bytes],
+                2 * dirs.len() as u64,
+                [(dirs.len() as u32).div_ceil(64), 1],
+            );
+            let max = table.values.iter().fold(0.0f32, |m, &v| m.max(v));
+            let (mut worst, mut worst_proxy, mut read) = (0.0f32, 0.0f32, 0);
+            for (i, d) in dirs.iter().enumerate() {
+                let (gpu_table, gpu_proxy) =
+                    (f32::from_bits(out[2 * i]), f32::from_bits(out[2 * i + 1]));
+                let (cpu_table, cpu_proxy) = (table.sample(*d), proxy.sample(*d));
+                worst = worst.max((gpu_table - cpu_table).abs() / max);
+                worst_proxy = worst_proxy.max((gpu_proxy - cpu_proxy).abs() / max);
+                assert!(
+                    (gpu_table - cpu_table).abs() <= 1e-5 * max
+                        && (gpu_proxy - cpu_proxy).abs() <= 1e-5 * max,
+                    "table {ti}, dir {d:?}: gpu {gpu_table} / proxy {gpu_proxy}, cpu {cpu_table} / {cpu_proxy}"
+                );
+                read += usize::from(gpu_proxy > 0.1 * max);
+            }
+            assert!(read > dirs.len() / 10, "table {ti}: the proxy read nothing");
+            eprintln!(
+                "table {ti} ({}x{}): worst error {worst:e} of the maximum, its density proxy \
+                 {worst_proxy:e}",
+                table.width, table.height
+            );
+        }
     }
 
     #[test]

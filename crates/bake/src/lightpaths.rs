@@ -144,9 +144,9 @@ pub const PROXY_NODES: u32 = PROXY_CELLS + 1;
 ///
 /// # Parametrisation (fixed; the shaders rely on it)
 /// A direction `d` of the photometric frame (any length; `s = |x|+|y|+|z|`) maps to
-/// `(p, q) = (x·r, y·r)` with `r = 1/s`, folded where `z > 0` (above the horizontal plane, away from the
-/// nadir): `(p, q) ← ((1 − |q|)·sgn p, (1 − |p|)·sgn q)` with `sgn v = 1` for `v ≥ 0` (also
-/// −0), else −1. Then `fu = clamp((p/2 + ½)·N, 0, N)`, `fv` likewise from `q` (`N` =
+/// `(p, q) = (x·r, y·r)` with `r = 1/s`, folded where `z > 0` (above the horizontal plane,
+/// away from the nadir): `(p, q) ← ((1 − |q|)·sgn p, (1 − |p|)·sgn q)` with `sgn v = 1` for
+/// `v ≥ 0` (also −0), else −1. Then `fu = clamp((p/2 + ½)·N, 0, N)`, `fv` likewise from `q` (`N` =
 /// [`PROXY_CELLS`]); `i = min(⌊fu⌋, N − 1)`, `j = min(⌊fv⌋, N − 1)`, `tu = fu − i`,
 /// `tv = fv − j`, and the value is the bilinear mix of nodes `(j, i)`, `(j, i+1)`,
 /// `(j+1, i)`, `(j+1, i+1)`: `values[row·(N+1) + column]`, row `j` over `q`, column `i`
@@ -174,7 +174,8 @@ impl DensityProxy {
         DensityProxy { values }
     }
 
-    /// The direction (photometric frame, unit) that node `(row j, column i)` stands for.
+    /// The direction (photometric frame, unit) that the node in column `i`, row `j` stands
+    /// for.
     pub fn node_direction(i: u32, j: u32) -> [f32; 3] {
         let n = f64::from(PROXY_CELLS);
         let (p, q) = (2.0 * f64::from(i) / n - 1.0, 2.0 * f64::from(j) / n - 1.0);
@@ -590,7 +591,7 @@ pub const OPENING_POOL_SAMPLES: u32 = 8;
 /// Samples of opening `o` for a pool point `d` metres from its centre:
 /// [`OPENING_POOL_SAMPLES`] within twice the opening's size, fewer farther —
 /// `round(OPENING_POOL_SAMPLES · clamp(2·size/d, ¼, 1))`, at least 2. What the samples
-/// estimate is a ratio, the path's power `ρ·E/p` ([`from_opening`]): where the opening looks
+/// estimate is a ratio, the path's power `ρ·E/p` (module docs): where the opening looks
 /// small its two integrands vary alike over it, and in a penumbra both lose the same hidden
 /// samples, so the ratio needs fewer samples than either integral. This is most of a swap's
 /// host work for a lamp with an opening (`chairs_05` with `rw_5.IES` at 24 texels/m, one
