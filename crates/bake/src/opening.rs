@@ -231,28 +231,76 @@ pub fn sample_part(
     u: [f32; 2],
     receiver: Option<[f32; 3]>,
 ) -> Option<OpeningSample> {
-    let (p, n, element) = match (flat_part(o, part), receiver) {
-        (Some((axis, side, ext, ellipse)), Some(receiver)) => {
-            let r = to_solid(o.axis, receiver);
-            let (i, j) = in_plane(axis);
-            let plane = side * o.half[axis];
-            let h = side * (r[axis] - plane);
-            let (x, y, density) = toward(u, h, [r[i], r[j]], ext, ellipse)?;
-            let mut p = [0.0f32; 3];
-            p[axis] = plane;
-            p[i] = x;
-            p[j] = y;
-            let mut n = [0.0f32; 3];
-            n[axis] = side;
-            (p, n, 1.0 / density)
-        }
-        _ => area_point(o, part, u)?,
-    };
-    Some(OpeningSample {
-        point: to_photometric(o.axis, p),
-        normal: to_photometric(o.axis, n),
-        weight: element,
-    })
+    PartSampler::new(o, part, receiver).sample(u)
+}
+
+/// [`sample_part`] for one part and one receiver, prepared once for all of a texel's lattice
+/// points: what does not depend on the uniforms (the receiver's height over the part's plane,
+/// its foot, the first coordinate's range and its density's normalisation) is computed here,
+/// the rest per point, by the same operations — [`PartSampler::sample`] equals
+/// [`sample_part`] bit for bit (tests). The shaders compute it all per point.
+#[derive(Debug, Clone, Copy)]
+pub struct PartSampler<'a> {
+    o: &'a OpeningParams,
+    part: usize,
+    flat: Option<FlatView>,
+}
+
+/// A flat part as a receiver in front of it sees it ([`PartSampler`]): `None` in
+/// [`FlatView::toward`] when the receiver is behind it.
+#[derive(Debug, Clone, Copy)]
+struct FlatView {
+    axis: usize,
+    side: f32,
+    plane: f32,
+    toward: Option<Toward>,
+}
+
+impl<'a> PartSampler<'a> {
+    /// The sampler of part `part` of `o` toward `receiver` (photometric frame, metres from the
+    /// centre; `None`: uniform in area, as for the lamp paths' origins).
+    pub fn new(o: &'a OpeningParams, part: usize, receiver: Option<[f32; 3]>) -> PartSampler<'a> {
+        let flat = match (flat_part(o, part), receiver) {
+            (Some((axis, side, ext, ellipse)), Some(receiver)) => {
+                let r = to_solid(o.axis, receiver);
+                let (i, j) = in_plane(axis);
+                let plane = side * o.half[axis];
+                let h = side * (r[axis] - plane);
+                Some(FlatView {
+                    axis,
+                    side,
+                    plane,
+                    toward: Toward::new(h, [r[i], r[j]], ext, ellipse),
+                })
+            }
+            _ => None,
+        };
+        PartSampler { o, part, flat }
+    }
+
+    /// The point of uniforms `u` ([`sample_part`]).
+    #[inline]
+    pub fn sample(&self, u: [f32; 2]) -> Option<OpeningSample> {
+        let (p, n, element) = match self.flat {
+            Some(f) => {
+                let (x, y, density) = f.toward?.draw(u)?;
+                let (i, j) = in_plane(f.axis);
+                let mut p = [0.0f32; 3];
+                p[f.axis] = f.plane;
+                p[i] = x;
+                p[j] = y;
+                let mut n = [0.0f32; 3];
+                n[f.axis] = f.side;
+                (p, n, 1.0 / density)
+            }
+            None => area_point(self.o, self.part, u)?,
+        };
+        Some(OpeningSample {
+            point: to_photometric(self.o.axis, p),
+            normal: to_photometric(self.o.axis, n),
+            weight: element,
+        })
+    }
 }
 
 /// A point of the whole opening, uniform in area, for uniforms `u`: `u[2]` picks a part in
@@ -343,8 +391,8 @@ fn area_point(o: &OpeningParams, part: usize, u: [f32; 2]) -> Option<([f32; 3], 
 }
 
 /// A point of a flat part as a receiver `h` in front of its plane sees it: `(x, y, density
-/// per unit area)`, `x`, `y` in the plane's axes, the part `[−e₀, e₀] × [−e₁, e₁]` (or the
-/// ellipse of those semi-axes), the receiver's foot on the plane at `foot`. `None` when the
+/// per unit area)`, `x`, `y` in the plane's axes, the part `[−e₀, e₀] × [−e₁, e₁]` with
+/// `ext = [e₀, e₁]` (or the ellipse of those semi-axes), the receiver's foot on the plane at `foot`. `None` when the
 /// receiver is not in front of the plane (the part gives it no light) or the part is empty.
 ///
 /// A uniform patch lights a receiver parallel to it as `h² / r⁴` (`cos θ_x cos θ_p / r²`),
@@ -359,27 +407,56 @@ pub fn toward(
     u: [f32; 2],
     h: f32,
     foot: [f32; 2],
-    [e0, e1]: [f32; 2],
+    ext: [f32; 2],
     ellipse: bool,
 ) -> Option<(f32, f32, f32)> {
-    if !(h > 0.0 && e0 > 0.0 && e1 > 0.0) {
-        return None;
+    Toward::new(h, foot, ext, ellipse)?.draw(u)
+}
+
+/// [`toward`] prepared for one receiver: its first coordinate's [`Falloff`], which does not
+/// depend on the uniforms.
+#[derive(Debug, Clone, Copy)]
+struct Toward {
+    h: f32,
+    foot: [f32; 2],
+    ext: [f32; 2],
+    ellipse: bool,
+    first: Falloff,
+}
+
+impl Toward {
+    fn new(h: f32, foot: [f32; 2], [e0, e1]: [f32; 2], ellipse: bool) -> Option<Toward> {
+        if !(h > 0.0 && e0 > 0.0 && e1 > 0.0) {
+            return None;
+        }
+        let out = (foot[1].abs() - e1).max(0.0);
+        let sx = (h * h + out * out).sqrt();
+        Some(Toward {
+            h,
+            foot,
+            ext: [e0, e1],
+            ellipse,
+            first: Falloff::new(sx, -e0 - foot[0], e0 - foot[0])?,
+        })
     }
-    let out = (foot[1].abs() - e1).max(0.0);
-    let sx = (h * h + out * out).sqrt();
-    let (dx, px) = falloff(u[0], sx, -e0 - foot[0], e0 - foot[0])?;
-    let x = (foot[0] + dx).clamp(-e0, e0);
-    let half = if ellipse {
-        let q = x / e0;
-        e1 * (1.0 - q * q).max(0.0).sqrt()
-    } else {
-        e1
-    };
-    let sy = (h * h + dx * dx).sqrt();
-    let (dy, py) = falloff(u[1], sy, -half - foot[1], half - foot[1])?;
-    let y = (foot[1] + dy).clamp(-half, half);
-    let density = px * py;
-    (density > 0.0 && density.is_finite()).then_some((x, y, density))
+
+    #[inline]
+    fn draw(&self, u: [f32; 2]) -> Option<(f32, f32, f32)> {
+        let (h, foot, [e0, e1]) = (self.h, self.foot, self.ext);
+        let (dx, px) = self.first.draw(u[0]);
+        let x = (foot[0] + dx).clamp(-e0, e0);
+        let half = if self.ellipse {
+            let q = x / e0;
+            e1 * (1.0 - q * q).max(0.0).sqrt()
+        } else {
+            e1
+        };
+        let sy = (h * h + dx * dx).sqrt();
+        let (dy, py) = falloff(u[1], sy, -half - foot[1], half - foot[1])?;
+        let y = (foot[1] + dy).clamp(-half, half);
+        let density = px * py;
+        (density > 0.0 && density.is_finite()).then_some((x, y, density))
+    }
 }
 
 /// A draw `t ∈ [lo, hi]` of the density `∝ (s² + t²)^(−3/2)` by its inverse CDF, with that
@@ -387,16 +464,42 @@ pub fn toward(
 /// density `s² / ((s² + t²)^(3/2)·(G(hi) − G(lo)))`. `None` for an empty range.
 #[inline]
 pub fn falloff(u: f32, s: f32, lo: f32, hi: f32) -> Option<(f32, f32)> {
-    let g = |t: f32| t / (s * s + t * t).sqrt();
-    let (g0, g1) = (g(lo), g(hi));
-    let span = g1 - g0;
-    if !(span > 0.0) {
-        return None;
+    Some(Falloff::new(s, lo, hi)?.draw(u))
+}
+
+/// [`falloff`] prepared for one range: `G(lo)` and the span `G(hi) − G(lo)`.
+#[derive(Debug, Clone, Copy)]
+struct Falloff {
+    s: f32,
+    lo: f32,
+    hi: f32,
+    g0: f32,
+    span: f32,
+}
+
+impl Falloff {
+    #[inline]
+    fn new(s: f32, lo: f32, hi: f32) -> Option<Falloff> {
+        let g = |t: f32| t / (s * s + t * t).sqrt();
+        let (g0, g1) = (g(lo), g(hi));
+        let span = g1 - g0;
+        (span > 0.0).then_some(Falloff {
+            s,
+            lo,
+            hi,
+            g0,
+            span,
+        })
     }
-    let q = g0 + u * span;
-    let t = (s * q / (1.0 - q * q).max(0.0).sqrt()).clamp(lo, hi);
-    let r2 = s * s + t * t;
-    Some((t, s * s / (r2 * r2.sqrt() * span)))
+
+    #[inline]
+    fn draw(&self, u: f32) -> (f32, f32) {
+        let (s, span) = (self.s, self.span);
+        let q = self.g0 + u * span;
+        let t = (s * q / (1.0 - q * q).max(0.0).sqrt()).clamp(self.lo, self.hi);
+        let r2 = s * s + t * t;
+        (t, s * s / (r2 * r2.sqrt() * span))
+    }
 }
 
 /// `(sin 2πu, cos 2πu)` as the shaders compute it (`sin(6.2831855 * u)`, `cos(…)`).

@@ -193,9 +193,13 @@ pub(crate) fn from_opening(
         let lo = range[0].saturating_sub(base).min(count);
         let hi = range[1].saturating_sub(base).min(count);
         base = base.saturating_add(count);
+        if lo >= hi {
+            continue;
+        }
+        let sampler = opening::PartSampler::new(o, part, Some(receiver));
         for k in lo..hi {
             let u = opening::lattice(k, count, shift);
-            let Some(s) = opening::sample_part(o, part, u, Some(receiver)) else {
+            let Some(s) = sampler.sample(u) else {
                 continue;
             };
             // World point: the photometric centre plus Mᵀ·point (M is a rotation).
