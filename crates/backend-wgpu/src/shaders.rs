@@ -288,19 +288,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             height: 13,
             values: (0..24 * 13).map(|_| rng.range(0.0, 1000.0)).collect(),
         };
-        let mut dirs: Vec<[f32; 3]> = vec![
-            [0.0, 0.0, -1.0],
-            [0.0, 0.0, 1.0],
-            [1.0, 0.0, 0.0],
-            [1.0, -0.0, 0.0],
-            [1.0, 1e-9, 0.3],
-            [-1.0, 0.0, 0.0],
-            [0.0, 0.0, 0.0],
-            [3.0, 4.0, -12.0],
-        ];
-        while dirs.len() < 4096 {
-            dirs.push([0, 1, 2].map(|_| rng.range(-2.0, 2.0)));
-        }
+        let dirs = luxbake_testkit::photometric_test_directions(&mut rng, 4096);
         let dir_bytes: Vec<u8> = dirs
             .iter()
             .flat_map(|d| [d[0], d[1], d[2], 0.0])

@@ -747,18 +747,6 @@ mod tests {
         assert_eq!(density(&[lamp], &[], [0.0; 3], [0.0, 1.0, 0.0]), 0.0);
     }
 
-    /// Directions spread over the sphere (a Fibonacci sphere), unit.
-    fn sphere(n: u32) -> Vec<[f32; 3]> {
-        (0..n)
-            .map(|k| {
-                let z = 1.0 - (2.0 * f64::from(k) + 1.0) / f64::from(n);
-                let r = (1.0 - z * z).sqrt();
-                let phi = f64::from(k) * 2.399_963_229_728_653;
-                [r * phi.cos(), r * phi.sin(), z].map(|c| c as f32)
-            })
-            .collect()
-    }
-
     #[test]
     fn the_density_proxy_follows_the_table_without_a_seam() {
         let downlight =
@@ -780,7 +768,10 @@ mod tests {
             }
         }
         // Between them, close to it (the downlight's cut-off is the steepest part).
-        let dirs = sphere(20_000);
+        let dirs: Vec<[f32; 3]> = luxbake_testkit::fibonacci_sphere(20_000)
+            .into_iter()
+            .map(|d| d.map(|c| c as f32))
+            .collect();
         let mean = dirs
             .iter()
             .map(|&d| f64::from((proxy.sample(d) - downlight.sample(d)).abs() / max))

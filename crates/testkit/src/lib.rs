@@ -9,7 +9,8 @@
 //!   scenes, rays and expected values are drawn from them);
 //! - small shared helpers: [`shared_data`] (the shared test data), [`temp_dir`] (where a test
 //!   writes files), [`RelativeError`] (the largest and mean relative error of compared
-//!   values) and [`fibonacci_sphere`] (evenly spread test directions).
+//!   values), [`fibonacci_sphere`] (evenly spread test directions) and
+//!   [`photometric_test_directions`] (the edge cases of a table look-up, then random ones).
 //!
 //! ## The skip rule
 //!
@@ -46,6 +47,6 @@ mod stats;
 
 pub use ci::{ci_requires_everything, or_skip, skip_decision, skip_or_fail};
 pub use shared::{shared_data, temp_dir};
-pub use sphere::fibonacci_sphere;
+pub use sphere::{fibonacci_sphere, photometric_test_directions};
 pub use splitmix::SplitMix64;
 pub use stats::RelativeError;

@@ -14,6 +14,28 @@ pub fn fibonacci_sphere(n: usize) -> Vec<[f64; 3]> {
         .collect()
 }
 
+/// `n` directions for testing an intensity-table look-up (any length, as the look-ups take
+/// them): the poles, C = 0 reached from both sides of the wrap (±0 and ±10⁻⁹ across it), the
+/// −x axis, the zero vector and a non-unit vector, then directions drawn uniformly from
+/// `[−2, 2]³` with `rng`.
+pub fn photometric_test_directions(rng: &mut crate::SplitMix64, n: usize) -> Vec<[f32; 3]> {
+    let mut dirs: Vec<[f32; 3]> = vec![
+        [0.0, 0.0, -1.0],
+        [0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0],
+        [1.0, -0.0, 0.0],
+        [1.0, 1e-9, 0.3],
+        [1.0, -1e-9, -0.3],
+        [-1.0, 0.0, 0.0],
+        [0.0, 0.0, 0.0],
+        [3.0, 4.0, -12.0],
+    ];
+    while dirs.len() < n {
+        dirs.push([0, 1, 2].map(|_| rng.range(-2.0, 2.0)));
+    }
+    dirs
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

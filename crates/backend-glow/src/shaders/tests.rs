@@ -310,20 +310,7 @@ fn ies_sampling_and_the_density_proxy_match_the_cpu() {
     };
     let tables = [downlight, random];
     let size = [64u32, 64];
-    let mut dirs: Vec<[f32; 3]> = vec![
-        [0.0, 0.0, -1.0],
-        [0.0, 0.0, 1.0],
-        [1.0, 0.0, 0.0],
-        [1.0, -0.0, 0.0],
-        [1.0, 1e-9, 0.3],
-        [1.0, -1e-9, -0.3],
-        [-1.0, 0.0, 0.0],
-        [0.0, 0.0, 0.0],
-        [3.0, 4.0, -12.0],
-    ];
-    while dirs.len() < (size[0] * size[1]) as usize {
-        dirs.push([0, 1, 2].map(|_| rng.range(-2.0, 2.0)));
-    }
+    let dirs = luxbake_testkit::photometric_test_directions(&mut rng, (size[0] * size[1]) as usize);
     let gl = ctx.gl().unwrap();
     let dir_tex = TextureArray::new(gl, "dirs", size[0], size[1], 1).unwrap();
     let data: Vec<f32> = dirs.iter().flat_map(|d| [d[0], d[1], d[2], 0.0]).collect();
