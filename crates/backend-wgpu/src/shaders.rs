@@ -336,7 +336,8 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 assert!(
                     (gpu_table - cpu_table).abs() <= 1e-5 * max
                         && (gpu_proxy - cpu_proxy).abs() <= 1e-5 * max,
-                    "table {ti}, dir {d:?}: gpu {gpu_table} / proxy {gpu_proxy}, cpu {cpu_table} / {cpu_proxy}"
+                    "table {ti}, dir {d:?}: gpu {gpu_table} / proxy {gpu_proxy}, \
+                     cpu {cpu_table} / {cpu_proxy}"
                 );
                 read += usize::from(gpu_proxy > 0.1 * max);
             }

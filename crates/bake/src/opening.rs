@@ -237,8 +237,9 @@ pub fn sample_part(
 /// [`sample_part`] for one part and one receiver, prepared once for all of a texel's lattice
 /// points: what does not depend on the uniforms (the receiver's height over the part's plane,
 /// its foot, the first coordinate's range and its density's normalisation) is computed here,
-/// the rest per point, by the same operations — [`PartSampler::sample`] equals
-/// [`sample_part`] bit for bit (tests). The shaders compute it all per point.
+/// the rest per point, by the operations the shaders' `luxOpening*` / `lux_opening_*` run
+/// per point (the cross-backend tests compare the direct light of openings texel by texel:
+/// `tests/tests/loop_limit.rs`, `tests/tests/opening.rs`).
 #[derive(Debug, Clone, Copy)]
 pub struct PartSampler<'a> {
     o: &'a OpeningParams,
@@ -392,8 +393,9 @@ fn area_point(o: &OpeningParams, part: usize, u: [f32; 2]) -> Option<([f32; 3], 
 
 /// A point of a flat part as a receiver `h` in front of its plane sees it: `(x, y, density
 /// per unit area)`, `x`, `y` in the plane's axes, the part `[−e₀, e₀] × [−e₁, e₁]` with
-/// `ext = [e₀, e₁]` (or the ellipse of those semi-axes), the receiver's foot on the plane at `foot`. `None` when the
-/// receiver is not in front of the plane (the part gives it no light) or the part is empty.
+/// `ext = [e₀, e₁]` (or the ellipse of those semi-axes), the receiver's foot on the plane at
+/// `foot`. `None` when the receiver is not in front of the plane (the part gives it no light)
+/// or the part is empty.
 ///
 /// A uniform patch lights a receiver parallel to it as `h² / r⁴` (`cos θ_x cos θ_p / r²`),
 /// brightest at the foot. Each coordinate is drawn from the density `∝ (s² + t²)^(−3/2)`

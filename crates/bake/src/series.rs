@@ -36,8 +36,8 @@
 //! ```
 //! the plain extrapolation with the predicted ratio of the next bounce in place of the last
 //! measured one, from the fourth bounce on (χ̂ needs two retentions after the first bounce's);
-//! before it with `λ_K`. Measured against 30 explicit bounces (`cargo xtask bake --bounces 30`, default
-//! rays and strides) on five furnished rooms (docs/performance.md, issue 29), the converged
+//! before it with `λ_K`. Measured against 30 explicit bounces (`cargo xtask bake --bounces
+//! 30`, default rays and strides) on five furnished rooms (docs/performance.md, issue 29), the converged
 //! total extrapolated after bounce 5 is off by −0.09 … −0.15 % (with `λ_K`: −0.12 … −0.28 %;
 //! with Aitken's trend of the ratios, the rule before this one: −0.11 … −0.28 %), after
 //! bounce 6 by −0.03 … −0.07 % (−0.07 … −0.13 %). After bounce 4 no rule is good enough
@@ -153,14 +153,20 @@ impl Series {
         if k <= FIRST_PREDICTED {
             return None;
         }
-        let before = Series {
-            direct: self.direct,
-            increments: self.increments[..k - 1].to_vec(),
-            reflected: self.reflected.get(..k - 1)?.to_vec(),
-        };
+        let before = self.head(k - 1)?;
         before.predicted_next()?;
         let (now, then) = (self.total(), before.total());
         (now > 0.0 && then.is_finite()).then(|| (now - then).abs() / now)
+    }
+
+    /// The series of the first `k` bounces; `None` when fewer were recorded (of their
+    /// increments or of the light they reflect).
+    fn head(&self, k: usize) -> Option<Series> {
+        Some(Series {
+            direct: self.direct,
+            increments: self.increments.get(..k)?.to_vec(),
+            reflected: self.reflected.get(..k)?.to_vec(),
+        })
     }
 
     /// Whether explicit bounces can stop at `tolerance` (see the module docs).
@@ -257,11 +263,7 @@ mod tests {
         let landing = [[0.75, 0.2], [0.2, 0.75]];
         let (s, tails) = two_surfaces([0.3, 0.8], landing, [10.0, 0.0], 12);
         for (k, &exact) in tails.iter().enumerate().take(12).skip(FIRST_PREDICTED) {
-            let head = Series {
-                direct: s.direct,
-                increments: s.increments[..k].to_vec(),
-                reflected: s.reflected[..k].to_vec(),
-            };
+            let head = s.head(k).expect("k bounces");
             let next = head.predicted_next().expect("a prediction");
             assert!((next / s.increments[k] - 1.0).abs() < 1e-12, "{k}");
             // Low while the ratio still grows, but nearer the exact tail than the last
@@ -278,13 +280,9 @@ mod tests {
         // The estimates of the total settle: each change smaller than the one before.
         let changes: Vec<f64> = (FIRST_PREDICTED + 1..=12)
             .map(|k| {
-                Series {
-                    direct: s.direct,
-                    increments: s.increments[..k].to_vec(),
-                    reflected: s.reflected[..k].to_vec(),
-                }
-                .uncertainty()
-                .expect("two predictions")
+                s.head(k)
+                    .and_then(|h| h.uncertainty())
+                    .expect("two predictions")
             })
             .collect();
         assert!(changes.windows(2).all(|w| w[1] < w[0]), "{changes:?}");

@@ -47,8 +47,8 @@
 //! illuminance that the converged method added for the bounces it did not run explicitly),
 //! `bounce_ratio` (the ratio λ it extrapolated with, or null), `series` (the converged
 //! method's energies: `direct`, per explicit bounce `increments` and the light they
-//! `reflected`, Σ (r + g + b) over the valid texels, and `tail_factor`, the factor of the last increment that the tail adds, when it adds one; or
-//! null)),
+//! `reflected`, Σ (r + g + b) over the valid texels, and `tail_factor`, the factor of the
+//! last increment that the tail adds, when it adds one; or null)),
 //! `timings` (`setup` and `passes`: label, bounce, seconds; `total_seconds`), `skipped` (text).
 
 #![warn(missing_docs)]

@@ -288,6 +288,7 @@ mod tests {
         }];
         let bvh = Bvh::build(&tris, &BuildOptions::default()).expect("bvh");
         let enc = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
+        let table = luxbake_ies::Photometry::isotropic(1e6).gpu_table();
         CpuScene {
             wide: Arc::new(WideBvh::from_encoded(&enc)),
             attributes: decode_attributes(&enc),
@@ -299,10 +300,8 @@ mod tests {
                 table: 0,
                 opening: None,
             }],
-            tables: vec![luxbake_ies::Photometry::isotropic(1e6).gpu_table()],
-            proxies: vec![crate::lightpaths::DensityProxy::new(
-                &luxbake_ies::Photometry::isotropic(1e6).gpu_table(),
-            )],
+            proxies: vec![crate::lightpaths::DensityProxy::new(&table)],
+            tables: vec![table],
             regions: vec![None],
             layer_size: [1, 1],
             ray_epsilon: crate::backend::ray_epsilon(1.0),
