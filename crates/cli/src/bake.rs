@@ -34,7 +34,8 @@ use luxbake::scene::{
     SettingsPatch,
 };
 use luxbake::sources::scenefile::{from_file_patched, preferred_backend, read_photometry};
-use luxbake_backends::BackendKind;
+use luxbake_backend_cpu::GATHER_HITS_BUDGET;
+use luxbake_backends::{AnyBackend, BackendKind};
 use luxbake_ies::Photometry;
 use luxbake_output::{file_stem, write_bake};
 
@@ -227,6 +228,17 @@ pub fn run(args: &Args) -> Result<(), String> {
     let room = Room::prepare(&scene, &settings, backend.limits(), &mut progress)
         .map_err(|e| e.to_string())?;
     let room_seconds: f64 = room.timings.iter().map(|(_, s)| s).sum();
+    let bakes = files.len().max(1)
+        * if args.lamp_layers {
+            scene.lamps.len()
+        } else {
+            1
+        };
+    // A room baked more than once: the CPU backend keeps the gather rays' hits from the first
+    // bake for the others (`luxbake::cpu::hits`; the same maps, fewer traversals).
+    if let (true, AnyBackend::Cpu(cpu)) = (bakes > 1, &mut backend) {
+        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+    }
     let jobs: Vec<(PathBuf, Scene)> = if files.is_empty() {
         vec![(args.out.clone(), scene.clone())]
     } else {

@@ -28,7 +28,8 @@ use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room, bake_room_direc
 use luxbake::layers::{LampState, bake_layers};
 use luxbake::scene::{Lamp, LampModel, Quality, Scene, Settings};
 use luxbake::sources::scenefile::read_photometry;
-use luxbake_backends::BackendKind;
+use luxbake_backend_cpu::GATHER_HITS_BUDGET;
+use luxbake_backends::{AnyBackend, BackendKind};
 use serde_json::{Value, json};
 
 use super::{
@@ -130,6 +131,10 @@ fn measure_once(
     let swapped = vec![lamp(SWAPPED, model)?];
     let t = Instant::now();
     let (mut backend, renderer) = open(kind)?;
+    // The CPU backend keeps the gather's hits for the swap, as `--lamp` repeated does.
+    if let AnyBackend::Cpu(cpu) = &mut backend {
+        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+    }
     let room =
         Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
     bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {})

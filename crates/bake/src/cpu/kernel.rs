@@ -14,6 +14,7 @@ use rayon::prelude::*;
 
 use crate::backend::{LampParams, SceneData};
 use crate::contract::{BLUR_NORMAL_COS, ParamBlock, TileParams, coarse};
+use crate::cpu::hits::GatherHits;
 pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::layout::Region;
 use crate::passes::gather::GatherParams;
@@ -159,6 +160,8 @@ pub struct CpuScene {
     pub(crate) ray_epsilon: f32,
     /// [`crate::backend::SceneData::lamp_paths`].
     pub(crate) lamp_paths: Vec<f32>,
+    /// Gather hits kept across bakes of this room ([`CpuScene::keep_gather_hits`]).
+    pub(crate) hits: Option<Arc<GatherHits>>,
 }
 
 /// `(sin 2πu, cos 2πu)`: a polynomial instead of `sinf`/`cosf` (whose one call per gather ray
@@ -264,6 +267,18 @@ pub(crate) enum Trav {
     Encoded(Traversal),
 }
 
+impl Trav {
+    /// A number per traversal ([`crate::cpu::hits`]' row keys).
+    pub(crate) fn id(self) -> u32 {
+        match self {
+            Trav::Wide => 0,
+            Trav::Encoded(Traversal::Mtbvh) => 1,
+            Trav::Encoded(Traversal::Tbvh) => 2,
+            Trav::Encoded(Traversal::BruteForce) => 3,
+        }
+    }
+}
+
 pub(crate) fn traversal(mode: BvhMode) -> Trav {
     match mode {
         BvhMode::Wide => Trav::Wide,
@@ -293,7 +308,15 @@ impl CpuScene {
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,
             lamp_paths: scene.lamp_paths.to_vec(),
+            hits: None,
         }
+    }
+
+    /// Lets the gather passes on this scene replay the rows `hits` recorded in its BVH and
+    /// record the others ([`crate::cpu::hits`]).
+    pub fn keep_gather_hits(&mut self, hits: Arc<GatherHits>) {
+        hits.keep_for(&self.bvh);
+        self.hits = Some(hits);
     }
 
     #[inline]

@@ -102,9 +102,11 @@ use crate::graph::TexDesc;
 use crate::passes::with_registry;
 use crate::program::Program;
 
+pub mod hits;
 pub(crate) mod kernel;
 
 pub use crate::exact::{basis, guard, normalize};
+pub use hits::{GatherHitStats, GatherHits};
 pub use kernel::{CpuScene, Frame, View, cosine_direction, sin_cos_turns};
 use kernel::{Ctx, traversal};
 
@@ -306,6 +308,7 @@ mod tests {
             layer_size: [1, 1],
             ray_epsilon: crate::backend::ray_epsilon(1.0),
             lamp_paths: Vec::new(),
+            hits: None,
         }
     }
 

@@ -4,6 +4,7 @@
 use luxbake_bvh::{Hit, Ray, TriangleAttributes};
 
 use crate::backend::offset_origin;
+use crate::cpu::hits::{Row, RowKey, WordHash};
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
@@ -55,12 +56,14 @@ pub(crate) struct GatherTexel {
 /// the next ray's traversal) and last each texel's contributions, added in ray order as one
 /// ray at a time would. Each stage is a short loop that keeps its own code and data hot
 /// (docs/performance.md, issue 15, measures the stages and the alternatives).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_sums(
     scene: &CpuScene,
     reflected: View<'_>,
     trav: Trav,
     [sampler_id, bounce, seed]: [u32; 3],
     texels: &[GatherTexel],
+    hits: &mut Hits<'_>,
     [ahead, behind]: &mut [GatherChunk; 2],
     sums: &mut Vec<[f32; 3]>,
 ) {
@@ -86,13 +89,23 @@ pub(crate) fn gather_sums(
             .unwrap_or(rest.len())
             .max(1);
         let (chunk, tail) = rest.split_at(n);
-        ahead.trace(scene, reflected, trav, &draws, chunk);
+        ahead.trace(scene, reflected, trav, &draws, chunk, hits);
         behind.sum(scene, reflected, pending, sums);
         std::mem::swap(ahead, behind);
         pending = chunk;
         rest = tail;
     }
     behind.sum(scene, reflected, pending, sums);
+}
+
+/// Where [`gather_sums`]' hits come from ([`crate::cpu::hits`]).
+pub(crate) enum Hits<'a> {
+    /// Traced.
+    Trace,
+    /// Traced, and pushed here in ray order (`None`: a miss).
+    Record(&'a mut Vec<Option<Hit>>),
+    /// Replayed from a recorded row, from its ray `.1` on.
+    Replay(&'a Row, usize),
 }
 
 /// The rays of one chunk of [`gather_sums`]: few enough that the chunk's buffers and
@@ -111,8 +124,8 @@ pub(crate) struct GatherChunk {
 }
 
 impl GatherChunk {
-    /// The first stages over `texels`' rays: directions, closest hits, shading and look-up
-    /// footprints (prefetched).
+    /// The first stages over `texels`' rays: directions, closest hits (from `hits`),
+    /// shading and look-up footprints (prefetched).
     pub(crate) fn trace(
         &mut self,
         scene: &CpuScene,
@@ -120,6 +133,7 @@ impl GatherChunk {
         trav: Trav,
         draws: &rng::PassDraws,
         texels: &[GatherTexel],
+        hits: &mut Hits<'_>,
     ) {
         let GatherChunk {
             dirs,
@@ -129,11 +143,19 @@ impl GatherChunk {
         } = self;
         directions(dirs, draws, texels);
         traced.clear();
-        let mut rest = dirs.iter();
-        for t in texels {
-            for &dir in rest.by_ref().take(t.rays.len()) {
-                let ray = Ray { origin: t.o, dir };
-                traced.push(scene.closest_hit(&ray, 0.0, f32::INFINITY, trav));
+        if let Hits::Replay(row, next) = hits {
+            traced.extend((*next..*next + dirs.len()).map(|i| row.hit(i)));
+            *next += dirs.len();
+        } else {
+            let mut rest = dirs.iter();
+            for t in texels {
+                for &dir in rest.by_ref().take(t.rays.len()) {
+                    let ray = Ray { origin: t.o, dir };
+                    traced.push(scene.closest_hit(&ray, 0.0, f32::INFINITY, trav));
+                }
+            }
+            if let Hits::Record(recorded) = hits {
+                recorded.extend_from_slice(traced);
             }
         }
         lookups.clear();
@@ -374,6 +396,42 @@ pub(crate) struct GatherScratch {
     pub(crate) chunks: [GatherChunk; 2],
     /// Per texel of `texels`, its sum.
     pub(crate) sums: Vec<[f32; 3]>,
+    /// The row's hits while they are recorded ([`crate::cpu::hits`]).
+    pub(crate) recorded: Vec<Option<Hit>>,
+}
+
+/// Row `[layer, x0, y, width]`'s key among the recorded gather rows and the hash of its
+/// `texels`' rays' starts: index, ray range, origin and normal ([`crate::cpu::hits`]).
+fn row_key(
+    params: &GatherParams,
+    trav: Trav,
+    row: [u32; 4],
+    texels: &[GatherTexel],
+) -> (RowKey, u64) {
+    let key = RowKey {
+        rays: [
+            params.sampler,
+            params.bounce,
+            params.seed,
+            params.stride,
+            params.rays,
+            params.orphan_rays,
+            params.first_ray,
+            params.chunk_rays,
+        ],
+        traversal: trav.id(),
+        row,
+    };
+    let mut h = WordHash::new();
+    for t in texels {
+        h.add(t.texel);
+        h.add(t.rays.start);
+        h.add(t.rays.end);
+        for c in t.o.into_iter().chain(t.frame.n) {
+            h.add(c.to_bits());
+        }
+    }
+    (key, h.finish())
 }
 
 /// The gathered indirect illuminance at texels `x0 ..` of row `y` (`out`: RGBA per texel; see
@@ -397,6 +455,7 @@ pub(crate) fn gather_row(
         at,
         chunks,
         sums,
+        recorded,
     } = scratch;
     texels.clear();
     at.clear();
@@ -438,7 +497,30 @@ pub(crate) fn gather_row(
         at.push(i);
     }
     let sampler = [params.sampler, params.bounce, params.seed];
-    gather_sums(scene, reflected, trav, sampler, texels, chunks, sums);
+    // The row's hits replayed when they were recorded for these rays, else traced (and
+    // recorded while the budget allows).
+    let cache = scene.hits.as_deref().filter(|_| !texels.is_empty());
+    let width = (out.len() / 4) as u32;
+    let keyed = cache.map(|_| row_key(&params, trav, [layer, x0, y, width], texels));
+    let rays: usize = texels.iter().map(|t| t.rays.len()).sum();
+    let row = cache
+        .zip(keyed.as_ref())
+        .and_then(|(c, (key, inputs))| c.row(&scene.bvh, key, *inputs, rays));
+    let mut hits = match (&row, cache) {
+        (Some(row), _) => Hits::Replay(row, 0),
+        (None, Some(c)) if c.has_room(rays) => {
+            recorded.clear();
+            Hits::Record(recorded)
+        }
+        _ => Hits::Trace,
+    };
+    gather_sums(scene, reflected, trav, sampler, texels, &mut hits, chunks, sums);
+    if let Some(c) = cache {
+        if let (Hits::Record(recorded), Some((key, inputs))) = (hits, keyed) {
+            c.record(&scene.bvh, key, inputs, recorded);
+        }
+        c.count(rays, row.is_some());
+    }
     for ((t, sum), &i) in texels.iter().zip(sums.iter()).zip(at.iter()) {
         let inv = 1.0 / t.mis.rays as f32;
         let here = Texel {

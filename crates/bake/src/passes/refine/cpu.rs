@@ -1,7 +1,7 @@
 //! The CPU reference of pass `refine` (the semantics the shaders mirror).
 
 use crate::backend::offset_origin;
-use crate::passes::gather::cpu::{GatherChunk, GatherTexel, Mis, gather_sums};
+use crate::passes::gather::cpu::{GatherChunk, GatherTexel, Hits, Mis, gather_sums};
 use crate::rng;
 use crate::cpu::kernel::*;
 
@@ -44,6 +44,7 @@ impl TexelPass for RefineParams {
         ctx.trav,
         sampler,
         &[texel],
+        &mut Hits::Trace,
         &mut chunks,
         &mut sums,
     );
