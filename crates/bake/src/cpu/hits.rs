@@ -175,18 +175,17 @@ impl GatherHits {
             .is_ok_and(|s| s.bytes + rays * HIT_BYTES <= self.budget)
     }
 
-    /// Records row `key`'s hits (`None`: a miss), traced in `bvh`, if they fit the budget.
-    pub(crate) fn record(
-        &self,
-        bvh: &Arc<EncodedScene>,
-        key: RowKey,
-        inputs: u64,
-        hits: &[Option<Hit>],
-    ) {
+    /// Records row `key`'s hits (as [`recorded`] gives them), traced in `bvh`, if they fit
+    /// the budget.
+    pub(crate) fn record(&self, bvh: &Arc<EncodedScene>, key: RowKey, inputs: u64, hits: Vec<Hit>) {
+        let bytes = hits.len() * HIT_BYTES;
+        let row = Arc::new(Row {
+            inputs,
+            hits: hits.into_boxed_slice(),
+        });
         let Ok(mut s) = self.state.write() else {
             return;
         };
-        let bytes = hits.len() * HIT_BYTES;
         if s.bytes + bytes > self.budget {
             return;
         }
@@ -197,18 +196,7 @@ impl GatherHits {
         else {
             return;
         };
-        let hits = hits
-            .iter()
-            .map(|h| {
-                h.unwrap_or(Hit {
-                    t: 0.0,
-                    triangle: MISS,
-                    u: 0.0,
-                    v: 0.0,
-                })
-            })
-            .collect();
-        if let Some(old) = rows.insert(key, Arc::new(Row { inputs, hits })) {
+        if let Some(old) = rows.insert(key, row) {
             *used -= old.len() * HIT_BYTES;
         }
         *used += bytes;
@@ -223,6 +211,17 @@ impl GatherHits {
         };
         c.fetch_add(rays as u64, Ordering::Relaxed);
     }
+}
+
+/// A traced ray's hit as a row records it (a miss as a hit on a triangle no scene has).
+#[inline]
+pub(crate) fn recorded(hit: Option<Hit>) -> Hit {
+    hit.unwrap_or(Hit {
+        t: 0.0,
+        triangle: MISS,
+        u: 0.0,
+        v: 0.0,
+    })
 }
 
 /// A 64-bit hash of a stream of words (multiply, xor-shift per word; a final mix), for

@@ -4,7 +4,7 @@
 use luxbake_bvh::{Hit, Ray, TriangleAttributes};
 
 use crate::backend::offset_origin;
-use crate::cpu::hits::{Row, RowKey, WordHash};
+use crate::cpu::hits::{Row, RowKey, WordHash, recorded};
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
@@ -102,8 +102,8 @@ pub(crate) fn gather_sums(
 pub(crate) enum Hits<'a> {
     /// Traced.
     Trace,
-    /// Traced, and pushed here in ray order (`None`: a miss).
-    Record(&'a mut Vec<Option<Hit>>),
+    /// Traced, and pushed here in ray order ([`recorded`]).
+    Record(Vec<Hit>),
     /// Replayed from a recorded row, from its ray `.1` on.
     Replay(&'a Row, usize),
 }
@@ -154,8 +154,8 @@ impl GatherChunk {
                     traced.push(scene.closest_hit(&ray, 0.0, f32::INFINITY, trav));
                 }
             }
-            if let Hits::Record(recorded) = hits {
-                recorded.extend_from_slice(traced);
+            if let Hits::Record(row) = hits {
+                row.extend(traced.iter().map(|&h| recorded(h)));
             }
         }
         lookups.clear();
@@ -396,8 +396,6 @@ pub(crate) struct GatherScratch {
     pub(crate) chunks: [GatherChunk; 2],
     /// Per texel of `texels`, its sum.
     pub(crate) sums: Vec<[f32; 3]>,
-    /// The row's hits while they are recorded ([`crate::cpu::hits`]).
-    pub(crate) recorded: Vec<Option<Hit>>,
 }
 
 /// Row `[layer, x0, y, width]`'s key among the recorded gather rows and the hash of its
@@ -455,7 +453,6 @@ pub(crate) fn gather_row(
         at,
         chunks,
         sums,
-        recorded,
     } = scratch;
     texels.clear();
     at.clear();
@@ -508,16 +505,13 @@ pub(crate) fn gather_row(
         .and_then(|(c, (key, inputs))| c.row(&scene.bvh, key, *inputs, rays));
     let mut hits = match (&row, cache) {
         (Some(row), _) => Hits::Replay(row, 0),
-        (None, Some(c)) if c.has_room(rays) => {
-            recorded.clear();
-            Hits::Record(recorded)
-        }
+        (None, Some(c)) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
         _ => Hits::Trace,
     };
     gather_sums(scene, reflected, trav, sampler, texels, &mut hits, chunks, sums);
     if let Some(c) = cache {
-        if let (Hits::Record(recorded), Some((key, inputs))) = (hits, keyed) {
-            c.record(&scene.bvh, key, inputs, recorded);
+        if let (Hits::Record(row), Some((key, inputs))) = (hits, keyed) {
+            c.record(&scene.bvh, key, inputs, row);
         }
         c.count(rays, row.is_some());
     }
