@@ -294,6 +294,16 @@ pub fn run(args: &Args) -> Result<(), String> {
             dir.display()
         );
     }
+    if let AnyBackend::Cpu(cpu) = &backend
+        && let Some(h) = cpu.gather_hit_stats()
+    {
+        println!(
+            "gather hits kept:   {:.1} MB; rays replayed {}, traced {}",
+            h.bytes as f64 / 1e6,
+            h.replayed,
+            h.traced
+        );
+    }
     Ok(())
 }
 
