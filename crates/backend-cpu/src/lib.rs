@@ -24,8 +24,9 @@ use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneDat
 use luxbake::bake::{BakeError, BakeOutput};
 use std::sync::Arc;
 
-use luxbake::cpu::{CpuScene, GatherHitStats, GatherHits, View};
+use luxbake::cpu::{CpuScene, GatherHitStats, GatherHits, GuideCache, View};
 use luxbake::graph::TexDesc;
+use luxbake::program::Program;
 use luxbake::scene::Scene;
 
 /// `scene` baked on a new [`CpuBackend`] at its own settings, without progress reports.
@@ -95,6 +96,12 @@ pub struct CpuTexture(usize);
 #[derive(Debug, Default)]
 pub struct CpuBackend {
     textures: Vec<(TexDesc, Vec<f32>)>,
+    /// Per texture, what identifies its texels ([`luxbake::cpu::texels_id`]) once a
+    /// denoiser pass asked, until it is written again.
+    ids: Vec<Option<u64>>,
+    /// The denoiser's chart tests, kept from pass to pass and bake to bake
+    /// ([`luxbake::cpu::GuideMasks`]; at most [`GuideCache::KEEP`], 4 bytes per texel each).
+    guides: GuideCache,
     /// Gather hits kept across bakes ([`CpuBackend::keep_gather_hits`]).
     hits: Option<Arc<GatherHits>>,
 }
@@ -162,6 +169,7 @@ impl GpuBackend for CpuBackend {
                 layers: desc.layers,
             })?;
         self.textures.push((desc.clone(), vec![0.0; n]));
+        self.ids.push(None);
         Ok(CpuTexture(self.textures.len() - 1))
     }
 
@@ -185,6 +193,7 @@ impl GpuBackend for CpuBackend {
         }
         let start = layer as usize * per_layer;
         data[start..start + per_layer].copy_from_slice(texels);
+        self.ids[texture.0] = None;
         Ok(())
     }
 
@@ -207,6 +216,7 @@ impl GpuBackend for CpuBackend {
 
     fn release(&mut self) -> Result<(), CpuError> {
         self.textures.clear();
+        self.ids.clear();
         Ok(())
     }
 
@@ -219,21 +229,38 @@ impl GpuBackend for CpuBackend {
                 .ok_or(CpuError::UnknownTexture(out_index))?;
             (d.clone(), std::mem::take(data))
         };
+        // The denoiser's passes read their taps' chart tests from the kept masks of the
+        // position map: what identifies its texels is hashed once after each upload.
+        if matches!(call.program, Program::Variance | Program::Atrous) {
+            let names = call.program.signature().reads;
+            for (slot, r) in call.reads.iter().enumerate() {
+                if names.get(slot) == Some(&"position") && r.0 != out_index {
+                    let (d, data) = self.get(r)?;
+                    if self.ids[r.0].is_none() {
+                        self.ids[r.0] = Some(luxbake::cpu::texels_id(d.size, d.layers, data));
+                    }
+                }
+            }
+        }
         let result = (|| {
             let mut views = Vec::with_capacity(call.reads.len());
+            let mut ids = Vec::with_capacity(call.reads.len());
             for r in call.reads {
                 let (d, data) = self.get(r)?;
                 views.push(View::new(data, d.size, d.layers));
+                ids.push(self.ids.get(r.0).copied().flatten());
             }
-            luxbake::cpu::run(call, &views, &desc, &mut out).map_err(|reason| {
-                CpuError::BadBindings {
+            luxbake::cpu::run_with(call, &views, &desc, &mut out, Some((&self.guides, &ids)))
+                .map_err(|reason| CpuError::BadBindings {
                     pass: call.label,
                     reason,
-                }
-            })
+                })
         })();
         if let Some((_, data)) = self.textures.get_mut(out_index) {
             *data = out;
+        }
+        if let Some(id) = self.ids.get_mut(out_index) {
+            *id = None;
         }
         result
     }

@@ -31,6 +31,9 @@ pub(crate) struct Ctx<'a> {
     pub(crate) trav: Trav,
     /// The tile.
     pub(crate) tile: TileParams,
+    /// The denoiser's chart tests kept by the backend, and per read slot what identifies its
+    /// texels ([`GuideCache`]).
+    pub(crate) guides: Option<(&'a GuideCache, &'a [Option<u64>])>,
 }
 
 /// How a pass is prepared for one dispatch from its parameter words. A pass whose state is
@@ -78,6 +81,14 @@ impl<'a> Ctx<'a> {
     #[inline]
     pub(crate) fn maps<const N: usize>(&self) -> [View<'a>; N] {
         std::array::from_fn(|i| self.views[i])
+    }
+
+    /// The chart tests of the taps `step` texels apart ([`GuideMasks`]) of the position map
+    /// in read slot `slot`, when the backend keeps them and knows that map's texels.
+    pub(crate) fn guide_masks(&self, slot: usize, chart: Chart) -> Option<Arc<GuideMasks>> {
+        let (cache, ids) = self.guides?;
+        let id = (*ids.get(slot)?)?;
+        Some(cache.masks(id, *self.views.get(slot)?, chart))
     }
 }
 
@@ -546,6 +557,8 @@ pub(crate) struct Guide<'a> {
     /// When the three maps have one shape (every dispatch's do): the centre's offset in
     /// them, from which a tap's is a sum ([`Guide::tap`]).
     pub(crate) centre: Option<usize>,
+    /// The centre's chart tests from [`GuideMasks`] ([`Guide::with_masks`]).
+    pub(crate) mask: Option<u32>,
 }
 
 impl<'a> Guide<'a> {
@@ -572,7 +585,42 @@ impl<'a> Guide<'a> {
             centre: (src.same_shape(&pos) && src.same_shape(&nrm))
                 .then(|| src.index(at.layer, at.x, at.y))
                 .flatten(),
+            mask: None,
         })
+    }
+
+    /// The guide with the centre's chart tests from `masks` (made for this guide's position
+    /// map and `[reach_min, reach]` at the step of the taps asked for), when it has them.
+    #[inline]
+    pub(crate) fn with_masks(mut self, masks: Option<&GuideMasks>, at: Texel) -> Guide<'a> {
+        if let (Some(m), Some(_)) = (masks, self.centre) {
+            self.mask = m.at(at);
+        }
+        self
+    }
+
+    /// Tap `k` of the 5 × 5 (rows outer, `k = 5·row + column`) at `offset` texels:
+    /// [`Guide::tap`], its chart test read from the centre's mask when there is one.
+    #[inline(always)]
+    pub(crate) fn tap_k(&self, k: usize, offset: [i64; 2]) -> Option<([f32; 4], f32)> {
+        let (Some(mask), Some(c)) = (self.mask, self.centre) else {
+            return self.tap(offset);
+        };
+        if mask & (1 << k) == 0 {
+            return None;
+        }
+        // In the layer (the mask says so), the three maps of one shape.
+        let i =
+            Some((c as i64 + 4 * (offset[1] * i64::from(self.src.size[0]) + offset[0])) as usize);
+        let t = self.src.at(i);
+        if t[3] <= 0.5 {
+            return None;
+        }
+        let nt = self.nrm.at(i);
+        if nt[3] != self.object {
+            return None;
+        }
+        Some((t, dot(self.n, xyz(nt))))
     }
 
     /// The tap at `offset` texels: its value and `n̂·nₜ` (the tap's normal as stored, unit)
@@ -616,6 +664,173 @@ impl<'a> Guide<'a> {
         }
         // The G-buffer's normals are unit: used as stored (module docs of `crate::cpu`).
         Some((t, dot(self.n, xyz(nt))))
+    }
+}
+
+/// The chart test's parameters ([`Guide::tap`]): the taps' step and `[reach_min, reach]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Chart {
+    pub(crate) step: i64,
+    pub(crate) reach: [f32; 2],
+}
+
+impl Chart {
+    /// The parameters as bits, the nearest bound cleared where no tap reaches it (a step of
+    /// 1: every offset within 2 texels).
+    fn key(self) -> [u64; 3] {
+        // With no offset beyond 2 texels the test is `d² ≥ reach_min²·0`: true whatever a
+        // finite `reach_min` is.
+        let nearest = self.reach[0] * self.reach[0];
+        let reach_min = if self.step.abs() <= 1 && nearest.is_finite() {
+            0.0
+        } else {
+            self.reach[0]
+        };
+        [
+            self.step as u64,
+            u64::from(reach_min.to_bits()),
+            u64::from(self.reach[1].to_bits()),
+        ]
+    }
+}
+
+/// Per texel of a position map, which of the 25 taps `step·(i, j)`, `i, j ∈ −2..=2` (bit
+/// `5·(j + 2) + i + 2`) lie in the layer and pass the chart test of the denoiser's guide (the
+/// module docs of [`crate::cpu`]: a tap's distance within its offset's shell) — the part
+/// of a tap's test that reads the tap's position. The denoiser's passes read a tap's position
+/// only for it, so with the bits they skip that read (a bake of a room whose masks are kept:
+/// the denoiser 0.77× on the CPU), and test the rest (the tap's validity, its object, its normal) as before: the same taps, bit
+/// for bit. Texels whose position is not valid have none (their guide tests its taps itself).
+#[derive(Debug)]
+pub struct GuideMasks {
+    size: [u32; 2],
+    layers: u32,
+    bits: Vec<u32>,
+}
+
+impl GuideMasks {
+    /// The masks of `pos` for `chart`.
+    pub(crate) fn new(pos: View<'_>, chart: Chart) -> GuideMasks {
+        let [w, h] = pos.size;
+        let reach2 = chart.reach[1] * chart.reach[1];
+        let reach_min2 = chart.reach[0] * chart.reach[0];
+        // Per tap: its offset, and the bounds of `Guide::tap`'s test, computed as it does.
+        let taps: [([i64; 2], f32, f32); 25] = std::array::from_fn(|k| {
+            let o = [
+                (k as i64 % 5 - 2) * chart.step,
+                (k as i64 / 5 - 2) * chart.step,
+            ];
+            let o2 = (o[0] * o[0] + o[1] * o[1]) as f32;
+            let m = (o[0].abs().max(o[1].abs()) - 2).max(0);
+            (o, reach2 * o2, reach_min2 * (m * m) as f32)
+        });
+        let row_floats = 4 * w as usize;
+        let rows = pos.layers as usize * h as usize;
+        let mut bits = vec![0u32; rows * w as usize];
+        if row_floats == 0 || pos.data.len() < rows * row_floats {
+            return GuideMasks {
+                size: pos.size,
+                layers: pos.layers,
+                bits,
+            };
+        }
+        bits.par_chunks_mut(w as usize)
+            .enumerate()
+            .for_each(|(r, row)| {
+                let (layer, y) = (r / h as usize, (r % h as usize) as i64);
+                let layer_start = layer * h as usize * row_floats;
+                for (x, out) in (0..i64::from(w)).zip(row.iter_mut()) {
+                    let c = layer_start + y as usize * row_floats + 4 * x as usize;
+                    if pos.data[c + 3] <= 0.5 {
+                        continue;
+                    }
+                    let p = [pos.data[c], pos.data[c + 1], pos.data[c + 2]];
+                    let mut m = 0u32;
+                    for (k, &(o, hi, lo)) in taps.iter().enumerate() {
+                        let (tx, ty) = (x + o[0], y + o[1]);
+                        if tx < 0 || ty < 0 || tx >= i64::from(w) || ty >= i64::from(h) {
+                            continue;
+                        }
+                        let t = layer_start + ty as usize * row_floats + 4 * tx as usize;
+                        // As `Guide::tap` tests it.
+                        let d = sub([pos.data[t], pos.data[t + 1], pos.data[t + 2]], p);
+                        let d2 = dot(d, d);
+                        if (o[0] != 0 || o[1] != 0) && !(d2 <= hi && d2 >= lo) {
+                            continue;
+                        }
+                        m |= 1 << k;
+                    }
+                    *out = m;
+                }
+            });
+        GuideMasks {
+            size: pos.size,
+            layers: pos.layers,
+            bits,
+        }
+    }
+
+    /// Texel `at`'s bits; `None` outside the map or where its position is not valid (the
+    /// guide then tests its taps itself).
+    #[inline]
+    pub(crate) fn at(&self, at: Texel) -> Option<u32> {
+        if at.layer >= self.layers || at.x >= self.size[0] || at.y >= self.size[1] {
+            return None;
+        }
+        let i = (at.layer as usize * self.size[1] as usize + at.y as usize) * self.size[0] as usize
+            + at.x as usize;
+        self.bits.get(i).copied().filter(|&m| m != 0)
+    }
+
+    /// Bytes of the bits.
+    pub fn bytes(&self) -> usize {
+        self.bits.len() * 4
+    }
+}
+
+/// The [`GuideMasks`] a backend keeps from dispatch to dispatch and bake to bake, per position
+/// map (named by what identifies its texels: the CPU backend's hash of an uploaded texture)
+/// and chart test: the variance pass and the first à-trous iteration share one, a lamp swap
+/// reuses all. Up to [`GuideCache::KEEP`] of them (the oldest goes first); 4 bytes per texel
+/// each (4.7 MB for `chairs_05` at 64 texels/m).
+#[derive(Debug, Default)]
+pub struct GuideCache {
+    kept: std::sync::Mutex<Vec<([u64; 4], Arc<GuideMasks>)>>,
+}
+
+impl GuideCache {
+    /// Masks kept at most: three steps of the default denoiser for two rooms, and more.
+    pub const KEEP: usize = 8;
+
+    /// The masks of map `id` (its texels `pos`) for `chart`, made when not kept.
+    pub(crate) fn masks(&self, id: u64, pos: View<'_>, chart: Chart) -> Arc<GuideMasks> {
+        let [a, b, c] = chart.key();
+        let key = [id, a, b, c];
+        let found = self.kept.lock().ok().and_then(|k| {
+            k.iter()
+                .find(|(k, _)| *k == key)
+                .map(|(_, m)| Arc::clone(m))
+        });
+        if let Some(m) = found {
+            return m;
+        }
+        let m = Arc::new(GuideMasks::new(pos, chart));
+        if let Ok(mut k) = self.kept.lock()
+            && !k.iter().any(|(k, _)| *k == key)
+        {
+            if k.len() >= Self::KEEP {
+                k.remove(0);
+            }
+            k.push((key, Arc::clone(&m)));
+        }
+        m
+    }
+
+    /// Bytes of the masks kept.
+    pub fn bytes(&self) -> usize {
+        self.kept
+            .lock()
+            .map_or(0, |k| k.iter().map(|(_, m)| m.bytes()).sum())
     }
 }
 

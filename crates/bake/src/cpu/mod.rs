@@ -107,7 +107,7 @@ pub(crate) mod kernel;
 
 pub use crate::exact::{basis, guard, normalize};
 pub use hits::{GatherHitStats, GatherHits};
-pub use kernel::{CpuScene, Frame, View, cosine_direction, sin_cos_turns};
+pub use kernel::{CpuScene, Frame, GuideCache, GuideMasks, View, cosine_direction, sin_cos_turns};
 use kernel::{Ctx, traversal};
 
 /// Runs one dispatch of a pass — its CPU reference — over the dispatch's tile: `reads` are its
@@ -120,6 +120,33 @@ pub fn run<T: PartialEq>(
     write: &TexDesc,
     out: &mut [f32],
 ) -> Result<(), String> {
+    run_with(call, reads, write, out, None)
+}
+
+/// What identifies a texture's texels for [`run_with`]: a 64-bit hash of its size, layers
+/// and every float's bits.
+pub fn texels_id(size: [u32; 2], layers: u32, texels: &[f32]) -> u64 {
+    let mut h = hits::WordHash::new();
+    for w in [size[0], size[1], layers] {
+        h.add(w);
+    }
+    for v in texels {
+        h.add(v.to_bits());
+    }
+    h.finish()
+}
+
+/// [`run`], with the [`GuideCache`] the backend keeps and, per read slot, what identifies its
+/// texels (`None`: unknown; a backend's hash of an uploaded texture that no pass has written
+/// since): the denoiser's passes then read their taps' chart tests from it ([`GuideMasks`])
+/// instead of testing each tap's position, with the same result bit for bit.
+pub fn run_with<T: PartialEq>(
+    call: &Dispatch<'_, T, CpuScene>,
+    reads: &[View<'_>],
+    write: &TexDesc,
+    out: &mut [f32],
+    guides: Option<(&GuideCache, &[Option<u64>])>,
+) -> Result<(), String> {
     let sizes: Vec<_> = reads.iter().map(|v| (v.size, v.layers)).collect();
     call.check((write.size, write.layers), &sizes, call.scene.layer_size)?;
     let ctx = Ctx {
@@ -127,6 +154,7 @@ pub fn run<T: PartialEq>(
         views: reads,
         trav: traversal(call.bvh),
         tile: call.tile,
+        guides,
     };
     let shape = [4 * write.size[0] as usize, write.size[1] as usize];
     run_on_cpu(call.program, call.params, &ctx, out, shape);
@@ -652,11 +680,11 @@ mod denoiser_tests {
                 let s = view(&src, size);
                 match params {
                     Params::Variance(p) => {
-                        variance = apply(size, |at| variance_texel([s, pos, nrm], p, at));
+                        variance = apply(size, |at| variance_texel([s, pos, nrm], p, None, at));
                     }
                     Params::Atrous(p) => {
                         let v = view(&variance, size);
-                        out = apply(size, |at| atrous_texel([s, v, pos, nrm], p, at));
+                        out = apply(size, |at| atrous_texel([s, v, pos, nrm], p, None, at));
                     }
                     other => panic!("{other:?}"),
                 }
@@ -1027,5 +1055,82 @@ mod denoiser_tests {
             }
         }
         assert_eq!(compared, 169);
+    }
+}
+
+#[cfg(test)]
+mod guide_mask_tests {
+    use crate::backend::Limits;
+    use crate::bake::Room;
+    use crate::cpu::kernel::*;
+    use crate::program::AtrousConfig;
+    use crate::scene::{Quality, Scene, Settings};
+
+    /// The kept chart tests ([`GuideMasks`]) give every tap of every texel what `Guide::tap`
+    /// gives — value and cosine bit for bit, or none — at every step the denoiser uses and
+    /// beyond, on a furnished room's G-buffer (charts side by side, contacts, chart edges).
+    #[test]
+    fn the_kept_chart_tests_give_the_taps_the_guide_gives() {
+        let settings = Settings {
+            texels_per_metre: 12.0,
+            ..Settings::preset(Quality::Default)
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        let g = &room.gbuffer;
+        let (size, layers) = (g.layer_size, g.layers);
+        let pos = View::new(&g.position, size, layers);
+        let nrm = View::new(&g.normal, size, layers);
+        // The G-buffer's positions as the filtered map: valid where the G-buffer is.
+        let src = pos;
+        let config = AtrousConfig::new(3, 1.0 / 12.0);
+        let (mut same, mut taken, mut charted) = (0u64, 0u64, 0u64);
+        for step in [1i64, 2, 4, 8] {
+            for reach in [[config.reach_min(), config.reach()], [0.0, config.reach()]] {
+                let masks = GuideMasks::new(pos, Chart { step, reach });
+                for layer in 0..layers {
+                    for y in 0..size[1] {
+                        for x in 0..size[0] {
+                            let at = Texel { layer, x, y };
+                            let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
+                                continue;
+                            };
+                            let kept = Guide::new([src, pos, nrm], reach, at)
+                                .expect("guide")
+                                .with_masks(Some(&masks), at);
+                            for k in 0..25usize {
+                                let o = [(k as i64 % 5 - 2) * step, (k as i64 / 5 - 2) * step];
+                                let bits = |t: Option<([f32; 4], f32)>| {
+                                    t.map(|(v, c)| (v.map(f32::to_bits), c.to_bits()))
+                                };
+                                let want = guide.tap(o);
+                                assert_eq!(bits(kept.tap_k(k, o)), bits(want), "{at:?} {o:?}");
+                                same += 1;
+                                taken += u64::from(want.is_some());
+                                // In the layer and valid, yet off the chart.
+                                let (tx, ty) = (i64::from(x) + o[0], i64::from(y) + o[1]);
+                                let inside = tx >= 0
+                                    && ty >= 0
+                                    && tx < i64::from(size[0])
+                                    && ty < i64::from(size[1]);
+                                if inside
+                                    && pos.fetch(Texel {
+                                        layer,
+                                        x: tx as u32,
+                                        y: ty as u32,
+                                    })[3]
+                                        > 0.5
+                                    && kept.mask.is_some_and(|m| m & (1 << k) == 0)
+                                {
+                                    charted += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        println!("{same} taps compared, {taken} taken, {charted} rejected by the chart test");
+        assert!(taken > 100_000 && charted > 1_000 && same > taken);
     }
 }

@@ -1,17 +1,38 @@
 //! The CPU reference of pass `atrous` (the semantics the shaders mirror).
 
-use crate::contract::B3;
+use std::sync::Arc;
+
+use crate::contract::{B3, ParamBlock};
 use crate::cpu::kernel::*;
 
 use super::AtrousParams;
 
-/// One à-trous iteration for one dispatch.
-pub(crate) type Pass = AtrousParams;
+/// One à-trous iteration for one dispatch: its parameters, and the chart tests of its taps
+/// when the backend keeps them ([`GuideMasks`]).
+pub(crate) struct Pass {
+    params: AtrousParams,
+    masks: Option<Arc<GuideMasks>>,
+}
 
-impl TexelPass for AtrousParams {
+impl Prepare for Pass {
+    fn prepare(words: &[u32], ctx: &Ctx<'_>) -> Pass {
+        let params = AtrousParams::from_words(words);
+        let chart = Chart {
+            step: i64::from(params.step),
+            reach: [params.reach_min, params.reach],
+        };
+        Pass {
+            params,
+            // Read slot 2 is the position map.
+            masks: ctx.guide_masks(2, chart),
+        }
+    }
+}
+
+impl TexelPass for Pass {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        atrous_texel(ctx.maps(), *self, at)
+        atrous_texel(ctx.maps(), self.params, self.masks.as_deref(), at)
     }
 }
 
@@ -19,6 +40,7 @@ impl TexelPass for AtrousParams {
 pub(crate) fn atrous_texel(
     [src, variance, pos, nrm]: [View<'_>; 4],
     params: AtrousParams,
+    masks: Option<&GuideMasks>,
     at: Texel,
 ) -> [f32; 4] {
     let c = src.fetch(at);
@@ -30,6 +52,7 @@ pub(crate) fn atrous_texel(
     let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
         return kept;
     };
+    let guide = guide.with_masks(masks, at);
     let scale = params.variance_scale * variance.fetch(at)[0];
     let step = i64::from(params.step);
     let mut sum = [0.0f32; 3];
@@ -37,7 +60,7 @@ pub(crate) fn atrous_texel(
     // A tap on the surface facing the centre's side.
     let tap = |a: usize, b: usize| {
         let o = [(a as i64 - 2) * step, (b as i64 - 2) * step];
-        guide.tap(o).filter(|&(_, cos)| cos > 0.0)
+        guide.tap_k(5 * b + a, o).filter(|&(_, cos)| cos > 0.0)
     };
     // Taps in mirrored pairs `o`, `−o` (the centre alone last): a pair counts only when both
     // of its taps are on the surface, so the kernel stays point-symmetric at a chart's edge

@@ -1,17 +1,38 @@
 //! The CPU reference of pass `variance` (the semantics the shaders mirror).
 
-use crate::contract::BLUR_NORMAL_COS;
+use std::sync::Arc;
+
+use crate::contract::{BLUR_NORMAL_COS, ParamBlock};
 use crate::cpu::kernel::*;
 
 use super::VarianceParams;
 
-/// The variance estimate for one dispatch.
-pub(crate) type Pass = VarianceParams;
+/// The variance estimate for one dispatch: its parameters, and the chart tests of its taps
+/// when the backend keeps them ([`GuideMasks`]).
+pub(crate) struct Pass {
+    params: VarianceParams,
+    masks: Option<Arc<GuideMasks>>,
+}
 
-impl TexelPass for VarianceParams {
+impl Prepare for Pass {
+    fn prepare(words: &[u32], ctx: &Ctx<'_>) -> Pass {
+        let params = VarianceParams::from_words(words);
+        let chart = Chart {
+            step: 1,
+            reach: [0.0, params.reach],
+        };
+        Pass {
+            params,
+            // Read slot 1 is the position map.
+            masks: ctx.guide_masks(1, chart),
+        }
+    }
+}
+
+impl TexelPass for Pass {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        variance_texel(ctx.maps(), *self, at)
+        variance_texel(ctx.maps(), self.params, self.masks.as_deref(), at)
     }
 }
 
@@ -19,18 +40,24 @@ impl TexelPass for VarianceParams {
 pub(crate) const VARIANCE_DIRECTIONS: [[i64; 2]; 4] = [[1, 0], [0, 1], [1, 1], [1, -1]];
 
 /// The noise variance of the luminance at one texel (see the module docs).
-pub(crate) fn variance_texel(maps: [View<'_>; 3], params: VarianceParams, at: Texel) -> [f32; 4] {
+pub(crate) fn variance_texel(
+    maps: [View<'_>; 3],
+    params: VarianceParams,
+    masks: Option<&GuideMasks>,
+    at: Texel,
+) -> [f32; 4] {
     if maps[0].fetch(at)[3] <= 0.5 {
         return [0.0; 4];
     }
     let Some(guide) = Guide::new(maps, [0.0, params.reach], at) else {
         return [0.0, 0.0, 0.0, 1.0];
     };
+    let guide = guide.with_masks(masks, at);
     // The 5×5 window, row by row: the luminance of each tap on the surface.
     let mut window = [None; 25];
     for (k, w) in window.iter_mut().enumerate() {
         let o = [k as i64 % 5 - 2, k as i64 / 5 - 2];
-        *w = match guide.tap(o) {
+        *w = match guide.tap_k(k, o) {
             Some((t, cos)) if cos >= BLUR_NORMAL_COS => {
                 Some(luminance(xyz(t)) * params.luminance_scale)
             }
