@@ -61,17 +61,23 @@ fn backend_limits(b: &CpuBackend) -> luxbake::backend::Limits {
     luxbake::GpuBackend::limits(b)
 }
 
+/// A backend that keeps gather hits, `scene`'s room prepared for it and baked once (what it
+/// recorded: the stats).
+fn baked_once(scene: &Scene) -> (CpuBackend, Room, BakeOutput, luxbake::cpu::GatherHitStats) {
+    let settings = &scene.settings;
+    let mut backend = CpuBackend::new();
+    backend.keep_gather_hits(luxbake_backend_cpu::GATHER_HITS_BUDGET);
+    let room = Room::prepare(scene, settings, backend_limits(&backend), &mut |_| {}).expect("room");
+    let first = bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {}).expect("bake");
+    let recorded = backend.gather_hit_stats().expect("kept");
+    (backend, room, first, recorded)
+}
+
 #[test]
 fn a_swap_replays_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
     let scene = scene(16.0);
     let settings = &scene.settings;
-    let mut backend = CpuBackend::new();
-    backend.keep_gather_hits(luxbake_backend_cpu::GATHER_HITS_BUDGET);
-    let room =
-        Room::prepare(&scene, settings, backend_limits(&backend), &mut |_| {}).expect("room");
-
-    let first = bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {}).expect("bake");
-    let recorded = backend.gather_hit_stats().expect("kept");
+    let (mut backend, room, first, recorded) = baked_once(&scene);
     assert_eq!(recorded.replayed, 0);
     assert!(recorded.traced > 0);
     assert_eq!(
@@ -140,12 +146,7 @@ fn another_room_traces_its_own_rays_and_a_zero_budget_records_nothing() {
 fn rows_whose_texels_moved_are_traced_again() {
     let scene = scene(16.0);
     let settings = &scene.settings;
-    let mut backend = CpuBackend::new();
-    backend.keep_gather_hits(luxbake_backend_cpu::GATHER_HITS_BUDGET);
-    let room =
-        Room::prepare(&scene, settings, backend_limits(&backend), &mut |_| {}).expect("room");
-    bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {}).expect("bake");
-    let recorded = backend.gather_hit_stats().expect("kept");
+    let (mut backend, room, _, recorded) = baked_once(&scene);
 
     // Every 50th valid texel 1 mm higher: its rays start elsewhere.
     let mut moved = room.clone();

@@ -612,15 +612,20 @@ impl<'a> Guide<'a> {
         // In the layer (the mask says so), the three maps of one shape.
         let i =
             Some((c as i64 + 4 * (offset[1] * i64::from(self.src.size[0]) + offset[0])) as usize);
-        let t = self.src.at(i);
+        let (t, nt) = self.of_object(i, i)?;
+        Some((t, dot(self.n, xyz(nt))))
+    }
+
+    /// The tap's value (at `is` in the filtered map) and its stored normal (at `inr`) when it
+    /// is valid and of the centre's object.
+    #[inline(always)]
+    fn of_object(&self, is: Option<usize>, inr: Option<usize>) -> Option<([f32; 4], [f32; 4])> {
+        let t = self.src.at(is);
         if t[3] <= 0.5 {
             return None;
         }
-        let nt = self.nrm.at(i);
-        if nt[3] != self.object {
-            return None;
-        }
-        Some((t, dot(self.n, xyz(nt))))
+        let nt = self.nrm.at(inr);
+        (nt[3] == self.object).then_some((t, nt))
     }
 
     /// The tap at `offset` texels: its value and `n̂·nₜ` (the tap's normal as stored, unit)
@@ -647,14 +652,7 @@ impl<'a> Guide<'a> {
                 self.nrm.index(self.layer, tx, ty),
             )
         };
-        let t = self.src.at(is);
-        if t[3] <= 0.5 {
-            return None;
-        }
-        let nt = self.nrm.at(inr);
-        if nt[3] != self.object {
-            return None;
-        }
+        let (t, nt) = self.of_object(is, inr)?;
         let d = sub(xyz(self.pos.at(ip)), self.p);
         let d2 = dot(d, d);
         let o2 = (offset[0] * offset[0] + offset[1] * offset[1]) as f32;
