@@ -416,6 +416,44 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
     );
     assert_eq!(records(&faulty), before);
     assert_eq!(records(&faulty), records(&serial));
+
+    // One worker through every row (`--all --jobs 1`): a room's later rows bake on the room
+    // and backend of the row before (the CPU backend replaying its gather hits and chart
+    // tests), and every row is byte-identical to the serial run's, whose rows each prepared
+    // their own room on a new backend.
+    let kept = dir.join("kept");
+    let o = output(&[
+        "catalogue",
+        "run",
+        &m,
+        "--all",
+        "--jobs",
+        "1",
+        "--out",
+        &kept.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
+    let mut reused = 0;
+    for (i, key) in keys.iter().enumerate() {
+        if broken_rows.contains(&i) {
+            continue;
+        }
+        assert_eq!(
+            row_files(&kept.join(key)),
+            row_files(&serial.join(key)),
+            "row {i}, its room kept"
+        );
+        // The row's host steps: a kept room's bake has no rasterisation of its own.
+        let timings =
+            std::fs::read_to_string(kept.join(key).join("timings.json")).expect("timings");
+        if !timings.contains("rasterise") {
+            reused += 1;
+        }
+    }
+    assert_eq!(
+        reused, 3,
+        "one row of each room baked on the room kept from the row before"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }
 

@@ -5,11 +5,13 @@ use std::path::{Component, Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use luxbake::bake::{BakeError, bake};
+use luxbake::GpuBackend;
+use luxbake::bake::{BakeError, Room, bake_room};
 use luxbake::scene::{Lamp, Scene};
 use luxbake::sources::scenefile::{from_file_patched, read_photometry};
 use luxbake_assets::export::{WebReport, export_web};
-use luxbake_backends::BackendKind;
+use luxbake_backend_cpu::GATHER_HITS_BUDGET;
+use luxbake_backends::{AnyBackend, BackendKind};
 use luxbake_output::write_bake;
 use serde_json::{Value, json};
 
@@ -64,6 +66,28 @@ pub(crate) fn error_record(out: &Path, key: &str) -> PathBuf {
 /// Bakes `row` into `out/<key>/` unless it is there and verifies. A permanent input error is
 /// recorded in `out/errors/<key>.json` (once: a row with a record fails again without baking).
 pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
+    run_row_keeping(row, out, &mut None, false)
+}
+
+/// The room a worker of [`run_all`] prepared for its last row and the backend that baked it.
+/// The worker's next row of the same room — the same objects at the same texel density, on
+/// the same backend — bakes on them without preparing the room again, and on the CPU backend
+/// replays the gather's hits and reuses the denoiser's chart tests (`luxbake::cpu`): the
+/// same files bit for bit as a row baked alone (`timings.json` aside).
+struct Kept {
+    kind: BackendKind,
+    room: Room,
+    backend: AnyBackend,
+}
+
+/// [`run_row`], on the room and backend in `kept` when they fit the row (else on new ones,
+/// left in `kept` when `keep` says more rows may follow).
+fn run_row_keeping(
+    row: &Row,
+    out: &Path,
+    kept: &mut Option<Kept>,
+    keep: bool,
+) -> Result<RowOutcome, Failure> {
     let retry = |what: &str, e: &dyn std::fmt::Display| {
         Failure::Retryable(format!("row {}: {what}: {e}", row.index))
     };
@@ -90,15 +114,60 @@ pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
         Ok(loaded) => loaded,
         Err(message) => return Err(record_error(row, out, &message)),
     };
-    let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
-    let output = match bake(&mut backend, &scene, &scene.settings, &mut |_| {}) {
-        Ok(output) => output,
+    let fits = kept.as_ref().is_some_and(|k| {
+        k.kind == kind
+            && k.room.scene.objects == scene.objects
+            && k.room.check(&scene.settings, k.backend.limits()).is_ok()
+    });
+    let start = std::time::Instant::now();
+    let mut room_timings = Vec::new();
+    if !fits {
+        *kept = None;
+        let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
+        if let (true, AnyBackend::Cpu(cpu)) = (keep, &mut backend) {
+            cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+        }
         // What the host work refuses (a setting out of range, maps over the backend's
         // limits, a BVH that cannot be built) fails the same way on every try: the row's
         // inputs are at fault, as for a file that does not load.
-        Err(BakeError::Prepare(e)) => return Err(record_error(row, out, &format!("bake: {e}"))),
-        Err(e) => return Err(retry("bake", &e)),
+        let room = match Room::prepare(&scene, &scene.settings, backend.limits(), &mut |_| {}) {
+            Ok(room) => room,
+            Err(e) => return Err(record_error(row, out, &format!("bake: {e}"))),
+        };
+        room_timings.clone_from(&room.timings);
+        *kept = Some(Kept {
+            kind,
+            room,
+            backend,
+        });
+    }
+    let Some(k) = kept.as_mut() else {
+        return Err(retry("bake", &"no room prepared"));
     };
+    let baked = bake_room(
+        &mut k.backend,
+        &k.room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |_| {},
+    );
+    let mut output = match baked {
+        Ok(output) => output,
+        Err(BakeError::Prepare(e)) => {
+            *kept = None;
+            return Err(record_error(row, out, &format!("bake: {e}")));
+        }
+        Err(e) => {
+            *kept = None;
+            return Err(retry("bake", &e));
+        }
+    };
+    if !keep {
+        *kept = None;
+    }
+    // As `luxbake::bake` reports a bake that prepared its room: its host steps first.
+    output.report.setup.splice(0..0, room_timings);
+    output.report.total_seconds = start.elapsed().as_secs_f64();
     let temp = out.join(format!(
         "{TEMP_PREFIX}{}-{}-{}",
         row.key,
@@ -125,8 +194,9 @@ pub fn run_all(rows: &[Row], out: &Path, jobs: usize) -> Result<u8, Failure> {
     std::thread::scope(|s| {
         for _ in 0..jobs.min(rows.len()) {
             s.spawn(|| {
+                let mut kept = None;
                 while let Some(row) = rows.get(next.fetch_add(1, Ordering::Relaxed)) {
-                    let code = match run_row(row, out) {
+                    let code = match run_row_keeping(row, out, &mut kept, true) {
                         Ok(outcome) => {
                             println!("{}", outcome.line(row));
                             0
