@@ -69,6 +69,11 @@ pub fn run_row(row: &Row, out: &Path) -> Result<RowOutcome, Failure> {
     run_row_keeping(row, out, &mut None, false)
 }
 
+/// The gather hits a worker of [`run_all`] keeps at most (`--jobs` workers each keep theirs):
+/// a quarter of the CLI's [`GATHER_HITS_BUDGET`], which holds `chairs_05`'s 75 MB at the
+/// default preset; the rows of a larger room trace what does not fit, as without it.
+const WORKER_HITS_BUDGET: usize = GATHER_HITS_BUDGET / 4;
+
 /// The room a worker of [`run_all`] prepared for its last row and the backend that baked it.
 /// The worker's next row of the same room — the same objects at the same texel density, on
 /// the same backend — bakes on them without preparing the room again, and on the CPU backend
@@ -125,7 +130,7 @@ fn run_row_keeping(
         *kept = None;
         let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
         if let (true, AnyBackend::Cpu(cpu)) = (keep, &mut backend) {
-            cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+            cpu.keep_gather_hits(WORKER_HITS_BUDGET);
         }
         // What the host work refuses (a setting out of range, maps over the backend's
         // limits, a BVH that cannot be built) fails the same way on every try: the row's
