@@ -1069,6 +1069,15 @@ mod guide_mask_tests {
     /// The kept chart tests ([`GuideMasks`]) give every tap of every texel what `Guide::tap`
     /// gives — value and cosine bit for bit, or none — at every step the denoiser uses and
     /// beyond, on a furnished room's G-buffer (charts side by side, contacts, chart edges).
+    /// The denoiser passes ask for the masks of the position map by read slot (2 for the
+    /// à-trous pass, 1 for the variance pass): their signatures put it there.
+    #[test]
+    fn the_denoiser_passes_read_the_position_map_where_they_ask_its_masks() {
+        use crate::program::Program;
+        assert_eq!(Program::Atrous.signature().reads[2], "position");
+        assert_eq!(Program::Variance.signature().reads[1], "position");
+    }
+
     #[test]
     fn the_kept_chart_tests_give_the_taps_the_guide_gives() {
         let settings = Settings {
