@@ -390,16 +390,19 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
     // A second full run bakes nothing and leaves the records as they were.
     let records = |out: &Path| row_files(&out.join("errors"));
     let before = records(&faulty);
-    let o = output(&[
-        "catalogue",
-        "run",
-        &m,
-        "--all",
-        "--jobs",
-        "2",
-        "--out",
-        &faulty.display().to_string(),
-    ]);
+    let run_all = |jobs: &str, out: &Path| {
+        output(&[
+            "catalogue",
+            "run",
+            &m,
+            "--all",
+            "--jobs",
+            jobs,
+            "--out",
+            &out.display().to_string(),
+        ])
+    };
+    let o = run_all("2", &faulty);
     assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
     let lines = text(&o.stdout);
     assert_eq!(
@@ -422,16 +425,7 @@ fn rows_killed_at_random_and_retried_end_as_a_clean_serial_run() {
     // tests), and every row is byte-identical to the serial run's, whose rows each prepared
     // their own room on a new backend.
     let kept = dir.join("kept");
-    let o = output(&[
-        "catalogue",
-        "run",
-        &m,
-        "--all",
-        "--jobs",
-        "1",
-        "--out",
-        &kept.display().to_string(),
-    ]);
+    let o = run_all("1", &kept);
     assert_eq!(o.status.code(), Some(3), "{}", text(&o.stderr));
     let mut reused = 0;
     for (i, key) in keys.iter().enumerate() {
