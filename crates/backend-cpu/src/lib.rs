@@ -131,6 +131,12 @@ impl CpuBackend {
         self.hits.as_ref().map(|h| h.stats())
     }
 
+    /// Bytes this backend keeps from bake to bake besides its textures: the gather hits
+    /// ([`CpuBackend::keep_gather_hits`]) and the denoiser's chart tests.
+    pub fn kept_bytes(&self) -> usize {
+        self.gather_hit_stats().map_or(0, |h| h.bytes) + self.guides.bytes()
+    }
+
     fn get(&self, t: &CpuTexture) -> Result<&(TexDesc, Vec<f32>), CpuError> {
         self.textures.get(t.0).ok_or(CpuError::UnknownTexture(t.0))
     }

@@ -17,7 +17,8 @@
 //! with the swap's host share (the CPU work before and around the passes: lamp reach, the
 //! lamp paths' pool, upload, read-back), how well the report's phases add up to its wall
 //! time, and the longest time its progress fraction ([`Progress::Work`]) stood still, as a
-//! share of its wall time.
+//! share of its wall time, and (CPU backend) what the backend keeps from bake to bake after
+//! the swap: its gather hits and the denoiser's chart tests, in MB.
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -114,6 +115,9 @@ struct Measured {
     /// The longest time the swap's progress fraction did not grow, over its wall time.
     swap_still: f64,
     dim: f64,
+    /// What the backend keeps from bake to bake after the swap, MB (the CPU backend's gather
+    /// hits and chart tests; NaN elsewhere).
+    kept: f64,
 }
 
 /// Host seconds of a bake run on a prepared room: its set-up steps (lamp reach and paths,
@@ -168,6 +172,10 @@ fn measure_once(
     let swap_still = still.max(swap - grew) / swap;
     let swap_cpu = cpu_seconds() - c;
     let phases = host_seconds(&out) + out.report.passes.iter().map(|p| p.seconds).sum::<f64>();
+    let kept = match &backend {
+        AnyBackend::Cpu(cpu) => cpu.kept_bytes() as f64 / 1e6,
+        _ => f64::NAN,
+    };
 
     let layers = bake_layers(&mut backend, &room, &swapped, settings, &mut |_| {})
         .map_err(|e| e.to_string())?;
@@ -193,6 +201,7 @@ fn measure_once(
             swap_phases: phases / out.report.total_seconds.max(1e-9),
             swap_still,
             dim,
+            kept,
         },
         renderer,
     ))
@@ -241,9 +250,12 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     );
     let _ = writeln!(
         md,
-        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] |"
+        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] | kept [MB] |"
     );
-    let _ = writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    let _ = writeln!(
+        md,
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+    );
     let mut rows = Vec::new();
     for name in &scenes {
         let scene = scene(name, &settings, args.lamp_model)?;
@@ -270,9 +282,15 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
             let first = med(|m| m.first).median;
             let ratio = |f: fn(&Measured) -> f64| med(f).median / first;
             let swap = med(|m| m.swap).median;
+            let kept = all.iter().map(|m| m.kept).fold(f64::NAN, f64::max);
+            let kept_mb = if kept.is_finite() {
+                format!("{kept:.1}")
+            } else {
+                "–".into()
+            };
             let _ = writeln!(
                 md,
-                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} |",
+                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} | {} |",
                 kind.name(),
                 ratio(|m| m.whole),
                 ratio(|m| m.direct),
@@ -282,6 +300,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 med(|m| m.swap_phases).median,
                 100.0 * med(|m| m.swap_still).median,
                 1e3 * med(|m| m.dim).median,
+                kept_mb,
             );
             rows.push(json!({
                 "scene": name, "backend": kind.name(), "renderer": renderer,
@@ -291,6 +310,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 "swap_phases_over_wall": med(|m| m.swap_phases).json(),
                 "swap_longest_still_over_wall": med(|m| m.swap_still).json(),
                 "dim_s": med(|m| m.dim).json(),
+                "kept_mb": if kept.is_finite() { json!(kept) } else { Value::Null },
             }));
         }
     }
