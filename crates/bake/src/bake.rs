@@ -86,9 +86,7 @@ pub fn bake<B: GpuBackend>(
     let start = Instant::now();
     let room = Room::prepare(scene, settings, backend.limits(), progress)?;
     let mut out = bake_room(backend, &room, &scene.lamps, settings, progress)?;
-    // This bake prepared its room: its host steps come first.
-    out.report.setup.splice(0..0, room.timings.iter().copied());
-    out.report.total_seconds = start.elapsed().as_secs_f64();
+    out.count_preparation(&room.timings, start);
     Ok(out)
 }
 

@@ -1,6 +1,7 @@
 //! What a bake reports: progress events, what it left out, timings, and its maps.
 
 use std::fmt;
+use std::time::Instant;
 
 use crate::gbuffer::GBuffer;
 use crate::graph::{BakeGraph, PassKind};
@@ -392,6 +393,15 @@ pub struct BakeOutput {
 }
 
 impl BakeOutput {
+    /// Counts the preparation of the room in the report of a bake that prepared it, as
+    /// [`crate::bake()`] does: the room's host steps `room_steps`
+    /// ([`crate::bake::Room::timings`]) first in [`BakeReport::setup`], and
+    /// [`BakeReport::total_seconds`] the wall time since `start`, before the preparation.
+    pub fn count_preparation(&mut self, room_steps: &[(&'static str, f64)], start: Instant) {
+        self.report.setup.splice(0..0, room_steps.iter().copied());
+        self.report.total_seconds = start.elapsed().as_secs_f64();
+    }
+
     /// The first texel of any stage of any object's maps that is not a finite, non-negative
     /// number, as `(object name, stage 1..=8, value)`; `None` — as every bake promises (no NaN
     /// or infinity reaches a map) — for tools and tests that check the promise.

@@ -63,12 +63,11 @@ struct State {
 }
 
 impl State {
-    /// The rows traced in `bvh`.
-    fn rows(&self, bvh: &Arc<EncodedScene>) -> Option<&Rows> {
+    /// Where the rows traced in `bvh` are.
+    fn room(&self, bvh: &Arc<EncodedScene>) -> Option<usize> {
         self.rooms
             .iter()
-            .find(|(b, _)| std::ptr::eq(b.as_ptr(), Arc::as_ptr(bvh)))
-            .map(|(_, rows)| rows)
+            .position(|(b, _)| std::ptr::eq(b.as_ptr(), Arc::as_ptr(bvh)))
     }
 }
 
@@ -149,7 +148,7 @@ impl GatherHits {
             }
             alive
         });
-        if s.rows(bvh).is_none() {
+        if s.room(bvh).is_none() {
             s.rooms.push((Arc::downgrade(bvh), HashMap::new()));
         }
     }
@@ -164,7 +163,7 @@ impl GatherHits {
         rays: usize,
     ) -> Option<Arc<Row>> {
         let s = self.state.read().ok()?;
-        let row = s.rows(bvh)?.get(key)?;
+        let row = s.rooms[s.room(bvh)?].1.get(key)?;
         (row.inputs == inputs && row.len() == rays).then(|| Arc::clone(row))
     }
 
@@ -189,17 +188,13 @@ impl GatherHits {
         if s.bytes + bytes > self.budget {
             return;
         }
-        let State { rooms, bytes: used } = &mut *s;
-        let Some((_, rows)) = rooms
-            .iter_mut()
-            .find(|(b, _)| std::ptr::eq(b.as_ptr(), Arc::as_ptr(bvh)))
-        else {
+        let Some(room) = s.room(bvh) else {
             return;
         };
-        if let Some(old) = rows.insert(key, row) {
-            *used -= old.len() * HIT_BYTES;
+        if let Some(old) = s.rooms[room].1.insert(key, row) {
+            s.bytes -= old.len() * HIT_BYTES;
         }
-        *used += bytes;
+        s.bytes += bytes;
     }
 
     /// Counts `rays` replayed or traced.

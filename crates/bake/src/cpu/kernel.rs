@@ -654,14 +654,42 @@ impl<'a> Guide<'a> {
         };
         let (t, nt) = self.of_object(is, inr)?;
         let d = sub(xyz(self.pos.at(ip)), self.p);
-        let d2 = dot(d, d);
-        let o2 = (offset[0] * offset[0] + offset[1] * offset[1]) as f32;
-        let m = (offset[0].abs().max(offset[1].abs()) - 2).max(0);
-        if o2 > 0.0 && !(d2 <= self.reach2 * o2 && d2 >= self.reach_min2 * (m * m) as f32) {
+        if !Shell::new(offset, self.reach2, self.reach_min2).holds(dot(d, d)) {
             return None;
         }
         // The G-buffer's normals are unit: used as stored (module docs of `crate::cpu`).
         Some((t, dot(self.n, xyz(nt))))
+    }
+}
+
+/// The chart test of a tap `offset` texels from the centre (module docs of [`crate::cpu`]:
+/// guide): the squared distances `[reach_min²·m², reach²·|o|²]`, `m = max(0, ‖o‖∞ − 2)`, its
+/// world position may lie at; the centre itself passes at any distance. One rule for
+/// [`Guide::tap`] and [`GuideMasks`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Shell {
+    centre: bool,
+    lo: f32,
+    hi: f32,
+}
+
+impl Shell {
+    /// The shell of `offset` for the squared reaches `reach2` and `reach_min2`.
+    #[inline(always)]
+    pub(crate) fn new(offset: [i64; 2], reach2: f32, reach_min2: f32) -> Shell {
+        let o2 = (offset[0] * offset[0] + offset[1] * offset[1]) as f32;
+        let m = (offset[0].abs().max(offset[1].abs()) - 2).max(0);
+        Shell {
+            centre: offset == [0, 0],
+            lo: reach_min2 * (m * m) as f32,
+            hi: reach2 * o2,
+        }
+    }
+
+    /// Whether a tap at squared distance `d2` from the centre lies in it.
+    #[inline(always)]
+    pub(crate) fn holds(self, d2: f32) -> bool {
+        self.centre || (d2 <= self.hi && d2 >= self.lo)
     }
 }
 
@@ -695,10 +723,11 @@ impl Chart {
 /// Per texel of a position map, which of the 25 taps `step·(i, j)`, `i, j ∈ −2..=2` (bit
 /// `5·(j + 2) + i + 2`) lie in the layer and pass the chart test of the denoiser's guide (the
 /// module docs of [`crate::cpu`]: a tap's distance within its offset's shell) — the part
-/// of a tap's test that reads the tap's position. The denoiser's passes read a tap's position
-/// only for it, so with the bits they skip that read (a bake of a room whose masks are kept:
-/// the denoiser 0.77× on the CPU), and test the rest (the tap's validity, its object, its normal) as before: the same taps, bit
-/// for bit. Texels whose position is not valid have none (their guide tests its taps itself).
+/// of a tap's test that reads the tap's position. The denoiser's passes read a
+/// tap's position only for it, so with the bits they skip that read (a bake of a room whose
+/// masks are kept: the denoiser 0.77× on the CPU), and test the rest (the tap's validity, its
+/// object, its normal) as before: the same taps, bit for bit. Texels whose position is not
+/// valid have none (their guide tests its taps itself).
 #[derive(Debug)]
 pub struct GuideMasks {
     size: [u32; 2],
@@ -712,15 +741,13 @@ impl GuideMasks {
         let [w, h] = pos.size;
         let reach2 = chart.reach[1] * chart.reach[1];
         let reach_min2 = chart.reach[0] * chart.reach[0];
-        // Per tap: its offset, and the bounds of `Guide::tap`'s test, computed as it does.
-        let taps: [([i64; 2], f32, f32); 25] = std::array::from_fn(|k| {
+        // Per tap: its offset and its shell.
+        let taps: [([i64; 2], Shell); 25] = std::array::from_fn(|k| {
             let o = [
                 (k as i64 % 5 - 2) * chart.step,
                 (k as i64 / 5 - 2) * chart.step,
             ];
-            let o2 = (o[0] * o[0] + o[1] * o[1]) as f32;
-            let m = (o[0].abs().max(o[1].abs()) - 2).max(0);
-            (o, reach2 * o2, reach_min2 * (m * m) as f32)
+            (o, Shell::new(o, reach2, reach_min2))
         });
         let row_floats = 4 * w as usize;
         let rows = pos.layers as usize * h as usize;
@@ -744,19 +771,16 @@ impl GuideMasks {
                     }
                     let p = [pos.data[c], pos.data[c + 1], pos.data[c + 2]];
                     let mut m = 0u32;
-                    for (k, &(o, hi, lo)) in taps.iter().enumerate() {
+                    for (k, &(o, shell)) in taps.iter().enumerate() {
                         let (tx, ty) = (x + o[0], y + o[1]);
                         if tx < 0 || ty < 0 || tx >= i64::from(w) || ty >= i64::from(h) {
                             continue;
                         }
                         let t = layer_start + ty as usize * row_floats + 4 * tx as usize;
-                        // As `Guide::tap` tests it.
                         let d = sub([pos.data[t], pos.data[t + 1], pos.data[t + 2]], p);
-                        let d2 = dot(d, d);
-                        if (o[0] != 0 || o[1] != 0) && !(d2 <= hi && d2 >= lo) {
-                            continue;
+                        if shell.holds(dot(d, d)) {
+                            m |= 1 << k;
                         }
-                        m |= 1 << k;
                     }
                     *out = m;
                 }

@@ -119,35 +119,34 @@ fn run_row_keeping(
         Ok(loaded) => loaded,
         Err(message) => return Err(record_error(row, out, &message)),
     };
-    let fits = kept.as_ref().is_some_and(|k| {
+    // The room and backend of the row before when they fit this row, else new ones.
+    let start = std::time::Instant::now();
+    let reused = kept.take().filter(|k| {
         k.kind == kind
             && k.room.scene.objects == scene.objects
             && k.room.check(&scene.settings, k.backend.limits()).is_ok()
     });
-    let start = std::time::Instant::now();
-    let mut room_timings = Vec::new();
-    if !fits {
-        *kept = None;
-        let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
-        if let (true, AnyBackend::Cpu(cpu)) = (keep, &mut backend) {
-            cpu.keep_gather_hits(WORKER_HITS_BUDGET);
+    let fresh = reused.is_none();
+    let k = match reused {
+        Some(k) => kept.insert(k),
+        None => {
+            let mut backend = luxbake_backends::open(kind).map_err(|e| retry("backend", &e))?;
+            if let (true, AnyBackend::Cpu(cpu)) = (keep, &mut backend) {
+                cpu.keep_gather_hits(WORKER_HITS_BUDGET);
+            }
+            // What the host work refuses (a setting out of range, maps over the backend's
+            // limits, a BVH that cannot be built) fails the same way on every try: the row's
+            // inputs are at fault, as for a file that does not load.
+            let room = match Room::prepare(&scene, &scene.settings, backend.limits(), &mut |_| {}) {
+                Ok(room) => room,
+                Err(e) => return Err(record_error(row, out, &format!("bake: {e}"))),
+            };
+            kept.insert(Kept {
+                kind,
+                room,
+                backend,
+            })
         }
-        // What the host work refuses (a setting out of range, maps over the backend's
-        // limits, a BVH that cannot be built) fails the same way on every try: the row's
-        // inputs are at fault, as for a file that does not load.
-        let room = match Room::prepare(&scene, &scene.settings, backend.limits(), &mut |_| {}) {
-            Ok(room) => room,
-            Err(e) => return Err(record_error(row, out, &format!("bake: {e}"))),
-        };
-        room_timings.clone_from(&room.timings);
-        *kept = Some(Kept {
-            kind,
-            room,
-            backend,
-        });
-    }
-    let Some(k) = kept.as_mut() else {
-        return Err(retry("bake", &"no room prepared"));
     };
     let baked = bake_room(
         &mut k.backend,
@@ -158,21 +157,18 @@ fn run_row_keeping(
     );
     let mut output = match baked {
         Ok(output) => output,
-        Err(BakeError::Prepare(e)) => {
-            *kept = None;
-            return Err(record_error(row, out, &format!("bake: {e}")));
-        }
         Err(e) => {
             *kept = None;
-            return Err(retry("bake", &e));
+            return Err(match e {
+                BakeError::Prepare(e) => record_error(row, out, &format!("bake: {e}")),
+                e => retry("bake", &e),
+            });
         }
     };
+    output.count_preparation(if fresh { &k.room.timings } else { &[] }, start);
     if !keep {
         *kept = None;
     }
-    // As `luxbake::bake` reports a bake that prepared its room: its host steps first.
-    output.report.setup.splice(0..0, room_timings);
-    output.report.total_seconds = start.elapsed().as_secs_f64();
     let temp = out.join(format!(
         "{TEMP_PREFIX}{}-{}-{}",
         row.key,

@@ -496,22 +496,23 @@ pub(crate) fn gather_row(
     let sampler = [params.sampler, params.bounce, params.seed];
     // The row's hits replayed when they were recorded for these rays, else traced (and
     // recorded while the budget allows).
-    let cache = scene.hits.as_deref().filter(|_| !texels.is_empty());
     let width = (out.len() / 4) as u32;
-    let keyed = cache.map(|_| row_key(&params, trav, [layer, x0, y, width], texels));
+    let cache = scene
+        .hits
+        .as_deref()
+        .filter(|_| !texels.is_empty())
+        .map(|c| (c, row_key(&params, trav, [layer, x0, y, width], texels)));
     let rays: usize = texels.iter().map(|t| t.rays.len()).sum();
-    let row = cache
-        .zip(keyed.as_ref())
-        .and_then(|(c, (key, inputs))| c.row(&scene.bvh, key, *inputs, rays));
+    let row = cache.and_then(|(c, (key, inputs))| c.row(&scene.bvh, &key, inputs, rays));
     let mut hits = match (&row, cache) {
         (Some(row), _) => Hits::Replay(row, 0),
-        (None, Some(c)) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
+        (None, Some((c, _))) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
         _ => Hits::Trace,
     };
     gather_sums(scene, reflected, trav, sampler, texels, &mut hits, chunks, sums);
-    if let Some(c) = cache {
-        if let (Hits::Record(row), Some((key, inputs))) = (hits, keyed) {
-            c.record(&scene.bvh, key, inputs, row);
+    if let Some((c, (key, inputs))) = cache {
+        if let Hits::Record(recorded) = hits {
+            c.record(&scene.bvh, key, inputs, recorded);
         }
         c.count(rays, row.is_some());
     }
