@@ -1,7 +1,9 @@
 //! What a bake reports: progress events, what it left out, timings, and its maps.
 
 use std::fmt;
-use std::time::Instant;
+
+// `web_time::Instant` is `std::time::Instant` natively and `performance.now()` on wasm32.
+use web_time::Instant;
 
 use crate::gbuffer::GBuffer;
 use crate::graph::{BakeGraph, PassKind};
