@@ -104,6 +104,7 @@ use crate::program::Program;
 
 pub mod hits;
 pub(crate) mod kernel;
+pub(crate) mod lanes;
 
 pub use crate::exact::{basis, guard, normalize};
 pub use hits::{GatherHitStats, GatherHits};
@@ -289,6 +290,40 @@ mod tests {
         assert_eq!(sin_cos_turns(0.75), (-1.0, 0.0));
         assert!(sin_cos_turns(f32::NAN).0.is_nan());
         assert!(sin_cos_turns(f32::INFINITY).1.is_nan());
+    }
+
+    #[test]
+    fn exp_f32_is_within_three_tenths_of_a_millionth() {
+        let mut worst = 0.0f64;
+        // Every x on a fine grid of [−87, 88], and each binade's ends.
+        let grid = (0..=1_750_000).map(|i| -87.0 + i as f32 * 1e-4);
+        let ends = (-126..=126).flat_map(|e| {
+            let v = 2f32.powi(e);
+            [v, -v]
+        });
+        for x in grid.chain(ends).filter(|x| (-87.0..=88.0).contains(x)) {
+            let (got, want) = (f64::from(exp_f32(x)), f64::from(x).exp());
+            let rel = (got - want).abs() / want;
+            worst = worst.max(rel);
+            assert!(
+                rel <= 3e-7,
+                "exp({x}) = {got}, want {want}: {rel:e} relative"
+            );
+        }
+        assert!(worst > 0.0, "nothing compared");
+        assert_eq!(exp_f32(0.0), 1.0);
+        assert_eq!(exp_f32(-0.0), 1.0);
+        assert_eq!(exp_f32(-87.5), 0.0);
+        assert_eq!(exp_f32(f32::NEG_INFINITY), 0.0);
+        assert_eq!(exp_f32(88.5), f32::INFINITY);
+        assert!(exp_f32(f32::NAN).is_nan());
+        // Monotone where the weight is used: never above 1, never growing as x falls.
+        let mut last = 1.0f32;
+        for i in 0..=870_000 {
+            let v = exp_f32(-(i as f32) * 1e-4);
+            assert!(v <= last, "exp_f32 grows at x = {}", -(i as f32) * 1e-4);
+            last = v;
+        }
     }
 
     #[test]
@@ -1141,5 +1176,172 @@ mod guide_mask_tests {
         }
         println!("{same} taps compared, {taken} taken, {charted} rejected by the chart test");
         assert!(taken > 100_000 && charted > 1_000 && same > taken);
+    }
+
+    /// The variance pass's blocks of eight texels ([`variance_block`], vector lanes with
+    /// AVX2) give every texel what the texel-by-texel estimate gives without kept chart tests,
+    /// bit for bit, on a furnished room's G-buffer with a noisy map (spikes, zeros), at the
+    /// denoiser's settings and with fewer and more pairs required.
+    #[test]
+    fn variance_blocks_equal_the_texel_by_texel_estimate() {
+        use crate::passes::variance::VarianceParams;
+        use crate::passes::variance::cpu::{LANES, variance_block, variance_texel};
+        use crate::program::{Params, atrous_steps};
+        use crate::rng;
+        let settings = Settings {
+            texels_per_metre: 12.0,
+            ..Settings::preset(Quality::Default)
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        let g = &room.gbuffer;
+        let (size, layers) = (g.layer_size, g.layers);
+        let pos = View::new(&g.position, size, layers);
+        let nrm = View::new(&g.normal, size, layers);
+        let texels = g.position.len() / 4;
+        let mut map = vec![0.0f32; 4 * texels];
+        for i in (0..texels).filter(|&i| g.position[4 * i + 3] > 0.5) {
+            let [u, _] = rng::uniform2(i as u32, 0, 9, 2);
+            let l = match i % 41 {
+                0 => 900.0,
+                1 => 0.0,
+                _ => 20.0 + 10.0 * u,
+            };
+            map[4 * i..4 * i + 4].copy_from_slice(&[l, 0.7 * l, 1.2 * l, 1.0]);
+        }
+        let src = View::new(&map, size, layers);
+        let config = AtrousConfig::new(3, 1.0 / 12.0);
+        let base = atrous_steps(&config)
+            .into_iter()
+            .find_map(|(_, p)| match p {
+                Params::Variance(v) => Some(v),
+                _ => None,
+            })
+            .expect("a variance pass");
+        let (mut compared, mut vector) = (0usize, 0usize);
+        for min_pairs in [base.min_pairs, 0, 1, 12] {
+            let p = VarianceParams { min_pairs, ..base };
+            let chart = Chart {
+                step: 1,
+                reach: [0.0, p.reach],
+            };
+            let masks = GuideMasks::new(pos, chart);
+            let maps = [src, pos, nrm];
+            for layer in 0..layers {
+                for y in 0..size[1] {
+                    for x0 in (0..size[0]).step_by(LANES) {
+                        let n = (size[0] - x0).min(LANES as u32);
+                        let mut out = vec![0.0f32; 4 * n as usize];
+                        vector +=
+                            variance_block(maps, p, &masks, Texel { layer, x: x0, y }, &mut out);
+                        for (x, got) in (x0..).zip(out.chunks_exact(4)) {
+                            let at = Texel { layer, x, y };
+                            let want = variance_texel(maps, p, None, at);
+                            assert_eq!(
+                                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                                want.map(f32::to_bits),
+                                "{at:?} {p:?}"
+                            );
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        println!("{compared} texels compared, {vector} in vector lanes");
+        assert!(compared > 100_000);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(
+                vector > compared / 10,
+                "{vector} of {compared} in vector lanes"
+            );
+        }
+    }
+
+    /// The à-trous pass's blocks of eight texels ([`atrous_block`], vector lanes with AVX2)
+    /// give every texel what the texel-by-texel filter gives without kept chart tests, bit for
+    /// bit: on a furnished room's G-buffer (charts side by side, contacts, chart edges, empty
+    /// texels), a noisy map with spikes, variances from 0 (no range weight) to large, at
+    /// every step the denoiser uses and normal powers 1, 2⁰ … 2⁵.
+    #[test]
+    fn atrous_blocks_equal_the_texel_by_texel_filter() {
+        use crate::passes::atrous::cpu::{LANES, atrous_block, atrous_texel};
+        use crate::program::{Params, atrous_steps};
+        use crate::rng;
+        let settings = Settings {
+            texels_per_metre: 12.0,
+            ..Settings::preset(Quality::Default)
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        let g = &room.gbuffer;
+        let (size, layers) = (g.layer_size, g.layers);
+        let pos = View::new(&g.position, size, layers);
+        let nrm = View::new(&g.normal, size, layers);
+        // Grey-ish light with noise, every 37th texel a spike; valid where the G-buffer is.
+        let texels = g.position.len() / 4;
+        let mut map = vec![0.0f32; 4 * texels];
+        let mut var = vec![0.0f32; 4 * texels];
+        for i in (0..texels).filter(|&i| g.position[4 * i + 3] > 0.5) {
+            let [u, v] = rng::uniform2(i as u32, 0, 7, 1);
+            let spike = if i % 37 == 0 { 40.0 } else { 1.0 };
+            let l = (20.0 + 10.0 * u) * spike;
+            map[4 * i..4 * i + 4].copy_from_slice(&[l, 0.8 * l, 1.1 * l, 1.0]);
+            var[4 * i] = match i % 5 {
+                0 => 0.0,
+                1 => 1e-6 * v,
+                _ => 50.0 * v,
+            };
+        }
+        let (src, variance) = (View::new(&map, size, layers), View::new(&var, size, layers));
+        let config = AtrousConfig::new(4, 1.0 / 12.0);
+        let (mut compared, mut vector) = (0usize, 0usize);
+        for (_, params) in atrous_steps(&config) {
+            let Params::Atrous(base) = params else {
+                continue;
+            };
+            for normal_log2 in [base.normal_log2, 0, 5] {
+                let p = crate::passes::atrous::AtrousParams {
+                    normal_log2,
+                    ..base
+                };
+                let chart = Chart {
+                    step: i64::from(p.step),
+                    reach: [p.reach_min, p.reach],
+                };
+                let masks = GuideMasks::new(pos, chart);
+                let maps = [src, variance, pos, nrm];
+                for layer in 0..layers {
+                    for y in 0..size[1] {
+                        for x0 in (0..size[0]).step_by(LANES) {
+                            let n = (size[0] - x0).min(LANES as u32);
+                            let mut out = vec![0.0f32; 4 * n as usize];
+                            let at = Texel { layer, x: x0, y };
+                            vector += atrous_block(maps, p, &masks, at, &mut out);
+                            for (x, got) in (x0..).zip(out.chunks_exact(4)) {
+                                let at = Texel { layer, x, y };
+                                let want = atrous_texel(maps, p, None, at);
+                                assert_eq!(
+                                    got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                                    want.map(f32::to_bits),
+                                    "{at:?} {p:?}"
+                                );
+                                compared += 1;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        println!("{compared} texels compared, {vector} in vector lanes");
+        assert!(compared > 100_000);
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(
+                vector > compared / 10,
+                "{vector} of {compared} in vector lanes"
+            );
+        }
     }
 }

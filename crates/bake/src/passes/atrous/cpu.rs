@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use crate::contract::{B3, ParamBlock};
 use crate::cpu::kernel::*;
+pub(crate) use crate::cpu::lanes::LANES;
 
 use super::AtrousParams;
 
@@ -29,10 +30,164 @@ impl Prepare for Pass {
     }
 }
 
-impl TexelPass for Pass {
-    #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        atrous_texel(ctx.maps(), self.params, self.masks.as_deref(), at)
+impl CpuPass for Pass {
+    type Scratch = ();
+
+    fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], _: &mut ()) {
+        let maps = ctx.maps();
+        let layer = ctx.tile.layer;
+        let mut blocks = texels.chunks_exact_mut(4 * LANES);
+        let mut x = ctx.tile.x0;
+        for out in &mut blocks {
+            let at = Texel { layer, x, y };
+            match self.masks.as_deref() {
+                Some(masks) => {
+                    atrous_block(maps, self.params, masks, at, out);
+                }
+                None => scalar_texels(maps, self.params, None, at, out),
+            }
+            x += LANES as u32;
+        }
+        let at = Texel { layer, x, y };
+        scalar_texels(maps, self.params, self.masks.as_deref(), at, blocks.into_remainder());
+    }
+}
+
+/// [`atrous_texel`] at the texels of `out` (four floats each), from `at` along its row.
+fn scalar_texels(
+    maps: [View<'_>; 4],
+    params: AtrousParams,
+    masks: Option<&GuideMasks>,
+    at: Texel,
+    out: &mut [f32],
+) {
+    for (x, t) in (at.x..).zip(out.chunks_exact_mut(4)) {
+        t.copy_from_slice(&atrous_texel(maps, params, masks, Texel { x, ..at }));
+    }
+}
+
+/// [`atrous_texel`] at the [`LANES`] texels of `out` from `at` along its row: with AVX2 where
+/// the CPU has it, the texels whose chart tests `masks` holds filtered together, one to a
+/// vector lane ([`avx2::block`]); otherwise texel by texel. Returns how many texels were
+/// filtered in vector lanes.
+pub(crate) fn atrous_block(
+    maps: [View<'_>; 4],
+    params: AtrousParams,
+    masks: &GuideMasks,
+    at: Texel,
+    out: &mut [f32],
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (just checked).
+        return unsafe { avx2::block(maps, params, masks, at, out) };
+    }
+    scalar_texels(maps, params, Some(masks), at, out);
+    0
+}
+
+/// Eight texels of a row filtered together: every texel's taps in [`atrous_texel`]'s order
+/// with its operations (IEEE single precision, no fused multiply-adds, [`exp_f32`] lane by
+/// lane), a tap that does not count adding zero — so each texel's result is [`atrous_texel`]'s
+/// bit for bit (test `atrous_blocks_equal_the_texel_by_texel_filter`). With the variance
+/// pass's blocks, the denoiser of a default CPU bake of `chairs_05` took 293 ms against 501 ms
+/// texel by texel (medians of 5 alternated runs).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::*;
+    use crate::cpu::lanes::{Centres, exp8, floats, luminance8, vector};
+
+    /// [`atrous_block`] with AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn block(
+        maps: [View<'_>; 4],
+        params: AtrousParams,
+        masks: &GuideMasks,
+        at: Texel,
+        out: &mut [f32],
+    ) -> usize {
+        let [src, variance, pos, nrm] = maps;
+        let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES);
+        let Some(centres) = centres else {
+            scalar_texels(maps, params, Some(masks), at, out);
+            return 0;
+        };
+        // Per lane the centre's value and its variance scale.
+        let mut lanes = [[0.0f32; LANES]; 4];
+        for l in (0..LANES).filter(|&l| !centres.alone[l]) {
+            let c = src.at_offset(centres.base + 4 * l);
+            let t = Texel {
+                x: at.x + l as u32,
+                ..at
+            };
+            let scale = params.variance_scale * variance.fetch(t)[0];
+            for (v, lane) in [c[0], c[1], c[2], scale].into_iter().zip(&mut lanes) {
+                lane[l] = v;
+            }
+        }
+        let [c0, c1, c2, scale] = lanes.each_ref().map(|a| vector(a));
+        let set = _mm256_set1_ps;
+        let zero = _mm256_setzero_ps();
+        let step = i64::from(params.step);
+        // Tap `(a, b)` in every lane, on the centre's surface facing its side.
+        let tap = |a: usize, b: usize| {
+            let o = [(a as i64 - 2) * step, (b as i64 - 2) * step];
+            let (t, cos, on) = centres.tap([src.data, nrm.data], src.size[0], 5 * b + a, o);
+            (t, cos, _mm256_and_ps(on, _mm256_cmp_ps::<_CMP_GT_OQ>(cos, zero)))
+        };
+        let (mut s0, mut s1, mut s2, mut wsum) = (zero, zero, zero, zero);
+        for k in 0..13usize {
+            let (i, j) = (k % 5, k / 5);
+            let near = tap(i, j);
+            let far = (k != 12).then(|| tap(4 - i, 4 - j));
+            let pair = far.map_or(near.2, |f| _mm256_and_ps(near.2, f.2));
+            let b3 = set(B3[i] * B3[j]);
+            for (t, cos, _) in std::iter::once(near).chain(far) {
+                let mut wn = cos;
+                for _ in 0..params.normal_log2 {
+                    wn = _mm256_mul_ps(wn, wn);
+                }
+                let d = [
+                    _mm256_sub_ps(t[0], c0),
+                    _mm256_sub_ps(t[1], c1),
+                    _mm256_sub_ps(t[2], c2),
+                ];
+                let dl = _mm256_mul_ps(luminance8(d), set(params.luminance_scale));
+                // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
+                let x = _mm256_div_ps(_mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0)), scale);
+                let wl = _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
+                let wl = _mm256_blendv_ps(wl, set(1.0), _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero));
+                let w = _mm256_mul_ps(_mm256_mul_ps(b3, wn), wl);
+                let counts = _mm256_and_ps(pair, _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero));
+                let add = |s: __m256, v: __m256| _mm256_add_ps(s, _mm256_and_ps(counts, v));
+                s0 = add(s0, _mm256_mul_ps(w, d[0]));
+                s1 = add(s1, _mm256_mul_ps(w, d[1]));
+                s2 = add(s2, _mm256_mul_ps(w, d[2]));
+                wsum = add(wsum, w);
+            }
+        }
+        let sums = [s0, s1, s2, wsum].map(|v| floats(v));
+        for (l, o) in out.chunks_exact_mut(4).enumerate() {
+            let t = Texel {
+                x: at.x + l as u32,
+                ..at
+            };
+            if centres.alone[l] {
+                o.copy_from_slice(&atrous_texel(maps, params, Some(masks), t));
+                continue;
+            }
+            let c = [lanes[0][l], lanes[1][l], lanes[2][l]];
+            let wsum = sums[3][l];
+            let r = if wsum > 0.0 {
+                [0, 1, 2].map(|q| guard(c[q] + sums[q][l] / wsum))
+            } else {
+                c.map(guard)
+            };
+            o.copy_from_slice(&[r[0], r[1], r[2], 1.0]);
+        }
+        centres.alone.iter().filter(|&&a| !a).count()
     }
 }
 
@@ -87,7 +242,7 @@ pub(crate) fn atrous_texel(
             let wl = if dl == 0.0 {
                 1.0
             } else if scale > 0.0 {
-                (-(dl * dl) / scale).exp()
+                exp_f32(-(dl * dl) / scale)
             } else {
                 0.0
             };

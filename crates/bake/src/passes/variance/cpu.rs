@@ -4,6 +4,7 @@ use std::sync::Arc;
 
 use crate::contract::{BLUR_NORMAL_COS, ParamBlock};
 use crate::cpu::kernel::*;
+pub(crate) use crate::cpu::lanes::LANES;
 
 use super::VarianceParams;
 
@@ -29,10 +30,169 @@ impl Prepare for Pass {
     }
 }
 
-impl TexelPass for Pass {
-    #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        variance_texel(ctx.maps(), self.params, self.masks.as_deref(), at)
+impl CpuPass for Pass {
+    type Scratch = ();
+
+    fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], _: &mut ()) {
+        let maps = ctx.maps();
+        let layer = ctx.tile.layer;
+        let mut blocks = texels.chunks_exact_mut(4 * LANES);
+        let mut x = ctx.tile.x0;
+        for out in &mut blocks {
+            let at = Texel { layer, x, y };
+            match self.masks.as_deref() {
+                Some(masks) => {
+                    variance_block(maps, self.params, masks, at, out);
+                }
+                None => scalar_texels(maps, self.params, None, at, out),
+            }
+            x += LANES as u32;
+        }
+        let at = Texel { layer, x, y };
+        scalar_texels(maps, self.params, self.masks.as_deref(), at, blocks.into_remainder());
+    }
+}
+
+/// [`variance_texel`] at the texels of `out` (four floats each), from `at` along its row.
+fn scalar_texels(
+    maps: [View<'_>; 3],
+    params: VarianceParams,
+    masks: Option<&GuideMasks>,
+    at: Texel,
+    out: &mut [f32],
+) {
+    for (x, t) in (at.x..).zip(out.chunks_exact_mut(4)) {
+        t.copy_from_slice(&variance_texel(maps, params, masks, Texel { x, ..at }));
+    }
+}
+
+/// [`variance_texel`] at the [`LANES`] texels of `out` from `at` along its row: with AVX2
+/// where the CPU has it, the texels whose chart tests `masks` holds estimated together, one
+/// to a vector lane ([`crate::cpu::lanes`]); otherwise texel by texel. Returns how many
+/// texels were estimated in vector lanes.
+pub(crate) fn variance_block(
+    maps: [View<'_>; 3],
+    params: VarianceParams,
+    masks: &GuideMasks,
+    at: Texel,
+    out: &mut [f32],
+) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2 (just checked).
+        return unsafe { avx2::block(maps, params, masks, at, out) };
+    }
+    scalar_texels(maps, params, Some(masks), at, out);
+    0
+}
+
+/// Eight texels of a row estimated together: each lane's window, pairs and sums in
+/// [`variance_texel`]'s order with its operations, a pair or tap that does not count adding
+/// zero — bit for bit its result (test `variance_blocks_equal_the_texel_by_texel_estimate`).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::*;
+    use crate::cpu::lanes::{Centres, floats, luminance8};
+
+    /// [`variance_block`] with AVX2.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn block(
+        maps: [View<'_>; 3],
+        params: VarianceParams,
+        masks: &GuideMasks,
+        at: Texel,
+        out: &mut [f32],
+    ) -> usize {
+        let [src, _, nrm] = maps;
+        let centres = Centres::new(maps, masks, at).filter(|_| out.len() == 4 * LANES);
+        let Some(centres) = centres else {
+            scalar_texels(maps, params, Some(masks), at, out);
+            return 0;
+        };
+        let set = _mm256_set1_ps;
+        let zero = _mm256_setzero_ps();
+        // The 5×5 window, row by row: each tap's luminance and whether it is on the surface.
+        let mut lum = [zero; 25];
+        let mut on = [zero; 25];
+        for k in 0..25 {
+            let o = [k as i64 % 5 - 2, k as i64 / 5 - 2];
+            let (t, cos, valid) = centres.tap([src.data, nrm.data], src.size[0], k, o);
+            let facing = _mm256_cmp_ps::<_CMP_GE_OQ>(cos, set(BLUR_NORMAL_COS));
+            on[k] = _mm256_and_ps(valid, facing);
+            lum[k] = _mm256_mul_ps(luminance8([t[0], t[1], t[2]]), set(params.luminance_scale));
+        }
+        // `window_variances`: per estimate (with the centre, without it) the smallest over
+        // the directions with enough pairs, else 0.
+        let min_pairs = _mm256_set1_epi32(params.min_pairs as i32);
+        let one = _mm256_set1_epi32(1);
+        let mut best = [zero; 2];
+        let mut found = [_mm256_setzero_si256(); 2];
+        for d in VARIANCE_DIRECTIONS {
+            let mut sum = [zero; 2];
+            let mut n = [_mm256_setzero_si256(); 2];
+            for k in 0..25i64 {
+                let (i, j) = (k % 5 + d[0], k / 5 + d[1]);
+                if !(0..5).contains(&i) || !(0..5).contains(&j) {
+                    continue;
+                }
+                let (a, b) = (k as usize, (j * 5 + i) as usize);
+                let pair = _mm256_and_ps(on[a], on[b]);
+                let diff = _mm256_sub_ps(lum[b], lum[a]);
+                let d2 = _mm256_and_ps(pair, _mm256_mul_ps(diff, diff));
+                // A counted pair's mask is all ones: −1 as an integer.
+                let count = _mm256_castps_si256(pair);
+                sum[0] = _mm256_add_ps(sum[0], d2);
+                n[0] = _mm256_sub_epi32(n[0], count);
+                if a != 12 && b != 12 {
+                    sum[1] = _mm256_add_ps(sum[1], d2);
+                    n[1] = _mm256_sub_epi32(n[1], count);
+                }
+            }
+            for e in 0..2 {
+                let enough = _mm256_andnot_si256(
+                    _mm256_cmpgt_epi32(min_pairs, n[e]),
+                    _mm256_cmpgt_epi32(n[e], _mm256_setzero_si256()),
+                );
+                let v = _mm256_div_ps(sum[e], _mm256_cvtepi32_ps(_mm256_slli_epi32::<1>(n[e])));
+                let lower = _mm256_or_si256(
+                    _mm256_cmpeq_epi32(found[e], _mm256_setzero_si256()),
+                    _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LT_OQ>(v, best[e])),
+                );
+                let take = _mm256_and_si256(enough, lower);
+                best[e] = _mm256_blendv_ps(best[e], v, _mm256_castsi256_ps(take));
+                found[e] = _mm256_or_si256(found[e], _mm256_and_si256(take, one));
+            }
+        }
+        // The window's mean luminance without the centre.
+        let (mut sum, mut n) = (zero, _mm256_setzero_si256());
+        for k in (0..25).filter(|&k| k != 12) {
+            sum = _mm256_add_ps(sum, _mm256_and_ps(on[k], lum[k]));
+            n = _mm256_sub_epi32(n, _mm256_castps_si256(on[k]));
+        }
+        let mean = _mm256_div_ps(sum, _mm256_cvtepi32_ps(n));
+        let has_mean = _mm256_castsi256_ps(_mm256_cmpgt_epi32(n, _mm256_setzero_si256()));
+        let mean = floats(_mm256_and_ps(has_mean, mean));
+        let [with_centre, without_centre] = best.map(|b| floats(b));
+        for (l, o) in out.chunks_exact_mut(4).enumerate() {
+            if centres.alone[l] {
+                let t = Texel {
+                    x: at.x + l as u32,
+                    ..at
+                };
+                o.copy_from_slice(&variance_texel(maps, params, Some(masks), t));
+                continue;
+            }
+            let r = [
+                guard(with_centre[l]),
+                guard(mean[l]),
+                guard(without_centre[l]),
+                1.0,
+            ];
+            o.copy_from_slice(&r);
+        }
+        centres.alone.iter().filter(|&&a| !a).count()
     }
 }
 

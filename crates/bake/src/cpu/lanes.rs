@@ -1,0 +1,219 @@
+//! Eight texels of a row at once, one to a lane of an AVX2 vector: what the denoiser's
+//! passes share when they filter a row in blocks (`passes/atrous/cpu.rs`,
+//! `passes/variance/cpu.rs`). Each lane computes what the texel-by-texel reference computes,
+//! with the same IEEE operations in the same order (Rust does not fuse multiply-adds), so the
+//! blocks equal the reference bit for bit; a tap that does not count adds zero.
+
+/// Texels of a row filtered together, one to a vector lane.
+pub(crate) const LANES: usize = 8;
+
+#[cfg(target_arch = "x86_64")]
+pub(crate) use avx2::*;
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use crate::cpu::kernel::*;
+
+    use super::LANES;
+
+    /// Eight lanes of [`exp_f32`], bit for bit.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn exp8(x: __m256) -> __m256 {
+        let set = _mm256_set1_ps;
+        let round = set(ROUND);
+        let n = _mm256_sub_ps(
+            _mm256_add_ps(_mm256_mul_ps(x, set(std::f32::consts::LOG2_E)), round),
+            round,
+        );
+        let r = _mm256_sub_ps(
+            _mm256_sub_ps(x, _mm256_mul_ps(n, set(EXP_LN2[0]))),
+            _mm256_mul_ps(n, set(EXP_LN2[1])),
+        );
+        let mut p = set(EXP_POLY[0]);
+        for &c in &EXP_POLY[1..] {
+            p = _mm256_add_ps(_mm256_mul_ps(p, r), set(c));
+        }
+        let e = _mm256_add_ps(
+            _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(p, r), r), r),
+            set(1.0),
+        );
+        let scale = _mm256_slli_epi32::<23>(_mm256_add_epi32(
+            _mm256_cvttps_epi32(n),
+            _mm256_set1_epi32(127),
+        ));
+        let v = _mm256_mul_ps(e, _mm256_castsi256_ps(scale));
+        let v = _mm256_blendv_ps(
+            v,
+            set(f32::INFINITY),
+            _mm256_cmp_ps::<_CMP_GT_OQ>(x, set(EXP_HIGH)),
+        );
+        // Below the domain 0, NaN itself.
+        let nan = _mm256_and_ps(_mm256_cmp_ps::<_CMP_UNORD_Q>(x, x), x);
+        _mm256_blendv_ps(v, nan, _mm256_cmp_ps::<_CMP_NGE_UQ>(x, set(EXP_LOW)))
+    }
+
+    /// Four channels of eight texels, a vector each.
+    pub(crate) struct Texels(pub(crate) [__m256; 4]);
+
+    impl Texels {
+        /// The eight texels from float `start` of `data` (four floats each); texels outside
+        /// `data` are 0.
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn load(data: &[f32], start: i64) -> Texels {
+            let inside = start >= 0
+                && (start as usize)
+                    .checked_add(4 * LANES)
+                    .is_some_and(|e| e <= data.len());
+            let mut rows = [_mm_setzero_ps(); LANES];
+            for (l, r) in rows.iter_mut().enumerate() {
+                let i = start + 4 * l as i64;
+                *r = if inside {
+                    // SAFETY: floats `i .. i + 4` lie in `data` (`inside`).
+                    unsafe { _mm_loadu_ps(data.as_ptr().add(i as usize)) }
+                } else {
+                    let t = usize::try_from(i)
+                        .ok()
+                        .and_then(|i| data.get(i..i.checked_add(4)?))
+                        .unwrap_or(&[0.0; 4]);
+                    _mm_setr_ps(t[0], t[1], t[2], t[3])
+                };
+            }
+            // Texels l and l + 4 in the two halves, then a 4 × 4 transpose in each half.
+            let half =
+                |a: __m128, b: __m128| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(a), b);
+            let [r0, r1, r2, r3] = [0, 1, 2, 3].map(|l| half(rows[l], rows[l + 4]));
+            let (a, b) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpacklo_ps(r2, r3));
+            let (c, d) = (_mm256_unpackhi_ps(r0, r1), _mm256_unpackhi_ps(r2, r3));
+            Texels([
+                _mm256_shuffle_ps::<0x44>(a, b),
+                _mm256_shuffle_ps::<0xEE>(a, b),
+                _mm256_shuffle_ps::<0x44>(c, d),
+                _mm256_shuffle_ps::<0xEE>(c, d),
+            ])
+        }
+    }
+
+    /// The centres of a block: per lane its unit normal, object and chart tests (the rest a
+    /// pass reads itself), and which lanes the block leaves to the texel-by-texel reference
+    /// (not valid in `src`, a normal that cannot be normalised, or no chart tests).
+    pub(crate) struct Centres {
+        /// The block's first texel's offset in the maps.
+        pub(crate) base: usize,
+        /// The unit normals, a vector per component.
+        pub(crate) n: [__m256; 3],
+        /// The normals' object ids.
+        pub(crate) object: __m256,
+        /// The chart tests' bits ([`GuideMasks`]).
+        pub(crate) mask: __m256i,
+        /// Lanes left to the reference.
+        pub(crate) alone: [bool; LANES],
+    }
+
+    impl Centres {
+        /// The centres of the [`LANES`] texels from `at` along its row, when `src`, `pos` and
+        /// `nrm` have one shape and the block lies in them.
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn new(
+            [src, pos, nrm]: [View<'_>; 3],
+            masks: &GuideMasks,
+            at: Texel,
+        ) -> Option<Centres> {
+            let base = (src.same_shape(&pos) && src.same_shape(&nrm))
+                .then(|| src.index(at.layer, at.x, at.y))
+                .flatten()
+                .filter(|b| b + 4 * LANES <= src.data.len())?;
+            let mut lanes = [[0.0f32; LANES]; 4];
+            let mut bits = [0i32; LANES];
+            let mut alone = [false; LANES];
+            for l in 0..LANES {
+                let t = Texel {
+                    x: at.x + l as u32,
+                    ..at
+                };
+                let (c, nc) = (src.at_offset(base + 4 * l), nrm.at_offset(base + 4 * l));
+                match (c[3] > 0.5, normalize(xyz(nc)), masks.at(t)) {
+                    (true, Some(n), Some(m)) => {
+                        for (v, lane) in [n[0], n[1], n[2], nc[3]].into_iter().zip(&mut lanes) {
+                            lane[l] = v;
+                        }
+                        bits[l] = m as i32;
+                    }
+                    _ => alone[l] = true,
+                }
+            }
+            let [n0, n1, n2, object] = lanes.each_ref().map(|a| vector(a));
+            // SAFETY: eight integers from an array of eight.
+            let mask = unsafe { _mm256_loadu_si256(bits.as_ptr().cast()) };
+            Some(Centres {
+                base,
+                n: [n0, n1, n2],
+                object,
+                mask,
+                alone,
+            })
+        }
+
+        /// Tap `k` of the 5 × 5 (rows outer) at `offset` texels in every lane: its value, `n̂·nₜ`
+        /// (summed as [`dot`]), and whether it passes the chart test, is valid and is of the
+        /// centre's object (`Guide::tap_k`).
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn tap(
+            &self,
+            [src, nrm]: [&[f32]; 2],
+            width: u32,
+            k: usize,
+            offset: [i64; 2],
+        ) -> ([__m256; 4], __m256, __m256) {
+            let start = self.base as i64 + 4 * (offset[1] * i64::from(width) + offset[0]);
+            let Texels(t) = Texels::load(src, start);
+            let Texels(nt) = Texels::load(nrm, start);
+            let [n0, n1, n2] = self.n;
+            let cos = _mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(n0, nt[0]), _mm256_mul_ps(n1, nt[1])),
+                _mm256_mul_ps(n2, nt[2]),
+            );
+            let bit = _mm256_set1_epi32(1 << k);
+            let charted =
+                _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(self.mask, bit), bit));
+            let on = _mm256_and_ps(
+                _mm256_and_ps(
+                    charted,
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(t[3], _mm256_set1_ps(0.5)),
+                ),
+                _mm256_cmp_ps::<_CMP_EQ_OQ>(nt[3], self.object),
+            );
+            (t, cos, on)
+        }
+    }
+
+    /// Eight floats as a vector.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn vector(a: &[f32; LANES]) -> __m256 {
+        // SAFETY: eight floats from an array of eight.
+        unsafe { _mm256_loadu_ps(a.as_ptr()) }
+    }
+
+    /// A vector as eight floats.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn floats(v: __m256) -> [f32; LANES] {
+        let mut a = [0.0f32; LANES];
+        // SAFETY: eight floats into an array of eight.
+        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), v) };
+        a
+    }
+
+    /// [`luminance`] of eight lanes, summed as it sums.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn luminance8(c: [__m256; 3]) -> __m256 {
+        let set = _mm256_set1_ps;
+        _mm256_add_ps(
+            _mm256_add_ps(
+                _mm256_mul_ps(set(0.2126), c[0]),
+                _mm256_mul_ps(set(0.7152), c[1]),
+            ),
+            _mm256_mul_ps(set(0.0722), c[2]),
+        )
+    }
+}
