@@ -919,7 +919,8 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          window.__swapRoom = room; window.__swapGlb = glb; window.__swap = swap; window.__direct = direct; \
          const gpu = (r) => r.report.passes.reduce((a, p) => a + p.seconds, 0); \
          const setup = (r) => r.timings.setup.reduce((a, p) => a + p.seconds, 0); \
-         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared}}); \
+         const byPass = (r) => r.report.passes.reduce((m, p) => (m[p.label] = (m[p.label] || 0) + p.seconds, m), {{}}); \
+         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared, byPass: byPass(r)}}); \
          done({{load: (t1 - t0) / 1000, loadWorker: room.seconds, first: {{...times(first), wall: (t2 - t1) / 1000}}, \
            swap: {{...times(swap), wall: (t3 - t2) / 1000}}, fresh: {{...times(fresh), wall: (t4 - t3) / 1000}}, direct: directAt === null ? null : (directAt - t2) / 1000, \
            directStage: direct?.stage, texels: room.texels, regionTexels: swap.report.regionTexels, asFresh}});",
@@ -987,6 +988,23 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
             f(&b["phases"]) / total
         )
     };
+    // Where each bake's GPU time goes, per pass label, largest first.
+    let by_pass = |b: &Value| {
+        let mut v: Vec<(String, f64)> = b["byPass"]
+            .as_object()
+            .map(|m| m.iter().map(|(k, s)| (k.clone(), f(s))).collect())
+            .unwrap_or_default();
+        v.sort_by(|a, b| b.1.total_cmp(&a.1));
+        v.iter()
+            .map(|(k, s)| format!("{k} {s:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    println!(
+        "GPU seconds per pass: first bake {}; swap {}",
+        by_pass(first),
+        by_pass(swap)
+    );
     println!(
         "first bake: {}; swap: {}; a fresh bake with the swap's lamp {:.2} s ({}): the swap takes {:.2} of it, \
          its direct light comes after {:.2} of it",
@@ -1170,6 +1188,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "first_worker_s": first["bake"], "first_gpu_s": first["gpu"],
         "swap_worker_s": swap["bake"], "swap_gpu_s": swap["gpu"],
         "swap_phases_over_bake": f(&swap["phases"]) / f(&swap["bake"]),
+        "first_gpu_s_per_pass": first["byPass"], "swap_gpu_s_per_pass": swap["byPass"],
         "layered_bake_s": l["layered"], "set_lamp_ms": set_lamp_ms,
         "set_lamp_frame_ms": l["setLampFrameMs"], "bytes_per_lamp": l["bytesPerLamp"],
         "check_s": started.elapsed().as_secs_f64(),
