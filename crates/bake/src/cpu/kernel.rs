@@ -12,7 +12,7 @@ use luxbake_bvh::{EncodedScene, Hit, Ray, Traversal, TriangleAttributes, WideBvh
 use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
-use crate::backend::{LampParams, SceneData};
+use crate::backend::{LAMP_PATH_TEXELS, LampParams, SceneData};
 use crate::contract::{BLUR_NORMAL_COS, ParamBlock, TileParams, coarse};
 use crate::cpu::hits::GatherHits;
 pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
@@ -169,8 +169,8 @@ pub struct CpuScene {
     pub(crate) regions: Vec<Option<Region>>,
     pub(crate) layer_size: [u32; 2],
     pub(crate) ray_epsilon: f32,
-    /// [`crate::backend::SceneData::lamp_paths`].
-    pub(crate) lamp_paths: Vec<f32>,
+    /// [`crate::backend::SceneData::lamp_paths`], a cache line per point ([`LampPoint`]).
+    pub(crate) lamp_paths: Vec<LampPoint>,
     /// Gather hits kept across bakes of this room ([`CpuScene::keep_gather_hits`]).
     pub(crate) hits: Option<Arc<GatherHits>>,
 }
@@ -339,6 +339,44 @@ impl Trav {
     }
 }
 
+/// A point of the lamp paths' pool as the `connect` pass reads it: the packed rows of
+/// [`crate::lightpaths::LampPaths::packed`] (position and density, normal, power) and the
+/// shadow ray's end, [`offset_origin`] of the point along its normal — computed once per
+/// upload instead of at each of the point's connections (the same bits) — in one 64-byte
+/// cache line, so that a pick prefetches one line and waits for one.
+#[derive(Debug, Clone, Copy)]
+#[repr(C, align(64))]
+pub(crate) struct LampPoint {
+    /// Position (xyz) and density (w): the pool's first row.
+    pub(crate) position: [f32; 4],
+    /// The unit normal.
+    pub(crate) normal: [f32; 3],
+    /// The power (RGB): the pool's third row.
+    pub(crate) power: [f32; 3],
+    /// Where the shadow ray toward the point ends: `offset_origin(position, normal, ε)`.
+    pub(crate) target: [f32; 3],
+}
+
+impl LampPoint {
+    /// The points of the packed pool `paths` ([`LAMP_PATH_TEXELS`] RGBA rows each), for the
+    /// ray offset's size term `eps`.
+    fn unpack(paths: &[f32], eps: f32) -> Vec<LampPoint> {
+        paths
+            .chunks_exact(4 * LAMP_PATH_TEXELS)
+            .map(|p| {
+                let normal = [p[4], p[5], p[6]];
+                let position = [p[0], p[1], p[2]];
+                LampPoint {
+                    position: [p[0], p[1], p[2], p[3]],
+                    normal,
+                    power: [p[8], p[9], p[10]],
+                    target: crate::backend::offset_origin(position, normal, eps),
+                }
+            })
+            .collect()
+    }
+}
+
 pub(crate) fn traversal(mode: BvhMode) -> Trav {
     match mode {
         BvhMode::Wide => Trav::Wide,
@@ -367,7 +405,7 @@ impl CpuScene {
             regions: scene.regions.to_vec(),
             layer_size: scene.layer_size,
             ray_epsilon: scene.ray_epsilon,
-            lamp_paths: scene.lamp_paths.to_vec(),
+            lamp_paths: LampPoint::unpack(scene.lamp_paths, scene.ray_epsilon),
             hits: None,
         }
     }

@@ -5,7 +5,7 @@
 
 use luxbake_bvh::Ray;
 
-use crate::backend::{LAMP_PATH_TEXELS, offset_origin, toward};
+use crate::backend::{offset_origin, toward};
 use crate::cpu::kernel::*;
 use crate::exact::div;
 use crate::lightpaths::CONNECT_PASS;
@@ -19,9 +19,68 @@ pub(crate) type Pass = ConnectParams;
 /// Picks of the next texel whose pool points a texel prefetches.
 const PREFETCH: u32 = 32;
 
-impl TexelPass for ConnectParams {
-    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        let Texel { layer, x, y } = at;
+impl CpuPass for ConnectParams {
+    /// The picks of the row's next texel, drawn once: prefetched at a texel, used at the next.
+    type Scratch = Vec<usize>;
+
+    fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], next: &mut Vec<usize>) {
+        let layer = ctx.tile.layer;
+        let scene = ctx.scene;
+        let count = self.count.min(scene.lamp_paths.len() as u32);
+        let pick = |texel: u32, s: u32| {
+            let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, self.seed);
+            ((u * count as f32) as u32).min(count - 1) as usize
+        };
+        let pos: View<'_> = ctx.views[0];
+        // A valid texel's picks (none for the others, which connect nothing).
+        let picks_of = |x: u32, out: &mut Vec<usize>| {
+            out.clear();
+            if count > 0 && pos.fetch(Texel { layer, x, y })[3] > 0.5 {
+                let texel = rng::texel_index(scene.layer_size, layer, x, y);
+                out.extend((0..self.k).map(|s| pick(texel, s)));
+            }
+        };
+        let x0 = ctx.tile.x0;
+        let mut picks = Vec::with_capacity(self.k as usize);
+        picks_of(x0, next);
+        for (x, out) in (x0..).zip(texels.chunks_exact_mut(4)) {
+            std::mem::swap(&mut picks, next);
+            // The next texel's points, prefetched: the pool (16 MB at 2^18 points) is larger
+            // than the caches, so nearly every pick misses them, and each miss would wait
+            // behind the previous connection's shadow ray (chairs_05 default: 12 % of a CPU
+            // bake stalled on that load). A texel's shadow rays take far longer than a fetch,
+            // so the next texel's points are in the cache when it needs them.
+            if x + 1 < scene.layer_size[0] {
+                picks_of(x + 1, next);
+                for &j in next.iter().take(PREFETCH as usize) {
+                    prefetch_point(&scene.lamp_paths, j);
+                }
+            } else {
+                next.clear();
+            }
+            out.copy_from_slice(&self.texel(ctx, Texel { layer, x, y }, &picks));
+        }
+    }
+}
+
+/// Asks the cache for point `j`'s line (nothing out of range, or off x86_64).
+#[inline(always)]
+fn prefetch_point(points: &[LampPoint], j: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(p) = points.get(j) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: SSE is part of the x86_64 baseline, and a prefetch reads nothing the
+        // program sees and never faults; the pointer is to an element of `points`.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((p as *const LampPoint).cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (points, j);
+}
+
+impl ConnectParams {
+    /// The connections of texel `at` to the pool points `picks` (its picks `0 .. k`, in
+    /// order; empty when the pool is).
+    fn texel(&self, ctx: &Ctx<'_>, at: Texel, picks: &[usize]) -> [f32; 4] {
         let [pw, nw] = ctx.maps().map(|m| m.fetch(at));
         if pw[3] <= 0.5 {
             return [0.0; 4];
@@ -29,43 +88,19 @@ impl TexelPass for ConnectParams {
         let Some(n) = normalize(xyz(nw)) else {
             return [0.0, 0.0, 0.0, 1.0];
         };
-        let paths = &ctx.scene.lamp_paths;
-        let stored = (paths.len() / (4 * LAMP_PATH_TEXELS)) as u32;
-        let count = self.count.min(stored);
-        if count == 0 || self.k == 0 {
+        if picks.is_empty() || self.k == 0 {
             return [0.0, 0.0, 0.0, 1.0];
         }
         let p = xyz(pw);
         let scene = ctx.scene;
-        let texel = rng::texel_index(scene.layer_size, layer, x, y);
         let origin = offset_origin(p, n, scene.ray_epsilon);
         let (nc, kf) = (self.rays as f32, self.k as f32);
-        let pick = |texel: u32, s: u32| {
-            let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, self.seed);
-            ((u * count as f32) as u32).min(count - 1) as usize
-        };
-        // The next texel's points, prefetched: the pool (up to 12 MB) is larger than the
-        // caches, so nearly every pick misses them, and each miss would wait behind the
-        // previous connection's shadow ray (chairs_05 default: 12 % of a CPU bake stalled on
-        // that load). A texel's shadow rays take far longer than a fetch, so the next
-        // texel's points are in the cache when it needs them.
-        if x + 1 < scene.layer_size[0] {
-            let next = rng::texel_index(scene.layer_size, layer, x + 1, y);
-            for s in 0..self.k.min(PREFETCH) {
-                let i = 4 * LAMP_PATH_TEXELS * pick(next, s);
-                prefetch(paths, i);
-                prefetch(paths, i + 4 * LAMP_PATH_TEXELS - 1);
-            }
-        }
         let mut sum = [0.0f32; 3];
-        for s in 0..self.k {
-            let j = pick(texel, s);
-            let at = |row: usize| {
-                let i = 4 * (LAMP_PATH_TEXELS * j + row);
-                [paths[i], paths[i + 1], paths[i + 2], paths[i + 3]]
+        for &j in picks {
+            let Some(point) = scene.lamp_paths.get(j) else {
+                continue;
             };
-            let (a, b, power) = (at(0), at(1), at(2));
-            let (position, normal) = (xyz(a), xyz(b));
+            let (position, normal) = (xyz(point.position), point.normal);
             let Some((w, _, r2)) = toward(p, position) else {
                 continue;
             };
@@ -74,8 +109,7 @@ impl TexelPass for ConnectParams {
             if !(cx > 0.0 && cy > 0.0) {
                 continue;
             }
-            let target = offset_origin(position, normal, scene.ray_epsilon);
-            let sd = sub(target, origin);
+            let sd = sub(point.target, origin);
             let len = dot(sd, sd).sqrt();
             if !(len > 0.0) {
                 continue;
@@ -87,14 +121,14 @@ impl TexelPass for ConnectParams {
             if scene.any_hit(&ray, 0.0, len * (1.0 - 1e-4), ctx.trav) {
                 continue;
             }
-            let pv = a[3] * self.density_scale;
+            let pv = point.position[3] * self.density_scale;
             let geometry = cx * cy;
             let denominator = std::f32::consts::PI * kf * pv * r2 + nc * geometry;
             if !(denominator > 0.0) {
                 continue;
             }
             let f = pv * geometry / denominator;
-            for (sc, pc) in sum.iter_mut().zip(power) {
+            for (sc, pc) in sum.iter_mut().zip(point.power) {
                 *sc += f * pc;
             }
         }
