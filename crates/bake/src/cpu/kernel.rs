@@ -360,7 +360,7 @@ pub(crate) struct LampPoint {
 impl LampPoint {
     /// The points of the packed pool `paths` ([`LAMP_PATH_TEXELS`] RGBA rows each), for the
     /// ray offset's size term `eps`.
-    fn unpack(paths: &[f32], eps: f32) -> Vec<LampPoint> {
+    pub(crate) fn unpack(paths: &[f32], eps: f32) -> Vec<LampPoint> {
         paths
             .chunks_exact(4 * LAMP_PATH_TEXELS)
             .map(|p| {

@@ -375,6 +375,115 @@ mod tests {
         }
     }
 
+    /// The connect pass's lanes ([`ConnectParams::texel_with`], eight connections computed
+    /// together up to their shadow rays) give every texel the scalar connections' sums bit for
+    /// bit: pool points on both sides of a floor triangle (so some shadow rays are blocked),
+    /// normals toward and away from the texels, zero and tiny densities, a point at a texel,
+    /// picks past the pool's end, 1 to 20 picks a texel (groups of eight and a remainder).
+    #[test]
+    fn connect_lanes_equal_the_scalar_connections() {
+        use crate::contract::TileParams;
+        use crate::passes::connect::ConnectParams;
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            eprintln!("no AVX2 on this CPU: the lanes are not used, nothing to compare");
+            return;
+        }
+        let mut scene = one_triangle_scene([0.0, 2.0, 0.0]);
+        let u = |i: u32, j: u32| rng::uniform2(i, j, 5, 11);
+        let unit = |i: u32| {
+            let [a, b] = u(i, 1);
+            let z = 2.0 * a - 1.0;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            let (s, c) = sin_cos_turns(b);
+            [r * c, r * s, z]
+        };
+        let mut points: Vec<f32> = Vec::new();
+        for i in 0..500u32 {
+            let [a, b] = u(i, 0);
+            let [c, d] = u(i, 2);
+            let position = match i % 50 {
+                // A point at a texel's position below.
+                0 => [0.25, 0.0, 0.25],
+                _ => [3.0 * a - 1.5, 2.0 * b - 1.0, 3.0 * c - 1.5],
+            };
+            let density = match i % 7 {
+                0 => 0.0,
+                1 => 1e-30,
+                _ => 0.1 + d,
+            };
+            let normal = unit(i);
+            points.extend([position[0], position[1], position[2], density]);
+            points.extend([normal[0], normal[1], normal[2], 0.0]);
+            points.extend([1.0 + a, 0.5 + b, 2.0 * c, 0.0]);
+        }
+        scene.lamp_paths = LampPoint::unpack(&points, scene.ray_epsilon);
+        // Texels above the floor (some on it, some tilted, some not valid).
+        let size = [16u32, 16];
+        let (mut pos, mut nrm) = (Vec::new(), Vec::new());
+        for i in 0..size[0] * size[1] {
+            let [a, b] = u(1000 + i, 0);
+            let y = if i % 3 == 0 { 0.0 } else { 0.5 * b };
+            let valid = if i % 11 == 0 { 0.0 } else { 1.0 };
+            let p = if i == 5 {
+                [0.25, 0.0, 0.25]
+            } else {
+                [2.0 * a - 1.0, y, 2.0 * b - 1.0]
+            };
+            pos.extend([p[0], p[1], p[2], valid]);
+            let n = if i % 4 == 0 {
+                unit(2000 + i)
+            } else {
+                [0.0, 1.0, 0.0]
+            };
+            nrm.extend([n[0], n[1], n[2], 0.0]);
+        }
+        let views = [View::new(&pos, size, 1), View::new(&nrm, size, 1)];
+        let ctx = Ctx {
+            scene: &scene,
+            views: &views,
+            trav: Trav::Wide,
+            tile: TileParams::default(),
+            guides: None,
+        };
+        let (mut compared, mut lit) = (0, 0);
+        for k in [1u32, 7, 8, 12, 20] {
+            let params = ConnectParams {
+                rays: 4,
+                k,
+                seed: 3,
+                count: 500,
+                density_scale: 0.8,
+                ..ConnectParams::default()
+            };
+            for i in 0..size[0] * size[1] {
+                let at = Texel::layer0(i % size[0], i / size[0]);
+                // Picks from the pool, every 13th past its end.
+                let picks: Vec<usize> = (0..k)
+                    .map(|s| {
+                        let [a, _] = u(i, 100 + s);
+                        if (i + s) % 13 == 0 {
+                            600
+                        } else {
+                            (a * 500.0) as usize
+                        }
+                    })
+                    .collect();
+                let got = params.texel_with(&ctx, at, &picks, true);
+                let want = params.texel_with(&ctx, at, &picks, false);
+                assert_eq!(
+                    got.map(f32::to_bits),
+                    want.map(f32::to_bits),
+                    "{at:?}, {k} picks"
+                );
+                compared += 1;
+                lit += usize::from(want[0] > 0.0);
+            }
+        }
+        println!("{compared} texels compared, {lit} lit");
+        assert!(compared == 5 * 256 && lit > 200, "{lit} lit");
+    }
+
     /// The gather's directions (four draws at a time, with AVX2 where the CPU has it) are the
     /// module docs' per-ray rule bit for bit, `cosine_direction(n̂, uniform2(texel, s, bounce,
     /// seed))`, for both samplers, ray counts with and without a remainder of four, and

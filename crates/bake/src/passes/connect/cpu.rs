@@ -79,8 +79,24 @@ fn prefetch_point(points: &[LampPoint], j: usize) {
 
 impl ConnectParams {
     /// The connections of texel `at` to the pool points `picks` (its picks `0 .. k`, in
-    /// order; empty when the pool is).
+    /// order; empty when the pool is): with AVX2 where the CPU has it, up to [`LANES`]
+    /// connections computed together up to their shadow rays ([`avx2::connections`]).
     fn texel(&self, ctx: &Ctx<'_>, at: Texel, picks: &[usize]) -> [f32; 4] {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return self.texel_with(ctx, at, picks, true);
+        }
+        self.texel_with(ctx, at, picks, false)
+    }
+
+    /// [`ConnectParams::texel`], its connections in lanes or one by one.
+    pub(crate) fn texel_with(
+        &self,
+        ctx: &Ctx<'_>,
+        at: Texel,
+        picks: &[usize],
+        lanes: bool,
+    ) -> [f32; 4] {
         let [pw, nw] = ctx.maps().map(|m| m.fetch(at));
         if pw[3] <= 0.5 {
             return [0.0; 4];
@@ -94,8 +110,34 @@ impl ConnectParams {
         let p = xyz(pw);
         let scene = ctx.scene;
         let origin = offset_origin(p, n, scene.ray_epsilon);
-        let (nc, kf) = (self.rays as f32, self.k as f32);
         let mut sum = [0.0f32; 3];
+        #[cfg(target_arch = "x86_64")]
+        if lanes {
+            for group in picks.chunks(LANES) {
+                // SAFETY: `lanes` only where the CPU has AVX2 (`texel`, the tests).
+                let c = unsafe { avx2::connections(self, scene, group, (p, n, origin)) };
+                for (l, &j) in group.iter().enumerate() {
+                    let Some(point) = scene.lamp_paths.get(j).filter(|_| c.ok & (1 << l) != 0)
+                    else {
+                        continue;
+                    };
+                    let ray = Ray {
+                        origin,
+                        dir: [c.dir[0][l], c.dir[1][l], c.dir[2][l]],
+                    };
+                    if scene.any_hit(&ray, 0.0, c.len[l] * (1.0 - 1e-4), ctx.trav) {
+                        continue;
+                    }
+                    for (sc, pc) in sum.iter_mut().zip(point.power) {
+                        *sc += c.f[l] * pc;
+                    }
+                }
+            }
+            return [guard(sum[0]), guard(sum[1]), guard(sum[2]), 1.0];
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = lanes;
+        let (nc, kf) = (self.rays as f32, self.k as f32);
         for &j in picks {
             let Some(point) = scene.lamp_paths.get(j) else {
                 continue;
@@ -133,5 +175,118 @@ impl ConnectParams {
             }
         }
         [guard(sum[0]), guard(sum[1]), guard(sum[2]), 1.0]
+    }
+}
+
+/// Connections computed together, one to a lane.
+pub(crate) const LANES: usize = 8;
+
+/// Up to [`LANES`] connections of one texel (picks in order, one to a lane) computed together
+/// up to their shadow rays: the scalar path's operations in its order (IEEE single precision,
+/// no fused multiply-adds), so each lane's direction, length and weight are the scalar path's
+/// bit for bit, and a lane counts where every test of the scalar path but the shadow ray
+/// passes (test `connect_lanes_equal_the_scalar_connections`; `chairs_05`'s EXRs byte-equal).
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::*;
+    use crate::cpu::lanes::{floats, vector};
+
+    /// What [`connections`] gives per lane.
+    pub(super) struct Lanes {
+        /// Bit `l`: lane `l`'s connection counts unless its shadow ray is blocked.
+        pub(super) ok: u32,
+        /// The shadow ray's unit direction, a row per component.
+        pub(super) dir: [[f32; LANES]; 3],
+        /// The shadow ray's length (to the point's offset end).
+        pub(super) len: [f32; LANES],
+        /// The connection's weight: the balance heuristic's share of the point's power.
+        pub(super) f: [f32; LANES],
+    }
+
+    /// The connections of a texel at `p` (unit normal `n`, ray origin `origin`) to the pool
+    /// points `picks` (at most [`LANES`]).
+    #[target_feature(enable = "avx2")]
+    pub(super) fn connections(
+        params: &ConnectParams,
+        scene: &CpuScene,
+        picks: &[usize],
+        (p, n, origin): ([f32; 3], [f32; 3], [f32; 3]),
+    ) -> Lanes {
+        // The points' fields, a row of lanes each (lanes without a point stay 0 and fail).
+        let mut rows = [[0.0f32; LANES]; 10];
+        let mut present = 0u32;
+        for (l, &j) in picks.iter().enumerate().take(LANES) {
+            let Some(q) = scene.lamp_paths.get(j) else {
+                continue;
+            };
+            present |= 1 << l;
+            let fields = [
+                q.position[0],
+                q.position[1],
+                q.position[2],
+                q.position[3],
+                q.normal[0],
+                q.normal[1],
+                q.normal[2],
+                q.target[0],
+                q.target[1],
+                q.target[2],
+            ];
+            for (row, v) in rows.iter_mut().zip(fields) {
+                row[l] = v;
+            }
+        }
+        let [x0, x1, x2, density, m0, m1, m2, t0, t1, t2] = rows.each_ref().map(|r| vector(r));
+        let set = _mm256_set1_ps;
+        let zero = _mm256_setzero_ps();
+        let (add, sub, mul, div) = (_mm256_add_ps, _mm256_sub_ps, _mm256_mul_ps, _mm256_div_ps);
+        let dot = |a: [__m256; 3], b: [__m256; 3]| {
+            add(add(mul(a[0], b[0]), mul(a[1], b[1])), mul(a[2], b[2]))
+        };
+        // `toward(p, point)`: the unit direction, the distance and its square.
+        let to = [sub(x0, set(p[0])), sub(x1, set(p[1])), sub(x2, set(p[2]))];
+        let r2 = dot(to, to);
+        let r = _mm256_sqrt_ps(r2);
+        let ok = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_GT_OQ>(r, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(r, set(f32::INFINITY)),
+        );
+        let w = [div(to[0], r), div(to[1], r), div(to[2], r)];
+        let cx = dot([set(n[0]), set(n[1]), set(n[2])], w);
+        let cy = _mm256_xor_ps(dot([m0, m1, m2], w), set(-0.0));
+        let ok = _mm256_and_ps(
+            ok,
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(cx, zero),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(cy, zero),
+            ),
+        );
+        // The shadow ray toward the point's offset end.
+        let sd = [
+            sub(t0, set(origin[0])),
+            sub(t1, set(origin[1])),
+            sub(t2, set(origin[2])),
+        ];
+        let len = _mm256_sqrt_ps(dot(sd, sd));
+        let ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GT_OQ>(len, zero));
+        let dir = [div(sd[0], len), div(sd[1], len), div(sd[2], len)];
+        // The balance heuristic's weight.
+        let pv = mul(density, set(params.density_scale));
+        let geometry = mul(cx, cy);
+        let pi_k = std::f32::consts::PI * params.k as f32;
+        let denominator = add(
+            mul(mul(set(pi_k), pv), r2),
+            mul(set(params.rays as f32), geometry),
+        );
+        let ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero));
+        let f = div(mul(pv, geometry), denominator);
+        Lanes {
+            ok: _mm256_movemask_ps(ok) as u32 & present,
+            dir: dir.map(|v| floats(v)),
+            len: floats(len),
+            f: floats(f),
+        }
     }
 }
