@@ -179,6 +179,7 @@ impl ConnectParams {
 }
 
 /// Connections computed together, one to a lane.
+#[cfg(target_arch = "x86_64")]
 pub(crate) const LANES: usize = 8;
 
 /// Up to [`LANES`] connections of one texel (picks in order, one to a lane) computed together
