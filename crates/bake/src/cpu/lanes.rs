@@ -4,8 +4,44 @@
 //! with the same IEEE operations in the same order (Rust does not fuse multiply-adds), so the
 //! blocks equal the reference bit for bit; a tap that does not count adds zero.
 
+use crate::cpu::kernel::{GuideMasks, Texel};
+
 /// Texels of a row filtered together, one to a vector lane.
 pub(crate) const LANES: usize = 8;
+
+/// The texels of `out` (four floats each) from `at` along its row, one by one with `texel`.
+pub(crate) fn one_by_one(at: Texel, out: &mut [f32], texel: impl Fn(Texel) -> [f32; 4]) {
+    for (x, t) in (at.x..).zip(out.chunks_exact_mut(4)) {
+        t.copy_from_slice(&texel(Texel { x, ..at }));
+    }
+}
+
+/// A row of a pass that filters in blocks: `block` at each whole block of [`LANES`] texels
+/// when the pass has chart tests (`masks`), `texel` (the reference) at the others, from `at`
+/// along the row.
+pub(crate) fn row(
+    masks: Option<&GuideMasks>,
+    at: Texel,
+    texels: &mut [f32],
+    texel: impl Fn(Option<&GuideMasks>, Texel) -> [f32; 4],
+    block: impl Fn(&GuideMasks, Texel, &mut [f32]) -> usize,
+) {
+    let mut blocks = texels.chunks_exact_mut(4 * LANES);
+    let mut x = at.x;
+    for out in &mut blocks {
+        let at = Texel { x, ..at };
+        match masks {
+            Some(m) => {
+                block(m, at, out);
+            }
+            None => one_by_one(at, out, |t| texel(None, t)),
+        }
+        x += LANES as u32;
+    }
+    one_by_one(Texel { x, ..at }, blocks.into_remainder(), |t| {
+        texel(masks, t)
+    });
+}
 
 #[cfg(target_arch = "x86_64")]
 pub(crate) use avx2::*;

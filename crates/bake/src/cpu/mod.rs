@@ -1207,6 +1207,7 @@ mod guide_mask_tests {
     use crate::backend::Limits;
     use crate::bake::Room;
     use crate::cpu::kernel::*;
+    use crate::cpu::lanes::LANES;
     use crate::program::AtrousConfig;
     use crate::scene::{Quality, Scene, Settings};
 
@@ -1222,14 +1223,20 @@ mod guide_mask_tests {
         assert_eq!(Program::Variance.signature().reads[1], "position");
     }
 
-    #[test]
-    fn the_kept_chart_tests_give_the_taps_the_guide_gives() {
+    /// `chairs_01` prepared at 12 texels/m: a furnished room's G-buffer (charts side by side,
+    /// contacts, chart edges, empty texels) for the tests below.
+    fn chairs_01_room() -> Room {
         let settings = Settings {
             texels_per_metre: 12.0,
             ..Settings::preset(Quality::Default)
         };
         let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
-        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room")
+    }
+
+    #[test]
+    fn the_kept_chart_tests_give_the_taps_the_guide_gives() {
+        let room = chairs_01_room();
         let g = &room.gbuffer;
         let (size, layers) = (g.layer_size, g.layers);
         let pos = View::new(&g.position, size, layers);
@@ -1294,15 +1301,10 @@ mod guide_mask_tests {
     #[test]
     fn variance_blocks_equal_the_texel_by_texel_estimate() {
         use crate::passes::variance::VarianceParams;
-        use crate::passes::variance::cpu::{LANES, variance_block, variance_texel};
+        use crate::passes::variance::cpu::{variance_block, variance_texel};
         use crate::program::{Params, atrous_steps};
         use crate::rng;
-        let settings = Settings {
-            texels_per_metre: 12.0,
-            ..Settings::preset(Quality::Default)
-        };
-        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
-        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        let room = chairs_01_room();
         let g = &room.gbuffer;
         let (size, layers) = (g.layer_size, g.layers);
         let pos = View::new(&g.position, size, layers);
@@ -1336,36 +1338,14 @@ mod guide_mask_tests {
             };
             let masks = GuideMasks::new(pos, chart);
             let maps = [src, pos, nrm];
-            for layer in 0..layers {
-                for y in 0..size[1] {
-                    for x0 in (0..size[0]).step_by(LANES) {
-                        let n = (size[0] - x0).min(LANES as u32);
-                        let mut out = vec![0.0f32; 4 * n as usize];
-                        vector +=
-                            variance_block(maps, p, &masks, Texel { layer, x: x0, y }, &mut out);
-                        for (x, got) in (x0..).zip(out.chunks_exact(4)) {
-                            let at = Texel { layer, x, y };
-                            let want = variance_texel(maps, p, None, at);
-                            assert_eq!(
-                                got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                                want.map(f32::to_bits),
-                                "{at:?} {p:?}"
-                            );
-                            compared += 1;
-                        }
-                    }
-                }
-            }
-        }
-        println!("{compared} texels compared, {vector} in vector lanes");
-        assert!(compared > 100_000);
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            assert!(
-                vector > compared / 10,
-                "{vector} of {compared} in vector lanes"
+            let (c, v) = compare_blocks(
+                (size, layers),
+                |at, out| variance_block(maps, p, &masks, at, out),
+                |at| variance_texel(maps, p, None, at),
             );
+            (compared, vector) = (compared + c, vector + v);
         }
+        assert_lanes_used(compared, vector);
     }
 
     /// The à-trous pass's blocks of eight texels ([`atrous_block`], vector lanes with AVX2)
@@ -1375,15 +1355,10 @@ mod guide_mask_tests {
     /// every step the denoiser uses and normal powers 1, 2⁰ … 2⁵.
     #[test]
     fn atrous_blocks_equal_the_texel_by_texel_filter() {
-        use crate::passes::atrous::cpu::{LANES, atrous_block, atrous_texel};
+        use crate::passes::atrous::cpu::{atrous_block, atrous_texel};
         use crate::program::{Params, atrous_steps};
         use crate::rng;
-        let settings = Settings {
-            texels_per_metre: 12.0,
-            ..Settings::preset(Quality::Default)
-        };
-        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
-        let room = Room::prepare(&scene, &settings, Limits::WEBGL2, &mut |_| {}).expect("room");
+        let room = chairs_01_room();
         let g = &room.gbuffer;
         let (size, layers) = (g.layer_size, g.layers);
         let pos = View::new(&g.position, size, layers);
@@ -1421,28 +1396,49 @@ mod guide_mask_tests {
                 };
                 let masks = GuideMasks::new(pos, chart);
                 let maps = [src, variance, pos, nrm];
-                for layer in 0..layers {
-                    for y in 0..size[1] {
-                        for x0 in (0..size[0]).step_by(LANES) {
-                            let n = (size[0] - x0).min(LANES as u32);
-                            let mut out = vec![0.0f32; 4 * n as usize];
-                            let at = Texel { layer, x: x0, y };
-                            vector += atrous_block(maps, p, &masks, at, &mut out);
-                            for (x, got) in (x0..).zip(out.chunks_exact(4)) {
-                                let at = Texel { layer, x, y };
-                                let want = atrous_texel(maps, p, None, at);
-                                assert_eq!(
-                                    got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
-                                    want.map(f32::to_bits),
-                                    "{at:?} {p:?}"
-                                );
-                                compared += 1;
-                            }
-                        }
+                let (c, v) = compare_blocks(
+                    (size, layers),
+                    |at, out| atrous_block(maps, p, &masks, at, out),
+                    |at| atrous_texel(maps, p, None, at),
+                );
+                (compared, vector) = (compared + c, vector + v);
+            }
+        }
+        assert_lanes_used(compared, vector);
+    }
+
+    /// Every texel of maps of `size` and `layers`, in blocks of [`LANES`] along each row with
+    /// `block` (which returns how many texels it computed in lanes), against `texel` bit for
+    /// bit: the texels compared and those computed in lanes.
+    fn compare_blocks(
+        (size, layers): ([u32; 2], u32),
+        block: impl Fn(Texel, &mut [f32]) -> usize,
+        texel: impl Fn(Texel) -> [f32; 4],
+    ) -> (usize, usize) {
+        let (mut compared, mut vector) = (0, 0);
+        for layer in 0..layers {
+            for y in 0..size[1] {
+                for x0 in (0..size[0]).step_by(LANES) {
+                    let n = (size[0] - x0).min(LANES as u32);
+                    let mut out = vec![0.0f32; 4 * n as usize];
+                    vector += block(Texel { layer, x: x0, y }, &mut out);
+                    for (x, got) in (x0..).zip(out.chunks_exact(4)) {
+                        let at = Texel { layer, x, y };
+                        assert_eq!(
+                            got.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                            texel(at).map(f32::to_bits),
+                            "{at:?}"
+                        );
+                        compared += 1;
                     }
                 }
             }
         }
+        (compared, vector)
+    }
+
+    /// Enough texels compared, and with AVX2 enough of them in lanes.
+    fn assert_lanes_used(compared: usize, vector: usize) {
         println!("{compared} texels compared, {vector} in vector lanes");
         assert!(compared > 100_000);
         #[cfg(target_arch = "x86_64")]

@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use crate::contract::{B3, ParamBlock};
 use crate::cpu::kernel::*;
-pub(crate) use crate::cpu::lanes::LANES;
+use crate::cpu::lanes;
 
 use super::AtrousParams;
 
@@ -34,42 +34,26 @@ impl CpuPass for Pass {
     type Scratch = ();
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], _: &mut ()) {
-        let maps = ctx.maps();
-        let layer = ctx.tile.layer;
-        let mut blocks = texels.chunks_exact_mut(4 * LANES);
-        let mut x = ctx.tile.x0;
-        for out in &mut blocks {
-            let at = Texel { layer, x, y };
-            match self.masks.as_deref() {
-                Some(masks) => {
-                    atrous_block(maps, self.params, masks, at, out);
-                }
-                None => scalar_texels(maps, self.params, None, at, out),
-            }
-            x += LANES as u32;
-        }
-        let at = Texel { layer, x, y };
-        scalar_texels(maps, self.params, self.masks.as_deref(), at, blocks.into_remainder());
+        let (maps, params) = (ctx.maps(), self.params);
+        let at = Texel {
+            layer: ctx.tile.layer,
+            x: ctx.tile.x0,
+            y,
+        };
+        lanes::row(
+            self.masks.as_deref(),
+            at,
+            texels,
+            |m, t| atrous_texel(maps, params, m, t),
+            |m, t, out| atrous_block(maps, params, m, t, out),
+        );
     }
 }
 
-/// [`atrous_texel`] at the texels of `out` (four floats each), from `at` along its row.
-fn scalar_texels(
-    maps: [View<'_>; 4],
-    params: AtrousParams,
-    masks: Option<&GuideMasks>,
-    at: Texel,
-    out: &mut [f32],
-) {
-    for (x, t) in (at.x..).zip(out.chunks_exact_mut(4)) {
-        t.copy_from_slice(&atrous_texel(maps, params, masks, Texel { x, ..at }));
-    }
-}
-
-/// [`atrous_texel`] at the [`LANES`] texels of `out` from `at` along its row: with AVX2 where
-/// the CPU has it, the texels whose chart tests `masks` holds filtered together, one to a
-/// vector lane ([`avx2::block`]); otherwise texel by texel. Returns how many texels were
-/// filtered in vector lanes.
+/// [`atrous_texel`] at the [`LANES`](crate::cpu::lanes::LANES) texels of `out` from `at` along
+/// its row: with AVX2 where the CPU has it, the texels whose chart tests `masks` holds
+/// filtered together, one to a vector lane ([`crate::cpu::lanes`]); otherwise texel by
+/// texel. Returns how many texels were filtered in vector lanes.
 pub(crate) fn atrous_block(
     maps: [View<'_>; 4],
     params: AtrousParams,
@@ -82,7 +66,7 @@ pub(crate) fn atrous_block(
         // SAFETY: the CPU has AVX2 (just checked).
         return unsafe { avx2::block(maps, params, masks, at, out) };
     }
-    scalar_texels(maps, params, Some(masks), at, out);
+    lanes::one_by_one(at, out, |t| atrous_texel(maps, params, Some(masks), t));
     0
 }
 
@@ -97,7 +81,7 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     use super::*;
-    use crate::cpu::lanes::{Centres, exp8, floats, luminance8, vector};
+    use crate::cpu::lanes::{Centres, LANES, exp8, floats, luminance8, vector};
 
     /// [`atrous_block`] with AVX2.
     #[target_feature(enable = "avx2")]
@@ -111,7 +95,7 @@ mod avx2 {
         let [src, variance, pos, nrm] = maps;
         let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES);
         let Some(centres) = centres else {
-            scalar_texels(maps, params, Some(masks), at, out);
+            lanes::one_by_one(at, out, |t| atrous_texel(maps, params, Some(masks), t));
             return 0;
         };
         // Per lane the centre's value and its variance scale.
