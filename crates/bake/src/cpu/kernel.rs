@@ -211,10 +211,11 @@ pub fn sin_cos_turns(u: f32) -> (f32, f32) {
 /// exact to a few ulp), `e^r` by Cephes' degree-6 polynomial for `expf` on `|r| ≤ ln 2 / 2`,
 /// `2^n` built from its bits. Relative error ≤ 3·10⁻⁷ against `f64` on `[−87, 88]` (tests);
 /// below −87 (`e^x < 1.7·10⁻³⁸`, where `f32` turns subnormal) it gives 0, above 88 infinity.
-/// Only multiplications, additions and bit operations, inlined: the library's `expf` was a
-/// call per tap that the à-trous loop waited on (4 % of a default CPU bake of `chairs_05`),
-/// and these bits are the same in the native and the wasm32 builds. The shaders call their
-/// own `exp`, which their platforms round as they do.
+/// Only multiplications, additions and bit operations, so that the denoiser's AVX2 lanes
+/// (`lanes::exp8`) compute the same bits eight at a time and the blocks equal the texel-by-texel
+/// reference (alone, one at a time, it is no faster than the C library's `expf`); the bits are
+/// the same in the native and the wasm32 builds. The shaders call their own `exp`, which their
+/// platforms round as they do.
 #[inline(always)]
 pub(crate) fn exp_f32(x: f32) -> f32 {
     if x.is_nan() {
@@ -946,13 +947,13 @@ impl GuideCache {
 /// Asks the cache for the line holding `data[index]` (nothing when `index` is out of range,
 /// or off x86_64).
 #[inline(always)]
-pub(crate) fn prefetch(data: &[f32], index: usize) {
+pub(crate) fn prefetch<T>(data: &[T], index: usize) {
     #[cfg(target_arch = "x86_64")]
     if let Some(v) = data.get(index) {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         // SAFETY: SSE is part of the x86_64 baseline, and a prefetch reads nothing the
         // program sees and never faults; the pointer is to an element of `data`.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((v as *const f32).cast()) };
+        unsafe { _mm_prefetch::<_MM_HINT_T0>((v as *const T).cast()) };
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (data, index);

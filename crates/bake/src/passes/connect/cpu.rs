@@ -41,6 +41,12 @@ impl CpuPass for ConnectParams {
             }
         };
         let x0 = ctx.tile.x0;
+        let end = x0 + (texels.len() / 4) as u32;
+        // The connections in AVX2 lanes where the CPU has them.
+        #[cfg(target_arch = "x86_64")]
+        let lanes = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let lanes = false;
         let mut picks = Vec::with_capacity(self.k as usize);
         picks_of(x0, next);
         for (x, out) in (x0..).zip(texels.chunks_exact_mut(4)) {
@@ -50,46 +56,25 @@ impl CpuPass for ConnectParams {
             // behind the previous connection's shadow ray (chairs_05 default: 12 % of a CPU
             // bake stalled on that load). A texel's shadow rays take far longer than a fetch,
             // so the next texel's points are in the cache when it needs them.
-            if x + 1 < scene.layer_size[0] {
+            if x + 1 < end {
                 picks_of(x + 1, next);
                 for &j in next.iter().take(PREFETCH as usize) {
-                    prefetch_point(&scene.lamp_paths, j);
+                    prefetch(&scene.lamp_paths, j);
                 }
             } else {
                 next.clear();
             }
-            out.copy_from_slice(&self.texel(ctx, Texel { layer, x, y }, &picks));
+            let at = Texel { layer, x, y };
+            out.copy_from_slice(&self.texel_with(ctx, at, &picks, lanes));
         }
     }
-}
-
-/// Asks the cache for point `j`'s line (nothing out of range, or off x86_64).
-#[inline(always)]
-fn prefetch_point(points: &[LampPoint], j: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(p) = points.get(j) {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        // SAFETY: SSE is part of the x86_64 baseline, and a prefetch reads nothing the
-        // program sees and never faults; the pointer is to an element of `points`.
-        unsafe { _mm_prefetch::<_MM_HINT_T0>((p as *const LampPoint).cast()) };
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (points, j);
 }
 
 impl ConnectParams {
     /// The connections of texel `at` to the pool points `picks` (its picks `0 .. k`, in
-    /// order; empty when the pool is): with AVX2 where the CPU has it, up to [`LANES`]
-    /// connections computed together up to their shadow rays ([`avx2::connections`]).
-    fn texel(&self, ctx: &Ctx<'_>, at: Texel, picks: &[usize]) -> [f32; 4] {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            return self.texel_with(ctx, at, picks, true);
-        }
-        self.texel_with(ctx, at, picks, false)
-    }
-
-    /// [`ConnectParams::texel`], its connections in lanes or one by one.
+    /// order; empty when the pool is): with `lanes` (only where the CPU has AVX2), up to
+    /// [`LANES`] connections computed together up to their shadow rays
+    /// ([`avx2::connections`]), else one by one.
     pub(crate) fn texel_with(
         &self,
         ctx: &Ctx<'_>,
@@ -114,7 +99,7 @@ impl ConnectParams {
         #[cfg(target_arch = "x86_64")]
         if lanes {
             for group in picks.chunks(LANES) {
-                // SAFETY: `lanes` only where the CPU has AVX2 (`texel`, the tests).
+                // SAFETY: `lanes` only where the CPU has AVX2 (`row`, the tests).
                 let c = unsafe { avx2::connections(self, scene, group, (p, n, origin)) };
                 for (l, &j) in group.iter().enumerate() {
                     let Some(point) = scene.lamp_paths.get(j).filter(|_| c.ok & (1 << l) != 0)
