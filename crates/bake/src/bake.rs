@@ -198,6 +198,7 @@ pub fn bake_room_reading<B: GpuBackend>(
             u32::try_from(lamps.params.iter().filter(|l| l.opening.is_some()).count())
                 .unwrap_or(u32::MAX),
         ),
+        opening_probe_stride: settings.opening_probe_stride,
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
         gather_chunk,
         direct_chunk,

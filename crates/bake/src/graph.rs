@@ -334,6 +334,9 @@ pub struct GraphConfig {
     /// Points of a lamp's luminous opening per texel near it, and how many of the lamps have
     /// an opening ([`DirectParams::samples`], [`DirectParams::openings`]).
     pub openings: (u32, u32),
+    /// Opening samples per visibility probe ([`DirectParams::probe_stride`], from
+    /// `Settings::opening_probe_stride`).
+    pub opening_probe_stride: u32,
     /// [`Method::Converged`]: the denoiser's and refinement's power of two for luminances
     /// ([`AtrousConfig::luminance_scale`], [`crate::program::luminance_scale_for`]); 1:
     /// unscaled.
@@ -591,6 +594,7 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: Tex
         seed: config.seed,
         samples: config.openings.0,
         openings: config.openings.1,
+        probe_stride: config.opening_probe_stride,
         ..DirectParams::default()
     };
     let chunks = whole.chunked(config.direct_chunk);
@@ -1363,6 +1367,7 @@ mod tests {
             lamp_paths: (0, 0.0),
             lamp_path_count: 0,
             openings: (0, 0),
+            opening_probe_stride: 0,
             luminance_scale: 1.0,
             gather_chunk: 0,
             direct_chunk: 0,
@@ -1672,6 +1677,7 @@ mod tests {
             lamp_paths: (4, 0.5),
             lamp_path_count: 100,
             openings: (0, 0),
+            opening_probe_stride: 0,
             luminance_scale: 1.0,
             ..converged(2, Blur::Sigma(1.5))
         });
@@ -1792,6 +1798,7 @@ mod tests {
             lamp_paths: (4, 0.5),
             lamp_path_count: 1000,
             openings: (0, 0),
+            opening_probe_stride: 0,
             luminance_scale: 1.0,
             ..config(3, Blur::Sigma(1.0))
         };

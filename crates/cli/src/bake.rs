@@ -121,6 +121,11 @@ pub struct Args {
     /// baked with its opening (see --lamp-model).
     #[arg(long)]
     opening_samples: Option<u32>,
+    /// Opening samples per visibility probe: a texel first casts the shadow rays of every
+    /// Nth of its opening's points and, when all reach the opening, takes the others as seen
+    /// (0 or 1: every point casts its ray).
+    #[arg(long)]
+    opening_probe_stride: Option<u32>,
     /// How every lamp emits, over the scene file's `lamp_model`: auto (its luminous opening
     /// where a receiver is near enough for the point model to be off by more than 1 %),
     /// point or area (the opening everywhere).
@@ -158,6 +163,7 @@ impl Args {
             refine_error: self.refine_error,
             lamp_paths: self.lamp_paths,
             opening_samples: self.opening_samples,
+            opening_probe_stride: self.opening_probe_stride,
         }
     }
 }

@@ -80,8 +80,11 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
-  /** Points of a lamp's luminous opening per texel near it (default: the preset's, 32 at 'default'). */
+  /** Points of a lamp's luminous opening per texel near it (default: the preset's, 48 at 'default'). */
   openingSamples?: number;
+  /** Opening points per visibility probe: a texel first casts the shadow rays of every Nth point and,
+   * when all of them reach the opening, takes the others as seen (default 4; 0 or 1: every point casts its ray). */
+  openingProbeStride?: number;
   /** The lamp model of every lamp without its own `lampModel` (default 'auto'). */
   lampModel?: LampModel;
   /** Largest distance of a measure() point from a baked surface, metres (default 0.01). */

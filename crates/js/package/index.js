@@ -19,7 +19,7 @@ export const QUALITIES = Object.freeze(['draft', 'default', 'final']);
 /** The bake methods (the CLI's `--method`). */
 export const METHODS = Object.freeze(['converged', 'paper']);
 
-const SETTING_KEYS = ['method', 'quality', 'rays', 'bounces', 'tail', 'blurSigma', 'texelsPerMetre', 'seed', 'lampPaths', 'openingSamples', 'lampModel', 'measureTolerance'];
+const SETTING_KEYS = ['method', 'quality', 'rays', 'bounces', 'tail', 'blurSigma', 'texelsPerMetre', 'seed', 'lampPaths', 'openingSamples', 'openingProbeStride', 'lampModel', 'measureTolerance'];
 const LAMP_KEYS = ['name', 'position', 'aim', 'rotation', 'multiplier', 'color', 'lampModel'];
 
 function toBytes(value, what) {

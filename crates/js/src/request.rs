@@ -435,9 +435,10 @@ mod tests {
     fn lamp_model_is_per_lamp_with_a_default_for_all() {
         use luxbake::scene::LampModel;
         let o = options(
-            r#"{"lampModel":"point","openingSamples":64,"lamps":[{"position":[0,2,0]},{"position":[1,2,0],"lampModel":"area"}]}"#,
+            r#"{"lampModel":"point","openingSamples":64,"openingProbeStride":0,"lamps":[{"position":[0,2,0]},{"position":[1,2,0],"lampModel":"area"}]}"#,
         );
         assert_eq!(o.settings().unwrap().opening_samples, 64);
+        assert_eq!(o.settings().unwrap().opening_probe_stride, 0);
         let lamps = build_lamps(&o, &[IES, IES]).unwrap();
         assert_eq!(
             (lamps[0].model, lamps[1].model),

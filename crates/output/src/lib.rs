@@ -34,7 +34,7 @@
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, tail, blur, texels_per_metre, bvh,
 //! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, lamp_paths,
-//! opening_samples), `layout`
+//! opening_samples, opening_probe_stride), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
 //! the file's tilt factors are taken at, [`luxbake::scene::Lamp::tilt_deg`]), multiplier,
 //! color, max_candela (file, at that tilt), lumens (integrated at that tilt × multiplier),
@@ -421,6 +421,7 @@ pub fn write_bake(
             "higher_rays": s.higher_rays,
             "lamp_paths": s.lamp_paths,
             "opening_samples": s.opening_samples,
+            "opening_probe_stride": s.opening_probe_stride,
             "higher_stride": s.higher_stride,
             "refine_rays": s.refine_rays,
             "refine_error": s.refine_error,

@@ -770,6 +770,7 @@ impl BvhMode {
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
 /// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 and no refinement only (else reported as skipped) |
 /// | `opening_samples`  | 1 ..= [`MAX_OPENING_SAMPLES`] (1024) |
+/// | `opening_probe_stride` | 0 ..= [`MAX_OPENING_SAMPLES`]; 0 and 1: every point casts its ray |
 /// | `tail`, `bvh`, `seed`, `backend` | any value                                     |
 #[derive(Debug, Clone, PartialEq)]
 pub struct Settings {
@@ -833,6 +834,12 @@ pub struct Settings {
     /// that has one (`luxbake::opening`, [`LampModel`]); texels farther away and lamps
     /// without an opening cast one shadow ray as before.
     pub opening_samples: u32,
+    /// Opening samples per visibility probe: a texel near an opening first casts the shadow
+    /// rays of every `opening_probe_stride`-th of its points (those that give it light); when
+    /// all of them reach the opening, its other points are taken as seen without a ray, else
+    /// every point casts its own. 0 or 1: every point casts its ray (`luxbake::opening`'s
+    /// docs, "Probes", say what it saves and what it can miss).
+    pub opening_probe_stride: u32,
 }
 
 impl Settings {
@@ -873,6 +880,7 @@ impl Settings {
             refine_error: 0.1,
             lamp_paths: 0,
             opening_samples: 32,
+            opening_probe_stride: Settings::OPENING_PROBE_STRIDE,
         }
     }
 
@@ -962,11 +970,14 @@ impl Settings {
     pub const MAX_STRIDE: u32 = 16;
     /// Largest [`Settings::lamp_paths`].
     pub const MAX_LAMP_PATHS: u32 = 1024;
+    /// [`Settings::opening_probe_stride`] of every preset: 12 probes of the `default` preset's
+    /// 48 points (24 of 96 near an opening).
+    pub const OPENING_PROBE_STRIDE: u32 = 4;
 
     /// Checks every setting against the limits in the type's docs; the error names the first
     /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance`, `stride`,
     /// `higher_stride`, `higher_rays`, `refine_rays`, `lamp_paths`, `opening_samples`,
-    /// `refine_error` or `texels_per_metre`).
+    /// `opening_probe_stride`, `refine_error` or `texels_per_metre`).
     pub fn validate(&self) -> Result<(), SettingError> {
         let invalid = |name, reason| Err(SettingError { name, reason });
         if !(1..=Settings::MAX_RAYS).contains(&self.rays) {
@@ -1038,6 +1049,13 @@ impl Settings {
             return invalid(
                 "opening_samples",
                 format!("{}; expected 1..={max}", self.opening_samples),
+            );
+        }
+        if self.opening_probe_stride > MAX_OPENING_SAMPLES {
+            let max = MAX_OPENING_SAMPLES;
+            return invalid(
+                "opening_probe_stride",
+                format!("{}; expected 0..={max}", self.opening_probe_stride),
             );
         }
         let e = self.refine_error;
@@ -1143,11 +1161,13 @@ pub struct SettingsPatch {
     pub lamp_paths: Option<u32>,
     /// [`Settings::opening_samples`].
     pub opening_samples: Option<u32>,
+    /// [`Settings::opening_probe_stride`].
+    pub opening_probe_stride: Option<u32>,
 }
 
 impl SettingsPatch {
     /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
-    pub const KEYS: [&'static str; 18] = [
+    pub const KEYS: [&'static str; 19] = [
         "method",
         "quality",
         "rays",
@@ -1166,6 +1186,7 @@ impl SettingsPatch {
         "refine_error",
         "lamp_paths",
         "opening_samples",
+        "opening_probe_stride",
     ];
 
     /// A patch from `key → value` entries of any serde format (a TOML table, a JSON object);
@@ -1247,6 +1268,7 @@ impl SettingsPatch {
             refine_error: other.refine_error.or(base.refine_error),
             lamp_paths: other.lamp_paths.or(base.lamp_paths),
             opening_samples: other.opening_samples.or(base.opening_samples),
+            opening_probe_stride: other.opening_probe_stride.or(base.opening_probe_stride),
         }
     }
 
@@ -1283,6 +1305,7 @@ impl SettingsPatch {
         set(&mut s.refine_error, self.refine_error);
         set(&mut s.lamp_paths, self.lamp_paths);
         set(&mut s.opening_samples, self.opening_samples);
+        set(&mut s.opening_probe_stride, self.opening_probe_stride);
     }
 
     /// The settings of this patch: the preset it names (or [`Settings::default`]) with its

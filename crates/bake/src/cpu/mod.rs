@@ -646,7 +646,7 @@ mod tests {
         openings: 0,
         first_sample: 0,
         chunk_samples: 0,
-        pad0: 0,
+        probe_stride: 0,
         pad1: 0,
     };
 

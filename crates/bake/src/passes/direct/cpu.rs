@@ -4,6 +4,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 use luxbake_bvh::Ray;
+use luxbake_ies::GpuTable;
 
 use crate::backend::{LampParams, LampView, lamp_toward, offset_origin, toward};
 use crate::cpu::kernel::*;
@@ -66,7 +67,7 @@ pub(crate) fn direct_texel(
                 lamp,
                 &o,
                 &start,
-                params.samples,
+                [params.samples, params.probe_stride],
                 shift,
                 [first, end],
             );
@@ -157,11 +158,110 @@ pub(crate) fn near_opening(lamp: &LampParams, p: [f32; 3]) -> Option<OpeningPara
     (dot(to, to).sqrt() < o.near).then_some(o)
 }
 
+/// One opening's lattice points as a texel sees them: what [`from_opening`] sums, each point
+/// before its shadow ray.
+struct OpeningView<'a> {
+    table: &'a GpuTable,
+    lamp: &'a LampParams,
+    o: &'a OpeningParams,
+    start: &'a Start,
+    receiver: [f32; 3],
+    shift: [u32; 2],
+}
+
+/// A lattice point's share before its shadow ray, and that ray's end: the point `x`, the unit
+/// direction `back` from it toward the texel, the distance `r` and its square.
+struct PointView {
+    value: f32,
+    x: [f32; 3],
+    back: [f32; 3],
+    r: f32,
+    r2: f32,
+}
+
+impl OpeningView<'_> {
+    /// Point `k` of `count` of a part ([`opening::lattice`] drawn by `sampler`): `None` when it
+    /// gives the texel nothing whatever its shadow ray finds (behind the receiver, on the
+    /// part's far side, dark toward it).
+    #[inline]
+    fn point(&self, sampler: &opening::PartSampler<'_>, k: u32, count: u32) -> Option<PointView> {
+        let (p, n, off2) = (self.start.p, self.start.n, self.start.off2);
+        let m = &self.lamp.world_to_photometric;
+        let s = sampler.sample(opening::lattice(k, count, self.shift))?;
+        // World point: the photometric centre plus Mᵀ·point (M is a rotation).
+        let q = s.point;
+        let x = [0, 1, 2]
+            .map(|c| self.lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
+        let (w, r, r2) = toward(p, x)?;
+        let cos_p = dot(n, w);
+        if !(cos_p > 0.0) {
+            return None;
+        }
+        let back = [-w[0], -w[1], -w[2]];
+        let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+        let cos_x = dot(s.normal, emit);
+        if !(cos_x > 0.0) {
+            return None;
+        }
+        let area = opening::projected_area(self.o, emit);
+        if !(area > 0.0) {
+            return None;
+        }
+        let intensity = self.table.sample(emit);
+        if !(intensity > 0.0) {
+            return None;
+        }
+        let nf = count as f32;
+        let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * nf));
+        Some(PointView {
+            value: intensity * cos_x * s.weight / area * cos_p / r2e,
+            x,
+            back,
+            r,
+            r2,
+        })
+    }
+}
+
+/// Whether the texel sees the whole opening by its probes: the shadow rays of the lattice
+/// points `k = 0, stride, 2·stride, …` of every part (`counts` points each) that give the
+/// texel light ([`OpeningView::point`]) all reach it — then the other points are taken as seen
+/// without a ray. `false` (every point casts its ray) for `stride ≤ 1`, at the first probe
+/// that is blocked, or when no probe gives light.
+fn sees_all(
+    view: &OpeningView<'_>,
+    scene: &CpuScene,
+    trav: Trav,
+    counts: &[u32; 6],
+    stride: u32,
+) -> bool {
+    if stride <= 1 {
+        return false;
+    }
+    let mut seen = false;
+    for (part, &count) in counts.iter().enumerate() {
+        if count == 0 {
+            continue;
+        }
+        let sampler = opening::PartSampler::new(view.o, part, Some(view.receiver));
+        for k in (0..count).step_by(stride as usize) {
+            let Some(pt) = view.point(&sampler, k, count) else {
+                continue;
+            };
+            if !view.start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+                return false;
+            }
+            seen = true;
+        }
+    }
+    seen
+}
+
 /// The illuminance at `p` (unit normal `n`) from lattice points of `lamp`'s opening `o`
 /// ([`opening::texel_samples`] of `samples`), shared among the parts `p` can see, before the
-/// lamp's scale ([`crate::opening`]'s estimator, each point with its shadow ray): the share of
-/// the points whose index, counted over the parts in order, lies in `range` (all of them:
-/// `[0, u32::MAX]`).
+/// lamp's scale ([`crate::opening`]'s estimator, each point with its shadow ray unless the
+/// probes of `probe_stride` all see the opening, [`sees_all`]): the share of the points whose
+/// index, counted over the parts in order, lies in `range` (all of them: `[0, u32::MAX]`).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn from_opening(
     scene: &CpuScene,
@@ -169,26 +269,37 @@ pub(crate) fn from_opening(
     lamp: &LampParams,
     o: &OpeningParams,
     start: &Start,
-    samples: u32,
+    [samples, probe_stride]: [u32; 2],
     shift: [u32; 2],
     range: [u32; 2],
 ) -> f32 {
     let Some(table) = scene.tables.get(lamp.table as usize) else {
         return 0.0;
     };
-    let (p, n, off2) = (start.p, start.n, start.off2);
     let m = &lamp.world_to_photometric;
     // The receiver in the lamp's photometric frame: M·(p − centre).
-    let rel = sub(p, lamp.position);
+    let rel = sub(start.p, lamp.position);
     let receiver = [dot(m[0], rel), dot(m[1], rel), dot(m[2], rel)];
     let d = dot(rel, rel).sqrt();
     let n_texel = opening::texel_samples(o, d, samples);
     let counts = opening::counts(&opening::visible_areas(o, receiver), n_texel);
+    // A chunk past the texel's points adds nothing (and asks no probe).
+    if range[0] >= counts.iter().fold(0u32, |a, &c| a.saturating_add(c)) {
+        return 0.0;
+    }
+    let view = OpeningView {
+        table,
+        lamp,
+        o,
+        start,
+        receiver,
+        shift,
+    };
+    let trace = !sees_all(&view, scene, trav, &counts, probe_stride);
     let mut sum = 0.0f32;
     // Index of the part's first point among all the opening's.
     let mut base = 0u32;
     for (part, &count) in counts.iter().enumerate() {
-        let nf = count as f32;
         let mut part_sum = 0.0f32;
         let lo = range[0].saturating_sub(base).min(count);
         let hi = range[1].saturating_sub(base).min(count);
@@ -198,43 +309,16 @@ pub(crate) fn from_opening(
         }
         let sampler = opening::PartSampler::new(o, part, Some(receiver));
         for k in lo..hi {
-            let u = opening::lattice(k, count, shift);
-            let Some(s) = sampler.sample(u) else {
+            let Some(pt) = view.point(&sampler, k, count) else {
                 continue;
             };
-            // World point: the photometric centre plus Mᵀ·point (M is a rotation).
-            let q = s.point;
-            let x = [0, 1, 2]
-                .map(|c| lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
-            let Some((w, r, r2)) = toward(p, x) else {
-                continue;
-            };
-            let cos_p = dot(n, w);
-            if !(cos_p > 0.0) {
+            if trace && !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
                 continue;
             }
-            let back = [-w[0], -w[1], -w[2]];
-            let emit = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
-            let cos_x = dot(s.normal, emit);
-            if !(cos_x > 0.0) {
-                continue;
-            }
-            let area = opening::projected_area(o, emit);
-            if !(area > 0.0) {
-                continue;
-            }
-            let intensity = table.sample(emit);
-            if !(intensity > 0.0) {
-                continue;
-            }
-            if !start.sees(scene, trav, x, back, r, r2) {
-                continue;
-            }
-            let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * nf));
-            part_sum += intensity * cos_x * s.weight / area * cos_p / r2e;
+            part_sum += pt.value;
         }
         if count > 0 {
-            sum += part_sum / nf;
+            sum += part_sum / count as f32;
         }
     }
     sum

@@ -19,9 +19,64 @@ bool luxSees(vec3 p, vec3 n, vec3 o0, float off2, vec3 x, vec3 back, float r, fl
     return !(len > 0.0 && tMax > 0.0 && luxTrace(origin, dir, 0.0, tMax, true, hit) >= 0);
 }
 
+// cpu::OpeningView::point: lattice point k of count on part `part` of an opening (its lamp
+// at lampPos, rows m0..m2 of its rotation, its table and size) as the texel at p sees it, before
+// the point's shadow ray: its share `value` and the ray's end x, back, r, r2; false when it
+// gives p nothing whatever the ray finds.
+bool luxOpeningPoint(LuxOpening o, vec3 lampPos, vec3 m0, vec3 m1, vec3 m2, int table,
+                     ivec2 size, int part, uint k, uint count, uvec2 shift, vec3 receiver,
+                     vec3 p, vec3 n, float off2, out float value, out vec3 x, out vec3 back,
+                     out float r, out float r2) {
+    value = 0.0;
+    x = vec3(0.0);
+    back = vec3(0.0);
+    r = 0.0;
+    r2 = 0.0;
+    vec3 q;
+    vec3 qn;
+    float weight;
+    if (!luxOpeningSamplePart(o, part, luxOpeningLattice(k, count, shift), receiver, q, qn,
+                              weight)) {
+        return false;
+    }
+    x = vec3(lampPos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
+             lampPos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
+             lampPos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
+    vec3 to = x - p;
+    r2 = luxDot(to, to);
+    r = sqrt(r2);
+    if (!(r > 0.0 && luxFinite(r))) {
+        return false;
+    }
+    vec3 w = vec3(to.x / r, to.y / r, to.z / r);
+    float cosP = luxDot(n, w);
+    if (!(cosP > 0.0)) {
+        return false;
+    }
+    back = -w;
+    vec3 emit = vec3(luxDot(m0, back), luxDot(m1, back), luxDot(m2, back));
+    float cosX = luxDot(qn, emit);
+    if (!(cosX > 0.0)) {
+        return false;
+    }
+    float area = luxOpeningProjectedArea(o, emit);
+    if (!(area > 0.0)) {
+        return false;
+    }
+    float intensity = luxIesSample(table, size, emit);
+    if (!(intensity > 0.0)) {
+        return false;
+    }
+    float r2e = max(max(r2, off2), weight / (LUX_PI * float(count)));
+    value = intensity * cosX * weight / area * cosP / r2e;
+    return true;
+}
+
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
-// (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale;
-// the points whose index over the parts lies in [first, end).
+// (luxTexelSamples of u_samples), shared among the parts p can see, before the lamp's scale,
+// each with its shadow ray unless the probes all see the opening (cpu::sees_all: the points
+// k = 0, u_probe_stride, 2·u_probe_stride, … of each part that give light); the points whose
+// index over the parts lies in [first, end).
 float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, uvec2 shift,
                      uint first, uint end) {
     vec4 l0 = luxLamp(li, 0);
@@ -29,6 +84,7 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
     vec3 m0 = luxLamp(li, 1).xyz;
     vec3 m1 = luxLamp(li, 2).xyz;
     vec3 m2 = luxLamp(li, 3).xyz;
+    int table = int(l0.w);
     ivec2 size = ivec2(luxLamp(li, 5).yz);
     // The receiver in the lamp's photometric frame: M·(p − centre).
     vec3 rel = p - lampPos;
@@ -37,6 +93,40 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
     luxVisibleAreas(o, receiver, areas);
     uint counts[6];
     luxCounts(areas, luxTexelSamples(o, sqrt(luxDot(rel, rel)), u_samples), counts);
+    // A chunk past the texel's points adds nothing (and asks no probe).
+    uint total = 0u;
+    for (int part = 0; part < 6; ++part) {
+        total += counts[part];
+    }
+    if (first >= total) {
+        return 0.0;
+    }
+    float value;
+    vec3 x;
+    vec3 back;
+    float r;
+    float r2;
+    // cpu::sees_all.
+    bool trace = true;
+    if (u_probe_stride > 1u) {
+        bool seen = false;
+        bool blocked = false;
+        for (int part = 0; part < 6 && !blocked; ++part) {
+            uint count = counts[part];
+            for (uint k = 0u; k < count; k += u_probe_stride) {
+                if (!luxOpeningPoint(o, lampPos, m0, m1, m2, table, size, part, k, count, shift,
+                                     receiver, p, n, off2, value, x, back, r, r2)) {
+                    continue;
+                }
+                if (!luxSees(p, n, o0, off2, x, back, r, r2)) {
+                    blocked = true;
+                    break;
+                }
+                seen = true;
+            }
+        }
+        trace = blocked || !seen;
+    }
     float sum = 0.0;
     // Index of the part's first point among all the opening's.
     uint base = 0u;
@@ -48,46 +138,14 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
         uint hi = min(end - min(end, base), count);
         base += count;
         for (uint k = lo; k < hi; ++k) {
-            vec3 q;
-            vec3 qn;
-            float weight;
-            if (!luxOpeningSamplePart(o, part, luxOpeningLattice(k, count, shift), receiver, q,
-                                      qn, weight)) {
+            if (!luxOpeningPoint(o, lampPos, m0, m1, m2, table, size, part, k, count, shift,
+                                 receiver, p, n, off2, value, x, back, r, r2)) {
                 continue;
             }
-            vec3 x = vec3(lampPos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
-                          lampPos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
-                          lampPos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
-            vec3 to = x - p;
-            float r2 = luxDot(to, to);
-            float r = sqrt(r2);
-            if (!(r > 0.0 && luxFinite(r))) {
+            if (trace && !luxSees(p, n, o0, off2, x, back, r, r2)) {
                 continue;
             }
-            vec3 w = vec3(to.x / r, to.y / r, to.z / r);
-            float cosP = luxDot(n, w);
-            if (!(cosP > 0.0)) {
-                continue;
-            }
-            vec3 back = -w;
-            vec3 emit = vec3(luxDot(m0, back), luxDot(m1, back), luxDot(m2, back));
-            float cosX = luxDot(qn, emit);
-            if (!(cosX > 0.0)) {
-                continue;
-            }
-            float area = luxOpeningProjectedArea(o, emit);
-            if (!(area > 0.0)) {
-                continue;
-            }
-            float intensity = luxIesSample(int(l0.w), size, emit);
-            if (!(intensity > 0.0)) {
-                continue;
-            }
-            if (!luxSees(p, n, o0, off2, x, back, r, r2)) {
-                continue;
-            }
-            float r2e = max(max(r2, off2), weight / (LUX_PI * nf));
-            partSum += intensity * cosX * weight / area * cosP / r2e;
+            partSum += value;
         }
         if (count > 0u) {
             sum += partSum / nf;

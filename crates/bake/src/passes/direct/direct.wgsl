@@ -21,9 +21,75 @@ fn lux_sees(p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32, x: vec3<f32>, 
     return !(len > 0.0 && t_max > 0.0 && lux_trace(origin, dir, 0.0, t_max, true, &hit) >= 0);
 }
 
+// cpu::OpeningView::point: lattice point k of count on part `part` of lamp li's opening as
+// the texel at p sees it, before the point's shadow ray: its share `value` and the ray's end
+// x, back, r, r2; valid false when it gives p nothing whatever the ray finds.
+struct LuxOpeningPoint {
+    valid: bool,
+    value: f32,
+    x: vec3<f32>,
+    back: vec3<f32>,
+    r: f32,
+    r2: f32,
+}
+
+fn lux_opening_point(li: u32, o: LuxOpening, part: i32, k: u32, count: u32, shift: vec2<u32>,
+                     receiver: vec3<f32>, p: vec3<f32>, n: vec3<f32>, off2: f32) -> LuxOpeningPoint {
+    var res: LuxOpeningPoint;
+    res.valid = false;
+    let lamp = lux_lamps[li];
+    let lamp_pos = lamp.position.xyz;
+    let m0 = lamp.m0.xyz;
+    let m1 = lamp.m1.xyz;
+    let m2 = lamp.m2.xyz;
+    let s = lux_opening_sample_part(o, part, lux_opening_lattice(k, count, shift), receiver);
+    if (!s.valid) {
+        return res;
+    }
+    let q = s.point;
+    let x = vec3<f32>(lamp_pos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
+                      lamp_pos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
+                      lamp_pos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
+    let to = x - p;
+    let r2 = lux_dot(to, to);
+    let r = sqrt(r2);
+    if (!(r > 0.0 && lux_finite(r))) {
+        return res;
+    }
+    let w = vec3<f32>(to.x / r, to.y / r, to.z / r);
+    let cos_p = lux_dot(n, w);
+    if (!(cos_p > 0.0)) {
+        return res;
+    }
+    let back = -w;
+    let emit = vec3<f32>(lux_dot(m0, back), lux_dot(m1, back), lux_dot(m2, back));
+    let cos_x = lux_dot(s.normal, emit);
+    if (!(cos_x > 0.0)) {
+        return res;
+    }
+    let area = lux_opening_projected_area(o, emit);
+    if (!(area > 0.0)) {
+        return res;
+    }
+    let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), emit);
+    if (!(intensity > 0.0)) {
+        return res;
+    }
+    let r2e = max(max(r2, off2), s.weight / (LUX_PI * f32(count)));
+    res.valid = true;
+    res.value = intensity * cos_x * s.weight / area * cos_p / r2e;
+    res.x = x;
+    res.back = back;
+    res.r = r;
+    res.r2 = r2;
+    return res;
+}
+
 // cpu::from_opening: the illuminance at p from lattice points of lamp li's opening
 // (lux_texel_samples of lux_pass.samples), shared among the parts p can see, before the
-// lamp's scale; the points whose index over the parts lies in [first, end).
+// lamp's scale, each with its shadow ray unless the probes all see the opening
+// (cpu::sees_all: the points k = 0, probe_stride, 2·probe_stride, … of each part that give
+// light); the points whose index over the parts lies in [first, end).
 fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32,
                     shift: vec2<u32>, first: u32, end: u32) -> f32 {
     let lamp = lux_lamps[li];
@@ -36,6 +102,36 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
     let receiver = vec3<f32>(lux_dot(m0, rel), lux_dot(m1, rel), lux_dot(m2, rel));
     let n_texel = lux_texel_samples(o, sqrt(lux_dot(rel, rel)), lux_pass.samples);
     let counts = lux_counts(lux_visible_areas(o, receiver), n_texel);
+    // A chunk past the texel's points adds nothing (and asks no probe).
+    var total = 0u;
+    for (var part = 0; part < 6; part++) {
+        total += counts[part];
+    }
+    if (first >= total) {
+        return 0.0;
+    }
+    // cpu::sees_all.
+    var trace = true;
+    let stride = lux_pass.probe_stride;
+    if (stride > 1u) {
+        var seen = false;
+        var blocked = false;
+        for (var part = 0; part < 6 && !blocked; part++) {
+            let count = counts[part];
+            for (var k = 0u; k < count; k += stride) {
+                let pt = lux_opening_point(li, o, part, k, count, shift, receiver, p, n, off2);
+                if (!pt.valid) {
+                    continue;
+                }
+                if (!lux_sees(p, n, o0, off2, pt.x, pt.back, pt.r, pt.r2)) {
+                    blocked = true;
+                    break;
+                }
+                seen = true;
+            }
+        }
+        trace = blocked || !seen;
+    }
     var sum = 0.0;
     // Index of the part's first point among all the opening's.
     var base = 0u;
@@ -47,44 +143,14 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
         let hi = min(end - min(end, base), count);
         base += count;
         for (var k = lo; k < hi; k++) {
-            let s = lux_opening_sample_part(o, part, lux_opening_lattice(k, count, shift), receiver);
-            if (!s.valid) {
+            let pt = lux_opening_point(li, o, part, k, count, shift, receiver, p, n, off2);
+            if (!pt.valid) {
                 continue;
             }
-            let q = s.point;
-            let x = vec3<f32>(lamp_pos.x + q.x * m0.x + q.y * m1.x + q.z * m2.x,
-                              lamp_pos.y + q.x * m0.y + q.y * m1.y + q.z * m2.y,
-                              lamp_pos.z + q.x * m0.z + q.y * m1.z + q.z * m2.z);
-            let to = x - p;
-            let r2 = lux_dot(to, to);
-            let r = sqrt(r2);
-            if (!(r > 0.0 && lux_finite(r))) {
+            if (trace && !lux_sees(p, n, o0, off2, pt.x, pt.back, pt.r, pt.r2)) {
                 continue;
             }
-            let w = vec3<f32>(to.x / r, to.y / r, to.z / r);
-            let cos_p = lux_dot(n, w);
-            if (!(cos_p > 0.0)) {
-                continue;
-            }
-            let back = -w;
-            let emit = vec3<f32>(lux_dot(m0, back), lux_dot(m1, back), lux_dot(m2, back));
-            let cos_x = lux_dot(s.normal, emit);
-            if (!(cos_x > 0.0)) {
-                continue;
-            }
-            let area = lux_opening_projected_area(o, emit);
-            if (!(area > 0.0)) {
-                continue;
-            }
-            let intensity = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), emit);
-            if (!(intensity > 0.0)) {
-                continue;
-            }
-            if (!lux_sees(p, n, o0, off2, x, back, r, r2)) {
-                continue;
-            }
-            let r2e = max(max(r2, off2), s.weight / (LUX_PI * nf));
-            part_sum += intensity * cos_x * s.weight / area * cos_p / r2e;
+            part_sum += pt.value;
         }
         if (count > 0u) {
             sum += part_sum / nf;

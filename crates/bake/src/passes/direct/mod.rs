@@ -33,8 +33,12 @@ param_block! {
         /// before, so that one shader invocation stays within a driver's loop limit
         /// ([`crate::Limits::loop_iterations`]).
         chunk_samples: u32,
-        /// Padding.
-        pad0: u32,
+        /// Opening samples per visibility probe (0 or 1: none, every sample casts its shadow
+        /// ray): a texel near an opening first casts the shadow rays of every
+        /// `probe_stride`-th point of each part's lattice that gives it light; when all of
+        /// them reach the opening the other points are taken as seen without a ray, else
+        /// every point casts its own ([`crate::opening`], "Probes").
+        probe_stride: u32,
         /// Padding.
         pad1: u32,
     }
@@ -51,11 +55,16 @@ signature! {
 
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): one shadow ray
 /// per lamp, and at most twice `samples` per lamp with an opening
-/// ([`crate::opening::texel_samples`]), or a chunk of them.
+/// ([`crate::opening::texel_samples`]), or a chunk of them, after the probes of every
+/// `probe_stride`-th (one more per part).
 pub fn work(p: &DirectParams) -> u64 {
-    let mut per_opening = 2 * u64::from(p.samples);
+    let most = 2 * u64::from(p.samples);
+    let mut per_opening = most;
     if p.chunk_samples > 0 {
         per_opening = per_opening.min(u64::from(p.chunk_samples));
+    }
+    if p.probe_stride > 1 {
+        per_opening += most.div_ceil(u64::from(p.probe_stride)) + 6;
     }
     u64::from(p.lamp_count) + u64::from(p.openings) * per_opening
 }
