@@ -165,7 +165,6 @@ struct OpeningView<'a> {
     lamp: &'a LampParams,
     o: &'a OpeningParams,
     start: &'a Start,
-    receiver: [f32; 3],
     shift: [u32; 2],
 }
 
@@ -224,14 +223,15 @@ impl OpeningView<'_> {
 }
 
 /// Whether the texel sees the whole opening by its probes: the shadow rays of the lattice
-/// points `k = 0, stride, 2·stride, …` of every part (`counts` points each) that give the
-/// texel light ([`OpeningView::point`]) all reach it — then the other points are taken as seen
-/// without a ray. `false` (every point casts its ray) for `stride ≤ 1`, at the first probe
-/// that is blocked, or when no probe gives light.
+/// points `k = 0, stride, 2·stride, …` of every part (`counts` points each, their views in
+/// `points`, part after part) that give the texel light ([`OpeningView::point`]) all reach it
+/// — then the other points are taken as seen without a ray. `false` (every point casts its
+/// ray) for `stride ≤ 1`, at the first probe that is blocked, or when no probe gives light.
 fn sees_all(
-    view: &OpeningView<'_>,
+    start: &Start,
     scene: &CpuScene,
     trav: Trav,
+    points: &[Option<PointView>],
     counts: &[u32; 6],
     stride: u32,
 ) -> bool {
@@ -239,22 +239,26 @@ fn sees_all(
         return false;
     }
     let mut seen = false;
-    for (part, &count) in counts.iter().enumerate() {
-        if count == 0 {
-            continue;
-        }
-        let sampler = opening::PartSampler::new(view.o, part, Some(view.receiver));
-        for k in (0..count).step_by(stride as usize) {
-            let Some(pt) = view.point(&sampler, k, count) else {
+    let mut base = 0usize;
+    for &count in counts {
+        for k in (0..count as usize).step_by(stride as usize) {
+            let Some(pt) = &points[base + k] else {
                 continue;
             };
-            if !view.start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+            if !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
                 return false;
             }
             seen = true;
         }
+        base += count as usize;
     }
     seen
+}
+
+thread_local! {
+    /// [`from_opening`]'s views of a texel's opening points, kept from texel to texel.
+    static POINTS: std::cell::RefCell<Vec<Option<PointView>>> =
+        const { std::cell::RefCell::new(Vec::new()) };
 }
 
 /// The illuminance at `p` (unit normal `n`) from lattice points of `lamp`'s opening `o`
@@ -262,6 +266,8 @@ fn sees_all(
 /// lamp's scale ([`crate::opening`]'s estimator, each point with its shadow ray unless the
 /// probes of `probe_stride` all see the opening, [`sees_all`]): the share of the points whose
 /// index, counted over the parts in order, lies in `range` (all of them: `[0, u32::MAX]`).
+/// Each point is evaluated once, for its probe and its share alike (the shaders evaluate a
+/// probe twice, with the same result).
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn from_opening(
     scene: &CpuScene,
@@ -292,34 +298,47 @@ pub(crate) fn from_opening(
         lamp,
         o,
         start,
-        receiver,
         shift,
     };
-    let trace = !sees_all(&view, scene, trav, &counts, probe_stride);
-    let mut sum = 0.0f32;
-    // Index of the part's first point among all the opening's.
-    let mut base = 0u32;
-    for (part, &count) in counts.iter().enumerate() {
-        let mut part_sum = 0.0f32;
-        let lo = range[0].saturating_sub(base).min(count);
-        let hi = range[1].saturating_sub(base).min(count);
-        base = base.saturating_add(count);
-        if lo >= hi {
-            continue;
+    POINTS.with_borrow_mut(|points| {
+        // The points this chunk sums and the probes, each evaluated once.
+        points.clear();
+        let mut base = 0u32;
+        for (part, &count) in counts.iter().enumerate() {
+            let lo = range[0].saturating_sub(base).min(count);
+            let hi = range[1].saturating_sub(base).min(count);
+            base = base.saturating_add(count);
+            let sampler = opening::PartSampler::new(o, part, Some(receiver));
+            points.extend((0..count).map(|k| {
+                let probe = probe_stride > 1 && k % probe_stride == 0;
+                (probe || (lo..hi).contains(&k))
+                    .then(|| view.point(&sampler, k, count))
+                    .flatten()
+            }));
         }
-        let sampler = opening::PartSampler::new(o, part, Some(receiver));
-        for k in lo..hi {
-            let Some(pt) = view.point(&sampler, k, count) else {
-                continue;
-            };
-            if trace && !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+        let trace = !sees_all(start, scene, trav, points, &counts, probe_stride);
+        let mut sum = 0.0f32;
+        // Index of the part's first point among all the opening's.
+        let mut base = 0u32;
+        for &count in &counts {
+            let mut part_sum = 0.0f32;
+            let lo = range[0].saturating_sub(base).min(count);
+            let hi = range[1].saturating_sub(base).min(count);
+            let first = base as usize;
+            base = base.saturating_add(count);
+            if lo >= hi {
                 continue;
             }
-            part_sum += pt.value;
+            for pt in points[first + lo as usize..first + hi as usize].iter().flatten() {
+                if trace && !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+                    continue;
+                }
+                part_sum += pt.value;
+            }
+            if count > 0 {
+                sum += part_sum / count as f32;
+            }
         }
-        if count > 0 {
-            sum += part_sum / count as f32;
-        }
-    }
-    sum
+        sum
+    })
 }
