@@ -11,9 +11,13 @@
 //! 3. **swap**: [`bake_room_direct_first`] on the same room with `rw_5.IES` at [0, 2, 0]:
 //!    the time to the direct light and to the converged maps;
 //! 4. **dim**: the swapped lamp's layer ([`bake_layers`]) recombined at multiplier 0.5
-//!    ([`LampLayers::combine`](luxbake::layers::LampLayers::combine)): no ray.
+//!    ([`LampLayers::combine`](luxbake::layers::LampLayers::combine)): no ray;
+//! 5. **fresh bake with the swapped lamp**: a fresh backend, [`Room::prepare`] and
+//!    [`bake_room`] with `rw_5.IES` — what the swap spares a page that would bake the room
+//!    anew for the new lamp (issue 26's "first bake of the same room and lamp").
 //!
-//! Reported as ratios against the first bake of the same run (the median over `--runs`),
+//! Reported as ratios against the first bake of the same run (the median over `--runs`), the
+//! swap also against the fresh bake with its own lamp,
 //! with the swap's host share (the CPU work before and around the passes: lamp reach, the
 //! lamp paths' pool, upload, read-back), how well the report's phases add up to its wall
 //! time, and the longest time its progress fraction ([`Progress::Work`]) stood still, as a
@@ -115,6 +119,8 @@ struct Measured {
     /// The longest time the swap's progress fraction did not grow, over its wall time.
     swap_still: f64,
     dim: f64,
+    /// A fresh backend's first bake with the swapped lamp, seconds.
+    fresh: f64,
     /// What the backend keeps from bake to bake after the swap, MB (the CPU backend's gather
     /// hits and chart tests; NaN elsewhere).
     kept: f64,
@@ -190,6 +196,18 @@ fn measure_once(
     if dimmed.maps.len() != out.maps.len() {
         return Err("the recombined maps lost an object".into());
     }
+    drop(backend);
+
+    // A first bake of the same room with the swapped lamp, on a fresh backend.
+    let t = Instant::now();
+    let (mut backend, _) = open(kind)?;
+    if let AnyBackend::Cpu(cpu) = &mut backend {
+        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+    }
+    let room =
+        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
+    bake_room(&mut backend, &room, &swapped, settings, &mut |_| {}).map_err(|e| e.to_string())?;
+    let fresh = t.elapsed().as_secs_f64();
     Ok((
         Measured {
             first,
@@ -201,6 +219,7 @@ fn measure_once(
             swap_phases: phases / out.report.total_seconds.max(1e-9),
             swap_still,
             dim,
+            fresh,
             kept,
         },
         renderer,
@@ -241,7 +260,8 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         md,
         "\nRatios against the first bake (fresh backend: room prepared, programs compiled, \
          {} at {:?}) in the same run; the swap puts {} at {:?} on the same room; lamp model \
-         `{}`.\n",
+         `{}`; the last column is the swap against a fresh backend's first bake of the room \
+         with the swapped lamp.\n",
         FIRST.0,
         FIRST.1,
         SWAPPED.0,
@@ -250,11 +270,11 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     );
     let _ = writeln!(
         md,
-        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] | kept [MB] |"
+        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] | kept [MB] | fresh bake, swapped lamp [s] | swap / fresh |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     let mut rows = Vec::new();
     for name in &scenes {
@@ -290,7 +310,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
             };
             let _ = writeln!(
                 md,
-                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} | {} |",
+                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} | {} | {:.2} | {:.2}× |",
                 kind.name(),
                 ratio(|m| m.whole),
                 ratio(|m| m.direct),
@@ -301,6 +321,8 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 100.0 * med(|m| m.swap_still).median,
                 1e3 * med(|m| m.dim).median,
                 kept_mb,
+                med(|m| m.fresh).median,
+                swap / med(|m| m.fresh).median,
             );
             rows.push(json!({
                 "scene": name, "backend": kind.name(), "renderer": renderer,
@@ -310,6 +332,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 "swap_phases_over_wall": med(|m| m.swap_phases).json(),
                 "swap_longest_still_over_wall": med(|m| m.swap_still).json(),
                 "dim_s": med(|m| m.dim).json(),
+                "fresh_s": med(|m| m.fresh).json(),
                 "kept_mb": if kept.is_finite() { json!(kept) } else { Value::Null },
             }));
         }
