@@ -132,6 +132,26 @@ fn host_seconds(out: &BakeOutput) -> f64 {
     out.report.setup.iter().map(|(_, s)| s).sum()
 }
 
+/// A page's first bake of `scene`'s room with `lamps`: a fresh backend (the CPU one keeping
+/// its gather hits for a swap, as `--lamp` repeated does), the room prepared, the lamps baked;
+/// the backend, the room, the renderer's name and the seconds it all took.
+fn first_bake(
+    kind: BackendKind,
+    scene: &Scene,
+    lamps: &[Lamp],
+) -> Result<(AnyBackend, Room, String, f64), String> {
+    let t = Instant::now();
+    let (mut backend, renderer) = open(kind)?;
+    if let AnyBackend::Cpu(cpu) = &mut backend {
+        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+    }
+    let settings = &scene.settings;
+    let room =
+        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
+    bake_room(&mut backend, &room, lamps, settings, &mut |_| {}).map_err(|e| e.to_string())?;
+    Ok((backend, room, renderer, t.elapsed().as_secs_f64()))
+}
+
 fn measure_once(
     kind: BackendKind,
     scene: &Scene,
@@ -139,17 +159,7 @@ fn measure_once(
 ) -> Result<(Measured, String), String> {
     let settings = &scene.settings;
     let swapped = vec![lamp(SWAPPED, model)?];
-    let t = Instant::now();
-    let (mut backend, renderer) = open(kind)?;
-    // The CPU backend keeps the gather's hits for the swap, as `--lamp` repeated does.
-    if let AnyBackend::Cpu(cpu) = &mut backend {
-        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
-    }
-    let room =
-        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
-    bake_room(&mut backend, &room, &scene.lamps, settings, &mut |_| {})
-        .map_err(|e| e.to_string())?;
-    let first = t.elapsed().as_secs_f64();
+    let (mut backend, room, renderer, first) = first_bake(kind, scene, &scene.lamps)?;
 
     let t = Instant::now();
     bake(&mut backend, scene, settings, &mut |_| {}).map_err(|e| e.to_string())?;
@@ -196,18 +206,8 @@ fn measure_once(
     if dimmed.maps.len() != out.maps.len() {
         return Err("the recombined maps lost an object".into());
     }
-    drop(backend);
-
-    // A first bake of the same room with the swapped lamp, on a fresh backend.
-    let t = Instant::now();
-    let (mut backend, _) = open(kind)?;
-    if let AnyBackend::Cpu(cpu) = &mut backend {
-        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
-    }
-    let room =
-        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
-    bake_room(&mut backend, &room, &swapped, settings, &mut |_| {}).map_err(|e| e.to_string())?;
-    let fresh = t.elapsed().as_secs_f64();
+    drop((backend, room));
+    let (_, _, _, fresh) = first_bake(kind, scene, &swapped)?;
     Ok((
         Measured {
             first,
