@@ -1953,6 +1953,17 @@ mod tests {
         assert_eq!(with(&at_the_limits), Ok(()));
         assert_eq!(with(&|s| s.rays = 0), Err("rays"));
         assert_eq!(with(&|s| s.rays = Settings::MAX_RAYS + 1), Err("rays"));
+        for stride in [0, 1, MAX_OPENING_SAMPLES] {
+            assert_eq!(
+                with(&|s| s.opening_probe_stride = stride),
+                Ok(()),
+                "{stride}"
+            );
+        }
+        assert_eq!(
+            with(&|s| s.opening_probe_stride = MAX_OPENING_SAMPLES + 1),
+            Err("opening_probe_stride")
+        );
         assert_eq!(
             with(&|s| s.bounces = Settings::MAX_BOUNCES + 1),
             Err("bounces")
