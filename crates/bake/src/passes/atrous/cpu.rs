@@ -64,7 +64,9 @@ pub(crate) fn atrous_block(
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (just checked).
-        return unsafe { avx2::block(maps, params, masks, at, out) };
+        if let Some(vector) = unsafe { avx2::block(maps, params, masks, at, out) } {
+            return vector;
+        }
     }
     lanes::one_by_one(at, out, |t| atrous_texel(maps, params, Some(masks), t));
     0
@@ -83,7 +85,8 @@ mod avx2 {
     use super::*;
     use crate::cpu::lanes::{Centres, LANES, exp8, floats, luminance8, vector};
 
-    /// [`atrous_block`] with AVX2.
+    /// [`atrous_block`] with AVX2; `None`, with nothing written, when the block's centres
+    /// cannot go in lanes (then the caller takes them one by one).
     #[target_feature(enable = "avx2")]
     pub(super) fn block(
         maps: [View<'_>; 4],
@@ -91,13 +94,9 @@ mod avx2 {
         masks: &GuideMasks,
         at: Texel,
         out: &mut [f32],
-    ) -> usize {
+    ) -> Option<usize> {
         let [src, variance, pos, nrm] = maps;
-        let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES);
-        let Some(centres) = centres else {
-            lanes::one_by_one(at, out, |t| atrous_texel(maps, params, Some(masks), t));
-            return 0;
-        };
+        let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
         // Per lane the centre's value and its variance scale.
         let mut lanes = [[0.0f32; LANES]; 4];
         for l in (0..LANES).filter(|&l| !centres.alone[l]) {
@@ -171,7 +170,7 @@ mod avx2 {
             };
             o.copy_from_slice(&[r[0], r[1], r[2], 1.0]);
         }
-        centres.alone.iter().filter(|&&a| !a).count()
+        Some(centres.alone.iter().filter(|&&a| !a).count())
     }
 }
 

@@ -64,7 +64,9 @@ pub(crate) fn variance_block(
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2 (just checked).
-        return unsafe { avx2::block(maps, params, masks, at, out) };
+        if let Some(vector) = unsafe { avx2::block(maps, params, masks, at, out) } {
+            return vector;
+        }
     }
     lanes::one_by_one(at, out, |t| variance_texel(maps, params, Some(masks), t));
     0
@@ -80,7 +82,8 @@ mod avx2 {
     use super::*;
     use crate::cpu::lanes::{Centres, LANES, floats, luminance8};
 
-    /// [`variance_block`] with AVX2.
+    /// [`variance_block`] with AVX2; `None`, with nothing written, when the block's centres
+    /// cannot go in lanes (then the caller takes them one by one).
     #[target_feature(enable = "avx2")]
     pub(super) fn block(
         maps: [View<'_>; 3],
@@ -88,13 +91,9 @@ mod avx2 {
         masks: &GuideMasks,
         at: Texel,
         out: &mut [f32],
-    ) -> usize {
+    ) -> Option<usize> {
         let [src, _, nrm] = maps;
-        let centres = Centres::new(maps, masks, at).filter(|_| out.len() == 4 * LANES);
-        let Some(centres) = centres else {
-            lanes::one_by_one(at, out, |t| variance_texel(maps, params, Some(masks), t));
-            return 0;
-        };
+        let centres = Centres::new(maps, masks, at).filter(|_| out.len() == 4 * LANES)?;
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
         // The 5×5 window, row by row: each tap's luminance and whether it is on the surface.
@@ -176,7 +175,7 @@ mod avx2 {
             ];
             o.copy_from_slice(&r);
         }
-        centres.alone.iter().filter(|&&a| !a).count()
+        Some(centres.alone.iter().filter(|&&a| !a).count())
     }
 }
 
