@@ -894,7 +894,15 @@ impl Settings {
     /// |---|--:|--:|--:|--:|--:|--:|--:|
     /// | draft | 8 (4) | — | 4 (8) | 3 | 5 % | none | 12 |
     /// | default | 4 (1) | 12 | 4 (2) | 32 | 1 % | 1 (3) | 48 |
-    /// | final | 128 (1) | 32 | 16 (1) | 32 | 0.2 % | 2 (4) | 128 |
+    /// | final | 256 (1) | 32 | 32 (1) | 32 | 0.01 % | 2 (4) | 128 |
+    ///
+    /// `final` is held to 0.3 % mean |relative error| against Radiance references with half
+    /// the usual noise (`bench/references/hq`, four rooms, one of them tuned on): its own noise
+    /// was 0.24 % per point at 128 and 16 rays, and the tail it extrapolates after bounce 5 or
+    /// 6 lands where the last bounce did, a little more in open places than the later bounces
+    /// would put it (+0.1 % at the points of `chairs_10`); twice the rays and a tolerance that
+    /// lets it run to bounce 9 halve both (0.38 → 0.28 % there, at 2.3× the time;
+    /// docs/performance.md).
     ///
     /// Opening samples ([`Settings::opening_samples`]): at `default` the direct light on a
     /// table 0.55 m under a 0.61 m linear pendant (`rw_5.IES`) is within 0.7 % of a
@@ -940,10 +948,10 @@ impl Settings {
                 ..base
             },
             Quality::Final => Settings {
-                rays: 128,
+                rays: 256,
                 lamp_paths: 32,
-                higher_rays: 16,
-                tail_tolerance: 0.002,
+                higher_rays: 32,
+                tail_tolerance: 0.0001,
                 blur: Blur::Sigma(2.0),
                 opening_samples: 128,
                 ..base
