@@ -309,6 +309,52 @@ mod tests {
     }
 
     #[test]
+    fn a_furnished_rooms_series_stops_where_each_preset_asks() {
+        use crate::scene::{Quality, Settings};
+        // `chairs_10` at `final` (CPU, 64 texels/m, seed 0): the energies the bake measured
+        // after each of its nine bounces (its manifest's `stats.series`).
+        let full = Series {
+            direct: 42_812_811.25,
+            increments: vec![
+                17_014_013.375,
+                8_874_070.75,
+                5_387_196.937_5,
+                3_356_420.062_5,
+                2_141_689.953_125,
+                1_379_286.265_625,
+                894_673.898_437_5,
+                583_247.710_937_5,
+                381_811.589_843_75,
+            ],
+            reflected: vec![
+                8_861_058.187_5,
+                4_675_906.343_75,
+                2_978_679.109_375,
+                1_868_601.843_75,
+                1_210_823.937_5,
+                785_497.894_531_25,
+                513_965.191_406_25,
+                337_296.75,
+                222_252.968_75,
+            ],
+        };
+        let stop = |tolerance: f64| {
+            (1..=full.increments.len())
+                .find(|&k| full.head(k).expect("k bounces").converged(tolerance))
+        };
+        let tolerance = |q| f64::from(Settings::preset(q).tail_tolerance);
+        assert_eq!(stop(tolerance(Quality::Default)), Some(5));
+        // The old `final` tolerance (0.2 %) stopped at bounce 6, where the tail, put where
+        // the sixth bounce's light lies, read the points 0.1 % high; `final` runs to 9.
+        assert_eq!(stop(0.002), Some(6));
+        assert_eq!(stop(tolerance(Quality::Final)), Some(9));
+        // The converged totals estimated after bounces 6 and 9 differ by 0.04 %: the tail's
+        // energy was right, its place is what the later bounces fix.
+        let (six, nine) = (full.head(6).expect("six").total(), full.total());
+        assert!((six / nine - 1.0).abs() < 5e-4, "{six} {nine}");
+    }
+
+    #[test]
     fn degenerate_series_stay_finite() {
         let none = Series::default();
         assert!(!none.converged(0.01));
