@@ -6,15 +6,16 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::program::Scalar;
+use luxbake::program::{GatherParams, ParamBlock, Scalar};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
 
 use crate::context::{Capabilities, GlContext};
 use crate::error::{GlowError, Result};
-use crate::gl::{Program, Target, TextureArray, check};
+use crate::gl::{MAX_ATTACHMENTS, Program, Target, TextureArray, check};
+use crate::hits::{GatherHitStats, HitKey, Kept, hash_floats};
 use crate::scene::GpuScene;
-use crate::shaders::{Pass, program_sources};
+use crate::shaders::{Pass, Variant, variant_sources};
 
 /// A texture array owned by a [`GlowBackend`] (a handle; the backend frees the GL object when
 /// it is dropped).
@@ -25,6 +26,14 @@ pub struct GlowTexture(usize);
 #[derive(Debug)]
 pub struct GlowScene(usize);
 
+/// A draw's hit texture: the one a trace pass writes `rays` of, or the one the replay reads;
+/// `origin` the tile's first texel.
+struct Hits<'a> {
+    texture: &'a TextureArray,
+    origin: [u32; 2],
+    rays: u32,
+}
+
 /// The glow backend: a GL context, the RGBA32F texture arrays of a bake, the uploaded scene
 /// data and one program per pass kind (and traversal), compiled on first use.
 pub struct GlowBackend {
@@ -32,8 +41,15 @@ pub struct GlowBackend {
     target: Target,
     textures: Vec<(String, TextureArray)>,
     scenes: Vec<GpuScene>,
-    programs: HashMap<(Pass, BvhMode), Program>,
+    /// Per uploaded scene, the address of its BVH object (what kept hits are cast in).
+    scene_bvh: Vec<usize>,
+    programs: HashMap<(Pass, BvhMode, Variant), Program>,
     tile_work: u64,
+    /// With kept gather hits: per texture, the hash of each layer's upload (`None` until
+    /// uploaded, or once a pass writes the texture).
+    uploads: HashMap<usize, Vec<Option<u64>>>,
+    /// The gather hits kept from bake to bake ([`GlowBackend::keep_gather_hits`]).
+    kept: Option<Kept>,
 }
 
 impl std::fmt::Debug for GlowBackend {
@@ -69,9 +85,45 @@ impl GlowBackend {
             target,
             textures: Vec::new(),
             scenes: Vec::new(),
+            scene_bvh: Vec::new(),
             programs: HashMap::new(),
             tile_work: DEFAULT_TILE_WORK,
+            uploads: HashMap::new(),
+            kept: None,
         })
+    }
+
+    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes (module `hits`):
+    /// a later bake of the same prepared room (another lamp, a swap) reads them instead of
+    /// traversing the BVH, with the same maps. For a backend that bakes one room several
+    /// times (the JavaScript package's rooms, `--lamp` repeated); a single bake would pay the
+    /// hit textures' memory and writes for nothing. A room's hits stay while the room (its
+    /// BVH) exists and the backend lives, [`GpuBackend::release`] keeps them; a new call
+    /// frees them and starts empty.
+    ///
+    /// # Errors
+    /// Without a current context, when kept hits are to be freed.
+    pub fn keep_gather_hits(&mut self, budget: u64) -> Result<()> {
+        self.free_kept()?;
+        self.kept = Some(Kept::new(budget));
+        Ok(())
+    }
+
+    /// What the kept gather hits hold and served ([`GlowBackend::keep_gather_hits`]; `None`
+    /// without).
+    pub fn gather_hit_stats(&self) -> Option<GatherHitStats> {
+        self.kept.as_ref().map(Kept::stats)
+    }
+
+    /// Frees every kept hit texture.
+    fn free_kept(&mut self) -> Result<()> {
+        if let Some(kept) = &mut self.kept {
+            let gl = self.ctx.gl()?;
+            for t in kept.drain() {
+                t.delete(gl);
+            }
+        }
+        Ok(())
     }
 
     /// Sets the work per draw (texel × ray evaluations, at least 1): the driver splits long
@@ -93,17 +145,150 @@ impl GlowBackend {
             .ok_or_else(|| GlowError::InvalidInput(format!("unknown texture {tex:?}")))
     }
 
-    /// Compiles (once) and returns the program of `pass` for `traversal`.
-    fn program(&mut self, pass: Pass, traversal: BvhMode) -> Result<&Program> {
-        let key = (pass, traversal);
+    /// Compiles (once) the program `variant` of `pass` for `traversal`.
+    fn compile(&mut self, pass: Pass, traversal: BvhMode, variant: Variant) -> Result<()> {
+        let key = (pass, traversal, variant);
         if !self.programs.contains_key(&key) {
-            let (prefix, sources) = program_sources(pass, traversal);
-            let program = Program::new(self.ctx.gl()?, pass.label(), &prefix, &sources)?;
+            let (label, prefix, sources) = variant_sources(pass, traversal, variant);
+            let program = Program::new(self.ctx.gl()?, &label, &prefix, &sources)?;
             self.programs.insert(key, program);
         }
-        self.programs
-            .get(&key)
-            .ok_or_else(|| GlowError::InvalidInput("program cache".into()))
+        Ok(())
+    }
+
+    /// The key of a gather dispatch whose hits can be kept: with kept hits on, the gather
+    /// reading uploaded position and normal maps, at most as many rays as a texture has
+    /// layers.
+    fn hit_key(
+        &self,
+        call: &Dispatch<'_, GlowTexture, GlowScene>,
+        traversal: BvhMode,
+    ) -> Option<HitKey> {
+        if call.program != Pass::Gather || self.kept.is_none() {
+            return None;
+        }
+        let hashed = |t: &GlowTexture| -> Option<u64> {
+            let layers = self.uploads.get(&t.0)?;
+            let mut h = 0u64;
+            for l in layers {
+                h = h.rotate_left(29) ^ (*l)?;
+            }
+            Some(h)
+        };
+        // Read slots 0 and 1 are the position and normal maps.
+        let gbuffer = [hashed(call.reads.first()?)?, hashed(call.reads.get(1)?)?];
+        let scene = self.scenes.get(call.scene.0)?;
+        let bvh = *self.scene_bvh.get(call.scene.0)?;
+        let key = HitKey::new(
+            bvh,
+            scene.ray_epsilon,
+            traversal,
+            call.params,
+            call.tile,
+            gbuffer,
+        );
+        let layers = self
+            .ctx
+            .capabilities()
+            .max_array_layers
+            .min(crate::webgl2::ARRAY_LAYERS);
+        (key.rays() <= layers).then_some(key)
+    }
+
+    /// One draw of `variant` of the call's program into `layers` of `out` (`None`: the call's
+    /// tile of the texture it writes), restricted to `rect`, with the call's reads, scene and
+    /// `params`; `hits`: the replay's kept hits, or what the trace writes. With `finish`,
+    /// waits for it.
+    #[allow(clippy::too_many_arguments)]
+    fn draw(
+        &self,
+        call: &Dispatch<'_, GlowTexture, GlowScene>,
+        traversal: BvhMode,
+        variant: Variant,
+        out: Option<(&TextureArray, &[u32])>,
+        rect: [u32; 4],
+        params: &[u32],
+        hits: Option<Hits<'_>>,
+        finish: bool,
+    ) -> Result<()> {
+        let (label, sig) = (call.label, call.program.signature());
+        let gpu_scene = self
+            .scenes
+            .get(call.scene.0)
+            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let gl = self.ctx.gl()?;
+        let mut samplers: Vec<(String, &TextureArray)> = sig
+            .reads
+            .iter()
+            .zip(call.reads)
+            .map(|(slot, t)| Ok((glsl_slot(slot), &self.texture(t)?.1)))
+            .collect::<Result<_>>()?;
+        if sig.scene.bvh {
+            samplers.extend(
+                gpu_scene
+                    .bvh
+                    .samplers(traversal)
+                    .into_iter()
+                    .map(|(n, tex)| (n.to_owned(), tex)),
+            );
+        }
+        if sig.scene.lamps {
+            samplers.push(("u_lamps".into(), &gpu_scene.lamps));
+            samplers.push(("u_ies".into(), &gpu_scene.ies));
+        }
+        if sig.scene.regions {
+            samplers.push(("u_regions".into(), &gpu_scene.regions));
+        }
+        if sig.scene.lamp_paths {
+            samplers.push(("u_path_points".into(), &gpu_scene.lamp_paths));
+        }
+        if let (Variant::Replay, Some(h)) = (variant, &hits) {
+            samplers.push(("u_hits".into(), h.texture));
+        }
+        let program = self
+            .programs
+            .get(&(call.program, traversal, variant))
+            .ok_or_else(|| GlowError::InvalidInput("program cache".into()))?;
+        let named: Vec<(&str, &TextureArray)> =
+            samplers.iter().map(|(n, tex)| (n.as_str(), *tex)).collect();
+        let t = call.tile;
+        match out {
+            Some((out, layers)) => self.target.bind_layers(gl, label, out, layers)?,
+            None => self
+                .target
+                .bind(gl, label, &self.texture(call.write)?.1, t.layer)?,
+        }
+        program.use_with(gl, label, &named)?;
+        program.set_i32(gl, "u_layer", i32::try_from(t.layer).unwrap_or(i32::MAX));
+        if let Some(h) = &hits {
+            let at = |v: u32| i32::try_from(v).unwrap_or(i32::MAX);
+            program.set_ivec2(gl, "u_hit_origin", h.origin.map(at));
+            program.set_u32(gl, "u_hit_rays", h.rays);
+        }
+        if sig.scene.bvh {
+            gpu_scene.bvh.set_uniforms(gl, program);
+            program.set_f32(gl, "u_ray_epsilon", gpu_scene.ray_epsilon);
+        }
+        for (field, &word) in sig.params.iter().zip(params) {
+            let name = glsl_param(field);
+            match field.ty {
+                Scalar::U32 => program.set_u32(gl, &name, word),
+                Scalar::I32 => program.set_i32(gl, &name, word as i32),
+                Scalar::F32 => program.set_f32(gl, &name, f32::from_bits(word)),
+            }
+        }
+        self.target.draw(gl, label, rect)?;
+        if finish {
+            // Wait for the tile: honest progress and timings, and no unbounded queue of GPU
+            // work.
+            // SAFETY: glFinish has no preconditions.
+            unsafe { gl.finish() };
+            // WebGL's `finish` need not wait (browsers run the GPU work in another process):
+            // reading one texel of the tile back does.
+            #[cfg(target_arch = "wasm32")]
+            self.target.wait(gl, label, [rect[0], rect[1]])?;
+        }
+        check(gl, label, "finishing a tile")
     }
 }
 
@@ -163,12 +348,33 @@ impl GpuBackend for GlowBackend {
                 texels.len()
             )));
         }
-        t.upload(self.ctx.gl()?, label, layer, texels)
+        let layers = t.layers as usize;
+        t.upload(self.ctx.gl()?, label, layer, texels)?;
+        if self.kept.is_some() {
+            // What tells one room's G-buffer from another's for the kept hits.
+            let hashes = self
+                .uploads
+                .entry(texture.0)
+                .or_insert_with(|| vec![None; layers]);
+            if let Some(h) = hashes.get_mut(layer as usize) {
+                *h = Some(hash_floats(texels));
+            }
+        }
+        Ok(())
     }
 
     fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<GlowScene> {
         let s = GpuScene::upload(self.ctx.gl()?, self.ctx.capabilities(), scene)?;
+        if let Some(kept) = &mut self.kept {
+            // Hits of rooms that no longer exist go.
+            let gl = self.ctx.gl()?;
+            for t in kept.upload(&scene.bvh.encoded) {
+                t.delete(gl);
+            }
+        }
         self.scenes.push(s);
+        self.scene_bvh
+            .push(std::sync::Arc::as_ptr(&scene.bvh.encoded) as usize);
         Ok(GlowScene(self.scenes.len() - 1))
     }
 
@@ -177,81 +383,114 @@ impl GpuBackend for GlowBackend {
     }
 
     fn dispatch(&mut self, call: &Dispatch<'_, GlowTexture, GlowScene>) -> Result<()> {
-        let (label, sig) = (call.label, call.program.signature());
+        let label = call.label;
         let trav = program_traversal(call.program, call.bvh);
-        self.program(call.program, trav)?;
         let gpu_scene = self
             .scenes
             .get(call.scene.0)
             .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
-        let out = &self.texture(call.write)?.1;
         let size = |t: &TextureArray| ([t.width, t.height], t.layers);
-        let reads = call
+        let sizes = call
             .reads
             .iter()
-            .map(|r| Ok(&self.texture(r)?.1))
+            .map(|r| Ok(size(&self.texture(r)?.1)))
             .collect::<Result<Vec<_>>>()?;
-        let sizes: Vec<_> = reads.iter().map(|t| size(t)).collect();
-        call.check(size(out), &sizes, gpu_scene.layer_size)
-            .map_err(|reason| GlowError::InvalidInput(format!("pass `{label}`: {reason}")))?;
+        call.check(
+            size(&self.texture(call.write)?.1),
+            &sizes,
+            gpu_scene.layer_size,
+        )
+        .map_err(|reason| GlowError::InvalidInput(format!("pass `{label}`: {reason}")))?;
+        // A texture a pass writes is no upload any more.
+        self.uploads.remove(&call.write.0);
         let t = call.tile;
-        let gl = self.ctx.gl()?;
-        let mut samplers: Vec<(String, &TextureArray)> = sig
-            .reads
-            .iter()
-            .zip(reads)
-            .map(|(slot, t)| (glsl_slot(slot), t))
-            .collect();
-        if sig.scene.bvh {
-            samplers.extend(
-                gpu_scene
-                    .bvh
-                    .samplers(trav)
-                    .into_iter()
-                    .map(|(n, tex)| (n.to_owned(), tex)),
+        let rect = [t.x0, t.y0, t.width, t.height];
+        let out = None;
+        let Some(key) = self.hit_key(call, trav) else {
+            self.compile(call.program, trav, Variant::Plain)?;
+            return self.draw(
+                call,
+                trav,
+                Variant::Plain,
+                out,
+                rect,
+                call.params,
+                None,
+                true,
+            );
+        };
+        let kept = self.kept.as_ref().map(|k| k.hits.contains_key(&key));
+        if kept != Some(true) && !self.kept.as_ref().is_some_and(|k| k.fits(&key)) {
+            // Past the budget: gathered as without kept hits.
+            self.compile(call.program, trav, Variant::Plain)?;
+            return self.draw(
+                call,
+                trav,
+                Variant::Plain,
+                out,
+                rect,
+                call.params,
+                None,
+                true,
             );
         }
-        if sig.scene.lamps {
-            samplers.push(("u_lamps".into(), &gpu_scene.lamps));
-            samplers.push(("u_ies".into(), &gpu_scene.ies));
-        }
-        if sig.scene.regions {
-            samplers.push(("u_regions".into(), &gpu_scene.regions));
-        }
-        if sig.scene.lamp_paths {
-            samplers.push(("u_path_points".into(), &gpu_scene.lamp_paths));
-        }
-        let program = self
-            .programs
-            .get(&(call.program, trav))
-            .ok_or_else(|| GlowError::InvalidInput("program cache".into()))?;
-        let named: Vec<(&str, &TextureArray)> =
-            samplers.iter().map(|(n, tex)| (n.as_str(), *tex)).collect();
-        self.target.bind(gl, label, out, t.layer)?;
-        program.use_with(gl, label, &named)?;
-        program.set_i32(gl, "u_layer", i32::try_from(t.layer).unwrap_or(i32::MAX));
-        if sig.scene.bvh {
-            gpu_scene.bvh.set_uniforms(gl, program);
-            program.set_f32(gl, "u_ray_epsilon", gpu_scene.ray_epsilon);
-        }
-        for (field, &word) in sig.params.iter().zip(call.params) {
-            let name = glsl_param(field);
-            match field.ty {
-                Scalar::U32 => program.set_u32(gl, &name, word),
-                Scalar::I32 => program.set_i32(gl, &name, word as i32),
-                Scalar::F32 => program.set_f32(gl, &name, f32::from_bits(word)),
+        self.compile(call.program, trav, Variant::Replay)?;
+        if kept != Some(true) {
+            // Trace the dispatch's rays once, one layer of hits per ray.
+            self.compile(call.program, trav, Variant::Trace)?;
+            let gl = self.ctx.gl()?;
+            let hits = TextureArray::new(gl, "gather hits", t.width, t.height, key.rays())?;
+            let mut params = GatherParams::from_words(call.params);
+            let first = params.first_ray;
+            let per_draw = MAX_ATTACHMENTS as u32;
+            let traced = (0..key.rays()).step_by(MAX_ATTACHMENTS).try_for_each(|k| {
+                // Up to four rays a draw, one colour attachment (hit layer) each.
+                let rays = per_draw.min(key.rays() - k);
+                let layers: Vec<u32> = (k..k + rays).collect();
+                params.first_ray = first + k;
+                self.draw(
+                    call,
+                    trav,
+                    Variant::Trace,
+                    Some((&hits, &layers)),
+                    [0, 0, t.width, t.height],
+                    &params.words(),
+                    Some(Hits {
+                        texture: &hits,
+                        origin: [t.x0, t.y0],
+                        rays,
+                    }),
+                    false,
+                )
+            });
+            if let Err(e) = traced {
+                hits.delete(gl);
+                return Err(e);
+            }
+            if let Some(old) = self.kept.as_mut().and_then(|k| k.insert(key, hits)) {
+                old.delete(self.ctx.gl()?);
             }
         }
-        self.target
-            .draw(gl, label, [t.x0, t.y0, t.width, t.height])?;
-        // Wait for the tile: honest progress and timings, and no unbounded queue of GPU work.
-        // SAFETY: glFinish has no preconditions.
-        unsafe { gl.finish() };
-        // WebGL's `finish` need not wait (browsers run the GPU work in another process): reading
-        // one texel of the tile back does.
-        #[cfg(target_arch = "wasm32")]
-        self.target.wait(gl, label, [t.x0, t.y0])?;
-        check(gl, label, "finishing a tile")
+        let kept = self.kept.as_ref().and_then(|k| k.hits.get(&key));
+        let hits = kept.ok_or_else(|| GlowError::InvalidInput("kept hits".into()))?;
+        self.draw(
+            call,
+            trav,
+            Variant::Replay,
+            out,
+            rect,
+            call.params,
+            Some(Hits {
+                texture: hits,
+                origin: [t.x0, t.y0],
+                rays: key.rays(),
+            }),
+            true,
+        )?;
+        if let Some(k) = &mut self.kept {
+            k.replayed += 1;
+        }
+        Ok(())
     }
 
     fn read_back(&mut self, texture: &GlowTexture, layer: u32) -> Result<Vec<f32>> {
@@ -267,6 +506,8 @@ impl GpuBackend for GlowBackend {
         for s in self.scenes.drain(..) {
             s.delete(gl);
         }
+        self.scene_bvh.clear();
+        self.uploads.clear();
         check(gl, "release", "freeing the textures")
     }
 }
@@ -283,6 +524,11 @@ impl Drop for GlowBackend {
             }
             for (_, p) in self.programs.drain() {
                 p.delete(gl);
+            }
+            if let Some(kept) = &mut self.kept {
+                for t in kept.drain() {
+                    t.delete(gl);
+                }
             }
             self.target.delete(gl);
         }

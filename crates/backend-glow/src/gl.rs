@@ -189,7 +189,6 @@ impl Program {
     }
 
     /// Sets an `ivec2` uniform of the bound program.
-    #[cfg(test)]
     pub(crate) fn set_ivec2(&self, gl: &glow::Context, name: &str, v: [i32; 2]) {
         // SAFETY: as set_i32.
         unsafe { gl.uniform_2_i32(self.uniform(name), v[0], v[1]) };
@@ -336,6 +335,10 @@ impl TextureArray {
 }
 
 /// One framebuffer object, re-pointed at whichever texture layer a pass renders into.
+/// Most colour attachments a draw writes (WebGL2 guarantees 4 colour attachments and draw
+/// buffers).
+pub(crate) const MAX_ATTACHMENTS: usize = 4;
+
 #[derive(Debug)]
 pub(crate) struct Target {
     fbo: glow::Framebuffer,
@@ -369,17 +372,47 @@ impl Target {
         tex: &TextureArray,
         layer: u32,
     ) -> Result<()> {
-        tex.check_layer(layer)?;
-        // SAFETY: attaching an existing texture layer to our framebuffer.
+        self.bind_layers(gl, pass, tex, &[layer])
+    }
+
+    /// Attaches `layers` of `tex` (at most [`MAX_ATTACHMENTS`]) as colour attachments 0, 1, …
+    /// (fragment outputs at locations 0, 1, …), detaches the others, and checks completeness.
+    pub(crate) fn bind_layers(
+        &self,
+        gl: &glow::Context,
+        pass: &str,
+        tex: &TextureArray,
+        layers: &[u32],
+    ) -> Result<()> {
+        if layers.is_empty() || layers.len() > MAX_ATTACHMENTS {
+            return Err(GlowError::InvalidInput(format!(
+                "pass `{pass}`: {} colour attachments (1 to {MAX_ATTACHMENTS})",
+                layers.len()
+            )));
+        }
+        for &layer in layers {
+            tex.check_layer(layer)?;
+        }
+        let attachments: Vec<u32> = (0..layers.len() as u32)
+            .map(|i| glow::COLOR_ATTACHMENT0 + i)
+            .collect();
+        // SAFETY: attaching existing texture layers to our framebuffer, detaching the rest.
         unsafe {
             gl.bind_framebuffer(glow::FRAMEBUFFER, Some(self.fbo));
-            gl.framebuffer_texture_layer(
-                glow::FRAMEBUFFER,
-                glow::COLOR_ATTACHMENT0,
-                Some(tex.raw),
-                0,
-                to_i32(layer, "layer")?,
-            );
+            for i in 0..MAX_ATTACHMENTS {
+                let (texture, layer) = match layers.get(i) {
+                    Some(&l) => (Some(tex.raw), to_i32(l, "layer")?),
+                    None => (None, 0),
+                };
+                gl.framebuffer_texture_layer(
+                    glow::FRAMEBUFFER,
+                    glow::COLOR_ATTACHMENT0 + i as u32,
+                    texture,
+                    0,
+                    layer,
+                );
+            }
+            gl.draw_buffers(&attachments);
             let status = gl.check_framebuffer_status(glow::FRAMEBUFFER);
             if status != glow::FRAMEBUFFER_COMPLETE {
                 return Err(GlowError::Framebuffer {
@@ -388,7 +421,7 @@ impl Target {
                 });
             }
         }
-        check(gl, pass, "attaching a texture layer")
+        check(gl, pass, "attaching texture layers")
     }
 
     /// Draws the full-screen triangle with `program` (already bound, uniforms set) into the

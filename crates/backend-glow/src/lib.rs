@@ -62,6 +62,16 @@
 //! - Lamps: one column per uploaded lamp, the six rows of `luxbake::pack::lamp_rows`.
 //!   Regions and lamps are packed by `luxbake::pack`, as for the wgpu backend.
 //!
+//! ## Kept gather hits
+//! [`GlowBackend::keep_gather_hits`]: for a backend that bakes one room several times (a lamp
+//! swap in the JavaScript package, `--lamp` repeated), each gather dispatch first casts its rays
+//! in a trace pass (`passes/gather/trace.glsl`, one draw per ray) that writes every ray's hit
+//! `(t, triangle, u, v)` to a texture of the tile's size, and the gather compiled with
+//! `LUX_REPLAY` reads them instead of traversing the BVH; a later bake of the same room reads the
+//! kept textures and casts no gather ray. The maps are the same bit for bit
+//! (`tests/gather_hits.rs`); 16 bytes per tile texel and ray ([`HIT_BYTES`]). The rules of
+//! what may be read back are in the `hits` module.
+//!
 //! ## Traversal
 //! MTBVH, TBVH or brute force ("no BVH"), chosen per pass (`PassDesc::bvh`) and compiled in
 //! (`LUX_TRAVERSAL`), so each program contains one loop only.
@@ -113,12 +123,14 @@ mod backend;
 mod context;
 mod error;
 mod gl;
+mod hits;
 mod scene;
 mod shaders;
 
 pub use backend::{GlowBackend, GlowScene, GlowTexture};
 pub use context::{Capabilities, GlContext, webgl2};
 pub use error::{GlowError, Result};
+pub use hits::{GatherHitStats, HIT_BYTES};
 
 #[cfg(test)]
 mod testutil;

@@ -214,6 +214,30 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
     s
 }
 
+/// What the gather's program ([`Program::Gather`]) gets after [`glsl_prefix`] to replay kept
+/// hits instead of tracing its rays (the glow backend's kept gather hits): `LUX_REPLAY`, the
+/// hits' sampler `u_hits` (layer `k` the hits of the dispatch's `k`-th ray, texel `(x, y)` the
+/// tile's texel `u_hit_origin + (x, y)`) and `u_hit_origin`. `lib/gather.glsl`'s ray loop then
+/// reads each ray's `(t, triangle, u, v)` where it would have called `luxTrace`.
+pub const GLSL_GATHER_REPLAY: &str = "#define LUX_REPLAY 1\n\
+    uniform highp sampler2DArray u_hits;\n\
+    uniform ivec2 u_hit_origin;\n";
+
+/// The GLSL files, after the gather's [`glsl_prefix`], of the glow backend's trace pass for
+/// kept gather hits: the gather's libraries and `passes/gather/trace.glsl` (its own `main`),
+/// which writes ray `u_first_ray`'s hit of every texel of the tile that [`GLSL_GATHER_REPLAY`]
+/// reads back.
+pub fn glsl_gather_trace_sources() -> Vec<&'static str> {
+    let mut v: Vec<&'static str> = Program::Gather
+        .signature()
+        .libraries
+        .iter()
+        .map(|&l| glsl_library(l))
+        .collect();
+    v.push(include_str!("passes/gather/trace.glsl"));
+    v
+}
+
 /// The GLSL files of `program` after the prefix: its libraries, then the pass file.
 pub fn glsl_sources(program: Program) -> Vec<&'static str> {
     let sig = program.signature();

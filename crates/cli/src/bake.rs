@@ -240,10 +240,11 @@ pub fn run(args: &Args) -> Result<(), String> {
         } else {
             1
         };
-    // A room baked more than once: the CPU backend keeps the gather rays' hits from the first
-    // bake for the others (`luxbake::cpu::hits`; the same maps, fewer traversals).
-    if let (true, AnyBackend::Cpu(cpu)) = (bakes > 1, &mut backend) {
-        cpu.keep_gather_hits(GATHER_HITS_BUDGET);
+    // A room baked more than once: the CPU and glow backends keep the gather rays' hits from
+    // the first bake for the others (`luxbake::cpu::hits`, glow's hit textures; the same
+    // maps, fewer traversals).
+    if bakes > 1 {
+        backend.keep_gather_hits(GATHER_HITS_BUDGET)?;
     }
     let jobs: Vec<(PathBuf, Scene)> = if files.is_empty() {
         vec![(args.out.clone(), scene.clone())]

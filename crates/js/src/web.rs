@@ -341,6 +341,11 @@ fn is_input_error(e: &JsBakeError) -> bool {
     )
 }
 
+/// The GPU memory a worker's backend may keep for the gather hits of the rooms it bakes
+/// (`GlowBackend::keep_gather_hits`): 256 MiB. `chairs_05` at the browser check's 24 texels/m
+/// and the default preset keeps about a fifth of it.
+const ROOM_GATHER_HITS_BUDGET: u64 = 256 << 20;
+
 #[wasm_bindgen]
 impl Baker {
     /// Creates the context and checks it (WebGL2, `EXT_color_buffer_float`, WebGL2 limits).
@@ -671,6 +676,13 @@ impl Baker {
         let refs: Vec<&[u8]> = files.iter().map(Vec::as_slice).collect();
         let lamps = build_lamps(&options, &refs)?;
         let mut backend = self.backend()?;
+        if backend.gather_hit_stats().is_none() {
+            // A room is baked again and again: its gather rays' hits are kept for the next
+            // bake (a lamp swap reads them instead of tracing).
+            backend
+                .keep_gather_hits(ROOM_GATHER_HITS_BUDGET)
+                .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
+        }
         let limits = backend.limits();
         let Some(mut loaded) = self.rooms.remove(&room) else {
             return Err(JsBakeError::Disposed(format!(

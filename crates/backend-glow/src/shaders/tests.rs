@@ -7,7 +7,7 @@ use luxbake::program::Library;
 use luxbake::scene::BvhMode;
 use luxbake::shader::glsl_library;
 
-use super::{Pass, program_sources};
+use super::{Pass, Variant, program_sources, variant_sources};
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
 use crate::testutil::{context_or_skip, render, with_gl};
@@ -380,10 +380,12 @@ fn every_pass_program_compiles_for_every_traversal() {
     with_gl("every_pass_program_compiles_for_every_traversal", |gl| {
         for pass in Pass::ALL {
             for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
-                let (prefix, sources) = program_sources(pass, t);
-                let p = crate::gl::Program::new(gl, pass.label(), &prefix, &sources)
-                    .unwrap_or_else(|e| panic!("{e}"));
-                p.delete(gl);
+                for &v in Variant::of(pass) {
+                    let (label, prefix, sources) = variant_sources(pass, t, v);
+                    let p = crate::gl::Program::new(gl, &label, &prefix, &sources)
+                        .unwrap_or_else(|e| panic!("{e}"));
+                    p.delete(gl);
+                }
             }
         }
     });
@@ -432,30 +434,38 @@ fn as_vulkan_glsl(source: &str) -> String {
 #[test]
 fn every_program_validates_with_naga_for_every_traversal() {
     let mut checked = 0;
+    let variants: usize = Pass::ALL.iter().map(|&p| Variant::of(p).len()).sum();
     for pass in Pass::ALL {
         for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
-            let (prefix, sources) = program_sources(pass, t);
-            let glsl = std::iter::once(prefix.as_str())
-                .chain(sources)
-                .collect::<Vec<_>>()
-                .join("\n");
-            let source = as_vulkan_glsl(&glsl);
-            let label = format!("{} {t:?}", pass.label());
-            let mut frontend = naga::front::glsl::Frontend::default();
-            let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
-            let module = frontend.parse(&options, &source).unwrap_or_else(|e| {
-                panic!("{label}: {}", e.emit_to_string(&source));
-            });
-            naga::valid::Validator::new(
-                naga::valid::ValidationFlags::all(),
-                naga::valid::Capabilities::all(),
-            )
-            .validate(&module)
-            .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&source)));
-            checked += 1;
+            for &v in Variant::of(pass) {
+                let (label, prefix, sources) = variant_sources(pass, t, v);
+                let glsl = std::iter::once(prefix.as_str())
+                    .chain(sources)
+                    .collect::<Vec<_>>()
+                    .join("\n");
+                let source = as_vulkan_glsl(&glsl);
+                let label = format!("{label} {t:?}");
+                let mut frontend = naga::front::glsl::Frontend::default();
+                let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
+                let module = frontend.parse(&options, &source).unwrap_or_else(|e| {
+                    panic!("{label}: {}", e.emit_to_string(&source));
+                });
+                naga::valid::Validator::new(
+                    naga::valid::ValidationFlags::all(),
+                    naga::valid::Capabilities::all(),
+                )
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{label}: {}", e.emit_to_string(&source)));
+                checked += 1;
+            }
         }
     }
-    assert_eq!(checked, 3 * Pass::ALL.len());
+    assert_eq!(checked, 3 * variants);
+    assert_eq!(
+        variants,
+        Pass::ALL.len() + 2,
+        "the gather's trace and replay"
+    );
     // The check can fail: an undeclared name is rejected.
     let (prefix, _) = program_sources(Pass::Copy, BvhMode::None);
     let broken = as_vulkan_glsl(&format!(

@@ -2,7 +2,7 @@
 // (dot products left to right, division rather than multiplication by a reciprocal).
 
 uniform int u_layer;   // the texture-array layer this draw renders
-out vec4 o_color;
+layout(location = 0) out vec4 o_color;
 
 // exact::dot
 float luxDot(vec3 a, vec3 b) {

@@ -1,0 +1,311 @@
+//! Gather hits kept across the bakes of one room, on the GPU: a lamp swap's bounces as look-ups
+//! ([`GlowBackend::keep_gather_hits`](crate::GlowBackend::keep_gather_hits)).
+//!
+//! A gather ray depends only on the room and the random numbers — its origin and frame on the
+//! texel's G-buffer position and normal, its direction on the sampler's draw for (texel, ray,
+//! bounce, seed), its hit on the BVH — never on the lamps (`luxbake::cpu::hits` keeps them the
+//! same way on the CPU). With hits kept, a gather dispatch runs as two programs:
+//!
+//! 1. the **trace pass** (`passes/gather/trace.glsl`), once per ray of the dispatch: ray `k`
+//!    of every texel of the tile, its closest hit `(t, triangle, u, v)` written to layer `k` of
+//!    a hit texture of the tile's size (triangle −1: no such ray, or a miss);
+//! 2. the gather compiled with `LUX_REPLAY` (`luxbake::shader::GLSL_GATHER_REPLAY`), which reads
+//!    each ray's hit there where it would have traversed the BVH, and does everything after the
+//!    hit (the shading normal, the light-map look-up, the lamp paths' weight, the sums) as
+//!    before.
+//!
+//! A later bake of the same room whose dispatch has the same key (below) runs only the second.
+//! The hit is the one the traversal returned, stored as RGBA32F without rounding (a triangle
+//! index is exact in f32 below 2²⁴), and both programs compute the ray with the gather's
+//! operations, so the maps equal a bake that traces (`tests/gather_hits.rs`).
+//!
+//! # What makes a dispatch's hits valid
+//! [`HitKey`]: the BVH object the rays were cast in (held weakly, so its address is not reused
+//! while the hits exist), the ray offset's size, the traversal, the gather parameters that
+//! place the rays (rays, orphans' rays, stride, reach, bounce, seed, sampler, the chunk) and the
+//! tile, and 64-bit hashes of the position and normal maps as they were uploaded. Another room,
+//! another texel density or G-buffer, or a map written by a pass instead of uploaded, traces
+//! again. Hits of a BVH that no longer exists (its room was dropped) are freed at the next
+//! scene upload.
+//!
+//! # What it costs
+//! 16 bytes per texel of the tile and ray of the dispatch (the hit texture spans the tile's
+//! whole rows, texels outside the charts and off the coarse grid included); a dispatch whose
+//! hits would pass the budget is gathered as without kept hits. The first bake pays the hit
+//! textures' writes and reads, not another traversal.
+
+use std::collections::HashMap;
+use std::sync::{Arc, Weak};
+
+use luxbake::program::{GatherParams, ParamBlock, TileParams};
+use luxbake::scene::BvhMode;
+use luxbake_bvh::EncodedScene;
+
+use crate::gl::TextureArray;
+
+/// Bytes of one kept hit (an RGBA32F texel).
+pub const HIT_BYTES: u64 = 16;
+
+/// What places a gather dispatch's rays (module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub(crate) struct HitKey {
+    /// The BVH object's address (valid while [`Kept::rooms`] holds a weak pointer to it).
+    scene: usize,
+    /// The ray offset's size term, bits.
+    epsilon: u32,
+    /// The traversal compiled into the programs.
+    traversal: BvhMode,
+    /// `[rays, orphan_rays, stride, reach (bits), bounce, seed, sampler, first_ray,
+    /// chunk_rays]`.
+    rays: [u32; 9],
+    /// `[layer, x0, y0, width, height]`.
+    tile: [u32; 5],
+    /// Hashes of the position and normal maps' uploads.
+    gbuffer: [u64; 2],
+}
+
+impl HitKey {
+    /// The key of a gather dispatch with `words` (its [`GatherParams`]) over `tile`, in the
+    /// BVH at address `scene` with ray offset `epsilon`, reading maps whose uploads hash to
+    /// `gbuffer`.
+    pub(crate) fn new(
+        scene: usize,
+        epsilon: f32,
+        traversal: BvhMode,
+        words: &[u32],
+        tile: TileParams,
+        gbuffer: [u64; 2],
+    ) -> HitKey {
+        let p = GatherParams::from_words(words);
+        HitKey {
+            scene,
+            epsilon: epsilon.to_bits(),
+            traversal,
+            rays: [
+                p.rays,
+                p.orphan_rays,
+                p.stride,
+                p.reach.to_bits(),
+                p.bounce,
+                p.seed,
+                p.sampler,
+                p.first_ray,
+                p.chunk_rays,
+            ],
+            tile: [tile.layer, tile.x0, tile.y0, tile.width, tile.height],
+            gbuffer,
+        }
+    }
+
+    /// Rays a texel of the dispatch casts at most: the chunk's share of the larger of the
+    /// grid texels' and the orphans' rays (the gather pass's `first` and `count`).
+    pub(crate) fn rays(&self) -> u32 {
+        let [rays, orphan, .., first, chunk] = self.rays;
+        let rays = rays.max(orphan);
+        let left = rays.saturating_sub(first);
+        if chunk > 0 { left.min(chunk) } else { left }
+    }
+
+    /// Bytes of the dispatch's hits.
+    pub(crate) fn bytes(&self) -> u64 {
+        u64::from(self.tile[3]) * u64::from(self.tile[4]) * u64::from(self.rays()) * HIT_BYTES
+    }
+}
+
+/// What a backend's kept gather hits hold and served
+/// ([`GlowBackend::gather_hit_stats`](crate::GlowBackend::gather_hit_stats)).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct GatherHitStats {
+    /// Bytes of hit textures kept.
+    pub bytes: u64,
+    /// Gather dispatches whose hits are kept.
+    pub dispatches: usize,
+    /// Gather dispatches that traced their rays and kept the hits.
+    pub traced: u64,
+    /// Gather dispatches that read kept hits (each one that traced too).
+    pub replayed: u64,
+}
+
+/// The hits kept so far and the budget.
+#[derive(Debug)]
+pub(crate) struct Kept {
+    /// Most bytes of hits kept.
+    pub(crate) budget: u64,
+    /// The BVHs hits were cast in, weakly held.
+    rooms: Vec<Weak<EncodedScene>>,
+    /// Per dispatch key, its hit texture (one layer per ray).
+    pub(crate) hits: HashMap<HitKey, TextureArray>,
+    /// Bytes in [`Kept::hits`].
+    pub(crate) bytes: u64,
+    /// Dispatches that traced and kept their hits.
+    pub(crate) traced: u64,
+    /// Dispatches that replayed kept hits.
+    pub(crate) replayed: u64,
+}
+
+impl Kept {
+    pub(crate) fn new(budget: u64) -> Kept {
+        Kept {
+            budget,
+            rooms: Vec::new(),
+            hits: HashMap::new(),
+            bytes: 0,
+            traced: 0,
+            replayed: 0,
+        }
+    }
+
+    /// Remembers that hits may be cast in `scene` (so its address is not reused while they
+    /// exist) and hands back the hit textures of BVHs that no longer exist, for the caller to
+    /// free.
+    pub(crate) fn upload(&mut self, scene: &Arc<EncodedScene>) -> Vec<TextureArray> {
+        let gone: Vec<usize> = self
+            .rooms
+            .iter()
+            .filter(|w| w.strong_count() == 0)
+            .map(|w| w.as_ptr() as usize)
+            .collect();
+        self.rooms.retain(|w| w.strong_count() > 0);
+        if !self
+            .rooms
+            .iter()
+            .any(|w| std::ptr::eq(w.as_ptr(), Arc::as_ptr(scene)))
+        {
+            self.rooms.push(Arc::downgrade(scene));
+        }
+        let dropped: Vec<HitKey> = self
+            .hits
+            .keys()
+            .filter(|k| gone.contains(&k.scene))
+            .copied()
+            .collect();
+        dropped
+            .into_iter()
+            .filter_map(|k| {
+                self.bytes -= k.bytes();
+                self.hits.remove(&k)
+            })
+            .collect()
+    }
+
+    /// Whether a dispatch with `key` may keep its hits within the budget.
+    pub(crate) fn fits(&self, key: &HitKey) -> bool {
+        key.rays() > 0
+            && self
+                .bytes
+                .checked_add(key.bytes())
+                .is_some_and(|b| b <= self.budget)
+    }
+
+    /// Keeps the hits a dispatch with `key` traced; hands back the texture they replace, if
+    /// any, for the caller to free.
+    pub(crate) fn insert(&mut self, key: HitKey, hits: TextureArray) -> Option<TextureArray> {
+        self.bytes += key.bytes();
+        self.traced += 1;
+        let old = self.hits.insert(key, hits);
+        if old.is_some() {
+            self.bytes -= key.bytes();
+        }
+        old
+    }
+
+    /// What the cache holds and served.
+    pub(crate) fn stats(&self) -> GatherHitStats {
+        GatherHitStats {
+            bytes: self.bytes,
+            dispatches: self.hits.len(),
+            traced: self.traced,
+            replayed: self.replayed,
+        }
+    }
+
+    /// Every kept texture, for the caller to free.
+    pub(crate) fn drain(&mut self) -> Vec<TextureArray> {
+        self.bytes = 0;
+        self.rooms.clear();
+        self.hits.drain().map(|(_, t)| t).collect()
+    }
+}
+
+/// A 64-bit hash of an upload's floats, bit for bit (FNV-1a over 64-bit words, then a final
+/// mix): what tells one room's G-buffer from another's.
+pub(crate) fn hash_floats(texels: &[f32]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut words = texels.chunks_exact(2);
+    for w in &mut words {
+        let v = u64::from(w[0].to_bits()) | (u64::from(w[1].to_bits()) << 32);
+        h = (h ^ v).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    for w in words.remainder() {
+        h = (h ^ u64::from(w.to_bits())).wrapping_mul(0x0000_0100_0000_01b3);
+    }
+    h ^= texels.len() as u64;
+    h ^= h >> 33;
+    h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+    h ^ (h >> 33)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_hash_tells_every_bit_and_the_length() {
+        let a = [1.0f32, 2.0, 3.0, 4.0, 5.0];
+        let h = hash_floats(&a);
+        assert_eq!(h, hash_floats(&a));
+        let mut b = a;
+        b[4] = f32::from_bits(5.0f32.to_bits() ^ 1);
+        assert_ne!(h, hash_floats(&b));
+        assert_ne!(hash_floats(&[0.0]), hash_floats(&[-0.0]));
+        assert_ne!(
+            hash_floats(&a[..4]),
+            hash_floats(&[1.0, 2.0, 3.0, 4.0, 0.0])
+        );
+    }
+
+    #[test]
+    fn a_dispatch_keeps_its_chunks_rays_within_the_budget() {
+        let tile = TileParams {
+            layer: 0,
+            x0: 0,
+            y0: 8,
+            width: 64,
+            height: 16,
+            layer_w: 64,
+            layer_h: 64,
+            pad0: 0,
+        };
+        let words = |rays: u32, orphans: u32, first: u32, chunk: u32| {
+            GatherParams {
+                rays,
+                orphan_rays: orphans,
+                first_ray: first,
+                chunk_rays: chunk,
+                ..GatherParams::default()
+            }
+            .words()
+        };
+        let key = |w: Vec<u32>| HitKey::new(1, 1e-4, BvhMode::Mtbvh, &w, tile, [1, 2]);
+        assert_eq!(key(words(4, 2, 0, 0)).rays(), 4);
+        assert_eq!(key(words(2, 3, 0, 0)).rays(), 3);
+        assert_eq!(key(words(300, 0, 256, 128)).rays(), 44);
+        assert_eq!(key(words(300, 0, 128, 128)).rays(), 128);
+        let k = key(words(4, 0, 0, 0));
+        assert_eq!(k.bytes(), 64 * 16 * 4 * 16);
+        // The lamps' words do not place rays.
+        let mut lit = GatherParams::from_words(&words(4, 0, 0, 0));
+        lit.lamp_paths = 12;
+        lit.density_scale = 3.5;
+        lit.lamp_count = 2;
+        assert_eq!(key(lit.words()), k);
+        let mut kept = Kept::new(k.bytes());
+        assert!(kept.fits(&k));
+        kept.bytes = 1;
+        assert!(!kept.fits(&k));
+        assert!(
+            !Kept::new(u64::MAX).fits(&key(words(4, 0, 4, 0))),
+            "no rays"
+        );
+    }
+}
