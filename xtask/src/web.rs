@@ -13,6 +13,8 @@
 //!    before the bake ended;
 //! 2. its light maps (read back through `window.luxbake.readback()`) match a native glow
 //!    bake (headless EGL) of the same request per object and stage within [`TOLERANCES`];
+//!    then the lamp is moved ([`MOVED_LAMP`]): the page's second bake reuses the room (its
+//!    report's `room_reused`) and matches a native bake of the moved lamp;
 //! 3. a screenshot of the view is not blank: the floor under the lamp is brighter than the
 //!    room's floor corners; saved as `<target dir>/web-check/screenshot.png`;
 //!    then the display's WebGL context is lost and restored (`WEBGL_lose_context`): the page
@@ -475,6 +477,11 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     let t = Instant::now();
     let native = luxbake::bake(&mut backend, &scene, &scene.settings, &mut |_| {})
         .map_err(|e| format!("native glow bake: {e}"))?;
+    // The same room under the lamp of step 2b.
+    let moved_request = moved_lamp(&request);
+    let moved = build_scene(&moved_request, None).map_err(|e| e.to_string())?;
+    let moved = luxbake::bake(&mut backend, &moved, &moved.settings, &mut |_| {})
+        .map_err(|e| format!("native glow bake, lamp moved: {e}"))?;
     drop(backend);
     println!(
         "native glow bake of {}: {} texels in {:.2} s",
@@ -495,7 +502,7 @@ fn check(args: &Args, root: &Path, dist: &Path) -> Result<(), String> {
     let profile = out_dir.join(format!("chromium-profile-{}", std::process::id()));
     driver.session = Some(open_session(port, &args.chromium, &profile, &[])?);
     let session = driver.session.as_ref().ok_or("no session")?;
-    let result = run_checks(session, page_port, &native, &out_dir, &request);
+    let result = run_checks(session, page_port, [&native, &moved], &out_dir, &request);
     if let Some(s) = driver.session.take() {
         let _ = webdriver(port, "DELETE", &s.path(""), None);
     }
@@ -591,10 +598,20 @@ pub(crate) fn open_session(
     Ok(Session { port, id })
 }
 
+/// [`CHECK_REQUEST`] with its lamp moved (step 2b): off the room's centre and lower.
+fn moved_lamp(request: &BakeRequest) -> BakeRequest {
+    let mut moved = request.clone();
+    moved.lamp.position = Some(MOVED_LAMP);
+    moved
+}
+
+/// Where step 2b moves the lamp.
+const MOVED_LAMP: [f32; 3] = [0.6, 2.2, -0.4];
+
 fn run_checks(
     s: &Session,
     page_port: u16,
-    native: &luxbake::BakeOutput,
+    [native, moved]: [&luxbake::BakeOutput; 2],
     out_dir: &Path,
     request: &BakeRequest,
 ) -> Result<(), String> {
@@ -657,6 +674,40 @@ fn run_checks(
 
     // 2. Light maps: browser vs native glow.
     compare_maps(&back, native)?;
+    if report["room_reused"] != json!(false) {
+        return Err(format!("the first bake reused a room: {report}"));
+    }
+
+    // 2b. The lamp moved: the page bakes the same room again, reusing its host work and the
+    // gather hits its backend kept, and still matches a native bake of the moved lamp.
+    let t = Instant::now();
+    let [x, y, z] = MOVED_LAMP;
+    let rebaked = s.script(&format!(
+        "window.luxbake.bake({{lamp: Object.assign({{}}, window.luxbake.request.lamp, \
+         {{position: [{x}, {y}, {z}]}})}}).then(() => done(true), (e) => done(String(e)));"
+    ))?;
+    if rebaked != json!(true) {
+        return Err(format!("the bake with the lamp moved failed: {rebaked}"));
+    }
+    let again: Value = serde_json::from_str(
+        s.eval("window.luxbake.readback()")?
+            .as_str()
+            .ok_or("readback() returned nothing")?,
+    )
+    .map_err(|e| format!("readback JSON: {e}"))?;
+    let report2 = &again["report"];
+    if report2["room_reused"] != json!(true) {
+        return Err(format!(
+            "the bake with the lamp moved prepared its room again: {report2}"
+        ));
+    }
+    compare_maps(&again, moved)?;
+    println!(
+        "lamp moved: the room reused, bake time {:.2} s against the first's {:.2} s (waited {:.1} s); maps agree with the native bake",
+        report2["total_seconds"].as_f64().unwrap_or(f64::NAN),
+        report["total_seconds"].as_f64().unwrap_or(f64::NAN),
+        t.elapsed().as_secs_f64()
+    );
 
     // 3. Screenshot: lit floor under the lamp, darker floor corners.
     s.script("requestAnimationFrame(() => requestAnimationFrame(() => done(true)));")?;

@@ -6,6 +6,7 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, hash_floats};
 use luxbake::program::{GatherParams, ParamBlock, Scalar};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
@@ -13,7 +14,6 @@ use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
 use crate::context::{Capabilities, GlContext};
 use crate::error::{GlowError, Result};
 use crate::gl::{MAX_ATTACHMENTS, Program, Target, TextureArray, check};
-use crate::hits::{GatherHitStats, HitKey, Kept, hash_floats};
 use crate::scene::GpuScene;
 use crate::shaders::{Pass, Variant, variant_sources};
 
@@ -49,7 +49,7 @@ pub struct GlowBackend {
     /// uploaded, or once a pass writes the texture).
     uploads: HashMap<usize, Vec<Option<u64>>>,
     /// The gather hits kept from bake to bake ([`GlowBackend::keep_gather_hits`]).
-    kept: Option<Kept>,
+    kept: Option<KeptHits<TextureArray>>,
 }
 
 impl std::fmt::Debug for GlowBackend {
@@ -93,7 +93,7 @@ impl GlowBackend {
         })
     }
 
-    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes (module `hits`):
+    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes (`luxbake::kept`):
     /// a later bake of the same prepared room (another lamp, a swap) reads them instead of
     /// traversing the BVH, with the same maps. For a backend that bakes one room several
     /// times (the JavaScript package's rooms, `--lamp` repeated); a single bake would pay the
@@ -105,14 +105,14 @@ impl GlowBackend {
     /// Without a current context, when kept hits are to be freed.
     pub fn keep_gather_hits(&mut self, budget: u64) -> Result<()> {
         self.free_kept()?;
-        self.kept = Some(Kept::new(budget));
+        self.kept = Some(KeptHits::new(budget));
         Ok(())
     }
 
     /// What the kept gather hits hold and served ([`GlowBackend::keep_gather_hits`]; `None`
     /// without).
-    pub fn gather_hit_stats(&self) -> Option<GatherHitStats> {
-        self.kept.as_ref().map(Kept::stats)
+    pub fn gather_hit_stats(&self) -> Option<KeptHitStats> {
+        self.kept.as_ref().map(KeptHits::stats)
     }
 
     /// Frees every kept hit texture.
@@ -419,7 +419,7 @@ impl GpuBackend for GlowBackend {
                 true,
             );
         };
-        let kept = self.kept.as_ref().map(|k| k.hits.contains_key(&key));
+        let kept = self.kept.as_ref().map(|k| k.get(&key).is_some());
         if kept != Some(true) && !self.kept.as_ref().is_some_and(|k| k.fits(&key)) {
             // Past the budget: gathered as without kept hits.
             self.compile(call.program, trav, Variant::Plain)?;
@@ -471,7 +471,7 @@ impl GpuBackend for GlowBackend {
                 old.delete(self.ctx.gl()?);
             }
         }
-        let kept = self.kept.as_ref().and_then(|k| k.hits.get(&key));
+        let kept = self.kept.as_ref().and_then(|k| k.get(&key));
         let hits = kept.ok_or_else(|| GlowError::InvalidInput("kept hits".into()))?;
         self.draw(
             call,
@@ -488,7 +488,7 @@ impl GpuBackend for GlowBackend {
             true,
         )?;
         if let Some(k) = &mut self.kept {
-            k.replayed += 1;
+            k.replayed();
         }
         Ok(())
     }

@@ -65,12 +65,13 @@
 //! ## Kept gather hits
 //! [`GlowBackend::keep_gather_hits`]: for a backend that bakes one room several times (a lamp
 //! swap in the JavaScript package, `--lamp` repeated), each gather dispatch first casts its rays
-//! in a trace pass (`passes/gather/trace.glsl`, one draw per ray) that writes every ray's hit
+//! in a trace pass (`passes/gather/trace.glsl`, up to four rays a draw, one colour attachment
+//! each) that writes every ray's hit
 //! `(t, triangle, u, v)` to a texture of the tile's size, and the gather compiled with
 //! `LUX_REPLAY` reads them instead of traversing the BVH; a later bake of the same room reads the
 //! kept textures and casts no gather ray. The maps are the same bit for bit
 //! (`tests/gather_hits.rs`); 16 bytes per tile texel and ray ([`HIT_BYTES`]). The rules of
-//! what may be read back are in the `hits` module.
+//! what may be read back are `luxbake::kept`'s.
 //!
 //! ## Traversal
 //! MTBVH, TBVH or brute force ("no BVH"), chosen per pass (`PassDesc::bvh`) and compiled in
@@ -123,14 +124,13 @@ mod backend;
 mod context;
 mod error;
 mod gl;
-mod hits;
 mod scene;
 mod shaders;
 
 pub use backend::{GlowBackend, GlowScene, GlowTexture};
 pub use context::{Capabilities, GlContext, webgl2};
 pub use error::{GlowError, Result};
-pub use hits::{GatherHitStats, HIT_BYTES};
+pub use luxbake::kept::{HIT_BYTES, KeptHitStats};
 
 #[cfg(test)]
 mod testutil;

@@ -5,9 +5,12 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, hash_floats};
 use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
 use luxbake::scene::BvhMode;
-use luxbake::shader::{program_traversal, wgsl, wgsl_source};
+use luxbake::shader::{
+    program_traversal, wgsl, wgsl_gather_replay_source, wgsl_gather_trace_source, wgsl_source,
+};
 
 use crate::device::Gpu;
 use crate::error::{Result, WgpuError};
@@ -63,6 +66,16 @@ struct Texture {
     layers: u32,
 }
 
+/// Which pipeline of a pass a dispatch runs: the pass's own, or for the gather with kept hits
+/// ([`WgpuBackend::keep_gather_hits`]) the trace pass that writes them or the gather that reads
+/// them back.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+enum Variant {
+    Plain,
+    Trace,
+    Replay,
+}
+
 /// The wgpu backend: a device, the RGBA32F texture arrays of a bake, the uploaded scene data and
 /// one compute pipeline per pass kind (and traversal), created on first use.
 #[derive(Debug)]
@@ -71,11 +84,19 @@ pub struct WgpuBackend {
     options: WgpuOptions,
     textures: Vec<Texture>,
     scenes: Vec<GpuScene>,
-    pass_layouts: HashMap<Program, wgpu::BindGroupLayout>,
+    /// Per uploaded scene: the address of its BVH object and its ray offset (what kept hits
+    /// are keyed by).
+    scene_keys: Vec<(usize, f32)>,
+    pass_layouts: HashMap<(Program, Variant), wgpu::BindGroupLayout>,
     scene_layout: wgpu::BindGroupLayout,
-    pipelines: HashMap<(Program, BvhMode), wgpu::ComputePipeline>,
+    pipelines: HashMap<(Program, BvhMode, Variant), wgpu::ComputePipeline>,
     tile: wgpu::Buffer,
     params: wgpu::Buffer,
+    /// With kept gather hits: per texture, the hash of each layer's upload (`None` until
+    /// uploaded, or once a pass writes the texture).
+    uploads: HashMap<usize, Vec<Option<u64>>>,
+    /// The gather hits kept from bake to bake ([`WgpuBackend::keep_gather_hits`]).
+    kept: Option<KeptHits<wgpu::Buffer>>,
 }
 
 fn texture_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
@@ -110,6 +131,23 @@ fn buffer_entry(
 }
 
 const STORAGE_RO: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { read_only: true };
+
+/// Group 0 of `variant` of `program`: its read slots, the output, the tile, its parameter block,
+/// and for the gather's trace pass and replay the kept hits' buffer.
+fn variant_layout_entries(program: Program, variant: Variant) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries = pass_layout_entries(program);
+    let read_only = match variant {
+        Variant::Plain => return entries,
+        Variant::Trace => false,
+        Variant::Replay => true,
+    };
+    entries.push(buffer_entry(
+        wgsl::HITS_BINDING,
+        wgpu::BufferBindingType::Storage { read_only },
+        0,
+    ));
+    entries
+}
 
 /// Group 0 of `program`: its read slots, the output, the tile and its parameter block.
 fn pass_layout_entries(program: Program) -> Vec<wgpu::BindGroupLayoutEntry> {
@@ -192,15 +230,22 @@ impl WgpuBackend {
             .unwrap_or(wgpu::Backends::all());
         let gpu = Gpu::open(backends)?;
         let mut pass_layouts = HashMap::new();
-        for pass in Program::ALL {
+        let variants = Program::ALL
+            .map(|p| (p, Variant::Plain))
+            .into_iter()
+            .chain([
+                (Program::Gather, Variant::Trace),
+                (Program::Gather, Variant::Replay),
+            ]);
+        for (pass, variant) in variants {
             let layout = gpu.scoped("bind group layouts", || {
                 gpu.device
                     .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                         label: Some(pass.label()),
-                        entries: &pass_layout_entries(pass),
+                        entries: &variant_layout_entries(pass, variant),
                     })
             })?;
-            pass_layouts.insert(pass, layout);
+            pass_layouts.insert((pass, variant), layout);
         }
         let scene_layout = gpu.scoped("bind group layouts", || {
             gpu.device
@@ -230,12 +275,60 @@ impl WgpuBackend {
             },
             textures: Vec::new(),
             scenes: Vec::new(),
+            scene_keys: Vec::new(),
             pass_layouts,
             scene_layout,
             pipelines: HashMap::new(),
             tile,
             params,
+            uploads: HashMap::new(),
+            kept: None,
         })
+    }
+
+    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes ([`luxbake::kept`]):
+    /// a later bake of the same prepared room (another lamp, a swap) reads them instead of
+    /// traversing the BVH, with the same maps. For a backend that bakes one room several times
+    /// (`--lamp` repeated, a lamp swap); a single bake would pay the hits' memory and writes
+    /// for nothing. A room's hits stay while the room (its BVH) exists and the backend lives,
+    /// [`GpuBackend::release`] keeps them; a new call frees them and starts empty.
+    pub fn keep_gather_hits(&mut self, budget: u64) {
+        self.kept = Some(KeptHits::new(budget));
+    }
+
+    /// What the kept gather hits hold and served ([`WgpuBackend::keep_gather_hits`]; `None`
+    /// without).
+    pub fn gather_hit_stats(&self) -> Option<KeptHitStats> {
+        self.kept.as_ref().map(KeptHits::stats)
+    }
+
+    /// The key of a gather dispatch whose hits can be kept: with kept hits on, the gather
+    /// reading uploaded position and normal maps, its hits within one storage binding.
+    fn hit_key(
+        &self,
+        call: &Dispatch<'_, WgpuTexture, WgpuScene>,
+        traversal: BvhMode,
+    ) -> Option<HitKey> {
+        if call.program != Program::Gather || self.kept.is_none() {
+            return None;
+        }
+        let hashed = |t: &WgpuTexture| -> Option<u64> {
+            let layers = self.uploads.get(&t.0)?;
+            let mut h = 0u64;
+            for l in layers {
+                h = h.rotate_left(29) ^ (*l)?;
+            }
+            Some(h)
+        };
+        // Read slots 0 and 1 are the position and normal maps.
+        let gbuffer = [hashed(call.reads.first()?)?, hashed(call.reads.get(1)?)?];
+        let &(bvh, epsilon) = self.scene_keys.get(call.scene.0)?;
+        let key = HitKey::new(bvh, epsilon, traversal, call.params, call.tile, gbuffer);
+        let limits = &self.gpu.limits;
+        let most = limits
+            .max_storage_buffer_binding_size
+            .min(limits.max_buffer_size);
+        (key.bytes() <= most).then_some(key)
     }
 
     /// The adapter in use (name, driver, backend, device type).
@@ -254,40 +347,50 @@ impl WgpuBackend {
             .ok_or_else(|| WgpuError::InvalidInput(format!("unknown texture {tex:?}")))
     }
 
-    /// Creates (once) the pipeline of `pass` for `traversal`.
-    fn pipeline(&mut self, pass: Program, traversal: BvhMode) -> Result<()> {
-        let key = (pass, traversal);
+    /// Creates (once) the pipeline of `variant` of `pass` for `traversal`.
+    fn pipeline(&mut self, pass: Program, traversal: BvhMode, variant: Variant) -> Result<()> {
+        let key = (pass, traversal, variant);
         if self.pipelines.contains_key(&key) {
             return Ok(());
         }
         let gpu = &self.gpu;
-        let source = wgsl_source(pass, traversal, self.options.bvh_storage);
+        let storage = self.options.bvh_storage;
+        let source = match variant {
+            Variant::Plain => wgsl_source(pass, traversal, storage),
+            Variant::Trace => wgsl_gather_trace_source(traversal, storage),
+            Variant::Replay => wgsl_gather_replay_source(traversal, storage),
+        };
         let pass_layout = self
             .pass_layouts
-            .get(&pass)
+            .get(&(pass, variant))
             .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
         let mut groups = vec![Some(pass_layout)];
         if uses_scene(pass) {
             groups.push(Some(&self.scene_layout));
         }
-        let during = format!("compiling the `{}` pipeline", pass.label());
+        let label = match variant {
+            Variant::Plain => pass.label().to_owned(),
+            Variant::Trace => format!("{} (trace)", pass.label()),
+            Variant::Replay => format!("{} (replay)", pass.label()),
+        };
+        let during = format!("compiling the `{label}` pipeline");
         let pipeline = gpu.scoped(&during, || {
             let module = gpu
                 .device
                 .create_shader_module(wgpu::ShaderModuleDescriptor {
-                    label: Some(pass.label()),
+                    label: Some(&label),
                     source: wgpu::ShaderSource::Wgsl(source.into()),
                 });
             let layout = gpu
                 .device
                 .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some(pass.label()),
+                    label: Some(&label),
                     bind_group_layouts: &groups,
                     immediate_size: 0,
                 });
             gpu.device
                 .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(pass.label()),
+                    label: Some(&label),
                     layout: Some(&layout),
                     module: &module,
                     entry_point: Some("main"),
@@ -297,6 +400,114 @@ impl WgpuBackend {
         })?;
         self.pipelines.insert(key, pipeline);
         Ok(())
+    }
+
+    /// Runs `variant` of the call's program over its tile with `params` (`hits`: the buffer
+    /// the trace pass writes or the replay reads) and waits for it.
+    fn run(
+        &self,
+        call: &Dispatch<'_, WgpuTexture, WgpuScene>,
+        traversal: BvhMode,
+        variant: Variant,
+        hits: Option<&wgpu::Buffer>,
+    ) -> Result<()> {
+        let label = call.label;
+        let gpu_scene = self
+            .scenes
+            .get(call.scene.0)
+            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let out = self.texture(call.write)?;
+        let inputs = call
+            .reads
+            .iter()
+            .map(|r| self.texture(r))
+            .collect::<Result<Vec<_>>>()?;
+        let t = call.tile;
+        let pipeline = self
+            .pipelines
+            .get(&(call.program, traversal, variant))
+            .ok_or_else(|| WgpuError::InvalidInput("pipeline cache".into()))?;
+        let pass_layout = self
+            .pass_layouts
+            .get(&(call.program, variant))
+            .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
+        let mut entries: Vec<wgpu::BindGroupEntry<'_>> = inputs
+            .iter()
+            .enumerate()
+            .map(|(i, t)| wgpu::BindGroupEntry {
+                binding: i as u32,
+                resource: wgpu::BindingResource::TextureView(&t.view),
+            })
+            .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: wgsl::OUT_BINDING,
+            resource: wgpu::BindingResource::TextureView(&out.view),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: wgsl::TILE_BINDING,
+            resource: self.tile.as_entire_binding(),
+        });
+        let block = params_bytes(call.program);
+        if block > 0 {
+            entries.push(wgpu::BindGroupEntry {
+                binding: wgsl::PARAMS_BINDING,
+                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
+                    buffer: &self.params,
+                    offset: 0,
+                    size: std::num::NonZeroU64::new(block),
+                }),
+            });
+        }
+        if let Some(h) = hits {
+            entries.push(wgpu::BindGroupEntry {
+                binding: wgsl::HITS_BINDING,
+                resource: h.as_entire_binding(),
+            });
+        }
+        let gpu = &self.gpu;
+        let during = format!("pass `{label}`");
+        let group = gpu.scoped(&during, || {
+            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout: pass_layout,
+                entries: &entries,
+            })
+        })?;
+        let scene_group = match call.bvh.encoded() {
+            BvhMode::Mtbvh => &gpu_scene.mtbvh,
+            _ => &gpu_scene.tbvh,
+        };
+        gpu.scoped(&during, || {
+            gpu.queue
+                .write_buffer(&self.tile, 0, &u32_bytes(&t.words()));
+            if block > 0 {
+                gpu.queue
+                    .write_buffer(&self.params, 0, &u32_bytes(call.params));
+            }
+            let mut encoder = gpu
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+            {
+                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: None,
+                });
+                cpass.set_pipeline(pipeline);
+                cpass.set_bind_group(0, &group, &[]);
+                if uses_scene(call.program) {
+                    cpass.set_bind_group(1, scene_group, &[]);
+                }
+                cpass.dispatch_workgroups(
+                    t.width.div_ceil(WORKGROUP),
+                    t.height.div_ceil(WORKGROUP),
+                    1,
+                );
+            }
+            gpu.queue.submit([encoder.finish()]);
+        })?;
+        // Wait for the tile: honest progress, no unbounded queue of GPU work and no dispatch
+        // long enough for a watchdog.
+        gpu.wait(&during)
     }
 }
 
@@ -426,12 +637,26 @@ impl GpuBackend for WgpuBackend {
                     depth_or_array_layers: 1,
                 },
             );
-        })
+        })?;
+        if self.kept.is_some() {
+            // What tells one room's G-buffer from another's for the kept hits.
+            let layers = t.layers as usize;
+            let hashes = self
+                .uploads
+                .entry(texture.0)
+                .or_insert_with(|| vec![None; layers]);
+            if let Some(h) = hashes.get_mut(layer as usize) {
+                *h = Some(hash_floats(texels));
+            }
+        }
+        Ok(())
     }
 
     fn release(&mut self) -> Result<()> {
         self.textures.clear();
         self.scenes.clear();
+        self.scene_keys.clear();
+        self.uploads.clear();
         Ok(())
     }
 
@@ -442,7 +667,15 @@ impl GpuBackend for WgpuBackend {
             self.options.bvh_storage,
             scene,
         )?;
+        if let Some(kept) = &mut self.kept {
+            // Hits of rooms that no longer exist go (their buffers are dropped).
+            drop(kept.upload(&scene.bvh.encoded));
+        }
         self.scenes.push(s);
+        self.scene_keys.push((
+            std::sync::Arc::as_ptr(&scene.bvh.encoded) as usize,
+            scene.ray_epsilon,
+        ));
         Ok(WgpuScene(self.scenes.len() - 1))
     }
 
@@ -453,100 +686,53 @@ impl GpuBackend for WgpuBackend {
     fn dispatch(&mut self, call: &Dispatch<'_, WgpuTexture, WgpuScene>) -> Result<()> {
         let label = call.label;
         let traversal = program_traversal(call.program, call.bvh);
-        self.pipeline(call.program, traversal)?;
         let gpu_scene = self
             .scenes
             .get(call.scene.0)
             .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
         let out = self.texture(call.write)?;
-        let inputs = call
+        let sizes = call
             .reads
             .iter()
-            .map(|r| self.texture(r))
+            .map(|r| self.texture(r).map(|t| (t.size, t.layers)))
             .collect::<Result<Vec<_>>>()?;
-        let sizes: Vec<_> = inputs.iter().map(|t| (t.size, t.layers)).collect();
         call.check((out.size, out.layers), &sizes, gpu_scene.layer_size)
             .map_err(|reason| WgpuError::InvalidInput(format!("pass `{label}`: {reason}")))?;
-        let t = call.tile;
-        let pipeline = self
-            .pipelines
-            .get(&(call.program, traversal))
-            .ok_or_else(|| WgpuError::InvalidInput("pipeline cache".into()))?;
-        let pass_layout = self
-            .pass_layouts
-            .get(&call.program)
-            .ok_or_else(|| WgpuError::InvalidInput("bind group layout cache".into()))?;
-        let mut entries: Vec<wgpu::BindGroupEntry<'_>> = inputs
-            .iter()
-            .enumerate()
-            .map(|(i, t)| wgpu::BindGroupEntry {
-                binding: i as u32,
-                resource: wgpu::BindingResource::TextureView(&t.view),
-            })
-            .collect();
-        entries.push(wgpu::BindGroupEntry {
-            binding: wgsl::OUT_BINDING,
-            resource: wgpu::BindingResource::TextureView(&out.view),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: wgsl::TILE_BINDING,
-            resource: self.tile.as_entire_binding(),
-        });
-        let block = params_bytes(call.program);
-        if block > 0 {
-            entries.push(wgpu::BindGroupEntry {
-                binding: wgsl::PARAMS_BINDING,
-                resource: wgpu::BindingResource::Buffer(wgpu::BufferBinding {
-                    buffer: &self.params,
-                    offset: 0,
-                    size: std::num::NonZeroU64::new(block),
-                }),
-            });
-        }
-        let gpu = &self.gpu;
-        let during = format!("pass `{label}`");
-        let group = gpu.scoped(&during, || {
-            gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some(label),
-                layout: pass_layout,
-                entries: &entries,
-            })
-        })?;
-        let scene_group = match call.bvh.encoded() {
-            BvhMode::Mtbvh => &gpu_scene.mtbvh,
-            _ => &gpu_scene.tbvh,
+        // A texture a pass writes is no upload any more.
+        self.uploads.remove(&call.write.0);
+        let fits =
+            |kept: &KeptHits<wgpu::Buffer>, key: &HitKey| kept.get(key).is_some() || kept.fits(key);
+        let key = self
+            .hit_key(call, traversal)
+            .filter(|k| self.kept.as_ref().is_some_and(|kept| fits(kept, k)));
+        let Some(key) = key else {
+            self.pipeline(call.program, traversal, Variant::Plain)?;
+            return self.run(call, traversal, Variant::Plain, None);
         };
-        gpu.scoped(&during, || {
-            gpu.queue
-                .write_buffer(&self.tile, 0, &u32_bytes(&t.words()));
-            if block > 0 {
-                gpu.queue
-                    .write_buffer(&self.params, 0, &u32_bytes(call.params));
-            }
-            let mut encoder = gpu
-                .device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-            {
-                let mut cpass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some(label),
-                    timestamp_writes: None,
-                });
-                cpass.set_pipeline(pipeline);
-                cpass.set_bind_group(0, &group, &[]);
-                if uses_scene(call.program) {
-                    cpass.set_bind_group(1, scene_group, &[]);
-                }
-                cpass.dispatch_workgroups(
-                    t.width.div_ceil(WORKGROUP),
-                    t.height.div_ceil(WORKGROUP),
-                    1,
-                );
-            }
-            gpu.queue.submit([encoder.finish()]);
-        })?;
-        // Wait for the tile: honest progress, no unbounded queue of GPU work and no dispatch
-        // long enough for a watchdog.
-        gpu.wait(&during)
+        self.pipeline(call.program, traversal, Variant::Replay)?;
+        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
+            // Trace the dispatch's rays once into a buffer of one tile-sized plane per ray.
+            self.pipeline(call.program, traversal, Variant::Trace)?;
+            let gpu = &self.gpu;
+            let hits = gpu.scoped(&format!("pass `{label}`"), || {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("gather hits"),
+                    size: key.bytes(),
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                })
+            })?;
+            self.run(call, traversal, Variant::Trace, Some(&hits))?;
+            // A replaced buffer (not reached: a key is traced only when missing) is dropped.
+            drop(self.kept.as_mut().and_then(|k| k.insert(key, hits)));
+        }
+        let hits = self.kept.as_ref().and_then(|k| k.get(&key));
+        let hits = hits.ok_or_else(|| WgpuError::InvalidInput("kept hits".into()))?;
+        self.run(call, traversal, Variant::Replay, Some(hits))?;
+        if let Some(k) = &mut self.kept {
+            k.replayed();
+        }
+        Ok(())
     }
 
     fn read_back(&mut self, texture: &WgpuTexture, layer: u32) -> Result<Vec<f32>> {

@@ -16,7 +16,10 @@ mod tests {
     };
     use luxbake::rng::Sampler;
     use luxbake::scene::BvhMode;
-    use luxbake::shader::{BvhStorage, wgsl_constants, wgsl_library, wgsl_source};
+    use luxbake::shader::{
+        BvhStorage, wgsl_constants, wgsl_gather_replay_source, wgsl_gather_trace_source,
+        wgsl_library, wgsl_source,
+    };
     use luxbake_bvh::layout;
     use wgpu::naga;
 
@@ -37,11 +40,27 @@ mod tests {
 
     #[test]
     fn every_program_validates_with_naga_for_every_traversal_and_storage() {
-        for program in Program::ALL {
+        // Every pass, and the gather's trace pass and replay (kept hits, `luxbake::kept`).
+        type Source = fn(BvhMode, BvhStorage) -> String;
+        let kept: [(&str, Source); 2] = [
+            ("gather (trace)", wgsl_gather_trace_source),
+            ("gather (replay)", wgsl_gather_replay_source),
+        ];
+        let programs = Program::ALL.map(|p| {
+            (
+                p.label(),
+                Box::new(move |t, s| wgsl_source(p, t, s))
+                    as Box<dyn Fn(BvhMode, BvhStorage) -> String>,
+            )
+        });
+        let variants = kept
+            .into_iter()
+            .map(|(l, f)| (l, Box::new(f) as Box<dyn Fn(BvhMode, BvhStorage) -> String>));
+        for (name, source) in programs.into_iter().chain(variants) {
             for storage in [BvhStorage::Buffers, BvhStorage::Textures] {
                 for traversal in TRAVERSALS {
-                    let label = format!("{} {traversal:?} {storage:?}", program.label());
-                    let module = validate(&label, &wgsl_source(program, traversal, storage));
+                    let label = format!("{name} {traversal:?} {storage:?}");
+                    let module = validate(&label, &source(traversal, storage));
                     let entry: Vec<_> = module.entry_points.iter().map(|e| &e.name).collect();
                     assert_eq!(entry, ["main"], "{label}");
                     assert_eq!(

@@ -207,32 +207,32 @@ pub fn open(kind: BackendKind) -> Result<AnyBackend, OpenError> {
 }
 
 impl AnyBackend {
-    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes, where the backend
-    /// can: the CPU backend in host memory (`CpuBackend::keep_gather_hits`), glow in hit
-    /// textures (`GlowBackend::keep_gather_hits`); wgpu traces every bake. For a backend that
-    /// bakes one room several times (`--lamp` repeated, a lamp swap). Whether it keeps them.
+    /// Keeps the gather rays' hits from bake to bake, up to `budget` bytes: the CPU backend in
+    /// host memory (`CpuBackend::keep_gather_hits`), glow in hit textures and wgpu in storage
+    /// buffers (`luxbake::kept`). For a backend that bakes one room several times (`--lamp`
+    /// repeated, a lamp swap).
     ///
     /// # Errors
     /// glow without a current context.
-    pub fn keep_gather_hits(&mut self, budget: usize) -> Result<bool, String> {
+    pub fn keep_gather_hits(&mut self, budget: usize) -> Result<(), String> {
         match self {
             AnyBackend::Cpu(b) => b.keep_gather_hits(budget),
             AnyBackend::Glow(b) => b
                 .keep_gather_hits(budget as u64)
                 .map_err(|e| e.to_string())?,
-            AnyBackend::Wgpu(_) => return Ok(false),
+            AnyBackend::Wgpu(b) => b.keep_gather_hits(budget as u64),
         }
-        Ok(true)
+        Ok(())
     }
 
     /// Bytes the backend keeps from bake to bake besides a bake's textures: the CPU
-    /// backend's gather hits and chart tests (`CpuBackend::kept_bytes`), glow's hit textures;
-    /// `None` for wgpu.
-    pub fn kept_bytes(&self) -> Option<usize> {
+    /// backend's gather hits and chart tests (`CpuBackend::kept_bytes`), the GPU backends'
+    /// kept hits.
+    pub fn kept_bytes(&self) -> usize {
         match self {
-            AnyBackend::Cpu(b) => Some(b.kept_bytes()),
-            AnyBackend::Glow(b) => Some(b.gather_hit_stats().map_or(0, |s| s.bytes as usize)),
-            AnyBackend::Wgpu(_) => None,
+            AnyBackend::Cpu(b) => b.kept_bytes(),
+            AnyBackend::Glow(b) => b.gather_hit_stats().map_or(0, |s| s.bytes as usize),
+            AnyBackend::Wgpu(b) => b.gather_hit_stats().map_or(0, |s| s.bytes as usize),
         }
     }
 

@@ -160,6 +160,7 @@ pub mod exact;
 mod execute;
 pub mod gbuffer;
 pub mod graph;
+pub mod kept;
 pub mod layers;
 pub mod layout;
 pub mod lightpaths;

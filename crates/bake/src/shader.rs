@@ -58,6 +58,9 @@ pub mod wgsl {
     pub const LAMPS_BINDING: u32 = 6;
     /// Group 1: the lamp paths' points.
     pub const LAMP_PATHS_BINDING: u32 = 7;
+    /// Group 0: the kept gather hits a trace pass writes and a replaying gather reads
+    /// ([`crate::kept`]; [`super::wgsl_gather_trace_source`], [`super::wgsl_gather_replay_source`]).
+    pub const HITS_BINDING: u32 = 11;
 }
 
 /// How WGSL reads the encoded BVH and triangle data: both hold exactly the texels of
@@ -124,7 +127,10 @@ pub fn wgsl_library(lib: Library, storage: BvhStorage) -> Vec<&'static str> {
         Library::Lamp => vec![include_str!("../shaders/lib/lamp.wgsl")],
         Library::Opening => vec![include_str!("../shaders/lib/opening.wgsl")],
         Library::Guide => vec![include_str!("../shaders/lib/guide.wgsl")],
-        Library::Gather => vec![include_str!("../shaders/lib/gather.wgsl")],
+        Library::Gather => vec![
+            include_str!("../shaders/lib/gather.wgsl"),
+            include_str!("../shaders/lib/gather_hit.wgsl"),
+        ],
         Library::Coarse => vec![include_str!("../shaders/lib/coarse.wgsl")],
     }
 }
@@ -305,6 +311,47 @@ pub fn wgsl_prefix(program: Program, bvh: BvhMode) -> String {
     s
 }
 
+/// The declaration of the kept gather hits' storage buffer ([`wgsl::HITS_BINDING`]), for the
+/// trace pass (`read_write`) or the replaying gather (`read`).
+fn wgsl_hits(access: &str) -> String {
+    format!(
+        "@group(0) @binding({}) var<storage, {access}> lux_hits: array<vec4<f32>>;\n",
+        wgsl::HITS_BINDING
+    )
+}
+
+/// The gather's WGSL ([`wgsl_source`] of [`Program::Gather`]) replaying kept hits
+/// ([`crate::kept`]): `lux_gather_hit` reads ray `k`'s hit from plane `k` of `lux_hits` at the
+/// texel's place in the tile (`passes/gather/replay.wgsl`) instead of tracing it
+/// (`lib/gather_hit.wgsl`).
+pub fn wgsl_gather_replay_source(bvh: BvhMode, storage: BvhStorage) -> String {
+    let trace_hook = include_str!("../shaders/lib/gather_hit.wgsl");
+    let replay_hook = include_str!("passes/gather/replay.wgsl");
+    let source = wgsl_source(Program::Gather, bvh, storage);
+    format!(
+        "{}{}",
+        wgsl_hits("read"),
+        source.replacen(trace_hook, replay_hook, 1)
+    )
+}
+
+/// The wgpu backend's trace pass for kept gather hits ([`crate::kept`]): the gather's prefix
+/// and libraries, the hits' buffer and `passes/gather/trace.wgsl` (its own entry point), which
+/// writes each ray of the dispatch's hit to plane `k` of `lux_hits` at the texel's place in
+/// the tile.
+pub fn wgsl_gather_trace_source(bvh: BvhMode, storage: BvhStorage) -> String {
+    let mut s = wgsl_prefix(Program::Gather, bvh);
+    s.push_str(&wgsl_hits("read_write"));
+    for &lib in Program::Gather.signature().libraries {
+        for f in wgsl_library(lib, storage) {
+            s.push_str(f);
+            s.push('\n');
+        }
+    }
+    s.push_str(include_str!("passes/gather/trace.wgsl"));
+    s
+}
+
 /// The complete WGSL module of `program` for traversal `bvh`, the BVH read from `storage`.
 pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> String {
     let mut s = wgsl_prefix(program, bvh);
@@ -323,6 +370,32 @@ pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_gathers_replay_and_trace_sources_swap_the_ray_for_the_kept_hit() {
+        let trace_hook = include_str!("../shaders/lib/gather_hit.wgsl");
+        let replay_hook = include_str!("passes/gather/replay.wgsl");
+        let plain = wgsl_source(Program::Gather, BvhMode::Mtbvh, BvhStorage::Buffers);
+        assert_eq!(plain.matches(trace_hook).count(), 1);
+        let replay = wgsl_gather_replay_source(BvhMode::Mtbvh, BvhStorage::Buffers);
+        assert!(!replay.contains(trace_hook), "the replay still traces");
+        assert_eq!(replay.matches(replay_hook).count(), 1);
+        assert!(replay.contains("@binding(11) var<storage, read> lux_hits"));
+        assert_eq!(replay.matches("fn main(").count(), 1);
+        let trace = wgsl_gather_trace_source(BvhMode::Mtbvh, BvhStorage::Buffers);
+        assert!(trace.contains("@binding(11) var<storage, read_write> lux_hits"));
+        assert_eq!(trace.matches("fn main(").count(), 1);
+        assert!(
+            !trace.contains("fn lux_run("),
+            "the trace pass has no gather output"
+        );
+        // GLSL: the trace pass has its own main; the replay defines LUX_REPLAY before the
+        // library that tests it.
+        let glsl_trace = glsl_gather_trace_sources().concat();
+        assert_eq!(glsl_trace.matches("void main()").count(), 1);
+        assert!(GLSL_GATHER_REPLAY.contains("#define LUX_REPLAY"));
+        assert!(glsl_library(Library::Gather).contains("#ifdef LUX_REPLAY"));
+    }
 
     #[test]
     fn prefixes_declare_every_slot_and_parameter_of_the_signature() {

@@ -240,9 +240,9 @@ pub fn run(args: &Args) -> Result<(), String> {
         } else {
             1
         };
-    // A room baked more than once: the CPU and glow backends keep the gather rays' hits from
-    // the first bake for the others (`luxbake::cpu::hits`, glow's hit textures; the same
-    // maps, fewer traversals).
+    // A room baked more than once: the backend keeps the gather rays' hits from the first
+    // bake for the others (`luxbake::cpu::hits`, `luxbake::kept`; the same maps, fewer
+    // traversals).
     if bakes > 1 {
         backend.keep_gather_hits(GATHER_HITS_BUDGET)?;
     }

@@ -22,8 +22,8 @@
 //! lamp paths' pool, upload, read-back), how well the report's phases add up to its wall
 //! time, and the longest time its progress fraction ([`Progress::Work`]) stood still, as a
 //! share of its wall time, and what the backend keeps from bake to bake after the swap, in
-//! MB: the CPU backend's gather hits and denoiser's chart tests, glow's hit textures (wgpu
-//! traces every bake).
+//! MB: the CPU backend's gather hits and denoiser's chart tests, the GPU backends' kept hits
+//! (`luxbake::kept`).
 
 use std::fmt::Write as _;
 use std::path::Path;
@@ -133,9 +133,8 @@ fn host_seconds(out: &BakeOutput) -> f64 {
     out.report.setup.iter().map(|(_, s)| s).sum()
 }
 
-/// A page's first bake of `scene`'s room with `lamps`: a fresh backend (the CPU and glow ones
-/// keeping their gather hits for a swap, as `--lamp` repeated does), the room prepared, the
-/// lamps baked;
+/// A page's first bake of `scene`'s room with `lamps`: a fresh backend (keeping its gather
+/// hits for a swap, as `--lamp` repeated does), the room prepared, the lamps baked;
 /// the backend, the room, the renderer's name and the seconds it all took.
 fn first_bake(
     kind: BackendKind,
@@ -188,7 +187,7 @@ fn measure_once(
     let swap_still = still.max(swap - grew) / swap;
     let swap_cpu = cpu_seconds() - c;
     let phases = host_seconds(&out) + out.report.passes.iter().map(|p| p.seconds).sum::<f64>();
-    let kept = backend.kept_bytes().map_or(f64::NAN, |b| b as f64 / 1e6);
+    let kept = backend.kept_bytes() as f64 / 1e6;
 
     let layers = bake_layers(&mut backend, &room, &swapped, settings, &mut |_| {})
         .map_err(|e| e.to_string())?;

@@ -115,7 +115,7 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, c
     for (var s = first_ray; s < first_ray + count; s++) {
         let dir = lux_cosine_direction(n, lux_sample2(sampler_id, texel, s, bounce, seed));
         var hit: vec3<f32>;
-        let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
+        let tri = lux_gather_hit(origin, dir, texel, s - first_ray, &hit);
         if (tri < 0) {
             continue;
         }

@@ -1,8 +1,11 @@
 //! The wasm-bindgen interface the page's JavaScript calls (wasm32 only).
 //!
 //! - [`Baker`] lives in the bake worker (`web/worker.js`): one WebGL2 context on an
-//!   `OffscreenCanvas`, a fresh [`GlowBackend`] per bake (dropping it frees every texture of
-//!   the previous bake), progress reported through a JS callback, the direct light handed
+//!   `OffscreenCanvas` and one [`GlowBackend`] on it (a bake frees its textures when its maps
+//!   are read back; the programs stay compiled), the room of the last bake kept: a bake that
+//!   changes only the lamp, the rays or the bounces reuses its layout, G-buffer, BVH and
+//!   unocclusion, and the gather rays' hits the backend kept (`luxbake::kept`) instead of
+//!   casting them again. Progress is reported through a JS callback, the direct light handed
 //!   over through another before the bounces run.
 //! - [`Viewer`] lives on the page's thread: the display renderer, the camera, the light maps
 //!   of the last successful bake.
@@ -10,6 +13,7 @@
 mod render;
 
 use luxbake::bake::ObjectMaps;
+use luxbake::scene::Object;
 use luxbake::sources::builtin::ROOM_SIZE;
 use luxbake::{GpuBackend, Progress, Room};
 use luxbake_backend_glow::{GlContext, GlowBackend};
@@ -88,12 +92,19 @@ pub fn check_lamp_file(name: &str, bytes: &[u8]) -> Result<String, JsError> {
     ))
 }
 
-/// The bake worker's baker: a WebGL2 context on an `OffscreenCanvas`.
+/// The bake worker's baker: a WebGL2 context on an `OffscreenCanvas`, its backend, and the
+/// room of the last bake with the objects it was prepared from.
 #[wasm_bindgen]
 pub struct Baker {
     canvas: OffscreenCanvas,
     renderer: String,
+    backend: Option<GlowBackend>,
+    room: Option<(Vec<Object>, Room)>,
 }
+
+/// The GPU memory the worker's backend may keep for gather hits (`GlowBackend::keep_gather_hits`):
+/// 256 MiB, as the JavaScript package's worker.
+const ROOM_GATHER_HITS_BUDGET: u64 = 256 << 20;
 
 fn new_context() -> Result<(OffscreenCanvas, GlContext), JsError> {
     let canvas = OffscreenCanvas::new(1, 1)
@@ -114,7 +125,12 @@ impl Baker {
         let (canvas, ctx) = new_context()?;
         let caps = ctx.capabilities();
         let renderer = format!("{} ({})", caps.renderer, caps.version);
-        Ok(Baker { canvas, renderer })
+        Ok(Baker {
+            canvas,
+            renderer,
+            backend: None,
+            room: None,
+        })
     }
 
     /// The GPU's renderer and version strings.
@@ -143,10 +159,13 @@ impl Baker {
         direct: &js_sys::Function,
     ) -> Result<JsValue, JsError> {
         let result = self.bake_inner(request_json, lamp_file.as_deref(), progress, direct);
-        if result.is_err()
-            && let Ok((canvas, _)) = new_context()
-        {
-            self.canvas = canvas;
+        if result.is_err() {
+            // A failed bake may have lost the context: start again on a new one.
+            self.backend = None;
+            self.room = None;
+            if let Ok((canvas, _)) = new_context() {
+                self.canvas = canvas;
+            }
         }
         result
     }
@@ -160,8 +179,17 @@ impl Baker {
     ) -> Result<JsValue, JsError> {
         let request = BakeRequest::from_json(request_json).map_err(js_err)?;
         let scene = build_scene(&request, lamp_file).map_err(js_err)?;
-        let ctx = GlContext::from_offscreen_canvas(&self.canvas).map_err(js_err)?;
-        let mut backend = GlowBackend::new(ctx).map_err(js_err)?;
+        let mut backend = match self.backend.take() {
+            Some(backend) => backend,
+            None => {
+                let ctx = GlContext::from_offscreen_canvas(&self.canvas).map_err(js_err)?;
+                let mut backend = GlowBackend::new(ctx).map_err(js_err)?;
+                backend
+                    .keep_gather_hits(ROOM_GATHER_HITS_BUDGET)
+                    .map_err(js_err)?;
+                backend
+            }
+        };
         let send = |event: serde_json::Value| {
             // A throwing progress callback must not stop the bake.
             let _ = progress.call1(&JsValue::NULL, &JsValue::from_str(&event.to_string()));
@@ -183,10 +211,21 @@ impl Baker {
             }
             Progress::Work(fraction) => send(json!({"kind": "work", "fraction": fraction})),
         };
-        // luxbake::bake, the direct light handed over first.
+        // luxbake::bake, the direct light handed over first; the last bake's room again when
+        // only what does not depend on it changed (the lamp, the rays, the bounces, the blur).
         let settings = &scene.settings;
-        let room =
-            Room::prepare(&scene, settings, backend.limits(), &mut on_progress).map_err(js_err)?;
+        let kept = self.room.take().filter(|(objects, room)| {
+            *objects == scene.objects && room.check(settings, backend.limits()).is_ok()
+        });
+        let reused = kept.is_some();
+        let (objects, room) = match kept {
+            Some(kept) => kept,
+            None => (
+                scene.objects.clone(),
+                Room::prepare(&scene, settings, backend.limits(), &mut on_progress)
+                    .map_err(js_err)?,
+            ),
+        };
         let mut sent = Ok(());
         let mut out = luxbake::bake_room_direct_first(
             &mut backend,
@@ -203,9 +242,12 @@ impl Baker {
         )
         .map_err(js_err)?;
         sent?;
-        drop(backend);
-        out.report.setup.splice(0..0, room.timings.iter().copied());
-        out.report.total_seconds += room.timings.iter().map(|(_, s)| s).sum::<f64>();
+        if !reused {
+            out.report.setup.splice(0..0, room.timings.iter().copied());
+            out.report.total_seconds += room.timings.iter().map(|(_, s)| s).sum::<f64>();
+        }
+        self.backend = Some(backend);
+        self.room = Some((objects, room));
         let r = &out.report;
         let report = json!({
             "backend": r.backend,
@@ -217,6 +259,7 @@ impl Baker {
             "gather_rays": r.gather_rays,
             "bvh": r.bvh.name(),
             "bounces_run": r.bounces_run,
+            "room_reused": reused,
             "setup": r.setup.iter().map(|(n, s)| json!({"step": n, "seconds": s})).collect::<Vec<_>>(),
             "passes": r.passes.iter().map(|p| json!({"label": p.label, "bounce": p.bounce, "seconds": p.seconds})).collect::<Vec<_>>(),
             "skipped": r.skipped.iter().map(ToString::to_string).collect::<Vec<_>>(),

@@ -1,55 +1,59 @@
-//! Gather hits kept across the bakes of one room, on the GPU: a lamp swap's bounces as look-ups
-//! ([`GlowBackend::keep_gather_hits`](crate::GlowBackend::keep_gather_hits)).
+//! Gather hits kept across the bakes of one room by the GPU backends: a lamp swap's bounces as
+//! look-ups (the CPU backend keeps its own per row, [`crate::cpu::hits`]).
 //!
 //! A gather ray depends only on the room and the random numbers — its origin and frame on the
 //! texel's G-buffer position and normal, its direction on the sampler's draw for (texel, ray,
-//! bounce, seed), its hit on the BVH — never on the lamps (`luxbake::cpu::hits` keeps them the
-//! same way on the CPU). With hits kept, a gather dispatch runs as two programs:
+//! bounce, seed), its hit on the BVH — never on the lamps. With hits kept, a GPU backend runs a
+//! gather dispatch ([`Program::Gather`](crate::program::Program::Gather)) as two programs:
 //!
-//! 1. the **trace pass** (`passes/gather/trace.glsl`), once per ray of the dispatch: ray `k`
-//!    of every texel of the tile, its closest hit `(t, triangle, u, v)` written to layer `k` of
-//!    a hit texture of the tile's size (triangle −1: no such ray, or a miss);
-//! 2. the gather compiled with `LUX_REPLAY` (`luxbake::shader::GLSL_GATHER_REPLAY`), which reads
-//!    each ray's hit there where it would have traversed the BVH, and does everything after the
-//!    hit (the shading normal, the light-map look-up, the lamp paths' weight, the sums) as
-//!    before.
+//! 1. a **trace pass** (`passes/gather/trace.glsl`, `trace.wgsl`): the dispatch's rays of every
+//!    texel of the tile, each closest hit `(t, triangle, u, v)` written to the backend's hit
+//!    storage at the texel's place in the tile, one tile-sized plane per ray (triangle −1: no
+//!    such ray, or a miss);
+//! 2. the gather compiled to **replay** ([`crate::shader::GLSL_GATHER_REPLAY`],
+//!    [`crate::shader::wgsl_gather_replay_source`]), which reads each ray's hit there where it
+//!    would have traversed the BVH and does everything after the hit (the shading normal, the
+//!    light-map look-up, the lamp paths' weight, the sums) as before.
 //!
-//! A later bake of the same room whose dispatch has the same key (below) runs only the second.
-//! The hit is the one the traversal returned, stored as RGBA32F without rounding (a triangle
-//! index is exact in f32 below 2²⁴), and both programs compute the ray with the gather's
-//! operations, so the maps equal a bake that traces (`tests/gather_hits.rs`).
+//! A later bake of the same room whose dispatch has the same [`HitKey`] runs only the second.
+//! The hit is the one the traversal returned, stored as 32-bit floats without rounding (a
+//! triangle index is exact in f32 below 2²⁴), and both programs compute the ray with the
+//! gather's operations, so the maps equal a bake that traces (the backends'
+//! `tests/gather_hits.rs`). [`KeptHits`] is the bookkeeping every GPU backend shares: the keys,
+//! the budget, which rooms still exist; the storage `T` is the backend's.
 //!
 //! # What makes a dispatch's hits valid
 //! [`HitKey`]: the BVH object the rays were cast in (held weakly, so its address is not reused
 //! while the hits exist), the ray offset's size, the traversal, the gather parameters that
 //! place the rays (rays, orphans' rays, stride, reach, bounce, seed, sampler, the chunk) and the
-//! tile, and 64-bit hashes of the position and normal maps as they were uploaded. Another room,
+//! tile, and 64-bit hashes of the position and normal maps as they were uploaded
+//! ([`hash_floats`]). Another room,
 //! another texel density or G-buffer, or a map written by a pass instead of uploaded, traces
 //! again. Hits of a BVH that no longer exists (its room was dropped) are freed at the next
 //! scene upload.
 //!
 //! # What it costs
-//! 16 bytes per texel of the tile and ray of the dispatch (the hit texture spans the tile's
+//! [`HIT_BYTES`] per texel of the tile and ray of the dispatch (the storage spans the tile's
 //! whole rows, texels outside the charts and off the coarse grid included); a dispatch whose
-//! hits would pass the budget is gathered as without kept hits. The first bake pays the hit
-//! textures' writes and reads, not another traversal.
+//! hits would pass the budget is gathered as without kept hits. The first bake pays the hits'
+//! writes and reads, not another traversal.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
 
-use luxbake::program::{GatherParams, ParamBlock, TileParams};
-use luxbake::scene::BvhMode;
 use luxbake_bvh::EncodedScene;
 
-use crate::gl::TextureArray;
+use crate::contract::ParamBlock;
+use crate::program::{GatherParams, TileParams};
+use crate::scene::BvhMode;
 
-/// Bytes of one kept hit (an RGBA32F texel).
+/// Bytes of one kept hit: four 32-bit floats `(t, triangle, u, v)`.
 pub const HIT_BYTES: u64 = 16;
 
 /// What places a gather dispatch's rays (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(crate) struct HitKey {
-    /// The BVH object's address (valid while [`Kept::rooms`] holds a weak pointer to it).
+pub struct HitKey {
+    /// The BVH object's address (valid while the [`KeptHits`] holds a weak pointer to it).
     scene: usize,
     /// The ray offset's size term, bits.
     epsilon: u32,
@@ -68,7 +72,7 @@ impl HitKey {
     /// The key of a gather dispatch with `words` (its [`GatherParams`]) over `tile`, in the
     /// BVH at address `scene` with ray offset `epsilon`, reading maps whose uploads hash to
     /// `gbuffer`.
-    pub(crate) fn new(
+    pub fn new(
         scene: usize,
         epsilon: f32,
         traversal: BvhMode,
@@ -99,7 +103,7 @@ impl HitKey {
 
     /// Rays a texel of the dispatch casts at most: the chunk's share of the larger of the
     /// grid texels' and the orphans' rays (the gather pass's `first` and `count`).
-    pub(crate) fn rays(&self) -> u32 {
+    pub fn rays(&self) -> u32 {
         let [rays, orphan, .., first, chunk] = self.rays;
         let rays = rays.max(orphan);
         let left = rays.saturating_sub(first);
@@ -107,16 +111,15 @@ impl HitKey {
     }
 
     /// Bytes of the dispatch's hits.
-    pub(crate) fn bytes(&self) -> u64 {
+    pub fn bytes(&self) -> u64 {
         u64::from(self.tile[3]) * u64::from(self.tile[4]) * u64::from(self.rays()) * HIT_BYTES
     }
 }
 
-/// What a backend's kept gather hits hold and served
-/// ([`GlowBackend::gather_hit_stats`](crate::GlowBackend::gather_hit_stats)).
+/// What a GPU backend's kept gather hits hold and served.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct GatherHitStats {
-    /// Bytes of hit textures kept.
+pub struct KeptHitStats {
+    /// Bytes of hits kept.
     pub bytes: u64,
     /// Gather dispatches whose hits are kept.
     pub dispatches: usize,
@@ -126,26 +129,22 @@ pub struct GatherHitStats {
     pub replayed: u64,
 }
 
-/// The hits kept so far and the budget.
+/// The hits a GPU backend keeps (its storage `T` per dispatch key) and the budget.
 #[derive(Debug)]
-pub(crate) struct Kept {
-    /// Most bytes of hits kept.
-    pub(crate) budget: u64,
+pub struct KeptHits<T> {
+    budget: u64,
     /// The BVHs hits were cast in, weakly held.
     rooms: Vec<Weak<EncodedScene>>,
-    /// Per dispatch key, its hit texture (one layer per ray).
-    pub(crate) hits: HashMap<HitKey, TextureArray>,
-    /// Bytes in [`Kept::hits`].
-    pub(crate) bytes: u64,
-    /// Dispatches that traced and kept their hits.
-    pub(crate) traced: u64,
-    /// Dispatches that replayed kept hits.
-    pub(crate) replayed: u64,
+    hits: HashMap<HitKey, T>,
+    bytes: u64,
+    traced: u64,
+    replayed: u64,
 }
 
-impl Kept {
-    pub(crate) fn new(budget: u64) -> Kept {
-        Kept {
+impl<T> KeptHits<T> {
+    /// Nothing kept yet; at most `budget` bytes of hits.
+    pub fn new(budget: u64) -> KeptHits<T> {
+        KeptHits {
             budget,
             rooms: Vec::new(),
             hits: HashMap::new(),
@@ -158,7 +157,7 @@ impl Kept {
     /// Remembers that hits may be cast in `scene` (so its address is not reused while they
     /// exist) and hands back the hit textures of BVHs that no longer exist, for the caller to
     /// free.
-    pub(crate) fn upload(&mut self, scene: &Arc<EncodedScene>) -> Vec<TextureArray> {
+    pub fn upload(&mut self, scene: &Arc<EncodedScene>) -> Vec<T> {
         let gone: Vec<usize> = self
             .rooms
             .iter()
@@ -189,7 +188,7 @@ impl Kept {
     }
 
     /// Whether a dispatch with `key` may keep its hits within the budget.
-    pub(crate) fn fits(&self, key: &HitKey) -> bool {
+    pub fn fits(&self, key: &HitKey) -> bool {
         key.rays() > 0
             && self
                 .bytes
@@ -199,7 +198,7 @@ impl Kept {
 
     /// Keeps the hits a dispatch with `key` traced; hands back the texture they replace, if
     /// any, for the caller to free.
-    pub(crate) fn insert(&mut self, key: HitKey, hits: TextureArray) -> Option<TextureArray> {
+    pub fn insert(&mut self, key: HitKey, hits: T) -> Option<T> {
         self.bytes += key.bytes();
         self.traced += 1;
         let old = self.hits.insert(key, hits);
@@ -209,9 +208,19 @@ impl Kept {
         old
     }
 
+    /// The hits kept for `key`.
+    pub fn get(&self, key: &HitKey) -> Option<&T> {
+        self.hits.get(key)
+    }
+
+    /// Counts a dispatch that read kept hits.
+    pub fn replayed(&mut self) {
+        self.replayed += 1;
+    }
+
     /// What the cache holds and served.
-    pub(crate) fn stats(&self) -> GatherHitStats {
-        GatherHitStats {
+    pub fn stats(&self) -> KeptHitStats {
+        KeptHitStats {
             bytes: self.bytes,
             dispatches: self.hits.len(),
             traced: self.traced,
@@ -220,7 +229,7 @@ impl Kept {
     }
 
     /// Every kept texture, for the caller to free.
-    pub(crate) fn drain(&mut self) -> Vec<TextureArray> {
+    pub fn drain(&mut self) -> Vec<T> {
         self.bytes = 0;
         self.rooms.clear();
         self.hits.drain().map(|(_, t)| t).collect()
@@ -229,7 +238,7 @@ impl Kept {
 
 /// A 64-bit hash of an upload's floats, bit for bit (FNV-1a over 64-bit words, then a final
 /// mix): what tells one room's G-buffer from another's.
-pub(crate) fn hash_floats(texels: &[f32]) -> u64 {
+pub fn hash_floats(texels: &[f32]) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut words = texels.chunks_exact(2);
     for w in &mut words {
@@ -299,12 +308,13 @@ mod tests {
         lit.density_scale = 3.5;
         lit.lamp_count = 2;
         assert_eq!(key(lit.words()), k);
-        let mut kept = Kept::new(k.bytes());
+        let mut kept: KeptHits<()> = KeptHits::new(k.bytes());
         assert!(kept.fits(&k));
-        kept.bytes = 1;
-        assert!(!kept.fits(&k));
+        assert!(kept.insert(k, ()).is_none());
+        assert_eq!(kept.stats().bytes, k.bytes());
+        assert!(!kept.fits(&key(words(4, 0, 1, 0))), "past the budget");
         assert!(
-            !Kept::new(u64::MAX).fits(&key(words(4, 0, 4, 0))),
+            !KeptHits::<()>::new(u64::MAX).fits(&key(words(4, 0, 4, 0))),
             "no rays"
         );
     }

@@ -1,0 +1,54 @@
+// The wgpu backend's trace pass for kept gather hits (luxbake::kept; trace.glsl's twin): the
+// dispatch's rays of each texel of the tile — gather.wgsl's prologue and lib/gather.wgsl's
+// rays, operation for operation — cast and their closest hits written to plane k of lux_hits
+// (declared by shader::wgsl_gather_trace_source) at the texel's place in the tile:
+// (t, triangle, u, v), triangle -1 where the texel casts no such ray or the ray meets
+// nothing. The gather compiled to replay (replay.wgsl) reads these instead of tracing.
+
+@compute @workgroup_size(8, 8, 1)
+fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
+        return;
+    }
+    let none = vec4<f32>(0.0, -1.0, 0.0, 0.0);
+    // The dispatch's planes: the chunk's share of the larger of the grid texels' and the
+    // orphans' rays (luxbake::kept::HitKey::rays).
+    let most = max(lux_pass.rays, lux_pass.orphan_rays);
+    var planes = most - min(lux_pass.first_ray, most);
+    if (lux_pass.chunk_rays > 0u) {
+        planes = min(lux_pass.chunk_rays, planes);
+    }
+    let at = gid.y * lux_tile.width + gid.x;
+    let plane = lux_tile.width * lux_tile.height;
+    let pos = lux_load(lux_position, c);
+    let nrm = lux_load(lux_normal, c);
+    var n: vec3<f32>;
+    var count = 0u;
+    var rays = 0u;
+    if (pos.w > 0.5) {
+        rays = lux_coarse_rays(c, lux_pass.stride, lux_pass.reach, lux_pass.rays,
+                               lux_pass.orphan_rays);
+    }
+    if (rays > lux_pass.first_ray && lux_normalize(nrm.xyz, &n)) {
+        count = min(planes, rays - lux_pass.first_ray);
+        let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                    lux_tile.layer, u32(c.x), u32(c.y));
+        let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
+        for (var k = 0u; k < count; k++) {
+            let s = lux_pass.first_ray + k;
+            let dir = lux_cosine_direction(n, lux_sample2(lux_pass.sampler, texel, s,
+                                                          lux_pass.bounce, lux_pass.seed));
+            var hit: vec3<f32>;
+            let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
+            if (tri >= 0) {
+                lux_hits[k * plane + at] = vec4<f32>(hit.x, f32(tri), hit.y, hit.z);
+            } else {
+                lux_hits[k * plane + at] = none;
+            }
+        }
+    }
+    for (var k = count; k < planes; k++) {
+        lux_hits[k * plane + at] = none;
+    }
+}
