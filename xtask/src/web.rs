@@ -708,6 +708,8 @@ fn run_checks(
         report["total_seconds"].as_f64().unwrap_or(f64::NAN),
         t.elapsed().as_secs_f64()
     );
+    // What the page shows from here on (step 4 checks it stays).
+    let back = again;
 
     // 3. Screenshot: lit floor under the lamp, darker floor corners.
     s.script("requestAnimationFrame(() => requestAnimationFrame(() => done(true)));")?;
