@@ -286,15 +286,29 @@ pub(crate) fn run<B: GpuBackend>(
         if !decisions.runs(pass.when) {
             continue;
         }
-        // The lamp paths' pool is traced (on the host) and uploaded with the scene when the
-        // first pass that reads it comes, after the direct light.
-        if reads_lamp_paths(&pass.params) && lamps.trace_paths(room, settings, progress) {
-            let t = Instant::now();
-            scene = upload(backend, lamps)?;
-            upload_seconds += t.elapsed().as_secs_f64();
-        }
         let work = pass_work(pass, room);
         let to_come = work_to_come(graph, room, index, decisions.expected_stop(settings));
+        // The lamp paths' pool is traced (on the host) and uploaded with the scene when the
+        // first pass that reads it comes, after the direct light; the fraction moves with it
+        // by its share of the work still to come (its rays as the passes' rays count).
+        if reads_lamp_paths(&pass.params) {
+            let pool = lamps.pool_rays(room, settings) * RAY_COST;
+            let (base, share) = (shown, pool / (pool + work + to_come));
+            let sink = std::cell::RefCell::new(&mut *progress);
+            let mut moved = |fraction: f32| {
+                let f = base + (1.0 - base) * (share * f64::from(fraction)) as f32;
+                if share.is_finite() && f > shown {
+                    shown = f.min(1.0);
+                    (sink.borrow_mut())(&Progress::Work(shown));
+                }
+            };
+            let mut setup = |p: &Progress<'_>| (sink.borrow_mut())(p);
+            if lamps.trace_paths(room, settings, &mut setup, &mut moved) {
+                let t = Instant::now();
+                scene = upload(backend, lamps)?;
+                upload_seconds += t.elapsed().as_secs_f64();
+            }
+        }
         // What is shown so far stays; this pass moves the rest of the way in proportion to its
         // share of the work still expected (re-estimated at each pass: a later stop slows the
         // fraction down, it never stops it).

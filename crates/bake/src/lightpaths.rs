@@ -437,14 +437,30 @@ impl LampPaths {
         pool: u32,
         seed: u32,
     ) -> Self {
+        LampPaths::trace_reporting(g, lamps, tables, pool, seed, &mut |_| {})
+    }
+
+    /// [`LampPaths::trace`], calling `report` with the fraction of the pool traced after each
+    /// of [`POOL_REPORTS`] parts (the same pool: each ray's draws depend on its index only).
+    pub fn trace_reporting(
+        g: &Geometry<'_>,
+        lamps: &[LampParams],
+        tables: &[GpuTable],
+        pool: u32,
+        seed: u32,
+        report: &mut dyn FnMut(f32),
+    ) -> Self {
         let emitter = Emitter::new(lamps, tables);
         if !(emitter.total > 0.0) {
             return LampPaths::default();
         }
         let proxies: Vec<DensityProxy> = tables.iter().map(DensityProxy::new).collect();
-        let found: Vec<Option<LampPath>> = (0..pool)
-            .into_par_iter()
-            .map(|i| {
+        let mut found: Vec<Option<LampPath>> = Vec::with_capacity(pool as usize);
+        let part = pool.div_ceil(POOL_REPORTS).max(1);
+        let mut start = 0;
+        while start < pool {
+            let end = start.saturating_add(part).min(pool);
+            found.par_extend((start..end).into_par_iter().map(|i| {
                 let (li, w) = emitter.sample(i, seed)?;
                 let lamp = &lamps[li];
                 let dir = w.map(|c| c as f32);
@@ -547,8 +563,10 @@ impl LampPaths {
                     power,
                     density: density(lamps, &proxies, y, n),
                 })
-            })
-            .collect();
+            }));
+            start = end;
+            report(end as f32 / pool as f32);
+        }
         let paths: Vec<LampPath> = found.into_iter().flatten().collect();
         if paths.is_empty() {
             return LampPaths::default();
@@ -582,6 +600,26 @@ impl LampPaths {
             })
             .collect()
     }
+}
+
+/// Parts of the pool [`LampPaths::trace_reporting`] traces one after the other, reporting
+/// after each (each part in parallel).
+pub const POOL_REPORTS: u32 = 16;
+
+/// Rays the pool of `pool` paths casts, about: each path's ray, and per lamp its shadow ray to
+/// the point — [`OPENING_POOL_SAMPLES`] of them where the lamp has an opening. For progress.
+pub fn pool_rays(pool: u32, lamps: &[LampParams]) -> f64 {
+    let per_path: u32 = 1 + lamps
+        .iter()
+        .map(|l| {
+            if l.opening.is_some() {
+                OPENING_POOL_SAMPLES
+            } else {
+                1
+            }
+        })
+        .sum::<u32>();
+    f64::from(pool) * f64::from(per_path)
 }
 
 /// Samples of an opening per pool point for its illuminance and density there, at most

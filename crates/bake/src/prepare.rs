@@ -477,12 +477,14 @@ impl Lamps {
     /// Traces the lamp paths' pool ([`HostNode::LampPaths`], timed into
     /// [`Lamps::timings`]) when the bake wants one ([`Lamps::paths_wanted`]) and it is not
     /// traced yet; the same pool whenever it runs (its draws depend on the seed only).
+    /// `report` gets the fraction traced as it goes ([`LampPaths::trace_reporting`]).
     /// Whether it traced it now (the scene then needs it uploaded).
     pub fn trace_paths(
         &mut self,
         room: &Room,
         settings: &Settings,
         progress: &mut dyn FnMut(&Progress<'_>),
+        report: &mut dyn FnMut(f32),
     ) -> bool {
         if !self.paths_wanted || self.paths.is_some() {
             return false;
@@ -496,11 +498,22 @@ impl Lamps {
         let traced = timed(HostNode::LampPaths, timings, progress, || {
             let geometry = room.geometry();
             let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
-            let pool = LampPaths::trace(&geometry, params, tables, size, settings.seed);
+            let pool =
+                LampPaths::trace_reporting(&geometry, params, tables, size, settings.seed, report);
             (pool.packed(), pool.density_scale)
         });
         self.paths = Some(traced);
         true
+    }
+
+    /// Rays the lamp paths' pool still to trace casts, about ([`lightpaths::pool_rays`]; 0
+    /// when it is traced or not wanted): its share of a bake's progress.
+    pub fn pool_rays(&self, room: &Room, settings: &Settings) -> f64 {
+        if !self.paths_wanted || self.paths.is_some() {
+            return 0.0;
+        }
+        let size = lightpaths::pool_size(room.valid_texels, settings.lamp_paths);
+        lightpaths::pool_rays(size, &self.params)
     }
 
     /// Points in the traced pool and its density scale (`None` before

@@ -214,6 +214,15 @@ fn progress_follows_the_work_and_the_direct_light_comes_first() {
         direct_at < paths_at && paths_at < first_bounce,
         "{events:?}"
     );
+    // Tracing it, a host step, moves the fraction too: once per part of the pool.
+    let while_tracing = events[paths_at..first_bounce]
+        .iter()
+        .filter(|e| matches!(e, Event::Work(_)))
+        .count();
+    assert!(
+        while_tracing as u32 >= luxbake::lightpaths::POOL_REPORTS / 2,
+        "{while_tracing} work events while the pool was traced: {events:?}"
+    );
     let shown = shown.expect("direct maps");
     assert_eq!(shown.len(), out.maps.len());
     for (a, b) in shown.iter().zip(&out.maps) {
