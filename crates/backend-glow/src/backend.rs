@@ -439,7 +439,9 @@ impl GpuBackend for GlowBackend {
             // Trace the dispatch's rays once, one layer of hits per ray.
             self.compile(call.program, trav, Variant::Trace)?;
             let gl = self.ctx.gl()?;
-            let hits = TextureArray::new(gl, "gather hits", t.width, t.height, key.rays())?;
+            let plane = key.plane();
+            let [pw, ph] = plane.size;
+            let hits = TextureArray::new(gl, "gather hits", pw, ph, key.rays())?;
             let mut params = GatherParams::from_words(call.params);
             let first = params.first_ray;
             let per_draw = MAX_ATTACHMENTS as u32;
@@ -453,11 +455,11 @@ impl GpuBackend for GlowBackend {
                     trav,
                     Variant::Trace,
                     Some((&hits, &layers)),
-                    [0, 0, t.width, t.height],
+                    [0, 0, pw, ph],
                     &params.words(),
                     Some(Hits {
                         texture: &hits,
-                        origin: [t.x0, t.y0],
+                        origin: plane.origin,
                         rays,
                     }),
                     false,
@@ -482,7 +484,7 @@ impl GpuBackend for GlowBackend {
             call.params,
             Some(Hits {
                 texture: hits,
-                origin: [t.x0, t.y0],
+                origin: key.plane().origin,
                 rays: key.rays(),
             }),
             true,

@@ -137,3 +137,31 @@ fn another_room_traces_its_own_rays_and_a_small_budget_keeps_nothing() {
         (0, 0, 0, 0)
     );
 }
+
+/// Six rays a texel in the first bounce and three in the later ones: the trace pass's draws
+/// of four rays end with a draw of two (and of three), whose unused colour outputs go nowhere.
+#[test]
+fn rays_that_fill_no_whole_draw_are_kept_and_read_back_alike() {
+    let Some(mut backend) = common::backend_or_skip("glow gather hits") else {
+        return;
+    };
+    let Some(mut plain) = common::backend_or_skip("glow gather hits") else {
+        return;
+    };
+    let mut scene = scene(8.0);
+    scene.settings.rays = 6;
+    scene.settings.higher_rays = 3;
+    backend.keep_gather_hits(1 << 30).expect("keep");
+    let room = Room::prepare(&scene, &scene.settings, backend.limits(), &mut |_| {}).expect("room");
+    let other = other_lamp();
+    for lamps in [&scene.lamps, &other] {
+        let out =
+            bake_room(&mut backend, &room, lamps, &scene.settings, &mut |_| {}).expect("bake");
+        assert_same(&out, &bake(&mut plain, &scene, lamps), "six and three rays");
+    }
+    let stats = backend.gather_hit_stats().expect("kept");
+    assert!(
+        stats.traced > 0 && stats.replayed > stats.traced,
+        "{stats:?}"
+    );
+}
