@@ -439,9 +439,7 @@ impl GpuBackend for GlowBackend {
             // Trace the dispatch's rays once, one layer of hits per ray.
             self.compile(call.program, trav, Variant::Trace)?;
             let gl = self.ctx.gl()?;
-            let plane = key.plane();
-            let [pw, ph] = plane.size;
-            let hits = TextureArray::new(gl, "gather hits", pw, ph, key.rays())?;
+            let hits = TextureArray::new(gl, "gather hits", t.width, t.height, key.rays())?;
             let mut params = GatherParams::from_words(call.params);
             let first = params.first_ray;
             let per_draw = MAX_ATTACHMENTS as u32;
@@ -455,11 +453,11 @@ impl GpuBackend for GlowBackend {
                     trav,
                     Variant::Trace,
                     Some((&hits, &layers)),
-                    [0, 0, pw, ph],
+                    [0, 0, t.width, t.height],
                     &params.words(),
                     Some(Hits {
                         texture: &hits,
-                        origin: plane.origin,
+                        origin: [t.x0, t.y0],
                         rays,
                     }),
                     false,
@@ -484,7 +482,7 @@ impl GpuBackend for GlowBackend {
             call.params,
             Some(Hits {
                 texture: hits,
-                origin: key.plane().origin,
+                origin: [t.x0, t.y0],
                 rays: key.rays(),
             }),
             true,

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, HitPlane, KeptHitStats, KeptHits, hash_floats};
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, hash_floats};
 use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{
@@ -402,15 +402,14 @@ impl WgpuBackend {
         Ok(())
     }
 
-    /// Runs `variant` of the call's program over its tile (the trace pass: over the grid's
-    /// plane of `hits`) and waits for it; `hits`: the buffer the trace pass writes or the
-    /// replay reads, with its plane.
+    /// Runs `variant` of the call's program over its tile with `params` (`hits`: the buffer
+    /// the trace pass writes or the replay reads) and waits for it.
     fn run(
         &self,
         call: &Dispatch<'_, WgpuTexture, WgpuScene>,
         traversal: BvhMode,
         variant: Variant,
-        hits: Option<(&wgpu::Buffer, HitPlane)>,
+        hits: Option<&wgpu::Buffer>,
     ) -> Result<()> {
         let label = call.label;
         let gpu_scene = self
@@ -459,16 +458,12 @@ impl WgpuBackend {
                 }),
             });
         }
-        if let Some((h, _)) = hits {
+        if let Some(h) = hits {
             entries.push(wgpu::BindGroupEntry {
                 binding: wgsl::HITS_BINDING,
                 resource: h.as_entire_binding(),
             });
         }
-        let grid = match (variant, hits) {
-            (Variant::Trace, Some((_, plane))) => plane.size,
-            _ => [t.width, t.height],
-        };
         let gpu = &self.gpu;
         let during = format!("pass `{label}`");
         let group = gpu.scoped(&during, || {
@@ -503,8 +498,8 @@ impl WgpuBackend {
                     cpass.set_bind_group(1, scene_group, &[]);
                 }
                 cpass.dispatch_workgroups(
-                    grid[0].div_ceil(WORKGROUP),
-                    grid[1].div_ceil(WORKGROUP),
+                    t.width.div_ceil(WORKGROUP),
+                    t.height.div_ceil(WORKGROUP),
                     1,
                 );
             }
@@ -727,13 +722,13 @@ impl GpuBackend for WgpuBackend {
                     mapped_at_creation: false,
                 })
             })?;
-            self.run(call, traversal, Variant::Trace, Some((&hits, key.plane())))?;
+            self.run(call, traversal, Variant::Trace, Some(&hits))?;
             // A replaced buffer (not reached: a key is traced only when missing) is dropped.
             drop(self.kept.as_mut().and_then(|k| k.insert(key, hits)));
         }
         let hits = self.kept.as_ref().and_then(|k| k.get(&key));
         let hits = hits.ok_or_else(|| WgpuError::InvalidInput("kept hits".into()))?;
-        self.run(call, traversal, Variant::Replay, Some((hits, key.plane())))?;
+        self.run(call, traversal, Variant::Replay, Some(hits))?;
         if let Some(k) = &mut self.kept {
             k.replayed();
         }

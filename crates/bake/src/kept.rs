@@ -33,10 +33,9 @@
 //! scene upload.
 //!
 //! # What it costs
-//! [`HIT_BYTES`] per grid texel of the tile and ray of the dispatch ([`HitPlane`]: every
-//! texel of the tile at stride 1, texels between charts included; every `stride`-th column and
-//! row at a coarse stride, whose orphans trace their rays on every bake); a dispatch whose hits
-//! would pass the budget, or that has no grid texel, is gathered as without kept hits. The first bake pays the hits'
+//! [`HIT_BYTES`] per texel of the tile and ray of the dispatch (the storage spans the tile's
+//! whole rows, texels outside the charts and off the coarse grid included); a dispatch whose
+//! hits would pass the budget is gathered as without kept hits. The first bake pays the hits'
 //! writes and reads, not another traversal.
 
 use std::collections::HashMap;
@@ -102,58 +101,19 @@ impl HitKey {
         }
     }
 
-    /// Rays a grid texel of the dispatch casts: the chunk's share of the gather's rays (the
-    /// gather pass's `first` and `count`). Orphans of a coarse grid
-    /// ([`coarse`](crate::program::coarse)) keep none.
+    /// Rays a texel of the dispatch casts at most: the chunk's share of the larger of the
+    /// grid texels' and the orphans' rays (the gather pass's `first` and `count`).
     pub fn rays(&self) -> u32 {
-        let [rays, .., first, chunk] = self.rays;
+        let [rays, orphan, .., first, chunk] = self.rays;
+        let rays = rays.max(orphan);
         let left = rays.saturating_sub(first);
         if chunk > 0 { left.min(chunk) } else { left }
     }
 
-    /// The plane of one ray's hits ([`HitPlane`]).
-    pub fn plane(&self) -> HitPlane {
-        let s = self.rays[2].max(1);
-        let [_, x0, y0, w, h] = self.tile;
-        // The grid columns (rows) inside the tile: from the first multiple of the stride at or
-        // after its first texel to the last at or before its last.
-        let span = |a: u32, n: u32| {
-            let first = a.div_ceil(s);
-            let last = (a + n.max(1) - 1) / s;
-            let size = if n > 0 && last >= first {
-                last - first + 1
-            } else {
-                0
-            };
-            (first, size)
-        };
-        let ((gx, cw), (gy, ch)) = (span(x0, w), span(y0, h));
-        HitPlane {
-            stride: s,
-            origin: [gx, gy],
-            size: [cw, ch],
-        }
-    }
-
     /// Bytes of the dispatch's hits.
     pub fn bytes(&self) -> u64 {
-        let [w, h] = self.plane().size;
-        u64::from(w) * u64::from(h) * u64::from(self.rays()) * HIT_BYTES
+        u64::from(self.tile[3]) * u64::from(self.tile[4]) * u64::from(self.rays()) * HIT_BYTES
     }
-}
-
-/// Where a dispatch keeps one ray's hits: the tile's texels on the gather's grid — every
-/// texel at stride 1, every `stride`-th column and row of the layer at a coarse stride (an
-/// orphan, which gathers for itself off the grid, traces its few rays on every bake). Hit
-/// `(gx, gy)` of the plane is texel `((origin + (gx, gy)) · stride)` of the layer.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct HitPlane {
-    /// The gather's stride (at least 1).
-    pub stride: u32,
-    /// The plane's first texel, in grid units (layer texel / stride).
-    pub origin: [u32; 2],
-    /// Its columns and rows.
-    pub size: [u32; 2],
 }
 
 /// What a GPU backend's kept gather hits hold and served.
@@ -230,7 +190,6 @@ impl<T> KeptHits<T> {
     /// Whether a dispatch with `key` may keep its hits within the budget.
     pub fn fits(&self, key: &HitKey) -> bool {
         key.rays() > 0
-            && key.bytes() > 0
             && self
                 .bytes
                 .checked_add(key.bytes())
@@ -338,35 +297,11 @@ mod tests {
         };
         let key = |w: Vec<u32>| HitKey::new(1, 1e-4, BvhMode::Mtbvh, &w, tile, [1, 2]);
         assert_eq!(key(words(4, 2, 0, 0)).rays(), 4);
-        assert_eq!(key(words(2, 3, 0, 0)).rays(), 2, "orphans keep no hits");
+        assert_eq!(key(words(2, 3, 0, 0)).rays(), 3);
         assert_eq!(key(words(300, 0, 256, 128)).rays(), 44);
         assert_eq!(key(words(300, 0, 128, 128)).rays(), 128);
         let k = key(words(4, 0, 0, 0));
         assert_eq!(k.bytes(), 64 * 16 * 4 * 16);
-        // At stride 2 the grid's columns 0, 2, … 62 and rows 8, 10, … 22 of the tile (rows 8
-        // to 23); at stride 3 columns 0 … 63 and rows 9 … 21.
-        let strided = |s: u32| {
-            let mut p = GatherParams::from_words(&words(4, 0, 0, 0));
-            p.stride = s;
-            key(p.words()).plane()
-        };
-        assert_eq!(
-            strided(2),
-            HitPlane {
-                stride: 2,
-                origin: [0, 4],
-                size: [32, 8]
-            }
-        );
-        assert_eq!(
-            strided(3),
-            HitPlane {
-                stride: 3,
-                origin: [0, 3],
-                size: [22, 5]
-            }
-        );
-        assert_eq!(strided(1).size, [64, 16]);
         // The lamps' words do not place rays.
         let mut lit = GatherParams::from_words(&words(4, 0, 0, 0));
         lit.lamp_paths = 12;

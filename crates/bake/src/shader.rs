@@ -221,11 +221,10 @@ pub fn wgsl_constants(bvh: BvhMode) -> String {
 }
 
 /// What the gather's program ([`Program::Gather`]) gets after [`glsl_prefix`] to replay kept
-/// hits instead of tracing its rays ([`crate::kept`]): `LUX_REPLAY`, the hits' sampler
-/// `u_hits` (layer `k` the hits of the dispatch's `k`-th ray, texel `(x, y)` the layer's texel
-/// `(u_hit_origin + (x, y)) · stride`, [`crate::kept::HitPlane`]) and `u_hit_origin`.
-/// `lib/gather.glsl`'s ray loop then reads each ray's `(t, triangle, u, v)` where it would have
-/// called `luxTrace` (an orphan of a coarse grid still traces).
+/// hits instead of tracing its rays (the glow backend's kept gather hits): `LUX_REPLAY`, the
+/// hits' sampler `u_hits` (layer `k` the hits of the dispatch's `k`-th ray, texel `(x, y)` the
+/// tile's texel `u_hit_origin + (x, y)`) and `u_hit_origin`. `lib/gather.glsl`'s ray loop then
+/// reads each ray's `(t, triangle, u, v)` where it would have called `luxTrace`.
 pub const GLSL_GATHER_REPLAY: &str = "#define LUX_REPLAY 1\n\
     uniform highp sampler2DArray u_hits;\n\
     uniform ivec2 u_hit_origin;\n";
@@ -323,8 +322,8 @@ fn wgsl_hits(access: &str) -> String {
 
 /// The gather's WGSL ([`wgsl_source`] of [`Program::Gather`]) replaying kept hits
 /// ([`crate::kept`]): `lux_gather_hit` reads ray `k`'s hit from plane `k` of `lux_hits` at the
-/// texel's place in the grid's plane ([`crate::kept::HitPlane`], `passes/gather/replay.wgsl`)
-/// instead of tracing it (`lib/gather_hit.wgsl`); an orphan of a coarse grid still traces.
+/// texel's place in the tile (`passes/gather/replay.wgsl`) instead of tracing it
+/// (`lib/gather_hit.wgsl`).
 pub fn wgsl_gather_replay_source(bvh: BvhMode, storage: BvhStorage) -> String {
     let trace_hook = include_str!("../shaders/lib/gather_hit.wgsl");
     let replay_hook = include_str!("passes/gather/replay.wgsl");
@@ -337,9 +336,9 @@ pub fn wgsl_gather_replay_source(bvh: BvhMode, storage: BvhStorage) -> String {
 }
 
 /// The wgpu backend's trace pass for kept gather hits ([`crate::kept`]): the gather's prefix
-/// and libraries, the hits' buffer and `passes/gather/trace.wgsl` (its own entry point, one
-/// invocation per texel of the grid's plane, [`crate::kept::HitPlane`]), which writes ray
-/// `k`'s hit of each grid texel to plane `k` of `lux_hits`.
+/// and libraries, the hits' buffer and `passes/gather/trace.wgsl` (its own entry point), which
+/// writes each ray of the dispatch's hit to plane `k` of `lux_hits` at the texel's place in
+/// the tile.
 pub fn wgsl_gather_trace_source(bvh: BvhMode, storage: BvhStorage) -> String {
     let mut s = wgsl_prefix(Program::Gather, bvh);
     s.push_str(&wgsl_hits("read_write"));

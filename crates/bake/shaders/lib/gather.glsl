@@ -112,21 +112,13 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
         vec3 dir = luxCosineDirection(n, luxSample2(samplerId, texel, s, bounce, seed));
         vec3 hit;
 #ifdef LUX_REPLAY
-        // Kept hits (luxbake::kept): the hit this ray had when the trace pass cast it,
-        // (t, triangle, u, v), from layer `s - firstRay` of u_hits at the texel's place in
-        // the plane of the gather's grid (u_hit_origin its first texel, in grid units). An
-        // orphan of a coarse grid keeps none: it traces.
-        int tri;
-        int stride = int(max(u_stride, 1u));
-        ivec2 fc = ivec2(gl_FragCoord.xy);
-        if (fc.x % stride == 0 && fc.y % stride == 0) {
-            vec4 kept = texelFetch(u_hits, ivec3(fc / stride - u_hit_origin,
-                                                 int(s - firstRay)), 0);
-            tri = int(kept.y);
-            hit = kept.xzw;
-        } else {
-            tri = luxTrace(origin, dir, 0.0, infinity, false, hit);
-        }
+        // The glow backend's kept hits (luxbake-backend-glow, `hits`): the hit this ray had
+        // when its trace pass cast it, (t, triangle, u, v), from layer `s - firstRay` of
+        // u_hits at the texel's place in the tile (u_hit_origin its first texel).
+        vec4 kept = texelFetch(u_hits, ivec3(ivec2(gl_FragCoord.xy) - u_hit_origin,
+                                             int(s - firstRay)), 0);
+        int tri = int(kept.y);
+        hit = kept.xzw;
 #else
         int tri = luxTrace(origin, dir, 0.0, infinity, false, hit);
 #endif

@@ -1,11 +1,10 @@
-// The glow backend's trace pass for kept gather hits (luxbake::kept): rays u_first_ray ..
-// u_first_ray + u_hit_rays (at most four) of each grid texel of the tile — gather.glsl's
-// prologue and lib/gather.glsl's rays, operation for operation — cast and their closest hits
-// written at the texel's place in the grid's plane (fragment (gx, gy) is texel
-// ((u_hit_origin + (gx, gy)) * stride); kept::HitPlane), one colour attachment per ray:
-// (t, triangle, u, v), triangle -1 where the texel casts no such ray or the ray meets nothing.
-// The gather compiled with LUX_REPLAY (shader::GLSL_GATHER_REPLAY) reads these instead of
-// tracing: the same hits, bit for bit.
+// The glow backend's trace pass for kept gather hits (luxbake-backend-glow, `hits`): rays
+// u_first_ray .. u_first_ray + u_hit_rays (at most four) of each texel's gather sequence —
+// gather.glsl's prologue and lib/gather.glsl's rays, operation for operation — cast and their
+// closest hits written at the texel's place in the tile (u_hit_origin the tile's first texel),
+// one colour attachment per ray: (t, triangle, u, v), triangle -1 where the texel casts no such
+// ray or the ray meets nothing. The gather compiled with LUX_REPLAY
+// (shader::GLSL_GATHER_REPLAY) reads these instead of tracing: the same hits, bit for bit.
 
 uniform ivec2 u_hit_origin;
 uniform uint u_hit_rays;
@@ -16,8 +15,7 @@ layout(location = 3) out vec4 o_hit3;
 void main() {
     const vec4 NONE = vec4(0.0, -1.0, 0.0, 0.0);
     vec4 hits[4] = vec4[4](NONE, NONE, NONE, NONE);
-    int stride = int(max(u_stride, 1u));
-    ivec3 c = ivec3((ivec2(gl_FragCoord.xy) + u_hit_origin) * stride, u_layer);
+    ivec3 c = ivec3(ivec2(gl_FragCoord.xy) + u_hit_origin, u_layer);
     vec4 pos = texelFetch(u_position, c, 0);
     vec4 nrm = texelFetch(u_normal, c, 0);
     vec3 n;

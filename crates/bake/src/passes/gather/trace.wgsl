@@ -1,36 +1,26 @@
 // The wgpu backend's trace pass for kept gather hits (luxbake::kept; trace.glsl's twin): the
-// dispatch's rays of each grid texel of the tile (kept::HitPlane; one invocation per texel of
-// the plane) — gather.wgsl's prologue and lib/gather.wgsl's rays, operation for operation —
-// cast and their closest hits written to plane k of lux_hits (declared by
-// shader::wgsl_gather_trace_source) at the texel's place in the grid's plane:
+// dispatch's rays of each texel of the tile — gather.wgsl's prologue and lib/gather.wgsl's
+// rays, operation for operation — cast and their closest hits written to plane k of lux_hits
+// (declared by shader::wgsl_gather_trace_source) at the texel's place in the tile:
 // (t, triangle, u, v), triangle -1 where the texel casts no such ray or the ray meets
 // nothing. The gather compiled to replay (replay.wgsl) reads these instead of tracing.
 
-// The grid's plane of the tile (replay.wgsl's lux_hit_plane, which the replay reads).
-fn lux_trace_plane() -> vec4<u32> {
-    let s = max(lux_pass.stride, 1u);
-    let first = (vec2<u32>(lux_tile.x0, lux_tile.y0) + vec2<u32>(s - 1u)) / s;
-    let last = (vec2<u32>(lux_tile.x0 + lux_tile.width, lux_tile.y0 + lux_tile.height)
-                - vec2<u32>(1u)) / s;
-    return vec4<u32>(first, last - first + vec2<u32>(1u));
-}
-
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let grid = lux_trace_plane();
-    if (gid.x >= grid.z || gid.y >= grid.w) {
+    let c = lux_texel(gid);
+    if (c.x < 0) {
         return;
     }
-    let stride = max(lux_pass.stride, 1u);
-    let c = vec2<i32>((grid.xy + gid.xy) * stride);
     let none = vec4<f32>(0.0, -1.0, 0.0, 0.0);
-    // The dispatch's planes: the chunk's share of the gather's rays (kept::HitKey::rays).
-    var planes = lux_pass.rays - min(lux_pass.first_ray, lux_pass.rays);
+    // The dispatch's planes: the chunk's share of the larger of the grid texels' and the
+    // orphans' rays (luxbake::kept::HitKey::rays).
+    let most = max(lux_pass.rays, lux_pass.orphan_rays);
+    var planes = most - min(lux_pass.first_ray, most);
     if (lux_pass.chunk_rays > 0u) {
         planes = min(lux_pass.chunk_rays, planes);
     }
-    let at = gid.y * grid.z + gid.x;
-    let plane = grid.z * grid.w;
+    let at = gid.y * lux_tile.width + gid.x;
+    let plane = lux_tile.width * lux_tile.height;
     let pos = lux_load(lux_position, c);
     let nrm = lux_load(lux_normal, c);
     var n: vec3<f32>;
