@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, hash_floats};
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads};
 use luxbake::program::{GatherParams, ParamBlock, Scalar};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
@@ -47,7 +47,7 @@ pub struct GlowBackend {
     tile_work: u64,
     /// With kept gather hits: per texture, the hash of each layer's upload (`None` until
     /// uploaded, or once a pass writes the texture).
-    uploads: HashMap<usize, Vec<Option<u64>>>,
+    uploads: Uploads,
     /// The gather hits kept from bake to bake ([`GlowBackend::keep_gather_hits`]).
     kept: Option<KeptHits<TextureArray>>,
 }
@@ -88,7 +88,7 @@ impl GlowBackend {
             scene_bvh: Vec::new(),
             programs: HashMap::new(),
             tile_work: DEFAULT_TILE_WORK,
-            uploads: HashMap::new(),
+            uploads: Uploads::default(),
             kept: None,
         })
     }
@@ -167,16 +167,11 @@ impl GlowBackend {
         if call.program != Pass::Gather || self.kept.is_none() {
             return None;
         }
-        let hashed = |t: &GlowTexture| -> Option<u64> {
-            let layers = self.uploads.get(&t.0)?;
-            let mut h = 0u64;
-            for l in layers {
-                h = h.rotate_left(29) ^ (*l)?;
-            }
-            Some(h)
-        };
         // Read slots 0 and 1 are the position and normal maps.
-        let gbuffer = [hashed(call.reads.first()?)?, hashed(call.reads.get(1)?)?];
+        let gbuffer = [
+            self.uploads.hash(call.reads.first()?.0)?,
+            self.uploads.hash(call.reads.get(1)?.0)?,
+        ];
         let scene = self.scenes.get(call.scene.0)?;
         let bvh = *self.scene_bvh.get(call.scene.0)?;
         let key = HitKey::new(
@@ -348,17 +343,11 @@ impl GpuBackend for GlowBackend {
                 texels.len()
             )));
         }
-        let layers = t.layers as usize;
+        let layers = t.layers;
         t.upload(self.ctx.gl()?, label, layer, texels)?;
         if self.kept.is_some() {
             // What tells one room's G-buffer from another's for the kept hits.
-            let hashes = self
-                .uploads
-                .entry(texture.0)
-                .or_insert_with(|| vec![None; layers]);
-            if let Some(h) = hashes.get_mut(layer as usize) {
-                *h = Some(hash_floats(texels));
-            }
+            self.uploads.record(texture.0, layers, layer, texels);
         }
         Ok(())
     }
@@ -402,11 +391,14 @@ impl GpuBackend for GlowBackend {
         )
         .map_err(|reason| GlowError::InvalidInput(format!("pass `{label}`: {reason}")))?;
         // A texture a pass writes is no upload any more.
-        self.uploads.remove(&call.write.0);
+        self.uploads.forget(call.write.0);
         let t = call.tile;
         let rect = [t.x0, t.y0, t.width, t.height];
         let out = None;
-        let Some(key) = self.hit_key(call, trav) else {
+        let key = self
+            .hit_key(call, trav)
+            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
+        let Some(key) = key else {
             self.compile(call.program, trav, Variant::Plain)?;
             return self.draw(
                 call,
@@ -420,20 +412,6 @@ impl GpuBackend for GlowBackend {
             );
         };
         let kept = self.kept.as_ref().map(|k| k.get(&key).is_some());
-        if kept != Some(true) && !self.kept.as_ref().is_some_and(|k| k.fits(&key)) {
-            // Past the budget: gathered as without kept hits.
-            self.compile(call.program, trav, Variant::Plain)?;
-            return self.draw(
-                call,
-                trav,
-                Variant::Plain,
-                out,
-                rect,
-                call.params,
-                None,
-                true,
-            );
-        }
         self.compile(call.program, trav, Variant::Replay)?;
         if kept != Some(true) {
             // Trace the dispatch's rays once, one layer of hits per ray.

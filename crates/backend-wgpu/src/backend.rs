@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, hash_floats};
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads};
 use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{
@@ -94,7 +94,7 @@ pub struct WgpuBackend {
     params: wgpu::Buffer,
     /// With kept gather hits: per texture, the hash of each layer's upload (`None` until
     /// uploaded, or once a pass writes the texture).
-    uploads: HashMap<usize, Vec<Option<u64>>>,
+    uploads: Uploads,
     /// The gather hits kept from bake to bake ([`WgpuBackend::keep_gather_hits`]).
     kept: Option<KeptHits<wgpu::Buffer>>,
 }
@@ -281,7 +281,7 @@ impl WgpuBackend {
             pipelines: HashMap::new(),
             tile,
             params,
-            uploads: HashMap::new(),
+            uploads: Uploads::default(),
             kept: None,
         })
     }
@@ -312,16 +312,11 @@ impl WgpuBackend {
         if call.program != Program::Gather || self.kept.is_none() {
             return None;
         }
-        let hashed = |t: &WgpuTexture| -> Option<u64> {
-            let layers = self.uploads.get(&t.0)?;
-            let mut h = 0u64;
-            for l in layers {
-                h = h.rotate_left(29) ^ (*l)?;
-            }
-            Some(h)
-        };
         // Read slots 0 and 1 are the position and normal maps.
-        let gbuffer = [hashed(call.reads.first()?)?, hashed(call.reads.get(1)?)?];
+        let gbuffer = [
+            self.uploads.hash(call.reads.first()?.0)?,
+            self.uploads.hash(call.reads.get(1)?.0)?,
+        ];
         let &(bvh, epsilon) = self.scene_keys.get(call.scene.0)?;
         let key = HitKey::new(bvh, epsilon, traversal, call.params, call.tile, gbuffer);
         let limits = &self.gpu.limits;
@@ -640,14 +635,7 @@ impl GpuBackend for WgpuBackend {
         })?;
         if self.kept.is_some() {
             // What tells one room's G-buffer from another's for the kept hits.
-            let layers = t.layers as usize;
-            let hashes = self
-                .uploads
-                .entry(texture.0)
-                .or_insert_with(|| vec![None; layers]);
-            if let Some(h) = hashes.get_mut(layer as usize) {
-                *h = Some(hash_floats(texels));
-            }
+            self.uploads.record(texture.0, t.layers, layer, texels);
         }
         Ok(())
     }
@@ -699,7 +687,7 @@ impl GpuBackend for WgpuBackend {
         call.check((out.size, out.layers), &sizes, gpu_scene.layer_size)
             .map_err(|reason| WgpuError::InvalidInput(format!("pass `{label}`: {reason}")))?;
         // A texture a pass writes is no upload any more.
-        self.uploads.remove(&call.write.0);
+        self.uploads.forget(call.write.0);
         let fits =
             |kept: &KeptHits<wgpu::Buffer>, key: &HitKey| kept.get(key).is_some() || kept.fits(key);
         let key = self

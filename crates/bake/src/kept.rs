@@ -196,6 +196,11 @@ impl<T> KeptHits<T> {
                 .is_some_and(|b| b <= self.budget)
     }
 
+    /// Whether a dispatch with `key` reads kept hits: they are kept, or they fit the budget.
+    pub fn usable(&self, key: &HitKey) -> bool {
+        self.get(key).is_some() || self.fits(key)
+    }
+
     /// Keeps the hits a dispatch with `key` traced; hands back the texture they replace, if
     /// any, for the caller to free.
     pub fn insert(&mut self, key: HitKey, hits: T) -> Option<T> {
@@ -236,6 +241,43 @@ impl<T> KeptHits<T> {
     }
 }
 
+/// The hashes of a backend's texture uploads, per texture (its index) and layer — what tells
+/// one room's G-buffer from another's in a [`HitKey`]. A texture a pass writes is forgotten.
+#[derive(Debug, Default)]
+pub struct Uploads(HashMap<usize, Vec<Option<u64>>>);
+
+impl Uploads {
+    /// Records the upload of `texels` to `layer` of `texture` (of `layers` layers).
+    pub fn record(&mut self, texture: usize, layers: u32, layer: u32, texels: &[f32]) {
+        let hashes = self
+            .0
+            .entry(texture)
+            .or_insert_with(|| vec![None; layers as usize]);
+        if let Some(h) = hashes.get_mut(layer as usize) {
+            *h = Some(hash_floats(texels));
+        }
+    }
+
+    /// Forgets `texture` (a pass writes it).
+    pub fn forget(&mut self, texture: usize) {
+        self.0.remove(&texture);
+    }
+
+    /// Forgets every texture (the backend freed them).
+    pub fn clear(&mut self) {
+        self.0.clear();
+    }
+
+    /// A hash of every layer of `texture`; `None` unless each was uploaded.
+    pub fn hash(&self, texture: usize) -> Option<u64> {
+        let mut h = 0u64;
+        for l in self.0.get(&texture)? {
+            h = h.rotate_left(29) ^ (*l)?;
+        }
+        Some(h)
+    }
+}
+
 /// A 64-bit hash of an upload's floats, bit for bit (FNV-1a over 64-bit words, then a final
 /// mix): what tells one room's G-buffer from another's.
 pub fn hash_floats(texels: &[f32]) -> u64 {
@@ -257,6 +299,19 @@ pub fn hash_floats(texels: &[f32]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn uploads_hash_every_layer_once_uploaded() {
+        let mut u = Uploads::default();
+        u.record(3, 2, 0, &[1.0, 2.0]);
+        assert_eq!(u.hash(3), None, "layer 1 not uploaded");
+        u.record(3, 2, 1, &[3.0, 4.0]);
+        let h = u.hash(3).expect("both layers");
+        u.record(3, 2, 1, &[3.0, 5.0]);
+        assert_ne!(u.hash(3), Some(h));
+        u.forget(3);
+        assert_eq!(u.hash(3), None);
+    }
 
     #[test]
     fn the_hash_tells_every_bit_and_the_length() {
