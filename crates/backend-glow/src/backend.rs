@@ -115,6 +115,24 @@ impl GlowBackend {
         self.kept.as_ref().map(KeptHits::stats)
     }
 
+    /// Frees the kept hits of rooms that no longer exist (they also go at the next scene
+    /// upload): for a caller that drops a room and may not bake again soon.
+    ///
+    /// # Errors
+    /// Without a current context, when kept hits are to be freed.
+    pub fn free_dropped_hits(&mut self) -> Result<()> {
+        if let Some(kept) = &mut self.kept {
+            let freed = kept.prune();
+            if !freed.is_empty() {
+                let gl = self.ctx.gl()?;
+                for t in freed {
+                    t.delete(gl);
+                }
+            }
+        }
+        Ok(())
+    }
+
     /// Frees every kept hit texture.
     fn free_kept(&mut self) -> Result<()> {
         if let Some(kept) = &mut self.kept {

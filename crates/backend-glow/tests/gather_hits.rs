@@ -99,6 +99,14 @@ fn a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
     );
     let m = assert_same(&swapped, &bake(&mut plain, &scene, &other), "swap");
     println!("{n} and {m} floats equal to a tracing backend's");
+
+    // The room dropped, its hits can be freed at once.
+    backend.free_dropped_hits().expect("free");
+    assert_eq!(backend.gather_hit_stats().expect("kept").bytes, after.bytes);
+    drop(room);
+    backend.free_dropped_hits().expect("free");
+    let freed = backend.gather_hit_stats().expect("kept");
+    assert_eq!((freed.bytes, freed.dispatches), (0, 0));
 }
 
 #[test]

@@ -158,13 +158,7 @@ impl<T> KeptHits<T> {
     /// exist) and hands back the hit textures of BVHs that no longer exist, for the caller to
     /// free.
     pub fn upload(&mut self, scene: &Arc<EncodedScene>) -> Vec<T> {
-        let gone: Vec<usize> = self
-            .rooms
-            .iter()
-            .filter(|w| w.strong_count() == 0)
-            .map(|w| w.as_ptr() as usize)
-            .collect();
-        self.rooms.retain(|w| w.strong_count() > 0);
+        let freed = self.prune();
         if !self
             .rooms
             .iter()
@@ -172,6 +166,19 @@ impl<T> KeptHits<T> {
         {
             self.rooms.push(Arc::downgrade(scene));
         }
+        freed
+    }
+
+    /// Hands back the hits cast in BVHs that no longer exist (their rooms were dropped), for
+    /// the caller to free.
+    pub fn prune(&mut self) -> Vec<T> {
+        let gone: Vec<usize> = self
+            .rooms
+            .iter()
+            .filter(|w| w.strong_count() == 0)
+            .map(|w| w.as_ptr() as usize)
+            .collect();
+        self.rooms.retain(|w| w.strong_count() > 0);
         let dropped: Vec<HitKey> = self
             .hits
             .keys()

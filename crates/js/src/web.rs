@@ -478,6 +478,10 @@ impl Baker {
     #[wasm_bindgen(js_name = disposeRoom)]
     pub fn dispose_room(&mut self, room: u32) {
         self.rooms.remove(&room);
+        if let Some(backend) = &mut self.backend {
+            // The room's gather hits go with it (GPU memory); a lost context frees them anyway.
+            let _ = backend.free_dropped_hits();
+        }
     }
 
     /// Illuminance (lux) at world points `xyz` (`3n` numbers, metres) of bake `id`
