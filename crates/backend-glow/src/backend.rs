@@ -6,16 +6,16 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads};
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads, Variant};
 use luxbake::program::{GatherParams, ParamBlock, Scalar};
 use luxbake::scene::BvhMode;
-use luxbake::shader::{glsl_param, glsl_slot, program_traversal};
+use luxbake::shader::{glsl_param, glsl_slot, glsl_variant, program_traversal};
 
 use crate::context::{Capabilities, GlContext};
 use crate::error::{GlowError, Result};
 use crate::gl::{MAX_ATTACHMENTS, Program, Target, TextureArray, check};
 use crate::scene::GpuScene;
-use crate::shaders::{Pass, Variant, variant_sources};
+use crate::shaders::Pass;
 
 /// A texture array owned by a [`GlowBackend`] (a handle; the backend frees the GL object when
 /// it is dropped).
@@ -121,23 +121,21 @@ impl GlowBackend {
     /// # Errors
     /// Without a current context, when kept hits are to be freed.
     pub fn free_dropped_hits(&mut self) -> Result<()> {
-        if let Some(kept) = &mut self.kept {
-            let freed = kept.prune();
-            if !freed.is_empty() {
-                let gl = self.ctx.gl()?;
-                for t in freed {
-                    t.delete(gl);
-                }
-            }
-        }
-        Ok(())
+        let freed = self.kept.as_mut().map(KeptHits::prune);
+        self.delete(freed.unwrap_or_default())
     }
 
     /// Frees every kept hit texture.
     fn free_kept(&mut self) -> Result<()> {
-        if let Some(kept) = &mut self.kept {
+        let freed = self.kept.as_mut().map(KeptHits::drain);
+        self.delete(freed.unwrap_or_default())
+    }
+
+    /// Deletes `textures` (kept hits let go of).
+    fn delete(&self, textures: Vec<TextureArray>) -> Result<()> {
+        if !textures.is_empty() {
             let gl = self.ctx.gl()?;
-            for t in kept.drain() {
+            for t in textures {
                 t.delete(gl);
             }
         }
@@ -167,8 +165,8 @@ impl GlowBackend {
     fn compile(&mut self, pass: Pass, traversal: BvhMode, variant: Variant) -> Result<()> {
         let key = (pass, traversal, variant);
         if !self.programs.contains_key(&key) {
-            let (label, prefix, sources) = variant_sources(pass, traversal, variant);
-            let program = Program::new(self.ctx.gl()?, &label, &prefix, &sources)?;
+            let (prefix, sources) = glsl_variant(pass, traversal, variant);
+            let program = Program::new(self.ctx.gl()?, &variant.label(pass), &prefix, &sources)?;
             self.programs.insert(key, program);
         }
         Ok(())
@@ -372,13 +370,9 @@ impl GpuBackend for GlowBackend {
 
     fn upload_scene(&mut self, scene: &SceneData<'_>) -> Result<GlowScene> {
         let s = GpuScene::upload(self.ctx.gl()?, self.ctx.capabilities(), scene)?;
-        if let Some(kept) = &mut self.kept {
-            // Hits of rooms that no longer exist go.
-            let gl = self.ctx.gl()?;
-            for t in kept.upload(&scene.bvh.encoded) {
-                t.delete(gl);
-            }
-        }
+        // Hits of rooms that no longer exist go.
+        let freed = self.kept.as_mut().map(|k| k.upload(&scene.bvh.encoded));
+        self.delete(freed.unwrap_or_default())?;
         self.scenes.push(s);
         self.scene_bvh
             .push(std::sync::Arc::as_ptr(&scene.bvh.encoded) as usize);
@@ -412,7 +406,6 @@ impl GpuBackend for GlowBackend {
         self.uploads.forget(call.write.0);
         let t = call.tile;
         let rect = [t.x0, t.y0, t.width, t.height];
-        let out = None;
         let key = self
             .hit_key(call, trav)
             .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
@@ -422,16 +415,15 @@ impl GpuBackend for GlowBackend {
                 call,
                 trav,
                 Variant::Plain,
-                out,
+                None,
                 rect,
                 call.params,
                 None,
                 true,
             );
         };
-        let kept = self.kept.as_ref().map(|k| k.get(&key).is_some());
         self.compile(call.program, trav, Variant::Replay)?;
-        if kept != Some(true) {
+        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
             // Trace the dispatch's rays once, one layer of hits per ray.
             self.compile(call.program, trav, Variant::Trace)?;
             let gl = self.ctx.gl()?;
@@ -463,9 +455,8 @@ impl GpuBackend for GlowBackend {
                 hits.delete(gl);
                 return Err(e);
             }
-            if let Some(old) = self.kept.as_mut().and_then(|k| k.insert(key, hits)) {
-                old.delete(self.ctx.gl()?);
-            }
+            let replaced = self.kept.as_mut().and_then(|k| k.insert(key, hits));
+            self.delete(replaced.into_iter().collect())?;
         }
         let kept = self.kept.as_ref().and_then(|k| k.get(&key));
         let hits = kept.ok_or_else(|| GlowError::InvalidInput("kept hits".into()))?;
@@ -473,7 +464,7 @@ impl GpuBackend for GlowBackend {
             call,
             trav,
             Variant::Replay,
-            out,
+            None,
             rect,
             call.params,
             Some(Hits {

@@ -132,5 +132,10 @@ pub use context::{Capabilities, GlContext, webgl2};
 pub use error::{GlowError, Result};
 pub use luxbake::kept::{HIT_BYTES, KeptHitStats};
 
+/// The GPU memory a browser worker's backend may keep for the gather hits of the rooms it
+/// bakes ([`GlowBackend::keep_gather_hits`]; the JavaScript package and the viewer): 256 MiB.
+/// `chairs_05` at 24 texels/m and the default preset keeps 75.5 MB.
+pub const WEB_GATHER_HITS_BUDGET: u64 = 256 << 20;
+
 #[cfg(test)]
 mod testutil;

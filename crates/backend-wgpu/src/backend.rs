@@ -5,12 +5,10 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads};
+use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads, Variant};
 use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
 use luxbake::scene::BvhMode;
-use luxbake::shader::{
-    program_traversal, wgsl, wgsl_gather_replay_source, wgsl_gather_trace_source, wgsl_source,
-};
+use luxbake::shader::{program_traversal, wgsl, wgsl_variant};
 
 use crate::device::Gpu;
 use crate::error::{Result, WgpuError};
@@ -64,16 +62,6 @@ struct Texture {
     view: wgpu::TextureView,
     size: [u32; 2],
     layers: u32,
-}
-
-/// Which pipeline of a pass a dispatch runs: the pass's own, or for the gather with kept hits
-/// ([`WgpuBackend::keep_gather_hits`]) the trace pass that writes them or the gather that reads
-/// them back.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-enum Variant {
-    Plain,
-    Trace,
-    Replay,
 }
 
 /// The wgpu backend: a device, the RGBA32F texture arrays of a bake, the uploaded scene data and
@@ -231,12 +219,8 @@ impl WgpuBackend {
         let gpu = Gpu::open(backends)?;
         let mut pass_layouts = HashMap::new();
         let variants = Program::ALL
-            .map(|p| (p, Variant::Plain))
             .into_iter()
-            .chain([
-                (Program::Gather, Variant::Trace),
-                (Program::Gather, Variant::Replay),
-            ]);
+            .flat_map(|p| Variant::of(p).iter().map(move |&v| (p, v)));
         for (pass, variant) in variants {
             let layout = gpu.scoped("bind group layouts", || {
                 gpu.device
@@ -349,12 +333,7 @@ impl WgpuBackend {
             return Ok(());
         }
         let gpu = &self.gpu;
-        let storage = self.options.bvh_storage;
-        let source = match variant {
-            Variant::Plain => wgsl_source(pass, traversal, storage),
-            Variant::Trace => wgsl_gather_trace_source(traversal, storage),
-            Variant::Replay => wgsl_gather_replay_source(traversal, storage),
-        };
+        let source = wgsl_variant(pass, traversal, self.options.bvh_storage, variant);
         let pass_layout = self
             .pass_layouts
             .get(&(pass, variant))
@@ -363,11 +342,7 @@ impl WgpuBackend {
         if uses_scene(pass) {
             groups.push(Some(&self.scene_layout));
         }
-        let label = match variant {
-            Variant::Plain => pass.label().to_owned(),
-            Variant::Trace => format!("{} (trace)", pass.label()),
-            Variant::Replay => format!("{} (replay)", pass.label()),
-        };
+        let label = variant.label(pass);
         let during = format!("compiling the `{label}` pipeline");
         let pipeline = gpu.scoped(&during, || {
             let module = gpu
@@ -688,11 +663,9 @@ impl GpuBackend for WgpuBackend {
             .map_err(|reason| WgpuError::InvalidInput(format!("pass `{label}`: {reason}")))?;
         // A texture a pass writes is no upload any more.
         self.uploads.forget(call.write.0);
-        let fits =
-            |kept: &KeptHits<wgpu::Buffer>, key: &HitKey| kept.get(key).is_some() || kept.fits(key);
         let key = self
             .hit_key(call, traversal)
-            .filter(|k| self.kept.as_ref().is_some_and(|kept| fits(kept, k)));
+            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
         let Some(key) = key else {
             self.pipeline(call.program, traversal, Variant::Plain)?;
             return self.run(call, traversal, Variant::Plain, None);

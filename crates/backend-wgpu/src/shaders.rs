@@ -10,16 +10,14 @@ pub use luxbake::shader::BvhStorage;
 
 #[cfg(test)]
 mod tests {
+    use luxbake::kept::Variant;
     use luxbake::program::{
         BLUR_NORMAL_COS, BlurParams, DirectParams, Field, GatherParams, Library, MAX_BLUR_RADIUS,
         ParamBlock, Program, TileParams,
     };
     use luxbake::rng::Sampler;
     use luxbake::scene::BvhMode;
-    use luxbake::shader::{
-        BvhStorage, wgsl_constants, wgsl_gather_replay_source, wgsl_gather_trace_source,
-        wgsl_library, wgsl_source,
-    };
+    use luxbake::shader::{BvhStorage, wgsl_constants, wgsl_library, wgsl_source, wgsl_variant};
     use luxbake_bvh::layout;
     use wgpu::naga;
 
@@ -41,26 +39,18 @@ mod tests {
     #[test]
     fn every_program_validates_with_naga_for_every_traversal_and_storage() {
         // Every pass, and the gather's trace pass and replay (kept hits, `luxbake::kept`).
-        type Source = fn(BvhMode, BvhStorage) -> String;
-        let kept: [(&str, Source); 2] = [
-            ("gather (trace)", wgsl_gather_trace_source),
-            ("gather (replay)", wgsl_gather_replay_source),
-        ];
-        let programs = Program::ALL.map(|p| {
-            (
-                p.label(),
-                Box::new(move |t, s| wgsl_source(p, t, s))
-                    as Box<dyn Fn(BvhMode, BvhStorage) -> String>,
-            )
-        });
-        let variants = kept
+        let mut checked = 0;
+        for (pass, &variant) in Program::ALL
             .into_iter()
-            .map(|(l, f)| (l, Box::new(f) as Box<dyn Fn(BvhMode, BvhStorage) -> String>));
-        for (name, source) in programs.into_iter().chain(variants) {
+            .flat_map(|p| Variant::of(p).iter().map(move |v| (p, v)))
+        {
+            let name = variant.label(pass);
+            checked += 1;
             for storage in [BvhStorage::Buffers, BvhStorage::Textures] {
                 for traversal in TRAVERSALS {
                     let label = format!("{name} {traversal:?} {storage:?}");
-                    let module = validate(&label, &source(traversal, storage));
+                    let source = wgsl_variant(pass, traversal, storage, variant);
+                    let module = validate(&label, &source);
                     let entry: Vec<_> = module.entry_points.iter().map(|e| &e.name).collect();
                     assert_eq!(entry, ["main"], "{label}");
                     assert_eq!(
@@ -71,6 +61,11 @@ mod tests {
                 }
             }
         }
+        assert_eq!(
+            checked,
+            Program::ALL.len() + 2,
+            "the gather's trace and replay"
+        );
     }
 
     /// The members of WGSL struct `name` in `module`: (name, offset).

@@ -4,7 +4,7 @@
 //! A gather ray depends only on the room and the random numbers — its origin and frame on the
 //! texel's G-buffer position and normal, its direction on the sampler's draw for (texel, ray,
 //! bounce, seed), its hit on the BVH — never on the lamps. With hits kept, a GPU backend runs a
-//! gather dispatch ([`Program::Gather`](crate::program::Program::Gather)) as two programs:
+//! gather dispatch ([`Program::Gather`]) as two programs:
 //!
 //! 1. a **trace pass** (`passes/gather/trace.glsl`, `trace.wgsl`): the dispatch's rays of every
 //!    texel of the tile, each closest hit `(t, triangle, u, v)` written to the backend's hit
@@ -44,11 +44,44 @@ use std::sync::{Arc, Weak};
 use luxbake_bvh::EncodedScene;
 
 use crate::contract::ParamBlock;
-use crate::program::{GatherParams, TileParams};
+use crate::program::{GatherParams, Program, TileParams};
 use crate::scene::BvhMode;
 
 /// Bytes of one kept hit: four 32-bit floats `(t, triangle, u, v)`.
 pub const HIT_BYTES: u64 = 16;
+
+/// Which program a GPU backend runs for a pass: the pass's own, or for a gather with kept hits
+/// (module docs) the trace pass that writes them or the gather that replays them
+/// ([`crate::shader::glsl_variant`], [`crate::shader::wgsl_variant`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Variant {
+    /// The pass's own program.
+    Plain,
+    /// The gather's trace pass: writes each ray's hit.
+    Trace,
+    /// The gather replaying kept hits.
+    Replay,
+}
+
+impl Variant {
+    /// The variants of `pass`: the gather has all three, every other pass its own program.
+    pub fn of(pass: Program) -> &'static [Variant] {
+        if pass == Program::Gather {
+            &[Variant::Plain, Variant::Trace, Variant::Replay]
+        } else {
+            &[Variant::Plain]
+        }
+    }
+
+    /// The program's label: the pass's, with ` (trace)` or ` (replay)`.
+    pub fn label(self, pass: Program) -> String {
+        match self {
+            Variant::Plain => pass.label().to_owned(),
+            Variant::Trace => format!("{} (trace)", pass.label()),
+            Variant::Replay => format!("{} (replay)", pass.label()),
+        }
+    }
+}
 
 /// What places a gather dispatch's rays (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]

@@ -27,6 +27,7 @@
 
 use luxbake_bvh::layout;
 
+use crate::kept::Variant;
 use crate::program::{
     BLUR_NORMAL_COS, Field, Library, MAX_BLUR_RADIUS, ParamBlock, Program, Scalar, Signature,
     TileParams,
@@ -244,6 +245,21 @@ pub fn glsl_gather_trace_sources() -> Vec<&'static str> {
     v
 }
 
+/// The GLSL prefix and files of `variant` of `pass` for traversal `bvh`: the pass's own
+/// ([`glsl_prefix`], [`glsl_sources`]); the gather's trace pass, the gather's prefix with
+/// [`glsl_gather_trace_sources`]; its replay, the gather after [`GLSL_GATHER_REPLAY`].
+pub fn glsl_variant(pass: Program, bvh: BvhMode, variant: Variant) -> (String, Vec<&'static str>) {
+    let mut prefix = glsl_prefix(pass, bvh);
+    match variant {
+        Variant::Plain => (prefix, glsl_sources(pass)),
+        Variant::Trace => (prefix, glsl_gather_trace_sources()),
+        Variant::Replay => {
+            prefix.push_str(GLSL_GATHER_REPLAY);
+            (prefix, glsl_sources(pass))
+        }
+    }
+}
+
 /// The GLSL files of `program` after the prefix: its libraries, then the pass file.
 pub fn glsl_sources(program: Program) -> Vec<&'static str> {
     let sig = program.signature();
@@ -350,6 +366,16 @@ pub fn wgsl_gather_trace_source(bvh: BvhMode, storage: BvhStorage) -> String {
     }
     s.push_str(include_str!("passes/gather/trace.wgsl"));
     s
+}
+
+/// The WGSL module of `variant` of `pass` for traversal `bvh`, the BVH read from `storage`:
+/// [`wgsl_source`], [`wgsl_gather_trace_source`] or [`wgsl_gather_replay_source`].
+pub fn wgsl_variant(pass: Program, bvh: BvhMode, storage: BvhStorage, variant: Variant) -> String {
+    match variant {
+        Variant::Plain => wgsl_source(pass, bvh, storage),
+        Variant::Trace => wgsl_gather_trace_source(bvh, storage),
+        Variant::Replay => wgsl_gather_replay_source(bvh, storage),
+    }
 }
 
 /// The complete WGSL module of `program` for traversal `bvh`, the BVH read from `storage`.

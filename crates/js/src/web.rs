@@ -341,11 +341,6 @@ fn is_input_error(e: &JsBakeError) -> bool {
     )
 }
 
-/// The GPU memory a worker's backend may keep for the gather hits of the rooms it bakes
-/// (`GlowBackend::keep_gather_hits`): 256 MiB. `chairs_05` at the browser check's 24 texels/m
-/// and the default preset keeps about a fifth of it.
-const ROOM_GATHER_HITS_BUDGET: u64 = 256 << 20;
-
 #[wasm_bindgen]
 impl Baker {
     /// Creates the context and checks it (WebGL2, `EXT_color_buffer_float`, WebGL2 limits).
@@ -684,7 +679,7 @@ impl Baker {
             // A room is baked again and again: its gather rays' hits are kept for the next
             // bake (a lamp swap reads them instead of tracing).
             backend
-                .keep_gather_hits(ROOM_GATHER_HITS_BUDGET)
+                .keep_gather_hits(luxbake_backend_glow::WEB_GATHER_HITS_BUDGET)
                 .map_err(|e| JsBakeError::Gpu(e.to_string()))?;
         }
         let limits = backend.limits();

@@ -3,15 +3,21 @@
 
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, Ray, TriangleAttributes, encode};
 
+use luxbake::kept::Variant;
 use luxbake::program::Library;
 use luxbake::scene::BvhMode;
-use luxbake::shader::glsl_library;
+use luxbake::shader::{glsl_library, glsl_variant};
 
-use super::{Pass, Variant, program_sources, variant_sources};
+use super::Pass;
 use crate::gl::TextureArray;
 use crate::scene::BvhTextures;
 use crate::testutil::{context_or_skip, render, with_gl};
 use luxbake_testkit::SplitMix64;
+
+/// The prefix and the files of `pass` compiled for traversal `bvh`.
+fn program_sources(pass: Pass, bvh: BvhMode) -> (String, Vec<&'static str>) {
+    glsl_variant(pass, bvh, Variant::Plain)
+}
 
 const TRACE_FS: &str = "uniform highp sampler2DArray u_rays;\n\
     uniform float u_tmax;\n\
@@ -381,8 +387,8 @@ fn every_pass_program_compiles_for_every_traversal() {
         for pass in Pass::ALL {
             for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
                 for &v in Variant::of(pass) {
-                    let (label, prefix, sources) = variant_sources(pass, t, v);
-                    let p = crate::gl::Program::new(gl, &label, &prefix, &sources)
+                    let (prefix, sources) = glsl_variant(pass, t, v);
+                    let p = crate::gl::Program::new(gl, &v.label(pass), &prefix, &sources)
                         .unwrap_or_else(|e| panic!("{e}"));
                     p.delete(gl);
                 }
@@ -438,13 +444,13 @@ fn every_program_validates_with_naga_for_every_traversal() {
     for pass in Pass::ALL {
         for t in [BvhMode::Mtbvh, BvhMode::Tbvh, BvhMode::None] {
             for &v in Variant::of(pass) {
-                let (label, prefix, sources) = variant_sources(pass, t, v);
+                let (prefix, sources) = glsl_variant(pass, t, v);
                 let glsl = std::iter::once(prefix.as_str())
                     .chain(sources)
                     .collect::<Vec<_>>()
                     .join("\n");
                 let source = as_vulkan_glsl(&glsl);
-                let label = format!("{label} {t:?}");
+                let label = format!("{} {t:?}", v.label(pass));
                 let mut frontend = naga::front::glsl::Frontend::default();
                 let options = naga::front::glsl::Options::from(naga::ShaderStage::Fragment);
                 let module = frontend.parse(&options, &source).unwrap_or_else(|e| {

@@ -102,10 +102,6 @@ pub struct Baker {
     room: Option<(Vec<Object>, Room)>,
 }
 
-/// The GPU memory the worker's backend may keep for gather hits (`GlowBackend::keep_gather_hits`):
-/// 256 MiB, as the JavaScript package's worker.
-const ROOM_GATHER_HITS_BUDGET: u64 = 256 << 20;
-
 fn new_context() -> Result<(OffscreenCanvas, GlContext), JsError> {
     let canvas = OffscreenCanvas::new(1, 1)
         .map_err(|e| js_err(format!("OffscreenCanvas unavailable: {e:?}")))?;
@@ -185,7 +181,7 @@ impl Baker {
                 let ctx = GlContext::from_offscreen_canvas(&self.canvas).map_err(js_err)?;
                 let mut backend = GlowBackend::new(ctx).map_err(js_err)?;
                 backend
-                    .keep_gather_hits(ROOM_GATHER_HITS_BUDGET)
+                    .keep_gather_hits(luxbake_backend_glow::WEB_GATHER_HITS_BUDGET)
                     .map_err(js_err)?;
                 backend
             }
