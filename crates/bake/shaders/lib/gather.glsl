@@ -112,9 +112,9 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
         vec3 dir = luxCosineDirection(n, luxSample2(samplerId, texel, s, bounce, seed));
         vec3 hit;
 #ifdef LUX_REPLAY
-        // The glow backend's kept hits (luxbake-backend-glow, `hits`): the hit this ray had
-        // when its trace pass cast it, (t, triangle, u, v), from layer `s - firstRay` of
-        // u_hits at the texel's place in the tile (u_hit_origin its first texel).
+        // Kept hits (luxbake::kept): the hit this ray had when its trace pass cast it,
+        // (t, triangle, u, v), from layer `s - firstRay` of u_hits at the texel's place in the
+        // tile (u_hit_origin its first texel).
         vec4 kept = texelFetch(u_hits, ivec3(ivec2(gl_FragCoord.xy) - u_hit_origin,
                                              int(s - firstRay)), 0);
         int tri = int(kept.y);

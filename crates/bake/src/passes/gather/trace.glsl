@@ -1,4 +1,4 @@
-// The glow backend's trace pass for kept gather hits (luxbake-backend-glow, `hits`): rays
+// The glow backend's trace pass for kept gather hits (luxbake::kept): rays
 // u_first_ray .. u_first_ray + u_hit_rays (at most four) of each texel's gather sequence —
 // gather.glsl's prologue and lib/gather.glsl's rays, operation for operation — cast and their
 // closest hits written at the texel's place in the tile (u_hit_origin the tile's first texel),
