@@ -227,28 +227,66 @@ struct LampCells {
     /// Luminance of the lamp's scale.
     lum: f64,
     width: u32,
-    height: u32,
     /// Per cell `(row j, column i)`, `j < height − 1`: the corner maximum, candela.
     max: Vec<f64>,
+    /// `cos γ` of the rows' edges, `γ = π·j/(height − 1)` for `j = 0 ..= height − 1`
+    /// (falling).
+    cos_edges: Vec<f64>,
+    /// [`pseudo_angle`] of the columns' inner edges, `C = 2π·i/width` for `i = 1 .. width`
+    /// (rising).
+    c_edges: Vec<f64>,
+}
+
+/// A measure of the azimuth `atan2(y, x)` taken into `[0, 2π)` that rises with it, in
+/// `[0, 4)`, from one division: `1 − x/(|x| + |y|)` for `y ≥ 0`, `3 + x/(|x| + |y|)` below
+/// (0 for the zero vector, whose azimuth is 0).
+fn pseudo_angle(x: f64, y: f64) -> f64 {
+    let s = x.abs() + y.abs();
+    if !(s > 0.0) {
+        return 0.0;
+    }
+    let a = x / s;
+    if y >= 0.0 { 1.0 - a } else { 3.0 + a }
 }
 
 impl LampCells {
+    fn new(rows: [[f64; 3]; 3], lum: f64, width: u32, height: u32, max: Vec<f64>) -> LampCells {
+        let (width, height) = (width.max(1), height.max(2));
+        let r = f64::from(height - 1);
+        let w = f64::from(width);
+        LampCells {
+            rows,
+            lum,
+            width,
+            max,
+            cos_edges: (0..height)
+                .map(|j| (std::f64::consts::PI * f64::from(j) / r).cos())
+                .collect(),
+            c_edges: (1..width)
+                .map(|i| {
+                    let c = std::f64::consts::TAU * f64::from(i) / w;
+                    pseudo_angle(c.cos(), c.sin())
+                })
+                .collect(),
+        }
+    }
+
+    /// The cell of photometric direction `photometric` (any length): the rows' and columns'
+    /// edges it lies past, counted by bisection, in place of `⌊γ/π·(height − 1)⌋` and
+    /// `⌊C/2π·width⌋` (the same cell but for directions within rounding of an edge), so that
+    /// no inverse trigonometric function runs per look-up.
     fn cell_of(&self, photometric: [f64; 3]) -> Option<usize> {
         let [x, y, z] = photometric;
         let len = (x * x + y * y + z * z).sqrt();
         if !(len > 0.0 && len.is_finite()) {
             return None;
         }
-        let gamma = (-z / len).clamp(-1.0, 1.0).acos();
-        let mut c = y.atan2(x);
-        if c < 0.0 {
-            c += std::f64::consts::TAU;
-        }
-        let rows = self.height - 1;
-        let j = ((gamma / std::f64::consts::PI * f64::from(rows)).floor() as u32).min(rows - 1);
-        let i = ((c / std::f64::consts::TAU * f64::from(self.width)).floor() as u32)
-            .min(self.width - 1);
-        Some(j as usize * self.width as usize + i as usize)
+        let cos_gamma = (-z / len).clamp(-1.0, 1.0);
+        let inner = &self.cos_edges[1..self.cos_edges.len() - 1];
+        let j = inner.partition_point(|&e| cos_gamma <= e);
+        let c = pseudo_angle(x, y);
+        let i = self.c_edges.partition_point(|&e| e <= c);
+        Some(j * self.width as usize + i)
     }
 }
 
@@ -279,13 +317,8 @@ impl Emitter {
             let (width, height) = (t.width, t.height);
             let lum = f64::from(luminance(l.scale));
             if width == 0 || height < 2 || !(lum > 0.0 && lum.is_finite()) {
-                out.lamps.push(LampCells {
-                    rows: [[0.0; 3]; 3],
-                    lum: 0.0,
-                    width: width.max(1),
-                    height: height.max(2),
-                    max: Vec::new(),
-                });
+                out.lamps
+                    .push(LampCells::new([[0.0; 3]; 3], 0.0, 1, 2, Vec::new()));
                 continue;
             }
             let at = |j: u32, i: u32| {
@@ -317,13 +350,13 @@ impl Emitter {
                     }
                 }
             }
-            out.lamps.push(LampCells {
-                rows: l.world_to_photometric.map(|r| r.map(f64::from)),
+            out.lamps.push(LampCells::new(
+                l.world_to_photometric.map(|r| r.map(f64::from)),
                 lum,
                 width,
                 height,
                 max,
-            });
+            ));
         }
         out
     }
@@ -343,11 +376,7 @@ impl Emitter {
         let (li, cell) = self.cells[k];
         let lamp = &self.lamps[li as usize];
         let (j, col) = (cell / lamp.width, cell % lamp.width);
-        let rows = f64::from(lamp.height - 1);
-        let (c0, c1) = (
-            (std::f64::consts::PI * f64::from(j) / rows).cos(),
-            (std::f64::consts::PI * f64::from(j + 1) / rows).cos(),
-        );
+        let (c0, c1) = (lamp.cos_edges[j as usize], lamp.cos_edges[j as usize + 1]);
         let cos_g = c0 + f64::from(h0) * (c1 - c0);
         let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
         let c = std::f64::consts::TAU * (f64::from(col) + f64::from(u1)) / f64::from(lamp.width);
@@ -455,119 +484,132 @@ impl LampPaths {
             return LampPaths::default();
         }
         let proxies: Vec<DensityProxy> = tables.iter().map(DensityProxy::new).collect();
-        let mut found: Vec<Option<LampPath>> = Vec::with_capacity(pool as usize);
-        let part = pool.div_ceil(POOL_REPORTS).max(1);
-        let mut start = 0;
-        while start < pool {
-            let end = start.saturating_add(part).min(pool);
-            found.par_extend((start..end).into_par_iter().map(|i| {
-                let (li, w) = emitter.sample(i, seed)?;
-                let lamp = &lamps[li];
-                let dir = w.map(|c| c as f32);
-                // A lamp with an opening emits from a point of it ([`crate::opening`]).
-                let origin = match lamp.opening {
-                    Some(o) => {
-                        let [h0, h1] = opening::shift(i, li as u32, seed);
-                        let u = [h0, h1, rng::pcg(h1)].map(rng::unit_f32);
-                        opening_point(lamp, &o, |o| opening::sample(o, u))?.0
-                    }
-                    None => lamp.position,
-                };
-                let ray = Ray { origin, dir };
-                let hit = g.wide.closest_hit(&ray, 0.0, f32::INFINITY)?;
-                let attr = g.encoded.triangle_attributes(hit.triangle);
-                let region = (*g.regions.get(attr.object as usize)?)?;
-                let w0 = 1.0 - hit.u - hit.v;
-                let n = normalize([0, 1, 2].map(|c| {
-                    w0 * attr.normals[0][c]
-                        + hit.u * attr.normals[1][c]
-                        + hit.v * attr.normals[2][c]
-                }))?;
-                if !(dot(n, dir) < 0.0) {
-                    return None;
+        // One ray of the pool: the point it lights, if any.
+        let trace_one = |i: u32| -> Option<LampPath> {
+            let (li, w) = emitter.sample(i, seed)?;
+            let lamp = &lamps[li];
+            let dir = w.map(|c| c as f32);
+            // A lamp with an opening emits from a point of it ([`crate::opening`]).
+            let origin = match lamp.opening {
+                Some(o) => {
+                    let [h0, h1] = opening::shift(i, li as u32, seed);
+                    let u = [h0, h1, rng::pcg(h1)].map(rng::unit_f32);
+                    opening_point(lamp, &o, |o| opening::sample(o, u))?.0
                 }
-                let y = [0, 1, 2].map(|c| (f64::from(origin[c]) + f64::from(hit.t) * w[c]) as f32);
-                let uv = [0, 1]
-                    .map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
-                let gb = g.gbuffer;
-                let albedo = sample_masked(
-                    |x, yy| {
-                        let k = gb.index(region.layer, x, yy);
-                        let a = &gb.albedo[k..k + 4];
-                        [a[0], a[1], a[2], gb.position[k + 3]]
-                    },
-                    region.offset,
-                    region.size,
-                    uv,
-                );
-                if albedo.iter().all(|&a| !(a > 0.0)) {
-                    return None;
-                }
-                // E_direct and the pool's density at y, over every lamp that sees it.
-                let mut e = [0.0f64; 3];
-                let mut p = 0.0f64;
-                let o = offset_origin(y, n, g.eps);
-                for (lj, l) in lamps.iter().enumerate() {
-                    let to = sub(l.position, y);
-                    let dist = dot(to, to).sqrt();
-                    if let Some(o) = l.opening.filter(|o| dist < o.near) {
-                        let shift = opening::shift(i, lj as u32, seed ^ EMIT_PASS);
-                        let samples = pool_samples(&o, dist);
-                        let (el, pl) =
-                            from_opening(g, &emitter, (lj, l, &o), tables, (y, n), samples, shift);
-                        for (ec, sc) in e.iter_mut().zip(l.scale) {
-                            *ec += f64::from(sc) * el;
-                        }
-                        p += pl;
-                        continue;
-                    }
-                    let to = [0, 1, 2].map(|c| f64::from(l.position[c]) - f64::from(y[c]));
-                    let d2 = to.iter().map(|c| c * c).sum::<f64>();
-                    let d = d2.sqrt();
-                    if !(d > 0.0 && d.is_finite()) {
-                        continue;
-                    }
-                    let wl = to.map(|c| c / d);
-                    let cos =
-                        f64::from(n[0]) * wl[0] + f64::from(n[1]) * wl[1] + f64::from(n[2]) * wl[2];
-                    if !(cos > 0.0) {
-                        continue;
-                    }
-                    // The pool ray left lamp `li`'s centre, which therefore sees `y` — unless it
-                    // left a point of the lamp's opening.
-                    if (lj != li || l.opening.is_some()) && !g.sees(o, l.position) {
-                        continue;
-                    }
-                    let back = wl.map(|c| (-c) as f32);
-                    let m = &l.world_to_photometric;
-                    let photometric = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
-                    let intensity = tables
-                        .get(l.table as usize)
-                        .map_or(0.0, |t| f64::from(t.sample(photometric)));
-                    let k = cos / d2;
+                None => lamp.position,
+            };
+            let ray = Ray { origin, dir };
+            let hit = g.wide.closest_hit(&ray, 0.0, f32::INFINITY)?;
+            let attr = g.encoded.triangle_attributes(hit.triangle);
+            let region = (*g.regions.get(attr.object as usize)?)?;
+            let w0 = 1.0 - hit.u - hit.v;
+            let n = normalize([0, 1, 2].map(|c| {
+                w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]
+            }))?;
+            if !(dot(n, dir) < 0.0) {
+                return None;
+            }
+            let y = [0, 1, 2].map(|c| (f64::from(origin[c]) + f64::from(hit.t) * w[c]) as f32);
+            let uv = [0, 1]
+                .map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
+            let gb = g.gbuffer;
+            let albedo = sample_masked(
+                |x, yy| {
+                    let k = gb.index(region.layer, x, yy);
+                    let a = &gb.albedo[k..k + 4];
+                    [a[0], a[1], a[2], gb.position[k + 3]]
+                },
+                region.offset,
+                region.size,
+                uv,
+            );
+            if albedo.iter().all(|&a| !(a > 0.0)) {
+                return None;
+            }
+            // E_direct and the pool's density at y, over every lamp that sees it.
+            let mut e = [0.0f64; 3];
+            let mut p = 0.0f64;
+            let o = offset_origin(y, n, g.eps);
+            for (lj, l) in lamps.iter().enumerate() {
+                let to = sub(l.position, y);
+                let dist = dot(to, to).sqrt();
+                if let Some(o) = l.opening.filter(|o| dist < o.near) {
+                    let shift = opening::shift(i, lj as u32, seed ^ EMIT_PASS);
+                    let samples = pool_samples(&o, dist);
+                    let (el, pl) =
+                        from_opening(g, &emitter, (lj, l, &o), tables, (y, n), samples, shift);
                     for (ec, sc) in e.iter_mut().zip(l.scale) {
-                        *ec += f64::from(sc) * intensity * k;
+                        *ec += f64::from(sc) * el;
                     }
-                    p += emitter.density(lj, wl.map(|c| -c)) * k;
+                    p += pl;
+                    continue;
                 }
-                if !(p > 0.0 && p.is_finite()) {
-                    return None;
+                let to = [0, 1, 2].map(|c| f64::from(l.position[c]) - f64::from(y[c]));
+                let d2 = to.iter().map(|c| c * c).sum::<f64>();
+                let d = d2.sqrt();
+                if !(d > 0.0 && d.is_finite()) {
+                    continue;
                 }
-                let power: [f32; 3] = [0, 1, 2].map(|c| (f64::from(albedo[c]) * e[c] / p) as f32);
-                if !power.iter().all(|v| v.is_finite()) || power.iter().all(|&v| !(v > 0.0)) {
-                    return None;
+                let wl = to.map(|c| c / d);
+                let cos =
+                    f64::from(n[0]) * wl[0] + f64::from(n[1]) * wl[1] + f64::from(n[2]) * wl[2];
+                if !(cos > 0.0) {
+                    continue;
                 }
-                Some(LampPath {
-                    position: y,
-                    normal: n,
-                    power,
-                    density: density(lamps, &proxies, y, n),
-                })
-            }));
-            start = end;
-            report(end as f32 / pool as f32);
+                // The pool ray left lamp `li`'s centre, which therefore sees `y` — unless it
+                // left a point of the lamp's opening.
+                if (lj != li || l.opening.is_some()) && !g.sees(o, l.position) {
+                    continue;
+                }
+                let back = wl.map(|c| (-c) as f32);
+                let m = &l.world_to_photometric;
+                let photometric = [dot(m[0], back), dot(m[1], back), dot(m[2], back)];
+                let intensity = tables
+                    .get(l.table as usize)
+                    .map_or(0.0, |t| f64::from(t.sample(photometric)));
+                let k = cos / d2;
+                for (ec, sc) in e.iter_mut().zip(l.scale) {
+                    *ec += f64::from(sc) * intensity * k;
+                }
+                p += emitter.density(lj, wl.map(|c| -c)) * k;
+            }
+            if !(p > 0.0 && p.is_finite()) {
+                return None;
+            }
+            let power: [f32; 3] = [0, 1, 2].map(|c| (f64::from(albedo[c]) * e[c] / p) as f32);
+            if !power.iter().all(|v| v.is_finite()) || power.iter().all(|&v| !(v > 0.0)) {
+                return None;
+            }
+            Some(LampPath {
+                position: y,
+                normal: n,
+                power,
+                density: density(lamps, &proxies, y, n),
+            })
+        };
+        // The rays in the order of their emission cells (the Sobol draw that picks the cell
+        // rises with it): neighbouring rays leave in neighbouring directions, so they walk the
+        // same BVH nodes and read the same cells of the emission and intensity tables while
+        // those are in the caches. Each ray's result goes to its own index: the pool is the
+        // same in any order.
+        let mut order: Vec<(f32, u32)> = (0..pool)
+            .map(|i| (rng::sobol2(0, i, EMIT_PASS, seed)[0], i))
+            .collect();
+        order.sort_unstable_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        let mut found: Vec<Option<LampPath>> = vec![None; pool as usize];
+        let part = pool.div_ceil(POOL_REPORTS).max(1) as usize;
+        let mut done = 0usize;
+        for rays in order.chunks(part) {
+            let traced: Vec<(u32, Option<LampPath>)> =
+                rays.par_iter().map(|&(_, i)| (i, trace_one(i))).collect();
+            for (i, path) in traced {
+                found[i as usize] = path;
+            }
+            done += rays.len();
+            report(done as f32 / pool as f32);
         }
         let paths: Vec<LampPath> = found.into_iter().flatten().collect();
+
         if paths.is_empty() {
             return LampPaths::default();
         }
@@ -921,5 +963,65 @@ mod tests {
         }
         // Most of the bound lies within 45° of nadir.
         assert!(down > 2000, "{down}");
+    }
+
+    #[test]
+    fn a_cell_found_by_its_edges_is_the_cell_of_its_angles() {
+        // `⌊γ/π·rows⌋` and `⌊C/2π·width⌋` from acos and atan2, as the cells were found
+        // before the bisection.
+        let by_angles = |cells: &LampCells, rows: u32, [x, y, z]: [f64; 3]| {
+            let len = (x * x + y * y + z * z).sqrt();
+            let gamma = (-z / len).clamp(-1.0, 1.0).acos();
+            let mut c = y.atan2(x);
+            if c < 0.0 {
+                c += std::f64::consts::TAU;
+            }
+            let gf = gamma / std::f64::consts::PI * f64::from(rows);
+            let cf = c / std::f64::consts::TAU * f64::from(cells.width);
+            // Within rounding of an edge either side may be found.
+            let near = |f: f64| (f - f.round()).abs() < 1e-9;
+            let j = (gf.floor() as u32).min(rows - 1) as usize;
+            let i = (cf.floor() as u32).min(cells.width - 1) as usize;
+            (j * cells.width as usize + i, near(gf) || near(cf))
+        };
+        for (width, height) in [(1u32, 2u32), (4, 3), (72, 37), (360, 181)] {
+            let rows = height - 1;
+            let cells = LampCells::new(
+                [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                1.0,
+                width,
+                height,
+                vec![1.0; (rows * width) as usize],
+            );
+            let mut checked = 0;
+            // Poles, the azimuth's seam (C = 0 from both sides, −0), then scattered
+            // directions.
+            let mut dirs = vec![
+                [0.0, 0.0, -1.0],
+                [0.0, 0.0, 1.0],
+                [1.0, 0.0, 0.3],
+                [1.0, -0.0, 0.3],
+                [1.0, -1e-12, 0.3],
+                [-1.0, 0.0, 0.0],
+                [-1.0, -1e-12, 0.0],
+                [0.0, -1.0, 0.5],
+            ];
+            for k in 0..20_000u32 {
+                let [a, b] = rng::uniform2(k, 0, 7, width);
+                let [c, _] = rng::uniform2(k, 1, 7, width);
+                dirs.push([f64::from(a) - 0.5, f64::from(b) - 0.5, f64::from(c) - 0.5]);
+            }
+            for d in dirs {
+                let (want, edge) = by_angles(&cells, rows, d);
+                let got = cells.cell_of(d).expect("a direction");
+                assert!(got < (rows * width) as usize, "{d:?}: cell {got}");
+                if !edge {
+                    assert_eq!(got, want, "{width} × {height}: {d:?}");
+                    checked += 1;
+                }
+            }
+            assert!(checked > 19_000, "{checked}");
+            assert_eq!(cells.cell_of([0.0; 3]), None);
+        }
     }
 }
