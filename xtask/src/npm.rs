@@ -920,7 +920,8 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          const gpu = (r) => r.report.passes.reduce((a, p) => a + p.seconds, 0); \
          const setup = (r) => r.timings.setup.reduce((a, p) => a + p.seconds, 0); \
          const byPass = (r) => r.report.passes.reduce((m, p) => (m[p.label] = (m[p.label] || 0) + p.seconds, m), {{}}); \
-         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared, byPass: byPass(r)}}); \
+         const bySetup = (r) => r.timings.setup.reduce((m, p) => (m[p.step] = (m[p.step] || 0) + p.seconds, m), {{}}); \
+         const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared, byPass: byPass(r), bySetup: bySetup(r)}}); \
          done({{load: (t1 - t0) / 1000, loadWorker: room.seconds, first: {{...times(first), wall: (t2 - t1) / 1000}}, \
            swap: {{...times(swap), wall: (t3 - t2) / 1000}}, fresh: {{...times(fresh), wall: (t4 - t3) / 1000}}, direct: directAt === null ? null : (directAt - t2) / 1000, \
            directStage: direct?.stage, texels: room.texels, regionTexels: swap.report.regionTexels, asFresh}});",
@@ -1004,6 +1005,13 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "GPU seconds per pass: first bake {}; swap {}",
         by_pass(first),
         by_pass(swap)
+    );
+    // The host's steps (the worker's own CPU, between the passes), the same way.
+    let by_step = |b: &Value| by_pass(&json!({ "byPass": b["bySetup"] }));
+    println!(
+        "host seconds per step: first bake {}; swap {}",
+        by_step(first),
+        by_step(swap)
     );
     println!(
         "first bake: {}; swap: {}; a fresh bake with the swap's lamp {:.2} s ({}): the swap takes {:.2} of it, \
@@ -1189,6 +1197,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "swap_worker_s": swap["bake"], "swap_gpu_s": swap["gpu"],
         "swap_phases_over_bake": f(&swap["phases"]) / f(&swap["bake"]),
         "first_gpu_s_per_pass": first["byPass"], "swap_gpu_s_per_pass": swap["byPass"],
+        "first_host_s_per_step": first["bySetup"], "swap_host_s_per_step": swap["bySetup"],
         "layered_bake_s": l["layered"], "set_lamp_ms": set_lamp_ms,
         "set_lamp_frame_ms": l["setLampFrameMs"], "bytes_per_lamp": l["bytesPerLamp"],
         "check_s": started.elapsed().as_secs_f64(),
