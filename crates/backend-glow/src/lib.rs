@@ -70,7 +70,7 @@
 //! `(t, triangle, u, v)` to a texture of the tile's size, and the gather compiled with
 //! `LUX_REPLAY` reads them instead of traversing the BVH; a later bake of the same room reads the
 //! kept textures and casts no gather ray. The maps are the same bit for bit
-//! (`tests/gather_hits.rs`); 16 bytes per tile texel and ray ([`HIT_BYTES`]). The rules of
+//! (the workspace harness's `tests/tests/gather_hits.rs`); 16 bytes per tile texel and ray ([`HIT_BYTES`]). The rules of
 //! what may be read back are `luxbake::kept`'s.
 //!
 //! ## Traversal

@@ -18,8 +18,8 @@
 //! A later bake of the same room whose dispatch has the same [`HitKey`] runs only the second.
 //! The hit is the one the traversal returned, stored as 32-bit floats without rounding (a
 //! triangle index is exact in f32 below 2²⁴), and both programs compute the ray with the
-//! gather's operations, so the maps equal a bake that traces (the backends'
-//! `tests/gather_hits.rs`). [`KeptHits`] is the bookkeeping every GPU backend shares: the keys,
+//! gather's operations, so the maps equal a bake that traces (`tests/tests/gather_hits.rs` in
+//! the workspace's harness). [`KeptHits`] is the bookkeeping every GPU backend shares: the keys,
 //! the budget, which rooms still exist; the storage `T` is the backend's.
 //!
 //! # What makes a dispatch's hits valid
