@@ -249,19 +249,32 @@ fn pseudo_angle(x: f64, y: f64) -> f64 {
     if y >= 0.0 { 1.0 - a } else { 3.0 + a }
 }
 
+/// `cos γ` of a table's row edges, `γ = π·j/(height − 1)` for `j = 0 ..= height − 1`
+/// (`height ≥ 2`).
+fn row_cosines(height: u32) -> Vec<f64> {
+    let r = f64::from(height - 1);
+    (0..height)
+        .map(|j| (std::f64::consts::PI * f64::from(j) / r).cos())
+        .collect()
+}
+
 impl LampCells {
-    fn new(rows: [[f64; 3]; 3], lum: f64, width: u32, height: u32, max: Vec<f64>) -> LampCells {
-        let (width, height) = (width.max(1), height.max(2));
-        let r = f64::from(height - 1);
+    /// `cos_edges`: [`row_cosines`] of the table's height.
+    fn new(
+        rows: [[f64; 3]; 3],
+        lum: f64,
+        width: u32,
+        cos_edges: Vec<f64>,
+        max: Vec<f64>,
+    ) -> LampCells {
+        let width = width.max(1);
         let w = f64::from(width);
         LampCells {
             rows,
             lum,
             width,
             max,
-            cos_edges: (0..height)
-                .map(|j| (std::f64::consts::PI * f64::from(j) / r).cos())
-                .collect(),
+            cos_edges,
             c_edges: (1..width)
                 .map(|i| {
                     let c = std::f64::consts::TAU * f64::from(i) / w;
@@ -317,8 +330,13 @@ impl Emitter {
             let (width, height) = (t.width, t.height);
             let lum = f64::from(luminance(l.scale));
             if width == 0 || height < 2 || !(lum > 0.0 && lum.is_finite()) {
-                out.lamps
-                    .push(LampCells::new([[0.0; 3]; 3], 0.0, 1, 2, Vec::new()));
+                out.lamps.push(LampCells::new(
+                    [[0.0; 3]; 3],
+                    0.0,
+                    1,
+                    row_cosines(2),
+                    Vec::new(),
+                ));
                 continue;
             }
             let at = |j: u32, i: u32| {
@@ -329,13 +347,11 @@ impl Emitter {
                         .unwrap_or(0.0),
                 )
             };
+            let cos_edges = row_cosines(height);
             let mut max = Vec::with_capacity((height as usize - 1) * width as usize);
             for j in 0..height - 1 {
-                let (g0, g1) = (
-                    std::f64::consts::PI * f64::from(j) / f64::from(height - 1),
-                    std::f64::consts::PI * f64::from(j + 1) / f64::from(height - 1),
-                );
-                let omega = (g0.cos() - g1.cos()) * std::f64::consts::TAU / f64::from(width);
+                let (c0, c1) = (cos_edges[j as usize], cos_edges[j as usize + 1]);
+                let omega = (c0 - c1) * std::f64::consts::TAU / f64::from(width);
                 for i in 0..width {
                     let m = [at(j, i), at(j, i + 1), at(j + 1, i), at(j + 1, i + 1)]
                         .into_iter()
@@ -354,7 +370,7 @@ impl Emitter {
                 l.world_to_photometric.map(|r| r.map(f64::from)),
                 lum,
                 width,
-                height,
+                cos_edges,
                 max,
             ));
         }
@@ -990,7 +1006,7 @@ mod tests {
                 [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
                 1.0,
                 width,
-                height,
+                row_cosines(height),
                 vec![1.0; (rows * width) as usize],
             );
             let mut checked = 0;
