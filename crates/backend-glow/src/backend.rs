@@ -155,6 +155,12 @@ impl GlowBackend {
         self.ctx.capabilities()
     }
 
+    fn scene(&self, scene: &GlowScene) -> Result<&GpuScene> {
+        self.scenes
+            .get(scene.0)
+            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {scene:?}")))
+    }
+
     fn texture(&self, tex: &GlowTexture) -> Result<&(String, TextureArray)> {
         self.textures
             .get(tex.0)
@@ -223,10 +229,7 @@ impl GlowBackend {
         finish: bool,
     ) -> Result<()> {
         let (label, sig) = (call.label, call.program.signature());
-        let gpu_scene = self
-            .scenes
-            .get(call.scene.0)
-            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let gpu_scene = self.scene(call.scene)?;
         let gl = self.ctx.gl()?;
         let mut samplers: Vec<(String, &TextureArray)> = sig
             .reads
@@ -386,10 +389,7 @@ impl GpuBackend for GlowBackend {
     fn dispatch(&mut self, call: &Dispatch<'_, GlowTexture, GlowScene>) -> Result<()> {
         let label = call.label;
         let trav = program_traversal(call.program, call.bvh);
-        let gpu_scene = self
-            .scenes
-            .get(call.scene.0)
-            .ok_or_else(|| GlowError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let gpu_scene = self.scene(call.scene)?;
         let size = |t: &TextureArray| ([t.width, t.height], t.layers);
         let sizes = call
             .reads

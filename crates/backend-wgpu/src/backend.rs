@@ -320,6 +320,12 @@ impl WgpuBackend {
         &self.options
     }
 
+    fn scene(&self, scene: &WgpuScene) -> Result<&GpuScene> {
+        self.scenes
+            .get(scene.0)
+            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {scene:?}")))
+    }
+
     fn texture(&self, tex: &WgpuTexture) -> Result<&Texture> {
         self.textures
             .get(tex.0)
@@ -382,10 +388,7 @@ impl WgpuBackend {
         hits: Option<&wgpu::Buffer>,
     ) -> Result<()> {
         let label = call.label;
-        let gpu_scene = self
-            .scenes
-            .get(call.scene.0)
-            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let gpu_scene = self.scene(call.scene)?;
         let out = self.texture(call.write)?;
         let inputs = call
             .reads
@@ -649,10 +652,7 @@ impl GpuBackend for WgpuBackend {
     fn dispatch(&mut self, call: &Dispatch<'_, WgpuTexture, WgpuScene>) -> Result<()> {
         let label = call.label;
         let traversal = program_traversal(call.program, call.bvh);
-        let gpu_scene = self
-            .scenes
-            .get(call.scene.0)
-            .ok_or_else(|| WgpuError::InvalidInput(format!("unknown scene {:?}", call.scene)))?;
+        let gpu_scene = self.scene(call.scene)?;
         let out = self.texture(call.write)?;
         let sizes = call
             .reads
