@@ -124,8 +124,10 @@ mod tests {
     }
 
     /// Per (case, texel): the hash, both uniforms of the hash sampler, the Sobol sampler's
-    /// bits, and both samplers' uniforms through `lux_sample2` with their generated ids (as
-    /// bits), 10 words.
+    /// bits, both samplers' uniforms through `lux_sample2` with their generated ids (as
+    /// bits), then the streams (`rng::Stream`): the Sobol sampler's gather (stride `pass - 1`,
+    /// `sample` rays) and refinement (`seed` rays, then `sample` more), and the hash
+    /// sampler's gather: 16 words.
     const RNG_CS: &str = "@group(0) @binding(0) var<storage, read> cases: array<vec4<u32>>;
 @group(0) @binding(1) var<storage, read_write> words: array<u32>;
 @compute @workgroup_size(64)
@@ -140,7 +142,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     let b = lux_sobol2_bits(t, c.x, c.y, c.z);
     let sh = lux_sample2(LUX_SAMPLER_HASH, t, c.x, c.y, c.z);
     let ss = lux_sample2(LUX_SAMPLER_SOBOL, t, c.x, c.y, c.z);
-    let o = 10u * (gid.y * size.x * size.y + gid.x);
+    let o = 16u * (gid.y * size.x * size.y + gid.x);
     words[o] = lux_hash(t, c.x, c.y, c.z);
     words[o + 1u] = bitcast<u32>(h.x);
     words[o + 2u] = bitcast<u32>(h.y);
@@ -151,6 +153,17 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     words[o + 7u] = bitcast<u32>(sh.y);
     words[o + 8u] = bitcast<u32>(ss.x);
     words[o + 9u] = bitcast<u32>(ss.y);
+    let x = gid.x % size.x;
+    let y = gid.x / size.x;
+    let g = lux_gather_stream(LUX_SAMPLER_SOBOL, size, c.w, x, y, c.y - 1u, c.x);
+    let r = lux_refine_stream(LUX_SAMPLER_SOBOL, size, c.w, x, y, c.z, c.x);
+    let gh = lux_gather_stream(LUX_SAMPLER_HASH, size, c.w, x, y, c.y - 1u, c.x);
+    words[o + 10u] = g.x;
+    words[o + 11u] = g.y;
+    words[o + 12u] = r.x;
+    words[o + 13u] = r.y;
+    words[o + 14u] = gh.x;
+    words[o + 15u] = gh.y;
 }
 ";
 
@@ -172,7 +185,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
             "debug rng",
             &source,
             &[&input],
-            10 * u64::from(texels) * cases.len() as u64,
+            16 * u64::from(texels) * cases.len() as u64,
             [texels.div_ceil(64), cases.len() as u32],
         )
     }
@@ -366,7 +379,7 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     #[test]
     fn rng_is_bit_exact() {
-        use luxbake::rng::{Draw, hash, sobol2, sobol2_bits, texel_index, uniform2};
+        use luxbake::rng::{Draw, Stream, hash, sobol2, sobol2_bits, texel_index, uniform2};
         // Skipped (outside CI) only without an adapter: a driver that fails to open fails.
         let Some(gpu) = luxbake_testkit::or_skip(
             "rng_is_bit_exact",
@@ -392,6 +405,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                     let [b0, b1] = sobol2_bits(t, sample, pass, seed);
                     let [sh0, sh1] = Sampler::Hash.uniform2(t, sample, pass, seed);
                     let [ss0, ss1] = Sampler::Sobol.uniform2(t, sample, pass, seed);
+                    let at = [layer, x, y];
+                    let g = Stream::gather(Sampler::Sobol, size, at, pass - 1, sample);
+                    let r = Stream::refine(Sampler::Sobol, size, at, seed, sample);
+                    let gh = Stream::gather(Sampler::Hash, size, at, pass - 1, sample);
                     let expected = [
                         hash(t, sample, pass, seed),
                         h0.to_bits(),
@@ -403,10 +420,16 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                         sh1.to_bits(),
                         ss0.to_bits(),
                         ss1.to_bits(),
+                        g.key,
+                        g.first,
+                        r.key,
+                        r.first,
+                        gh.key,
+                        gh.first,
                     ];
-                    let o = 10 * (k * texels as usize + (y * size[0] + x) as usize);
+                    let o = 16 * (k * texels as usize + (y * size[0] + x) as usize);
                     assert_eq!(
-                        words[o..o + 10],
+                        words[o..o + 16],
                         expected,
                         "texel ({x}, {y}), case {:?}",
                         cases[k]

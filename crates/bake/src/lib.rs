@@ -129,8 +129,9 @@
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face
 //!   hits (the ray meets the side the shading normal points away from), misses and hits on
 //!   non-receivers contribute 0. The directions come from the stateless random numbers of
-//!   [`rng`]: the paper's independent hash per ray, or a per-texel scrambled Sobol sequence
-//!   whose error falls faster with N ([`scene::Settings::sampler`]). The converged method's
+//!   [`rng`]: the paper's independent hash per ray, or a scrambled Sobol sequence whose error
+//!   falls faster with N, shared by blocks of 2 × 2 texels whose directions it stratifies
+//!   against one another ([`scene::Settings::sampler`], [`rng::Stream`]). The converged method's
 //!   first bounce also connects each texel to points lit by the lamps and weights both
 //!   estimates by multiple importance sampling ([`lightpaths`], [`scene::Settings::lamp_paths`]).
 //! - **Bounces**: `ind_k = gather(ρ × blur(direct + ind_{k−1}))`, `ind_0 = 0`, and

@@ -186,6 +186,7 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
         let name = sampler.name().to_ascii_uppercase();
         c.push(uint(format!("LUX_SAMPLER_{name}"), sampler.id()));
     }
+    c.push(uint("LUX_SOBOL_BLOCK".into(), crate::rng::SOBOL_BLOCK));
     c.push(uint(
         "LUX_CONNECT_PASS".into(),
         crate::lightpaths::CONNECT_PASS,

@@ -13,7 +13,8 @@
 //! inputs by the gather's documented rule (`luxbake::cpu` module docs): per tile, row by row,
 //! for each texel whose G-buffer position is valid and whose normal `n` normalises to `n̂`,
 //! origin `offset_origin(p, n̂, ray_epsilon)` and directions `cosine_direction(n̂,
-//! sampler.uniform2(texel_index, s, bounce, seed))`, `s = 0 .. rays`. It checks them: the gather
+//! sampler.uniform2(key, first + s, bounce, seed))`, `s = 0 .. rays`, with the texel's
+//! `rng::Stream` (`key`, `first`). It checks them: the gather
 //! recomputed from their closest hits (`WideBvh::closest_hit`, `map::sample_masked` of the
 //! reflected map) must equal every texel the dispatch wrote, bit for bit. Then, in each round,
 //! those rays alone are traced with `WideBvh::closest_hit` in the same order on one thread: the
@@ -29,7 +30,7 @@ use luxbake::graph::TexDesc;
 use luxbake::layout::Region;
 use luxbake::map::sample_masked;
 use luxbake::program::{GatherParams, Params};
-use luxbake::rng::{Draw, Sampler, texel_index};
+use luxbake::rng::{Draw, Sampler, Stream};
 use luxbake::scene::{BvhMode, Scene, Settings};
 use luxbake::{GpuBackend, Limits};
 use luxbake_backend_cpu::{CpuBackend, CpuError, CpuTexture};
@@ -179,10 +180,12 @@ impl Recorder {
                     continue;
                 };
                 let o = offset_origin([pos[i], pos[i + 1], pos[i + 2]], n, up.ray_epsilon);
-                let texel = texel_index(up.layer_size, t.layer, x, y);
+                let at = [t.layer, x, y];
+                let stream = Stream::gather(sampler, up.layer_size, at, params.stride, params.rays);
                 let mut sum = [0.0f32; 3];
                 for s in 0..params.rays {
-                    let u = sampler.uniform2(texel, s, params.bounce, params.seed);
+                    let k = stream.first + s;
+                    let u = sampler.uniform2(stream.key, k, params.bounce, params.seed);
                     let ray = Ray {
                         origin: o,
                         dir: cosine_direction(n, u),

@@ -571,7 +571,9 @@ pub enum Sampler {
     /// as N^-1/2.
     #[default]
     Hash,
-    /// The per-texel shuffled, Owen-scrambled Sobol (0,2)-sequence (`luxbake::rng::sobol2`).
+    /// The shuffled, Owen-scrambled Sobol (0,2)-sequence (`luxbake::rng::sobol2`), shared by
+    /// blocks of 2 × 2 neighbouring texels whose directions it stratifies against one another
+    /// (`luxbake::rng::Stream`).
     Sobol,
 }
 

@@ -13,9 +13,16 @@
 //! separate the lamp model from the inter-reflections.
 //!
 //! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults (override
-//! with `--rays`, `--bounces` (exactly that many explicit bounces, no tail, as `cargo xtask
-//! bake --bounces`), `--texels-per-metre`, `--blur`, `--backend`). `bench trade`
-//! calls [`evaluate`] for every bake of its grid.
+//! with `--quality`, `--rays`, `--higher-rays`, `--higher-stride`, `--bounces` (exactly that
+//! many explicit bounces, no tail, as `cargo xtask bake --bounces`), `--texels-per-metre`,
+//! `--blur`, `--backend`). `bench trade` calls [`evaluate`] for every bake of its grid.
+//!
+//! `--seeds N` bakes it N times, seeds 0 .. N − 1, and separates noise from what every bake
+//! shares: the main table gives each figure's mean over the bakes (what one bake is worth),
+//! and a second table per surface kind the noise — the mean over points of the standard
+//! deviation of a point's relative error across the seeds — beside the mean |relative error|
+//! and bias of each point's mean over the seeds (what is left once the noise is averaged
+//! down, bias plus noise / √N).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -23,7 +30,7 @@ use std::path::{Path, PathBuf};
 
 use luxbake::bake::BakeOutput;
 use luxbake::probe::SurfacePoint;
-use luxbake::scene::{Blur, Scene, Settings, SettingsPatch};
+use luxbake::scene::{Blur, Quality, Scene, Settings, SettingsPatch};
 use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
@@ -67,6 +74,19 @@ pub struct Args {
     /// Blur sigma in texels, or `none` (default: `cargo xtask bake`'s).
     #[arg(long)]
     blur: Option<Blur>,
+    /// Quality preset (default: `cargo xtask bake`'s, `default`).
+    #[arg(long)]
+    quality: Option<Quality>,
+    /// Rays per gathered texel of the bounces after the first (default: the preset's).
+    #[arg(long)]
+    higher_rays: Option<u32>,
+    /// Grid stride of the bounces after the first (default: the preset's).
+    #[arg(long)]
+    higher_stride: Option<u32>,
+    /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
+    /// (see the module docs).
+    #[arg(long, default_value_t = 1)]
+    seeds: u32,
 }
 
 /// One reference point.
@@ -307,6 +327,131 @@ impl Comparison {
     }
 }
 
+impl Stats {
+    /// The field-wise mean of `all` (their point counts should agree; the first's is kept).
+    fn mean(all: &[Stats]) -> Stats {
+        let n = all.len().max(1) as f64;
+        let sum = |f: fn(&Stats) -> f64| all.iter().map(f).sum::<f64>() / n;
+        Stats {
+            n: all.first().map_or(0, |s| s.n),
+            mean_abs_rel: sum(|s| s.mean_abs_rel),
+            bias: sum(|s| s.bias),
+            p95_abs_rel: sum(|s| s.p95_abs_rel),
+        }
+    }
+}
+
+impl Group {
+    fn mean(all: &[&Group]) -> Group {
+        let of =
+            |f: fn(&Group) -> Stats| Stats::mean(&all.iter().map(|g| f(g)).collect::<Vec<_>>());
+        Group {
+            total: of(|g| g.total),
+            direct: of(|g| g.direct),
+            indirect: of(|g| g.indirect),
+        }
+    }
+}
+
+impl Comparison {
+    /// Each figure's mean over `all` (comparisons of bakes of one scene, with the same
+    /// surface kinds).
+    pub fn mean(all: &[Comparison]) -> Comparison {
+        let groups = |pick: &dyn Fn(&Comparison) -> Option<&Group>| -> Group {
+            Group::mean(&all.iter().filter_map(pick).collect::<Vec<_>>())
+        };
+        Comparison {
+            all: groups(&|c| Some(&c.all)),
+            per_surface: all
+                .first()
+                .map(|c| {
+                    c.per_surface
+                        .keys()
+                        .map(|k| (k.clone(), groups(&|c| c.per_surface.get(k))))
+                        .collect()
+                })
+                .unwrap_or_default(),
+        }
+    }
+}
+
+/// Noise and shared error of several bakes at the same points (`--seeds`), per surface kind.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Noise {
+    /// Per group (`all`, then each surface kind): points, the mean over points of the standard
+    /// deviation of their relative error across the bakes, and the mean |relative error| and
+    /// bias of each point's mean over the bakes.
+    pub groups: Vec<(String, usize, f64, f64, f64)>,
+}
+
+impl Noise {
+    /// Of `bakes` (each a bake's `[direct, total]` at the points of `refs`, at least two).
+    pub fn of(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> Noise {
+        let n = bakes.len() as f64;
+        let per_point: Vec<(f64, f64)> = refs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| {
+                let rel: Vec<f64> = bakes.iter().map(|b| (b[i][1] - r.lux) / r.lux).collect();
+                let mean = rel.iter().sum::<f64>() / n;
+                let var = rel.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
+                (var.sqrt(), mean)
+            })
+            .collect();
+        let mut kinds: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
+        for (i, r) in refs.iter().enumerate() {
+            kinds.entry(r.surface.as_str()).or_default().push(i);
+        }
+        let all: Vec<usize> = (0..refs.len()).collect();
+        let groups = std::iter::once(("all", &all))
+            .chain(kinds.iter().map(|(k, v)| (*k, v)))
+            .map(|(name, idx)| {
+                let m = idx.len().max(1) as f64;
+                let avg = |f: &dyn Fn(&(f64, f64)) -> f64| {
+                    idx.iter().map(|&i| f(&per_point[i])).sum::<f64>() / m
+                };
+                (
+                    name.to_owned(),
+                    idx.len(),
+                    avg(&|p| p.0),
+                    avg(&|p| p.1.abs()),
+                    avg(&|p| p.1),
+                )
+            })
+            .collect();
+        Noise { groups }
+    }
+
+    /// As JSON (fractions).
+    pub fn json(&self) -> serde_json::Value {
+        self.groups
+            .iter()
+            .map(|(name, n, sd, mean_abs, bias)| {
+                serde_json::json!({ "surface": name, "points": n, "noise_sd": sd,
+                    "mean_abs_rel_of_mean": mean_abs, "bias": bias })
+            })
+            .collect()
+    }
+
+    /// Markdown table (percent).
+    pub fn markdown(&self) -> String {
+        let mut md = String::from(
+            "| surface | points | noise sd % | mean \\|rel\\| of the mean % | bias % |\n\
+             |---|--:|--:|--:|--:|\n",
+        );
+        for (name, n, sd, mean_abs, bias) in &self.groups {
+            let _ = writeln!(
+                md,
+                "| {name} | {n} | {:.2} | {:.2} | {:+.2} |",
+                sd * 100.0,
+                mean_abs * 100.0,
+                bias * 100.0
+            );
+        }
+        md
+    }
+}
+
 /// A bake's `[direct, total]` lux at each point.
 pub type Measured = [f64; 2];
 
@@ -401,6 +546,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
         .unwrap_or_else(|| reference_path(&args.scene));
     let refs = load(&ref_path)?;
     let label = shown(&ref_path);
+    let mut noise_md = String::new();
     let (what, comparison, extra) = match &args.dir {
         Some(dir) => {
             let points: Vec<(usize, [f64; 3])> =
@@ -418,7 +564,10 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
             // The flags as `cargo xtask bake`'s: a patch over the default (`--bounces` alone
             // then bakes exactly that many bounces, without the tail).
             let s = SettingsPatch {
+                quality: args.quality,
                 rays: args.rays,
+                higher_rays: args.higher_rays,
+                higher_stride: args.higher_stride,
                 bounces: args.bounces,
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
@@ -430,22 +579,48 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 Scene::builtin_with_settings(&args.scene, s.clone()).map_err(|e| e.to_string())?;
             let (mut backend, renderer) =
                 open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
-            eprintln!("refcheck: baking {} ({})", args.scene, settings_label(&s));
-            let run = timed_bake(&mut backend, &scene, &s)?;
-            let wall = run.wall();
-            let c = evaluate(&scene, &run.out, &refs, &label)?;
+            let located = locate(&scene, &refs, &label)?;
+            let (mut comparisons, mut bakes, mut walls) = (Vec::new(), Vec::new(), Vec::new());
+            for seed in 0..args.seeds.max(1) {
+                let s = Settings { seed, ..s.clone() };
+                eprintln!("refcheck: baking {} ({})", args.scene, settings_label(&s));
+                let run = timed_bake(&mut backend, &scene, &s)?;
+                walls.push(run.wall());
+                let measured = sample(&run.out, &located)?;
+                comparisons.push(compare(&refs, &measured));
+                bakes.push(measured);
+            }
+            let wall = walls.iter().sum::<f64>() / walls.len() as f64;
             let what = format!(
-                "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s",
+                "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s{}",
                 args.scene,
                 settings_label(&s),
                 args.backend.name(),
-                wall
+                wall,
+                if args.seeds > 1 {
+                    format!(
+                        " (mean of {} bakes, seeds 0 .. {})",
+                        args.seeds,
+                        args.seeds - 1
+                    )
+                } else {
+                    String::new()
+                }
             );
-            let extra = serde_json::json!({ "settings": {
-                "rays": s.rays, "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
+            let mut extra = serde_json::json!({ "settings": {
+                "quality": s.quality.name(), "rays": s.rays,
+                "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
+                "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
                 "blur": s.blur.to_string() }, "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });
-            (what, c, extra)
+            if args.seeds > 1 {
+                let noise = Noise::of(&refs, &bakes);
+                extra["seeds"] = serde_json::json!(args.seeds);
+                extra["per_seed"] = comparisons.iter().map(Comparison::json).collect();
+                extra["noise"] = noise.json();
+                noise_md = noise.markdown();
+            }
+            (what, Comparison::mean(&comparisons), extra)
         }
     };
     let (date, time) = utc_now();
@@ -468,6 +643,14 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
          with ≥ {MIN_DIRECT_LUX} lx of direct light; indirect = total − direct\n"
     );
     md.push_str(&comparison.markdown());
+    if !noise_md.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nNoise and shared error over the {} seeds (percent):\n",
+            args.seeds
+        );
+        md.push_str(&noise_md);
+    }
     print!("{md}");
     let json = serde_json::json!({
         "scene": args.scene, "date": date, "time_utc": time, "machine": machine(),
@@ -525,6 +708,47 @@ mod tests {
         assert!((s.p95_abs_rel - 0.5).abs() < 1e-12, "{s:?}");
         assert_eq!(Stats::of(&[], &[]), Stats::default());
         assert_eq!(Stats::of(&[1.0], &[0.0]).n, 0);
+    }
+
+    #[test]
+    fn noise_separates_spread_from_shared_error() {
+        let p = |surface: &str, lux: f64| RefPoint {
+            line: 1,
+            position: [0.0; 3],
+            normal: [0.0, 1.0, 0.0],
+            surface: surface.to_owned(),
+            object: None,
+            lux,
+            direct_lux: None,
+        };
+        let refs = [p("floor", 100.0), p("wall", 10.0)];
+        // The floor point: +2 % and −2 % (noise, no shared error); the wall point: +10 % twice.
+        let bakes = vec![
+            vec![[0.0, 102.0], [0.0, 11.0]],
+            vec![[0.0, 98.0], [0.0, 11.0]],
+        ];
+        let noise = Noise::of(&refs, &bakes);
+        let floor = &noise.groups[1];
+        assert_eq!((floor.0.as_str(), floor.1), ("floor", 1));
+        assert!((floor.2 - 0.02 * 2f64.sqrt()).abs() < 1e-12, "{floor:?}");
+        assert!(floor.3.abs() < 1e-12 && floor.4.abs() < 1e-12, "{floor:?}");
+        let wall = &noise.groups[2];
+        assert!(
+            wall.2.abs() < 1e-12 && (wall.3 - 0.1).abs() < 1e-12,
+            "{wall:?}"
+        );
+        assert_eq!(noise.groups[0].1, 2);
+        assert!(
+            noise
+                .markdown()
+                .contains("| wall | 1 | 0.00 | 10.00 | +10.00 |")
+        );
+        // The mean of two comparisons: each figure averaged.
+        let c = [compare(&refs, &bakes[0]), compare(&refs, &bakes[1])];
+        let m = Comparison::mean(&c);
+        assert!((m.per_surface["floor"].total.mean_abs_rel - 0.02).abs() < 1e-12);
+        assert!(m.per_surface["floor"].total.bias.abs() < 1e-12);
+        assert!((m.all.total.bias - 0.05).abs() < 1e-12, "{:?}", m.all.total);
     }
 
     #[test]

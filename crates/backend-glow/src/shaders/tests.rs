@@ -204,7 +204,10 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
 }
 
 /// `u_what` 0: the hash's bits (16 per channel) and the hash sampler's uniforms; 1: the Sobol
-/// sampler's bits; 2: both samplers' uniforms through `luxSample2` with their generated ids.
+/// sampler's bits; 2: both samplers' uniforms through `luxSample2` with their generated ids;
+/// 3: the Sobol sampler's gather stream (`rng::Stream`; stride `u_pass - 1`, `u_sample` rays);
+/// 4: its refinement stream (`u_seed` rays, then `u_sample` more); 5: the hash sampler's
+/// gather stream (16 bits per channel).
 const RNG_FS: &str = "uniform uint u_sample;\n\
     uniform uint u_pass;\n\
     uniform uint u_seed;\n\
@@ -221,15 +224,24 @@ const RNG_FS: &str = "uniform uint u_sample;\n\
         } else if (u_what == 1) {\n\
             uvec2 b = luxSobol2Bits(t, u_sample, u_pass, u_seed);\n\
             o = vec4(halves(b.x), halves(b.y));\n\
-        } else {\n\
+        } else if (u_what == 2) {\n\
             o = vec4(luxSample2(LUX_SAMPLER_HASH, t, u_sample, u_pass, u_seed),\n\
                      luxSample2(LUX_SAMPLER_SOBOL, t, u_sample, u_pass, u_seed));\n\
+        } else {\n\
+            uvec2 size = uvec2(97u, 61u);\n\
+            uint layer = uint(u_layer);\n\
+            uvec2 s = u_what == 3\n\
+                ? luxGatherStream(LUX_SAMPLER_SOBOL, size, layer, p.x, p.y, u_pass - 1u, u_sample)\n\
+                : u_what == 4\n\
+                ? luxRefineStream(LUX_SAMPLER_SOBOL, size, layer, p.x, p.y, u_seed, u_sample)\n\
+                : luxGatherStream(LUX_SAMPLER_HASH, size, layer, p.x, p.y, u_pass - 1u, u_sample);\n\
+            o = vec4(halves(s.x), halves(s.y));\n\
         }\n\
     }\n";
 
 #[test]
 fn rng_is_bit_exact() {
-    use luxbake::rng::{Draw, Sampler, hash, sobol2_bits, texel_index, uniform2};
+    use luxbake::rng::{Draw, Sampler, Stream, hash, sobol2_bits, texel_index, uniform2};
     let Some(ctx) = context_or_skip("rng_is_bit_exact") else {
         return;
     };
@@ -240,7 +252,7 @@ fn rng_is_bit_exact() {
         (255, 3, 0xDEAD_BEEF, 5),
         (u32::MAX - 2, 2, 7, 1),
     ] {
-        for what in 0..3 {
+        for what in 0..6 {
             let out = render(
                 &ctx,
                 "debug_rng",
@@ -270,10 +282,20 @@ fn rng_is_bit_exact() {
                             let ([a, b], [c, d]) = (halves(bx), halves(by));
                             [a, b, c, d]
                         }
-                        _ => {
+                        2 => {
                             let [h0, h1] = Sampler::Hash.uniform2(t, sample, pass, seed);
                             let [s0, s1] = Sampler::Sobol.uniform2(t, sample, pass, seed);
                             [h0, h1, s0, s1]
+                        }
+                        _ => {
+                            let at = [layer as u32, x, y];
+                            let s = match what {
+                                3 => Stream::gather(Sampler::Sobol, size, at, pass - 1, sample),
+                                4 => Stream::refine(Sampler::Sobol, size, at, seed, sample),
+                                _ => Stream::gather(Sampler::Hash, size, at, pass - 1, sample),
+                            };
+                            let ([a, b], [c, d]) = (halves(s.key), halves(s.first));
+                            [a, b, c, d]
                         }
                     };
                     let i = ((y * size[0] + x) * 4) as usize;

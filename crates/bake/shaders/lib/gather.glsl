@@ -100,16 +100,18 @@ float luxGatherWeight(uint rays, uint k, float scale, float density, float r, fl
 }
 
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `firstRay .. firstRay + count`
-// of the texel's sequence, cast from `origin` around the unit normal `n`, each weighted against
-// `lampPaths` lamp paths of a gather of `misRays` rays (lightpaths; 0: weight 1).
-vec3 luxGatherSum(vec3 origin, vec3 n, uint texel, uint firstRay, uint count,
+// of the texel's draws (`stream`: rng::Stream's key and first index), cast from `origin` around
+// the unit normal `n`, each weighted against `lampPaths` lamp paths of a gather of `misRays`
+// rays (lightpaths; 0: weight 1).
+vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
                   uint samplerId, uint bounce, uint seed, uint lampPaths, uint misRays,
                   float densityScale, int lamps) {
     float infinity = uintBitsToFloat(0x7f800000u);
     int objects = textureSize(u_regions, 0).x;
     vec3 sum = vec3(0.0);
     for (uint s = firstRay; s < firstRay + count; ++s) {
-        vec3 dir = luxCosineDirection(n, luxSample2(samplerId, texel, s, bounce, seed));
+        vec3 dir = luxCosineDirection(n, luxSample2(samplerId, stream.x, stream.y + s, bounce,
+                                                    seed));
         vec3 hit;
 #ifdef LUX_REPLAY
         // Kept hits (luxbake::kept): the hit this ray had when its trace pass cast it,

@@ -105,15 +105,18 @@ fn lux_gather_weight(rays: u32, k: u32, scale: f32, density: f32, r: f32, cx: f3
 }
 
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `first_ray .. first_ray + count`
-// of the texel's sequence, cast from `origin` around the unit normal `n`, each weighted against
-// `lamp_paths` lamp paths of a gather of `mis_rays` rays (lightpaths; 0: weight 1).
-fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, first_ray: u32, count: u32,
+// of the texel's draws (`stream`: rng::Stream's key and first index), cast from `origin` around
+// the unit normal `n`, each weighted against `lamp_paths` lamp paths of a gather of `mis_rays`
+// rays (lightpaths; 0: weight 1). `texel` (lux_texel_index) places a replayed hit.
+fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>,
+                  first_ray: u32, count: u32,
                   sampler_id: u32, bounce: u32, seed: u32, lamp_paths: u32, mis_rays: u32,
                   density_scale: f32, lamps: u32) -> vec3<f32> {
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = first_ray; s < first_ray + count; s++) {
-        let dir = lux_cosine_direction(n, lux_sample2(sampler_id, texel, s, bounce, seed));
+        let dir = lux_cosine_direction(n, lux_sample2(sampler_id, stream.x, stream.y + s, bounce,
+                                                      seed));
         var hit: vec3<f32>;
         let tri = lux_gather_hit(origin, dir, texel, s - first_ray, &hit);
         if (tri < 0) {

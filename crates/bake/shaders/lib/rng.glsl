@@ -81,6 +81,47 @@ vec2 luxSobol2(uint texel, uint sampleIndex, uint pass, uint seed) {
     return vec2(luxUnit(b.x), luxUnit(b.y));
 }
 
+// rng::sequence: `rays` rounded up to a power of two (1 for 0, 2^31 past it).
+uint luxSequence(uint rays) {
+    uint p = 1u;
+    while (p < rays && p < 0x80000000u) {
+        p <<= 1u;
+    }
+    return p;
+}
+
+// rng::Stream::gather: (key, first) of the draws of a gather of `rays` rays at texel (x, y) on
+// the grid of every `stride`-th texel; with the Sobol sampler a grid texel's rank in its block
+// of LUX_SOBOL_BLOCK² grid texels times the rays rounded up, in the sequence of the block's
+// first texel.
+uvec2 luxGatherStream(uint samplerId, uvec2 layerSize, uint layer, uint x, uint y, uint stride,
+                      uint rays) {
+    uint s = max(stride, 1u);
+    if (samplerId == LUX_SAMPLER_SOBOL && x % s == 0u && y % s == 0u) {
+        uint gx = x / s;
+        uint gy = y / s;
+        uint key = luxTexelIndex(layerSize, layer, (gx - gx % LUX_SOBOL_BLOCK) * s,
+                                 (gy - gy % LUX_SOBOL_BLOCK) * s);
+        uint rank = gx % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (gy % LUX_SOBOL_BLOCK);
+        return uvec2(key, rank * luxSequence(rays));
+    }
+    return uvec2(luxTexelIndex(layerSize, layer, x, y), 0u);
+}
+
+// rng::Stream::refine: (key, first) of `more` rays refining a gather of `firstRays` rays.
+uvec2 luxRefineStream(uint samplerId, uvec2 layerSize, uint layer, uint x, uint y,
+                      uint firstRays, uint more) {
+    if (samplerId == LUX_SAMPLER_SOBOL) {
+        uint key = luxTexelIndex(layerSize, layer, x - x % LUX_SOBOL_BLOCK,
+                                 y - y % LUX_SOBOL_BLOCK);
+        uint rank = x % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (y % LUX_SOBOL_BLOCK);
+        uint q = luxSequence(more);
+        return uvec2(key, LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(luxSequence(firstRays), q)
+                              + rank * q);
+    }
+    return uvec2(luxTexelIndex(layerSize, layer, x, y), firstRays);
+}
+
 // rng::Sampler::uniform2: the uniforms of sampler `samplerId` (GatherParams::sampler).
 vec2 luxSample2(uint samplerId, uint texel, uint sampleIndex, uint pass, uint seed) {
     if (samplerId == LUX_SAMPLER_SOBOL) {

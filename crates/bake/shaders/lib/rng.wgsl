@@ -73,6 +73,47 @@ fn lux_sobol2(texel: u32, sample_index: u32, pass_index: u32, seed: u32) -> vec2
     return vec2<f32>(lux_unit(b.x), lux_unit(b.y));
 }
 
+// rng::sequence: `rays` rounded up to a power of two (1 for 0, 2^31 past it).
+fn lux_sequence(rays: u32) -> u32 {
+    var p = 1u;
+    while (p < rays && p < 0x80000000u) {
+        p <<= 1u;
+    }
+    return p;
+}
+
+// rng::Stream::gather: (key, first) of the draws of a gather of `rays` rays at texel (x, y) on
+// the grid of every `stride`-th texel; with the Sobol sampler a grid texel's rank in its block
+// of LUX_SOBOL_BLOCK² grid texels times the rays rounded up, in the sequence of the block's
+// first texel.
+fn lux_gather_stream(sampler_id: u32, layer_size: vec2<u32>, layer: u32, x: u32, y: u32,
+                     stride: u32, rays: u32) -> vec2<u32> {
+    let s = max(stride, 1u);
+    if (sampler_id == LUX_SAMPLER_SOBOL && x % s == 0u && y % s == 0u) {
+        let gx = x / s;
+        let gy = y / s;
+        let key = lux_texel_index(layer_size, layer, (gx - gx % LUX_SOBOL_BLOCK) * s,
+                                  (gy - gy % LUX_SOBOL_BLOCK) * s);
+        let rank = gx % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (gy % LUX_SOBOL_BLOCK);
+        return vec2<u32>(key, rank * lux_sequence(rays));
+    }
+    return vec2<u32>(lux_texel_index(layer_size, layer, x, y), 0u);
+}
+
+// rng::Stream::refine: (key, first) of `more` rays refining a gather of `first_rays` rays.
+fn lux_refine_stream(sampler_id: u32, layer_size: vec2<u32>, layer: u32, x: u32, y: u32,
+                     first_rays: u32, more: u32) -> vec2<u32> {
+    if (sampler_id == LUX_SAMPLER_SOBOL) {
+        let key = lux_texel_index(layer_size, layer, x - x % LUX_SOBOL_BLOCK,
+                                  y - y % LUX_SOBOL_BLOCK);
+        let rank = x % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (y % LUX_SOBOL_BLOCK);
+        let q = lux_sequence(more);
+        return vec2<u32>(key, LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(lux_sequence(first_rays), q)
+                                  + rank * q);
+    }
+    return vec2<u32>(lux_texel_index(layer_size, layer, x, y), first_rays);
+}
+
 // rng::Sampler::uniform2: the uniforms of sampler `sampler_id` (GatherParams::sampler).
 fn lux_sample2(sampler_id: u32, texel: u32, sample_index: u32, pass_index: u32, seed: u32)
     -> vec2<f32> {

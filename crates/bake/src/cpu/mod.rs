@@ -45,7 +45,9 @@
 //! - **Combine**: `(a.rgb + b.rgb, a.w)`.
 //! - **Gather** (bounce k): N = `rays` directions, cosine-weighted about n̂: with
 //!   `(u₀, u₁)` = [`rng::uniform2`](crate::rng::uniform2)`(texel, s, k, seed)` (the hash sampler) or
-//!   [`rng::sobol2`](crate::rng::sobol2)`(texel, s, k, seed)` (the Sobol sampler, `GatherParams::sampler`),
+//!   [`rng::sobol2`](crate::rng::sobol2)`(key, first + s, k, seed)` (the Sobol sampler,
+//!   `GatherParams::sampler`; `key` and `first` the texel's [`rng::Stream`](crate::rng::Stream),
+//!   shared by blocks of neighbouring texels),
 //!   `r = √u₀`, `φ = 2π·u₁`, local `(r cos φ, r sin φ, √(1 − u₀))` (`cos φ`, `sin φ` by
 //!   [`sin_cos_turns`], a polynomial as exact as `cosf`/`sinf`) in the orthonormal basis
 //!   of Duff et al. (2017) built from n̂. Closest hit from `offset(p, n̂)` (t ∈ (0, ∞)). A hit counts when the hit object has a

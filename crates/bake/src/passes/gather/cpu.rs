@@ -36,7 +36,7 @@ pub(crate) struct Lookup {
     pub(crate) normal: [f32; 3],
 }
 
-/// One texel's gather rays: samples `rays` of its sequence ([`rng::texel_index`] `texel`),
+/// One texel's gather rays: samples `rays` of the sequence of `texel` (its [`rng::Stream`]),
 /// cast from `o` around the unit normal of `frame`.
 pub(crate) struct GatherTexel {
     pub(crate) texel: u32,
@@ -479,9 +479,11 @@ pub(crate) fn gather_row(
         } else {
             rays - first
         };
+        let sampler = rng::Sampler::from_id(params.sampler);
+        let stream = rng::Stream::gather(sampler, scene.layer_size, [layer, x, y], params.stride, rays);
         texels.push(GatherTexel {
-            texel: rng::texel_index(scene.layer_size, layer, x, y),
-            rays: first..first + count,
+            texel: stream.key,
+            rays: stream.first + first..stream.first + first + count,
             o: offset_origin(xyz(pos), n, scene.ray_epsilon),
             frame: Frame::new(n),
             mis: Mis {

@@ -18,13 +18,14 @@ vec4 luxRun(ivec3 c) {
         return vec4(0.0, 0.0, 0.0, 1.0);
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
-    uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
+    uvec2 stream = luxGatherStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
+                                   u_stride, rays);
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
     // A chunk of the rays (u_chunk_rays > 0): those from u_first_ray on, added to the chunks
     // before (u_prior); the lamp paths' part comes with the first chunk.
     uint first = min(u_first_ray, rays);
     uint count = u_chunk_rays > 0u ? min(u_chunk_rays, rays - first) : rays - first;
-    vec3 sum = luxGatherSum(origin, n, texel, first, count, u_sampler, u_bounce, u_seed,
+    vec3 sum = luxGatherSum(origin, n, stream, first, count, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, rays, u_density_scale, int(u_lamp_count));
     float inv = 1.0 / float(rays);
     vec3 paths = u_lamp_paths > 0u && u_first_ray == 0u ? texelFetch(u_connected, c, 0).rgb

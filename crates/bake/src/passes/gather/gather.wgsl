@@ -19,8 +19,10 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(nrm.xyz, &n) || rays == 0u) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
-    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
-                                lux_tile.layer, u32(c.x), u32(c.y));
+    let layer_size = vec2<u32>(lux_tile.layer_w, lux_tile.layer_h);
+    let texel = lux_texel_index(layer_size, lux_tile.layer, u32(c.x), u32(c.y));
+    let stream = lux_gather_stream(lux_pass.sampler, layer_size, lux_tile.layer, u32(c.x),
+                                   u32(c.y), lux_pass.stride, rays);
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     // A chunk of the rays (chunk_rays > 0): those from first_ray on, added to the chunks
     // before (lux_prior); the lamp paths' part comes with the first chunk.
@@ -29,9 +31,9 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (lux_pass.chunk_rays > 0u) {
         count = min(lux_pass.chunk_rays, rays - first);
     }
-    let sum = lux_gather_sum(origin, n, texel, first, count, lux_pass.sampler, lux_pass.bounce,
-                             lux_pass.seed, lux_pass.lamp_paths, rays, lux_pass.density_scale,
-                             lux_pass.lamp_count);
+    let sum = lux_gather_sum(origin, n, texel, stream, first, count, lux_pass.sampler,
+                             lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths, rays,
+                             lux_pass.density_scale, lux_pass.lamp_count);
     let inv = 1.0 / f32(rays);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u && lux_pass.first_ray == 0u) {

@@ -22,12 +22,14 @@ void main() {
     uint rays = pos.w > 0.5 ? luxCoarseRays(c, u_stride, u_reach, u_rays, u_orphan_rays) : 0u;
     if (rays > u_first_ray && luxNormalize(nrm.xyz, n)) {
         uvec3 layerSize = uvec3(textureSize(u_position, 0));
-        uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
+        uvec2 stream = luxGatherStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
+                                       u_stride, rays);
         vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
         uint count = min(min(u_hit_rays, 4u), rays - u_first_ray);
         for (uint k = 0u; k < count; ++k) {
             uint s = u_first_ray + k;
-            vec3 dir = luxCosineDirection(n, luxSample2(u_sampler, texel, s, u_bounce, u_seed));
+            vec3 dir = luxCosineDirection(n, luxSample2(u_sampler, stream.x, stream.y + s,
+                                                        u_bounce, u_seed));
             vec3 hit;
             int tri = luxTrace(origin, dir, 0.0, uintBitsToFloat(0x7f800000u), false, hit);
             if (tri >= 0) {

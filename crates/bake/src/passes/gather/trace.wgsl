@@ -32,13 +32,15 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     if (rays > lux_pass.first_ray && lux_normalize(nrm.xyz, &n)) {
         count = min(planes, rays - lux_pass.first_ray);
-        let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
-                                    lux_tile.layer, u32(c.x), u32(c.y));
+        let stream = lux_gather_stream(lux_pass.sampler,
+                                       vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
+                                       lux_tile.layer, u32(c.x), u32(c.y), lux_pass.stride, rays);
         let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
         for (var k = 0u; k < count; k++) {
             let s = lux_pass.first_ray + k;
-            let dir = lux_cosine_direction(n, lux_sample2(lux_pass.sampler, texel, s,
-                                                          lux_pass.bounce, lux_pass.seed));
+            let dir = lux_cosine_direction(n, lux_sample2(lux_pass.sampler, stream.x,
+                                                          stream.y + s, lux_pass.bounce,
+                                                          lux_pass.seed));
             var hit: vec3<f32>;
             let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
             if (tri >= 0) {

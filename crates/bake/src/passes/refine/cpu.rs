@@ -28,9 +28,16 @@ impl TexelPass for RefineParams {
     if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
         return first;
     }
+    let stream = rng::Stream::refine(
+        rng::Sampler::from_id(params.sampler),
+        scene.layer_size,
+        [at.layer, at.x, at.y],
+        params.first_rays,
+        params.rays,
+    );
     let texel = GatherTexel {
-        texel: rng::texel_index(scene.layer_size, at.layer, at.x, at.y),
-        rays: params.first_rays..params.first_rays + params.rays,
+        texel: stream.key,
+        rays: stream.first..stream.first + params.rays,
         o: offset_origin(xyz(pos), n, scene.ray_epsilon),
         frame: Frame::new(n),
         mis: Mis::NONE,

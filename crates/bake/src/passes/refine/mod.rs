@@ -23,8 +23,9 @@ param_block! {
     /// of a gather of `first_rays`
     /// rays per texel (see [`Program::Refine`](crate::program::Program::Refine)).
     RefineParams as "LuxRefineParams" {
-        /// Further rays per texel that misses the target: samples `first_rays ..
-        /// first_rays + rays` of the texel's sequence.
+        /// Further rays per texel that misses the target: the draws of
+        /// [`Stream::refine`](crate::rng::Stream::refine) (with the hash sampler samples
+        /// `first_rays .. first_rays + rays` of the texel's sequence).
         rays: u32,
         /// Bounce number, 1-based (the `pass` input of the RNG hash).
         bounce: u32,

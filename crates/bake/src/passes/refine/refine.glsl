@@ -1,8 +1,8 @@
 // Pass "refine": progressive refinement of the first gather (`u_first`, u_first_rays rays).
 // A texel whose relative standard error, estimated as sqrt(variance) / mean luminance of its
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
-// on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays (samples
-// u_first_rays .. u_first_rays + u_rays of its sequence) and the ray-count-weighted mean of
+// on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays
+// (rng::Stream::refine's draws) and the ray-count-weighted mean of
 // both; every other texel keeps the first gather's value (cpu.rs).
 
 vec4 luxRun(ivec3 c) {
@@ -20,9 +20,10 @@ vec4 luxRun(ivec3 c) {
         return first;
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
-    uint texel = luxTexelIndex(layerSize.xy, uint(c.z), uint(c.x), uint(c.y));
+    uvec2 stream = luxRefineStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
+                                   u_first_rays, u_rays);
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
-    vec3 sum = luxGatherSum(origin, n, texel, u_first_rays, u_rays, u_sampler, u_bounce, u_seed,
+    vec3 sum = luxGatherSum(origin, n, stream, 0u, u_rays, u_sampler, u_bounce, u_seed,
                             0u, 0u, 0.0, 0);
     float total = float(u_first_rays + u_rays);
     vec3 m = float(u_first_rays) * first.rgb + sum;

@@ -2,7 +2,7 @@
 // texel whose relative standard error, estimated as sqrt(variance) / mean luminance of its
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
-// (samples first_rays .. first_rays + rays of its sequence) and the ray-count-weighted mean of
+// (rng::Stream::refine's draws) and the ray-count-weighted mean of
 // both; every other texel keeps the first gather's value (cpu.rs).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
@@ -20,10 +20,12 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
         return first;
     }
-    let texel = lux_texel_index(vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
-                                lux_tile.layer, u32(c.x), u32(c.y));
+    let layer_size = vec2<u32>(lux_tile.layer_w, lux_tile.layer_h);
+    let texel = lux_texel_index(layer_size, lux_tile.layer, u32(c.x), u32(c.y));
+    let stream = lux_refine_stream(lux_pass.sampler, layer_size, lux_tile.layer, u32(c.x),
+                                   u32(c.y), lux_pass.first_rays, rays);
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
-    let sum = lux_gather_sum(origin, n, texel, lux_pass.first_rays, rays, lux_pass.sampler,
+    let sum = lux_gather_sum(origin, n, texel, stream, 0u, rays, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, 0u, 0u, 0.0, 0u);
     let total = f32(lux_pass.first_rays + rays);
     let m = f32(lux_pass.first_rays) * first.rgb + sum;
