@@ -895,7 +895,7 @@ impl Settings {
     /// | preset | rays (stride) | lamp paths | later bounces: rays (stride) | most bounces | tail tolerance | σ (iterations) | opening samples |
     /// |---|--:|--:|--:|--:|--:|--:|--:|
     /// | draft | 8 (4) | — | 4 (8) | 3 | 5 % | none | 12 |
-    /// | default | 4 (1) | 12 | 4 (2) | 32 | 1 % | 1 (3) | 48 |
+    /// | default | 4 (1) | 12 | 16 (4) | 32 | 1 % | 1 (3) | 48 |
     /// | final | 256 (1) | 32 | 32 (1) | 32 | 0.01 % | 2 (4) | 128 |
     ///
     /// `final` is held to 0.3 % mean |relative error| against Radiance references with half
@@ -909,6 +909,12 @@ impl Settings {
     /// Opening samples ([`Settings::opening_samples`]): at `default` the direct light on a
     /// table 0.55 m under a 0.61 m linear pendant (`rw_5.IES`) is within 0.7 % of a
     /// 1024-sample bake at every texel (32 samples: 1.0 %; `crates/bake/tests/opening.rs`).
+    ///
+    /// The later bounces at `default` (16 rays on every fourth texel per axis): the same rays
+    /// per texel of the room as 4 on every second, at the same time, but each gathered texel's
+    /// 16 directions stratified together; tuned on `chairs_05` and `sofa_01`, on the three
+    /// other rooms 7–10 % less error against Radiance, the walls' 14–23 % less (stride 8 biased
+    /// the floors; docs/performance.md).
     ///
     /// Lamp paths ([`Settings::lamp_paths`]) take the first bounce's grain where a lamp
     /// lights a small patch brightly (a lamp under the ceiling): on the box room's walls at
@@ -943,8 +949,8 @@ impl Settings {
                 rays: 4,
                 lamp_paths: 12,
                 opening_samples: 48,
-                higher_rays: 4,
-                higher_stride: 2,
+                higher_rays: 16,
+                higher_stride: 4,
                 tail_tolerance: 0.01,
                 blur: Blur::Sigma(1.0),
                 ..base

@@ -13,9 +13,10 @@
 //! separate the lamp model from the inter-reflections.
 //!
 //! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults (override
-//! with `--quality`, `--rays`, `--higher-rays`, `--higher-stride`, `--bounces` (exactly that
-//! many explicit bounces, no tail, as `cargo xtask bake --bounces`), `--texels-per-metre`,
-//! `--blur`, `--backend`). `bench trade` calls [`evaluate`] for every bake of its grid.
+//! with `--quality`, `--rays`, `--higher-rays`, `--higher-stride`, `--lamp-paths`, `--bounces`
+//! (exactly that many explicit bounces, no tail, as `cargo xtask bake --bounces`),
+//! `--texels-per-metre`, `--blur`, `--backend`). `bench trade` calls [`evaluate`] for every
+//! bake of its grid.
 //!
 //! `--seeds N` bakes it N times, seeds 0 .. N − 1, and separates noise from what every bake
 //! shares: the main table gives each figure's mean over the bakes (what one bake is worth),
@@ -83,6 +84,9 @@ pub struct Args {
     /// Grid stride of the bounces after the first (default: the preset's).
     #[arg(long)]
     higher_stride: Option<u32>,
+    /// Lamp paths per texel of the first bounce (default: the preset's).
+    #[arg(long)]
+    lamp_paths: Option<u32>,
     /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
     /// (see the module docs).
     #[arg(long, default_value_t = 1)]
@@ -568,6 +572,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 rays: args.rays,
                 higher_rays: args.higher_rays,
                 higher_stride: args.higher_stride,
+                lamp_paths: args.lamp_paths,
                 bounces: args.bounces,
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
@@ -610,6 +615,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
             let mut extra = serde_json::json!({ "settings": {
                 "quality": s.quality.name(), "rays": s.rays,
                 "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
+                "lamp_paths": s.lamp_paths,
                 "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
                 "blur": s.blur.to_string() }, "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });
