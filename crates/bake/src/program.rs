@@ -305,9 +305,9 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// at the walls).
 ///
 /// # The variance estimate
-/// The gather pass averages N independent ray samples per texel and every texel has its own
-/// random numbers, so the indirect map is `s + ε`: a smooth signal plus independent noise of
-/// variance σ² per texel. Then the difference of two neighbouring texels along a direction in
+/// The gather pass averages N ray samples per texel, so the indirect map is `s + ε`: a smooth
+/// signal plus noise of variance σ² per texel, independent from texel to texel (with the
+/// Sobol sampler's blocks, see the end of this section, not quite). Then the difference of two neighbouring texels along a direction in
 /// which `s` is constant is pure noise with variance 2σ², so `½·mean((l_{q+d} − l_q)²)` over
 /// pairs along `d` estimates σ². Along other directions the signal's own gradient (a contact
 /// shadow, a steep fall-off) adds to it. [`Program::Variance`] therefore takes, in a 5×5
@@ -323,6 +323,14 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// by [`b3_noise_factor`]`(i)`, so iteration `i` scales the estimate by it; the factor assumes
 /// that every tap counts, so near edges, where fewer do and more noise is left, the filter is
 /// stricter, never looser.
+///
+/// With the Sobol sampler the texels of a 2 × 2 block draw their directions from one
+/// stratified sequence ([`rng::Stream`](crate::rng::Stream)), so their noise is negatively
+/// correlated: the difference of two texels of one block has more variance than 2σ², by at
+/// most a third (with equal covariances `c` between the four, `4σ² + 12c ≥ 0`, so
+/// `2σ² − 2c ≤ 8σ²/3`), and about half of a window's neighbouring pairs lie in one block. The
+/// estimate is then at most about a sixth over σ² (the luminance term at most 8 % wider),
+/// where the blocks' sums are nearly free of noise, i.e. where the denoiser averages them best.
 pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
     let (reach, reach_min) = (config.reach(), config.reach_min());
     let sigma2 = |i: u32| {
