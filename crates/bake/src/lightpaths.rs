@@ -18,7 +18,7 @@
 //! - **lamp paths** (`K` per texel): a shared pool of [`pool_size`] rays leaves the lamps, each
 //!   lamp and direction drawn in proportion to a bound of its intensity table; the
 //!   receivers' front faces they hit first are the paths' points. A texel connects to `K` of
-//!   them (independent picks, [`CONNECT_PASS`]) with a shadow ray. The area density
+//!   them (uniform picks, stratified, [`CONNECT_PASS`]) with a shadow ray. The area density
 //!   of a point is `p_V(y) = Σ_l q_l(ω_ly)·cos θ_ly / d_ly² · V_l(y) / P_hit`, `q_l` the
 //!   emission density per solid angle and `P_hit` the fraction of rays that found a receiver,
 //!   and its estimate is `f/p_V = ρ(y)·E_direct(y)·G/(π·p_V)` with `E_direct` evaluated
@@ -53,8 +53,18 @@
 //! # Determinism
 //! Pool directions come from the Sobol sampler (texel 0, sample `i`, pass [`EMIT_PASS`]) and
 //! the hash sampler, in f64 (whose last-bit differences between maths libraries do not reach
-//! the rounded f32 results); texels pick their paths with the hash sampler (pass
-//! [`CONNECT_PASS`]). Traversal is the 8-wide BVH.
+//! the rounded f32 results). Traversal is the 8-wide BVH.
+//!
+//! # Stratified picks
+//! The pool is stored along a Morton curve through its points ([`morton_order`]), so that a
+//! stretch of the pool is a patch of the lit surfaces. Texel `x` picks path
+//! `⌊u_k · count⌋` for `k = 0 .. K` with `u_k` the first dimension of the Sobol sampler's draws
+//! `rng::Stream::gather(Sobol, …, stride 1, K)` in pass [`CONNECT_PASS`] — the gather's
+//! blocks: each texel's `K` picks are a stratified run of its 2 × 2 block's sequence, so they
+//! spread over the lit surfaces, and the block's `4K` picks together too. Each pick is
+//! uniform over the pool, so the estimate is as unbiased as with independent picks. Measured
+//! (`bench refcheck --seeds 16`, default): the noise at the reference points of `chairs_01`
+//! 0.80 → 0.71 %, of `chairs_05` 0.78 → 0.72 % (docs/performance.md).
 
 // `!(x > 0.0)` on purpose: a NaN fails the test, as in the shaders these functions mirror.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
@@ -624,7 +634,7 @@ impl LampPaths {
             done += rays.len();
             report(done as f32 / pool as f32);
         }
-        let paths: Vec<LampPath> = found.into_iter().flatten().collect();
+        let paths = morton_order(found.into_iter().flatten().collect());
 
         if paths.is_empty() {
             return LampPaths::default();
@@ -658,6 +668,45 @@ impl LampPaths {
             })
             .collect()
     }
+}
+
+/// `paths` in the order of a Morton curve through their points (ten bits per axis over their
+/// bounding box's largest side; ties in the order given): neighbouring paths lie near each
+/// other, so picks stratified over the pool's indices are spread over the lit surfaces (see
+/// the module docs, "Stratified picks").
+pub fn morton_order(paths: Vec<LampPath>) -> Vec<LampPath> {
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in &paths {
+        for c in 0..3 {
+            lo[c] = lo[c].min(p.position[c]);
+            hi[c] = hi[c].max(p.position[c]);
+        }
+    }
+    let side = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
+    let cell = |v: f32, c: usize| -> u32 {
+        let q = if side > 0.0 {
+            (v - lo[c]) / side * 1023.0
+        } else {
+            0.0
+        };
+        // `as` saturates (and sends NaN to 0): every code within 0 ..= 1023.
+        (q as u32).min(1023)
+    };
+    let code = |p: &LampPath| -> u32 {
+        let q = [0, 1, 2].map(|c| cell(p.position[c], c));
+        (0..10).fold(0u32, |m, b| {
+            (0..3).fold(m, |m, c| m | (((q[c] >> b) & 1) << (3 * b + c)))
+        })
+    };
+    // Code and index in one key: ties keep the order of the pool's indices.
+    let mut keys: Vec<u64> = paths
+        .iter()
+        .enumerate()
+        .map(|(i, p)| u64::from(code(p)) << 32 | i as u64)
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter().map(|k| paths[k as u32 as usize]).collect()
 }
 
 /// Parts of the pool [`LampPaths::trace_reporting`] traces one after the other, reporting
@@ -1039,5 +1088,54 @@ mod tests {
             assert!(checked > 19_000, "{checked}");
             assert_eq!(cells.cell_of([0.0; 3]), None);
         }
+    }
+
+    /// The pool's Morton order: a permutation of the points, neighbours along the order near
+    /// each other (a stretch of the pool is a patch of the surfaces), ties in the given order,
+    /// and nothing lost to a degenerate or non-finite position.
+    #[test]
+    fn the_pool_in_morton_order_is_a_permutation_along_a_curve() {
+        let point = |x: f32, y: f32, z: f32, i: u32| LampPath {
+            position: [x, y, z],
+            normal: [0.0, 1.0, 0.0],
+            power: [i as f32, 0.0, 0.0],
+            density: 1.0,
+        };
+        // A 16 × 16 grid on the floor, given row by row in a scrambled order.
+        let mut pool: Vec<LampPath> = (0..256u32)
+            .map(|i| {
+                let k = (i * 97) % 256;
+                point((k % 16) as f32 * 0.25, 0.0, (k / 16) as f32 * 0.25, k)
+            })
+            .collect();
+        pool.push(point(0.0, 0.0, 0.0, 1000));
+        let sorted = morton_order(pool.clone());
+        let mut ids: Vec<u32> = sorted.iter().map(|p| p.power[0] as u32).collect();
+        // The duplicate of point 0 follows it (a tie keeps the given order).
+        let at0 = ids.iter().position(|&i| i == 0).expect("0");
+        assert_eq!(ids[at0 + 1], 1000);
+        ids.sort_unstable();
+        let mut want: Vec<u32> = (0..256).collect();
+        want.push(1000);
+        assert_eq!(ids, want);
+        // Along a Morton curve each aligned run of 4 points is a 2 × 2 cell of the grid
+        // (0.25 m apart): the mean step is far below a random order's (about 1.9 m here).
+        let steps: f32 = sorted[..256]
+            .windows(2)
+            .filter(|w| w[0].power[0] != 1000.0 && w[1].power[0] != 1000.0)
+            .map(|w| {
+                let d = [0, 1, 2].map(|c| w[1].position[c] - w[0].position[c]);
+                (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+            })
+            .sum();
+        assert!(steps / 255.0 < 0.6, "mean step {}", steps / 255.0);
+        // Degenerate and non-finite positions keep every point.
+        let odd = vec![
+            point(1.0, 1.0, 1.0, 0),
+            point(f32::NAN, 0.0, f32::INFINITY, 1),
+        ];
+        assert_eq!(morton_order(odd).len(), 2);
+        assert!(morton_order(Vec::new()).is_empty());
+        assert_eq!(morton_order(vec![point(2.0, 2.0, 2.0, 5)]).len(), 1);
     }
 }

@@ -1,5 +1,6 @@
 // Pass "connect" (lightpaths.rs): the lamp paths' part of the first bounce at a texel — K
-// points of the pool picked with the hash sampler, each joined by a shadow ray and weighted by
+// points of the pool picked with the Sobol sampler's block draws (lightpaths, "Stratified
+// picks"), each joined by a shadow ray and weighted by
 // the balance heuristic against a gather of u_rays rays (connect/cpu.rs, operation for
 // operation). The pool: luxPathPoint (scene.glsl).
 
@@ -17,14 +18,14 @@ vec4 luxRun(ivec3 c) {
         return vec4(0.0, 0.0, 0.0, 1.0);
     }
     vec3 p = pw.xyz;
-    uint texel = luxTexelIndex(uvec2(textureSize(u_position, 0).xy), uint(c.z), uint(c.x),
-                               uint(c.y));
+    uvec2 stream = luxGatherStream(LUX_SAMPLER_SOBOL, uvec2(textureSize(u_position, 0).xy),
+                                   uint(c.z), uint(c.x), uint(c.y), 1u, u_k);
     vec3 origin = luxOffsetOrigin(p, n, u_ray_epsilon);
     float nc = float(u_rays);
     float kf = float(u_k);
     vec3 sum = vec3(0.0);
     for (uint s = 0u; s < u_k; ++s) {
-        vec2 u = luxUniform2(texel, s, LUX_CONNECT_PASS, u_seed);
+        vec2 u = luxSobol2(stream.x, stream.y + s, LUX_CONNECT_PASS, u_seed);
         uint j = min(uint(u.x * float(count)), count - 1u);
         vec4 a = luxPathPoint(j, 0);
         vec4 b = luxPathPoint(j, 1);

@@ -1,5 +1,6 @@
 // Pass "connect" (lightpaths.rs): the lamp paths' part of the first bounce at a texel — K
-// points of the pool picked with the hash sampler, each joined by a shadow ray and weighted by
+// points of the pool picked with the Sobol sampler's block draws (lightpaths, "Stratified
+// picks"), each joined by a shadow ray and weighted by
 // the balance heuristic against a gather of `rays` rays (connect/cpu.rs, operation for
 // operation). The pool: lux_path_point (scene.wgsl).
 
@@ -17,14 +18,14 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
     let p = pw.xyz;
-    let texel = lux_texel_index(textureDimensions(lux_position).xy, lux_tile.layer, u32(c.x),
-                                u32(c.y));
+    let stream = lux_gather_stream(LUX_SAMPLER_SOBOL, textureDimensions(lux_position).xy,
+                                   lux_tile.layer, u32(c.x), u32(c.y), 1u, lux_pass.k);
     let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let nc = f32(lux_pass.rays);
     let kf = f32(lux_pass.k);
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < lux_pass.k; s++) {
-        let u = lux_uniform2(texel, s, LUX_CONNECT_PASS, lux_pass.seed);
+        let u = lux_sobol2(stream.x, stream.y + s, LUX_CONNECT_PASS, lux_pass.seed);
         let j = min(u32(u.x * f32(count)), count - 1u);
         let a = lux_path_point(j, 0u);
         let b = lux_path_point(j, 1u);

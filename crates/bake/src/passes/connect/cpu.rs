@@ -27,8 +27,10 @@ impl CpuPass for ConnectParams {
         let layer = ctx.tile.layer;
         let scene = ctx.scene;
         let count = self.count.min(scene.lamp_paths.len() as u32);
-        let pick = |texel: u32, s: u32| {
-            let [u, _] = rng::uniform2(texel, s, CONNECT_PASS, self.seed);
+        // The picks' draws (lightpaths, "Stratified picks"), the keys once per texel.
+        let draws = rng::PassDraws::new(rng::Sampler::Sobol, CONNECT_PASS, self.seed, 0..0);
+        let pick = |texel: &rng::TexelDraws<'_>, first: u32, s: u32| {
+            let [u, _] = texel.uniform2(first + s);
             ((u * count as f32) as u32).min(count - 1) as usize
         };
         let pos: View<'_> = ctx.views[0];
@@ -36,8 +38,10 @@ impl CpuPass for ConnectParams {
         let picks_of = |x: u32, out: &mut Vec<usize>| {
             out.clear();
             if count > 0 && pos.fetch(Texel { layer, x, y })[3] > 0.5 {
-                let texel = rng::texel_index(scene.layer_size, layer, x, y);
-                out.extend((0..self.k).map(|s| pick(texel, s)));
+                let at = [layer, x, y];
+                let stream = rng::Stream::gather(rng::Sampler::Sobol, scene.layer_size, at, 1, self.k);
+                let texel = draws.texel(stream.key);
+                out.extend((0..self.k).map(|s| pick(&texel, stream.first, s)));
             }
         };
         let x0 = ctx.tile.x0;

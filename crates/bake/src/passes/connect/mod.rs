@@ -2,8 +2,9 @@
 //! by side, and its CPU reference (`cpu.rs`), the semantics the shaders mirror.
 //!
 //! The lamp paths' part `C(x)` of the first bounce ([`crate::lightpaths`]): each valid texel
-//! picks [`ConnectParams::k`] points of the pool (independent picks with the hash sampler,
-//! pass [`CONNECT_PASS`](crate::lightpaths::CONNECT_PASS)), joins each with a shadow ray and
+//! picks [`ConnectParams::k`] points of the pool (stratified picks from its block's Sobol
+//! draws, pass [`CONNECT_PASS`](crate::lightpaths::CONNECT_PASS); `lightpaths`, "Stratified
+//! picks"), joins each with a shadow ray and
 //! adds its power weighted by the balance heuristic against a gather of
 //! [`ConnectParams::rays`] rays. The pool's points are a scene resource
 //! ([`SceneData::lamp_paths`](crate::backend::SceneData::lamp_paths)); the gather adds the
