@@ -716,18 +716,22 @@ mod tests {
         assert_eq!(Stats::of(&[1.0], &[0.0]).n, 0);
     }
 
-    #[test]
-    fn noise_separates_spread_from_shared_error() {
-        let p = |surface: &str, lux: f64| RefPoint {
+    /// A reference point on `surface` with `lux` (and its direct part).
+    fn point(surface: &str, lux: f64, direct_lux: Option<f64>) -> RefPoint {
+        RefPoint {
             line: 1,
             position: [0.0; 3],
             normal: [0.0, 1.0, 0.0],
             surface: surface.to_owned(),
             object: None,
             lux,
-            direct_lux: None,
-        };
-        let refs = [p("floor", 100.0), p("wall", 10.0)];
+            direct_lux,
+        }
+    }
+
+    #[test]
+    fn noise_separates_spread_from_shared_error() {
+        let refs = [point("floor", 100.0, None), point("wall", 10.0, None)];
         // The floor point: +2 % and −2 % (noise, no shared error); the wall point: +10 % twice.
         let bakes = vec![
             vec![[0.0, 102.0], [0.0, 11.0]],
@@ -759,15 +763,7 @@ mod tests {
 
     #[test]
     fn compare_groups_by_surface() {
-        let p = |surface: &str, lux: f64, direct: f64| RefPoint {
-            line: 1,
-            position: [0.0; 3],
-            normal: [0.0, 1.0, 0.0],
-            surface: surface.to_owned(),
-            object: None,
-            lux,
-            direct_lux: Some(direct),
-        };
+        let p = |surface: &str, lux: f64, direct: f64| point(surface, lux, Some(direct));
         let refs = [
             p("floor", 100.0, 60.0),
             p("wall", 40.0, 0.5),
