@@ -390,17 +390,18 @@ impl Stream {
         first_rays: u32,
         more: u32,
     ) -> Stream {
-        match (sampler, block(layer_size, [layer, x, y], 1)) {
-            (Sampler::Sobol, Some((key, rank))) => Stream {
-                key,
-                first: (SOBOL_BLOCK * SOBOL_BLOCK)
-                    .wrapping_mul(sequence(first_rays).max(sequence(more)))
-                    .wrapping_add(rank.wrapping_mul(sequence(more))),
-            },
-            _ => Stream {
-                key: texel_index(layer_size, layer, x, y),
-                first: first_rays,
-            },
+        // At stride 1 every texel is on the grid: the gather of `more` rays, moved past the
+        // block's first gathers (Sobol) or the texel's own (hash).
+        let g = Stream::gather(sampler, layer_size, [layer, x, y], 1, more);
+        let skip = match sampler {
+            Sampler::Sobol => {
+                (SOBOL_BLOCK * SOBOL_BLOCK).wrapping_mul(sequence(first_rays).max(sequence(more)))
+            }
+            Sampler::Hash => first_rays,
+        };
+        Stream {
+            key: g.key,
+            first: skip.wrapping_add(g.first),
         }
     }
 }

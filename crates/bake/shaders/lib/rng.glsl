@@ -111,15 +111,11 @@ uvec2 luxGatherStream(uint samplerId, uvec2 layerSize, uint layer, uint x, uint 
 // rng::Stream::refine: (key, first) of `more` rays refining a gather of `firstRays` rays.
 uvec2 luxRefineStream(uint samplerId, uvec2 layerSize, uint layer, uint x, uint y,
                       uint firstRays, uint more) {
-    if (samplerId == LUX_SAMPLER_SOBOL) {
-        uint key = luxTexelIndex(layerSize, layer, x - x % LUX_SOBOL_BLOCK,
-                                 y - y % LUX_SOBOL_BLOCK);
-        uint rank = x % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (y % LUX_SOBOL_BLOCK);
-        uint q = luxSequence(more);
-        return uvec2(key, LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(luxSequence(firstRays), q)
-                              + rank * q);
-    }
-    return uvec2(luxTexelIndex(layerSize, layer, x, y), firstRays);
+    uvec2 g = luxGatherStream(samplerId, layerSize, layer, x, y, 1u, more);
+    uint skip = samplerId == LUX_SAMPLER_SOBOL
+        ? LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(luxSequence(firstRays), luxSequence(more))
+        : firstRays;
+    return uvec2(g.x, skip + g.y);
 }
 
 // rng::Sampler::uniform2: the uniforms of sampler `samplerId` (GatherParams::sampler).

@@ -103,15 +103,13 @@ fn lux_gather_stream(sampler_id: u32, layer_size: vec2<u32>, layer: u32, x: u32,
 // rng::Stream::refine: (key, first) of `more` rays refining a gather of `first_rays` rays.
 fn lux_refine_stream(sampler_id: u32, layer_size: vec2<u32>, layer: u32, x: u32, y: u32,
                      first_rays: u32, more: u32) -> vec2<u32> {
+    let g = lux_gather_stream(sampler_id, layer_size, layer, x, y, 1u, more);
+    var skip = first_rays;
     if (sampler_id == LUX_SAMPLER_SOBOL) {
-        let key = lux_texel_index(layer_size, layer, x - x % LUX_SOBOL_BLOCK,
-                                  y - y % LUX_SOBOL_BLOCK);
-        let rank = x % LUX_SOBOL_BLOCK + LUX_SOBOL_BLOCK * (y % LUX_SOBOL_BLOCK);
-        let q = lux_sequence(more);
-        return vec2<u32>(key, LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(lux_sequence(first_rays), q)
-                                  + rank * q);
+        skip = LUX_SOBOL_BLOCK * LUX_SOBOL_BLOCK * max(lux_sequence(first_rays),
+                                                       lux_sequence(more));
     }
-    return vec2<u32>(lux_texel_index(layer_size, layer, x, y), first_rays);
+    return vec2<u32>(g.x, skip + g.y);
 }
 
 // rng::Sampler::uniform2: the uniforms of sampler `sampler_id` (GatherParams::sampler).

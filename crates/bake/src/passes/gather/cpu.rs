@@ -456,6 +456,7 @@ pub(crate) fn gather_row(
     } = scratch;
     texels.clear();
     at.clear();
+    let sampler = rng::Sampler::from_id(params.sampler);
     for (i, texel) in out.chunks_exact_mut(4).enumerate() {
         let x = x0 + i as u32;
         let here = Texel { layer, x, y };
@@ -479,7 +480,6 @@ pub(crate) fn gather_row(
         } else {
             rays - first
         };
-        let sampler = rng::Sampler::from_id(params.sampler);
         let stream = rng::Stream::gather(sampler, scene.layer_size, [layer, x, y], params.stride, rays);
         texels.push(GatherTexel {
             texel: stream.key,
@@ -495,7 +495,7 @@ pub(crate) fn gather_row(
         });
         at.push(i);
     }
-    let sampler = [params.sampler, params.bounce, params.seed];
+    let draws = [params.sampler, params.bounce, params.seed];
     // The row's hits replayed when they were recorded for these rays, else traced (and
     // recorded while the budget allows).
     let width = (out.len() / 4) as u32;
@@ -511,7 +511,7 @@ pub(crate) fn gather_row(
         (None, Some((c, _))) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
         _ => Hits::Trace,
     };
-    gather_sums(scene, reflected, trav, sampler, texels, &mut hits, chunks, sums);
+    gather_sums(scene, reflected, trav, draws, texels, &mut hits, chunks, sums);
     if let Some((c, (key, inputs))) = cache {
         if let Hits::Record(recorded) = hits {
             c.record(&scene.bvh, key, inputs, recorded);
