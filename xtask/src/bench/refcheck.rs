@@ -382,10 +382,24 @@ impl Comparison {
 /// Noise and shared error of several bakes at the same points (`--seeds`), per surface kind.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Noise {
-    /// Per group (`all`, then each surface kind): points, the mean over points of the standard
-    /// deviation of their relative error across the bakes, and the mean |relative error| and
-    /// bias of each point's mean over the bakes.
-    pub groups: Vec<(String, usize, f64, f64, f64)>,
+    /// `all`, then each surface kind.
+    pub groups: Vec<NoiseGroup>,
+}
+
+/// [`Noise`] of one group of points.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct NoiseGroup {
+    /// `all` or the surface kind.
+    pub name: String,
+    /// Points.
+    pub points: usize,
+    /// The mean over the points of the standard deviation of their relative error across the
+    /// bakes.
+    pub sd: f64,
+    /// The mean |relative error| of each point's mean over the bakes.
+    pub mean_abs: f64,
+    /// The mean relative error (the bias).
+    pub bias: f64,
 }
 
 impl Noise {
@@ -402,25 +416,21 @@ impl Noise {
                 (var.sqrt(), mean)
             })
             .collect();
-        let mut kinds: BTreeMap<&str, Vec<usize>> = BTreeMap::new();
-        for (i, r) in refs.iter().enumerate() {
-            kinds.entry(r.surface.as_str()).or_default().push(i);
-        }
         let all: Vec<usize> = (0..refs.len()).collect();
-        let groups = std::iter::once(("all", &all))
-            .chain(kinds.iter().map(|(k, v)| (*k, v)))
+        let groups = std::iter::once(("all".to_owned(), all))
+            .chain(surface_kinds(refs))
             .map(|(name, idx)| {
                 let m = idx.len().max(1) as f64;
                 let avg = |f: &dyn Fn(&(f64, f64)) -> f64| {
                     idx.iter().map(|&i| f(&per_point[i])).sum::<f64>() / m
                 };
-                (
-                    name.to_owned(),
-                    idx.len(),
-                    avg(&|p| p.0),
-                    avg(&|p| p.1.abs()),
-                    avg(&|p| p.1),
-                )
+                NoiseGroup {
+                    points: idx.len(),
+                    sd: avg(&|p| p.0),
+                    mean_abs: avg(&|p| p.1.abs()),
+                    bias: avg(&|p| p.1),
+                    name,
+                }
             })
             .collect();
         Noise { groups }
@@ -430,9 +440,9 @@ impl Noise {
     pub fn json(&self) -> serde_json::Value {
         self.groups
             .iter()
-            .map(|(name, n, sd, mean_abs, bias)| {
-                serde_json::json!({ "surface": name, "points": n, "noise_sd": sd,
-                    "mean_abs_rel_of_mean": mean_abs, "bias": bias })
+            .map(|g| {
+                serde_json::json!({ "surface": g.name, "points": g.points, "noise_sd": g.sd,
+                    "mean_abs_rel_of_mean": g.mean_abs, "bias": g.bias })
             })
             .collect()
     }
@@ -443,13 +453,15 @@ impl Noise {
             "| surface | points | noise sd % | mean \\|rel\\| of the mean % | bias % |\n\
              |---|--:|--:|--:|--:|\n",
         );
-        for (name, n, sd, mean_abs, bias) in &self.groups {
+        for g in &self.groups {
             let _ = writeln!(
                 md,
-                "| {name} | {n} | {:.2} | {:.2} | {:+.2} |",
-                sd * 100.0,
-                mean_abs * 100.0,
-                bias * 100.0
+                "| {} | {} | {:.2} | {:.2} | {:+.2} |",
+                g.name,
+                g.points,
+                g.sd * 100.0,
+                g.mean_abs * 100.0,
+                g.bias * 100.0
             );
         }
         md
@@ -485,17 +497,22 @@ pub fn compare(refs: &[RefPoint], measured: &[Measured]) -> Comparison {
     };
     let n = refs.len().min(measured.len());
     let all: Vec<usize> = (0..n).collect();
-    let mut kinds: BTreeMap<String, Vec<usize>> = BTreeMap::new();
-    for (i, r) in refs.iter().enumerate().take(n) {
-        kinds.entry(r.surface.clone()).or_default().push(i);
-    }
     Comparison {
         all: group(&all),
-        per_surface: kinds
-            .iter()
-            .map(|(k, idx)| (k.clone(), group(idx)))
+        per_surface: surface_kinds(&refs[..n])
+            .into_iter()
+            .map(|(k, idx)| (k, group(&idx)))
             .collect(),
     }
+}
+
+/// The indices of `refs` per surface kind, sorted by name.
+fn surface_kinds(refs: &[RefPoint]) -> BTreeMap<String, Vec<usize>> {
+    let mut kinds: BTreeMap<String, Vec<usize>> = BTreeMap::new();
+    for (i, r) in refs.iter().enumerate() {
+        kinds.entry(r.surface.clone()).or_default().push(i);
+    }
+    kinds
 }
 
 /// Locates the reference points on `scene`'s receivers (`measure`'s rule and tolerance);
@@ -739,15 +756,19 @@ mod tests {
         ];
         let noise = Noise::of(&refs, &bakes);
         let floor = &noise.groups[1];
-        assert_eq!((floor.0.as_str(), floor.1), ("floor", 1));
-        assert!((floor.2 - 0.02 * 2f64.sqrt()).abs() < 1e-12, "{floor:?}");
-        assert!(floor.3.abs() < 1e-12 && floor.4.abs() < 1e-12, "{floor:?}");
+        assert_eq!((floor.name.as_str(), floor.points), ("floor", 1));
+        assert!((floor.sd - 0.02 * 2f64.sqrt()).abs() < 1e-12, "{floor:?}");
+        assert!(
+            floor.mean_abs.abs() < 1e-12 && floor.bias.abs() < 1e-12,
+            "{floor:?}"
+        );
         let wall = &noise.groups[2];
         assert!(
-            wall.2.abs() < 1e-12 && (wall.3 - 0.1).abs() < 1e-12,
+            wall.sd.abs() < 1e-12 && (wall.mean_abs - 0.1).abs() < 1e-12,
             "{wall:?}"
         );
-        assert_eq!(noise.groups[0].1, 2);
+        assert!((wall.bias - 0.1).abs() < 1e-12, "{wall:?}");
+        assert_eq!(noise.groups[0].points, 2);
         assert!(
             noise
                 .markdown()
