@@ -24,6 +24,10 @@
 //! deviation of a point's relative error across the seeds — beside the mean |relative error|
 //! and bias of each point's mean over the seeds (what is left once the noise is averaged
 //! down, bias plus noise / √N).
+//!
+//! An in-memory check also writes `refcheck-points-<date>-<machine>.csv`: every reference
+//! point (line, surface kind, object, position, normal, reference total and direct lux) with
+//! each seed's baked total and its relative error, to find where an error sits.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -559,6 +563,42 @@ fn settings_label(s: &Settings) -> String {
     )
 }
 
+/// Every reference point with what each bake measured there, one row a point: its line in the
+/// reference file, surface kind, object, the reference's total and direct lux, then per seed
+/// `total_lux_<seed>` and `rel_<seed>` (relative error of the total; empty where the
+/// reference is 0).
+fn points_table(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> String {
+    let mut csv = String::from("line,surface,object,x,y,z,nx,ny,nz,lux,direct_lux");
+    for seed in 0..bakes.len() {
+        let _ = write!(csv, ",total_lux_{seed},rel_{seed}");
+    }
+    csv.push('\n');
+    for (i, r) in refs.iter().enumerate() {
+        let [x, y, z] = r.position;
+        let [nx, ny, nz] = r.normal;
+        let _ = write!(
+            csv,
+            "{},{},{},{x},{y},{z},{nx},{ny},{nz},{},{}",
+            r.line,
+            r.surface,
+            r.object.as_deref().unwrap_or(""),
+            r.lux,
+            r.direct_lux.map(|d| d.to_string()).unwrap_or_default()
+        );
+        for bake in bakes {
+            let total = bake[i][1];
+            let rel = if r.lux != 0.0 {
+                (total / r.lux - 1.0).to_string()
+            } else {
+                String::new()
+            };
+            let _ = write!(csv, ",{total},{rel}");
+        }
+        csv.push('\n');
+    }
+    csv
+}
+
 /// Runs the check; prints and writes `refcheck-<date>-<machine>.{md,json}` into `out`.
 pub fn run(args: &Args, out: &Path) -> Result<(), String> {
     let ref_path = args
@@ -568,6 +608,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
     let refs = load(&ref_path)?;
     let label = shown(&ref_path);
     let mut noise_md = String::new();
+    let mut points_csv = None;
     let (what, comparison, extra) = match &args.dir {
         Some(dir) => {
             let points: Vec<(usize, [f64; 3])> =
@@ -613,6 +654,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 bakes.push(measured);
             }
             let wall = walls.iter().sum::<f64>() / walls.len() as f64;
+            points_csv = Some(points_table(&refs, &bakes));
             let what = format!(
                 "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s{}",
                 args.scene,
@@ -681,6 +723,9 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
         "bake": extra, "comparison": comparison.json(),
     });
     write(&result_path(out, "refcheck", "md"), &md)?;
+    if let Some(csv) = points_csv {
+        write(&result_path(out, "refcheck-points", "csv"), &csv)?;
+    }
     write(
         &result_path(out, "refcheck", "json"),
         &serde_json::to_string_pretty(&json).map_err(|e| e.to_string())?,
@@ -780,6 +825,31 @@ mod tests {
         assert!((m.per_surface["floor"].total.mean_abs_rel - 0.02).abs() < 1e-12);
         assert!(m.per_surface["floor"].total.bias.abs() < 1e-12);
         assert!((m.all.total.bias - 0.05).abs() < 1e-12, "{:?}", m.all.total);
+    }
+
+    #[test]
+    fn the_points_table_lists_every_point_with_every_seed() {
+        let refs = [
+            RefPoint {
+                line: 7,
+                object: Some("chair_01".into()),
+                ..point("furniture", 16.0, Some(0.0))
+            },
+            point("floor", 0.0, None),
+        ];
+        let bakes = vec![vec![[0.0, 12.0], [0.0, 1.0]], vec![[0.0, 20.0], [0.0, 2.0]]];
+        let csv = points_table(&refs, &bakes);
+        let lines: Vec<&str> = csv.lines().collect();
+        assert_eq!(
+            lines,
+            [
+                "line,surface,object,x,y,z,nx,ny,nz,lux,direct_lux,total_lux_0,rel_0,total_lux_1,rel_1",
+                "7,furniture,chair_01,0,0,0,0,1,0,16,0,12,-0.25,20,0.25",
+                // No relative error against a reference of 0, no direct part where the file
+                // has none.
+                "1,floor,,0,0,0,0,1,0,0,,1,,2,",
+            ]
+        );
     }
 
     #[test]
