@@ -26,7 +26,7 @@ use std::sync::Arc;
 
 use luxbake::cpu::{CpuScene, GatherHitStats, GatherHits, GuideCache, View};
 use luxbake::graph::TexDesc;
-use luxbake::program::Program;
+use luxbake::program::{GatherParams, ParamBlock, Program};
 use luxbake::scene::Scene;
 
 /// `scene` baked on a new [`CpuBackend`] at its own settings, without progress reports.
@@ -97,10 +97,11 @@ pub struct CpuTexture(usize);
 pub struct CpuBackend {
     textures: Vec<(TexDesc, Vec<f32>)>,
     /// Per texture, what identifies its texels ([`luxbake::cpu::texels_id`]) once a
-    /// denoiser pass asked, until it is written again.
+    /// denoiser, gather or upsampling pass asked, until it is written again.
     ids: Vec<Option<u64>>,
-    /// The denoiser's chart tests, kept from pass to pass and bake to bake
-    /// ([`luxbake::cpu::GuideMasks`]; at most [`GuideCache::KEEP`], 4 bytes per texel each).
+    /// The denoiser's chart tests and the grid corners of the later bounces, kept from pass
+    /// to pass and bake to bake ([`luxbake::cpu::GuideMasks`], 4 bytes per texel each, and
+    /// [`luxbake::cpu::CoarseMasks`], 1 byte; at most [`GuideCache::KEEP`] of each).
     guides: GuideCache,
     /// Gather hits kept across bakes ([`CpuBackend::keep_gather_hits`]).
     hits: Option<Arc<GatherHits>>,
@@ -236,11 +237,21 @@ impl GpuBackend for CpuBackend {
             (d.clone(), std::mem::take(data))
         };
         // The denoiser's passes read their taps' chart tests from the kept masks of the
-        // position map: what identifies its texels is hashed once after each upload.
-        if matches!(call.program, Program::Variance | Program::Atrous) {
+        // position map, the gather and the upsampling on a grid its grid corners from those
+        // of the position and normal maps: what identifies their texels is hashed once after
+        // each upload.
+        let kept: &[&str] = match call.program {
+            Program::Variance | Program::Atrous => &["position"],
+            Program::Gather if GatherParams::from_words(call.params).stride > 1 => {
+                &["position", "normal"]
+            }
+            Program::Upsample => &["position", "normal"],
+            _ => &[],
+        };
+        if !kept.is_empty() {
             let names = call.program.signature().reads;
             for (slot, r) in call.reads.iter().enumerate() {
-                if names.get(slot) == Some(&"position") && r.0 != out_index {
+                if names.get(slot).is_some_and(|n| kept.contains(n)) && r.0 != out_index {
                     let (d, data) = self.get(r)?;
                     if self.ids[r.0].is_none() {
                         self.ids[r.0] = Some(luxbake::cpu::texels_id(d.size, d.layers, data));

@@ -90,6 +90,22 @@ impl<'a> Ctx<'a> {
         let id = (*ids.get(slot)?)?;
         Some(cache.masks(id, *self.views.get(slot)?, chart))
     }
+
+    /// The grid corners ([`CoarseMasks`]) of the position and normal maps in read slots
+    /// `slots`, when the backend keeps them and knows both maps' texels.
+    pub(crate) fn coarse_masks(
+        &self,
+        slots: [usize; 2],
+        stride: u32,
+        reach: f32,
+    ) -> Option<Arc<CoarseMasks>> {
+        let (cache, ids) = self.guides?;
+        let id = |s: usize| *ids.get(s)?;
+        let view = |s: usize| self.views.get(s).copied();
+        let ids = [id(slots[0])?, id(slots[1])?];
+        let maps = [view(slots[0])?, view(slots[1])?];
+        Some(cache.corners(ids, maps, stride, reach))
+    }
 }
 
 /// Texel `(x, y)` of `layer` of a texture array: where a pass computes, and what it reads
@@ -532,24 +548,45 @@ pub(crate) fn xyz(t: [f32; 4]) -> [f32; 3] {
 /// The weights of texel `at`'s grid-cell corners that lie on its surface
 /// ([`program::coarse`]), 0 for the others, and their sum.
 pub(crate) fn coarse_weights(
-    [pos, nrm]: [View<'_>; 2],
+    maps: [View<'_>; 2],
     stride: u32,
     reach: f32,
     at: Texel,
 ) -> ([([i64; 2], f32); 4], f32) {
+    weights_of_corners(coarse_corners(maps, stride, reach, at), stride, at)
+}
+
+/// [`coarse_weights`] from the corners that count ([`coarse_corners`]' bits).
+pub(crate) fn weights_of_corners(
+    corners: u8,
+    stride: u32,
+    at: Texel,
+) -> ([([i64; 2], f32); 4], f32) {
     let mut cell = coarse::cell(at.x, at.y, stride);
-    let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
-        return (cell.map(|(c, _)| (c, 0.0)), 0.0);
-    };
     let mut total = 0.0f32;
-    for (corner, weight) in &mut cell {
-        if *weight > 0.0 && centre.on_surface(*corner) {
+    for (k, (_, weight)) in cell.iter_mut().enumerate() {
+        if corners & (1 << k) != 0 {
             total += *weight;
         } else {
             *weight = 0.0;
         }
     }
     (cell, total)
+}
+
+/// Which of texel `at`'s grid-cell corners ([`program::coarse`], bit `k` for corner `k`) have
+/// a positive weight and lie on its surface; none where its normal cannot be normalised.
+pub(crate) fn coarse_corners([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32, at: Texel) -> u8 {
+    let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
+        return 0;
+    };
+    let mut bits = 0u8;
+    for (k, &(corner, weight)) in coarse::cell(at.x, at.y, stride).iter().enumerate() {
+        if weight > 0.0 && centre.on_surface(corner) {
+            bits |= 1 << k;
+        }
+    }
+    bits
 }
 
 /// Whether any grid corner of [`coarse_weights`] lies on texel `at`'s surface (its total
@@ -618,14 +655,80 @@ impl<'a> CoarseCentre<'a> {
 
 /// The rays the gather casts at texel `at`: `rays` at every texel at stride 1 and at grid
 /// texels, `orphan_rays` at orphans, else 0 ([`program::coarse`]).
-pub(crate) fn coarse_rays(maps: [View<'_>; 2], params: &GatherParams, at: Texel) -> u32 {
+/// The bits of [`CoarseMasks`] stand in for the corners' tests where given.
+pub(crate) fn coarse_rays(
+    maps: [View<'_>; 2],
+    params: &GatherParams,
+    masks: Option<&CoarseMasks>,
+    at: Texel,
+) -> u32 {
     let stride = params.stride;
+    let covered = || match masks.and_then(|m| m.at(at)) {
+        Some(corners) => corners != 0,
+        None => coarse_covered(maps, stride, params.reach, at),
+    };
     if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
         params.rays
-    } else if coarse_covered(maps, stride, params.reach, at) {
+    } else if covered() {
         0
     } else {
         params.orphan_rays
+    }
+}
+
+/// Per texel of a G-buffer, which corners of its grid cell count (`coarse_corners`: a positive
+/// weight and on its surface) for one grid stride and reach: the later
+/// bounces' gathers (which texels are orphans) and upsamplings of a bake, and of every bake
+/// of the same room, read them instead of testing the corners' positions and normals again
+/// (the CPU backend keeps them in its [`GuideCache`]): the same corners, bit for bit. One byte
+/// per texel (0.7 MB for `chairs_05` at 64 texels/m).
+#[derive(Debug)]
+pub struct CoarseMasks {
+    size: [u32; 2],
+    layers: u32,
+    bits: Vec<u8>,
+}
+
+impl CoarseMasks {
+    /// The corners of every valid texel of `[pos, nrm]` (0 for the others).
+    pub(crate) fn new(maps: [View<'_>; 2], stride: u32, reach: f32) -> CoarseMasks {
+        let [pos, _] = maps;
+        let [w, h] = pos.size;
+        let mut bits = vec![0u8; pos.layers as usize * h as usize * w as usize];
+        if w > 0 {
+            bits.par_chunks_mut(w as usize)
+                .enumerate()
+                .for_each(|(r, row)| {
+                    let (layer, y) = ((r / h as usize) as u32, (r % h as usize) as u32);
+                    for (x, out) in (0..w).zip(row.iter_mut()) {
+                        let at = Texel { layer, x, y };
+                        if pos.fetch(at)[3] > 0.5 {
+                            *out = coarse_corners(maps, stride, reach, at);
+                        }
+                    }
+                });
+        }
+        CoarseMasks {
+            size: pos.size,
+            layers: pos.layers,
+            bits,
+        }
+    }
+
+    /// Texel `at`'s corners; `None` outside the map.
+    #[inline]
+    pub(crate) fn at(&self, at: Texel) -> Option<u8> {
+        if at.layer >= self.layers || at.x >= self.size[0] || at.y >= self.size[1] {
+            return None;
+        }
+        let i = (at.layer as usize * self.size[1] as usize + at.y as usize) * self.size[0] as usize
+            + at.x as usize;
+        self.bits.get(i).copied()
+    }
+
+    /// Bytes of the bits.
+    pub fn bytes(&self) -> usize {
+        self.bits.len()
     }
 }
 
@@ -903,9 +1006,13 @@ impl GuideMasks {
 /// and chart test: the variance pass and the first à-trous iteration share one, a lamp swap
 /// reuses all. Up to [`GuideCache::KEEP`] of them (the oldest goes first); 4 bytes per texel
 /// each (4.7 MB for `chairs_05` at 64 texels/m).
+///
+/// It keeps the grid corners of the later bounces ([`CoarseMasks`]) the same way, per
+/// position and normal map, stride and reach.
 #[derive(Debug, Default)]
 pub struct GuideCache {
     kept: std::sync::Mutex<Vec<([u64; 4], Arc<GuideMasks>)>>,
+    corners: std::sync::Mutex<Vec<([u64; 4], Arc<CoarseMasks>)>>,
 }
 
 impl GuideCache {
@@ -915,33 +1022,66 @@ impl GuideCache {
     /// The masks of map `id` (its texels `pos`) for `chart`, made when not kept.
     pub(crate) fn masks(&self, id: u64, pos: View<'_>, chart: Chart) -> Arc<GuideMasks> {
         let [a, b, c] = chart.key();
-        let key = [id, a, b, c];
-        let found = self.kept.lock().ok().and_then(|k| {
-            k.iter()
-                .find(|(k, _)| *k == key)
-                .map(|(_, m)| Arc::clone(m))
-        });
-        if let Some(m) = found {
-            return m;
-        }
-        let m = Arc::new(GuideMasks::new(pos, chart));
-        if let Ok(mut k) = self.kept.lock()
-            && !k.iter().any(|(k, _)| *k == key)
-        {
-            if k.len() >= Self::KEEP {
-                k.remove(0);
-            }
-            k.push((key, Arc::clone(&m)));
-        }
-        m
+        keep(&self.kept, [id, a, b, c], || GuideMasks::new(pos, chart))
+    }
+
+    /// The grid corners of maps `ids = [position, normal]` (their texels `maps`) for `stride`
+    /// and `reach`, made when not kept.
+    pub(crate) fn corners(
+        &self,
+        ids: [u64; 2],
+        maps: [View<'_>; 2],
+        stride: u32,
+        reach: f32,
+    ) -> Arc<CoarseMasks> {
+        let key = [
+            ids[0],
+            ids[1],
+            u64::from(stride),
+            u64::from(reach.to_bits()),
+        ];
+        keep(&self.corners, key, || CoarseMasks::new(maps, stride, reach))
     }
 
     /// Bytes of the masks kept.
     pub fn bytes(&self) -> usize {
-        self.kept
+        let guides = self
+            .kept
             .lock()
-            .map_or(0, |k| k.iter().map(|(_, m)| m.bytes()).sum())
+            .map_or(0, |k| k.iter().map(|(_, m)| m.bytes()).sum::<usize>());
+        let corners = self
+            .corners
+            .lock()
+            .map_or(0, |k| k.iter().map(|(_, m)| m.bytes()).sum::<usize>());
+        guides + corners
     }
+}
+
+/// The value kept under `key` in `kept`, or `make`'s, then kept (up to [`GuideCache::KEEP`],
+/// the oldest going first).
+fn keep<T>(
+    kept: &std::sync::Mutex<Vec<([u64; 4], Arc<T>)>>,
+    key: [u64; 4],
+    make: impl FnOnce() -> T,
+) -> Arc<T> {
+    let found = kept.lock().ok().and_then(|k| {
+        k.iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, m)| Arc::clone(m))
+    });
+    if let Some(m) = found {
+        return m;
+    }
+    let m = Arc::new(make());
+    if let Ok(mut k) = kept.lock()
+        && !k.iter().any(|(k, _)| *k == key)
+    {
+        if k.len() >= GuideCache::KEEP {
+            k.remove(0);
+        }
+        k.push((key, Arc::clone(&m)));
+    }
+    m
 }
 
 /// Asks the cache for the line holding `data[index]` (nothing when `index` is out of range,

@@ -110,7 +110,9 @@ pub(crate) mod lanes;
 
 pub use crate::exact::{basis, guard, normalize};
 pub use hits::{GatherHitStats, GatherHits};
-pub use kernel::{CpuScene, Frame, GuideCache, GuideMasks, View, cosine_direction, sin_cos_turns};
+pub use kernel::{
+    CoarseMasks, CpuScene, Frame, GuideCache, GuideMasks, View, cosine_direction, sin_cos_turns,
+};
 use kernel::{Ctx, traversal};
 
 /// Runs one dispatch of a pass — its CPU reference — over the dispatch's tile: `reads` are its
@@ -1126,7 +1128,7 @@ mod denoiser_tests {
             orphan_rays: 5,
             ..GatherParams::default()
         };
-        coarse_rays([pos, nrm], &params, Texel::layer0(x, y))
+        coarse_rays([pos, nrm], &params, None, Texel::layer0(x, y))
     }
 
     /// A 13×13 floor with column 11 and row 11 a one-texel strip of another object, valued
@@ -1193,7 +1195,7 @@ mod denoiser_tests {
             ..UpsampleParams::default()
         };
         let out = apply(size, |at| {
-            upsample_texel([view(&f.map, size), pos, nrm], params, at)
+            upsample_texel([view(&f.map, size), pos, nrm], params, None, at)
         });
         let mut compared = 0;
         for y in 0..13 {
@@ -1307,6 +1309,77 @@ mod guide_mask_tests {
         }
         println!("{same} taps compared, {taken} taken, {charted} rejected by the chart test");
         assert!(taken > 100_000 && charted > 1_000 && same > taken);
+    }
+
+    /// The kept grid corners ([`CoarseMasks`]) give the later bounces' gather the same
+    /// orphans and the upsampling the same value, bit for bit, at every texel of a furnished
+    /// room's G-buffer, at the strides the presets use and beyond; the passes ask for them by
+    /// the read slots of the position and normal maps.
+    #[test]
+    fn the_kept_grid_corners_give_the_orphans_and_the_upsampling_the_tests_give() {
+        use crate::passes::gather::GatherParams;
+        use crate::passes::upsample::UpsampleParams;
+        use crate::passes::upsample::cpu::upsample_texel;
+        use crate::program::Program;
+        assert_eq!(
+            Program::Gather.signature().reads[..2],
+            ["position", "normal"]
+        );
+        assert_eq!(
+            Program::Upsample.signature().reads[1..3],
+            ["position", "normal"]
+        );
+        let room = chairs_01_room();
+        let g = &room.gbuffer;
+        let (size, layers) = (g.layer_size, g.layers);
+        let pos = View::new(&g.position, size, layers);
+        let nrm = View::new(&g.normal, size, layers);
+        // A map that differs from texel to texel, so that every corner's weight shows.
+        let map: Vec<f32> = (0..g.position.len())
+            .map(|i| 1.0 + (i % 97) as f32 * 0.37)
+            .collect();
+        let src = View::new(&map, size, layers);
+        let reach = AtrousConfig::new(3, 1.0 / 12.0).reach();
+        let (mut orphans, mut covered, mut compared) = (0u64, 0u64, 0u64);
+        for stride in [2u32, 4, 8] {
+            for reach in [reach, 0.5 * reach] {
+                let masks = CoarseMasks::new([pos, nrm], stride, reach);
+                let gather = GatherParams {
+                    rays: 16,
+                    stride,
+                    reach,
+                    orphan_rays: 5,
+                    ..GatherParams::default()
+                };
+                let upsample = UpsampleParams {
+                    stride,
+                    reach,
+                    ..UpsampleParams::default()
+                };
+                for layer in 0..layers {
+                    for y in 0..size[1] {
+                        for x in 0..size[0] {
+                            let at = Texel { layer, x, y };
+                            if pos.fetch(at)[3] <= 0.5 {
+                                continue;
+                            }
+                            let rays = coarse_rays([pos, nrm], &gather, None, at);
+                            let kept = coarse_rays([pos, nrm], &gather, Some(&masks), at);
+                            assert_eq!(kept, rays, "{at:?} stride {stride}");
+                            orphans += u64::from(rays == 5);
+                            covered += u64::from(rays == 0);
+                            let bits = |v: [f32; 4]| v.map(f32::to_bits);
+                            let want = upsample_texel([src, pos, nrm], upsample, None, at);
+                            let got = upsample_texel([src, pos, nrm], upsample, Some(&masks), at);
+                            assert_eq!(bits(got), bits(want), "{at:?} stride {stride}");
+                            compared += 1;
+                        }
+                    }
+                }
+            }
+        }
+        println!("{compared} texels compared, {covered} covered, {orphans} orphans");
+        assert!(compared > 50_000 && covered > 10_000 && orphans > 1_000);
     }
 
     /// The variance pass's blocks of eight texels ([`variance_block`], vector lanes with

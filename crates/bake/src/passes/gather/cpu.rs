@@ -3,26 +3,45 @@
 
 use luxbake_bvh::{Hit, Ray, TriangleAttributes};
 
+use std::sync::Arc;
+
 use crate::backend::offset_origin;
 use crate::cpu::hits::{Row, RowKey, WordHash, recorded};
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
+use crate::contract::ParamBlock;
 use crate::cpu::kernel::*;
 
 use super::GatherParams;
 
-/// The gather for one dispatch.
-pub(crate) type Pass = GatherParams;
+/// The gather for one dispatch: its parameters, and on a grid (stride > 1) the grid corners
+/// of its texels when the backend keeps them ([`CoarseMasks`]: which texels are orphans).
+pub(crate) struct Pass {
+    params: GatherParams,
+    masks: Option<Arc<CoarseMasks>>,
+}
 
-impl CpuPass for GatherParams {
+impl Prepare for Pass {
+    fn prepare(words: &[u32], ctx: &Ctx<'_>) -> Pass {
+        let params = GatherParams::from_words(words);
+        let masks = (params.stride > 1)
+            .then(|| ctx.coarse_masks([0, 1], params.stride, params.reach))
+            .flatten();
+        Pass { params, masks }
+    }
+}
+
+impl CpuPass for Pass {
     type Scratch = GatherScratch;
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut GatherScratch) {
         let v = ctx.views;
         let views = [v[0], v[1], v[2], v[3], v[4]];
         let (layer, x0) = (ctx.tile.layer, ctx.tile.x0);
-        gather_row(ctx.scene, views, ctx.trav, *self, layer, x0, y, texels, scratch);
+        let (trav, masks) = (ctx.trav, self.masks.as_deref());
+        let params = self.params;
+        gather_row(ctx.scene, views, trav, params, masks, [layer, x0, y], texels, scratch);
     }
 }
 
@@ -442,9 +461,8 @@ pub(crate) fn gather_row(
     [pos_map, nrm_map, reflected, connected, prior]: [View<'_>; 5],
     trav: Trav,
     params: GatherParams,
-    layer: u32,
-    x0: u32,
-    y: u32,
+    masks: Option<&CoarseMasks>,
+    [layer, x0, y]: [u32; 3],
     out: &mut [f32],
     scratch: &mut GatherScratch,
 ) {
@@ -469,7 +487,7 @@ pub(crate) fn gather_row(
         let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
             continue;
         };
-        let rays = coarse_rays([pos_map, nrm_map], &params, here);
+        let rays = coarse_rays([pos_map, nrm_map], &params, masks, here);
         if rays == 0 {
             continue;
         }
