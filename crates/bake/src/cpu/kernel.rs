@@ -718,11 +718,7 @@ impl CoarseMasks {
     /// Texel `at`'s corners; `None` outside the map.
     #[inline]
     pub(crate) fn at(&self, at: Texel) -> Option<u8> {
-        if at.layer >= self.layers || at.x >= self.size[0] || at.y >= self.size[1] {
-            return None;
-        }
-        let i = (at.layer as usize * self.size[1] as usize + at.y as usize) * self.size[0] as usize
-            + at.x as usize;
+        let i = flat_index(self.size, self.layers, at)?;
         self.bits.get(i).copied()
     }
 
@@ -911,6 +907,16 @@ impl Chart {
     }
 }
 
+/// Texel `at`'s index in a per-texel array of `layers` layers of `size` (one element a
+/// texel, row by row, layer after layer); `None` outside.
+#[inline]
+fn flat_index(size: [u32; 2], layers: u32, at: Texel) -> Option<usize> {
+    if at.layer >= layers || at.x >= size[0] || at.y >= size[1] {
+        return None;
+    }
+    Some((at.layer as usize * size[1] as usize + at.y as usize) * size[0] as usize + at.x as usize)
+}
+
 /// Per texel of a position map, which of the 25 taps `step·(i, j)`, `i, j ∈ −2..=2` (bit
 /// `5·(j + 2) + i + 2`) lie in the layer and pass the chart test of the denoiser's guide (the
 /// module docs of [`crate::cpu`]: a tap's distance within its offset's shell) — the part
@@ -987,11 +993,7 @@ impl GuideMasks {
     /// guide then tests its taps itself).
     #[inline]
     pub(crate) fn at(&self, at: Texel) -> Option<u32> {
-        if at.layer >= self.layers || at.x >= self.size[0] || at.y >= self.size[1] {
-            return None;
-        }
-        let i = (at.layer as usize * self.size[1] as usize + at.y as usize) * self.size[0] as usize
-            + at.x as usize;
+        let i = flat_index(self.size, self.layers, at)?;
         self.bits.get(i).copied().filter(|&m| m != 0)
     }
 
