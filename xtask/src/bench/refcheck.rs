@@ -227,14 +227,19 @@ pub struct Stats {
     pub p95_abs_rel: f64,
 }
 
+/// `(value − reference) / reference`; `None` for a non-positive reference (such points are
+/// left out of every figure).
+fn relative_error(value: f64, reference: f64) -> Option<f64> {
+    (reference > 0.0).then(|| (value - reference) / reference)
+}
+
 impl Stats {
     /// Of `values` against `reference` (pairs with a non-positive reference left out).
     pub fn of(values: &[f64], reference: &[f64]) -> Stats {
         let rel: Vec<f64> = values
             .iter()
             .zip(reference)
-            .filter(|(_, r)| **r > 0.0)
-            .map(|(v, r)| (v - r) / r)
+            .filter_map(|(&v, &r)| relative_error(v, r))
             .collect();
         let n = rel.len();
         if n == 0 {
@@ -407,29 +412,33 @@ pub struct NoiseGroup {
 }
 
 impl Noise {
-    /// Of `bakes` (each a bake's `[direct, total]` at the points of `refs`, at least two).
+    /// Of `bakes` (each a bake's `[direct, total]` at the points of `refs`, at least two);
+    /// points with a non-positive reference are left out, as in [`Stats::of`].
     pub fn of(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> Noise {
         let n = bakes.len() as f64;
-        let per_point: Vec<(f64, f64)> = refs
+        // Per point with a relative error: the standard deviation and mean of it over bakes.
+        let per_point: Vec<Option<(f64, f64)>> = refs
             .iter()
             .enumerate()
             .map(|(i, r)| {
-                let rel: Vec<f64> = bakes.iter().map(|b| (b[i][1] - r.lux) / r.lux).collect();
+                let rel: Vec<f64> = bakes
+                    .iter()
+                    .map(|b| relative_error(b[i][1], r.lux))
+                    .collect::<Option<_>>()?;
                 let mean = rel.iter().sum::<f64>() / n;
                 let var = rel.iter().map(|e| (e - mean).powi(2)).sum::<f64>() / (n - 1.0).max(1.0);
-                (var.sqrt(), mean)
+                Some((var.sqrt(), mean))
             })
             .collect();
         let all: Vec<usize> = (0..refs.len()).collect();
         let groups = std::iter::once(("all".to_owned(), all))
             .chain(surface_kinds(refs))
             .map(|(name, idx)| {
-                let m = idx.len().max(1) as f64;
-                let avg = |f: &dyn Fn(&(f64, f64)) -> f64| {
-                    idx.iter().map(|&i| f(&per_point[i])).sum::<f64>() / m
-                };
+                let points: Vec<(f64, f64)> = idx.iter().filter_map(|&i| per_point[i]).collect();
+                let m = points.len().max(1) as f64;
+                let avg = |f: &dyn Fn(&(f64, f64)) -> f64| points.iter().map(f).sum::<f64>() / m;
                 NoiseGroup {
-                    points: idx.len(),
+                    points: points.len(),
                     sd: avg(&|p| p.0),
                     mean_abs: avg(&|p| p.1.abs()),
                     bias: avg(&|p| p.1),
@@ -566,7 +575,7 @@ fn settings_label(s: &Settings) -> String {
 /// Every reference point with what each bake measured there, one row a point: its line in the
 /// reference file, surface kind, object, the reference's total and direct lux, then per seed
 /// `total_lux_<seed>` and `rel_<seed>` (relative error of the total; empty where the
-/// reference is 0).
+/// reference is not positive).
 fn points_table(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> String {
     let mut csv = String::from("line,surface,object,x,y,z,nx,ny,nz,lux,direct_lux");
     for seed in 0..bakes.len() {
@@ -587,11 +596,7 @@ fn points_table(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> String {
         );
         for bake in bakes {
             let total = bake[i][1];
-            let rel = if r.lux != 0.0 {
-                (total / r.lux - 1.0).to_string()
-            } else {
-                String::new()
-            };
+            let rel = relative_error(total, r.lux).map_or_else(String::new, |e| e.to_string());
             let _ = write!(csv, ",{total},{rel}");
         }
         csv.push('\n');
@@ -793,11 +798,16 @@ mod tests {
 
     #[test]
     fn noise_separates_spread_from_shared_error() {
-        let refs = [point("floor", 100.0, None), point("wall", 10.0, None)];
-        // The floor point: +2 % and −2 % (noise, no shared error); the wall point: +10 % twice.
+        let refs = [
+            point("floor", 100.0, None),
+            point("wall", 10.0, None),
+            point("wall", 0.0, None),
+        ];
+        // The floor point: +2 % and −2 % (noise, no shared error); the first wall point: +10 %
+        // twice; the second, dark in the reference, has no relative error and is left out.
         let bakes = vec![
-            vec![[0.0, 102.0], [0.0, 11.0]],
-            vec![[0.0, 98.0], [0.0, 11.0]],
+            vec![[0.0, 102.0], [0.0, 11.0], [0.0, 1.0]],
+            vec![[0.0, 98.0], [0.0, 11.0], [0.0, 2.0]],
         ];
         let noise = Noise::of(&refs, &bakes);
         let floor = &noise.groups[1];
@@ -813,7 +823,14 @@ mod tests {
             "{wall:?}"
         );
         assert!((wall.bias - 0.1).abs() < 1e-12, "{wall:?}");
+        assert_eq!(wall.points, 1);
         assert_eq!(noise.groups[0].points, 2);
+        assert!(
+            noise
+                .groups
+                .iter()
+                .all(|g| g.sd.is_finite() && g.bias.is_finite())
+        );
         assert!(
             noise
                 .markdown()
