@@ -589,17 +589,6 @@ pub(crate) fn coarse_corners([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32,
     bits
 }
 
-/// Whether any grid corner of [`coarse_weights`] lies on texel `at`'s surface (its total
-/// weight is positive), stopping at the first that does.
-fn coarse_covered([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32, at: Texel) -> bool {
-    let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
-        return false;
-    };
-    coarse::cell(at.x, at.y, stride)
-        .iter()
-        .any(|&(corner, weight)| weight > 0.0 && centre.on_surface(corner))
-}
-
 /// A texel of [`coarse_weights`] and the test of its grid corners.
 struct CoarseCentre<'a> {
     pos: View<'a>,
@@ -663,9 +652,12 @@ pub(crate) fn coarse_rays(
     at: Texel,
 ) -> u32 {
     let stride = params.stride;
-    let covered = || match masks.and_then(|m| m.at(at)) {
-        Some(corners) => corners != 0,
-        None => coarse_covered(maps, stride, params.reach, at),
+    // Covered: some corner of its cell counts (then the upsampling fills it in).
+    let covered = || {
+        masks
+            .and_then(|m| m.at(at))
+            .unwrap_or_else(|| coarse_corners(maps, stride, params.reach, at))
+            != 0
     };
     if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
         params.rays

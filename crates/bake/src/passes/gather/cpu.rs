@@ -1,17 +1,17 @@
 //! The CPU reference of pass `gather`: a row's rays traced together, in chunks (the
 //! semantics the shaders mirror; see [`crate::cpu`]'s docs).
 
-use luxbake_bvh::{Hit, Ray, TriangleAttributes};
-
 use std::sync::Arc;
 
+use luxbake_bvh::{Hit, Ray, TriangleAttributes};
+
 use crate::backend::offset_origin;
+use crate::contract::ParamBlock;
 use crate::cpu::hits::{Row, RowKey, WordHash, recorded};
+use crate::cpu::kernel::*;
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
-use crate::contract::ParamBlock;
-use crate::cpu::kernel::*;
 
 use super::GatherParams;
 
@@ -38,10 +38,9 @@ impl CpuPass for Pass {
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut GatherScratch) {
         let v = ctx.views;
         let views = [v[0], v[1], v[2], v[3], v[4]];
-        let (layer, x0) = (ctx.tile.layer, ctx.tile.x0);
-        let (trav, masks) = (ctx.trav, self.masks.as_deref());
-        let params = self.params;
-        gather_row(ctx.scene, views, trav, params, masks, [layer, x0, y], texels, scratch);
+        let at = [ctx.tile.layer, ctx.tile.x0, y];
+        let masks = self.masks.as_deref();
+        gather_row(ctx.scene, views, ctx.trav, self.params, masks, at, texels, scratch);
     }
 }
 
