@@ -76,6 +76,13 @@ pub const ATROUS_NORMAL_LOG2: u32 = 7;
 /// Default [`AtrousConfig::sigma_luminance`]: a luminance step of 4σ (σ the noise's standard
 /// deviation at that iteration) gets weight `e⁻¹`.
 pub const ATROUS_SIGMA_LUMINANCE: f32 = 4.0;
+/// Default [`AtrousConfig::wide_max_relative_variance`]: a relative standard deviation of
+/// the noise under 10 %.
+pub const ATROUS_WIDE_MAX_RELATIVE_VARIANCE: f32 = 0.01;
+/// The widest span, metres, over which an iteration may take the wide luminance term inside a
+/// wide chart with little noise: `2·step` texels each way of the largest texel size (see
+/// [`atrous_steps`], "Wide charts with little noise").
+pub const ATROUS_WIDE_MAX_SPAN: f32 = 0.15;
 /// Default [`AtrousConfig::early_iterations`].
 pub const ATROUS_EARLY_ITERATIONS: u32 = 2;
 /// Default [`AtrousConfig::early_sigma_luminance`] at [`ATROUS_EARLY_RAYS`] first-bounce rays:
@@ -116,6 +123,11 @@ pub struct AtrousConfig {
     pub early_iterations: u32,
     /// Width of the luminance term of the first [`AtrousConfig::early_iterations`].
     pub early_sigma_luminance: f32,
+    /// The later iterations keep the early iterations' wide luminance term at a texel inside a
+    /// wide chart (every mirrored pair of its taps on its surface) whose estimated noise
+    /// variance is under this fraction of its window's squared mean luminance (see
+    /// [`atrous_steps`], "Wide charts with little noise"); 0: never.
+    pub wide_max_relative_variance: f32,
     /// A power of two the variance pass multiplies every luminance by, and the à-trous
     /// iterations every luminance difference, before squaring: the lux of a lamp of 10³⁰ cd
     /// would square past f32's 3.4·10³⁸, and an infinite variance turns the luminance term
@@ -138,6 +150,7 @@ impl AtrousConfig {
             sigma_luminance: ATROUS_SIGMA_LUMINANCE,
             early_iterations: ATROUS_EARLY_ITERATIONS,
             early_sigma_luminance: ATROUS_EARLY_SIGMA_LUMINANCE,
+            wide_max_relative_variance: ATROUS_WIDE_MAX_RELATIVE_VARIANCE,
             luminance_scale: 1.0,
         }
     }
@@ -294,6 +307,32 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// noise, so a term kept wide at every ray count would keep that bias (−0.5 % over the box
 /// room's floor at 4 096 rays) where the noise has long fallen below it.
 ///
+/// # Wide charts with little noise
+/// From the first iteration with `σ_l` on (the third at the default), a texel that lies inside
+/// a wide chart — every mirrored pair of its taps on its surface, i.e. at least `2·step`
+/// texels from any edge or crease each way — and whose noise is low — the variance estimate
+/// under [`AtrousConfig::wide_max_relative_variance`] (1 %, a relative standard deviation of
+/// 10 %) times its window's squared mean luminance — keeps the early iterations' wide term
+/// ([`AtrousParams::wide_variance_scale`], `σ_early² · ρᵢ`). There the noise that is left is
+/// not the first gather's white noise that the variance estimate measures but the later
+/// bounces' (gathered on a grid every few texels and upsampled, so their noise comes in
+/// blotches a few texels wide whose neighbouring differences are small): a luminance term
+/// scaled to the white noise takes those blotches for light and keeps them. The pass takes
+/// both sums and keeps the wide one only where every pair counted. Measured with
+/// `bench refcheck` (eight seeds, CPU default, hq references; mean |rel| %, before → with the
+/// wide term): walls 0.44 → 0.32 (`chairs_01`), 0.64 → 0.54 (`chairs_10`), 0.48 → 0.36
+/// (`chairs_03`), 0.57 → 0.44 (`chairs_05`), 0.60 → 0.50 (`sofa_01`); ceilings 0.53–0.64 →
+/// 0.36–0.48; floors within ±0.02; the furniture unchanged (its narrow parts fail the pairs,
+/// the seats' dark undersides the noise bound: with the pairs alone they read −1.7 … −2.0 %
+/// instead of −1.0 … −1.2 %, and without the pairs the aprons −1.2 … −1.6 % instead of
+/// −1.0 … −1.2 %). As the rays grow the early term narrows to `σ_l` and so does this one.
+/// Only over a short span: an iteration whose taps reach farther than
+/// [`ATROUS_WIDE_MAX_SPAN`] (15 cm: step 4 at 64 texels/m reaches 12.5 cm, at 48 texels/m
+/// 17 cm) keeps `σ_l` everywhere,
+/// since across a longer span the light's own curvature biases a near-linear average — CIE
+/// 171:2006 test 5.8's cube at 6 texels/m (step 4: 67 cm) read −2.05 % instead of −1.83 % at
+/// ρ = 0.5 without the bound.
+///
 /// # Consistency
 /// With the variance estimate falling with the noise, `σ_l` fixed and the early term
 /// narrowing to it, every luminance term narrows as the rays grow and the filter lets
@@ -333,14 +372,16 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// where the blocks' sums are nearly free of noise, i.e. where the denoiser averages them best.
 pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
     let (reach, reach_min) = (config.reach(), config.reach_min());
+    let early = |i: u32| i < config.early_iterations;
     let sigma2 = |i: u32| {
-        let s = if i < config.early_iterations {
+        let s = if early(i) {
             config.early_sigma_luminance
         } else {
             config.sigma_luminance
         };
         f64::from(s) * f64::from(s)
     };
+    let wide2 = f64::from(config.early_sigma_luminance).powi(2);
     let luminance_scale = config.luminance_scale();
     let mut steps = vec![(
         Program::Variance,
@@ -352,6 +393,8 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         }),
     )];
     steps.extend((0..config.iterations.min(MAX_ATROUS_ITERATIONS)).map(|i| {
+        // The iteration's taps reach `2·step` texels each way (a broken size: never short).
+        let short = (2 << i) as f32 * config.texel_size[1] <= ATROUS_WIDE_MAX_SPAN;
         (
             Program::Atrous,
             Params::Atrous(AtrousParams {
@@ -361,7 +404,12 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
                 normal_log2: config.normal_log2,
                 variance_scale: (sigma2(i) * b3_noise_factor(i)) as f32,
                 luminance_scale,
-                ..AtrousParams::default()
+                wide_variance_scale: (wide2 * b3_noise_factor(i)) as f32,
+                wide_max_relative_variance: if early(i) || !short {
+                    0.0
+                } else {
+                    config.wide_max_relative_variance
+                },
             }),
         )
     }));
@@ -510,6 +558,21 @@ mod tests {
             ..AtrousConfig::new(4, 0.0)
         };
         let steps = atrous_steps(&config);
+        // At 64 texels/m the third iteration's taps reach 12.5 cm: it may take the wide term;
+        // the fourth's reach 25 cm, and at 0.04 m per texel the third's 32 cm: not.
+        let wide_bounds = |config: &AtrousConfig| {
+            atrous_steps(config)
+                .into_iter()
+                .filter_map(|(_, p)| match p {
+                    Params::Atrous(a) => Some(a.wide_max_relative_variance),
+                    _ => None,
+                })
+                .collect::<Vec<_>>()
+        };
+        let dense = AtrousConfig::new(4, 1.0 / 64.0);
+        let tau = ATROUS_WIDE_MAX_RELATIVE_VARIANCE;
+        assert_eq!(wide_bounds(&dense), [0.0, 0.0, tau, 0.0]);
+        assert_eq!(wide_bounds(&config), [0.0; 4]);
         assert_eq!(steps.len(), 5);
         for (program, params) in &steps {
             assert!(program.takes(params), "{program:?} {params:?}");
@@ -540,13 +603,20 @@ mod tests {
                 // The first two iterations: σ_l = 64 (see the docs), then 4.
                 variance_scale: 4096.0,
                 luminance_scale: 1.0,
-                ..AtrousParams::default()
+                // Already wide: no texel takes another term.
+                wide_variance_scale: 4096.0,
+                wide_max_relative_variance: 0.0,
             })
         );
         let Params::Atrous(third) = steps[3].1 else {
             panic!("{:?}", steps[3]);
         };
         assert_eq!(third.variance_scale, (16.0 * b3_noise_factor(2)) as f32);
+        // From the third on, inside a wide chart with little noise: the early term.
+        assert_eq!(
+            third.wide_variance_scale,
+            (4096.0 * b3_noise_factor(2)) as f32
+        );
         // Iterations are clamped; broken texel sizes reach nothing.
         let many = atrous_steps(&AtrousConfig::new(99, 0.1));
         assert_eq!(many.len(), 1 + MAX_ATROUS_ITERATIONS as usize);

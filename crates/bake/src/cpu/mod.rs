@@ -1465,17 +1465,28 @@ mod guide_mask_tests {
                 1 => 1e-6 * v,
                 _ => 50.0 * v,
             };
+            // The window's mean: where it is set, the texels with little variance are quiet
+            // (`AtrousParams::wide_max_relative_variance`), the others not.
+            var[4 * i + 1] = if i % 3 == 0 { 0.0 } else { 25.0 };
         }
         let (src, variance) = (View::new(&map, size, layers), View::new(&var, size, layers));
         let config = AtrousConfig::new(4, 1.0 / 12.0);
-        let (mut compared, mut vector) = (0usize, 0usize);
+        let (mut compared, mut vector, mut wide) = (0usize, 0usize, 0usize);
         for (_, params) in atrous_steps(&config) {
             let Params::Atrous(base) = params else {
                 continue;
             };
             for normal_log2 in [base.normal_log2, 0, 5] {
+                // The later iterations with the wide term where the noise is low (at this
+                // texel size their taps reach too far for the default to allow it).
+                let wide_max_relative_variance = if base.step >= 4 {
+                    crate::program::ATROUS_WIDE_MAX_RELATIVE_VARIANCE
+                } else {
+                    0.0
+                };
                 let p = crate::passes::atrous::AtrousParams {
                     normal_log2,
+                    wide_max_relative_variance,
                     ..base
                 };
                 let chart = Chart {
@@ -1490,9 +1501,27 @@ mod guide_mask_tests {
                     |at| atrous_texel(maps, p, None, at),
                 );
                 (compared, vector) = (compared + c, vector + v);
+                // The wide term is taken, and changes texels, where the rule says.
+                if p.wide_max_relative_variance > 0.0 {
+                    let narrow = crate::passes::atrous::AtrousParams {
+                        wide_max_relative_variance: 0.0,
+                        ..p
+                    };
+                    for layer in 0..layers {
+                        for y in (0..size[1]).step_by(3) {
+                            for x in 0..size[0] {
+                                let at = Texel { layer, x, y };
+                                let a = atrous_texel(maps, p, None, at);
+                                let b = atrous_texel(maps, narrow, None, at);
+                                wide += usize::from(a != b);
+                            }
+                        }
+                    }
+                }
             }
         }
         assert_lanes_used(compared, vector);
+        assert!(wide > 100, "the wide term changed {wide} texels");
     }
 
     /// Every texel of maps of `size` and `layers`, in blocks of [`LANES`] along each row with

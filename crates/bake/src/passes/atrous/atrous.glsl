@@ -7,7 +7,10 @@
 // Parameters (program::AtrousParams): u_step = 2^i; u_reach, u_reach_min: the chart test's
 // farthest and nearest distance per texel of offset, metres; u_normal_log2: the cosine's exponent is 2^u_normal_log2; u_variance_scale =
 // sigma_l^2 x the noise factor of the iterations before; u_luminance_scale: the variance
-// pass's power of two, applied to the luminance differences.
+// pass's power of two, applied to the luminance differences; u_wide_variance_scale: the scale
+// inside a wide chart with little noise (every pair counts, variance under
+// u_wide_max_relative_variance x the window's squared mean; program::atrous_steps, "Wide charts
+// with little noise"): both sums are taken there, the one that counts known at the end.
 
 float luxB3(int i) {
     return i == 0 ? 0.375 : (i == 1 || i == -1 ? 0.25 : 0.0625);
@@ -23,7 +26,11 @@ vec4 luxRun(ivec3 c) {
     if (!luxGuide(c, u_reach_min, u_reach, g)) {
         return kept;
     }
-    float scale = u_variance_scale * texelFetch(u_variance, c, 0).r;
+    vec4 v = texelFetch(u_variance, c, 0);
+    float scale = u_variance_scale * v.r;
+    float wide = u_wide_variance_scale * v.r;
+    bool quiet = u_wide_max_relative_variance > 0.0 &&
+                 v.r < u_wide_max_relative_variance * (v.g * v.g);
     // A step beyond the layer only reaches the centre (and cannot overflow).
     int step = u_step;
     if ((step < -g.size.x && step < -g.size.y) || (step > g.size.x && step > g.size.y)) {
@@ -31,6 +38,9 @@ vec4 luxRun(ivec3 c) {
     }
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
+    vec3 wideSum = vec3(0.0);
+    float wideWsum = 0.0;
+    int pairs = 0;
     // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
     // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge.
     for (int k = 0; k < 13; ++k) {
@@ -47,6 +57,9 @@ vec4 luxRun(ivec3 c) {
         if (pair && (!luxTap(g, ivec2(-i * step, -j * step), tf, cf) || !(cf > 0.0))) {
             continue;
         }
+        if (pair) {
+            ++pairs;
+        }
         for (int side = 0; side < (pair ? 2 : 1); ++side) {
             vec4 t = side == 0 ? tn : tf;
             float wn = side == 0 ? cn : cf;
@@ -58,21 +71,33 @@ vec4 luxRun(ivec3 c) {
             }
             vec3 d = t.rgb - centre.rgb;
             float dl = luxLuminance(d) * u_luminance_scale;
-            float wl;
-            if (dl == 0.0) {
-                wl = 1.0;
-            } else if (scale > 0.0) {
-                wl = exp(-(dl * dl) / scale);
-            } else {
-                wl = 0.0;
+            for (int s = 0; s < (quiet ? 2 : 1); ++s) {
+                float sc = s == 0 ? scale : wide;
+                float wl;
+                if (dl == 0.0) {
+                    wl = 1.0;
+                } else if (sc > 0.0) {
+                    wl = exp(-(dl * dl) / sc);
+                } else {
+                    wl = 0.0;
+                }
+                float w = luxB3(i) * luxB3(j) * wn * wl;
+                if (!(w > 0.0)) {
+                    continue;
+                }
+                if (s == 0) {
+                    sum += w * d;
+                    wsum += w;
+                } else {
+                    wideSum += w * d;
+                    wideWsum += w;
+                }
             }
-            float w = luxB3(i) * luxB3(j) * wn * wl;
-            if (!(w > 0.0)) {
-                continue;
-            }
-            sum += w * d;
-            wsum += w;
         }
+    }
+    if (quiet && pairs == 12) {
+        sum = wideSum;
+        wsum = wideWsum;
     }
     if (wsum > 0.0) {
         return vec4(luxGuard3(vec3(centre.r + sum.x / wsum, centre.g + sum.y / wsum,

@@ -97,20 +97,27 @@ mod avx2 {
     ) -> Option<usize> {
         let [src, variance, pos, nrm] = maps;
         let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
-        // Per lane the centre's value and its variance scale.
-        let mut lanes = [[0.0f32; LANES]; 4];
+        // Per lane the centre's value, its variance scales and whether it is quiet
+        // (`quiet`: all ones).
+        let mut lanes = [[0.0f32; LANES]; 6];
         for l in (0..LANES).filter(|&l| !centres.alone[l]) {
             let c = src.at_offset(centres.base + 4 * l);
             let t = Texel {
                 x: at.x + l as u32,
                 ..at
             };
-            let scale = params.variance_scale * variance.fetch(t)[0];
-            for (v, lane) in [c[0], c[1], c[2], scale].into_iter().zip(&mut lanes) {
+            let v = variance.fetch(t);
+            let scales = [params.variance_scale * v[0], params.wide_variance_scale * v[0]];
+            let flag = if quiet(params, v) { f32::from_bits(!0) } else { 0.0 };
+            for (v, lane) in [c[0], c[1], c[2], scales[0], scales[1], flag]
+                .into_iter()
+                .zip(&mut lanes)
+            {
                 lane[l] = v;
             }
         }
-        let [c0, c1, c2, scale] = lanes.each_ref().map(|a| vector(a));
+        let [c0, c1, c2, scale, wide, quiet] = lanes.each_ref().map(|a| vector(a));
+        let any_quiet = _mm256_movemask_ps(quiet) != 0;
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
         let step = i64::from(params.step);
@@ -120,12 +127,17 @@ mod avx2 {
             let (t, cos, on) = centres.tap([src.data, nrm.data], src.size[0], 5 * b + a, o);
             (t, cos, _mm256_and_ps(on, _mm256_cmp_ps::<_CMP_GT_OQ>(cos, zero)))
         };
-        let (mut s0, mut s1, mut s2, mut wsum) = (zero, zero, zero, zero);
+        // [with `scale`, with `wide`] × (rgb, weight); the wide sums only when a lane is quiet.
+        let mut sums = [[zero; 4]; 2];
+        let mut pairs = zero;
         for k in 0..13usize {
             let (i, j) = (k % 5, k / 5);
             let near = tap(i, j);
             let far = (k != 12).then(|| tap(4 - i, 4 - j));
             let pair = far.map_or(near.2, |f| _mm256_and_ps(near.2, f.2));
+            if k != 12 {
+                pairs = _mm256_add_ps(pairs, _mm256_and_ps(pair, set(1.0)));
+            }
             let b3 = set(B3[i] * B3[j]);
             for (t, cos, _) in std::iter::once(near).chain(far) {
                 let mut wn = cos;
@@ -138,20 +150,26 @@ mod avx2 {
                     _mm256_sub_ps(t[2], c2),
                 ];
                 let dl = _mm256_mul_ps(luminance8(d), set(params.luminance_scale));
-                // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
-                let x = _mm256_div_ps(_mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0)), scale);
-                let wl = _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
-                let wl = _mm256_blendv_ps(wl, set(1.0), _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero));
-                let w = _mm256_mul_ps(_mm256_mul_ps(b3, wn), wl);
-                let counts = _mm256_and_ps(pair, _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero));
-                let add = |s: __m256, v: __m256| _mm256_add_ps(s, _mm256_and_ps(counts, v));
-                s0 = add(s0, _mm256_mul_ps(w, d[0]));
-                s1 = add(s1, _mm256_mul_ps(w, d[1]));
-                s2 = add(s2, _mm256_mul_ps(w, d[2]));
-                wsum = add(wsum, w);
+                let minus_dl2 = _mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0));
+                let dl_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero);
+                for (s, scale) in sums.iter_mut().zip([scale, wide]).take(1 + usize::from(any_quiet)) {
+                    // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
+                    let x = _mm256_div_ps(minus_dl2, scale);
+                    let wl = _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
+                    let wl = _mm256_blendv_ps(wl, set(1.0), dl_zero);
+                    let w = _mm256_mul_ps(_mm256_mul_ps(b3, wn), wl);
+                    let counts = _mm256_and_ps(pair, _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero));
+                    let add = |s: __m256, v: __m256| _mm256_add_ps(s, _mm256_and_ps(counts, v));
+                    s[0] = add(s[0], _mm256_mul_ps(w, d[0]));
+                    s[1] = add(s[1], _mm256_mul_ps(w, d[1]));
+                    s[2] = add(s[2], _mm256_mul_ps(w, d[2]));
+                    s[3] = add(s[3], w);
+                }
             }
         }
-        let sums = [s0, s1, s2, wsum].map(|v| floats(v));
+        // Per lane the wide sums where it is quiet and every pair counted.
+        let take_wide = _mm256_and_ps(quiet, _mm256_cmp_ps::<_CMP_EQ_OQ>(pairs, set(12.0)));
+        let sums = [0, 1, 2, 3].map(|q| floats(_mm256_blendv_ps(sums[0][q], sums[1][q], take_wide)));
         for (l, o) in out.chunks_exact_mut(4).enumerate() {
             let t = Texel {
                 x: at.x + l as u32,
@@ -174,6 +192,15 @@ mod avx2 {
     }
 }
 
+/// Whether the centre's noise is low enough for the wide luminance term (`v`: its variance
+/// estimate, `[variance, window mean luminance, …]`; `program::atrous_steps`, "Wide charts
+/// with little noise"): the variance under `wide_max_relative_variance` times the squared
+/// mean. Never where the bound or the mean is 0.
+#[inline]
+fn quiet(params: AtrousParams, v: [f32; 4]) -> bool {
+    params.wide_max_relative_variance > 0.0 && v[0] < params.wide_max_relative_variance * (v[1] * v[1])
+}
+
 /// One à-trous iteration at one texel (see the module docs).
 pub(crate) fn atrous_texel(
     [src, variance, pos, nrm]: [View<'_>; 4],
@@ -191,10 +218,16 @@ pub(crate) fn atrous_texel(
         return kept;
     };
     let guide = guide.with_masks(masks, at);
-    let scale = params.variance_scale * variance.fetch(at)[0];
+    let v = variance.fetch(at);
+    let scale = params.variance_scale * v[0];
+    // Inside a wide chart with little noise the wide term (`program::atrous_steps`, "Wide
+    // charts with little noise"): both sums are taken, the wide one only where the noise is
+    // low, and which one counts is known once every pair has been tested.
+    let quiet = quiet(params, v);
+    let scales = [scale, params.wide_variance_scale * v[0]];
     let step = i64::from(params.step);
-    let mut sum = [0.0f32; 3];
-    let mut wsum = 0.0f32;
+    let mut sums = [[0.0f32; 4]; 2];
+    let mut pairs = 0u32;
     // A tap on the surface facing the centre's side.
     let tap = |a: usize, b: usize| {
         let o = [(a as i64 - 2) * step, (b as i64 - 2) * step];
@@ -212,6 +245,7 @@ pub(crate) fn atrous_texel(
         if k != 12 && far.is_none() {
             continue;
         }
+        pairs += u32::from(k != 12);
         for (t, cos) in std::iter::once(near).chain(far) {
             let mut wn = cos;
             for _ in 0..params.normal_log2 {
@@ -222,23 +256,28 @@ pub(crate) fn atrous_texel(
             }
             let d = [t[0] - c[0], t[1] - c[1], t[2] - c[2]];
             let dl = luminance(d) * params.luminance_scale;
-            let wl = if dl == 0.0 {
-                1.0
-            } else if scale > 0.0 {
-                exp_f32(-(dl * dl) / scale)
-            } else {
-                0.0
-            };
-            let w = B3[i] * B3[j] * wn * wl;
-            if w.is_nan() || w <= 0.0 {
-                continue;
+            for (sum, scale) in sums.iter_mut().zip(scales).take(1 + usize::from(quiet)) {
+                let wl = if dl == 0.0 {
+                    1.0
+                } else if scale > 0.0 {
+                    exp_f32(-(dl * dl) / scale)
+                } else {
+                    0.0
+                };
+                let w = B3[i] * B3[j] * wn * wl;
+                if w.is_nan() || w <= 0.0 {
+                    continue;
+                }
+                for k in 0..3 {
+                    sum[k] += w * d[k];
+                }
+                sum[3] += w;
             }
-            for k in 0..3 {
-                sum[k] += w * d[k];
-            }
-            wsum += w;
         }
     }
+    let [sum, wide] = sums;
+    let [s0, s1, s2, wsum] = if quiet && pairs == 12 { wide } else { sum };
+    let sum = [s0, s1, s2];
     if wsum > 0.0 {
         [
             guard(c[0] + sum[0] / wsum),

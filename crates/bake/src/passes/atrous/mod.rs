@@ -32,10 +32,14 @@ param_block! {
         /// before they are compared with the variance
         /// ([`AtrousConfig::luminance_scale`](crate::program::AtrousConfig::luminance_scale)).
         luminance_scale: f32,
-        /// Padding.
-        pad1: u32,
-        /// Padding.
-        pad2: u32,
+        /// The luminance term's `variance_scale` where the centre lies inside a wide chart
+        /// with little noise (every mirrored pair passes and the variance is under
+        /// `wide_max_relative_variance` times the window's squared mean luminance): the early
+        /// iterations' wide term
+        /// ([`AtrousConfig::wide_max_relative_variance`](crate::program::AtrousConfig::wide_max_relative_variance)).
+        wide_variance_scale: f32,
+        /// That bound on the relative variance; 0: never (`variance_scale` everywhere).
+        wide_max_relative_variance: f32,
     }
 }
 

@@ -212,7 +212,8 @@ pub(crate) fn variance_texel(
     // own noise).
     let [with_centre, without_centre] = window_variances(&window, params.min_pairs);
     window[12] = None;
-    // The window's mean luminance without the centre: what refinement compares the noise with.
+    // The window's mean luminance without the centre: what refinement and the denoiser's
+    // wide term (`atrous`) compare the noise with.
     let (mut sum, mut n) = (0.0f32, 0u32);
     for l in window.iter().flatten() {
         sum += l;

@@ -3,8 +3,8 @@
 //! shaders mirror.
 //!
 //! Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
-//! edge-stopping), and with the centre left out its mean luminance (green) and variance
-//! (blue), for refinement.
+//! edge-stopping), and with the centre left out its mean luminance (green, for refinement and
+//! the à-trous filter's wide term) and variance (blue, for refinement).
 
 pub(crate) mod cpu;
 

@@ -63,7 +63,8 @@ vec4 luxRun(ivec3 c) {
     float withCentre = luxWindowVariance(lum, ok);
     ok[12] = false;
     float withoutCentre = luxWindowVariance(lum, ok);
-    // The mean luminance without the centre (cpu::variance_texel), for refinement.
+    // The mean luminance without the centre (cpu::variance_texel), for refinement and the
+    // denoiser's wide term (atrous).
     float sum = 0.0;
     uint count = 0u;
     for (int k = 0; k < 25; ++k) {

@@ -61,7 +61,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let with_centre = lux_window_variance(lum, ok);
     ok[12] = false;
     let without_centre = lux_window_variance(lum, ok);
-    // The mean luminance without the centre (cpu::variance_texel), for refinement.
+    // The mean luminance without the centre (cpu::variance_texel), for refinement and the
+    // denoiser's wide term (atrous).
     var sum = 0.0;
     var count = 0u;
     for (var k = 0; k < 25; k++) {
