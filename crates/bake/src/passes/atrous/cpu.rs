@@ -152,7 +152,8 @@ mod avx2 {
                 let dl = _mm256_mul_ps(luminance8(d), set(params.luminance_scale));
                 let minus_dl2 = _mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0));
                 let dl_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero);
-                for (s, scale) in sums.iter_mut().zip([scale, wide]).take(1 + usize::from(any_quiet)) {
+                let sets = 1 + usize::from(any_quiet);
+                for (s, scale) in sums.iter_mut().zip([scale, wide]).take(sets) {
                     // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
                     let x = _mm256_div_ps(minus_dl2, scale);
                     let wl = _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
@@ -169,7 +170,8 @@ mod avx2 {
         }
         // Per lane the wide sums where it is quiet and every pair counted.
         let take_wide = _mm256_and_ps(quiet, _mm256_cmp_ps::<_CMP_EQ_OQ>(pairs, set(12.0)));
-        let sums = [0, 1, 2, 3].map(|q| floats(_mm256_blendv_ps(sums[0][q], sums[1][q], take_wide)));
+        let sums =
+            [0, 1, 2, 3].map(|q| floats(_mm256_blendv_ps(sums[0][q], sums[1][q], take_wide)));
         for (l, o) in out.chunks_exact_mut(4).enumerate() {
             let t = Texel {
                 x: at.x + l as u32,
@@ -198,7 +200,8 @@ mod avx2 {
 /// mean. Never where the bound or the mean is 0.
 #[inline]
 fn quiet(params: AtrousParams, v: [f32; 4]) -> bool {
-    params.wide_max_relative_variance > 0.0 && v[0] < params.wide_max_relative_variance * (v[1] * v[1])
+    let bound = params.wide_max_relative_variance;
+    bound > 0.0 && v[0] < bound * (v[1] * v[1])
 }
 
 /// One à-trous iteration at one texel (see the module docs).
