@@ -188,13 +188,14 @@ fn layer_image(data: &[f32], layer: usize) -> MapImage {
 #[test]
 fn the_denoiser_passes_agree_across_backends() {
     let test = "atrous::the_denoiser_passes_agree_across_backends";
-    // The default (whose iterations reach too far at 5 cm per texel for the later iterations'
-    // wide term), and a filter whose first iteration, reaching 10 cm, has it in every texel
-    // inside a wide chart.
+    // The default (without a scene size, no wide term), and a filter with the wide term from
+    // its first iteration on, in every texel inside a wide chart (a scene of 100 m: every
+    // iteration's taps reach less than 1/32 of it).
     let config = AtrousConfig::new(5, H);
     let quiet = AtrousConfig {
         wide_max_relative_variance: 1.0,
         early_iterations: 0,
+        scene_size: 100.0,
         ..config
     };
     let default = agree_across_backends(test, &config);

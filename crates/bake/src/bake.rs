@@ -202,6 +202,7 @@ pub fn bake_room_reading<B: GpuBackend>(
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
         gather_chunk,
         direct_chunk,
+        scene_size: 2.0 * room.half_extent,
     });
     graph.validate()?;
 

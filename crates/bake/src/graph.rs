@@ -349,6 +349,9 @@ pub struct GraphConfig {
     /// ([`DirectParams::chunk_samples`]; 0: all): [`DIRECT_CHUNK_SAMPLES`] on a backend
     /// whose driver cuts long shader loops, else 0.
     pub direct_chunk: u32,
+    /// [`Method::Converged`]: the largest side of the bounding box of the scene's geometry,
+    /// metres ([`AtrousConfig::scene_size`]; 0: the denoiser never takes its wide term).
+    pub scene_size: f32,
 }
 
 /// [`GraphConfig::gather_chunk`] on a loop-limited driver: 64 rays per texel and pass, a
@@ -889,6 +892,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         ];
         let denoise = AtrousConfig {
             texel_size: config.texel_size,
+            scene_size: config.scene_size,
             luminance_scale: config.luminance_scale,
             ..AtrousConfig::for_rays(
                 atrous_iterations(config.blur),
@@ -1371,6 +1375,7 @@ mod tests {
             luminance_scale: 1.0,
             gather_chunk: 0,
             direct_chunk: 0,
+            scene_size: 4.0,
         }
     }
 

@@ -181,6 +181,8 @@ pub struct Room {
     pub triangles: usize,
     /// The ray offset's size term ([`ray_epsilon`]).
     pub ray_epsilon: f32,
+    /// Half the largest side of the bounding box of the scene's geometry, metres.
+    pub half_extent: f32,
     /// Valid light-map texels.
     pub valid_texels: u64,
     /// Objects left without a light map ([`Skipped::NonReceiver`]).
@@ -268,6 +270,7 @@ impl Room {
             bvh,
             triangles,
             ray_epsilon: eps,
+            half_extent,
             valid_texels,
             skipped,
             timings,

@@ -79,10 +79,11 @@ pub const ATROUS_SIGMA_LUMINANCE: f32 = 4.0;
 /// Default [`AtrousConfig::wide_max_relative_variance`]: a relative standard deviation of
 /// the noise under 10 %.
 pub const ATROUS_WIDE_MAX_RELATIVE_VARIANCE: f32 = 0.01;
-/// The widest span, metres, over which an iteration may take the wide luminance term inside a
-/// wide chart with little noise: `2·step` texels each way of the largest texel size (see
-/// [`atrous_steps`], "Wide charts with little noise").
-pub const ATROUS_WIDE_MAX_SPAN: f32 = 0.15;
+/// How far an iteration's taps may reach, as a fraction of the scene's size
+/// ([`AtrousConfig::scene_size`]), for it to take the wide luminance term inside a wide chart
+/// with little noise: `2·step` texels each way of the largest texel size (see
+/// [`atrous_steps`], "Wide charts with little noise"). 1/32: 15.6 cm in a room 5 m long.
+pub const ATROUS_WIDE_MAX_REACH: f32 = 1.0 / 32.0;
 /// Default [`AtrousConfig::early_iterations`].
 pub const ATROUS_EARLY_ITERATIONS: u32 = 2;
 /// Default [`AtrousConfig::early_sigma_luminance`] at [`ATROUS_EARLY_RAYS`] first-bounce rays:
@@ -128,6 +129,10 @@ pub struct AtrousConfig {
     /// variance is under this fraction of its window's squared mean luminance (see
     /// [`atrous_steps`], "Wide charts with little noise"); 0: never.
     pub wide_max_relative_variance: f32,
+    /// The largest side of the bounding box of the scene's geometry, metres: an iteration
+    /// takes the wide term only where its taps reach at most [`ATROUS_WIDE_MAX_REACH`] of it
+    /// (0: never).
+    pub scene_size: f32,
     /// A power of two the variance pass multiplies every luminance by, and the à-trous
     /// iterations every luminance difference, before squaring: the lux of a lamp of 10³⁰ cd
     /// would square past f32's 3.4·10³⁸, and an infinite variance turns the luminance term
@@ -151,6 +156,7 @@ impl AtrousConfig {
             early_iterations: ATROUS_EARLY_ITERATIONS,
             early_sigma_luminance: ATROUS_EARLY_SIGMA_LUMINANCE,
             wide_max_relative_variance: ATROUS_WIDE_MAX_RELATIVE_VARIANCE,
+            scene_size: 0.0,
             luminance_scale: 1.0,
         }
     }
@@ -327,11 +333,13 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// instead of −1.0 … −1.2 %, and without the pairs the aprons −1.2 … −1.6 % instead of
 /// −1.0 … −1.2 %). As the rays grow the early term narrows to `σ_l` and so does this one.
 /// Only over a short span: an iteration whose taps reach farther than
-/// [`ATROUS_WIDE_MAX_SPAN`] (15 cm: step 4 at 64 texels/m reaches 12.5 cm, at 48 texels/m
-/// 17 cm) keeps `σ_l` everywhere,
-/// since across a longer span the light's own curvature biases a near-linear average — CIE
-/// 171:2006 test 5.8's cube at 6 texels/m (step 4: 67 cm) read −2.05 % instead of −1.83 % at
-/// ρ = 0.5 without the bound.
+/// [`ATROUS_WIDE_MAX_REACH`] of the scene's size ([`AtrousConfig::scene_size`]; in a room 5 m
+/// long 15.6 cm: step 4 at 64 texels/m reaches 12.5 cm, at 48 texels/m 17 cm) keeps `σ_l`
+/// everywhere, since across a longer span the light's own curvature biases a near-linear
+/// average — CIE 171:2006 test 5.8's 4 m cube at 6 texels/m (step 4 reaches 1.33 m) read
+/// −2.05 % instead of −1.83 % at ρ = 0.5 without the bound. A fraction of the scene, not a
+/// length: the same room at a thousandth or a thousand times the size, at the same texels per
+/// room, is filtered alike.
 ///
 /// # Consistency
 /// With the variance estimate falling with the noise, `σ_l` fixed and the early term
@@ -394,7 +402,8 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
     )];
     steps.extend((0..config.iterations.min(MAX_ATROUS_ITERATIONS)).map(|i| {
         // The iteration's taps reach `2·step` texels each way (a broken size: never short).
-        let short = (2 << i) as f32 * config.texel_size[1] <= ATROUS_WIDE_MAX_SPAN;
+        let short =
+            (2 << i) as f32 * config.texel_size[1] <= ATROUS_WIDE_MAX_REACH * config.scene_size;
         (
             Program::Atrous,
             Params::Atrous(AtrousParams {
@@ -558,8 +567,9 @@ mod tests {
             ..AtrousConfig::new(4, 0.0)
         };
         let steps = atrous_steps(&config);
-        // At 64 texels/m the third iteration's taps reach 12.5 cm: it may take the wide term;
-        // the fourth's reach 25 cm, and at 0.04 m per texel the third's 32 cm: not.
+        // In a room 5 m long at 64 texels/m the third iteration's taps reach 12.5 cm: it may
+        // take the wide term; the fourth's reach 25 cm, and at 0.04 m per texel the third's
+        // 32 cm: not; nor without a scene size; the same at a thousandth of the size.
         let wide_bounds = |config: &AtrousConfig| {
             atrous_steps(config)
                 .into_iter()
@@ -569,10 +579,22 @@ mod tests {
                 })
                 .collect::<Vec<_>>()
         };
-        let dense = AtrousConfig::new(4, 1.0 / 64.0);
+        let room = |texel: f32, size: f32| AtrousConfig {
+            scene_size: size,
+            ..AtrousConfig::new(4, texel)
+        };
         let tau = ATROUS_WIDE_MAX_RELATIVE_VARIANCE;
-        assert_eq!(wide_bounds(&dense), [0.0, 0.0, tau, 0.0]);
-        assert_eq!(wide_bounds(&config), [0.0; 4]);
+        assert_eq!(wide_bounds(&room(1.0 / 64.0, 5.0)), [0.0, 0.0, tau, 0.0]);
+        assert_eq!(wide_bounds(&room(1e-3 / 64.0, 5e-3)), [0.0, 0.0, tau, 0.0]);
+        assert_eq!(wide_bounds(&room(1.0 / 48.0, 5.0)), [0.0; 4]);
+        assert_eq!(wide_bounds(&room(1.0 / 64.0, 0.0)), [0.0; 4]);
+        assert_eq!(
+            wide_bounds(&AtrousConfig {
+                scene_size: 5.0,
+                ..config
+            }),
+            [0.0; 4]
+        );
         assert_eq!(steps.len(), 5);
         for (program, params) in &steps {
             assert!(program.takes(params), "{program:?} {params:?}");
