@@ -545,23 +545,9 @@ pub(crate) fn xyz(t: [f32; 4]) -> [f32; 3] {
     [t[0], t[1], t[2]]
 }
 
-/// The weights of texel `at`'s grid-cell corners that lie on its surface
-/// ([`program::coarse`]), 0 for the others, and their sum.
-pub(crate) fn coarse_weights(
-    maps: [View<'_>; 2],
-    stride: u32,
-    reach: f32,
-    at: Texel,
-) -> ([([i64; 2], f32); 4], f32) {
-    weights_of_corners(coarse_corners(maps, stride, reach, at), stride, at)
-}
-
-/// [`coarse_weights`] from the corners that count ([`coarse_corners`]' bits).
-pub(crate) fn weights_of_corners(
-    corners: u8,
-    stride: u32,
-    at: Texel,
-) -> ([([i64; 2], f32); 4], f32) {
+/// The weights of texel `at`'s grid-cell corners ([`program::coarse`]) that count
+/// (`corners`: [`coarse_corners`]' bits), 0 for the others, and their sum.
+pub(crate) fn coarse_weights(corners: u8, stride: u32, at: Texel) -> ([([i64; 2], f32); 4], f32) {
     let mut cell = coarse::cell(at.x, at.y, stride);
     let mut total = 0.0f32;
     for (k, (_, weight)) in cell.iter_mut().enumerate() {
@@ -589,7 +575,21 @@ pub(crate) fn coarse_corners([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32,
     bits
 }
 
-/// A texel of [`coarse_weights`] and the test of its grid corners.
+/// [`coarse_corners`] of texel `at`: read from `masks` where given (kept by the backend), else
+/// tested — the same bits.
+pub(crate) fn corners_at(
+    masks: Option<&CoarseMasks>,
+    maps: [View<'_>; 2],
+    stride: u32,
+    reach: f32,
+    at: Texel,
+) -> u8 {
+    masks
+        .and_then(|m| m.at(at))
+        .unwrap_or_else(|| coarse_corners(maps, stride, reach, at))
+}
+
+/// A texel of [`coarse_corners`] and the test of its grid corners.
 struct CoarseCentre<'a> {
     pos: View<'a>,
     nrm: View<'a>,
@@ -653,12 +653,7 @@ pub(crate) fn coarse_rays(
 ) -> u32 {
     let stride = params.stride;
     // Covered: some corner of its cell counts (then the upsampling fills it in).
-    let covered = || {
-        masks
-            .and_then(|m| m.at(at))
-            .unwrap_or_else(|| coarse_corners(maps, stride, params.reach, at))
-            != 0
-    };
+    let covered = || corners_at(masks, maps, stride, params.reach, at) != 0;
     if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
         params.rays
     } else if covered() {

@@ -44,10 +44,8 @@ pub(crate) fn upsample_texel(
         return [0.0; 4];
     }
     let own = src.fetch(at);
-    let (corners, total) = match masks.and_then(|m| m.at(at)) {
-        Some(bits) => weights_of_corners(bits, params.stride, at),
-        None => coarse_weights([pos, nrm], params.stride, params.reach, at),
-    };
+    let bits = corners_at(masks, [pos, nrm], params.stride, params.reach, at);
+    let (corners, total) = coarse_weights(bits, params.stride, at);
     if total.is_nan() || total <= 0.0 {
         return own;
     }
