@@ -320,7 +320,7 @@ pub struct GraphConfig {
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
     /// metres (the à-trous filter's chart test, [`AtrousConfig::texel_size`]).
     pub texel_size: [f32; 2],
-    /// [`Method::Converged`] with a first bounce at stride 1 and no refinement: lamp paths per
+    /// [`Method::Converged`] with a first bounce at stride 1: lamp paths per
     /// texel combined with the first gather ([`crate::lightpaths`]) and their
     /// [`density_scale`](crate::lightpaths::LampPaths::density_scale); 0: none. With lamp
     /// paths a `connect` pass ([`Program::Connect`]) writes a fourth G-buffer texture,
@@ -854,8 +854,7 @@ fn denoise_stage(
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder::new(config);
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
-    let lamp_paths =
-        config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1 && refine.is_none();
+    let lamp_paths = config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1;
     let g = gbuffer_stage(&mut b, lamp_paths);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered. Until then
     // its texture is the split direct pass's spare.
@@ -951,7 +950,16 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     b.pass(
                         PassKind::Run(Program::Refine),
                         "refine",
-                        vec![g.position, g.normal, source, scratch, variance],
+                        // The first gather's lamp-path part (without lamp paths the slot is not
+                        // read: `source` stands in for it).
+                        vec![
+                            g.position,
+                            g.normal,
+                            source,
+                            scratch,
+                            variance,
+                            g.connected.unwrap_or(source),
+                        ],
                         vec![delta],
                         k,
                         Params::Refine(RefineParams {
@@ -961,6 +969,13 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             sampler: config.sampler.id(),
                             first_rays: config.rays,
                             max_error,
+                            lamp_paths: if g.connected.is_some() {
+                                sampling.lamp_paths.0
+                            } else {
+                                0
+                            },
+                            density_scale: sampling.lamp_paths.1,
+                            lamp_count: sampling.lamp_paths.2,
                             ..RefineParams::default()
                         }),
                     );
@@ -1057,8 +1072,8 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
 
 /// `params` with the lamp paths' pool once traced (`pool`: its points and density scale,
 /// [`crate::prepare::Lamps::pool`]; the graph is built before, with 0 for both): a connect
-/// pass's count and density scale, and the density scale of a gather that combines lamp
-/// paths; anything else unchanged.
+/// pass's count and density scale, and the density scale of a gather or a refinement that
+/// combines lamp paths; anything else unchanged.
 pub fn with_lamp_paths(params: Params, pool: Option<(u32, f32)>) -> Params {
     match (params, pool) {
         (Params::Connect(c), Some((count, density_scale))) => Params::Connect(ConnectParams {
@@ -1068,6 +1083,9 @@ pub fn with_lamp_paths(params: Params, pool: Option<(u32, f32)>) -> Params {
         }),
         (Params::Gather(g), Some((_, density_scale))) if g.lamp_paths > 0 => {
             Params::Gather(GatherParams { density_scale, ..g })
+        }
+        (Params::Refine(r), Some((_, density_scale))) if r.lamp_paths > 0 => {
+            Params::Refine(RefineParams { density_scale, ..r })
         }
         (p, _) => p,
     }
@@ -1426,8 +1444,24 @@ mod tests {
         };
         assert_eq!((rp.rays, rp.first_rays, rp.max_error), (8, 16, 0.1));
         assert_eq!(variance.reads[0], first.writes[0]);
-        assert_eq!(refine.reads[3..], [first.writes[0], variance.writes[0]]);
+        assert_eq!(refine.reads[3..5], [first.writes[0], variance.writes[0]]);
+        assert_eq!(rp.lamp_paths, 0);
         assert_eq!(Some(refine.writes[0]), delta(&g));
+        // With lamp paths the refinement weights its rays against them and reads their part,
+        // the connect pass's output; the traced pool's density scale reaches it.
+        let g = BakeGraph::build(&GraphConfig {
+            refine: Some((8, 0.1)),
+            lamp_paths: (12, 0.0),
+            ..converged(2, Blur::None)
+        });
+        assert_eq!(g.validate(), Ok(()));
+        let pass = |label: &str| g.passes.iter().find(|p| p.label == label).expect(label);
+        let refine = pass("refine");
+        assert_eq!(refine.reads[5], pass("connect").writes[0]);
+        let Params::Refine(rp) = with_lamp_paths(refine.params, Some((100, 0.5))) else {
+            panic!("{:?}", refine.params)
+        };
+        assert_eq!((rp.lamp_paths, rp.density_scale), (12, 0.5));
         // Refinement needs a gather at every texel: with a stride it is not built (settings
         // reject the combination before).
         let g = BakeGraph::build(&GraphConfig {
@@ -1850,19 +1884,20 @@ mod tests {
                 assert_eq!(gp.lamp_paths, 0);
             }
         }
-        // Refinement or a reduced first bounce: no lamp paths.
-        for other in [
-            GraphConfig {
-                refine: Some((8, 0.1)),
-                ..config.clone()
-            },
-            GraphConfig {
-                stride: 2,
-                ..config.clone()
-            },
-        ] {
-            assert_eq!(BakeGraph::build(&other).gbuffer.connected, None);
-        }
+        // A reduced first bounce: no lamp paths. Refinement keeps them.
+        let reduced = GraphConfig {
+            stride: 2,
+            ..config.clone()
+        };
+        assert_eq!(BakeGraph::build(&reduced).gbuffer.connected, None);
+        let refined = GraphConfig {
+            refine: Some((8, 0.1)),
+            ..config.clone()
+        };
+        assert_eq!(
+            BakeGraph::build(&refined).gbuffer.connected,
+            Some(connected)
+        );
     }
 
     #[test]

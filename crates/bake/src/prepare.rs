@@ -116,7 +116,6 @@ impl HostNode {
                     "bounces",
                     "rays",
                     "stride",
-                    "refine_rays",
                     "lamp_paths",
                     "seed",
                 ],
@@ -621,8 +620,6 @@ fn lamp_paths_wanted(settings: &Settings, no_lamp: bool) -> Result<bool, &'stati
         Err("no bounce")
     } else if settings.stride > 1 {
         Err("the first bounce is gathered at reduced resolution (stride > 1)")
-    } else if settings.refine_rays > 0 {
-        Err("the first bounce is refined (refine_rays > 0)")
     } else if no_lamp {
         Err("no lamp lights anything")
     } else {

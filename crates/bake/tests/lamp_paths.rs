@@ -141,8 +141,65 @@ fn lamp_paths_estimate_the_first_bounce_of_the_gather_alone() {
     }
 }
 
-/// Where lamp paths cannot be weighted (a first bounce on a grid, refinement, the paper's
-/// method), the bake runs the gather alone and says so for the converged method.
+/// Refinement keeps the lamp paths: on `chairs_01`, the first bounce with 4 rays and 32 lamp
+/// paths per texel, refined with 12 more rays where the estimated relative error exceeds
+/// 10 %, agrees with 512 rays of the gather alone on every object's mean within 1.5 %
+/// (the further rays are weighted against the lamp paths as the first four were and
+/// averaged with them; the lamp paths' part is added once: no bias), and its texels are
+/// closer to that reference than without the refinement and than the same refinement of the
+/// gather alone.
+#[test]
+fn refinement_keeps_the_lamp_paths() {
+    let scene = Scene::builtin_with_settings("chairs_01", first_bounce(4, 32)).expect("chairs_01");
+    let refined = |lamp_paths| Settings {
+        refine_rays: 12,
+        refine_error: 0.1,
+        ..first_bounce(4, lamp_paths)
+    };
+    let reference = run(&scene, &first_bounce(512, 0));
+    let both = run(&scene, &refined(32));
+    assert!(
+        !both
+            .report
+            .skipped
+            .iter()
+            .any(|s| s.to_string().starts_with("lamp paths")),
+        "{:?}",
+        both.report.skipped
+    );
+    for ((object, w, n), (_, g, _)) in indirect_means(&reference)
+        .iter()
+        .zip(&indirect_means(&both))
+    {
+        let err = g / w - 1.0;
+        println!(
+            "{object}: {n} texels, refined with lamp paths {g:.3} lx vs {w:.3} lx ({:+.2} %)",
+            100.0 * err
+        );
+        assert!(*n > 100 && *w > 0.0, "{object}");
+        assert!(err.abs() < 0.015, "{object}: {g} vs {w}");
+    }
+    let [rms_both, rms_paths, rms_gather] = [
+        both,
+        run(&scene, &first_bounce(4, 32)),
+        run(&scene, &refined(0)),
+    ]
+    .map(|out| texel_rms(&out, &reference));
+    println!(
+        "texels' relative RMS difference to 512 rays: refined with lamp paths {:.1} %, \
+         lamp paths unrefined {:.1} %, refined gather alone {:.1} %",
+        100.0 * rms_both,
+        100.0 * rms_paths,
+        100.0 * rms_gather
+    );
+    assert!(
+        rms_both < rms_paths && rms_both < rms_gather,
+        "{rms_both} vs {rms_paths}, {rms_gather}"
+    );
+}
+
+/// Where lamp paths cannot be weighted (a first bounce on a grid, the paper's method), the
+/// bake runs the gather alone and says so for the converged method.
 #[test]
 fn lamp_paths_that_cannot_apply_are_reported_not_dropped_silently() {
     let s = first_bounce(4, 8);
@@ -152,14 +209,6 @@ fn lamp_paths_that_cannot_apply_are_reported_not_dropped_silently() {
             "stride 2",
             Settings {
                 stride: 2,
-                ..s.clone()
-            },
-            true,
-        ),
-        (
-            "refinement",
-            Settings {
-                refine_rays: 4,
                 ..s.clone()
             },
             true,

@@ -770,7 +770,7 @@ impl BvhMode {
 /// | `higher_rays`      | 1 ..= `MAX_RAYS`                                           |
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
-/// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 and no refinement only (else reported as skipped) |
+/// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 only (else reported as skipped) |
 /// | `opening_samples`  | 1 ..= [`MAX_OPENING_SAMPLES`] (1024) |
 /// | `opening_probe_stride` | 0 ..= [`MAX_OPENING_SAMPLES`]; 0 and 1: every point casts its ray |
 /// | `tail`, `bvh`, `seed`, `backend` | any value                                     |
@@ -829,8 +829,9 @@ pub struct Settings {
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance
     /// sampling (`luxbake::lightpaths`); 0 = the gather alone ([`Method::Paper`] ignores it).
-    /// Used when the first bounce is gathered at every texel without refinement (`stride`
-    /// 1, `refine_rays` 0); otherwise the bake reports them skipped.
+    /// Used when the first bounce is gathered at every texel (`stride` 1); otherwise the
+    /// bake reports them skipped. With [`Settings::refine_rays`] the refined texels' further
+    /// rays are the plain gather, averaged with the first estimate by ray count.
     pub lamp_paths: u32,
     /// Points of a lamp's luminous opening, each with its shadow ray, per texel near a lamp
     /// that has one (`luxbake::opening`, [`LampModel`]); texels farther away and lamps

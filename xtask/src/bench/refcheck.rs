@@ -91,6 +91,13 @@ pub struct Args {
     /// Lamp paths per texel of the first bounce (default: the preset's).
     #[arg(long)]
     lamp_paths: Option<u32>,
+    /// Further first-bounce rays where a texel's estimated relative error exceeds
+    /// `--refine-error` (default: the preset's, 0 = no refinement).
+    #[arg(long)]
+    refine_rays: Option<u32>,
+    /// The relative standard error per texel that refinement aims at (default: the preset's).
+    #[arg(long)]
+    refine_error: Option<f32>,
     /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
     /// (see the module docs).
     #[arg(long, default_value_t = 1)]
@@ -636,6 +643,8 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 higher_rays: args.higher_rays,
                 higher_stride: args.higher_stride,
                 lamp_paths: args.lamp_paths,
+                refine_rays: args.refine_rays,
+                refine_error: args.refine_error,
                 bounces: args.bounces,
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
@@ -680,6 +689,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 "quality": s.quality.name(), "rays": s.rays,
                 "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
                 "lamp_paths": s.lamp_paths,
+                "refine_rays": s.refine_rays, "refine_error": s.refine_error,
                 "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
                 "blur": s.blur.to_string() }, "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });

@@ -394,7 +394,9 @@ pub(crate) struct Mis {
     pub(crate) lamp_count: u32,
 }
 
+#[cfg(test)]
 impl Mis {
+    /// No lamp paths.
     pub(crate) const NONE: Mis = Mis {
         rays: 0,
         lamp_paths: 0,

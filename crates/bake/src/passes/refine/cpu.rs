@@ -13,7 +13,7 @@ pub(crate) type Pass = RefineParams;
 impl TexelPass for RefineParams {
     #[inline]
     fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
-        let [pos_map, nrm_map, reflected, first_map, variance] = ctx.maps();
+        let [pos_map, nrm_map, reflected, first_map, variance, connected] = ctx.maps();
         let (scene, params) = (ctx.scene, *self);
         let pos = pos_map.fetch(at);
         let first = first_map.fetch(at);
@@ -40,7 +40,12 @@ impl TexelPass for RefineParams {
         rays: stream.first..stream.first + params.rays,
         o: offset_origin(xyz(pos), n, scene.ray_epsilon),
         frame: Frame::new(n),
-        mis: Mis::NONE,
+        mis: Mis {
+            rays: params.first_rays,
+            lamp_paths: params.lamp_paths,
+            density_scale: params.density_scale,
+            lamp_count: params.lamp_count,
+        },
     };
     let sampler = [params.sampler, params.bounce, params.seed];
     let mut sums = Vec::with_capacity(1);
@@ -58,13 +63,15 @@ impl TexelPass for RefineParams {
     let [sum] = sums[..] else {
         return first;
     };
+    // The lamp paths' part `C` (see the module docs): `(N·(first − C) + Σ) / (N + rays) + C`.
+    let paths = if params.lamp_paths > 0 {
+        connected.fetch(at)
+    } else {
+        [0.0; 4]
+    };
     let total = (params.first_rays + params.rays) as f32;
     let k = params.first_rays as f32;
-    [
-        guard((k * first[0] + sum[0]) / total),
-        guard((k * first[1] + sum[1]) / total),
-        guard((k * first[2] + sum[2]) / total),
-        1.0,
-    ]
+    let refined = |c: usize| guard((k * (first[c] - paths[c]) + sum[c]) / total + paths[c]);
+    [refined(0), refined(1), refined(2), 1.0]
 }
 }

@@ -3,7 +3,9 @@
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays
 // (rng::Stream::refine's draws) and the ray-count-weighted mean of
-// both; every other texel keeps the first gather's value (cpu.rs).
+// both; every other texel keeps the first gather's value (cpu.rs). With u_lamp_paths > 0 the
+// further rays are weighted against the lamp paths as the first u_first_rays were, and only
+// the gather's part is averaged: the lamp paths' part (u_connected) is added once.
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);
@@ -24,8 +26,9 @@ vec4 luxRun(ivec3 c) {
                                    u_first_rays, u_rays);
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
     vec3 sum = luxGatherSum(origin, n, stream, 0u, u_rays, u_sampler, u_bounce, u_seed,
-                            0u, 0u, 0.0, 0);
+                            u_lamp_paths, u_first_rays, u_density_scale, int(u_lamp_count));
+    vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
     float total = float(u_first_rays + u_rays);
-    vec3 m = float(u_first_rays) * first.rgb + sum;
-    return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);
+    vec3 m = float(u_first_rays) * (first.rgb - paths) + sum;
+    return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total) + paths), 1.0);
 }

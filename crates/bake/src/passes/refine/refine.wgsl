@@ -3,7 +3,9 @@
 // 5x5 window from the variance pass over the first gather (not its own luminance: a decision
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
 // (rng::Stream::refine's draws) and the ray-count-weighted mean of
-// both; every other texel keeps the first gather's value (cpu.rs).
+// both; every other texel keeps the first gather's value (cpu.rs). With lux_pass.lamp_paths > 0
+// the further rays are weighted against the lamp paths as the first first_rays were, and only
+// the gather's part is averaged: the lamp paths' part (lux_connected) is added once.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pos = lux_load(lux_position, c);
@@ -26,8 +28,13 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
                                    u32(c.y), lux_pass.first_rays, rays);
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     let sum = lux_gather_sum(origin, n, texel, stream, 0u, rays, lux_pass.sampler,
-                             lux_pass.bounce, lux_pass.seed, 0u, 0u, 0.0, 0u);
+                             lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths,
+                             lux_pass.first_rays, lux_pass.density_scale, lux_pass.lamp_count);
+    var paths = vec3<f32>(0.0);
+    if (lux_pass.lamp_paths > 0u) {
+        paths = lux_load(lux_connected, c).rgb;
+    }
     let total = f32(lux_pass.first_rays + rays);
-    let m = f32(lux_pass.first_rays) * first.rgb + sum;
-    return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0);
+    let m = f32(lux_pass.first_rays) * (first.rgb - paths) + sum;
+    return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total) + paths), 1.0);
 }
