@@ -80,7 +80,7 @@ use crate::program::{
     blur_params, coarse,
 };
 use crate::rng::Sampler;
-use crate::scene::{Blur, BvhMode, Method};
+use crate::scene::{Blur, BvhMode, Method, Settings};
 
 /// Index of a texture in [`BakeGraph::textures`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -577,7 +577,9 @@ fn connect_stage(b: &mut Builder, g: GBufferTex, params: ConnectParams) {
         b.pass(
             PassKind::Run(Program::Connect),
             "connect",
-            vec![g.position, g.normal],
+            // `position` stands in for the variance map, which the first connections do not
+            // read.
+            vec![g.position, g.normal, g.position],
             vec![connected],
             1,
             Params::Connect(params),
@@ -947,18 +949,45 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             ..VarianceParams::default()
                         }),
                     );
+                    // With lamp paths the second estimate's connections, at the texels the
+                    // refinement refines (`Program::Refine`, module docs).
+                    let connected = g.connected.map(|_| {
+                        let second = b.texture("refine_connected");
+                        let (paths, n) = (config.lamp_paths.0, config.rays.max(1));
+                        b.pass(
+                            PassKind::Run(Program::Connect),
+                            "refine_connect",
+                            vec![g.position, g.normal, variance],
+                            vec![second],
+                            k,
+                            Params::Connect(ConnectParams {
+                                rays: config.rays,
+                                k: paths,
+                                seed: config.seed,
+                                count: config.lamp_path_count,
+                                density_scale: config.lamp_paths.1,
+                                picks: ((u64::from(paths) * u64::from(more) + u64::from(n) / 2)
+                                    / u64::from(n))
+                                .clamp(1, u64::from(Settings::MAX_LAMP_PATHS))
+                                    as u32,
+                                max_error,
+                                ..ConnectParams::default()
+                            }),
+                        );
+                        second
+                    });
                     b.pass(
                         PassKind::Run(Program::Refine),
                         "refine",
-                        // The first gather's lamp-path part (without lamp paths the slot is not
-                        // read: `source` stands in for it).
+                        // The second estimate's connections (without lamp paths the slot is
+                        // not read: `source` stands in for it).
                         vec![
                             g.position,
                             g.normal,
                             source,
                             scratch,
                             variance,
-                            g.connected.unwrap_or(source),
+                            connected.unwrap_or(source),
                         ],
                         vec![delta],
                         k,
@@ -1447,21 +1476,43 @@ mod tests {
         assert_eq!(refine.reads[3..5], [first.writes[0], variance.writes[0]]);
         assert_eq!(rp.lamp_paths, 0);
         assert_eq!(Some(refine.writes[0]), delta(&g));
-        // With lamp paths the refinement weights its rays against them and reads their part,
-        // the connect pass's output; the traced pool's density scale reaches it.
+        // With lamp paths the refinement weights its rays against them and reads its own
+        // connections: K·rays/N further picks at the refined texels (the connect pass with
+        // `picks`, after the variance estimate); the traced pool reaches both.
         let g = BakeGraph::build(&GraphConfig {
             refine: Some((8, 0.1)),
             lamp_paths: (12, 0.0),
             ..converged(2, Blur::None)
         });
         assert_eq!(g.validate(), Ok(()));
+        let labels_1 = labels(&g, 0);
+        assert_eq!(
+            labels_1[..4],
+            ["gather", "refine_variance", "refine_connect", "refine"]
+        );
         let pass = |label: &str| g.passes.iter().find(|p| p.label == label).expect(label);
-        let refine = pass("refine");
-        assert_eq!(refine.reads[5], pass("connect").writes[0]);
+        let (refine, second) = (pass("refine"), pass("refine_connect"));
+        assert_eq!(refine.reads[5], second.writes[0]);
+        assert_ne!(second.writes[0], pass("connect").writes[0]);
+        assert_eq!(second.reads[2], pass("refine_variance").writes[0]);
         let Params::Refine(rp) = with_lamp_paths(refine.params, Some((100, 0.5))) else {
             panic!("{:?}", refine.params)
         };
         assert_eq!((rp.lamp_paths, rp.density_scale), (12, 0.5));
+        let Params::Connect(cp) = with_lamp_paths(second.params, Some((100, 0.5))) else {
+            panic!("{:?}", second.params)
+        };
+        assert_eq!(
+            (
+                cp.k,
+                cp.picks,
+                cp.rays,
+                cp.max_error,
+                cp.count,
+                cp.density_scale
+            ),
+            (12, 6, 16, 0.1, 100, 0.5)
+        );
         // Refinement needs a gather at every texel: with a stride it is not built (settings
         // reject the combination before).
         let g = BakeGraph::build(&GraphConfig {
@@ -1470,6 +1521,14 @@ mod tests {
             ..converged(2, Blur::None)
         });
         assert!(g.passes.iter().all(|p| p.label != "refine"));
+    }
+
+    /// The refinement's picks of a connect pass (0: the first bounce's connections).
+    fn cp_picks(p: &PassDesc) -> u32 {
+        match p.params {
+            Params::Connect(cp) => cp.picks,
+            _ => panic!("{:?}", p.params),
+        }
     }
 
     fn converged(bounces: u32, blur: Blur) -> GraphConfig {
@@ -1856,7 +1915,11 @@ mod tests {
         assert!(direct_part < Some(at) && Some(at) < first_gather);
         let connect = &g.passes[at];
         assert_eq!(connect.writes, [connected]);
-        assert_eq!(connect.reads, [g.gbuffer.position, g.gbuffer.normal]);
+        assert_eq!(
+            connect.reads,
+            [g.gbuffer.position, g.gbuffer.normal, g.gbuffer.position]
+        );
+        assert_eq!(cp_picks(connect), 0);
         let Params::Connect(cp) = connect.params else {
             panic!("connect parameters");
         };

@@ -144,10 +144,9 @@ fn lamp_paths_estimate_the_first_bounce_of_the_gather_alone() {
 /// Refinement keeps the lamp paths: on `chairs_01`, the first bounce with 4 rays and 32 lamp
 /// paths per texel, refined with 12 more rays where the estimated relative error exceeds
 /// 10 %, agrees with 512 rays of the gather alone on every object's mean within 1.5 %
-/// (the further rays are weighted against the lamp paths as the first four were and
-/// averaged with them; the lamp paths' part is added once: no bias), and its texels are
-/// closer to that reference than without the refinement and than the same refinement of the
-/// gather alone.
+/// (a second estimate of 12 rays and 96 connections, weighted as the first, averaged with it
+/// by ray count: no bias), and its texels are closer to that reference than without the
+/// refinement and than the same refinement of the gather alone.
 #[test]
 fn refinement_keeps_the_lamp_paths() {
     let scene = Scene::builtin_with_settings("chairs_01", first_bounce(4, 32)).expect("chairs_01");

@@ -830,8 +830,8 @@ pub struct Settings {
     /// lamps, connected to the texel and combined with its gather by multiple importance
     /// sampling (`luxbake::lightpaths`); 0 = the gather alone ([`Method::Paper`] ignores it).
     /// Used when the first bounce is gathered at every texel (`stride` 1); otherwise the
-    /// bake reports them skipped. With [`Settings::refine_rays`] the refined texels' further
-    /// rays are the plain gather, averaged with the first estimate by ray count.
+    /// bake reports them skipped. With [`Settings::refine_rays`] a refined texel also gets
+    /// `lamp_paths · refine_rays / rays` further connections (`luxbake::passes::refine`).
     pub lamp_paths: u32,
     /// Points of a lamp's luminous opening, each with its shadow ray, per texel near a lamp
     /// that has one (`luxbake::opening`, [`LampModel`]); texels farther away and lamps

@@ -441,7 +441,12 @@ mod tests {
             };
             nrm.extend([n[0], n[1], n[2], 0.0]);
         }
-        let views = [View::new(&pos, size, 1), View::new(&nrm, size, 1)];
+        // The variance map's slot: the first connections do not read it.
+        let views = [
+            View::new(&pos, size, 1),
+            View::new(&nrm, size, 1),
+            View::new(&pos, size, 1),
+        ];
         let ctx = Ctx {
             scene: &scene,
             views: &views,

@@ -2,7 +2,9 @@
 // points of the pool picked with the Sobol sampler's block draws (lightpaths, "Stratified
 // picks"), each joined by a shadow ray and weighted by
 // the balance heuristic against a gather of u_rays rays (connect/cpu.rs, operation for
-// operation). The pool: luxPathPoint (scene.glsl).
+// operation). The pool: luxPathPoint (scene.glsl). With u_picks > 0 the refinement's second
+// estimate: u_picks further picks continuing the texel's (luxRefineStream), at the texels whose
+// variance estimate (u_variance) misses u_max_error only, the sum scaled by u_k / u_picks.
 
 vec4 luxRun(ivec3 c) {
     vec4 pw = texelFetch(u_position, c, 0);
@@ -17,14 +19,27 @@ vec4 luxRun(ivec3 c) {
     if (count == 0u || u_k == 0u) {
         return vec4(0.0, 0.0, 0.0, 1.0);
     }
+    uint picks = u_k;
+    uvec2 size = uvec2(textureSize(u_position, 0).xy);
+    uvec2 stream;
+    if (u_picks > 0u) {
+        vec4 noise = texelFetch(u_variance, c, 0);
+        if (sqrt(max(noise.z, 0.0)) <= u_max_error * noise.y) {
+            return vec4(0.0, 0.0, 0.0, 1.0);
+        }
+        picks = u_picks;
+        stream = luxRefineStream(LUX_SAMPLER_SOBOL, size, uint(c.z), uint(c.x), uint(c.y), u_k,
+                                 u_picks);
+    } else {
+        stream = luxGatherStream(LUX_SAMPLER_SOBOL, size, uint(c.z), uint(c.x), uint(c.y), 1u,
+                                 u_k);
+    }
     vec3 p = pw.xyz;
-    uvec2 stream = luxGatherStream(LUX_SAMPLER_SOBOL, uvec2(textureSize(u_position, 0).xy),
-                                   uint(c.z), uint(c.x), uint(c.y), 1u, u_k);
     vec3 origin = luxOffsetOrigin(p, n, u_ray_epsilon);
     float nc = float(u_rays);
     float kf = float(u_k);
     vec3 sum = vec3(0.0);
-    for (uint s = 0u; s < u_k; ++s) {
+    for (uint s = 0u; s < picks; ++s) {
         vec2 u = luxSobol2(stream.x, stream.y + s, LUX_CONNECT_PASS, u_seed);
         uint j = min(uint(u.x * float(count)), count - 1u);
         vec4 a = luxPathPoint(j, 0);
@@ -61,5 +76,6 @@ vec4 luxRun(ivec3 c) {
         float f = pv * geometry / denominator;
         sum += f * power;
     }
-    return vec4(luxGuard3(sum), 1.0);
+    float scale = u_picks > 0u ? kf / float(u_picks) : 1.0;
+    return vec4(luxGuard3(sum * scale), 1.0);
 }

@@ -2,7 +2,10 @@
 // points of the pool picked with the Sobol sampler's block draws (lightpaths, "Stratified
 // picks"), each joined by a shadow ray and weighted by
 // the balance heuristic against a gather of `rays` rays (connect/cpu.rs, operation for
-// operation). The pool: lux_path_point (scene.wgsl).
+// operation). The pool: lux_path_point (scene.wgsl). With lux_pass.picks > 0 the refinement's
+// second estimate: that many further picks continuing the texel's (lux_refine_stream), at the
+// texels whose variance estimate (lux_variance) misses lux_pass.max_error only, the sum scaled
+// by k / picks.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pw = lux_load(lux_position, c);
@@ -17,14 +20,27 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (count == 0u || lux_pass.k == 0u) {
         return vec4<f32>(0.0, 0.0, 0.0, 1.0);
     }
+    var picks = lux_pass.k;
+    let size = textureDimensions(lux_position).xy;
+    var stream: vec2<u32>;
+    if (lux_pass.picks > 0u) {
+        let noise = lux_load(lux_variance, c);
+        if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
+            return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        }
+        picks = lux_pass.picks;
+        stream = lux_refine_stream(LUX_SAMPLER_SOBOL, size, lux_tile.layer, u32(c.x), u32(c.y),
+                                   lux_pass.k, lux_pass.picks);
+    } else {
+        stream = lux_gather_stream(LUX_SAMPLER_SOBOL, size, lux_tile.layer, u32(c.x), u32(c.y),
+                                   1u, lux_pass.k);
+    }
     let p = pw.xyz;
-    let stream = lux_gather_stream(LUX_SAMPLER_SOBOL, textureDimensions(lux_position).xy,
-                                   lux_tile.layer, u32(c.x), u32(c.y), 1u, lux_pass.k);
     let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let nc = f32(lux_pass.rays);
     let kf = f32(lux_pass.k);
     var sum = vec3<f32>(0.0);
-    for (var s = 0u; s < lux_pass.k; s++) {
+    for (var s = 0u; s < picks; s++) {
         let u = lux_sobol2(stream.x, stream.y + s, LUX_CONNECT_PASS, lux_pass.seed);
         let j = min(u32(u.x * f32(count)), count - 1u);
         let a = lux_path_point(j, 0u);
@@ -61,5 +77,9 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         let f = pv * geometry / denominator;
         sum += f * power;
     }
-    return vec4<f32>(lux_guard3(sum), 1.0);
+    var scale = 1.0;
+    if (lux_pass.picks > 0u) {
+        scale = kf / f32(lux_pass.picks);
+    }
+    return vec4<f32>(lux_guard3(sum * scale), 1.0);
 }

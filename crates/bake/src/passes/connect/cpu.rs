@@ -33,15 +33,23 @@ impl CpuPass for ConnectParams {
             let [u, _] = texel.uniform2(first + s);
             ((u * count as f32) as u32).min(count - 1) as usize
         };
-        let pos: View<'_> = ctx.views[0];
-        // A valid texel's picks (none for the others, which connect nothing).
+        let (pos, variance): (View<'_>, View<'_>) = (ctx.views[0], ctx.views[2]);
+        let n = self.connections();
+        // A valid texel's picks (none for the others, which connect nothing; with `picks` the
+        // texels the refinement refines, continuing their picks).
         let picks_of = |x: u32, out: &mut Vec<usize>| {
             out.clear();
-            if count > 0 && pos.fetch(Texel { layer, x, y })[3] > 0.5 {
+            let here = Texel { layer, x, y };
+            if count > 0 && pos.fetch(here)[3] > 0.5 && self.connects(variance.fetch(here)) {
                 let at = [layer, x, y];
-                let stream = rng::Stream::gather(rng::Sampler::Sobol, scene.layer_size, at, 1, self.k);
+                let sobol = rng::Sampler::Sobol;
+                let stream = if self.picks > 0 {
+                    rng::Stream::refine(sobol, scene.layer_size, at, self.k, self.picks)
+                } else {
+                    rng::Stream::gather(sobol, scene.layer_size, at, 1, self.k)
+                };
                 let texel = draws.texel(stream.key);
-                out.extend((0..self.k).map(|s| pick(&texel, stream.first, s)));
+                out.extend((0..n).map(|s| pick(&texel, stream.first, s)));
             }
         };
         let x0 = ctx.tile.x0;
@@ -75,8 +83,15 @@ impl CpuPass for ConnectParams {
 }
 
 impl ConnectParams {
-    /// The connections of texel `at` to the pool points `picks` (its picks `0 .. k`, in
-    /// order; empty when the pool is): with `lanes` (only where the CPU has AVX2), up to
+    /// Whether a texel with variance estimate `noise` (the variance map's texel) connects:
+    /// every texel for the first bounce's connections, the refined ones for the refinement's.
+    fn connects(&self, noise: [f32; 4]) -> bool {
+        self.picks == 0 || noise[2].max(0.0).sqrt() > self.max_error * noise[1]
+    }
+
+    /// The connections of texel `at` to the pool points `picks` (its picks, in order; empty
+    /// when the pool is, or when the texel does not connect): with `lanes` (only where the
+    /// CPU has AVX2), up to
     /// [`LANES`] connections computed together up to their shadow rays
     /// ([`avx2::connections`]), else one by one.
     pub(crate) fn texel_with(
@@ -86,7 +101,7 @@ impl ConnectParams {
         picks: &[usize],
         lanes: bool,
     ) -> [f32; 4] {
-        let [pw, nw] = ctx.maps().map(|m| m.fetch(at));
+        let [pw, nw, _] = ctx.maps().map(|m| m.fetch(at));
         if pw[3] <= 0.5 {
             return [0.0; 4];
         }
@@ -122,7 +137,8 @@ impl ConnectParams {
                     }
                 }
             }
-            return [guard(sum[0]), guard(sum[1]), guard(sum[2]), 1.0];
+            let k = self.scale();
+            return [guard(sum[0] * k), guard(sum[1] * k), guard(sum[2] * k), 1.0];
         }
         #[cfg(not(target_arch = "x86_64"))]
         let _ = lanes;
@@ -163,7 +179,8 @@ impl ConnectParams {
                 *sc += f * pc;
             }
         }
-        [guard(sum[0]), guard(sum[1]), guard(sum[2]), 1.0]
+        let k = self.scale();
+        [guard(sum[0] * k), guard(sum[1] * k), guard(sum[2] * k), 1.0]
     }
 }
 

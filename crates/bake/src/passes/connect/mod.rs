@@ -10,6 +10,13 @@
 //! ([`SceneData::lamp_paths`](crate::backend::SceneData::lamp_paths)); the gather adds the
 //! result (its slot `connected`). Formerly computed on the host for every backend; now the
 //! backend runs it, and a lamp swap leaves only the pool's tracing on the host.
+//!
+//! With [`ConnectParams::picks`] > 0 the pass makes a second, independent estimate of the same
+//! part for the first bounce's refinement ([`Program::Refine`](crate::program::Program::Refine)):
+//! `picks` further points per texel, continuing the texel's picks past the first `k` (the
+//! draws of [`Stream::refine`](crate::rng::Stream::refine)), weighted by the same balance
+//! heuristic (for `rays` and `k`) and scaled by `k / picks`, at the texels the refinement
+//! refines only (the same test of the variance map, slot `variance`; the others read 0).
 
 pub(crate) mod cpu;
 
@@ -28,18 +35,21 @@ param_block! {
         count: u32,
         /// [`crate::lightpaths::LampPaths::density_scale`].
         density_scale: f32,
+        /// 0: the first bounce's `k` connections at every texel. Otherwise the refinement's:
+        /// this many further connections, at the texels whose estimated relative error
+        /// exceeds [`ConnectParams::max_error`] (see the module docs).
+        picks: u32,
+        /// With `picks` > 0: the refinement's target
+        /// ([`RefineParams::max_error`](crate::passes::refine::RefineParams::max_error)).
+        max_error: f32,
         /// Padding.
         pad0: u32,
-        /// Padding.
-        pad1: u32,
-        /// Padding.
-        pad2: u32,
     }
 }
 
 signature! {
     connect {
-        reads: ["position", "normal"],
+        reads: ["position", "normal", "variance"],
         scene: [bvh, lamp_paths],
         params: ConnectParams,
         libraries: [Common, Rng, Scene, Bvh],
@@ -49,5 +59,22 @@ signature! {
 /// Evaluations per texel, for the tile plan ([`crate::program::TilePlan`]): a shadow ray per
 /// connection.
 pub fn work(p: &ConnectParams) -> u64 {
-    u64::from(p.k)
+    u64::from(p.connections())
+}
+
+impl ConnectParams {
+    /// Connections per texel this pass makes: [`ConnectParams::picks`], or `k` when it is 0.
+    pub fn connections(&self) -> u32 {
+        if self.picks > 0 { self.picks } else { self.k }
+    }
+
+    /// What the sum of the connections is multiplied by: `k / picks` for the refinement's
+    /// (an estimate of the same part from `picks` points), 1 for the first.
+    pub fn scale(&self) -> f32 {
+        if self.picks > 0 {
+            self.k as f32 / self.picks as f32
+        } else {
+            1.0
+        }
+    }
 }

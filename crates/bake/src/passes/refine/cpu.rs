@@ -63,15 +63,16 @@ impl TexelPass for RefineParams {
     let [sum] = sums[..] else {
         return first;
     };
-    // The lamp paths' part `C` (see the module docs): `(N·(first − C) + Σ) / (N + rays) + C`.
+    // The second estimate's lamp-path part `C₂` (see the module docs):
+    // `(N·first + Σ + rays·C₂) / (N + rays)`.
     let paths = if params.lamp_paths > 0 {
         connected.fetch(at)
     } else {
         [0.0; 4]
     };
     let total = (params.first_rays + params.rays) as f32;
-    let k = params.first_rays as f32;
-    let refined = |c: usize| guard((k * (first[c] - paths[c]) + sum[c]) / total + paths[c]);
+    let (k, more) = (params.first_rays as f32, params.rays as f32);
+    let refined = |c: usize| guard((k * first[c] + sum[c] + more * paths[c]) / total);
     [refined(0), refined(1), refined(2), 1.0]
 }
 }

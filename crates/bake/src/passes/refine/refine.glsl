@@ -4,8 +4,9 @@
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over u_max_error gets u_rays more rays
 // (rng::Stream::refine's draws) and the ray-count-weighted mean of
 // both; every other texel keeps the first gather's value (cpu.rs). With u_lamp_paths > 0 the
-// further rays are weighted against the lamp paths as the first u_first_rays were, and only
-// the gather's part is averaged: the lamp paths' part (u_connected) is added once.
+// further rays are weighted against the lamp paths as the first u_first_rays were and, with
+// the refinement's own connections (u_connected, the connect pass with picks), make a second
+// estimate, averaged with the first by ray count.
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);
@@ -29,6 +30,6 @@ vec4 luxRun(ivec3 c) {
                             u_lamp_paths, u_first_rays, u_density_scale, int(u_lamp_count));
     vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
     float total = float(u_first_rays + u_rays);
-    vec3 m = float(u_first_rays) * (first.rgb - paths) + sum;
-    return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total) + paths), 1.0);
+    vec3 m = float(u_first_rays) * first.rgb + sum + float(u_rays) * paths;
+    return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);
 }

@@ -4,8 +4,9 @@
 // on the texel's own noisy value would keep the texels that came out high, a bias), is over lux_pass.max_error gets lux_pass.rays more rays
 // (rng::Stream::refine's draws) and the ray-count-weighted mean of
 // both; every other texel keeps the first gather's value (cpu.rs). With lux_pass.lamp_paths > 0
-// the further rays are weighted against the lamp paths as the first first_rays were, and only
-// the gather's part is averaged: the lamp paths' part (lux_connected) is added once.
+// the further rays are weighted against the lamp paths as the first first_rays were and, with
+// the refinement's own connections (lux_connected, the connect pass with picks), make a second
+// estimate, averaged with the first by ray count.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pos = lux_load(lux_position, c);
@@ -35,6 +36,6 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         paths = lux_load(lux_connected, c).rgb;
     }
     let total = f32(lux_pass.first_rays + rays);
-    let m = f32(lux_pass.first_rays) * (first.rgb - paths) + sum;
-    return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total) + paths), 1.0);
+    let m = f32(lux_pass.first_rays) * first.rgb + sum + f32(rays) * paths;
+    return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0);
 }
