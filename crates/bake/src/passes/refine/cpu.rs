@@ -1,78 +1,106 @@
-//! The CPU reference of pass `refine` (the semantics the shaders mirror).
+//! The CPU reference of pass `refine` (the semantics the shaders mirror): a row's refined
+//! texels' rays traced together, as the gather's ([`gather_sums`]).
 
 use crate::backend::offset_origin;
-use crate::passes::gather::cpu::{GatherChunk, GatherTexel, Hits, Mis, gather_sums};
-use crate::rng;
 use crate::cpu::kernel::*;
+use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, gather_sums};
+use crate::rng;
 
 use super::RefineParams;
 
 /// The refinement for one dispatch.
 pub(crate) type Pass = RefineParams;
 
-impl TexelPass for RefineParams {
-    #[inline]
-    fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
+impl CpuPass for RefineParams {
+    type Scratch = GatherScratch;
+
+    fn row(&self, ctx: &Ctx<'_>, y: u32, out: &mut [f32], scratch: &mut GatherScratch) {
         let [pos_map, nrm_map, reflected, first_map, variance, connected] = ctx.maps();
         let (scene, params) = (ctx.scene, *self);
-        let pos = pos_map.fetch(at);
-        let first = first_map.fetch(at);
-        if pos[3] <= 0.5 {
-            return [0.0; 4];
+        let GatherScratch {
+            texels,
+            at,
+            chunks,
+            sums,
+        } = scratch;
+        texels.clear();
+        at.clear();
+        let sampler = rng::Sampler::from_id(params.sampler);
+        let layer = ctx.tile.layer;
+        // Every texel keeps the first gather's value (0 where invalid) unless it is refined.
+        for (i, texel) in out.chunks_exact_mut(4).enumerate() {
+            let here = Texel {
+                layer,
+                x: ctx.tile.x0 + i as u32,
+                y,
+            };
+            let pos = pos_map.fetch(here);
+            if pos[3] <= 0.5 {
+                texel.copy_from_slice(&[0.0; 4]);
+                continue;
+            }
+            texel.copy_from_slice(&first_map.fetch(here));
+            let (Some(n), 1..) = (normalize(xyz(nrm_map.fetch(here))), params.rays) else {
+                continue;
+            };
+            let noise = variance.fetch(here);
+            if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
+                continue;
+            }
+            let at_texel = [layer, here.x, y];
+            let stream = rng::Stream::refine(
+                sampler,
+                scene.layer_size,
+                at_texel,
+                params.first_rays,
+                params.rays,
+            );
+            texels.push(GatherTexel {
+                texel: stream.key,
+                rays: stream.first..stream.first + params.rays,
+                o: offset_origin(xyz(pos), n, scene.ray_epsilon),
+                frame: Frame::new(n),
+                mis: Mis {
+                    rays: params.first_rays,
+                    lamp_paths: params.lamp_paths,
+                    density_scale: params.density_scale,
+                    lamp_count: params.lamp_count,
+                },
+            });
+            at.push(i);
         }
-        let n = normalize(xyz(nrm_map.fetch(at)));
-        let (Some(n), 1..) = (n, params.rays) else {
-            return first;
-        };
-        let noise = variance.fetch(at);
-    if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
-        return first;
+        if texels.is_empty() {
+            return;
+        }
+        let draws = [params.sampler, params.bounce, params.seed];
+        gather_sums(
+            scene,
+            reflected,
+            ctx.trav,
+            draws,
+            texels,
+            &mut Hits::Trace,
+            chunks,
+            sums,
+        );
+        let total = (params.first_rays + params.rays) as f32;
+        let (k, more) = (params.first_rays as f32, params.rays as f32);
+        for (sum, &i) in sums.iter().zip(at.iter()) {
+            let here = Texel {
+                layer,
+                x: ctx.tile.x0 + i as u32,
+                y,
+            };
+            let first = first_map.fetch(here);
+            // The second estimate's lamp-path part `C₂` (see the module docs):
+            // `(N·first + Σ + rays·C₂) / (N + rays)`.
+            let paths = if params.lamp_paths > 0 {
+                connected.fetch(here)
+            } else {
+                [0.0; 4]
+            };
+            let refined = |c: usize| guard((k * first[c] + sum[c] + more * paths[c]) / total);
+            out[4 * i..4 * i + 4].copy_from_slice(&[refined(0), refined(1), refined(2), 1.0]);
+        }
     }
-    let stream = rng::Stream::refine(
-        rng::Sampler::from_id(params.sampler),
-        scene.layer_size,
-        [at.layer, at.x, at.y],
-        params.first_rays,
-        params.rays,
-    );
-    let texel = GatherTexel {
-        texel: stream.key,
-        rays: stream.first..stream.first + params.rays,
-        o: offset_origin(xyz(pos), n, scene.ray_epsilon),
-        frame: Frame::new(n),
-        mis: Mis {
-            rays: params.first_rays,
-            lamp_paths: params.lamp_paths,
-            density_scale: params.density_scale,
-            lamp_count: params.lamp_count,
-        },
-    };
-    let sampler = [params.sampler, params.bounce, params.seed];
-    let mut sums = Vec::with_capacity(1);
-    let mut chunks = [GatherChunk::default(), GatherChunk::default()];
-    gather_sums(
-        scene,
-        reflected,
-        ctx.trav,
-        sampler,
-        &[texel],
-        &mut Hits::Trace,
-        &mut chunks,
-        &mut sums,
-    );
-    let [sum] = sums[..] else {
-        return first;
-    };
-    // The second estimate's lamp-path part `C₂` (see the module docs):
-    // `(N·first + Σ + rays·C₂) / (N + rays)`.
-    let paths = if params.lamp_paths > 0 {
-        connected.fetch(at)
-    } else {
-        [0.0; 4]
-    };
-    let total = (params.first_rays + params.rays) as f32;
-    let (k, more) = (params.first_rays as f32, params.rays as f32);
-    let refined = |c: usize| guard((k * first[c] + sum[c] + more * paths[c]) / total);
-    [refined(0), refined(1), refined(2), 1.0]
-}
 }
