@@ -61,6 +61,23 @@ fn texel_rms(a: &BakeOutput, b: &BakeOutput) -> f64 {
     (num / den).sqrt()
 }
 
+/// Every object's mean indirect illuminance in `got` within `tolerance` (relative) of `want`
+/// ([`indirect_means`] of a reference), each printed; every object has over 100 texels and
+/// a positive reference.
+fn assert_means_agree(what: &str, want: &[(String, f64, usize)], got: &BakeOutput, tolerance: f64) {
+    let got = indirect_means(got);
+    assert_eq!(want.len(), got.len(), "{what}");
+    for ((object, w, n), (_, g, _)) in want.iter().zip(&got) {
+        let err = g / w - 1.0;
+        println!(
+            "{what}, {object}: {n} texels, mean indirect {g:.3} lx vs {w:.3} lx ({:+.2} %)",
+            100.0 * err
+        );
+        assert!(*n > 100 && *w > 0.0, "{what}, {object}");
+        assert!(err.abs() < tolerance, "{what}, {object}: {g} vs {w}");
+    }
+}
+
 fn run(scene: &Scene, s: &Settings) -> BakeOutput {
     bake(&mut CpuBackend::new(), scene, s, &mut |_| {}).expect("bake")
 }
@@ -101,29 +118,15 @@ fn lamp_paths_estimate_the_first_bounce_of_the_gather_alone() {
             paths.report.skipped
         );
         let want = indirect_means(&reference);
-        let got = indirect_means(&paths);
-        assert_eq!(want.len(), got.len());
-        for ((object, w, n), (_, g, _)) in want.iter().zip(&got) {
-            let err = g / w - 1.0;
-            println!(
-                "{name}, {object}: {n} texels, mean indirect {g:.3} lx vs {w:.3} lx ({:+.2} %)",
-                100.0 * err
-            );
-            assert!(*n > 100 && *w > 0.0, "{name}, {object}");
-            assert!(err.abs() < 0.015, "{name}, {object}: {g} vs {w}");
-        }
+        assert_means_agree(name, &want, &paths, 0.015);
         // Many paths: the same means to within 0.5 % (no bias hidden in the noise).
-        for ((object, w, _), (_, g, _)) in want
-            .iter()
-            .zip(&indirect_means(&run(scene, &first_bounce(16, 256))))
-        {
-            let err = g / w - 1.0;
-            println!(
-                "{name}, {object}, 16 rays + 256 lamp paths: {g:.3} lx ({:+.2} %)",
-                100.0 * err
-            );
-            assert!(err.abs() < 0.005, "{name}, {object}: {g} vs {w}");
-        }
+        let many = run(scene, &first_bounce(16, 256));
+        assert_means_agree(
+            &format!("{name}, 16 rays + 256 lamp paths"),
+            &want,
+            &many,
+            0.005,
+        );
         let (rms_paths, rms_gather) = (
             texel_rms(&paths, &reference),
             texel_rms(&gather, &reference),
@@ -166,18 +169,8 @@ fn refinement_keeps_the_lamp_paths() {
         "{:?}",
         both.report.skipped
     );
-    for ((object, w, n), (_, g, _)) in indirect_means(&reference)
-        .iter()
-        .zip(&indirect_means(&both))
-    {
-        let err = g / w - 1.0;
-        println!(
-            "{object}: {n} texels, refined with lamp paths {g:.3} lx vs {w:.3} lx ({:+.2} %)",
-            100.0 * err
-        );
-        assert!(*n > 100 && *w > 0.0, "{object}");
-        assert!(err.abs() < 0.015, "{object}: {g} vs {w}");
-    }
+    let want = indirect_means(&reference);
+    assert_means_agree("refined with lamp paths", &want, &both, 0.015);
     let [rms_both, rms_paths, rms_gather] = [
         both,
         run(&scene, &first_bounce(4, 32)),

@@ -17,14 +17,8 @@ impl CpuPass for RefineParams {
     fn row(&self, ctx: &Ctx<'_>, y: u32, out: &mut [f32], scratch: &mut GatherScratch) {
         let [pos_map, nrm_map, reflected, first_map, variance, connected] = ctx.maps();
         let (scene, params) = (ctx.scene, *self);
-        let GatherScratch {
-            texels,
-            at,
-            chunks,
-            sums,
-        } = scratch;
-        texels.clear();
-        at.clear();
+        scratch.texels.clear();
+        scratch.at.clear();
         let sampler = rng::Sampler::from_id(params.sampler);
         let layer = ctx.tile.layer;
         // Every texel keeps the first gather's value (0 where invalid) unless it is refined.
@@ -55,7 +49,7 @@ impl CpuPass for RefineParams {
                 params.first_rays,
                 params.rays,
             );
-            texels.push(GatherTexel {
+            scratch.texels.push(GatherTexel {
                 texel: stream.key,
                 rays: stream.first..stream.first + params.rays,
                 o: offset_origin(xyz(pos), n, scene.ray_epsilon),
@@ -67,9 +61,9 @@ impl CpuPass for RefineParams {
                     lamp_count: params.lamp_count,
                 },
             });
-            at.push(i);
+            scratch.at.push(i);
         }
-        if texels.is_empty() {
+        if scratch.texels.is_empty() {
             return;
         }
         let draws = [params.sampler, params.bounce, params.seed];
@@ -78,14 +72,14 @@ impl CpuPass for RefineParams {
             reflected,
             ctx.trav,
             draws,
-            texels,
+            &scratch.texels,
             &mut Hits::Trace,
-            chunks,
-            sums,
+            &mut scratch.chunks,
+            &mut scratch.sums,
         );
         let total = (params.first_rays + params.rays) as f32;
         let (k, more) = (params.first_rays as f32, params.rays as f32);
-        for (sum, &i) in sums.iter().zip(at.iter()) {
+        for (sum, &i) in scratch.sums.iter().zip(&scratch.at) {
             let here = Texel {
                 layer,
                 x: ctx.tile.x0 + i as u32,
