@@ -142,7 +142,8 @@ pub const SCENES: [SceneCase; 8] = [
     converged("sphere", Quality::Default, 0, CONVERGED_STAGES),
     // Reduced-resolution gathers at every bounce, no denoiser.
     converged("chairs_01", Quality::Draft, 0, DRAFT_STAGES),
-    // Progressive refinement of the first bounce.
+    // Progressive refinement of the first bounce (its rays and, with the preset's lamp paths,
+    // its connections: the refine_connect pass).
     converged("chairs_01", Quality::Default, 16, CONVERGED_STAGES),
 ];
 
