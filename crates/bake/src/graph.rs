@@ -80,7 +80,7 @@ use crate::program::{
     blur_params, coarse,
 };
 use crate::rng::Sampler;
-use crate::scene::{Blur, BvhMode, Method, Settings};
+use crate::scene::{Blur, BvhMode, Method};
 
 /// Index of a texture in [`BakeGraph::textures`].
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -863,18 +863,15 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     let reflected_direct = b.texture("reflected_direct");
     let direct = direct_stage(&mut b, g, config, reflected_direct);
     albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
-    connect_stage(
-        &mut b,
-        g,
-        ConnectParams {
-            rays: config.rays,
-            k: config.lamp_paths.0,
-            seed: config.seed,
-            count: config.lamp_path_count,
-            density_scale: config.lamp_paths.1,
-            ..ConnectParams::default()
-        },
-    );
+    let connect = ConnectParams {
+        rays: config.rays,
+        k: config.lamp_paths.0,
+        seed: config.seed,
+        count: config.lamp_path_count,
+        density_scale: config.lamp_paths.1,
+        ..ConnectParams::default()
+    };
+    connect_stage(&mut b, g, connect);
     let mut figure5 = Figure5::direct_part([g.albedo, direct, direct, reflected_direct]);
     if config.bounces > 0 {
         // Bounce k gathers the reflected increment of bounce k − 1 (the direct light's first).
@@ -953,26 +950,13 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     // refinement refines (`Program::Refine`, module docs).
                     let connected = g.connected.map(|_| {
                         let second = b.texture("refine_connected");
-                        let (paths, n) = (config.lamp_paths.0, config.rays.max(1));
                         b.pass(
                             PassKind::Run(Program::Connect),
                             "refine_connect",
                             vec![g.position, g.normal, variance],
                             vec![second],
                             k,
-                            Params::Connect(ConnectParams {
-                                rays: config.rays,
-                                k: paths,
-                                seed: config.seed,
-                                count: config.lamp_path_count,
-                                density_scale: config.lamp_paths.1,
-                                picks: ((u64::from(paths) * u64::from(more) + u64::from(n) / 2)
-                                    / u64::from(n))
-                                .clamp(1, u64::from(Settings::MAX_LAMP_PATHS))
-                                    as u32,
-                                max_error,
-                                ..ConnectParams::default()
-                            }),
+                            Params::Connect(connect.refinement(more, max_error)),
                         );
                         second
                     });
@@ -1523,14 +1507,6 @@ mod tests {
         assert!(g.passes.iter().all(|p| p.label != "refine"));
     }
 
-    /// The refinement's picks of a connect pass (0: the first bounce's connections).
-    fn cp_picks(p: &PassDesc) -> u32 {
-        match p.params {
-            Params::Connect(cp) => cp.picks,
-            _ => panic!("{:?}", p.params),
-        }
-    }
-
     fn converged(bounces: u32, blur: Blur) -> GraphConfig {
         GraphConfig {
             method: Method::Converged,
@@ -1919,13 +1895,12 @@ mod tests {
             connect.reads,
             [g.gbuffer.position, g.gbuffer.normal, g.gbuffer.position]
         );
-        assert_eq!(cp_picks(connect), 0);
         let Params::Connect(cp) = connect.params else {
             panic!("connect parameters");
         };
         assert_eq!(
-            (cp.k, cp.count, cp.density_scale, cp.rays),
-            (4, 1000, 0.5, 16)
+            (cp.k, cp.count, cp.density_scale, cp.rays, cp.picks),
+            (4, 1000, 0.5, 16, 0)
         );
         // The G-buffer is the room's; the lamp paths and everything after depend on the lamps.
         assert!(!g.passes[0].lamps);

@@ -33,6 +33,12 @@ vec3 luxGuard3(vec3 v) {
     return vec3(luxGuard(v.x), luxGuard(v.y), luxGuard(v.z));
 }
 
+// passes::refine::refines: whether the first bounce's refinement refines a texel whose
+// variance estimate (the variance pass's texel) is `noise`.
+bool luxRefines(vec4 noise, float maxError) {
+    return !(sqrt(max(noise.z, 0.0)) <= maxError * noise.y);
+}
+
 // This fragment's texel in the bound layer.
 ivec3 luxTexel() {
     return ivec3(ivec2(gl_FragCoord.xy), u_layer);

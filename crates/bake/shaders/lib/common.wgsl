@@ -51,6 +51,12 @@ fn lux_guard3(v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(lux_guard(v.x), lux_guard(v.y), lux_guard(v.z));
 }
 
+// passes::refine::refines: whether the first bounce's refinement refines a texel whose
+// variance estimate (the variance pass's texel) is `noise`.
+fn lux_refines(noise: vec4<f32>, max_error: f32) -> bool {
+    return !(sqrt(max(noise.z, 0.0)) <= max_error * noise.y);
+}
+
 // The texel of invocation `gid` in the bound tile, or x = -1 outside it.
 fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
     if (gid.x >= lux_tile.width || gid.y >= lux_tile.height) {

@@ -23,8 +23,7 @@ vec4 luxRun(ivec3 c) {
     uvec2 size = uvec2(textureSize(u_position, 0).xy);
     uvec2 stream;
     if (u_picks > 0u) {
-        vec4 noise = texelFetch(u_variance, c, 0);
-        if (sqrt(max(noise.z, 0.0)) <= u_max_error * noise.y) {
+        if (!luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
             return vec4(0.0, 0.0, 0.0, 1.0);
         }
         picks = u_picks;

@@ -24,8 +24,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let size = textureDimensions(lux_position).xy;
     var stream: vec2<u32>;
     if (lux_pass.picks > 0u) {
-        let noise = lux_load(lux_variance, c);
-        if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
+        if (!lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
             return vec4<f32>(0.0, 0.0, 0.0, 1.0);
         }
         picks = lux_pass.picks;

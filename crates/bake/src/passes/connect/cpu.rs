@@ -86,7 +86,7 @@ impl ConnectParams {
     /// Whether a texel with variance estimate `noise` (the variance map's texel) connects:
     /// every texel for the first bounce's connections, the refined ones for the refinement's.
     fn connects(&self, noise: [f32; 4]) -> bool {
-        self.picks == 0 || noise[2].max(0.0).sqrt() > self.max_error * noise[1]
+        self.picks == 0 || crate::passes::refine::refines(noise, self.max_error)
     }
 
     /// The connections of texel `at` to the pool points `picks` (its picks, in order; empty

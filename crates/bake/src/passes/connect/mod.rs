@@ -63,6 +63,21 @@ pub fn work(p: &ConnectParams) -> u64 {
 }
 
 impl ConnectParams {
+    /// The refinement's connections beside these first ones: `k · more / rays` further
+    /// picks (rounded, at least 1, at most
+    /// [`MAX_LAMP_PATHS`](crate::scene::Settings::MAX_LAMP_PATHS)), so that a refined
+    /// texel's second estimate has the first's ratio of rays to connections, at the texels
+    /// whose relative error exceeds `max_error`.
+    pub fn refinement(self, more: u32, max_error: f32) -> ConnectParams {
+        let (k, rays) = (u64::from(self.k), u64::from(self.rays.max(1)));
+        let max = u64::from(crate::scene::Settings::MAX_LAMP_PATHS);
+        ConnectParams {
+            picks: ((k * u64::from(more) + rays / 2) / rays).clamp(1, max) as u32,
+            max_error,
+            ..self
+        }
+    }
+
     /// Connections per texel this pass makes: [`ConnectParams::picks`], or `k` when it is 0.
     pub fn connections(&self) -> u32 {
         if self.picks > 0 { self.picks } else { self.k }

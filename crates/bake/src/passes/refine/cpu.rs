@@ -6,7 +6,7 @@ use crate::cpu::kernel::*;
 use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, gather_sums};
 use crate::rng;
 
-use super::RefineParams;
+use super::{RefineParams, refines};
 
 /// The refinement for one dispatch.
 pub(crate) type Pass = RefineParams;
@@ -37,8 +37,7 @@ impl CpuPass for RefineParams {
             let (Some(n), 1..) = (normalize(xyz(nrm_map.fetch(here))), params.rays) else {
                 continue;
             };
-            let noise = variance.fetch(here);
-            if noise[2].max(0.0).sqrt() <= params.max_error * noise[1] {
+            if !refines(variance.fetch(here), params.max_error) {
                 continue;
             }
             let at_texel = [layer, here.x, y];

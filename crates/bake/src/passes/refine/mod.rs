@@ -29,6 +29,16 @@
 
 pub(crate) mod cpu;
 
+/// Whether the refinement refines a texel whose variance estimate (the variance pass's
+/// texel: `[variance, window mean luminance, variance without the texel, …]`) is `noise`:
+/// its relative standard error over `max_error`. The refine pass and the connect pass of its
+/// second connections take the same decision (`luxRefines` / `lux_refines` in the shaders).
+// `!(x <= y)` on purpose: a NaN estimate refines, as in the shaders.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub(crate) fn refines(noise: [f32; 4], max_error: f32) -> bool {
+    !(noise[2].max(0.0).sqrt() <= max_error * noise[1])
+}
+
 use crate::contract::{param_block, signature};
 
 param_block! {

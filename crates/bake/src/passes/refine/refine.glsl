@@ -18,8 +18,7 @@ vec4 luxRun(ivec3 c) {
     if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n) || u_rays == 0u) {
         return first;
     }
-    vec4 noise = texelFetch(u_variance, c, 0);
-    if (sqrt(max(noise.z, 0.0)) <= u_max_error * noise.y) {
+    if (!luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
         return first;
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));

@@ -19,8 +19,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(lux_load(lux_normal, c).xyz, &n) || rays == 0u) {
         return first;
     }
-    let noise = lux_load(lux_variance, c);
-    if (sqrt(max(noise.z, 0.0)) <= lux_pass.max_error * noise.y) {
+    if (!lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
         return first;
     }
     let layer_size = vec2<u32>(lux_tile.layer_w, lux_tile.layer_h);
