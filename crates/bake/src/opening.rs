@@ -596,6 +596,186 @@ pub fn shift(texel: u32, lamp: u32, seed: u32) -> [u32; 2] {
     [h0, rng::pcg(h0)]
 }
 
+/// [`PartSampler::sample`] of a flat part for eight uniforms at once, one to a lane of an
+/// AVX2 vector: each lane runs the scalar operations in their order (IEEE single precision, no
+/// fused multiply-adds), so its sample is the scalar one bit for bit (test
+/// `points_in_lanes_equal_the_point_by_point_ones` in `passes/direct/cpu.rs`). The direct
+/// pass's opening points on the CPU.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::*;
+
+    /// Eight samples of one part in the photometric frame (lane by lane what
+    /// [`PartSampler::sample`] returns); `ok` all ones in the lanes that have one.
+    #[derive(Clone, Copy)]
+    pub(crate) struct Samples8 {
+        pub point: [__m256; 3],
+        pub normal: [__m256; 3],
+        pub weight: __m256,
+        pub ok: __m256,
+    }
+
+    /// `x.clamp(lo, hi)` in every lane, as Rust computes it (a NaN stays a NaN).
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn clamp8(x: __m256, lo: __m256, hi: __m256) -> __m256 {
+        let x = _mm256_blendv_ps(x, lo, _mm256_cmp_ps::<_CMP_LT_OQ>(x, lo));
+        _mm256_blendv_ps(x, hi, _mm256_cmp_ps::<_CMP_GT_OQ>(x, hi))
+    }
+
+    /// `√(max(x, 0))` in every lane (`x.max(0.0).sqrt()`: a NaN gives 0).
+    #[target_feature(enable = "avx2")]
+    fn sqrt_max0(x: __m256) -> __m256 {
+        _mm256_sqrt_ps(_mm256_max_ps(x, _mm256_setzero_ps()))
+    }
+
+    /// All ones in the lanes where `x` is finite.
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn finite8(x: __m256) -> __m256 {
+        let abs = _mm256_andnot_ps(_mm256_set1_ps(-0.0), x);
+        _mm256_cmp_ps::<_CMP_LT_OQ>(abs, _mm256_set1_ps(f32::INFINITY))
+    }
+
+    /// [`Falloff::draw`] in every lane: `(t, density)`.
+    #[target_feature(enable = "avx2")]
+    fn draw8([s, lo, hi, g0, span]: [__m256; 5], u: __m256) -> (__m256, __m256) {
+        let q = _mm256_add_ps(g0, _mm256_mul_ps(u, span));
+        let one = _mm256_set1_ps(1.0);
+        let root = sqrt_max0(_mm256_sub_ps(one, _mm256_mul_ps(q, q)));
+        let t = clamp8(_mm256_div_ps(_mm256_mul_ps(s, q), root), lo, hi);
+        let ss = _mm256_mul_ps(s, s);
+        let r2 = _mm256_add_ps(ss, _mm256_mul_ps(t, t));
+        let density = _mm256_div_ps(
+            ss,
+            _mm256_mul_ps(_mm256_mul_ps(r2, _mm256_sqrt_ps(r2)), span),
+        );
+        (t, density)
+    }
+
+    impl PartSampler<'_> {
+        /// [`PartSampler::sample`] at the uniforms `u` of eight lanes; `None` (nothing
+        /// computed) for a curved part or a sampler without a receiver, which the caller
+        /// samples point by point.
+        #[target_feature(enable = "avx2")]
+        pub(crate) fn sample8(&self, u: [__m256; 2]) -> Option<Samples8> {
+            let f = self.flat?;
+            let set = _mm256_set1_ps;
+            let zero = _mm256_setzero_ps();
+            let Some(t) = f.toward else {
+                return Some(Samples8 {
+                    point: [zero; 3],
+                    normal: [zero; 3],
+                    weight: zero,
+                    ok: zero,
+                });
+            };
+            let first = t.first;
+            let (dx, px) = draw8(
+                [first.s, first.lo, first.hi, first.g0, first.span].map(|v| set(v)),
+                u[0],
+            );
+            let [e0, e1] = t.ext;
+            let x = clamp8(_mm256_add_ps(set(t.foot[0]), dx), set(-e0), set(e0));
+            let half = if t.ellipse {
+                let q = _mm256_div_ps(x, set(e0));
+                let root = sqrt_max0(_mm256_sub_ps(set(1.0), _mm256_mul_ps(q, q)));
+                _mm256_mul_ps(set(e1), root)
+            } else {
+                set(e1)
+            };
+            let sy = _mm256_sqrt_ps(_mm256_add_ps(set(t.h * t.h), _mm256_mul_ps(dx, dx)));
+            // The second coordinate's `Falloff::new` on the chord at `x`.
+            let minus_half = _mm256_xor_ps(half, set(-0.0));
+            let foot1 = set(t.foot[1]);
+            let (lo, hi) = (_mm256_sub_ps(minus_half, foot1), _mm256_sub_ps(half, foot1));
+            let ss = _mm256_mul_ps(sy, sy);
+            let g = |v: __m256| {
+                _mm256_div_ps(v, _mm256_sqrt_ps(_mm256_add_ps(ss, _mm256_mul_ps(v, v))))
+            };
+            let g0 = g(lo);
+            let span = _mm256_sub_ps(g(hi), g0);
+            let (dy, py) = draw8([sy, lo, hi, g0, span], u[1]);
+            let y = clamp8(_mm256_add_ps(foot1, dy), minus_half, half);
+            let density = _mm256_mul_ps(px, py);
+            let ok = _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GT_OQ>(span, zero),
+                _mm256_and_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(density, zero), finite8(density)),
+            );
+            let (i, j) = in_plane(f.axis);
+            let mut p = [zero; 3];
+            p[f.axis] = set(f.plane);
+            p[i] = x;
+            p[j] = y;
+            let mut n = [zero; 3];
+            n[f.axis] = set(f.side);
+            let photometric = |v: [__m256; 3]| match self.o.axis {
+                0 => [v[2], v[0], v[1]],
+                1 => [v[1], v[2], v[0]],
+                _ => v,
+            };
+            Some(Samples8 {
+                point: photometric(p),
+                normal: photometric(n),
+                weight: _mm256_div_ps(set(1.0), density),
+                ok,
+            })
+        }
+    }
+
+    /// [`projected_area`] toward the photometric directions `w` of eight lanes; `None` for an
+    /// ellipsoid (which has no flat part, so no lanes).
+    #[target_feature(enable = "avx2")]
+    pub(crate) fn projected_area8(o: &OpeningParams, w: [__m256; 3]) -> Option<__m256> {
+        let s = match o.axis {
+            0 => [w[1], w[2], w[0]],
+            1 => [w[2], w[0], w[1]],
+            _ => w,
+        };
+        let set = _mm256_set1_ps;
+        let zero = _mm256_setzero_ps();
+        let abs = |v: __m256| _mm256_andnot_ps(set(-0.0), v);
+        let [a, b, c] = o.half;
+        // The end facing `w` (−w where s₂ < 0), where it emits.
+        let below = _mm256_cmp_ps::<_CMP_LT_OQ>(s[2], zero);
+        let on = |bit: u32| {
+            if o.faces & bit != 0 {
+                set(f32::from_bits(!0))
+            } else {
+                zero
+            }
+        };
+        let ends = _mm256_and_ps(abs(s[2]), _mm256_blendv_ps(on(2), on(1), below));
+        let sides = o.faces & 4 != 0;
+        match o.kind {
+            0 => {
+                let mut area = _mm256_mul_ps(set(4.0 * a * b), ends);
+                if sides {
+                    area = _mm256_add_ps(
+                        area,
+                        _mm256_add_ps(
+                            _mm256_mul_ps(set(4.0 * b * c), abs(s[0])),
+                            _mm256_mul_ps(set(4.0 * a * c), abs(s[1])),
+                        ),
+                    );
+                }
+                Some(area)
+            }
+            1 => {
+                let mut area = _mm256_mul_ps(set(std::f32::consts::PI * a * b), ends);
+                if sides {
+                    let aa = _mm256_mul_ps(_mm256_mul_ps(set(a * a), s[1]), s[1]);
+                    let bb = _mm256_mul_ps(_mm256_mul_ps(set(b * b), s[0]), s[0]);
+                    let root = _mm256_sqrt_ps(_mm256_add_ps(aa, bb));
+                    area = _mm256_add_ps(area, _mm256_mul_ps(set(4.0 * c), root));
+                }
+                Some(area)
+            }
+            _ => None,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
