@@ -20,6 +20,11 @@ use std::f64::consts::{PI, TAU};
 /// len = length(d);               if !(len > 0) return 0
 /// γ  = acos(clamp(-d.z / len, -1, 1))
 /// C  = atan2(d.y, d.x);          if C < 0 { C += 2π }
+/// ```
+/// (On the CPU `acos` and `atan2` are [`acos_f32`] and [`atan2_f32`]: a few ulp from the
+/// exact angles, the same bits on every platform and in vector lanes; the shaders use their
+/// built-ins.)
+/// ```text
 /// fy = γ / π · (height − 1);     fx = C / (2π) · width
 /// x0 = floor(fx), tx = fx − x0;  i0 = x0 mod width, i1 = (i0 + 1) mod width     (wrap in x)
 /// y0 = clamp(floor(fy), 0, height − 1), ty = clamp(fy − y0, 0, 1), y1 = min(y0 + 1, height − 1)
@@ -45,6 +50,65 @@ pub struct GpuTable {
     pub height: u32,
     /// `width × height` values in candela, row-major, row 0 (nadir) first.
     pub values: Vec<f32>,
+}
+
+/// `tan(3π/8)` and `tan(π/8)`: [`atan_f32`]'s range reduction.
+pub const ATAN_SPLITS: [f32; 2] = [2.414_213_5, 0.414_213_57];
+
+/// [`atan_f32`]'s odd polynomial on `[−tan(π/8), tan(π/8)]` (Cephes' `atanf`), highest
+/// degree first: `atan z ≈ z + z·w·(((c₀w + c₁)w + c₂)w + c₃)`, `w = z²`.
+pub const ATAN_POLY: [f32; 4] = [
+    8.053_744_5e-2,
+    -1.387_768_6e-1,
+    1.997_771_1e-1,
+    -3.333_295e-1,
+];
+
+/// `atan x` in single precision, within 3 ulp (Cephes' `atanf`: `x` reduced to
+/// `[−tan(π/8), tan(π/8)]` by `atan x = π/4 + atan((x − 1)/(x + 1))` or
+/// `π/2 + atan(−1/x)`, then [`ATAN_POLY`]). Only `+`, `−`, `×`, `÷` in a fixed order, so the
+/// result is the same on every platform, in wasm32, and in the CPU backend's vector lanes.
+/// Odd: `atan(−x) = −atan x`; `±∞` gives `±π/2`.
+#[inline]
+pub fn atan_f32(x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+    let a = x.abs();
+    let (base, z) = if a > ATAN_SPLITS[0] {
+        (FRAC_PI_2, -1.0 / a)
+    } else if a > ATAN_SPLITS[1] {
+        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    } else {
+        (0.0, a)
+    };
+    let w = z * z;
+    let [c0, c1, c2, c3] = ATAN_POLY;
+    let r = base + ((((c0 * w + c1) * w + c2) * w + c3) * w * z + z);
+    if x.is_sign_negative() { -r } else { r }
+}
+
+/// `atan2(y, x)` in single precision from [`atan_f32`], within 4 ulp, with the quadrants and signed zeros
+/// of C's `atan2f`: `(±0, +0)` → ±0, `(±0, −0)` → ±π, `x < 0` → `atan(y/x) ± π` by the
+/// sign of `y`.
+#[inline]
+pub fn atan2_f32(y: f32, x: f32) -> f32 {
+    use std::f32::consts::PI;
+    if x == 0.0 && y == 0.0 {
+        let r = if x.is_sign_negative() { PI } else { 0.0 };
+        return if y.is_sign_negative() { -r } else { r };
+    }
+    let a = atan_f32(y / x);
+    if x < 0.0 {
+        if y.is_sign_negative() { a - PI } else { a + PI }
+    } else {
+        a
+    }
+}
+
+/// `acos x` for `x` in `[−1, 1]` in single precision, within 4 ulp: `2·atan(√(1 − x) / √(1 + x))`
+/// ([`atan_f32`]); exact 0, π/2 and π at 1, 0 and −1.
+#[inline]
+pub fn acos_f32(x: f32) -> f32 {
+    2.0 * atan_f32((1.0 - x).sqrt() / (1.0 + x).sqrt())
 }
 
 const MAX_ROWS: u32 = 1025;
@@ -152,8 +216,8 @@ impl GpuTable {
         if !(len > 0.0 && len.is_finite()) || self.width == 0 || self.height < 2 {
             return 0.0;
         }
-        let gamma = (-z / len).clamp(-1.0, 1.0).acos();
-        let mut c = y.atan2(x);
+        let gamma = acos_f32((-z / len).clamp(-1.0, 1.0));
+        let mut c = atan2_f32(y, x);
         if c < 0.0 {
             c += TAU;
         }
@@ -170,5 +234,71 @@ impl GpuTable {
         let a = self.at(y0, i0) + (self.at(y0, i1) - self.at(y0, i0)) * tx;
         let b = self.at(y1, i0) + (self.at(y1, i1) - self.at(y1, i0)) * tx;
         a + (b - a) * ty
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Units in the last place of `exact` (as an f32) that `got` is off by.
+    fn ulps(got: f32, exact: f64) -> f64 {
+        let e = exact as f32;
+        let ulp = f64::from(f32::from_bits(e.abs().to_bits() + 1) - e.abs());
+        (f64::from(got) - exact).abs() / ulp
+    }
+
+    #[test]
+    fn the_angles_are_within_a_few_ulp_and_exact_where_the_table_needs_them() {
+        // atan over eight decades on both sides of the splits, both signs.
+        let mut worst = [0.0f64; 3];
+        for i in 0..200_000 {
+            let x = 10f32.powf(-4.0 + 8.0 * i as f32 / 200_000.0);
+            for x in [x, -x] {
+                worst[0] = worst[0].max(ulps(atan_f32(x), f64::from(x).atan()));
+            }
+        }
+        // atan2 around the circle, and acos over [−1, 1], off zero by at least an ulp of π.
+        for i in 0..100_000 {
+            let t = -3.1 + 6.2 * i as f32 / 100_000.0;
+            let (y, x) = (t.sin() * 2.5, t.cos() * 2.5);
+            let exact = f64::from(y).atan2(f64::from(x));
+            if exact.abs() > 1e-6 {
+                worst[1] = worst[1].max(ulps(atan2_f32(y, x), exact));
+            }
+            let c = -1.0 + 2.0 * i as f32 / 100_000.0;
+            worst[2] = worst[2].max(ulps(acos_f32(c), f64::from(c).acos()));
+        }
+        assert!(
+            worst[0] <= 3.0 && worst[1] <= 4.0 && worst[2] <= 4.0,
+            "{worst:?}"
+        );
+        use std::f32::consts::{FRAC_PI_2, PI};
+        assert_eq!(
+            [acos_f32(1.0), acos_f32(0.0), acos_f32(-1.0)],
+            [0.0, FRAC_PI_2, PI]
+        );
+        let signs = [
+            (0.0, 0.0),
+            (-0.0, 0.0),
+            (0.0, -0.0),
+            (-0.0, -0.0),
+            (0.0, -1.0),
+            (-0.0, -1.0),
+        ];
+        for (y, x) in signs {
+            let (a, b) = (atan2_f32(y, x), y.atan2(x));
+            assert_eq!(a.to_bits(), b.to_bits(), "atan2({y}, {x})");
+        }
+        assert_eq!(
+            [
+                atan2_f32(1.0, 0.0),
+                atan2_f32(-1.0, 0.0),
+                atan2_f32(3.0, 3.0)
+            ],
+            [FRAC_PI_2, -FRAC_PI_2, std::f32::consts::FRAC_PI_4]
+        );
+        assert_eq!(atan_f32(f32::INFINITY), FRAC_PI_2);
+        assert_eq!(atan_f32(-0.0).to_bits(), (-0.0f32).to_bits());
     }
 }

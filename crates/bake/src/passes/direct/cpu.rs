@@ -371,15 +371,16 @@ pub(crate) fn from_opening(
 }
 
 /// Eight opening points of a texel at once, one to a lane of an AVX2 vector: each lane runs
-/// [`OpeningView::point`]'s operations in their order (the table's `acos` and `atan2` lane by
-/// lane with the scalar functions), so its point is the scalar one bit for bit (test
+/// [`OpeningView::point`]'s operations in their order (the table's angles by
+/// [`luxbake_ies::acos_f32`] and [`luxbake_ies::atan2_f32`] in lanes), so its point is the
+/// scalar one bit for bit (test
 /// `points_in_lanes_equal_the_point_by_point_ones`).
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use std::arch::x86_64::*;
 
     use super::*;
-    use crate::cpu::lanes::{LANES as LANES_USIZE, floats, vector};
+    use crate::cpu::lanes::{LANES as LANES_USIZE, floats};
     use crate::opening::avx2::{clamp8, finite8, projected_area8};
 
     /// Points per block.
@@ -487,10 +488,73 @@ mod avx2 {
         }))
     }
 
-    /// [`GpuTable::sample`] toward the directions `dir` of eight lanes, bit for bit: the
-    /// angles by the scalar `acos` and `atan2` lane by lane, the rest in lanes.
+    /// [`luxbake_ies::atan_f32`] in every lane.
     #[target_feature(enable = "avx2")]
-    fn table8(table: &GpuTable, dir: [__m256; 3]) -> __m256 {
+    fn atan8(x: __m256) -> __m256 {
+        use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
+        let set = _mm256_set1_ps;
+        let sign = _mm256_and_ps(x, set(-0.0));
+        let a = _mm256_andnot_ps(set(-0.0), x);
+        let [big, mid] = luxbake_ies::ATAN_SPLITS.map(|s| _mm256_cmp_ps::<_CMP_GT_OQ>(a, set(s)));
+        let one = set(1.0);
+        let z = _mm256_blendv_ps(
+            a,
+            _mm256_div_ps(_mm256_sub_ps(a, one), _mm256_add_ps(a, one)),
+            mid,
+        );
+        let z = _mm256_blendv_ps(z, _mm256_div_ps(set(-1.0), a), big);
+        let base = _mm256_blendv_ps(
+            _mm256_and_ps(mid, set(FRAC_PI_4)),
+            set(FRAC_PI_2),
+            big,
+        );
+        let w = _mm256_mul_ps(z, z);
+        let [c0, c1, c2, c3] = luxbake_ies::ATAN_POLY.map(|c| set(c));
+        let p = _mm256_add_ps(_mm256_mul_ps(c0, w), c1);
+        let p = _mm256_add_ps(_mm256_mul_ps(p, w), c2);
+        let p = _mm256_add_ps(_mm256_mul_ps(p, w), c3);
+        let p = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(p, w), z), z);
+        _mm256_xor_ps(_mm256_add_ps(base, p), sign)
+    }
+
+    /// [`luxbake_ies::atan2_f32`] in every lane.
+    #[target_feature(enable = "avx2")]
+    fn atan2_8(y: __m256, x: __m256) -> __m256 {
+        use std::f32::consts::PI;
+        let set = _mm256_set1_ps;
+        let zero = _mm256_setzero_ps();
+        let sign = |v: __m256| _mm256_and_ps(v, set(-0.0));
+        let negative = |v: __m256| _mm256_castsi256_ps(_mm256_srai_epi32::<31>(_mm256_castps_si256(v)));
+        let a = atan8(_mm256_div_ps(y, x));
+        let turned = _mm256_blendv_ps(
+            _mm256_add_ps(a, set(PI)),
+            _mm256_sub_ps(a, set(PI)),
+            negative(y),
+        );
+        let a = _mm256_blendv_ps(a, turned, _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero));
+        // (±0, +0) → ±0, (±0, −0) → ±π.
+        let zeros = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(y, zero),
+        );
+        let at_zero = _mm256_xor_ps(_mm256_and_ps(negative(x), set(PI)), sign(y));
+        _mm256_blendv_ps(a, at_zero, zeros)
+    }
+
+    /// [`luxbake_ies::acos_f32`] in every lane.
+    #[target_feature(enable = "avx2")]
+    fn acos8(x: __m256) -> __m256 {
+        let one = _mm256_set1_ps(1.0);
+        let q = _mm256_div_ps(
+            _mm256_sqrt_ps(_mm256_sub_ps(one, x)),
+            _mm256_sqrt_ps(_mm256_add_ps(one, x)),
+        );
+        _mm256_mul_ps(_mm256_set1_ps(2.0), atan8(q))
+    }
+
+    /// [`GpuTable::sample`] toward the directions `dir` of eight lanes, bit for bit.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn table8(table: &GpuTable, dir: [__m256; 3]) -> __m256 {
         use std::f32::consts::{PI, TAU};
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
@@ -505,18 +569,13 @@ mod avx2 {
             set(-1.0),
             set(1.0),
         );
-        let (cos, y, x) = (floats(cos), floats(y), floats(x));
-        let mut angles = [[0.0f32; LANES_USIZE]; 2];
-        let valid = _mm256_movemask_ps(ok);
-        for l in (0..LANES_USIZE).filter(|&l| valid & (1 << l) != 0) {
-            angles[0][l] = cos[l].acos();
-            let mut c = y[l].atan2(x[l]);
-            if c < 0.0 {
-                c += TAU;
-            }
-            angles[1][l] = c;
-        }
-        let [gamma, c] = angles.each_ref().map(|a| vector(a));
+        let gamma = acos8(cos);
+        let c = atan2_8(y, x);
+        let c = _mm256_blendv_ps(
+            c,
+            _mm256_add_ps(c, set(TAU)),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(c, zero),
+        );
         let (w, h1) = (table.width as f32, (table.height - 1) as f32);
         let fy = _mm256_mul_ps(_mm256_div_ps(gamma, set(PI)), set(h1));
         let fx = _mm256_mul_ps(_mm256_div_ps(c, set(TAU)), set(w));
@@ -567,6 +626,59 @@ mod tests {
             [t * a[0] * a[1] + s * a[2], t * a[1] * a[1] + c, t * a[1] * a[2] - s * a[0]],
             [t * a[0] * a[2] - s * a[1], t * a[1] * a[2] + s * a[0], t * a[2] * a[2] + c],
         ]
+    }
+
+    /// The table's look-up in lanes ([`avx2::table8`]) equals [`GpuTable::sample`] bit for bit
+    /// along the axes and their signed zeros (where `atan2` turns), in the planes between
+    /// them, and in random directions, for a table with one column and one with many.
+    #[test]
+    fn table_in_lanes_equals_the_look_up() {
+        use std::arch::x86_64::*;
+        const TEST: &str = "table_in_lanes_equals_the_look_up";
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            luxbake_testkit::skip_or_fail(TEST, &"the CPU has no AVX2");
+            return;
+        }
+        let Some(path) = luxbake_testkit::shared_data(TEST, "photometry/real-world/rw_5.IES")
+        else {
+            return;
+        };
+        let bytes = std::fs::read(&path).expect("read the photometric file");
+        let tables = [
+            Photometry::parse(&bytes).expect("parse").gpu_table(),
+            Photometry::isotropic(10.0).gpu_table(),
+        ];
+        let mut dirs = Vec::new();
+        for x in [0.0f32, -0.0, 1.0, -1.0, 0.3] {
+            for y in [0.0f32, -0.0, 1.0, -1.0, -0.7] {
+                for z in [0.0f32, -0.0, 1.0, -1.0, 0.5] {
+                    dirs.push([x, y, z]);
+                }
+            }
+        }
+        let mut state = 7u32;
+        for _ in 0..4000 {
+            dirs.push([0; 3].map(|_| {
+                state = rng::pcg(state);
+                rng::unit_f32(state) * 2.0 - 1.0
+            }));
+        }
+        while dirs.len() % 8 != 0 {
+            dirs.push([0.0, 0.0, -1.0]);
+        }
+        for table in &tables {
+            for block in dirs.chunks_exact(8) {
+                let lanes: [[f32; 8]; 3] = std::array::from_fn(|c| std::array::from_fn(|l| block[l][c]));
+                // SAFETY: the CPU has AVX2 (checked above); eight floats each.
+                let got = unsafe {
+                    let v = lanes.map(|a| _mm256_loadu_ps(a.as_ptr()));
+                    crate::cpu::lanes::floats(avx2::table8(table, v))
+                };
+                for (d, g) in block.iter().zip(got) {
+                    assert_eq!(g.to_bits(), table.sample(*d).to_bits(), "{d:?}");
+                }
+            }
+        }
     }
 
     /// Every opening point of a texel computed in AVX2 blocks ([`avx2::points8`]) equals
