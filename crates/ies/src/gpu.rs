@@ -21,9 +21,9 @@ use std::f64::consts::{PI, TAU};
 /// γ  = acos(clamp(-d.z / len, -1, 1))
 /// C  = atan2(d.y, d.x);          if C < 0 { C += 2π }
 /// ```
-/// (On the CPU `acos` and `atan2` are [`acos_f32`] and [`atan2_f32`]: a few ulp from the
-/// exact angles, the same bits on every platform and in vector lanes; the shaders use their
-/// built-ins.)
+/// (`acos` and `atan2` are [`acos_f32`] and [`atan2_f32`], in the shaders `luxAcos` /
+/// `luxAtan2` and `lux_acos` / `lux_atan2`: the same polynomials in the same order, a few ulp
+/// from the exact angles; drivers' built-ins are off by up to thousands of ulp.)
 /// ```text
 /// fy = γ / π · (height − 1);     fx = C / (2π) · width
 /// x0 = floor(fx), tx = fx − x0;  i0 = x0 mod width, i1 = (i0 + 1) mod width     (wrap in x)
@@ -52,63 +52,81 @@ pub struct GpuTable {
     pub values: Vec<f32>,
 }
 
-/// `tan(3π/8)` and `tan(π/8)`: [`atan_f32`]'s range reduction.
-pub const ATAN_SPLITS: [f32; 2] = [2.414_213_5, 0.414_213_57];
+/// `tan(π/8)`: where [`atan_f32`] reduces its argument.
+pub const TAN_PI_8: f32 = 0.414_213_57;
 
 /// [`atan_f32`]'s odd polynomial on `[−tan(π/8), tan(π/8)]` (Cephes' `atanf`), highest
 /// degree first: `atan z ≈ z + z·w·(((c₀w + c₁)w + c₂)w + c₃)`, `w = z²`.
-pub const ATAN_POLY: [f32; 4] = [
-    8.053_744_5e-2,
-    -1.387_768_6e-1,
-    1.997_771_1e-1,
-    -3.333_295e-1,
+pub const ATAN_POLY: [f32; 4] = [0.080_537_446, -0.138_776_85, 0.199_777_11, -0.333_329_5];
+
+/// The odd polynomial of `asin x` for `|x| ≤ ½` (Cephes' `asinf`), highest degree first:
+/// `asin x ≈ x + x·w·((((c₀w + c₁)w + c₂)w + c₃)w + c₄)`, `w = x²`.
+pub const ASIN_POLY: [f32; 5] = [
+    0.042_163_2,
+    0.024_181_312,
+    0.045_470_025,
+    0.074_953_005,
+    0.166_667_52,
 ];
 
-/// `atan x` in single precision, within 3 ulp (Cephes' `atanf`: `x` reduced to
-/// `[−tan(π/8), tan(π/8)]` by `atan x = π/4 + atan((x − 1)/(x + 1))` or
-/// `π/2 + atan(−1/x)`, then [`ATAN_POLY`]). Only `+`, `−`, `×`, `÷` in a fixed order, so the
-/// result is the same on every platform, in wasm32, and in the CPU backend's vector lanes.
-/// Odd: `atan(−x) = −atan x`; `±∞` gives `±π/2`.
+/// `atan x` for `x` in `[0, 1]` (Cephes' `atanf`: above `tan(π/8)` as
+/// `π/4 + atan((x − 1)/(x + 1))`, then [`ATAN_POLY`]); the shaders' `luxAtanUnit` /
+/// `lux_atan_unit` operation for operation.
 #[inline]
 pub fn atan_f32(x: f32) -> f32 {
-    use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
-    let a = x.abs();
-    let (base, z) = if a > ATAN_SPLITS[0] {
-        (FRAC_PI_2, -1.0 / a)
-    } else if a > ATAN_SPLITS[1] {
-        (FRAC_PI_4, (a - 1.0) / (a + 1.0))
+    let (base, z) = if x > TAN_PI_8 {
+        (std::f32::consts::FRAC_PI_4, (x - 1.0) / (x + 1.0))
     } else {
-        (0.0, a)
+        (0.0, x)
     };
     let w = z * z;
     let [c0, c1, c2, c3] = ATAN_POLY;
-    let r = base + ((((c0 * w + c1) * w + c2) * w + c3) * w * z + z);
-    if x.is_sign_negative() { -r } else { r }
+    base + ((((c0 * w + c1) * w + c2) * w + c3) * w * z + z)
 }
 
-/// `atan2(y, x)` in single precision from [`atan_f32`], within 4 ulp, with the quadrants and signed zeros
-/// of C's `atan2f`: `(±0, +0)` → ±0, `(±0, −0)` → ±π, `x < 0` → `atan(y/x) ± π` by the
-/// sign of `y`.
+/// `atan2(y, x)` in single precision, within 4 ulp, with C's quadrants and signed zeros
+/// (`(±0, +0)` → ±0, `(±0, −0)` → ±π): [`atan_f32`] of the smaller over the larger of `|y|`,
+/// `|x|`, turned into the quadrant. Only `+`, `−`, `×`, `÷` in a fixed order: the same bits on
+/// every platform and in wasm32, and the shaders' `luxAtan2` / `lux_atan2` compute it
+/// operation for operation.
 #[inline]
 pub fn atan2_f32(y: f32, x: f32) -> f32 {
-    use std::f32::consts::PI;
-    if x == 0.0 && y == 0.0 {
-        let r = if x.is_sign_negative() { PI } else { 0.0 };
-        return if y.is_sign_negative() { -r } else { r };
-    }
-    let a = atan_f32(y / x);
-    if x < 0.0 {
-        if y.is_sign_negative() { a - PI } else { a + PI }
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let mut a = if ax == 0.0 && ay == 0.0 {
+        0.0
+    } else if ax >= ay {
+        atan_f32(ay / ax)
     } else {
-        a
+        FRAC_PI_2 - atan_f32(ax / ay)
+    };
+    if x.is_sign_negative() {
+        a = PI - a;
     }
+    if y.is_sign_negative() { -a } else { a }
 }
 
-/// `acos x` for `x` in `[−1, 1]` in single precision, within 4 ulp: `2·atan(√(1 − x) / √(1 + x))`
-/// ([`atan_f32`]); exact 0, π/2 and π at 1, 0 and −1.
+/// `asin x` for `|x| ≤ ½` ([`ASIN_POLY`]).
+#[inline]
+fn asin_small(x: f32) -> f32 {
+    let w = x * x;
+    let [c0, c1, c2, c3, c4] = ASIN_POLY;
+    ((((c0 * w + c1) * w + c2) * w + c3) * w + c4) * w * x + x
+}
+
+/// `acos x` for `x` in `[−1, 1]` in single precision, within 4 ulp (Cephes' `asinf`: beyond
+/// ±½ by `acos x = 2·asin √((1 − x)/2)`); exactly 0, π/2 and π at 1, 0 and −1. The shaders'
+/// `luxAcos` / `lux_acos` operation for operation.
 #[inline]
 pub fn acos_f32(x: f32) -> f32 {
-    2.0 * atan_f32((1.0 - x).sqrt() / (1.0 + x).sqrt())
+    use std::f32::consts::{FRAC_PI_2, PI};
+    if x > 0.5 {
+        2.0 * asin_small((0.5 * (1.0 - x)).sqrt())
+    } else if x < -0.5 {
+        PI - 2.0 * asin_small((0.5 * (1.0 + x)).sqrt())
+    } else {
+        FRAC_PI_2 - asin_small(x)
+    }
 }
 
 const MAX_ROWS: u32 = 1025;
@@ -250,13 +268,11 @@ mod tests {
 
     #[test]
     fn the_angles_are_within_a_few_ulp_and_exact_where_the_table_needs_them() {
-        // atan over eight decades on both sides of the splits, both signs.
+        // atan over [0, 1], both sides of its split.
         let mut worst = [0.0f64; 3];
-        for i in 0..200_000 {
-            let x = 10f32.powf(-4.0 + 8.0 * i as f32 / 200_000.0);
-            for x in [x, -x] {
-                worst[0] = worst[0].max(ulps(atan_f32(x), f64::from(x).atan()));
-            }
+        for i in 1..=200_000 {
+            let x = i as f32 / 200_000.0;
+            worst[0] = worst[0].max(ulps(atan_f32(x), f64::from(x).atan()));
         }
         // atan2 around the circle, and acos over [−1, 1], off zero by at least an ulp of π.
         for i in 0..100_000 {
@@ -298,7 +314,9 @@ mod tests {
             ],
             [FRAC_PI_2, -FRAC_PI_2, std::f32::consts::FRAC_PI_4]
         );
-        assert_eq!(atan_f32(f32::INFINITY), FRAC_PI_2);
-        assert_eq!(atan_f32(-0.0).to_bits(), (-0.0f32).to_bits());
+        assert_eq!(
+            [atan_f32(0.0), atan_f32(1.0)],
+            [0.0, std::f32::consts::FRAC_PI_4]
+        );
     }
 }

@@ -5,10 +5,10 @@
 
 uniform highp sampler2DArray u_ies;
 
-// Driver acos/atan are far from the CPU's libm (llvmpipe: ~2000 and ~170 ulps), which would move
-// the bilinear look-up by up to 1e-4 of a table's range. These f32 versions (Cephes' asinf and
-// atanf minimax polynomials, peak relative error ~2.5e-7) keep the GPU within a few ulps of Rust's
-// f32::acos / f32::atan2.
+// Driver acos/atan are far from exact (llvmpipe: ~2000 and ~170 ulps), which would move the
+// bilinear look-up by up to 1e-4 of a table's range. These f32 versions (Cephes' asinf and atanf
+// minimax polynomials, peak relative error ~2.5e-7) are the CPU's luxbake_ies::acos_f32 /
+// atan2_f32 operation for operation (test the_table_angles_are_the_shaders_polynomials).
 const float LUX_PI = 3.14159265358979;
 const float LUX_HALF_PI = 1.57079632679490;
 

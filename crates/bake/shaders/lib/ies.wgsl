@@ -3,10 +3,11 @@
 // i <-> C = 2 pi i / width; wraps in C, clamps in gamma. The table's values are lux_ies[offset
 // + j * width + i] (scene.wgsl).
 
-// Driver acos/atan are far from the CPU's libm (the glow backend measured ~2000 and ~170 ulps
-// on llvmpipe), which would move the bilinear look-up by up to 1e-4 of a table's range. These
-// f32 versions (Cephes' asinf and atanf minimax polynomials, peak relative error ~2.5e-7, the
-// same as the glow backend's ies.glsl) keep the GPU within a few ulps of f32::acos / atan2.
+// Driver acos/atan are far from exact (the glow backend measured ~2000 and ~170 ulps on
+// llvmpipe), which would move the bilinear look-up by up to 1e-4 of a table's range. These f32
+// versions (Cephes' asinf and atanf minimax polynomials, peak relative error ~2.5e-7, the same
+// as the glow backend's ies.glsl) are the CPU's luxbake_ies::acos_f32 / atan2_f32 operation
+// for operation (test the_table_angles_are_the_shaders_polynomials).
 const LUX_PI: f32 = 3.14159265358979;
 const LUX_HALF_PI: f32 = 1.57079632679490;
 const LUX_TAU: f32 = 6.28318530717959;

@@ -488,68 +488,89 @@ mod avx2 {
         }))
     }
 
-    /// [`luxbake_ies::atan_f32`] in every lane.
+    /// [`luxbake_ies::atan_f32`] in every lane (`x` in `[0, 1]`).
     #[target_feature(enable = "avx2")]
     fn atan8(x: __m256) -> __m256 {
-        use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
         let set = _mm256_set1_ps;
-        let sign = _mm256_and_ps(x, set(-0.0));
-        let a = _mm256_andnot_ps(set(-0.0), x);
-        let [big, mid] = luxbake_ies::ATAN_SPLITS.map(|s| _mm256_cmp_ps::<_CMP_GT_OQ>(a, set(s)));
         let one = set(1.0);
+        let reduced = _mm256_cmp_ps::<_CMP_GT_OQ>(x, set(luxbake_ies::TAN_PI_8));
         let z = _mm256_blendv_ps(
-            a,
-            _mm256_div_ps(_mm256_sub_ps(a, one), _mm256_add_ps(a, one)),
-            mid,
+            x,
+            _mm256_div_ps(_mm256_sub_ps(x, one), _mm256_add_ps(x, one)),
+            reduced,
         );
-        let z = _mm256_blendv_ps(z, _mm256_div_ps(set(-1.0), a), big);
-        let base = _mm256_blendv_ps(
-            _mm256_and_ps(mid, set(FRAC_PI_4)),
-            set(FRAC_PI_2),
-            big,
-        );
+        let base = _mm256_and_ps(reduced, set(std::f32::consts::FRAC_PI_4));
         let w = _mm256_mul_ps(z, z);
         let [c0, c1, c2, c3] = luxbake_ies::ATAN_POLY.map(|c| set(c));
         let p = _mm256_add_ps(_mm256_mul_ps(c0, w), c1);
         let p = _mm256_add_ps(_mm256_mul_ps(p, w), c2);
         let p = _mm256_add_ps(_mm256_mul_ps(p, w), c3);
         let p = _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(p, w), z), z);
-        _mm256_xor_ps(_mm256_add_ps(base, p), sign)
+        _mm256_add_ps(base, p)
+    }
+
+    /// All ones in the lanes whose sign bit is set (`is_sign_negative`).
+    #[target_feature(enable = "avx2")]
+    fn sign_bit(v: __m256) -> __m256 {
+        _mm256_castsi256_ps(_mm256_srai_epi32::<31>(_mm256_castps_si256(v)))
     }
 
     /// [`luxbake_ies::atan2_f32`] in every lane.
     #[target_feature(enable = "avx2")]
     fn atan2_8(y: __m256, x: __m256) -> __m256 {
-        use std::f32::consts::PI;
+        use std::f32::consts::{FRAC_PI_2, PI};
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
-        let sign = |v: __m256| _mm256_and_ps(v, set(-0.0));
-        let negative = |v: __m256| _mm256_castsi256_ps(_mm256_srai_epi32::<31>(_mm256_castps_si256(v)));
-        let a = atan8(_mm256_div_ps(y, x));
-        let turned = _mm256_blendv_ps(
-            _mm256_add_ps(a, set(PI)),
-            _mm256_sub_ps(a, set(PI)),
-            negative(y),
+        let abs = |v: __m256| _mm256_andnot_ps(set(-0.0), v);
+        let (ax, ay) = (abs(x), abs(y));
+        let larger_x = _mm256_cmp_ps::<_CMP_GE_OQ>(ax, ay);
+        let a = _mm256_blendv_ps(
+            _mm256_sub_ps(set(FRAC_PI_2), atan8(_mm256_div_ps(ax, ay))),
+            atan8(_mm256_div_ps(ay, ax)),
+            larger_x,
         );
-        let a = _mm256_blendv_ps(a, turned, _mm256_cmp_ps::<_CMP_LT_OQ>(x, zero));
-        // (±0, +0) → ±0, (±0, −0) → ±π.
         let zeros = _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(x, zero),
-            _mm256_cmp_ps::<_CMP_EQ_OQ>(y, zero),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(ax, zero),
+            _mm256_cmp_ps::<_CMP_EQ_OQ>(ay, zero),
         );
-        let at_zero = _mm256_xor_ps(_mm256_and_ps(negative(x), set(PI)), sign(y));
-        _mm256_blendv_ps(a, at_zero, zeros)
+        let a = _mm256_blendv_ps(a, zero, zeros);
+        let a = _mm256_blendv_ps(a, _mm256_sub_ps(set(PI), a), sign_bit(x));
+        _mm256_xor_ps(a, _mm256_and_ps(y, set(-0.0)))
+    }
+
+    /// `asin x` for `|x| ≤ ½` in every lane (`luxbake_ies::ASIN_POLY`).
+    #[target_feature(enable = "avx2")]
+    fn asin_small8(x: __m256) -> __m256 {
+        let set = _mm256_set1_ps;
+        let w = _mm256_mul_ps(x, x);
+        let [c0, c1, c2, c3, c4] = luxbake_ies::ASIN_POLY.map(|c| set(c));
+        let p = _mm256_add_ps(_mm256_mul_ps(c0, w), c1);
+        let p = _mm256_add_ps(_mm256_mul_ps(p, w), c2);
+        let p = _mm256_add_ps(_mm256_mul_ps(p, w), c3);
+        let p = _mm256_add_ps(_mm256_mul_ps(p, w), c4);
+        _mm256_add_ps(_mm256_mul_ps(_mm256_mul_ps(p, w), x), x)
     }
 
     /// [`luxbake_ies::acos_f32`] in every lane.
     #[target_feature(enable = "avx2")]
     fn acos8(x: __m256) -> __m256 {
-        let one = _mm256_set1_ps(1.0);
-        let q = _mm256_div_ps(
-            _mm256_sqrt_ps(_mm256_sub_ps(one, x)),
-            _mm256_sqrt_ps(_mm256_add_ps(one, x)),
+        use std::f32::consts::{FRAC_PI_2, PI};
+        let set = _mm256_set1_ps;
+        let (one, half, two) = (set(1.0), set(0.5), set(2.0));
+        let high = _mm256_mul_ps(
+            two,
+            asin_small8(_mm256_sqrt_ps(_mm256_mul_ps(half, _mm256_sub_ps(one, x)))),
         );
-        _mm256_mul_ps(_mm256_set1_ps(2.0), atan8(q))
+        let low = _mm256_sub_ps(
+            set(PI),
+            _mm256_mul_ps(
+                two,
+                asin_small8(_mm256_sqrt_ps(_mm256_mul_ps(half, _mm256_add_ps(one, x)))),
+            ),
+        );
+        let middle = _mm256_sub_ps(set(FRAC_PI_2), asin_small8(x));
+        let a = _mm256_blendv_ps(middle, low, _mm256_cmp_ps::<_CMP_LT_OQ>(x, set(-0.5)));
+        _mm256_blendv_ps(a, high, _mm256_cmp_ps::<_CMP_GT_OQ>(x, half))
     }
 
     /// [`GpuTable::sample`] toward the directions `dir` of eight lanes, bit for bit.
@@ -626,6 +647,36 @@ mod tests {
             [t * a[0] * a[1] + s * a[2], t * a[1] * a[1] + c, t * a[1] * a[2] - s * a[0]],
             [t * a[0] * a[2] - s * a[1], t * a[1] * a[2] + s * a[0], t * a[2] * a[2] + c],
         ]
+    }
+
+    /// The CPU's table angles are the shaders' polynomials: the literals of `luxAsinSmall` /
+    /// `lux_asin_small` and `luxAtanUnit` / `lux_atan_unit` (and the latter's split) are
+    /// `luxbake_ies::ASIN_POLY`, `ATAN_POLY` and `TAN_PI_8` as f32 (up to the signs the
+    /// shaders write as subtractions).
+    #[test]
+    fn the_table_angles_are_the_shaders_polynomials() {
+        let sources = [
+            (include_str!("../../../shaders/lib/ies.glsl"), ["float luxAsinSmall", "float luxAtanUnit"]),
+            (include_str!("../../../shaders/lib/ies.wgsl"), ["fn lux_asin_small", "fn lux_atan_unit"]),
+        ];
+        for (source, names) in sources {
+            let literals = |name: &str| -> Vec<f32> {
+                let body = source.split(name).nth(1).expect(name);
+                let body = &body[..body.find("\n}").expect("the function's end")];
+                body.split(|c: char| !(c.is_ascii_digit() || c == '.' || c == 'e' || c == '-'))
+                    .filter(|t| t.contains('.'))
+                    .map(|t| t.trim_start_matches('-').parse::<f32>().expect(t))
+                    .collect()
+            };
+            let abs = |a: &[f32]| a.iter().map(|v| v.abs()).collect::<Vec<f32>>();
+            assert_eq!(literals(names[0]), abs(&luxbake_ies::ASIN_POLY), "{}", names[0]);
+            let atan = literals(names[1]);
+            // `0.0` (the start), the split, `0.25` (of π), `1.0` twice (the reduction), then
+            // the polynomial.
+            let reduction = [0.0, luxbake_ies::TAN_PI_8, 0.25, 1.0, 1.0];
+            assert_eq!(atan[..5], reduction, "{}", names[1]);
+            assert_eq!(atan[5..], abs(&luxbake_ies::ATAN_POLY), "{}", names[1]);
+        }
     }
 
     /// The table's look-up in lanes ([`avx2::table8`]) equals [`GpuTable::sample`] bit for bit
