@@ -234,20 +234,11 @@ impl OpeningView<'_> {
         wanted: impl Fn(u32) -> bool,
         out: &mut Vec<Option<PointView>>,
     ) {
-        let mut k = 0u32;
+        // The points done in lanes (whole blocks from the first), then the rest one by one.
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            while k + avx2::LANES <= count {
-                // SAFETY: the CPU has AVX2 (just checked).
-                let Some(block) = (unsafe { avx2::points8(self, sampler, k, count) }) else {
-                    break;
-                };
-                for (j, pt) in (k..).zip(block) {
-                    out.push(pt.filter(|_| wanted(j)));
-                }
-                k += avx2::LANES;
-            }
-        }
+        let k = avx2::blocks(self, sampler, count, &wanted, out);
+        #[cfg(not(target_arch = "x86_64"))]
+        let k = 0;
         out.extend((k..count).map(|k| wanted(k).then(|| self.point(sampler, k, count)).flatten()));
     }
 }
@@ -385,6 +376,32 @@ mod avx2 {
 
     /// Points per block.
     pub(super) const LANES: u32 = LANES_USIZE as u32;
+
+    /// [`OpeningView::points`]'s blocks of eight from point 0 while the part is flat and the
+    /// CPU has AVX2: how many points they covered.
+    pub(super) fn blocks(
+        view: &OpeningView<'_>,
+        sampler: &opening::PartSampler<'_>,
+        count: u32,
+        wanted: &impl Fn(u32) -> bool,
+        out: &mut Vec<Option<PointView>>,
+    ) -> u32 {
+        let mut k = 0u32;
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return k;
+        }
+        while k + LANES <= count {
+            // SAFETY: the CPU has AVX2 (just checked).
+            let Some(block) = (unsafe { points8(view, sampler, k, count) }) else {
+                break;
+            };
+            for (j, pt) in (k..).zip(block) {
+                out.push(pt.filter(|_| wanted(j)));
+            }
+            k += LANES;
+        }
+        k
+    }
 
     /// `a·b` summed left to right in every lane.
     #[target_feature(enable = "avx2")]
