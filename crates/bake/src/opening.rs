@@ -659,7 +659,9 @@ pub(crate) mod avx2 {
         /// samples point by point.
         #[target_feature(enable = "avx2")]
         pub(crate) fn sample8(&self, u: [__m256; 2]) -> Option<Samples8> {
-            let f = self.flat?;
+            let Some(f) = self.flat else {
+                return self.curved8(u);
+            };
             let set = _mm256_set1_ps;
             let zero = _mm256_setzero_ps();
             let Some(t) = f.toward else {
@@ -723,10 +725,81 @@ pub(crate) mod avx2 {
         }
     }
 
-    /// [`projected_area`] toward the photometric directions `w` of eight lanes; `None` for an
-    /// ellipsoid (which has no flat part, so no lanes).
+    impl PartSampler<'_> {
+        /// [`PartSampler::sample`] of a curved part (a cylinder's mantle, an ellipsoid) at the
+        /// uniforms of eight lanes: [`area_point`]'s operations, `sin` and `cos` of [`turns`]
+        /// lane by lane with the scalar functions. `None` for a flat part sampled without a
+        /// receiver (uniform in area: the lamp paths' origins, not the direct pass's).
+        #[target_feature(enable = "avx2")]
+        fn curved8(&self, u: [__m256; 2]) -> Option<Samples8> {
+            use crate::cpu::lanes::{LANES, floats, vector};
+            use std::f32::consts::{PI, TAU};
+            let set = _mm256_set1_ps;
+            let zero = _mm256_setzero_ps();
+            let [a, b, c] = self.o.half;
+            let phi = floats(_mm256_mul_ps(set(TAU), u[1]));
+            let (mut sin, mut cos) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for l in 0..LANES {
+                (sin[l], cos[l]) = (phi[l].sin(), phi[l].cos());
+            }
+            let (sin, cos) = (vector(&sin), vector(&cos));
+            let mul = _mm256_mul_ps;
+            let dot = |g: [__m256; 3]| {
+                _mm256_add_ps(
+                    _mm256_add_ps(mul(g[0], g[0]), mul(g[1], g[1])),
+                    mul(g[2], g[2]),
+                )
+            };
+            let (p, g, element) = match (self.o.kind, self.part) {
+                (1, 2) => {
+                    let s0 = _mm256_sub_ps(mul(set(2.0), u[0]), set(1.0));
+                    let g = [mul(set(b), cos), mul(set(a), sin), zero];
+                    let p = [mul(set(a), cos), mul(set(b), sin), mul(set(c), s0)];
+                    (p, g, set(TAU * 2.0 * c))
+                }
+                (2, _) => {
+                    let z = _mm256_sub_ps(set(1.0), mul(set(2.0), u[0]));
+                    let r = sqrt_max0(_mm256_sub_ps(set(1.0), mul(z, z)));
+                    let s = [mul(r, cos), mul(r, sin), z];
+                    let g = [
+                        mul(set(b * c), s[0]),
+                        mul(set(a * c), s[1]),
+                        mul(set(a * b), s[2]),
+                    ];
+                    let p = [mul(set(a), s[0]), mul(set(b), s[1]), mul(set(c), s[2])];
+                    (p, g, set(4.0 * PI))
+                }
+                _ => return None,
+            };
+            let len = _mm256_sqrt_ps(dot(g));
+            // The mantle's normal has no w component (0, as the scalar writes it).
+            let mantle = self.o.kind == 1;
+            let n = [
+                _mm256_div_ps(g[0], len),
+                _mm256_div_ps(g[1], len),
+                if mantle {
+                    zero
+                } else {
+                    _mm256_div_ps(g[2], len)
+                },
+            ];
+            let photometric = |v: [__m256; 3]| match self.o.axis {
+                0 => [v[2], v[0], v[1]],
+                1 => [v[1], v[2], v[0]],
+                _ => v,
+            };
+            Some(Samples8 {
+                point: photometric(p),
+                normal: photometric(n),
+                weight: mul(element, len),
+                ok: _mm256_cmp_ps::<_CMP_GT_OQ>(len, zero),
+            })
+        }
+    }
+
+    /// [`projected_area`] toward the photometric directions `w` of eight lanes.
     #[target_feature(enable = "avx2")]
-    pub(crate) fn projected_area8(o: &OpeningParams, w: [__m256; 3]) -> Option<__m256> {
+    pub(crate) fn projected_area8(o: &OpeningParams, w: [__m256; 3]) -> __m256 {
         let s = match o.axis {
             0 => [w[1], w[2], w[0]],
             1 => [w[2], w[0], w[1]],
@@ -759,7 +832,7 @@ pub(crate) mod avx2 {
                         ),
                     );
                 }
-                Some(area)
+                area
             }
             1 => {
                 let mut area = _mm256_mul_ps(set(std::f32::consts::PI * a * b), ends);
@@ -769,9 +842,21 @@ pub(crate) mod avx2 {
                     let root = _mm256_sqrt_ps(_mm256_add_ps(aa, bb));
                     area = _mm256_add_ps(area, _mm256_mul_ps(set(4.0 * c), root));
                 }
-                Some(area)
+                area
             }
-            _ => None,
+            _ => {
+                if !sides {
+                    return zero;
+                }
+                let x = _mm256_mul_ps(set(b * c), s[0]);
+                let y = _mm256_mul_ps(set(a * c), s[1]);
+                let z = _mm256_mul_ps(set(a * b), s[2]);
+                let sum = _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(x, x), _mm256_mul_ps(y, y)),
+                    _mm256_mul_ps(z, z),
+                );
+                _mm256_mul_ps(set(std::f32::consts::PI), _mm256_sqrt_ps(sum))
+            }
         }
     }
 }
