@@ -11,7 +11,8 @@
 //! first, alpha = texel mask), one compute pipeline per pass kind and traversal, executed in
 //! the graph's order. Each pass computes what `luxbake::cpu` documents, with the same f32
 //! operations in the same order, the same RNG hash (`luxbake::rng`, bit-exact in `rng.wgsl`)
-//! and the same acos/atan2 polynomials as the glow backend (the driver's are far from libm).
+//! and the same acos/atan2 polynomials as the glow backend and the CPU
+//! (`luxbake_ies::acos_f32` / `atan2_f32`; the driver's are far from exact).
 //! Units are those of the core: lux before albedo, lm/m² after.
 //!
 //! ## Programs and shaders

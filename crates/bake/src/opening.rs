@@ -732,17 +732,17 @@ pub(crate) mod avx2 {
         /// receiver (uniform in area: the lamp paths' origins, not the direct pass's).
         #[target_feature(enable = "avx2")]
         fn curved8(&self, u: [__m256; 2]) -> Option<Samples8> {
-            use crate::cpu::lanes::{LANES, floats, vector};
             use std::f32::consts::{PI, TAU};
             let set = _mm256_set1_ps;
             let zero = _mm256_setzero_ps();
             let [a, b, c] = self.o.half;
-            let phi = floats(_mm256_mul_ps(set(TAU), u[1]));
-            let (mut sin, mut cos) = ([0.0f32; LANES], [0.0f32; LANES]);
-            for l in 0..LANES {
-                (sin[l], cos[l]) = (phi[l].sin(), phi[l].cos());
-            }
-            let (sin, cos) = (vector(&sin), vector(&cos));
+            let mut phi = [0.0f32; 8];
+            // SAFETY: eight floats into an array of eight.
+            unsafe { _mm256_storeu_ps(phi.as_mut_ptr(), _mm256_mul_ps(set(TAU), u[1])) };
+            let (sin, cos) = (phi.map(f32::sin), phi.map(f32::cos));
+            // SAFETY: eight floats from arrays of eight.
+            let (sin, cos) =
+                unsafe { (_mm256_loadu_ps(sin.as_ptr()), _mm256_loadu_ps(cos.as_ptr())) };
             let mul = _mm256_mul_ps;
             let dot = |g: [__m256; 3]| {
                 _mm256_add_ps(
