@@ -617,6 +617,24 @@ pub(crate) mod avx2 {
         pub ok: __m256,
     }
 
+    impl Samples8 {
+        /// Samples whose point and normal are in the solid frame `(u, v, w)` of an opening
+        /// whose axis is `axis` ([`to_photometric`] in every lane).
+        fn solid(axis: u32, [p, n]: [[__m256; 3]; 2], weight: __m256, ok: __m256) -> Samples8 {
+            let photometric = |v: [__m256; 3]| match axis {
+                0 => [v[2], v[0], v[1]],
+                1 => [v[1], v[2], v[0]],
+                _ => v,
+            };
+            Samples8 {
+                point: photometric(p),
+                normal: photometric(n),
+                weight,
+                ok,
+            }
+        }
+    }
+
     /// `x.clamp(lo, hi)` in every lane, as Rust computes it (a NaN stays a NaN).
     #[target_feature(enable = "avx2")]
     pub(crate) fn clamp8(x: __m256, lo: __m256, hi: __m256) -> __m256 {
@@ -711,17 +729,12 @@ pub(crate) mod avx2 {
             p[j] = y;
             let mut n = [zero; 3];
             n[f.axis] = set(f.side);
-            let photometric = |v: [__m256; 3]| match self.o.axis {
-                0 => [v[2], v[0], v[1]],
-                1 => [v[1], v[2], v[0]],
-                _ => v,
-            };
-            Some(Samples8 {
-                point: photometric(p),
-                normal: photometric(n),
-                weight: _mm256_div_ps(set(1.0), density),
+            Some(Samples8::solid(
+                self.o.axis,
+                [p, n],
+                _mm256_div_ps(set(1.0), density),
                 ok,
-            })
+            ))
         }
     }
 
@@ -783,17 +796,12 @@ pub(crate) mod avx2 {
                     _mm256_div_ps(g[2], len)
                 },
             ];
-            let photometric = |v: [__m256; 3]| match self.o.axis {
-                0 => [v[2], v[0], v[1]],
-                1 => [v[1], v[2], v[0]],
-                _ => v,
-            };
-            Some(Samples8 {
-                point: photometric(p),
-                normal: photometric(n),
-                weight: mul(element, len),
-                ok: _mm256_cmp_ps::<_CMP_GT_OQ>(len, zero),
-            })
+            Some(Samples8::solid(
+                self.o.axis,
+                [p, n],
+                mul(element, len),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(len, zero),
+            ))
         }
     }
 
