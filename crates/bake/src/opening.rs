@@ -596,7 +596,7 @@ pub fn shift(texel: u32, lamp: u32, seed: u32) -> [u32; 2] {
     [h0, rng::pcg(h0)]
 }
 
-/// [`PartSampler::sample`] of a flat part for eight uniforms at once, one to a lane of an
+/// [`PartSampler::sample`] toward a receiver for eight uniforms at once, one to a lane of an
 /// AVX2 vector: each lane runs the scalar operations in their order (IEEE single precision, no
 /// fused multiply-adds), so its sample is the scalar one bit for bit (test
 /// `points_in_lanes_equal_the_point_by_point_ones` in `passes/direct/cpu.rs`). The direct
@@ -672,9 +672,9 @@ pub(crate) mod avx2 {
     }
 
     impl PartSampler<'_> {
-        /// [`PartSampler::sample`] at the uniforms `u` of eight lanes; `None` (nothing
-        /// computed) for a curved part or a sampler without a receiver, which the caller
-        /// samples point by point.
+        /// [`PartSampler::sample`] at the uniforms `u` of eight lanes (a curved part's by
+        /// `curved8`); `None` (nothing computed) for a flat part sampled without a receiver,
+        /// which the caller samples point by point.
         #[target_feature(enable = "avx2")]
         pub(crate) fn sample8(&self, u: [__m256; 2]) -> Option<Samples8> {
             let Some(f) = self.flat else {

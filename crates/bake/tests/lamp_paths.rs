@@ -61,6 +61,17 @@ fn texel_rms(a: &BakeOutput, b: &BakeOutput) -> f64 {
     (num / den).sqrt()
 }
 
+/// The bake `got` ran its lamp paths (its report skips none).
+fn assert_lamp_paths_ran(what: &str, got: &BakeOutput) {
+    let skipped = &got.report.skipped;
+    assert!(
+        !skipped
+            .iter()
+            .any(|s| s.to_string().starts_with("lamp paths")),
+        "{what}: {skipped:?}"
+    );
+}
+
 /// Every object's mean indirect illuminance in `got` within `tolerance` (relative) of `want`
 /// ([`indirect_means`] of a reference), each printed; every object has over 100 texels and
 /// a positive reference.
@@ -108,15 +119,7 @@ fn lamp_paths_estimate_the_first_bounce_of_the_gather_alone() {
         );
         let paths = run(scene, &first_bounce(4, 32));
         let gather = run(scene, &first_bounce(4, 0));
-        assert!(
-            !paths
-                .report
-                .skipped
-                .iter()
-                .any(|s| s.to_string().starts_with("lamp paths")),
-            "{name}: {:?}",
-            paths.report.skipped
-        );
+        assert_lamp_paths_ran(name, &paths);
         let want = indirect_means(&reference);
         assert_means_agree(name, &want, &paths, 0.015);
         // Many paths: the same means to within 0.5 % (no bias hidden in the noise).
@@ -160,15 +163,7 @@ fn refinement_keeps_the_lamp_paths() {
     };
     let reference = run(&scene, &first_bounce(512, 0));
     let both = run(&scene, &refined(32));
-    assert!(
-        !both
-            .report
-            .skipped
-            .iter()
-            .any(|s| s.to_string().starts_with("lamp paths")),
-        "{:?}",
-        both.report.skipped
-    );
+    assert_lamp_paths_ran("refined with lamp paths", &both);
     let want = indirect_means(&reference);
     assert_means_agree("refined with lamp paths", &want, &both, 0.015);
     let [rms_both, rms_paths, rms_gather] = [

@@ -52,10 +52,10 @@ pub struct GpuTable {
     pub values: Vec<f32>,
 }
 
-/// `tan(π/8)`: where [`atan_f32`] reduces its argument.
+/// `tan(π/8)`: where [`atan_unit_f32`] reduces its argument.
 pub const TAN_PI_8: f32 = 0.414_213_57;
 
-/// [`atan_f32`]'s odd polynomial on `[−tan(π/8), tan(π/8)]` (Cephes' `atanf`), highest
+/// [`atan_unit_f32`]'s odd polynomial on `[−tan(π/8), tan(π/8)]` (Cephes' `atanf`), highest
 /// degree first: `atan z ≈ z + z·w·(((c₀w + c₁)w + c₂)w + c₃)`, `w = z²`.
 pub const ATAN_POLY: [f32; 4] = [0.080_537_446, -0.138_776_85, 0.199_777_11, -0.333_329_5];
 
@@ -73,7 +73,7 @@ pub const ASIN_POLY: [f32; 5] = [
 /// `π/4 + atan((x − 1)/(x + 1))`, then [`ATAN_POLY`]); the shaders' `luxAtanUnit` /
 /// `lux_atan_unit` operation for operation.
 #[inline]
-pub fn atan_f32(x: f32) -> f32 {
+pub fn atan_unit_f32(x: f32) -> f32 {
     let (base, z) = if x > TAN_PI_8 {
         (std::f32::consts::FRAC_PI_4, (x - 1.0) / (x + 1.0))
     } else {
@@ -85,7 +85,7 @@ pub fn atan_f32(x: f32) -> f32 {
 }
 
 /// `atan2(y, x)` in single precision, within 4 ulp, with C's quadrants and signed zeros
-/// (`(±0, +0)` → ±0, `(±0, −0)` → ±π): [`atan_f32`] of the smaller over the larger of `|y|`,
+/// (`(±0, +0)` → ±0, `(±0, −0)` → ±π): [`atan_unit_f32`] of the smaller over the larger of `|y|`,
 /// `|x|`, turned into the quadrant. Only `+`, `−`, `×`, `÷` in a fixed order: the same bits on
 /// every platform and in wasm32, and the shaders' `luxAtan2` / `lux_atan2` compute it
 /// operation for operation.
@@ -96,9 +96,9 @@ pub fn atan2_f32(y: f32, x: f32) -> f32 {
     let mut a = if ax == 0.0 && ay == 0.0 {
         0.0
     } else if ax >= ay {
-        atan_f32(ay / ax)
+        atan_unit_f32(ay / ax)
     } else {
-        FRAC_PI_2 - atan_f32(ax / ay)
+        FRAC_PI_2 - atan_unit_f32(ax / ay)
     };
     if x.is_sign_negative() {
         a = PI - a;
@@ -272,7 +272,7 @@ mod tests {
         let mut worst = [0.0f64; 3];
         for i in 1..=200_000 {
             let x = i as f32 / 200_000.0;
-            worst[0] = worst[0].max(ulps(atan_f32(x), f64::from(x).atan()));
+            worst[0] = worst[0].max(ulps(atan_unit_f32(x), f64::from(x).atan()));
         }
         // atan2 around the circle, and acos over [−1, 1], off zero by at least an ulp of π.
         for i in 0..100_000 {
@@ -315,7 +315,7 @@ mod tests {
             [FRAC_PI_2, -FRAC_PI_2, std::f32::consts::FRAC_PI_4]
         );
         assert_eq!(
-            [atan_f32(0.0), atan_f32(1.0)],
+            [atan_unit_f32(0.0), atan_unit_f32(1.0)],
             [0.0, std::f32::consts::FRAC_PI_4]
         );
     }

@@ -124,7 +124,7 @@ mod text;
 mod write;
 
 pub use error::IesError;
-pub use gpu::{ASIN_POLY, ATAN_POLY, GpuTable, TAN_PI_8, acos_f32, atan_f32, atan2_f32};
+pub use gpu::{ASIN_POLY, ATAN_POLY, GpuTable, TAN_PI_8, acos_f32, atan_unit_f32, atan2_f32};
 pub use model::{
     Format, IesVersion, Keyword, LampSet, LdtInfo, Limits, LuminousOpening, OpeningShape,
     ParseOptions, PhotometricType, Symmetry, Tilt, TiltData, TiltResolver, Units, Warning,

@@ -220,9 +220,7 @@ impl OpeningView<'_> {
             r2,
         })
     }
-}
 
-impl OpeningView<'_> {
     /// [`OpeningView::point`] at every point `k` of a part's `count` for which `wanted(k)`
     /// (`None` at the others), appended to `out`: in blocks of eight points with AVX2 where
     /// the CPU has it ([`avx2::points8`], the same values bit for bit),
@@ -504,7 +502,7 @@ mod avx2 {
         }))
     }
 
-    /// [`luxbake_ies::atan_f32`] in every lane (`x` in `[0, 1]`).
+    /// [`luxbake_ies::atan_unit_f32`] in every lane (`x` in `[0, 1]`).
     #[target_feature(enable = "avx2")]
     fn atan8(x: __m256) -> __m256 {
         let set = _mm256_set1_ps;
@@ -665,6 +663,23 @@ mod tests {
         ]
     }
 
+    /// The tables of the real-world photometric files `files` for a test of the AVX2 lanes;
+    /// `None` after [`luxbake_testkit::skip_or_fail`] when the CPU has no AVX2 or a file is
+    /// missing (which fails the test under CI).
+    fn lane_tables(test: &str, files: &[&str]) -> Option<Vec<GpuTable>> {
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            luxbake_testkit::skip_or_fail(test, &"the CPU has no AVX2");
+            return None;
+        }
+        let mut tables = Vec::new();
+        for file in files {
+            let path = luxbake_testkit::shared_data(test, &format!("photometry/real-world/{file}"))?;
+            let bytes = std::fs::read(&path).expect("read the photometric file");
+            tables.push(Photometry::parse(&bytes).expect("parse").gpu_table());
+        }
+        Some(tables)
+    }
+
     /// The CPU's table angles are the shaders' polynomials: the literals of `luxAsinSmall` /
     /// `lux_asin_small` and `luxAtanUnit` / `lux_atan_unit` (and the latter's split) are
     /// `luxbake_ies::ASIN_POLY`, `ATAN_POLY` and `TAN_PI_8` as f32 (up to the signs the
@@ -701,20 +716,11 @@ mod tests {
     #[test]
     fn table_in_lanes_equals_the_look_up() {
         use std::arch::x86_64::*;
-        const TEST: &str = "table_in_lanes_equals_the_look_up";
-        if !std::arch::is_x86_feature_detected!("avx2") {
-            luxbake_testkit::skip_or_fail(TEST, &"the CPU has no AVX2");
-            return;
-        }
-        let Some(path) = luxbake_testkit::shared_data(TEST, "photometry/real-world/rw_5.IES")
+        let Some(mut tables) = lane_tables("table_in_lanes_equals_the_look_up", &["rw_5.IES"])
         else {
             return;
         };
-        let bytes = std::fs::read(&path).expect("read the photometric file");
-        let tables = [
-            Photometry::parse(&bytes).expect("parse").gpu_table(),
-            Photometry::isotropic(10.0).gpu_table(),
-        ];
+        tables.push(Photometry::isotropic(10.0).gpu_table());
         let mut dirs = Vec::new();
         for x in [0.0f32, -0.0, 1.0, -1.0, 0.3] {
             for y in [0.0f32, -0.0, 1.0, -1.0, -0.7] {
@@ -757,19 +763,10 @@ mod tests {
     #[test]
     fn points_in_lanes_equal_the_point_by_point_ones() {
         const TEST: &str = "points_in_lanes_equal_the_point_by_point_ones";
-        if !std::arch::is_x86_feature_detected!("avx2") {
-            luxbake_testkit::skip_or_fail(TEST, &"the CPU has no AVX2");
+        let Some(mut tables) = lane_tables(TEST, &["rw_5.IES", "rw_1.IES"]) else {
             return;
-        }
-        let mut tables = vec![Photometry::isotropic(250.0).gpu_table()];
-        for file in ["rw_5.IES", "rw_1.IES"] {
-            let Some(path) = luxbake_testkit::shared_data(TEST, &format!("photometry/real-world/{file}"))
-            else {
-                return;
-            };
-            let bytes = std::fs::read(&path).expect("read the photometric file");
-            tables.push(Photometry::parse(&bytes).expect("parse").gpu_table());
-        }
+        };
+        tables.push(Photometry::isotropic(250.0).gpu_table());
         let axis = normalize([0.3, 0.8, -0.5]).expect("unit axis");
         let mut openings = Vec::new();
         for (kind, faces, half) in [
@@ -853,6 +850,22 @@ mod tests {
                                     lit += usize::from(scalar.is_some());
                                 }
                             }
+                            // The blocks as the pass takes them: whole blocks, then the
+                            // remainder point by point, each point only where it is wanted.
+                            let wanted = |k: u32| k.is_multiple_of(5) || (count / 3..count / 2).contains(&k);
+                            let mut out = Vec::new();
+                            view.points(&sampler, count, wanted, &mut out);
+                            let expected: Vec<Option<PointView>> = (0..count)
+                                .map(|k| wanted(k).then(|| view.point(&sampler, k, count)).flatten())
+                                .collect();
+                            let bits = |p: &Option<PointView>| {
+                                p.as_ref().map(|p| [p.value, p.r, p.x[0], p.back[2]].map(f32::to_bits))
+                            };
+                            assert_eq!(
+                                out.iter().map(bits).collect::<Vec<_>>(),
+                                expected.iter().map(bits).collect::<Vec<_>>(),
+                                "points of {count}, opening {o:?}, part {part}"
+                            );
                         }
                     }
                 }
