@@ -8,8 +8,10 @@
 //! [`REFERENCE_HIGHER_RAYS`] for later bounces, every texel gathered (stride 1), no refinement,
 //! no denoising, no lamp paths (the gather alone, so the lamp paths are measured against an
 //! estimator that does not share them), a 0.2 % tail tolerance and a seed of its own. For
-//! every preset (and the paper's method, and `default-gather`: the default before lamp paths,
-//! 6 rays and the gather alone), per surface kind — floor (normal up), ceiling (down), walls — over the
+//! every preset (and the paper's method, `default-gather`: the default before lamp paths, 6 rays
+//! and the gather alone, and two other splits of the default's first bounce between gather rays
+//! and lamp paths: `gather-16`, 16 rays alone, and `rays-8+4`, 8 rays and 4 lamp paths; issue
+//! 29's rooms gain from more rays, this room's walls need the connections), per surface kind — floor (normal up), ceiling (down), walls — over the
 //! valid texels: the **grain**, the relative standard deviation of `E / E_ref` (total
 //! illuminance, photometric Y), and the bias, its mean minus 1. The reference's own noise
 //! (4096 Sobol rays: well under 0.3 % per texel) adds to the grain, so the figure is an upper
@@ -172,6 +174,24 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
             with(Settings {
                 rays: 6,
                 lamp_paths: 0,
+                ..Settings::preset(Quality::Default)
+            }),
+        ),
+        // More gather rays for fewer lamp paths (issue 29, docs/performance.md "Gather rays
+        // against lamp paths").
+        (
+            "gather-16".to_owned(),
+            with(Settings {
+                rays: 16,
+                lamp_paths: 0,
+                ..Settings::preset(Quality::Default)
+            }),
+        ),
+        (
+            "rays-8+4".to_owned(),
+            with(Settings {
+                rays: 8,
+                lamp_paths: 4,
                 ..Settings::preset(Quality::Default)
             }),
         ),
