@@ -13,10 +13,18 @@
 //! light at its texels' centres and interpolates between them, which is off where the light
 //! bends within a texel — a luminaire's cut-off, the foot of a wall washer, a shadow edge;
 //! at a point the direct light has no such error.
+//!
+//! [`indirect_at`] does the same for the inter-reflected light: a final gather at the point
+//! itself, each ray read from the baked exitance maps where it meets a surface. The maps'
+//! texels and their interpolation then enter only through the light the point sees, averaged
+//! over its hemisphere, not through the point's own texels (a narrow strip of a few texels, the
+//! rim of a chair seat's underside).
 
 use glam::{DVec2, DVec3, Vec2, Vec3};
+use luxbake_bvh::Ray;
+use rayon::prelude::*;
 
-use crate::backend::{GpuBackend, SceneData};
+use crate::backend::{GpuBackend, SceneData, offset_origin};
 use crate::bake::BakeError;
 use crate::graph::{TexDesc, TexFormat};
 use crate::prepare::{Lamps, Room};
@@ -287,6 +295,84 @@ pub fn direct_at<B: GpuBackend>(
     Ok(out)
 }
 
+/// Where the ray from `origin` along `dir` (in the room's frame) first meets a surface, when it
+/// meets its front (the interpolated shading normal facing the ray, as the bakes' gather
+/// reads a hit): the surface's object and its light-map UV there.
+fn front_hit(room: &Room, origin: [f32; 3], dir: [f32; 3]) -> Option<(usize, [f32; 2])> {
+    let hit = room
+        .bvh
+        .wide
+        .closest_hit(&Ray { origin, dir }, 0.0, f32::INFINITY)?;
+    let attr = room.bvh.encoded.triangle_attributes(hit.triangle);
+    let w0 = 1.0 - hit.u - hit.v;
+    let [n0, n1, n2] = attr.normals;
+    let facing: f32 = (0..3)
+        .map(|c| (w0 * n0[c] + hit.u * n1[c] + hit.v * n2[c]) * dir[c])
+        .sum();
+    // A NaN facing counts as behind, as in the bakes' gather.
+    if facing.is_nan() || facing >= 0.0 {
+        return None;
+    }
+    let [uv0, uv1, uv2] = attr.uvs;
+    let uv = [0, 1].map(|c| w0 * uv0[c] + hit.u * uv1[c] + hit.v * uv2[c]);
+    Some((attr.object as usize, uv))
+}
+
+/// The RNG pass of [`indirect_at`]'s per-point lattice shift.
+pub const GATHER_AT_PASS: u32 = 0x6761_7468;
+
+/// The indirect illuminance, lux (RGB, before albedo), at each of `points` of the prepared
+/// `room`: a final gather of `rays` cosine-distributed rays from the point (a Fibonacci
+/// lattice over the hemisphere, shifted per point by the hash of [`crate::rng`], pass
+/// [`GATHER_AT_PASS`], with `seed`), each ray that meets the front of a receiver reading
+/// `exitance(object, uv)` there — the baked exitance (albedo × total illuminance, lux) at that
+/// light-map UV — and the mean of what they read: `E = π·mean(L) = mean(M)` for a Lambertian
+/// surroundings. Rays that leave the scene, meet a surface from behind or a non-receiver
+/// (`exitance` gives what it gives for it: zero where it has no map) add nothing. A point
+/// gets the light reflected onto it by every baked bounce; the direct part is
+/// [`direct_at`]'s. On the CPU, in parallel over the points.
+pub fn indirect_at(
+    room: &Room,
+    points: &[CalcPoint],
+    rays: u32,
+    seed: u32,
+    exitance: &(dyn Fn(usize, [f32; 2]) -> [f32; 3] + Sync),
+) -> Vec<[f32; 3]> {
+    let shift = room.shift.unwrap_or([0.0; 3]);
+    let rays = rays.max(1);
+    points
+        .par_iter()
+        .enumerate()
+        .map(|(i, point)| {
+            let p = [0, 1, 2].map(|c| (point.position[c] + -shift[c]) as f32);
+            let n = point.normal.map(|c| c as f32);
+            let Some(n) = crate::exact::normalize(n) else {
+                return [0.0; 3];
+            };
+            let origin = offset_origin(p, n, room.ray_epsilon);
+            let lattice_shift = {
+                let h = crate::rng::hash(i as u32, 0, GATHER_AT_PASS, seed);
+                [h, crate::rng::pcg(h)]
+            };
+            let mut sum = [0.0f64; 3];
+            for k in 0..rays {
+                let u = crate::opening::lattice(k, rays, lattice_shift);
+                let dir = crate::cpu::kernel::cosine_direction(n, u);
+                let Some((object, uv)) = front_hit(room, origin, dir) else {
+                    continue;
+                };
+                let m = exitance(object, uv);
+                for c in 0..3 {
+                    if m[c].is_finite() {
+                        sum[c] += f64::from(m[c]);
+                    }
+                }
+            }
+            sum.map(|v| (v / f64::from(rays)) as f32)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -313,5 +399,57 @@ mod tests {
         // Degenerate (all points equal): vertex a, no NaN.
         let w = closest_barycentric(DVec3::new(1.0, 2.0, 3.0), a, a, a);
         assert!(w.is_finite());
+    }
+
+    /// A gather ray reads the light map where it meets a surface: the object and UV of
+    /// [`front_hit`] are those [`locate`] finds at the hit's world point (the exact closest
+    /// point of the receiving triangle, in `f64`), for random rays through a furnished room.
+    #[test]
+    fn a_gather_hit_reads_the_uv_of_the_point_it_meets() {
+        let settings = Settings {
+            texels_per_metre: 8.0,
+            ..Settings::default()
+        };
+        let scene = Scene::builtin_with_settings("chairs_01", settings).expect("chairs_01");
+        let room = Room::prepare(&scene, &scene.settings, crate::Limits::WEBGL2, &mut |_| {})
+            .expect("room");
+        let shift = room.shift.unwrap_or([0.0; 3]);
+        let (mut same, mut other) = (0, 0);
+        for k in 0..4000u32 {
+            let r = |j: u32| crate::rng::unit_f32(crate::rng::hash(k, j, 7, 0));
+            let origin = [-2.0 + 4.0 * r(0), 0.1 + 2.2 * r(1), -1.6 + 3.2 * r(2)];
+            let z = 2.0 * r(3) - 1.0;
+            let (s, a) = ((1.0 - z * z).max(0.0).sqrt(), std::f32::consts::TAU * r(4));
+            let dir = [s * a.cos(), z, s * a.sin()];
+            let Some((object, uv)) = front_hit(&room, origin, dir) else {
+                continue;
+            };
+            let hit = room
+                .bvh
+                .wide
+                .closest_hit(&Ray { origin, dir }, 0.0, f32::INFINITY)
+                .expect("hit");
+            let world = [0, 1, 2].map(|c| f64::from(origin[c] + dir[c] * hit.t) + shift[c]);
+            let Some(sp) = locate(&scene, world, 1e-3) else {
+                continue;
+            };
+            // Where two objects touch the closest triangle may be the other's.
+            if sp.object != object {
+                other += 1;
+                continue;
+            }
+            same += 1;
+            for c in 0..2 {
+                assert!(
+                    (sp.uv[c] - uv[c]).abs() < 1e-4,
+                    "ray {k}: uv {uv:?} against {:?} at {world:?}",
+                    sp.uv
+                );
+            }
+        }
+        assert!(
+            same > 1000 && other * 50 < same,
+            "{same} same, {other} other"
+        );
     }
 }

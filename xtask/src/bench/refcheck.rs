@@ -25,6 +25,12 @@
 //! and bias of each point's mean over the seeds (what is left once the noise is averaged
 //! down, bias plus noise / √N).
 //!
+//! `--at-points` reads each point as a lighting-calculation program computes it instead of from
+//! its texels (`cargo xtask measure --direct-at-points --indirect-at-points`): the direct light
+//! at the point itself (`luxbake::probe::direct_at`, [`measure::POINT_OPENING_SAMPLES`] points
+//! of a luminous opening) plus the light gathered there from the bake's exitance maps
+//! (`luxbake::probe::indirect_at`, [`measure::POINT_GATHER_RAYS`] rays, the bake's seed).
+//!
 //! An in-memory check also writes `refcheck-points-<date>-<machine>.csv`: every reference
 //! point (line, surface kind, object, position, normal, reference total and direct lux) with
 //! each seed's baked total and its relative error, to find where an error sits.
@@ -33,6 +39,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use luxbake::GpuBackend;
 use luxbake::bake::BakeOutput;
 use luxbake::probe::SurfacePoint;
 use luxbake::scene::{Blur, Quality, Scene, Settings, SettingsPatch};
@@ -102,6 +109,10 @@ pub struct Args {
     /// (see the module docs).
     #[arg(long, default_value_t = 1)]
     seeds: u32,
+    /// Reads each point as computed at the point itself (direct light there, indirect light
+    /// gathered there from the maps; see the module docs) instead of from its texels.
+    #[arg(long, conflicts_with = "dir")]
+    at_points: bool,
 }
 
 /// One reference point.
@@ -561,6 +572,43 @@ pub fn sample(out: &BakeOutput, located: &[SurfacePoint]) -> Result<Vec<Measured
         .collect()
 }
 
+/// `[direct, total]` lux at located points computed at the points themselves (`--at-points`,
+/// see the module docs) from the in-memory bake `out` of `room` with `settings`.
+fn at_points(
+    room: &luxbake::bake::Room,
+    out: &BakeOutput,
+    settings: &Settings,
+    located: &[SurfacePoint],
+) -> Result<Vec<Measured>, String> {
+    use luxbake::probe::{direct_at, indirect_at};
+    let calc = measure::calc_points(located);
+    let mut cpu = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
+    let samples = measure::at_point_samples(settings.opening_samples, None);
+    let direct = direct_at(&mut cpu, room, &room.scene.lamps, settings, samples, &calc)
+        .map_err(|e| e.to_string())?;
+    let exitance = |object: usize, uv: [f32; 2]| {
+        out.maps
+            .iter()
+            .find(|m| m.object == object)
+            .map_or([0.0; 3], |m| m.exitance().sample(uv))
+    };
+    let indirect = indirect_at(
+        room,
+        &calc,
+        measure::POINT_GATHER_RAYS,
+        settings.seed,
+        &exitance,
+    );
+    Ok(direct
+        .iter()
+        .zip(&indirect)
+        .map(|(&d, &i)| {
+            let d = f64::from(luminance(d));
+            [d, d + f64::from(luminance(i))]
+        })
+        .collect())
+}
+
 /// Compares the in-memory bake `out` of `scene` with `refs` (`label`: their file, for errors).
 pub fn evaluate(
     scene: &Scene,
@@ -657,20 +705,34 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
             let (mut backend, renderer) =
                 open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
             let located = locate(&scene, &refs, &label)?;
+            let room = if args.at_points {
+                let limits = luxbake_backends::open(BackendKind::Cpu)
+                    .map_err(|e| e.to_string())?
+                    .limits();
+                Some(
+                    luxbake::bake::Room::prepare(&scene, &s, limits, &mut |_| {})
+                        .map_err(|e| e.to_string())?,
+                )
+            } else {
+                None
+            };
             let (mut comparisons, mut bakes, mut walls) = (Vec::new(), Vec::new(), Vec::new());
             for seed in 0..args.seeds.max(1) {
                 let s = Settings { seed, ..s.clone() };
                 eprintln!("refcheck: baking {} ({})", args.scene, settings_label(&s));
                 let run = timed_bake(&mut backend, &scene, &s)?;
                 walls.push(run.wall());
-                let measured = sample(&run.out, &located)?;
+                let measured = match &room {
+                    Some(room) => at_points(room, &run.out, &s, &located)?,
+                    None => sample(&run.out, &located)?,
+                };
                 comparisons.push(compare(&refs, &measured));
                 bakes.push(measured);
             }
             let wall = walls.iter().sum::<f64>() / walls.len() as f64;
             points_csv = Some(points_table(&refs, &bakes));
             let what = format!(
-                "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s{}",
+                "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s{}{}",
                 args.scene,
                 settings_label(&s),
                 args.backend.name(),
@@ -683,9 +745,14 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                     )
                 } else {
                     String::new()
+                },
+                if args.at_points {
+                    "; read at the points themselves (--at-points)"
+                } else {
+                    ""
                 }
             );
-            let mut extra = serde_json::json!({ "settings": {
+            let mut extra = serde_json::json!({ "at_points": args.at_points, "settings": {
                 "quality": s.quality.name(), "rays": s.rays,
                 "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
                 "lamp_paths": s.lamp_paths,
