@@ -302,39 +302,38 @@ pub fn csv(rows: &[Row]) -> String {
     out
 }
 
-/// The direct illuminance, lux (Rec. 709 luminance), computed at each of the `located`
-/// points of `scene` (their surface point and normal) on the CPU backend, `opening_samples`
-/// points per luminous opening.
+/// The direct illuminance, lux (Rec. 709 luminance), computed at each of the calculation
+/// points `calc` of `scene` (prepared as `room`) on the CPU backend `backend`,
+/// `opening_samples` points per luminous opening.
 fn direct_at_located(
+    backend: &mut luxbake_backends::AnyBackend,
+    room: &Room,
     scene: &Scene,
-    located: &[SurfacePoint],
+    calc: &[CalcPoint],
     opening_samples: u32,
 ) -> Result<Vec<f64>, String> {
-    let calc = calc_points(located);
-    let mut backend = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
-    let settings = &scene.settings;
-    let room =
-        Room::prepare(scene, settings, backend.limits(), &mut |_| {}).map_err(|e| e.to_string())?;
     let lux = direct_at(
-        &mut backend,
-        &room,
+        backend,
+        room,
         &scene.lamps,
-        settings,
+        &scene.settings,
         opening_samples,
-        &calc,
+        calc,
     )
     .map_err(|e| e.to_string())?;
     Ok(lux.iter().map(|&e| f64::from(luminance(e))).collect())
 }
 
 /// The indirect illuminance, lux (Rec. 709 luminance), gathered with `rays` rays at each of
-/// the `located` points of `scene` from the exitance maps of the bake in `dir` that
-/// `manifest` describes (objects without an exitance map reflect nothing).
+/// the calculation points `calc` of `scene` (prepared as `room`) from the exitance maps of
+/// the bake in `dir` that `manifest` describes (objects without an exitance map reflect
+/// nothing).
 fn indirect_at_located(
     dir: &Path,
     manifest: &Value,
     scene: &Scene,
-    located: &[SurfacePoint],
+    room: &Room,
+    calc: &[CalcPoint],
     rays: u32,
 ) -> Result<Vec<f64>, String> {
     let objects = manifest["objects"]
@@ -351,16 +350,12 @@ fn indirect_at_located(
             *slot = Some(read_exr(&dir.join(file)).map_err(|e| e.to_string())?);
         }
     }
-    let calc = calc_points(located);
-    let backend = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
-    let room = Room::prepare(scene, &scene.settings, backend.limits(), &mut |_| {})
-        .map_err(|e| e.to_string())?;
     let exitance = |object: usize, uv: [f32; 2]| {
         maps.get(object)
             .and_then(Option::as_ref)
             .map_or([0.0; 3], |m| m.sample(uv))
     };
-    let lux = indirect_at(&room, &calc, rays, scene.settings.seed, &exitance);
+    let lux = indirect_at(room, calc, rays, scene.settings.seed, &exitance);
     Ok(lux.iter().map(|&e| f64::from(luminance(e))).collect())
 }
 
@@ -402,10 +397,24 @@ pub fn measure_points_at_with(
     }
     let located = locate_points(&scene, points, label, tolerance)?;
     let rows = read_rows(dir, &manifest, points, &located)?;
+    if direct.is_none() && gather_rays.is_none() {
+        return Ok((rows, AtPoints::default()));
+    }
+    // One room for both parts: the scene's geometry prepared once.
+    let mut backend = luxbake_backends::open(BackendKind::Cpu).map_err(|e| e.to_string())?;
+    let room = Room::prepare(&scene, &scene.settings, backend.limits(), &mut |_| {})
+        .map_err(|e| e.to_string())?;
+    let calc = calc_points(&located);
     let direct = match direct {
         Some(asked) => {
             let samples = at_point_samples(scene.settings.opening_samples, asked);
-            Some(direct_at_located(&scene, &located, samples)?)
+            Some(direct_at_located(
+                &mut backend,
+                &room,
+                &scene,
+                &calc,
+                samples,
+            )?)
         }
         None => None,
     };
@@ -414,7 +423,8 @@ pub fn measure_points_at_with(
             dir,
             &manifest,
             &scene,
-            &located,
+            &room,
+            &calc,
             rays.max(1),
         )?),
         None => None,

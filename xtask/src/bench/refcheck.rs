@@ -586,10 +586,15 @@ fn at_points(
     let samples = measure::at_point_samples(settings.opening_samples, None);
     let direct = direct_at(&mut cpu, room, &room.scene.lamps, settings, samples, &calc)
         .map_err(|e| e.to_string())?;
+    // Each object's maps, looked up once rather than on every ray.
+    let by_object: Vec<_> = (0..room.scene.objects.len())
+        .map(|k| out.maps.iter().find(|m| m.object == k))
+        .collect();
     let exitance = |object: usize, uv: [f32; 2]| {
-        out.maps
-            .iter()
-            .find(|m| m.object == object)
+        by_object
+            .get(object)
+            .copied()
+            .flatten()
             .map_or([0.0; 3], |m| m.exitance().sample(uv))
     };
     let indirect = indirect_at(
