@@ -144,7 +144,8 @@ fn run<B: GpuBackend>(
     let mut current = 0;
     for (k, (program, params)) in steps.iter().enumerate() {
         let (reads, write) = match params {
-            Params::Variance(_) => (vec![0, 1, 2], 3),
+            // The map stands in for the direct light too (alpha: its luminance).
+            Params::Variance(_) => (vec![0, 1, 2, 0], 3),
             Params::Atrous(_) => (vec![current, 3, 1, 2], 4 + k % 2),
             other => panic!("not a denoiser step: {other:?}"),
         };

@@ -802,14 +802,17 @@ pub fn atrous_iterations(blur: Blur) -> u32 {
     }
 }
 
-/// Denoises `noisy` in place: the variance estimate into `variance`, then the à-trous
+/// Denoises `noisy` in place: the variance estimate into `variance` (with `direct`, the
+/// direct light, in its alpha as the variance pass always writes it), then the à-trous
 /// iterations alternating between `scratch` and `noisy`, ending in `noisy`.
+#[allow(clippy::too_many_arguments)]
 fn denoise_stage(
     b: &mut Builder,
     g: GBufferTex,
     noisy: TexId,
     scratch: TexId,
     variance: TexId,
+    direct: TexId,
     config: &AtrousConfig,
     bounce: u32,
 ) {
@@ -820,7 +823,7 @@ fn denoise_stage(
             Params::Variance(_) => b.pass(
                 PassKind::Run(Program::Variance),
                 "variance",
-                vec![noisy, g.position, g.normal],
+                vec![noisy, g.position, g.normal, direct],
                 vec![variance],
                 bounce,
                 params,
@@ -936,7 +939,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     b.pass(
                         PassKind::Run(Program::Variance),
                         "refine_variance",
-                        vec![scratch, g.position, g.normal],
+                        vec![scratch, g.position, g.normal, direct],
                         vec![variance],
                         k,
                         Params::Variance(VarianceParams {
@@ -1056,6 +1059,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 scratch,
                 delta,
                 variance,
+                direct,
                 &denoise,
                 config.bounces,
             );

@@ -251,7 +251,7 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 
 /// The passes of the à-trous denoiser, in order, for the graph builder to chain:
 ///
-/// 1. `(Program::Variance, Params::Variance(_))`: reads `[noisy, position, normal]`, writes
+/// 1. `(Program::Variance, Params::Variance(_))`: reads `[noisy, position, normal, direct]`, writes
 ///    the variance map `var`;
 /// 2. for `i` in `0 .. iterations`: `(Program::Atrous, Params::Atrous(_))` with step `2^i`,
 ///    reading `[previous, var, position, normal]` (`previous` = the noisy map for `i = 0`, then

@@ -821,10 +821,13 @@ pub struct Settings {
     /// [`Method::Converged`]: [`Settings::stride`] of the bounces after the first.
     pub higher_stride: u32,
     /// [`Method::Converged`]: progressive refinement of the first bounce — texels whose
-    /// estimated relative standard error after `rays` exceeds [`Settings::refine_error`] get
-    /// this many more rays (`luxbake::program::Program::Refine`); 0 = off.
+    /// first gather's estimated standard error after `rays`, relative to the light known at
+    /// the texel (its neighbours' first bounce and its own direct light), exceeds
+    /// [`Settings::refine_error`] get this many more rays (`luxbake::program::Program::Refine`);
+    /// 0 = off.
     pub refine_rays: u32,
-    /// [`Method::Converged`]: the relative standard error per texel that refinement aims at.
+    /// [`Method::Converged`]: the relative standard error per texel that refinement aims at
+    /// (of the first bounce's noise over the direct light and the first bounce together).
     pub refine_error: f32,
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance

@@ -34,9 +34,10 @@ vec3 luxGuard3(vec3 v) {
 }
 
 // passes::refine::refines: whether the first bounce's refinement refines a texel whose
-// variance estimate (the variance pass's texel) is `noise`.
+// variance estimate (the variance pass's texel) is `noise`: its first gather's standard error
+// over the light known at the texel, the window's mean and the texel's direct light.
 bool luxRefines(vec4 noise, float maxError) {
-    return !(sqrt(max(noise.z, 0.0)) <= maxError * noise.y);
+    return !(sqrt(max(noise.z, 0.0)) <= maxError * (noise.y + noise.w));
 }
 
 // This fragment's texel in the bound layer.

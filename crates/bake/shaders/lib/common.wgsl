@@ -52,9 +52,10 @@ fn lux_guard3(v: vec3<f32>) -> vec3<f32> {
 }
 
 // passes::refine::refines: whether the first bounce's refinement refines a texel whose
-// variance estimate (the variance pass's texel) is `noise`.
+// variance estimate (the variance pass's texel) is `noise`: its first gather's standard error
+// over the light known at the texel, the window's mean and the texel's direct light.
 fn lux_refines(noise: vec4<f32>, max_error: f32) -> bool {
-    return !(sqrt(max(noise.z, 0.0)) <= max_error * noise.y);
+    return !(sqrt(max(noise.z, 0.0)) <= max_error * (noise.y + noise.w));
 }
 
 // The texel of invocation `gid` in the bound tile, or x = -1 outside it.

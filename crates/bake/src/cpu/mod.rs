@@ -846,7 +846,9 @@ mod denoiser_tests {
                 let s = view(&src, size);
                 match params {
                     Params::Variance(p) => {
-                        variance = apply(size, |at| variance_texel([s, pos, nrm], p, None, at));
+                        // The map stands in for the direct light, whose luminance only
+                        // refinement reads (alpha).
+                        variance = apply(size, |at| variance_texel([s, pos, nrm, s], p, None, at));
                     }
                     Params::Atrous(p) => {
                         let v = view(&variance, size);
@@ -924,9 +926,10 @@ mod denoiser_tests {
                 if v[3] > 0.5 {
                     assert_eq!(out[i..i + 4], v, "({x}, {y})");
                     // No noise; the mean luminance of the window without the centre is the
-                    // field's (one grey level per surface here).
+                    // field's (one grey level per surface here), and so is the alpha, the
+                    // direct light's luminance, for which the field stands in.
                     let (var, mean) = (&variance[i..i + 4], luminance(xyz(v)));
-                    assert_eq!([var[0], var[2], var[3]], [0.0, 0.0, 1.0], "({x}, {y})");
+                    assert_eq!([var[0], var[2], var[3]], [0.0, 0.0, mean], "({x}, {y})");
                     assert!((var[1] - mean).abs() <= 1e-6 * mean, "({x}, {y}): {var:?}");
                 } else {
                     assert_eq!(out[i..i + 4], [0.0; 4], "({x}, {y})");
@@ -1414,6 +1417,13 @@ mod guide_mask_tests {
             map[4 * i..4 * i + 4].copy_from_slice(&[l, 0.7 * l, 1.2 * l, 1.0]);
         }
         let src = View::new(&map, size, layers);
+        // A direct light of its own, for the alpha every texel carries.
+        let direct: Vec<f32> = map
+            .chunks_exact(4)
+            .enumerate()
+            .flat_map(|(i, t)| [t[1] * (i % 7) as f32, 3.0, t[0], t[3]])
+            .collect();
+        let direct = View::new(&direct, size, layers);
         let config = AtrousConfig::new(3, 1.0 / 12.0);
         let base = atrous_steps(&config)
             .into_iter()
@@ -1430,7 +1440,7 @@ mod guide_mask_tests {
                 reach: [0.0, p.reach],
             };
             let masks = GuideMasks::new(pos, chart);
-            let maps = [src, pos, nrm];
+            let maps = [src, pos, nrm, direct];
             let (c, v) = compare_blocks(
                 (size, layers),
                 |at, out| variance_block(maps, p, &masks, at, out),

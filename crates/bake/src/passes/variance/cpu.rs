@@ -55,7 +55,7 @@ impl CpuPass for Pass {
 /// estimated together, one to a vector lane ([`crate::cpu::lanes`]); otherwise texel by
 /// texel. Returns how many texels were estimated in vector lanes.
 pub(crate) fn variance_block(
-    maps: [View<'_>; 3],
+    maps: [View<'_>; 4],
     params: VarianceParams,
     masks: &GuideMasks,
     at: Texel,
@@ -86,14 +86,15 @@ mod avx2 {
     /// cannot go in lanes (then the caller takes them one by one).
     #[target_feature(enable = "avx2")]
     pub(super) fn block(
-        maps: [View<'_>; 3],
+        maps: [View<'_>; 4],
         params: VarianceParams,
         masks: &GuideMasks,
         at: Texel,
         out: &mut [f32],
     ) -> Option<usize> {
-        let [src, _, nrm] = maps;
-        let centres = Centres::new(maps, masks, at).filter(|_| out.len() == 4 * LANES)?;
+        let [src, pos, nrm, _] = maps;
+        let centres =
+            Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
         // The 5×5 window, row by row: each tap's luminance and whether it is on the surface.
@@ -167,11 +168,15 @@ mod avx2 {
                 o.copy_from_slice(&variance_texel(maps, params, Some(masks), t));
                 continue;
             }
+            let t = Texel {
+                x: at.x + l as u32,
+                ..at
+            };
             let r = [
                 guard(with_centre[l]),
                 guard(mean[l]),
                 guard(without_centre[l]),
-                1.0,
+                direct_luminance(maps, params, t),
             ];
             o.copy_from_slice(&r);
         }
@@ -184,7 +189,7 @@ pub(crate) const VARIANCE_DIRECTIONS: [[i64; 2]; 4] = [[1, 0], [0, 1], [1, 1], [
 
 /// The noise variance of the luminance at one texel (see the module docs).
 pub(crate) fn variance_texel(
-    maps: [View<'_>; 3],
+    maps: [View<'_>; 4],
     params: VarianceParams,
     masks: Option<&GuideMasks>,
     at: Texel,
@@ -192,8 +197,10 @@ pub(crate) fn variance_texel(
     if maps[0].fetch(at)[3] <= 0.5 {
         return [0.0; 4];
     }
-    let Some(guide) = Guide::new(maps, [0.0, params.reach], at) else {
-        return [0.0, 0.0, 0.0, 1.0];
+    let direct = direct_luminance(maps, params, at);
+    let [src, pos, nrm, _] = maps;
+    let Some(guide) = Guide::new([src, pos, nrm], [0.0, params.reach], at) else {
+        return [0.0, 0.0, 0.0, direct];
     };
     let guide = guide.with_masks(masks, at);
     // The 5×5 window, row by row: the luminance of each tap on the surface.
@@ -220,7 +227,14 @@ pub(crate) fn variance_texel(
         n += 1;
     }
     let mean = if n > 0 { guard(sum / n as f32) } else { 0.0 };
-    [with_centre, mean, without_centre, 1.0]
+    [with_centre, mean, without_centre, direct]
+}
+
+/// The luminance of texel `at`'s direct light (slot `direct`) in the estimate's units: the
+/// variance map's alpha, for refinement's decision ([`crate::passes::refine::refines`]).
+#[inline]
+fn direct_luminance(maps: [View<'_>; 4], params: VarianceParams, at: Texel) -> f32 {
+    guard(luminance(xyz(maps[3].fetch(at))) * params.luminance_scale)
 }
 
 /// The variance estimates of a 5×5 window of luminances (`None`: not on the surface), with

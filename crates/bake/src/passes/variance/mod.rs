@@ -4,7 +4,10 @@
 //!
 //! Noise variance of the luminance in a 5×5 window (red, for the à-trous filter's
 //! edge-stopping), and with the centre left out its mean luminance (green, for refinement and
-//! the à-trous filter's wide term) and variance (blue, for refinement).
+//! the à-trous filter's wide term) and variance (blue, for refinement); alpha is the luminance
+//! of the texel's direct light (slot `direct`), which refinement weighs the noise against
+//! ([`crate::passes::refine`], "Against the light the maps report"; the denoiser does not
+//! read it).
 
 pub(crate) mod cpu;
 
@@ -33,7 +36,7 @@ param_block! {
 
 signature! {
     variance {
-        reads: ["src", "position", "normal"],
+        reads: ["src", "position", "normal", "direct"],
         params: VarianceParams,
         libraries: [Common, Guide],
     }

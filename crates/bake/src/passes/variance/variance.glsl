@@ -5,7 +5,8 @@
 // of taps: half the mean squared luminance difference of the pairs; the smallest wins (the
 // direction along the signal's edges sees only noise). No direction: 0. Output (variance,
 // then with the centre left out -- refinement's decision must not depend on the centre's own
-// noise -- the mean luminance of the taps and their variance, 1).
+// noise -- the mean luminance of the taps and their variance, and the luminance of the texel's
+// direct light (u_direct), against which refinement weighs the noise: refine::refines).
 // Parameters (program::VarianceParams): u_reach = the chart test's farthest distance per
 // texel of offset, metres; u_min_pairs; u_luminance_scale, a power of two every luminance is
 // multiplied by first (its squares stay inside f32; the output is in those units).
@@ -46,9 +47,11 @@ vec4 luxRun(ivec3 c) {
     if (texelFetch(u_src, c, 0).a <= 0.5) {
         return vec4(0.0);
     }
+    // The texel's direct light, for refinement's decision (refine::refines).
+    float direct = luxGuard(luxLuminance(texelFetch(u_direct, c, 0).rgb) * u_luminance_scale);
     LuxGuide g;
     if (!luxGuide(c, 0.0, u_reach, g)) {
-        return vec4(0.0, 0.0, 0.0, 1.0);
+        return vec4(0.0, 0.0, 0.0, direct);
     }
     // The window, row by row: the luminance of each tap on the surface.
     float lum[25];
@@ -74,5 +77,5 @@ vec4 luxRun(ivec3 c) {
         }
     }
     float mean = count > 0u ? luxGuard(sum / float(count)) : 0.0;
-    return vec4(withCentre, mean, withoutCentre, 1.0);
+    return vec4(withCentre, mean, withoutCentre, direct);
 }

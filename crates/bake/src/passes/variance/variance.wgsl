@@ -5,7 +5,8 @@
 // taps: half the mean squared luminance difference of the pairs; the smallest wins (the
 // direction along the signal's edges sees only noise). No direction: 0. Output (variance,
 // then with the centre left out -- refinement's decision must not depend on the centre's own
-// noise -- the mean luminance of the taps and their variance, 1).
+// noise -- the mean luminance of the taps and their variance, and the luminance of the texel's
+// direct light (`direct`), against which refinement weighs the noise: refine::refines).
 
 // The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
 fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
@@ -44,9 +45,11 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (lux_load(lux_src, c).a <= 0.5) {
         return vec4<f32>(0.0);
     }
+    // The texel's direct light, for refinement's decision (refine::refines).
+    let direct = lux_guard(lux_luminance(lux_load(lux_direct, c).rgb) * lux_pass.luminance_scale);
     var g: LuxGuide;
     if (!lux_guide(c, 0.0, lux_pass.reach, &g)) {
-        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+        return vec4<f32>(0.0, 0.0, 0.0, direct);
     }
     // The window, row by row: the luminance of each tap on the surface.
     var lum: array<f32, 25>;
@@ -75,5 +78,5 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (count > 0u) {
         mean = lux_guard(sum / f32(count));
     }
-    return vec4<f32>(with_centre, mean, without_centre, 1.0);
+    return vec4<f32>(with_centre, mean, without_centre, direct);
 }
