@@ -1461,6 +1461,8 @@ mod tests {
         };
         assert_eq!((rp.rays, rp.first_rays, rp.max_error), (8, 16, 0.1));
         assert_eq!(variance.reads[0], first.writes[0]);
+        // Refinement weighs the noise against the direct light (the variance's alpha).
+        assert_eq!(variance.reads[3], g.direct);
         assert_eq!(refine.reads[3..5], [first.writes[0], variance.writes[0]]);
         assert_eq!(rp.lamp_paths, 0);
         assert_eq!(Some(refine.writes[0]), delta(&g));
@@ -1734,10 +1736,14 @@ mod tests {
                 let count =
                     |f: fn(&PassKind) -> bool| g.passes.iter().filter(|p| f(&p.kind)).count();
                 assert_eq!(count(|k| *k == PassKind::Run(Program::Blur)), 0);
-                // Each filter reads an increment (never the direct light).
+                // Each filter reads an increment (never the direct light); the variance
+                // estimate carries the direct light's luminance beside it.
                 for p in &g.passes {
                     if matches!(p.kind, PassKind::Run(Program::Variance | Program::Atrous)) {
                         assert_ne!(p.reads[0], g.direct);
+                    }
+                    if p.kind == PassKind::Run(Program::Variance) {
+                        assert_eq!(p.reads[3], g.direct);
                     }
                 }
             }
