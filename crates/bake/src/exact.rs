@@ -139,6 +139,21 @@ pub fn luminance(c: [f32; 3]) -> f32 {
     0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 }
 
+/// A triangle's shading normal (as interpolated, not normalised) and light-map UV at the
+/// barycentrics `u`, `v` of its second and third vertex: `w₀·a₀ + u·a₁ + v·a₂`, `w₀ = 1 − u −
+/// v`, summed left to right — where a ray meets a surface, as the lamp paths' pool and the
+/// calculation points' gather read it.
+#[inline]
+pub fn interpolate(attr: &luxbake_bvh::TriangleAttributes, u: f32, v: f32) -> ([f32; 3], [f32; 2]) {
+    let w0 = 1.0 - u - v;
+    let [n0, n1, n2] = attr.normals;
+    let [t0, t1, t2] = attr.uvs;
+    (
+        [0, 1, 2].map(|c| w0 * n0[c] + u * n1[c] + v * n2[c]),
+        [0, 1].map(|c| w0 * t0[c] + u * t1[c] + v * t2[c]),
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use glam::DVec3;

@@ -74,7 +74,7 @@ use luxbake_ies::GpuTable;
 use rayon::prelude::*;
 
 use crate::backend::{LampParams, offset_origin};
-use crate::exact::{div, dot, luminance, normalize, sub};
+use crate::exact::{div, dot, interpolate, luminance, normalize, sub};
 use crate::gbuffer::GBuffer;
 use crate::layout::Region;
 use crate::map::sample_masked;
@@ -528,16 +528,12 @@ impl LampPaths {
             let hit = g.wide.closest_hit(&ray, 0.0, f32::INFINITY)?;
             let attr = g.encoded.triangle_attributes(hit.triangle);
             let region = (*g.regions.get(attr.object as usize)?)?;
-            let w0 = 1.0 - hit.u - hit.v;
-            let n = normalize([0, 1, 2].map(|c| {
-                w0 * attr.normals[0][c] + hit.u * attr.normals[1][c] + hit.v * attr.normals[2][c]
-            }))?;
+            let (n, uv) = interpolate(&attr, hit.u, hit.v);
+            let n = normalize(n)?;
             if !(dot(n, dir) < 0.0) {
                 return None;
             }
             let y = [0, 1, 2].map(|c| (f64::from(origin[c]) + f64::from(hit.t) * w[c]) as f32);
-            let uv = [0, 1]
-                .map(|c| w0 * attr.uvs[0][c] + hit.u * attr.uvs[1][c] + hit.v * attr.uvs[2][c]);
             let gb = g.gbuffer;
             let albedo = sample_masked(
                 |x, yy| {

@@ -304,17 +304,12 @@ fn front_hit(room: &Room, origin: [f32; 3], dir: [f32; 3]) -> Option<(usize, [f3
         .wide
         .closest_hit(&Ray { origin, dir }, 0.0, f32::INFINITY)?;
     let attr = room.bvh.encoded.triangle_attributes(hit.triangle);
-    let w0 = 1.0 - hit.u - hit.v;
-    let [n0, n1, n2] = attr.normals;
-    let facing: f32 = (0..3)
-        .map(|c| (w0 * n0[c] + hit.u * n1[c] + hit.v * n2[c]) * dir[c])
-        .sum();
+    let (n, uv) = crate::exact::interpolate(&attr, hit.u, hit.v);
+    let facing = crate::exact::dot(n, dir);
     // A NaN facing counts as behind, as in the bakes' gather.
     if facing.is_nan() || facing >= 0.0 {
         return None;
     }
-    let [uv0, uv1, uv2] = attr.uvs;
-    let uv = [0, 1].map(|c| w0 * uv0[c] + hit.u * uv1[c] + hit.v * uv2[c]);
     Some((attr.object as usize, uv))
 }
 

@@ -160,18 +160,14 @@ mod avx2 {
         let mean = floats(_mm256_and_ps(has_mean, mean));
         let [with_centre, without_centre] = best.map(|b| floats(b));
         for (l, o) in out.chunks_exact_mut(4).enumerate() {
-            if centres.alone[l] {
-                let t = Texel {
-                    x: at.x + l as u32,
-                    ..at
-                };
-                o.copy_from_slice(&variance_texel(maps, params, Some(masks), t));
-                continue;
-            }
             let t = Texel {
                 x: at.x + l as u32,
                 ..at
             };
+            if centres.alone[l] {
+                o.copy_from_slice(&variance_texel(maps, params, Some(masks), t));
+                continue;
+            }
             let r = [
                 guard(with_centre[l]),
                 guard(mean[l]),
