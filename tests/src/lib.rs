@@ -61,6 +61,8 @@ pub struct SceneCase {
     /// [`Settings::refine_rays`] (0: none, as in every preset), at a target of
     /// [`REFINE_ERROR`].
     pub refine_rays: u32,
+    /// [`Settings::denoise_correction`] (false in every preset but `final`).
+    pub denoise_correction: bool,
     /// Tolerance per stage, in [`Figure5::NAMES`] order.
     pub stages: [Tolerance; 8],
 }
@@ -111,6 +113,7 @@ const fn paper(scene: &'static str, sampler: Sampler) -> SceneCase {
         sampler,
         quality: Quality::Default,
         refine_rays: 0,
+        denoise_correction: false,
         stages: STAGES,
     }
 }
@@ -128,6 +131,7 @@ const fn converged(
         sampler: Sampler::Sobol,
         quality,
         refine_rays,
+        denoise_correction: false,
         stages,
     }
 }
@@ -143,8 +147,12 @@ pub const SCENES: [SceneCase; 8] = [
     // Reduced-resolution gathers at every bounce, no denoiser.
     converged("chairs_01", Quality::Draft, 0, DRAFT_STAGES),
     // Progressive refinement of the first bounce (its rays and, with the preset's lamp paths,
-    // its connections: the refine_connect pass).
-    converged("chairs_01", Quality::Default, 16, CONVERGED_STAGES),
+    // its connections: the refine_connect pass), with the denoiser's bias correction (its
+    // signed residual and linear filter).
+    SceneCase {
+        denoise_correction: true,
+        ..converged("chairs_01", Quality::Default, 16, CONVERGED_STAGES)
+    },
 ];
 
 /// A known, explained difference between two backends: replaces the table's tolerance of one
@@ -179,7 +187,8 @@ impl SceneCase {
     /// The case's name in reports, failure-image folders and [`KNOWN_GAPS`]: the scene and the
     /// method, then the sampler when it is not the method's default
     /// (`chairs_01_paper_sobol`), the converged preset when it is not `default`
-    /// (`chairs_01_converged_draft`) and `refine` with refinement.
+    /// (`chairs_01_converged_draft`), `refine` with refinement and `corrected` with the
+    /// denoiser's bias correction.
     pub fn name(&self) -> String {
         let mut name = format!("{}_{}", self.scene, self.method.name());
         if self.sampler != settings(self.method, Quality::Default).sampler {
@@ -191,6 +200,9 @@ impl SceneCase {
         if self.refine_rays > 0 {
             name.push_str("_refine");
         }
+        if self.denoise_correction {
+            name.push_str("_corrected");
+        }
         name
     }
 
@@ -201,6 +213,7 @@ impl SceneCase {
             sampler: self.sampler,
             refine_rays: self.refine_rays,
             refine_error: REFINE_ERROR,
+            denoise_correction: self.denoise_correction,
             ..settings(self.method, self.quality)
         }
     }

@@ -10,7 +10,7 @@ use luxbake::backend::{Dispatch, GpuBackend, SceneData};
 use luxbake::graph::{TexDesc, TexFormat};
 use luxbake::map::MapImage;
 use luxbake::prepare::SceneBvh;
-use luxbake::program::{AtrousConfig, Params, Program, TilePlan, atrous_steps};
+use luxbake::program::{AtrousConfig, Params, Program, TilePlan, atrous_steps, correction_steps};
 use luxbake::rng;
 use luxbake::scene::BvhMode;
 use luxbake_backends::BackendKind;
@@ -199,8 +199,8 @@ fn the_denoiser_passes_agree_across_backends() {
         scene_size: 100.0,
         ..config
     };
-    let default = agree_across_backends(test, &config);
-    let wide = agree_across_backends(test, &quiet);
+    let default = agree_across_backends(test, &atrous_steps(&config), &input());
+    let wide = agree_across_backends(test, &atrous_steps(&quiet), &input());
     // The wide term is taken (where a GPU backend ran too, it agreed on it).
     let changed = default
         .chunks_exact(4)
@@ -210,18 +210,46 @@ fn the_denoiser_passes_agree_across_backends() {
     assert!(changed > 100, "the wide term changed {changed} texels");
 }
 
-/// Every pass of the denoiser with `config` on every backend against the CPU's: the CPU's
-/// last output.
-fn agree_across_backends(test: &str, config: &AtrousConfig) -> Vec<f32> {
-    let inp = input();
-    let steps = atrous_steps(config);
+/// The bias correction's linear filter (`correction_steps`: no luminance term, signed values)
+/// of a residual — the test map less its mean, so that about half its texels are negative —
+/// agrees across backends as the à-trous iterations do, and keeps the signs.
+#[test]
+fn the_bias_corrections_linear_filter_agrees_across_backends() {
+    let test = "atrous::the_bias_corrections_linear_filter_agrees_across_backends";
+    let mut inp = input();
+    let valid: Vec<f32> = inp
+        .map
+        .chunks_exact(4)
+        .filter(|t| t[3] > 0.5)
+        .flat_map(|t| t[..3].to_vec())
+        .collect();
+    let mean = valid.iter().sum::<f32>() / valid.len() as f32;
+    for t in inp.map.chunks_exact_mut(4).filter(|t| t[3] > 0.5) {
+        for c in &mut t[..3] {
+            *c -= mean;
+        }
+    }
+    let config = AtrousConfig::new(5, H).with_correction(true);
+    let steps = correction_steps(&config);
+    assert_eq!(steps.len(), 6);
+    let last = agree_across_backends(test, &steps, &inp);
+    let negative = last
+        .chunks_exact(4)
+        .filter(|t| t[3] > 0.5 && t[0] < 0.0)
+        .count();
+    assert!(negative > 100, "{negative} negative texels");
+}
+
+/// Every pass of `steps` (the denoiser's) on every backend, from the map of `inp`, against
+/// the CPU's: the CPU's last output.
+fn agree_across_backends(test: &str, steps: &[(Program, Params)], inp: &Input) -> Vec<f32> {
     let mut tally = Tally::new(test);
     let mut results = Vec::new();
     for b in BackendKind::ALL {
         let Some(mut opened) = tally.open(b) else {
             continue;
         };
-        let out = run(&mut opened, &inp, &steps).map_err(|e| e.to_string());
+        let out = run(&mut opened, inp, steps).map_err(|e| e.to_string());
         results.push((
             b,
             out.unwrap_or_else(|e| panic!("{test}: {}: {e}", b.name())),

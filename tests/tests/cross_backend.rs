@@ -1,7 +1,8 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
 //! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
-//! gathers run at reduced resolution, and with refinement), `chairs_01` with a second lamp
+//! gathers run at reduced resolution, and with refinement and the denoiser's bias correction),
+//! `chairs_01` with a second lamp
 //! (converged, lamp paths weighted over both lamps), and a room with a lamp 0.1 mm from a wall
 //! (paper method), `chairs_01` with lamps baked from their luminous openings (converged), with
 //! the tolerances of
@@ -32,14 +33,16 @@ fn converged_chairs_01(scene: &'static str) -> SceneCase {
             base.method,
             base.sampler,
             base.quality,
-            base.refine_rays
+            base.refine_rays,
+            base.denoise_correction
         ),
         (
             "chairs_01",
             Method::Converged,
             Sampler::Sobol,
             Quality::Default,
-            0
+            0,
+            false
         )
     );
     SceneCase { scene, ..base }
@@ -108,7 +111,7 @@ case_tests! {
     chairs_01_converged_every_stage_agrees_across_backends = 4;
     sphere_converged_every_stage_agrees_across_backends = 5;
     chairs_01_converged_draft_every_stage_agrees_across_backends = 6;
-    chairs_01_converged_refine_every_stage_agrees_across_backends = 7;
+    chairs_01_converged_refine_corrected_every_stage_agrees_across_backends = 7;
 }
 
 #[test]
@@ -124,7 +127,7 @@ fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
             "chairs_01_converged",
             "sphere_converged",
             "chairs_01_converged_draft",
-            "chairs_01_converged_refine",
+            "chairs_01_converged_refine_corrected",
         ]
     );
 }
@@ -145,6 +148,7 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
         sampler: Sampler::Hash,
         quality: Quality::Default,
         refine_rays: 0,
+        denoise_correction: false,
         stages: SCENES[1].stages,
     };
     let settings = case.settings();

@@ -184,6 +184,7 @@ pub fn bake_room_reading<B: GpuBackend>(
         stride: settings.stride,
         higher_stride: settings.higher_stride,
         refine: Some((settings.refine_rays, settings.refine_error)),
+        denoise_correction: settings.denoise_correction,
         texel_size: room.texel_sizes(),
         // The pool is traced after the direct pass: its size and density scale go into the
         // passes then ([`execute::run`]).

@@ -77,7 +77,7 @@ pub use crate::program::Program;
 use crate::program::{
     ATROUS_MIN_PAIRS, AtrousConfig, CombineParams, ConnectParams, DirectParams, GatherParams,
     MAX_ATROUS_ITERATIONS, Params, RefineParams, UpsampleParams, VarianceParams, atrous_steps,
-    blur_params, coarse,
+    blur_params, coarse, correction_steps,
 };
 use crate::rng::Sampler;
 use crate::scene::{Blur, BvhMode, Method};
@@ -315,6 +315,8 @@ pub struct GraphConfig {
     /// [`Method::Converged`]: progressive refinement of the first bounce, `(rays, max_error)`
     /// ([`Program::Refine`]); `None` or 0 rays: off.
     pub refine: Option<(u32, f32)>,
+    /// [`Method::Converged`] with a denoiser: its bias correction ([`correction_steps`]).
+    pub denoise_correction: bool,
     /// Sampler of the gather directions.
     pub sampler: Sampler,
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
@@ -802,20 +804,32 @@ pub fn atrous_iterations(blur: Blur) -> u32 {
     }
 }
 
-/// Denoises `noisy` in place: the variance estimate into `variance` (with `direct`, the
-/// direct light, in its alpha as the variance pass always writes it), then the à-trous
-/// iterations alternating between `scratch` and `noisy`, ending in `noisy`.
+/// Denoises `noisy` and returns the texture that holds the result: the variance estimate into
+/// `variance` (with `direct`, the direct light, in its alpha as the variance pass always
+/// writes it), then the à-trous iterations. Without the bias correction
+/// ([`correction_steps`]) they alternate between `spare[0]` and `noisy`, ending in `noisy`;
+/// with it they alternate between the spares, keeping the noisy map `x` for the residual
+/// `x − y` of their result `y`, whose linear filter `B` ping-pongs between `noisy` and a
+/// spare; `y + B(x − y)` goes to the texture left free.
 #[allow(clippy::too_many_arguments)]
 fn denoise_stage(
     b: &mut Builder,
     g: GBufferTex,
     noisy: TexId,
-    scratch: TexId,
+    spare: [TexId; 2],
     variance: TexId,
     direct: TexId,
     config: &AtrousConfig,
     bounce: u32,
-) {
+) -> TexId {
+    let correction = correction_steps(config);
+    // The iterations alternate between `noisy` and a spare, or, to keep `x` for the
+    // correction's residual, between the spares.
+    let ping = if correction.is_empty() {
+        [noisy, spare[0]]
+    } else {
+        spare
+    };
     let mut current = noisy;
     // `atrous_steps` yields the variance estimate, then the iterations.
     for (_, params) in atrous_steps(config) {
@@ -829,7 +843,7 @@ fn denoise_stage(
                 params,
             ),
             Params::Atrous(_) => {
-                let target = if current == noisy { scratch } else { noisy };
+                let target = if current == ping[1] { ping[0] } else { ping[1] };
                 b.pass(
                     PassKind::Run(Program::Atrous),
                     "atrous",
@@ -843,6 +857,9 @@ fn denoise_stage(
             _ => {}
         }
     }
+    if !correction.is_empty() {
+        return correct_stage(b, g, [noisy, current], spare, variance, &correction, bounce);
+    }
     if current != noisy {
         b.pass(
             PassKind::Run(Program::Copy),
@@ -853,6 +870,61 @@ fn denoise_stage(
             Params::None,
         );
     }
+    noisy
+}
+
+/// The bias correction `y + B(x − y)` ([`correction_steps`]) of the à-trous filter's output
+/// `y` from the noisy map `x` (`[x, y]`), through `x`'s texture and the spare `y` is not in:
+/// returns the texture of the result.
+fn correct_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    [noisy, y]: [TexId; 2],
+    spare: [TexId; 2],
+    variance: TexId,
+    correction: &[(Program, Params)],
+    bounce: u32,
+) -> TexId {
+    let textures = [noisy, spare[0], spare[1]];
+    let other = |a: TexId, b: TexId| -> TexId {
+        *textures
+            .iter()
+            .find(|&&t| t != a && t != b)
+            .expect("three textures")
+    };
+    // The residual `x − y`, signed, into the spare `y` is not in.
+    let mut residual = other(noisy, y);
+    b.pass(
+        PassKind::Run(Program::Combine),
+        "residual",
+        vec![noisy, y],
+        vec![residual],
+        bounce,
+        Params::Combine(CombineParams::RESIDUAL),
+    );
+    // `B(x − y)`, between that spare and `noisy` (`x` is no longer read).
+    for &(_, params) in correction {
+        let target = other(y, residual);
+        b.pass(
+            PassKind::Run(Program::Atrous),
+            "correction",
+            vec![residual, variance, g.position, g.normal],
+            vec![target],
+            bounce,
+            params,
+        );
+        residual = target;
+    }
+    let out = other(y, residual);
+    b.pass(
+        PassKind::Run(Program::Combine),
+        "corrected",
+        vec![y, residual],
+        vec![out],
+        bounce,
+        Params::Combine(CombineParams::SUM),
+    );
+    out
 }
 
 /// The converged pipeline ([`Method::Converged`], see the module docs).
@@ -900,6 +972,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 config.texel_size[0],
                 config.rays,
             )
+            .with_correction(config.denoise_correction)
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
@@ -1050,22 +1123,30 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             b.last().runtime = Some(Runtime::TailWeight);
         }
         b.when = RunWhen::Always;
-        // The indirect light (explicit bounces and tail) is noisy: denoise it in place,
-        // through `delta`, which nothing reads any more.
-        if let Some(variance) = variance {
-            denoise_stage(
-                &mut b,
-                g,
-                scratch,
-                delta,
-                variance,
-                direct,
-                &denoise,
-                config.bounces,
-            );
-        }
+        // The indirect light (explicit bounces and tail) is noisy: denoise it through
+        // `delta`, which nothing reads any more (and, for the bias correction, `residual`).
+        let indirect = match variance {
+            Some(variance) => {
+                let spare = if correction_steps(&denoise).is_empty() {
+                    delta
+                } else {
+                    b.texture("residual")
+                };
+                denoise_stage(
+                    &mut b,
+                    g,
+                    scratch,
+                    [delta, spare],
+                    variance,
+                    direct,
+                    &denoise,
+                    config.bounces,
+                )
+            }
+            None => scratch,
+        };
         let combined = b.texture("combined");
-        combine_stage(&mut b, direct, scratch, combined, config.bounces);
+        combine_stage(&mut b, direct, indirect, combined, config.bounces);
         let reflected_combined = b.texture("reflected_combined");
         albedo_stage(
             &mut b,
@@ -1076,7 +1157,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             "albedo_combined",
         );
         figure5.stages[4..]
-            .copy_from_slice(&[scratch, combined, combined, reflected_combined].map(Some));
+            .copy_from_slice(&[indirect, combined, combined, reflected_combined].map(Some));
     }
     b.finish(GraphParts {
         gbuffer: g,
@@ -1401,6 +1482,7 @@ mod tests {
             stride: 1,
             higher_stride: 1,
             refine: None,
+            denoise_correction: false,
             texel_size: [1.0 / 64.0; 2],
             sampler: Sampler::Sobol,
             lamp_paths: (0, 0.0),
@@ -1628,9 +1710,16 @@ mod tests {
 
     #[test]
     fn the_converged_graph_accumulates_filtered_increments_and_finishes_with_the_tail() {
-        for blur in [Blur::None, Blur::Sigma(2.0)] {
+        for (blur, correction) in [
+            (Blur::None, false),
+            (Blur::Sigma(2.0), false),
+            (Blur::Sigma(2.0), true),
+        ] {
             for bounces in 0..4 {
-                let g = BakeGraph::build(&converged(bounces, blur));
+                let g = BakeGraph::build(&GraphConfig {
+                    denoise_correction: correction,
+                    ..converged(bounces, blur)
+                });
                 assert_eq!(g.validate(), Ok(()), "{bounces} {blur:?}");
                 assert_eq!(g.method, Method::Converged);
                 assert_eq!(g.bounces, bounces);
@@ -1721,11 +1810,28 @@ mod tests {
                 }
                 let labels: Vec<_> = finish(&g).iter().map(|p| p.label).collect();
                 // After the bounces and the tail: the variance estimate and four à-trous
-                // iterations (σ 2) that end back in the indirect map, once; no Gaussian blur.
+                // iterations (σ 2) that end back in the indirect map, with the bias
+                // correction the residual, five iterations of its linear filter and the
+                // corrected sum, once; no Gaussian blur.
                 let filter: &[&str] = if blur == Blur::None {
                     &[]
-                } else {
+                } else if !correction {
                     &["variance", "atrous", "atrous", "atrous", "atrous"]
+                } else {
+                    &[
+                        "variance",
+                        "atrous",
+                        "atrous",
+                        "atrous",
+                        "atrous",
+                        "residual",
+                        "correction",
+                        "correction",
+                        "correction",
+                        "correction",
+                        "correction",
+                        "corrected",
+                    ]
                 };
                 let want: Vec<&str> = filter
                     .iter()
@@ -1733,6 +1839,9 @@ mod tests {
                     .chain(["combine", "albedo_combined"])
                     .collect();
                 assert_eq!(labels, want);
+                if correction && bounces > 0 {
+                    assert_bias_corrected(finish(&g));
+                }
                 let count =
                     |f: fn(&PassKind) -> bool| g.passes.iter().filter(|p| f(&p.kind)).count();
                 assert_eq!(count(|k| *k == PassKind::Run(Program::Blur)), 0);
@@ -1748,6 +1857,39 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The denoiser's passes `finish` (from the variance estimate to the final combine) chain
+    /// `y + B(x − y)`: the residual of the noisy map `x` (what the variance estimate and the
+    /// first iteration read) and the à-trous result `y`; `B`'s linear iterations from it, each
+    /// reading the last one's output; the sum of `y` and `B`'s result, which the combine with
+    /// the direct light reads; no pass writes `x` or `y` before they are read.
+    fn assert_bias_corrected(finish: &[PassDesc]) {
+        let find = |label: &str| finish.iter().position(|p| p.label == label).expect(label);
+        let x = finish[find("variance")].reads[0];
+        let atrous: Vec<&PassDesc> = finish.iter().filter(|p| p.label == "atrous").collect();
+        assert_eq!(atrous[0].reads[0], x);
+        let y = atrous.last().expect("à-trous").writes[0];
+        let residual = &finish[find("residual")];
+        assert_eq!(residual.reads, [x, y]);
+        assert_eq!(residual.params, Params::Combine(CombineParams::RESIDUAL));
+        let mut last = residual.writes[0];
+        for p in finish.iter().filter(|p| p.label == "correction") {
+            assert_eq!(p.kind, PassKind::Run(Program::Atrous));
+            assert!(
+                matches!(p.params, Params::Atrous(a) if a.linear == 1),
+                "{p:?}"
+            );
+            assert_eq!(p.reads[0], last);
+            assert!(![y, last].contains(&p.writes[0]), "{p:?}");
+            last = p.writes[0];
+        }
+        let corrected = &finish[find("corrected")];
+        assert_eq!(corrected.reads, [y, last]);
+        assert_eq!(corrected.params, Params::Combine(CombineParams::SUM));
+        let out = corrected.writes[0];
+        assert!(![y, last].contains(&out));
+        assert_eq!(finish[find("combine")].reads[1], out);
     }
 
     fn kinds(g: &BakeGraph) -> Vec<&'static str> {

@@ -140,6 +140,10 @@ pub struct AtrousConfig {
     /// every real lamp; being a power of two it changes no bit of the result where nothing
     /// overflows or underflows (`Δl²/σ²` is the same quotient).
     pub luminance_scale: f32,
+    /// Iterations of the bias correction's linear filter of the residual (see
+    /// [`correction_steps`]); 0: no correction ([`AtrousConfig::new`]'s).
+    /// [`AtrousConfig::with_correction`] sets one more than [`AtrousConfig::iterations`].
+    pub correction_iterations: u32,
 }
 
 impl AtrousConfig {
@@ -158,6 +162,7 @@ impl AtrousConfig {
             wide_max_relative_variance: ATROUS_WIDE_MAX_RELATIVE_VARIANCE,
             scene_size: 0.0,
             luminance_scale: 1.0,
+            correction_iterations: 0,
         }
     }
 
@@ -173,6 +178,19 @@ impl AtrousConfig {
         AtrousConfig {
             early_sigma_luminance: early_sigma_luminance_for(rays),
             ..AtrousConfig::new(iterations, texel_size)
+        }
+    }
+
+    /// The config with the bias correction ([`correction_steps`]) on — one iteration more
+    /// than the filter's, none without iterations — or off.
+    pub fn with_correction(self, on: bool) -> AtrousConfig {
+        AtrousConfig {
+            correction_iterations: if on && self.iterations > 0 {
+                self.iterations + 1
+            } else {
+                0
+            },
+            ..self
         }
     }
 
@@ -379,7 +397,6 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// estimate is then at most about a sixth over σ² (the luminance term at most 8 % wider),
 /// where the blocks' sums are nearly free of noise, i.e. where the denoiser averages them best.
 pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
-    let (reach, reach_min) = (config.reach(), config.reach_min());
     let early = |i: u32| i < config.early_iterations;
     let sigma2 = |i: u32| {
         let s = if early(i) {
@@ -390,13 +407,12 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         f64::from(s) * f64::from(s)
     };
     let wide2 = f64::from(config.early_sigma_luminance).powi(2);
-    let luminance_scale = config.luminance_scale();
     let mut steps = vec![(
         Program::Variance,
         Params::Variance(VarianceParams {
-            reach,
+            reach: config.reach(),
             min_pairs: ATROUS_MIN_PAIRS,
-            luminance_scale,
+            luminance_scale: config.luminance_scale(),
             ..VarianceParams::default()
         }),
     )];
@@ -407,22 +423,90 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         (
             Program::Atrous,
             Params::Atrous(AtrousParams {
-                step: 1 << i,
-                reach,
-                reach_min,
-                normal_log2: config.normal_log2,
                 variance_scale: (sigma2(i) * b3_noise_factor(i)) as f32,
-                luminance_scale,
                 wide_variance_scale: (wide2 * b3_noise_factor(i)) as f32,
                 wide_max_relative_variance: if early(i) || !short {
                     0.0
                 } else {
                     config.wide_max_relative_variance
                 },
+                ..iteration(config, i)
             }),
         )
     }));
     steps
+}
+
+/// The bias correction of the denoiser ([`atrous_steps`]): the linear filter `B` of the
+/// residual `x − y` (`x` the noisy map, `y` the à-trous output), whose result is added back:
+/// the denoised map is `y + B(x − y)`. [`AtrousConfig::correction_iterations`] iterations of
+/// [`Program::Atrous`] with [`AtrousParams::linear`]: steps 1, 2, 4, …, the B3 spline, the
+/// normal weight and the chart test in mirrored pairs as in [`atrous_steps`], no luminance
+/// term, signed values. Empty when the config has no iterations or no correction
+/// ([`AtrousConfig::with_correction`]; the bake's [`crate::scene::Settings::denoise_correction`]).
+///
+/// # Why
+/// A symmetric filter of a curved signal is biased by the curvature times the kernel's
+/// second moment: for a kernel `K` of unit weight, `E[Kx](p) − s(p) ≈ ½·m₂(K)·∇²s(p)`. The
+/// luminance term narrows the kernel only where the signal's steps stand out of the noise;
+/// below the noise the à-trous filter averages the light's curvature away. The chairs'
+/// furniture reads low at the reference points at the `default` preset (sixteen seeds,
+/// `bench refcheck`: −0.41 … −0.66 %; more rays narrow the luminance term and remove it:
+/// `final` reads −0.03 %), and a wider luminance term makes it worse (σ_l 16 in the last
+/// iteration: −1.0 … −1.2 %), so it is the curvature, not the luminance term's skew.
+///
+/// # The rule
+/// With `A` the à-trous filter and `B` any filter of unit weight that is symmetric, the
+/// corrected filter `A + B − B·A` (i.e. `y + B(x − y)`) has unit weight and, since the second
+/// moments of a convolution add, second moment `m₂(A) + m₂(B) − (m₂(A) + m₂(B)) = 0`: the
+/// curvature's bias cancels whatever `B` is (Tukey's "twicing" is `B = A`). What `B` decides
+/// is the noise that comes back with the residual: the residual is mostly the noise the
+/// à-trous filter removed, and `B` must average it again. A `B` as wide as `A` (twicing)
+/// gave back much of the noise (`chairs_01`'s furniture 1.26 → 1.38 % mean |rel|); one
+/// iteration wider than `A` keeps the noise where it was while the furniture's bias falls by
+/// 40 % — on the chairs' aprons, legs and backs from −0.8 … −0.9 % to −0.3 %, while the
+/// seats' undersides, dark and lit from below, keep most of theirs (−1.2 … −1.3 % to
+/// −1.0 … −1.2 %) — (the figures are in `docs/performance.md`, "The denoiser's bias
+/// corrected"). Skipping `B`'s fine steps
+/// (steps 4 and 8 only) aliases the residual's noise (7.6 % on the furniture). `B` needs no luminance term: with σ_l 4 in its iterations the
+/// result was the same within the seeds' spread, and without it `B` is linear, so the
+/// residual's noise averages as white noise does and the iterations are cheaper (no
+/// exponential per tap).
+///
+/// The residual is signed: [`Program::Combine`] with [`CombineParams::RESIDUAL`] keeps its
+/// negative values ([`crate::exact::guard_signed`]), and so does the linear filter; the final
+/// sum `y + B(x − y)` is clamped at 0 like every reported map. At a chart's edge and at a
+/// contact the mirrored pairs keep `B` point-symmetric, so a linear residual passes
+/// unchanged, as in [`atrous_steps`]. As the rays grow, `x − y` shrinks to the curvature
+/// term alone, and the correction with it: the corrected filter stays consistent.
+pub fn correction_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
+    if config.iterations == 0 {
+        return Vec::new();
+    }
+    (0..config.correction_iterations.min(MAX_ATROUS_ITERATIONS))
+        .map(|i| {
+            (
+                Program::Atrous,
+                Params::Atrous(AtrousParams {
+                    linear: 1,
+                    ..iteration(config, i)
+                }),
+            )
+        })
+        .collect()
+}
+
+/// What iteration `i` of [`atrous_steps`] and of [`correction_steps`] share: its step
+/// `2^i`, its chart test, its normal weight and the luminance scale (no luminance term).
+fn iteration(config: &AtrousConfig, i: u32) -> AtrousParams {
+    AtrousParams {
+        step: 1 << i,
+        reach: config.reach(),
+        reach_min: config.reach_min(),
+        normal_log2: config.normal_log2,
+        luminance_scale: config.luminance_scale(),
+        ..AtrousParams::default()
+    }
 }
 
 /// How one pass is split into dispatches: row tiles of about `tile_work` evaluations
@@ -559,6 +643,29 @@ mod tests {
     }
 
     #[test]
+    fn the_correction_is_one_linear_iteration_more_than_the_filter() {
+        let config = AtrousConfig::new(3, 0.04).with_correction(true);
+        let steps = correction_steps(&config);
+        assert_eq!(steps.len(), 4);
+        for (i, (program, params)) in steps.iter().enumerate() {
+            assert!(program.takes(params), "{program:?} {params:?}");
+            let Params::Atrous(a) = *params else {
+                panic!("{params:?}");
+            };
+            assert_eq!((a.step, a.linear), (1 << i, 1));
+            assert_eq!((a.reach, a.reach_min), (config.reach(), config.reach_min()));
+            assert_eq!(a.normal_log2, ATROUS_NORMAL_LOG2);
+            assert_eq!(a.wide_max_relative_variance, 0.0);
+        }
+        // None unless asked for, and no filter, no correction.
+        assert!(correction_steps(&AtrousConfig::new(3, 0.04)).is_empty());
+        assert!(correction_steps(&config.with_correction(false)).is_empty());
+        let none = AtrousConfig::new(0, 0.04).with_correction(true);
+        assert_eq!(none.correction_iterations, 0);
+        assert!(correction_steps(&none).is_empty());
+    }
+
+    #[test]
     fn atrous_steps_list_the_variance_pass_then_doubling_steps() {
         assert_eq!(b3_noise_factor(0), 1.0);
         assert!((b3_noise_factor(1) - (70.0f64 / 256.0).powi(2)).abs() < 1e-15);
@@ -628,6 +735,7 @@ mod tests {
                 // Already wide: no texel takes another term.
                 wide_variance_scale: 4096.0,
                 wide_max_relative_variance: 0.0,
+                ..AtrousParams::default()
             })
         );
         let Params::Atrous(third) = steps[3].1 else {

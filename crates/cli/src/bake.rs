@@ -114,6 +114,11 @@ pub struct Args {
     /// Converged: the relative standard error per texel that refinement aims at.
     #[arg(long)]
     refine_error: Option<f32>,
+    /// Converged: the denoiser's bias correction (true or false; the `final` preset: true):
+    /// its residual filtered once more and added back, which cancels its bias where the light
+    /// curves within its kernel.
+    #[arg(long)]
+    denoise_correction: Option<bool>,
     /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
     #[arg(long)]
     lamp_paths: Option<u32>,
@@ -161,6 +166,7 @@ impl Args {
             higher_stride: self.higher_stride,
             refine_rays: self.refine_rays,
             refine_error: self.refine_error,
+            denoise_correction: self.denoise_correction,
             lamp_paths: self.lamp_paths,
             opening_samples: self.opening_samples,
             opening_probe_stride: self.opening_probe_stride,

@@ -829,6 +829,13 @@ pub struct Settings {
     /// [`Method::Converged`]: the relative standard error per texel that refinement aims at
     /// (of the first bounce's noise over the direct light and the first bounce together).
     pub refine_error: f32,
+    /// [`Method::Converged`] with [`Settings::blur`]: the denoiser's bias correction — the
+    /// à-trous filter's residual filtered once more and added back, `y + B(x − y)`, which
+    /// cancels the filter's bias where the light curves within its kernel (the chairs' seat
+    /// undersides and aprons; `luxbake::program::correction_steps`). One more filter
+    /// iteration than [`Settings::blur`]'s, without the luminance term, and a light map of
+    /// memory.
+    pub denoise_correction: bool,
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance
     /// sampling (`luxbake::lightpaths`); 0 = the gather alone ([`Method::Paper`] ignores it).
@@ -884,6 +891,7 @@ impl Settings {
             higher_stride: 1,
             refine_rays: 0,
             refine_error: 0.1,
+            denoise_correction: false,
             lamp_paths: 0,
             opening_samples: 32,
             opening_probe_stride: Settings::OPENING_PROBE_STRIDE,
@@ -1179,6 +1187,8 @@ pub struct SettingsPatch {
     pub refine_rays: Option<u32>,
     /// [`Settings::refine_error`].
     pub refine_error: Option<f32>,
+    /// [`Settings::denoise_correction`].
+    pub denoise_correction: Option<bool>,
     /// [`Settings::lamp_paths`].
     pub lamp_paths: Option<u32>,
     /// [`Settings::opening_samples`].
@@ -1189,7 +1199,7 @@ pub struct SettingsPatch {
 
 impl SettingsPatch {
     /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
-    pub const KEYS: [&'static str; 19] = [
+    pub const KEYS: [&'static str; 20] = [
         "method",
         "quality",
         "rays",
@@ -1209,6 +1219,7 @@ impl SettingsPatch {
         "lamp_paths",
         "opening_samples",
         "opening_probe_stride",
+        "denoise_correction",
     ];
 
     /// A patch from `key → value` entries of any serde format (a TOML table, a JSON object);
@@ -1288,6 +1299,7 @@ impl SettingsPatch {
             higher_stride: other.higher_stride.or(base.higher_stride),
             refine_rays: other.refine_rays.or(base.refine_rays),
             refine_error: other.refine_error.or(base.refine_error),
+            denoise_correction: other.denoise_correction.or(base.denoise_correction),
             lamp_paths: other.lamp_paths.or(base.lamp_paths),
             opening_samples: other.opening_samples.or(base.opening_samples),
             opening_probe_stride: other.opening_probe_stride.or(base.opening_probe_stride),
@@ -1325,6 +1337,7 @@ impl SettingsPatch {
         set(&mut s.higher_stride, self.higher_stride);
         set(&mut s.refine_rays, self.refine_rays);
         set(&mut s.refine_error, self.refine_error);
+        set(&mut s.denoise_correction, self.denoise_correction);
         set(&mut s.lamp_paths, self.lamp_paths);
         set(&mut s.opening_samples, self.opening_samples);
         set(&mut s.opening_probe_stride, self.opening_probe_stride);

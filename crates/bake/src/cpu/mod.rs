@@ -757,7 +757,7 @@ mod denoiser_tests {
     use crate::passes::blur::cpu::*;
     use crate::passes::upsample::cpu::*;
     use crate::passes::variance::cpu::*;
-    use crate::program::{AtrousConfig, Params, atrous_steps, blur_params};
+    use crate::program::{AtrousConfig, Params, atrous_steps, blur_params, correction_steps};
     use crate::program::{GatherParams, UpsampleParams, coarse};
     use crate::rng;
 
@@ -836,7 +836,46 @@ mod denoiser_tests {
         }
 
         /// The variance map and the output of `config`'s passes.
+        /// The denoiser as the graph chains it: the variance estimate, the à-trous iterations
+        /// and the bias correction `y + B(x − y)` ([`correction_steps`]): the variance map and
+        /// the result.
         fn denoise(&self, config: &AtrousConfig) -> (Vec<f32>, Vec<f32>) {
+            let (variance, y) = self.atrous(config);
+            let correction = correction_steps(config);
+            if correction.is_empty() {
+                return (variance, y);
+            }
+            let size = self.size;
+            let (pos, nrm) = (view(&self.pos, size), view(&self.nrm, size));
+            // `Program::Combine` with `CombineParams::RESIDUAL`, then `SUM`.
+            let combine = |a: &[f32], b: &[f32], w: f32, g: fn(f32) -> f32| -> Vec<f32> {
+                a.chunks_exact(4)
+                    .zip(b.chunks_exact(4))
+                    .flat_map(|(a, b)| {
+                        [
+                            g(a[0] + w * b[0]),
+                            g(a[1] + w * b[1]),
+                            g(a[2] + w * b[2]),
+                            a[3],
+                        ]
+                    })
+                    .collect()
+            };
+            let mut residual = combine(&self.map, &y, -1.0, guard_signed);
+            for (_, params) in correction {
+                let Params::Atrous(p) = params else {
+                    panic!("{params:?}")
+                };
+                let src = residual.clone();
+                let maps = [view(&src, size), view(&variance, size), pos, nrm];
+                residual = apply(size, |at| atrous_texel(maps, p, None, at));
+            }
+            (variance, combine(&y, &residual, 1.0, guard))
+        }
+
+        /// The variance estimate and the à-trous iterations alone ([`atrous_steps`]): the
+        /// variance map and the filtered map.
+        fn atrous(&self, config: &AtrousConfig) -> (Vec<f32>, Vec<f32>) {
             let size = self.size;
             let (pos, nrm) = (view(&self.pos, size), view(&self.nrm, size));
             let mut variance = Vec::new();
@@ -893,6 +932,55 @@ mod denoiser_tests {
     }
 
     const ITERATIONS: u32 = 5;
+
+    /// The bias correction `y + B(x − y)` ([`correction_steps`]) cancels the à-trous filter's
+    /// curvature bias: on a noiseless paraboloid peaking mid-chart (as the light on a seat's
+    /// underside does), with a luminance term wide enough for the à-trous filter to average
+    /// it (as noise makes it do), the à-trous filter alone reads low by half its kernel's
+    /// second moment times the Laplacian (3 iterations: 21 texels² per axis), and the
+    /// corrected filter returns the paraboloid within a fiftieth of that where every tap of
+    /// both lies on the chart; at the chart's edges (mirrored pairs) its error is still
+    /// smaller.
+    #[test]
+    fn the_correction_cancels_the_curvature_bias() {
+        let light = |x: u32, y: u32| {
+            let (dx, dy) = (x as f32 - 49.5, y as f32 - 49.5);
+            40.0 - 0.002 * (dx * dx + dy * dy)
+        };
+        let f = Field::flat([100, 100], light);
+        let config = AtrousConfig {
+            sigma_luminance: 1e4,
+            early_sigma_luminance: 1e4,
+            ..AtrousConfig::new(3, H).with_correction(true)
+        };
+        assert_eq!(config.correction_iterations, 4);
+        let (_, a) = f.atrous(&config);
+        let (_, c) = f.denoise(&config);
+        // Taps of B (4 iterations) reach 2·15 texels; those of A 2·7.
+        let inner = 30..70u32;
+        let (mut worst_a, mut worst_c, mut inner_a, mut inner_c) = (0f32, 0f32, 0f32, 0f32);
+        for y in 0..100 {
+            for x in 0..100 {
+                let (i, s) = (f.index(x, y), light(x, y));
+                let (ea, ec) = (a[i] - s, c[i] - s);
+                (worst_a, worst_c) = (worst_a.max(ea.abs()), worst_c.max(ec.abs()));
+                if inner.contains(&x) && inner.contains(&y) {
+                    // ½ · 21 · ∇²s = ½ · 21 · (−0.008) = −0.084.
+                    assert!((ea + 0.084).abs() < 2e-3, "({x}, {y}): à-trous {ea}");
+                    (inner_a, inner_c) = (inner_a.max(ea.abs()), inner_c.max(ec.abs()));
+                }
+            }
+        }
+        // What is left is a fiftieth of the bias (in f32, of a field of 40: 3e-5 relative).
+        assert!(
+            inner_c < 0.02 * inner_a,
+            "corrected {inner_c} against {inner_a}"
+        );
+        assert!(
+            worst_c < 0.5 * worst_a,
+            "corrected {worst_c} against {worst_a}"
+        );
+    }
 
     #[test]
     fn a_constant_field_is_returned_exactly() {
@@ -1455,11 +1543,12 @@ mod guide_mask_tests {
     /// give every texel what the texel-by-texel filter gives without kept chart tests, bit for
     /// bit: on a furnished room's G-buffer (charts side by side, contacts, chart edges, empty
     /// texels), a noisy map with spikes, variances from 0 (no range weight) to large, at
-    /// every step the denoiser uses and normal powers 1, 2⁰ … 2⁵.
+    /// every step the denoiser uses and normal powers 1, 2⁰ … 2⁵; and the bias correction's
+    /// linear filter on a signed residual.
     #[test]
     fn atrous_blocks_equal_the_texel_by_texel_filter() {
         use crate::passes::atrous::cpu::{atrous_block, atrous_texel};
-        use crate::program::{Params, atrous_steps};
+        use crate::program::{Params, atrous_steps, correction_steps};
         use crate::rng;
         let room = chairs_01_room();
         let g = &room.gbuffer;
@@ -1484,13 +1573,24 @@ mod guide_mask_tests {
             // (`AtrousParams::wide_max_relative_variance`), the others not.
             var[4 * i + 1] = if i % 3 == 0 { 0.0 } else { 25.0 };
         }
-        let (src, variance) = (View::new(&map, size, layers), View::new(&var, size, layers));
-        let config = AtrousConfig::new(4, 1.0 / 12.0);
+        // The bias correction's linear filter reads a signed residual: the same light less 30.
+        let signed: Vec<f32> = map
+            .chunks_exact(4)
+            .flat_map(|t| [t[0] - 30.0, t[1] - 30.0, t[2] - 30.0, t[3]])
+            .collect();
+        let variance = View::new(&var, size, layers);
+        let config = AtrousConfig::new(4, 1.0 / 12.0).with_correction(true);
         let (mut compared, mut vector, mut wide) = (0usize, 0usize, 0usize);
-        for (_, params) in atrous_steps(&config) {
+        let negative = std::cell::Cell::new(0usize);
+        for (_, params) in atrous_steps(&config)
+            .into_iter()
+            .chain(correction_steps(&config))
+        {
             let Params::Atrous(base) = params else {
                 continue;
             };
+            let linear = base.linear != 0;
+            let src = View::new(if linear { &signed } else { &map }, size, layers);
             for normal_log2 in [base.normal_log2, 0, 5] {
                 // The later iterations with the wide term where the noise is low (at this
                 // texel size their taps reach too far for the default to allow it).
@@ -1513,11 +1613,16 @@ mod guide_mask_tests {
                 let (c, v) = compare_blocks(
                     (size, layers),
                     |at, out| atrous_block(maps, p, &masks, at, out),
-                    |at| atrous_texel(maps, p, None, at),
+                    |at| {
+                        let t = atrous_texel(maps, p, None, at);
+                        negative.set(negative.get() + usize::from(t[0] < 0.0));
+                        t
+                    },
                 );
                 (compared, vector) = (compared + c, vector + v);
-                // The wide term is taken, and changes texels, where the rule says.
-                if p.wide_max_relative_variance > 0.0 {
+                // The wide term is taken, and changes texels, where the rule says (never in
+                // the linear filter).
+                if p.wide_max_relative_variance > 0.0 && !linear {
                     let narrow = crate::passes::atrous::AtrousParams {
                         wide_max_relative_variance: 0.0,
                         ..p
@@ -1537,6 +1642,8 @@ mod guide_mask_tests {
         }
         assert_lanes_used(compared, vector);
         assert!(wide > 100, "the wide term changed {wide} texels");
+        // The linear filter keeps the residual's sign.
+        assert!(negative.get() > 1000, "{} negative texels", negative.get());
     }
 
     /// Every texel of maps of `size` and `layers`, in blocks of [`LANES`] along each row with

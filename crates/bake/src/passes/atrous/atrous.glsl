@@ -11,6 +11,8 @@
 // inside a wide chart with little noise (every pair counts, variance under
 // u_wide_max_relative_variance x the window's squared mean; program::atrous_steps, "Wide charts
 // with little noise"): both sums are taken there, the one that counts known at the end.
+// u_linear: the bias correction's filter of a residual (program::correction_steps): no
+// luminance term, signed values kept, the variance map not read.
 
 float luxB3(int i) {
     return i == 0 ? 0.375 : (i == 1 || i == -1 ? 0.25 : 0.0625);
@@ -21,15 +23,17 @@ vec4 luxRun(ivec3 c) {
     if (centre.a <= 0.5) {
         return vec4(0.0);
     }
-    vec4 kept = vec4(luxGuard3(centre.rgb), 1.0);
+    bool linear = u_linear != 0u;
+    vec4 kept = vec4(linear ? luxGuardSigned3(centre.rgb) : luxGuard3(centre.rgb), 1.0);
     LuxGuide g;
     if (!luxGuide(c, u_reach_min, u_reach, g)) {
         return kept;
     }
-    vec4 v = texelFetch(u_variance, c, 0);
+    // The linear filter does not read the variance map.
+    vec4 v = linear ? vec4(0.0) : texelFetch(u_variance, c, 0);
     float scale = u_variance_scale * v.r;
     float wide = u_wide_variance_scale * v.r;
-    bool quiet = u_wide_max_relative_variance > 0.0 &&
+    bool quiet = !linear && u_wide_max_relative_variance > 0.0 &&
                  v.r < u_wide_max_relative_variance * (v.g * v.g);
     // A step beyond the layer only reaches the centre (and cannot overflow).
     int step = u_step;
@@ -74,7 +78,7 @@ vec4 luxRun(ivec3 c) {
             for (int s = 0; s < (quiet ? 2 : 1); ++s) {
                 float sc = s == 0 ? scale : wide;
                 float wl;
-                if (dl == 0.0) {
+                if (linear || dl == 0.0) {
                     wl = 1.0;
                 } else if (sc > 0.0) {
                     wl = exp(-(dl * dl) / sc);
@@ -100,8 +104,8 @@ vec4 luxRun(ivec3 c) {
         wsum = wideWsum;
     }
     if (wsum > 0.0) {
-        return vec4(luxGuard3(vec3(centre.r + sum.x / wsum, centre.g + sum.y / wsum,
-                                   centre.b + sum.z / wsum)), 1.0);
+        vec3 r = vec3(centre.r + sum.x / wsum, centre.g + sum.y / wsum, centre.b + sum.z / wsum);
+        return vec4(linear ? luxGuardSigned3(r) : luxGuard3(r), 1.0);
     }
     return kept;
 }

@@ -97,6 +97,8 @@ mod avx2 {
     ) -> Option<usize> {
         let [src, variance, pos, nrm] = maps;
         let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
+        let linear = params.linear != 0;
+        let g = if linear { guard_signed } else { guard };
         // Per lane the centre's value, its variance scales and whether it is quiet
         // (`quiet`: all ones).
         let mut lanes = [[0.0f32; LANES]; 6];
@@ -106,9 +108,14 @@ mod avx2 {
                 x: at.x + l as u32,
                 ..at
             };
-            let v = variance.fetch(t);
+            // The linear filter does not read the variance map.
+            let v = if linear { [0.0; 4] } else { variance.fetch(t) };
             let scales = [params.variance_scale * v[0], params.wide_variance_scale * v[0]];
-            let flag = if quiet(params, v) { f32::from_bits(!0) } else { 0.0 };
+            let flag = if !linear && quiet(params, v) {
+                f32::from_bits(!0)
+            } else {
+                0.0
+            };
             for (v, lane) in [c[0], c[1], c[2], scales[0], scales[1], flag]
                 .into_iter()
                 .zip(&mut lanes)
@@ -149,16 +156,28 @@ mod avx2 {
                     _mm256_sub_ps(t[1], c1),
                     _mm256_sub_ps(t[2], c2),
                 ];
-                let dl = _mm256_mul_ps(luminance8(d), set(params.luminance_scale));
-                let minus_dl2 = _mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0));
-                let dl_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero);
+                let (minus_dl2, dl_zero) = if linear {
+                    (zero, zero)
+                } else {
+                    let dl = _mm256_mul_ps(luminance8(d), set(params.luminance_scale));
+                    (
+                        _mm256_xor_ps(_mm256_mul_ps(dl, dl), set(-0.0)),
+                        _mm256_cmp_ps::<_CMP_EQ_OQ>(dl, zero),
+                    )
+                };
                 let sets = 1 + usize::from(any_quiet);
                 for (s, scale) in sums.iter_mut().zip([scale, wide]).take(sets) {
-                    // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
-                    let x = _mm256_div_ps(minus_dl2, scale);
-                    let wl = _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
-                    let wl = _mm256_blendv_ps(wl, set(1.0), dl_zero);
-                    let w = _mm256_mul_ps(_mm256_mul_ps(b3, wn), wl);
+                    let w = if linear {
+                        // No luminance term (a factor 1 in the texel's reference).
+                        _mm256_mul_ps(b3, wn)
+                    } else {
+                        // −(dl²) / scale, its exponential where scale > 0, and 1 where dl = 0.
+                        let x = _mm256_div_ps(minus_dl2, scale);
+                        let wl =
+                            _mm256_and_ps(exp8(x), _mm256_cmp_ps::<_CMP_GT_OQ>(scale, zero));
+                        let wl = _mm256_blendv_ps(wl, set(1.0), dl_zero);
+                        _mm256_mul_ps(_mm256_mul_ps(b3, wn), wl)
+                    };
                     let counts = _mm256_and_ps(pair, _mm256_cmp_ps::<_CMP_GT_OQ>(w, zero));
                     let add = |s: __m256, v: __m256| _mm256_add_ps(s, _mm256_and_ps(counts, v));
                     s[0] = add(s[0], _mm256_mul_ps(w, d[0]));
@@ -184,9 +203,9 @@ mod avx2 {
             let c = [lanes[0][l], lanes[1][l], lanes[2][l]];
             let wsum = sums[3][l];
             let r = if wsum > 0.0 {
-                [0, 1, 2].map(|q| guard(c[q] + sums[q][l] / wsum))
+                [0, 1, 2].map(|q| g(c[q] + sums[q][l] / wsum))
             } else {
-                c.map(guard)
+                c.map(g)
             };
             o.copy_from_slice(&[r[0], r[1], r[2], 1.0]);
         }
@@ -215,7 +234,9 @@ pub(crate) fn atrous_texel(
     if c[3] <= 0.5 {
         return [0.0; 4];
     }
-    let kept = [guard(c[0]), guard(c[1]), guard(c[2]), 1.0];
+    let linear = params.linear != 0;
+    let g = if linear { guard_signed } else { guard };
+    let kept = [g(c[0]), g(c[1]), g(c[2]), 1.0];
     let reach = [params.reach_min, params.reach];
     let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
         return kept;
@@ -226,7 +247,7 @@ pub(crate) fn atrous_texel(
     // Inside a wide chart with little noise the wide term (`program::atrous_steps`, "Wide
     // charts with little noise"): both sums are taken, the wide one only where the noise is
     // low, and which one counts is known once every pair has been tested.
-    let quiet = quiet(params, v);
+    let quiet = !linear && quiet(params, v);
     let scales = [scale, params.wide_variance_scale * v[0]];
     let step = i64::from(params.step);
     let mut sums = [[0.0f32; 4]; 2];
@@ -260,7 +281,7 @@ pub(crate) fn atrous_texel(
             let d = [t[0] - c[0], t[1] - c[1], t[2] - c[2]];
             let dl = luminance(d) * params.luminance_scale;
             for (sum, scale) in sums.iter_mut().zip(scales).take(1 + usize::from(quiet)) {
-                let wl = if dl == 0.0 {
+                let wl = if linear || dl == 0.0 {
                     1.0
                 } else if scale > 0.0 {
                     exp_f32(-(dl * dl) / scale)
@@ -283,9 +304,9 @@ pub(crate) fn atrous_texel(
     let sum = [s0, s1, s2];
     if wsum > 0.0 {
         [
-            guard(c[0] + sum[0] / wsum),
-            guard(c[1] + sum[1] / wsum),
-            guard(c[2] + sum[2] / wsum),
+            g(c[0] + sum[0] / wsum),
+            g(c[1] + sum[1] / wsum),
+            g(c[2] + sum[2] / wsum),
             1.0,
         ]
     } else {

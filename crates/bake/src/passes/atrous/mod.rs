@@ -2,7 +2,8 @@
 //! (atrous.glsl, atrous.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
 //! shaders mirror.
 //!
-//! One iteration of the edge-stopping à-trous wavelet filter.
+//! One iteration of the edge-stopping à-trous wavelet filter, or (`linear`) of the bias
+//! correction's linear filter of a residual.
 
 pub(crate) mod cpu;
 
@@ -40,6 +41,17 @@ param_block! {
         wide_variance_scale: f32,
         /// That bound on the relative variance; 0: never (`variance_scale` everywhere).
         wide_max_relative_variance: f32,
+        /// 1: the bias correction's filter ([`correction_steps`](crate::program::correction_steps)):
+        /// no luminance term (a tap's weight is its spline and normal weights alone, so the
+        /// filter is linear in its input) and signed values kept
+        /// ([`guard_signed`](crate::exact::guard_signed)); the variance map is not read.
+        linear: u32,
+        /// Padding.
+        pad0: u32,
+        /// Padding.
+        pad1: u32,
+        /// Padding.
+        pad2: u32,
     }
 }
 

@@ -1,4 +1,4 @@
-//! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, guarded, `a`'s mask.
+//! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, guarded (signed where `signed`), `a`'s mask.
 
 use crate::cpu::kernel::*;
 
@@ -12,10 +12,11 @@ impl TexelPass for CombineParams {
     fn texel(&self, ctx: &Ctx<'_>, at: Texel) -> [f32; 4] {
         let w = *self;
         let [a, b] = ctx.maps().map(|m| m.fetch(at));
+        let g = if w.signed != 0 { guard_signed } else { guard };
         [
-            guard(w.a_weight * a[0] + w.b_weight * b[0]),
-            guard(w.a_weight * a[1] + w.b_weight * b[1]),
-            guard(w.a_weight * a[2] + w.b_weight * b[2]),
+            g(w.a_weight * a[0] + w.b_weight * b[0]),
+            g(w.a_weight * a[1] + w.b_weight * b[1]),
+            g(w.a_weight * a[2] + w.b_weight * b[2]),
             a[3],
         ]
     }

@@ -2,7 +2,7 @@
 //! (combine.glsl, combine.wgsl) side by side, and its CPU reference (`cpu.rs`), the semantics the
 //! shaders mirror.
 //!
-//! Weighted sum of two maps (direct + indirect).
+//! Weighted sum of two maps (direct + indirect), clamped at 0 unless signed.
 
 pub(crate) mod cpu;
 
@@ -16,8 +16,10 @@ param_block! {
         a_weight: f32,
         /// Weight of the second input.
         b_weight: f32,
-        /// Padding.
-        pad0: u32,
+        /// 1: negative sums are kept ([`crate::exact::guard_signed`]; the bias correction's
+        /// residual, [`crate::program::correction_steps`]); 0: clamped at 0
+        /// ([`crate::exact::guard`]), as every map the bake reports.
+        signed: u32,
         /// Padding.
         pad1: u32,
     }
@@ -28,7 +30,15 @@ impl CombineParams {
     pub const SUM: CombineParams = CombineParams {
         a_weight: 1.0,
         b_weight: 1.0,
-        pad0: 0,
+        signed: 0,
+        pad1: 0,
+    };
+
+    /// `a − b`, signed: the residual of a filter (`a` the unfiltered map, `b` the filtered).
+    pub const RESIDUAL: CombineParams = CombineParams {
+        a_weight: 1.0,
+        b_weight: -1.0,
+        signed: 1,
         pad1: 0,
     };
 }
