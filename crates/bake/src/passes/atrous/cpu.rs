@@ -242,7 +242,8 @@ pub(crate) fn atrous_texel(
         return kept;
     };
     let guide = guide.with_masks(masks, at);
-    let v = variance.fetch(at);
+    // The linear filter does not read the variance map.
+    let v = if linear { [0.0; 4] } else { variance.fetch(at) };
     let scale = params.variance_scale * v[0];
     // Inside a wide chart with little noise the wide term (`program::atrous_steps`, "Wide
     // charts with little noise"): both sums are taken, the wide one only where the noise is
