@@ -105,6 +105,9 @@ pub struct Args {
     /// The relative standard error per texel that refinement aims at (default: the preset's).
     #[arg(long)]
     refine_error: Option<f32>,
+    /// The denoiser's bias correction, true or false (default: the preset's).
+    #[arg(long)]
+    denoise_correction: Option<bool>,
     /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
     /// (see the module docs).
     #[arg(long, default_value_t = 1)]
@@ -698,6 +701,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 lamp_paths: args.lamp_paths,
                 refine_rays: args.refine_rays,
                 refine_error: args.refine_error,
+                denoise_correction: args.denoise_correction,
                 bounces: args.bounces,
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
@@ -762,6 +766,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
                 "lamp_paths": s.lamp_paths,
                 "refine_rays": s.refine_rays, "refine_error": s.refine_error,
+                "denoise_correction": s.denoise_correction,
                 "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
                 "blur": s.blur.to_string() }, "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });
