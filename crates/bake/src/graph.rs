@@ -807,28 +807,28 @@ pub fn atrous_iterations(blur: Blur) -> u32 {
 /// Denoises `noisy` and returns the texture that holds the result: the variance estimate into
 /// `variance` (with `direct`, the direct light, in its alpha as the variance pass always
 /// writes it), then the à-trous iterations. Without the bias correction
-/// ([`correction_steps`]) they alternate between `spare[0]` and `noisy`, ending in `noisy`;
-/// with it they alternate between the spares, keeping the noisy map `x` for the residual
-/// `x − y` of their result `y`, whose linear filter `B` ping-pongs between `noisy` and a
-/// spare; `y + B(x − y)` goes to the texture left free.
+/// ([`correction_steps`]) they alternate between `scratch` and `noisy`, ending in `noisy`;
+/// with it they alternate between `scratch` and a texture of its own (`residual`), keeping
+/// the noisy map `x` for the residual `x − y` of their result `y`, whose linear filter `B`
+/// ping-pongs between `noisy` and the spare; `y + B(x − y)` goes to the texture left free.
 #[allow(clippy::too_many_arguments)]
 fn denoise_stage(
     b: &mut Builder,
     g: GBufferTex,
     noisy: TexId,
-    spare: [TexId; 2],
+    scratch: TexId,
     variance: TexId,
     direct: TexId,
     config: &AtrousConfig,
     bounce: u32,
 ) -> TexId {
     let correction = correction_steps(config);
-    // The iterations alternate between `noisy` and a spare, or, to keep `x` for the
-    // correction's residual, between the spares.
+    // The iterations alternate between `noisy` and `scratch`, or, to keep `x` for the
+    // correction's residual, between `scratch` and another spare.
     let ping = if correction.is_empty() {
-        [noisy, spare[0]]
+        [noisy, scratch]
     } else {
-        spare
+        [scratch, b.texture("residual")]
     };
     let mut current = noisy;
     // `atrous_steps` yields the variance estimate, then the iterations.
@@ -858,7 +858,7 @@ fn denoise_stage(
         }
     }
     if !correction.is_empty() {
-        return correct_stage(b, g, [noisy, current], spare, variance, &correction, bounce);
+        return correct_stage(b, g, [noisy, current], ping, variance, &correction, bounce);
     }
     if current != noisy {
         b.pass(
@@ -1124,25 +1124,18 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
         }
         b.when = RunWhen::Always;
         // The indirect light (explicit bounces and tail) is noisy: denoise it through
-        // `delta`, which nothing reads any more (and, for the bias correction, `residual`).
+        // `delta`, which nothing reads any more.
         let indirect = match variance {
-            Some(variance) => {
-                let spare = if correction_steps(&denoise).is_empty() {
-                    delta
-                } else {
-                    b.texture("residual")
-                };
-                denoise_stage(
-                    &mut b,
-                    g,
-                    scratch,
-                    [delta, spare],
-                    variance,
-                    direct,
-                    &denoise,
-                    config.bounces,
-                )
-            }
+            Some(variance) => denoise_stage(
+                &mut b,
+                g,
+                scratch,
+                delta,
+                variance,
+                direct,
+                &denoise,
+                config.bounces,
+            ),
             None => scratch,
         };
         let combined = b.texture("combined");

@@ -594,7 +594,8 @@ fn corrected(mut scene: Scene) -> Scene {
 /// room's floor it keeps what the denoiser keeps (at 1 024 and 4 096 rays at most 1.2× the raw
 /// estimate's relative RMSE, the bias within 3 texels of the walls and inside within 0.5 %),
 /// and on the wall lit at grazing incidence, where the light bends within a few texels, its
-/// rows are no more biased than without it and converge as the rays grow.
+/// rows are less biased than without it (by a fifth or more from 64 rays on) and converge as
+/// the rays grow.
 #[test]
 fn the_bias_correction_keeps_the_closed_forms() {
     let mut cache = None;
@@ -635,7 +636,12 @@ fn the_bias_correction_keeps_the_closed_forms() {
             100.0 * rmse,
             100.0 * raw_rmse
         );
-        assert!(mean(&rows) <= mean(&plain) + 1e-3, "{rays} rays");
+        // The correction is applied and lowers the rows' bias (measured: by 7 % at 4 rays,
+        // about a third at 64 and 1 024).
+        assert!(mean(&rows) < mean(&plain), "{rays} rays");
+        if rays >= 64 {
+            assert!(mean(&rows) < 0.8 * mean(&plain), "{rays} rays");
+        }
         assert!(rmse < raw_rmse, "{rays} rays: {rmse} vs {raw_rmse}");
         means.push(mean(&rows));
     }

@@ -755,6 +755,8 @@ mod denoiser_tests {
     use crate::cpu::kernel::*;
     use crate::passes::atrous::cpu::*;
     use crate::passes::blur::cpu::*;
+    use crate::passes::combine::CombineParams;
+    use crate::passes::combine::cpu::combine_texel;
     use crate::passes::upsample::cpu::*;
     use crate::passes::variance::cpu::*;
     use crate::program::{AtrousConfig, Params, atrous_steps, blur_params, correction_steps};
@@ -835,7 +837,6 @@ mod denoiser_tests {
             self.nrm[i..i + 4].fill(0.0);
         }
 
-        /// The variance map and the output of `config`'s passes.
         /// The denoiser as the graph chains it: the variance estimate, the à-trous iterations
         /// and the bias correction `y + B(x − y)` ([`correction_steps`]): the variance map and
         /// the result.
@@ -847,21 +848,16 @@ mod denoiser_tests {
             }
             let size = self.size;
             let (pos, nrm) = (view(&self.pos, size), view(&self.nrm, size));
-            // `Program::Combine` with `CombineParams::RESIDUAL`, then `SUM`.
-            let combine = |a: &[f32], b: &[f32], w: f32, g: fn(f32) -> f32| -> Vec<f32> {
+            // `Program::Combine`'s texels over the whole maps.
+            let combine = |w: CombineParams, a: &[f32], b: &[f32]| -> Vec<f32> {
                 a.chunks_exact(4)
                     .zip(b.chunks_exact(4))
                     .flat_map(|(a, b)| {
-                        [
-                            g(a[0] + w * b[0]),
-                            g(a[1] + w * b[1]),
-                            g(a[2] + w * b[2]),
-                            a[3],
-                        ]
+                        combine_texel(w, a.try_into().unwrap(), b.try_into().unwrap())
                     })
                     .collect()
             };
-            let mut residual = combine(&self.map, &y, -1.0, guard_signed);
+            let mut residual = combine(CombineParams::RESIDUAL, &self.map, &y);
             for (_, params) in correction {
                 let Params::Atrous(p) = params else {
                     panic!("{params:?}")
@@ -870,7 +866,7 @@ mod denoiser_tests {
                 let maps = [view(&src, size), view(&variance, size), pos, nrm];
                 residual = apply(size, |at| atrous_texel(maps, p, None, at));
             }
-            (variance, combine(&y, &residual, 1.0, guard))
+            (variance, combine(CombineParams::SUM, &y, &residual))
         }
 
         /// The variance estimate and the à-trous iterations alone ([`atrous_steps`]): the
