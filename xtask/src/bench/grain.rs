@@ -10,8 +10,9 @@
 //! estimator that does not share them), a 0.2 % tail tolerance and a seed of its own. For
 //! every preset (and the paper's method, `default-gather`: the default before lamp paths, 6 rays
 //! and the gather alone, and two other splits of the default's first bounce between gather rays
-//! and lamp paths: `gather-16`, 16 rays alone, and `rays-8+4`, 8 rays and 4 lamp paths; issue
-//! 29's rooms gain from more rays, this room's walls need the connections), per surface kind — floor (normal up), ceiling (down), walls — over the
+//! and lamp paths: `gather-16`, 16 rays alone, and `rays-4+12`, the default before 2026-12-06 —
+//! 4 rays, 12 lamp paths, no bias correction; issue 29's rooms gain from more rays, this
+//! room's walls need the connections), per surface kind — floor (normal up), ceiling (down), walls — over the
 //! valid texels: the **grain**, the relative standard deviation of `E / E_ref` (total
 //! illuminance, photometric Y), and the bias, its mean minus 1. The reference's own noise
 //! (4096 Sobol rays: well under 0.3 % per texel) adds to the grain, so the figure is an upper
@@ -187,11 +188,13 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
                 ..Settings::preset(Quality::Default)
             }),
         ),
+        // The default before 2026-12-06: 4 rays, 12 lamp paths, no bias correction.
         (
-            "rays-8+4".to_owned(),
+            "rays-4+12".to_owned(),
             with(Settings {
-                rays: 8,
-                lamp_paths: 4,
+                rays: 4,
+                lamp_paths: 12,
+                denoise_correction: false,
                 ..Settings::preset(Quality::Default)
             }),
         ),
