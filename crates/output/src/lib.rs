@@ -188,18 +188,7 @@ pub fn encode_exr(map: &MapImage) -> Result<Vec<u8>, OutputError> {
     out.push(0);
     let packed: Vec<Vec<u8>> = (0..chunks)
         .into_par_iter()
-        .map(|c| {
-            let lines = c * EXR_ZIP_LINES..((c + 1) * EXR_ZIP_LINES).min(h);
-            let mut raw = Vec::with_capacity(lines.len() * line_bytes);
-            for y in lines {
-                for channel in [3, 2, 1, 0] {
-                    for x in 0..w {
-                        raw.extend_from_slice(&map.texel(x, y)[channel].to_le_bytes());
-                    }
-                }
-            }
-            zip_chunk(raw)
-        })
+        .map(|c| zip_chunk(map, c * EXR_ZIP_LINES..((c + 1) * EXR_ZIP_LINES).min(h)))
         .collect();
     let table = out.len();
     out.resize(table + 8 * packed.len(), 0);
@@ -213,25 +202,51 @@ pub fn encode_exr(map: &MapImage) -> Result<Vec<u8>, OutputError> {
     Ok(out)
 }
 
-/// One chunk's bytes under OpenEXR's ZIP compression (see [`encode_exr`]).
-fn zip_chunk(raw: Vec<u8>) -> Vec<u8> {
-    let half = raw.len().div_ceil(2);
-    let mut split = vec![0u8; raw.len()];
-    for (i, &b) in raw.iter().enumerate() {
-        split[if i % 2 == 0 { i / 2 } else { half + i / 2 }] = b;
+/// Lines `lines` of `map` as an EXR chunk stores them uncompressed: per line the channels A,
+/// B, G, R, each a row of little-endian floats. Calls `put(k, bytes)` for the `k`-th float.
+fn chunk_floats(map: &MapImage, lines: std::ops::Range<u32>, mut put: impl FnMut(usize, [u8; 4])) {
+    let w = map.width.max(1) as usize;
+    let mut k = 0;
+    for y in lines {
+        let start = 4 * y as usize * w;
+        let row = map.texels.get(start..start + 4 * w);
+        for channel in [3, 2, 1, 0] {
+            for x in 0..w {
+                // Texels outside the map read 0, as `MapImage::texel` gives them.
+                let v = row.map_or(0.0, |r| r[4 * x + channel]);
+                put(k, v.to_le_bytes());
+                k += 1;
+            }
+        }
     }
-    let mut previous = split.first().copied().unwrap_or(0);
-    for b in split.iter_mut().skip(1) {
-        let v = *b;
-        *b = v.wrapping_sub(previous).wrapping_add(128);
-        previous = v;
+}
+
+/// One chunk's bytes under OpenEXR's ZIP compression (see [`encode_exr`]): the chunk's bytes
+/// split into the even and odd ones (written there directly: a float's bytes 0 and 2 go to
+/// the first half, 1 and 3 to the second), successive differences + 128, deflated; the raw
+/// bytes when that is not smaller.
+fn zip_chunk(map: &MapImage, lines: std::ops::Range<u32>) -> Vec<u8> {
+    let floats = lines.len() * 4 * map.width.max(1) as usize;
+    let mut split = vec![0u8; 4 * floats];
+    let (even, odd) = split.split_at_mut(2 * floats);
+    chunk_floats(map, lines.clone(), |k, b| {
+        even[2 * k] = b[0];
+        even[2 * k + 1] = b[2];
+        odd[2 * k] = b[1];
+        odd[2 * k + 1] = b[3];
+    });
+    // Each byte less the one before it, from the end back: every step reads a byte not yet
+    // changed.
+    for i in (1..split.len()).rev() {
+        split[i] = split[i].wrapping_sub(split[i - 1]).wrapping_add(128);
     }
     let packed = miniz_oxide::deflate::compress_to_vec_zlib(&split, 1);
-    if packed.len() < raw.len() {
-        packed
-    } else {
-        raw
+    if packed.len() < split.len() {
+        return packed;
     }
+    let mut raw = vec![0u8; split.len()];
+    chunk_floats(map, lines, |k, b| raw[4 * k..4 * k + 4].copy_from_slice(&b));
+    raw
 }
 
 /// Reads an RGBA (or RGB, alpha = 1) float EXR written by [`encode_exr`] or any other tool.

@@ -31,11 +31,11 @@ impl Picture {
     /// A picture filled with one colour.
     pub fn filled(width: u32, height: u32, color: [u8; 3]) -> Picture {
         let n = width as usize * height as usize;
-        let mut rgb = Vec::with_capacity(3 * n);
-        for _ in 0..n {
-            rgb.extend_from_slice(&color);
+        Picture {
+            width,
+            height,
+            rgb: color.repeat(n),
         }
-        Picture { width, height, rgb }
     }
 
     /// Sets pixel `(x, y)`; ignored outside the picture.
@@ -165,15 +165,14 @@ pub fn exposure<'a>(maps: impl IntoIterator<Item = &'a MapImage>) -> f32 {
 /// Tone-maps a map (lux or lm/m²) with `exposure` (see the module docs).
 pub fn tone_map(map: &MapImage, exposure: f32) -> Picture {
     let mut p = Picture::filled(map.width, map.height, [0; 3]);
-    for y in 0..map.height {
-        for x in 0..map.width {
-            let t = map.texel(x, y);
-            if t[3] > 0.5 {
-                let c = [0, 1, 2].map(|i| {
-                    let v = t[i] / std::f32::consts::PI * exposure;
-                    srgb_byte(if v > 0.0 { v / (1.0 + v) } else { 0.0 })
-                });
-                p.set(x, y, c);
+    // Texel by texel in storage order (a map's texels are its rows, as the picture's pixels).
+    let n = map.width as usize * map.height as usize;
+    let texels = map.texels.chunks_exact(4).take(n);
+    for (t, px) in texels.zip(p.rgb.chunks_exact_mut(3)) {
+        if t[3] > 0.5 {
+            for (o, &v) in px.iter_mut().zip(&t[..3]) {
+                let v = v / std::f32::consts::PI * exposure;
+                *o = srgb_byte(if v > 0.0 { v / (1.0 + v) } else { 0.0 });
             }
         }
     }
@@ -231,9 +230,11 @@ pub fn false_color_range<'a>(maps: impl IntoIterator<Item = &'a MapImage>) -> (f
     if values.is_empty() {
         return (0.1, 1.0);
     }
-    values.sort_by(f32::total_cmp);
-    let max = values[values.len() - 1];
-    let p1 = values[values.len() / 100];
+    // The largest and the 1st percentile (the value a full sort puts at `len / 100`) without
+    // sorting every texel.
+    let max = values.iter().copied().fold(f32::MIN, f32::max);
+    let at = values.len() / 100;
+    let p1 = *values.select_nth_unstable_by(at, f32::total_cmp).1;
     let hi_exp = max.log10().ceil().clamp(-30.0, 30.0);
     let lo_exp = p1.log10().floor().clamp(hi_exp - 6.0, hi_exp - 1.0);
     (10f32.powf(lo_exp), 10f32.powf(hi_exp))
