@@ -834,7 +834,7 @@ pub struct Settings {
     /// cancels the filter's bias where the light curves within its kernel (the chairs' seat
     /// undersides and aprons; `luxbake::program::correction_steps`). One more filter
     /// iteration than [`Settings::blur`]'s, without the luminance term, and a light map of
-    /// memory.
+    /// memory. On in the `default` preset ([`Settings::preset`]).
     pub denoise_correction: bool,
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance
@@ -941,7 +941,7 @@ impl Settings {
     ///
     /// Lamp paths ([`Settings::lamp_paths`]) take the first bounce's grain where a lamp
     /// lights a small patch brightly (a lamp under the ceiling): on the box room's walls at
-    /// `default` from 2.3–3.8 % (the gather alone) to under 1 %. `draft` gathers its first bounce on a grid, where
+    /// `default` from 2.3–4.3 % (the gather alone) to under 1 %. `draft` gathers its first bounce on a grid, where
     /// they do not apply.
     ///
     /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the
