@@ -80,6 +80,8 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
+  /** Converged: the denoiser's bias correction (default: the preset's, true at 'default'): its residual filtered once more and added back. */
+  denoiseCorrection?: boolean;
   /** Points of a lamp's luminous opening per texel near it (default: the preset's, 48 at 'default'). */
   openingSamples?: number;
   /** Opening points per visibility probe: a texel first casts the shadow rays of every Nth point and,

@@ -23,7 +23,8 @@ use crate::JsBakeError;
 pub struct BakeOptions {
     /// The settings: every key of a [`SettingsPatch`] in camelCase (`blur` is `blurSigma`, a
     /// sigma in texels, 0 = no blur), e.g. `method`, `quality`, `rays`, `bounces`, `tail`,
-    /// `texelsPerMetre`, `seed`, `lampPaths`. Missing ones take the preset's value.
+    /// `texelsPerMetre`, `seed`, `lampPaths`, `denoiseCorrection`. Missing ones take the
+    /// preset's value.
     pub settings: SettingsPatch,
     /// Largest distance of a `measure` point from a baked surface, metres (default 0.01).
     pub measure_tolerance: Option<f64>,
@@ -391,6 +392,10 @@ mod tests {
         assert_eq!((s.rays, s.blur, s.texels_per_metre), (16, Blur::None, 12.0));
         let s = settings(r#"{"lampPaths":3,"tailTolerance":0.05}"#).unwrap();
         assert_eq!((s.lamp_paths, s.tail_tolerance), (3, 0.05));
+        // The default preset corrects its denoiser's bias; a page can turn that off.
+        assert!(settings("{}").unwrap().denoise_correction);
+        let s = settings(r#"{"denoiseCorrection":false}"#).unwrap();
+        assert!(!s.denoise_correction);
         // `bounces` alone is an exact count; with `tail` a cap.
         let s = settings(r#"{"bounces":2}"#).unwrap();
         assert_eq!((s.bounces, s.tail), (2, false));
