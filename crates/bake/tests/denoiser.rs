@@ -536,19 +536,22 @@ fn grazing_rows_of(scene: Scene, reference: &mut Option<(Vec<V3>, Vec<f64>)>) ->
     (rows, (sq / texels.len() as f64).sqrt())
 }
 
-/// The wall's first bounce under the grazing case, raw and denoised (the default's denoiser,
-/// its bias corrected), at the default preset's 8 rays and at 64 and 1 024: the denoised rows'
-/// bias falls as the rays grow to 1 024 (the filter is consistent on a steep gradient too), and from
-/// 1 024 rays on every row is within 1 % and the denoised error under 1.2× the raw one. One
-/// bake's rows carry its noise as well (a few tenths of a per cent at 8 rays); over three
-/// seeds the corrected rows are within 0.5 % on average (the next test).
+/// The wall's first bounce under the grazing case, raw and through the à-trous filter alone
+/// (the default's denoiser without its bias correction, the next test's subject), at the
+/// default preset's 8 rays and at 64 and 1 024: the filtered rows' bias falls as the rays grow
+/// (the filter is consistent on a steep gradient too), and from 1 024 rays on every row is
+/// within 1 % and the filtered error under 1.2× the raw one. At 8 rays the rows over the
+/// lowest 10 cm are still a few per cent low (the early iterations' wide luminance term
+/// averages across the gradient's curvature), which the correction takes out.
 #[test]
 fn a_wall_lit_at_grazing_incidence_keeps_its_steep_first_bounce() {
     let mut reference = None;
     let mut mean_bias = Vec::new();
     for rays in [8, 64, 1024] {
         let (raw, raw_rmse) = grazing_rows(rays, Blur::None, &mut reference);
-        let (den, den_rmse) = grazing_rows(rays, Blur::Sigma(1.0), &mut reference);
+        let mut filtered = grazing_scene(rays, Blur::Sigma(1.0));
+        filtered.settings.denoise_correction = false;
+        let (den, den_rmse) = grazing_rows_of(filtered, &mut reference);
         let want = &reference.as_ref().expect("reference").1;
         let worst = den.iter().fold(0.0f64, |m, b| m.max(b.abs()));
         let mean = den.iter().map(|b| b.abs()).sum::<f64>() / den.len() as f64;
@@ -578,10 +581,8 @@ fn a_wall_lit_at_grazing_incidence_keeps_its_steep_first_bounce() {
         }
         mean_bias.push(mean);
     }
-    // At 1 024 rays under half of what it is at 8 or 64 (measured 0.22 against 0.53 and
-    // 0.83 %; at 64 the correction overshoots, see the next test).
     assert!(
-        mean_bias[2] < 0.5 * mean_bias[0].min(mean_bias[1]),
+        mean_bias.windows(2).all(|w| w[1] < w[0]),
         "the rows' bias does not fall with the rays: {mean_bias:?}"
     );
 }

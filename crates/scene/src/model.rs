@@ -941,7 +941,7 @@ impl Settings {
     ///
     /// Lamp paths ([`Settings::lamp_paths`]) take the first bounce's grain where a lamp
     /// lights a small patch brightly (a lamp under the ceiling): on the box room's walls at
-    /// `default` from 2.3–4.3 % (the gather alone) to under 1 %. `draft` gathers its first bounce on a grid, where
+    /// `default` from 2.5–3.8 % (the gather alone) to under 1 %. `draft` gathers its first bounce on a grid, where
     /// they do not apply.
     ///
     /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the

@@ -169,12 +169,14 @@ pub fn run(args: &Args, quick: bool, out: &Path) -> Result<(), String> {
             "default".to_owned(),
             with(Settings::preset(Quality::Default)),
         ),
-        // The default before lamp paths (issue 12): 6 rays, the gather alone.
+        // The default before lamp paths (issue 12): 6 rays, the gather alone, no bias
+        // correction.
         (
             "default-gather".to_owned(),
             with(Settings {
                 rays: 6,
                 lamp_paths: 0,
+                denoise_correction: false,
                 ..Settings::preset(Quality::Default)
             }),
         ),
