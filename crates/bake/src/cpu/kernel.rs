@@ -919,6 +919,91 @@ pub struct GuideMasks {
     bits: Vec<u32>,
 }
 
+/// One row of a position map and the chart tests of [`GuideMasks::new`]: the taps' offsets and
+/// shells.
+struct MaskRows<'a> {
+    /// The position map's floats.
+    pos: &'a [f32],
+    /// Its layer size, texels.
+    size: [i64; 2],
+    /// The row's layer's first float.
+    layer_start: usize,
+    /// The row.
+    y: i64,
+    /// Per tap (the 5 × 5, rows outer) its offset and shell.
+    taps: &'a [([i64; 2], Shell); 25],
+}
+
+impl MaskRows<'_> {
+    /// The bits of texel `x` of the row: tap `k`'s bit where it lies in the map and in its
+    /// shell; none where the centre's position is not valid.
+    fn at(&self, x: i64) -> u32 {
+        let [w, h] = self.size;
+        let row_floats = 4 * w as usize;
+        let c = self.layer_start + self.y as usize * row_floats + 4 * x as usize;
+        if self.pos[c + 3] <= 0.5 {
+            return 0;
+        }
+        let p = [self.pos[c], self.pos[c + 1], self.pos[c + 2]];
+        let mut m = 0u32;
+        for (k, &(o, shell)) in self.taps.iter().enumerate() {
+            let (tx, ty) = (x + o[0], self.y + o[1]);
+            if tx < 0 || ty < 0 || tx >= w || ty >= h {
+                continue;
+            }
+            let t = self.layer_start + ty as usize * row_floats + 4 * tx as usize;
+            let d = sub([self.pos[t], self.pos[t + 1], self.pos[t + 2]], p);
+            if shell.holds(dot(d, d)) {
+                m |= 1 << k;
+            }
+        }
+        m
+    }
+
+    /// [`MaskRows::at`] at the eight texels from `x`, one to a lane of an AVX2 vector, with
+    /// the same operations (`d² = (d₀·d₀ + d₁·d₁) + d₂·d₂`, the shell's ordered comparisons):
+    /// the same bits. Every tap of the eight must lie inside the row (`x ≥ 2·step`, `x + 8 +
+    /// 2·step ≤ width`); rows above or below the map are left out as [`MaskRows::at`] does.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn block(&self, x: i64) -> [u32; 8] {
+        use crate::cpu::lanes::Texels;
+        use std::arch::x86_64::*;
+        let [w, h] = self.size;
+        let row_floats = 4 * w;
+        let start = self.layer_start as i64 + self.y * row_floats + 4 * x;
+        let Texels(p) = Texels::load(self.pos, start);
+        let mut m = _mm256_setzero_si256();
+        for (k, &(o, shell)) in self.taps.iter().enumerate() {
+            let ty = self.y + o[1];
+            if ty < 0 || ty >= h {
+                continue;
+            }
+            let holds = if shell.centre {
+                _mm256_set1_epi32(-1)
+            } else {
+                let Texels(t) = Texels::load(self.pos, start + o[1] * row_floats + 4 * o[0]);
+                let d = [0, 1, 2].map(|i| _mm256_sub_ps(t[i], p[i]));
+                let d2 = _mm256_add_ps(
+                    _mm256_add_ps(_mm256_mul_ps(d[0], d[0]), _mm256_mul_ps(d[1], d[1])),
+                    _mm256_mul_ps(d[2], d[2]),
+                );
+                _mm256_castps_si256(_mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_LE_OQ>(d2, _mm256_set1_ps(shell.hi)),
+                    _mm256_cmp_ps::<_CMP_GE_OQ>(d2, _mm256_set1_ps(shell.lo)),
+                ))
+            };
+            m = _mm256_or_si256(m, _mm256_and_si256(holds, _mm256_set1_epi32(1 << k)));
+        }
+        // None where the centre's position is not valid (`!(w ≤ 0.5)`, as [`MaskRows::at`]).
+        let valid = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_NLE_UQ>(p[3], _mm256_set1_ps(0.5)));
+        let mut out = [0u32; 8];
+        // SAFETY: eight integers into an array of eight.
+        unsafe { _mm256_storeu_si256(out.as_mut_ptr().cast(), _mm256_and_si256(m, valid)) };
+        out
+    }
+}
+
 impl GuideMasks {
     /// The masks of `pos` for `chart`.
     pub(crate) fn new(pos: View<'_>, chart: Chart) -> GuideMasks {
@@ -947,26 +1032,32 @@ impl GuideMasks {
             .enumerate()
             .for_each(|(r, row)| {
                 let (layer, y) = (r / h as usize, (r % h as usize) as i64);
-                let layer_start = layer * h as usize * row_floats;
-                for (x, out) in (0..i64::from(w)).zip(row.iter_mut()) {
-                    let c = layer_start + y as usize * row_floats + 4 * x as usize;
-                    if pos.data[c + 3] <= 0.5 {
-                        continue;
+                let rows = MaskRows {
+                    pos: pos.data,
+                    size: [i64::from(w), i64::from(h)],
+                    layer_start: layer * h as usize * row_floats,
+                    y,
+                    taps: &taps,
+                };
+                // Blocks of eight texels whose taps all lie inside the row, eight at a time
+                // where the CPU has AVX2 (the same bits), the rest one by one.
+                let mut x = 0;
+                #[cfg(target_arch = "x86_64")]
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    let reach = 2 * chart.step.abs();
+                    x = reach.min(i64::from(w));
+                    while x + 8 + reach <= i64::from(w) {
+                        let out = &mut row[x as usize..x as usize + 8];
+                        // SAFETY: the CPU has AVX2 (just checked).
+                        out.copy_from_slice(&unsafe { rows.block(x) });
+                        x += 8;
                     }
-                    let p = [pos.data[c], pos.data[c + 1], pos.data[c + 2]];
-                    let mut m = 0u32;
-                    for (k, &(o, shell)) in taps.iter().enumerate() {
-                        let (tx, ty) = (x + o[0], y + o[1]);
-                        if tx < 0 || ty < 0 || tx >= i64::from(w) || ty >= i64::from(h) {
-                            continue;
-                        }
-                        let t = layer_start + ty as usize * row_floats + 4 * tx as usize;
-                        let d = sub([pos.data[t], pos.data[t + 1], pos.data[t + 2]], p);
-                        if shell.holds(dot(d, d)) {
-                            m |= 1 << k;
-                        }
+                    for (x, out) in (0..reach.min(i64::from(w))).zip(row.iter_mut()) {
+                        *out = rows.at(x);
                     }
-                    *out = m;
+                }
+                for (x, out) in (x..i64::from(w)).zip(row[x as usize..].iter_mut()) {
+                    *out = rows.at(x);
                 }
             });
         GuideMasks {
@@ -1086,4 +1177,93 @@ pub(crate) fn prefetch<T>(data: &[T], index: usize) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = (data, index);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A position map of two layers with what the chart tests meet: charts side by side at
+    /// different depths, empty texels, a NaN, and rows narrower than the widest taps.
+    fn positions(size: [u32; 2], layers: u32) -> Vec<f32> {
+        let texels = (size[0] * size[1] * layers) as usize;
+        (0..texels)
+            .flat_map(|i| {
+                let (x, y) = ((i as u32 % size[0]) as f32, (i as u32 / size[0]) as f32);
+                let depth = if (x as u32 / 13 + y as u32 / 7).is_multiple_of(3) {
+                    0.4
+                } else {
+                    0.0
+                };
+                let w = if i.is_multiple_of(11) { 0.0 } else { 1.0 };
+                let z = if i == 77 {
+                    f32::NAN
+                } else {
+                    depth + 0.001 * x * y
+                };
+                [x / 16.0, y / 16.0, z, w]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_chart_tests_in_lanes_equal_the_texel_by_texel_ones() {
+        let mut blocks = 0u64;
+        for size in [[67, 41], [9, 5], [40, 3]] {
+            let data = positions(size, 2);
+            let pos = View::new(&data, size, 2);
+            for step in [1i64, 2, 4, 8] {
+                for reach in [[0.0, 0.1], [0.04, 0.1], [0.02, 0.3]] {
+                    let chart = Chart { step, reach };
+                    let masks = GuideMasks::new(pos, chart);
+                    let taps: [([i64; 2], Shell); 25] = std::array::from_fn(|k| {
+                        let o = [(k as i64 % 5 - 2) * step, (k as i64 / 5 - 2) * step];
+                        (o, Shell::new(o, reach[1] * reach[1], reach[0] * reach[0]))
+                    });
+                    let mut set = 0;
+                    for layer in 0..2usize {
+                        for y in 0..i64::from(size[1]) {
+                            let rows = MaskRows {
+                                pos: &data,
+                                size: [i64::from(size[0]), i64::from(size[1])],
+                                layer_start: layer * 4 * (size[0] * size[1]) as usize,
+                                y,
+                                taps: &taps,
+                            };
+                            for x in 0..i64::from(size[0]) {
+                                let i = (layer as i64 * i64::from(size[1]) + y)
+                                    * i64::from(size[0])
+                                    + x;
+                                let want = rows.at(x);
+                                assert_eq!(
+                                    masks.bits[i as usize], want,
+                                    "{size:?} {chart:?} {x} {y}"
+                                );
+                                set += u64::from(want.count_ones());
+                                // Eight lanes from every `x` whose taps lie in the row.
+                                #[cfg(target_arch = "x86_64")]
+                                if std::arch::is_x86_feature_detected!("avx2")
+                                    && x >= 2 * step
+                                    && x + 8 + 2 * step <= i64::from(size[0])
+                                {
+                                    // SAFETY: the CPU has AVX2 (just checked).
+                                    let lanes = unsafe { rows.block(x) };
+                                    let want: [u32; 8] =
+                                        std::array::from_fn(|l| rows.at(x + l as i64));
+                                    assert_eq!(lanes, want, "{size:?} {chart:?} {x} {y}");
+                                    blocks += 1;
+                                }
+                            }
+                        }
+                    }
+                    // Something was tested: taps pass.
+                    assert!(set > 0, "{size:?} {chart:?}");
+                }
+            }
+        }
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(blocks > 1000, "{blocks} blocks compared");
+        }
+    }
 }

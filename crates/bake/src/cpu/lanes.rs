@@ -97,6 +97,7 @@ mod avx2 {
         /// The eight texels from float `start` of `data` (four floats each); texels outside
         /// `data` are 0.
         #[target_feature(enable = "avx2")]
+        #[inline]
         pub(crate) fn load(data: &[f32], start: i64) -> Texels {
             let inside = start >= 0
                 && (start as usize)
@@ -195,6 +196,7 @@ mod avx2 {
         /// (summed as [`dot`]), and whether it passes the chart test, is valid and is of the
         /// centre's object (`Guide::tap_k`).
         #[target_feature(enable = "avx2")]
+        #[inline]
         pub(crate) fn tap(
             &self,
             [src, nrm]: [&[f32]; 2],
