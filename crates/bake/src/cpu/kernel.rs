@@ -967,7 +967,7 @@ impl MaskRows<'_> {
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
     fn block(&self, x: i64) -> [u32; 8] {
-        use crate::cpu::lanes::Texels;
+        use crate::cpu::texels::Texels;
         use std::arch::x86_64::*;
         let [w, h] = self.size;
         let row_floats = 4 * w;

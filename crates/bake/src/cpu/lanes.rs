@@ -51,6 +51,7 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     use crate::cpu::kernel::*;
+    use crate::cpu::texels::Texels;
 
     use super::LANES;
 
@@ -88,48 +89,6 @@ mod avx2 {
         // Below the domain 0, NaN itself.
         let nan = _mm256_and_ps(_mm256_cmp_ps::<_CMP_UNORD_Q>(x, x), x);
         _mm256_blendv_ps(v, nan, _mm256_cmp_ps::<_CMP_NGE_UQ>(x, set(EXP_LOW)))
-    }
-
-    /// Four channels of eight texels, a vector each.
-    pub(crate) struct Texels(pub(crate) [__m256; 4]);
-
-    impl Texels {
-        /// The eight texels from float `start` of `data` (four floats each); texels outside
-        /// `data` are 0.
-        #[target_feature(enable = "avx2")]
-        #[inline]
-        pub(crate) fn load(data: &[f32], start: i64) -> Texels {
-            let inside = start >= 0
-                && (start as usize)
-                    .checked_add(4 * LANES)
-                    .is_some_and(|e| e <= data.len());
-            let mut rows = [_mm_setzero_ps(); LANES];
-            for (l, r) in rows.iter_mut().enumerate() {
-                let i = start + 4 * l as i64;
-                *r = if inside {
-                    // SAFETY: floats `i .. i + 4` lie in `data` (`inside`).
-                    unsafe { _mm_loadu_ps(data.as_ptr().add(i as usize)) }
-                } else {
-                    let t = usize::try_from(i)
-                        .ok()
-                        .and_then(|i| data.get(i..i.checked_add(4)?))
-                        .unwrap_or(&[0.0; 4]);
-                    _mm_setr_ps(t[0], t[1], t[2], t[3])
-                };
-            }
-            // Texels l and l + 4 in the two halves, then a 4 × 4 transpose in each half.
-            let half =
-                |a: __m128, b: __m128| _mm256_insertf128_ps::<1>(_mm256_castps128_ps256(a), b);
-            let [r0, r1, r2, r3] = [0, 1, 2, 3].map(|l| half(rows[l], rows[l + 4]));
-            let (a, b) = (_mm256_unpacklo_ps(r0, r1), _mm256_unpacklo_ps(r2, r3));
-            let (c, d) = (_mm256_unpackhi_ps(r0, r1), _mm256_unpackhi_ps(r2, r3));
-            Texels([
-                _mm256_shuffle_ps::<0x44>(a, b),
-                _mm256_shuffle_ps::<0xEE>(a, b),
-                _mm256_shuffle_ps::<0x44>(c, d),
-                _mm256_shuffle_ps::<0xEE>(c, d),
-            ])
-        }
     }
 
     /// The centres of a block: per lane its unit normal, object and chart tests (the rest a

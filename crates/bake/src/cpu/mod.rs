@@ -107,6 +107,8 @@ use crate::program::Program;
 pub mod hits;
 pub(crate) mod kernel;
 pub(crate) mod lanes;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod texels;
 
 pub use crate::exact::{basis, guard, normalize};
 pub use hits::{GatherHitStats, GatherHits};
