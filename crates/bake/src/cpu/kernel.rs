@@ -960,6 +960,31 @@ impl MaskRows<'_> {
         m
     }
 
+    /// The bits of the row's texels (`row`) from the first to the last whose taps at `step`
+    /// all lie inside it, eight at a time in AVX2 lanes ([`MaskRows::block`]), and of the
+    /// texels before them one by one; returns the first texel left to the caller (0 without
+    /// AVX2).
+    fn blocks(&self, row: &mut [u32], step: i64) -> i64 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            let w = self.size[0];
+            let reach = 2 * step.abs();
+            let mut x = reach.min(w);
+            while x + 8 + reach <= w {
+                // SAFETY: the CPU has AVX2 (just checked).
+                let bits = unsafe { self.block(x) };
+                row[x as usize..x as usize + 8].copy_from_slice(&bits);
+                x += 8;
+            }
+            for (x, out) in (0..reach.min(w)).zip(row.iter_mut()) {
+                *out = self.at(x);
+            }
+            return x;
+        }
+        let _ = (row, step);
+        0
+    }
+
     /// [`MaskRows::at`] at the eight texels from `x`, one to a lane of an AVX2 vector, with
     /// the same operations (`d² = (d₀·d₀ + d₁·d₁) + d₂·d₂`, the shell's ordered comparisons):
     /// the same bits. Every tap of the eight must lie inside the row (`x ≥ 2·step`, `x + 8 +
@@ -1041,21 +1066,7 @@ impl GuideMasks {
                 };
                 // Blocks of eight texels whose taps all lie inside the row, eight at a time
                 // where the CPU has AVX2 (the same bits), the rest one by one.
-                let mut x = 0;
-                #[cfg(target_arch = "x86_64")]
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    let reach = 2 * chart.step.abs();
-                    x = reach.min(i64::from(w));
-                    while x + 8 + reach <= i64::from(w) {
-                        let out = &mut row[x as usize..x as usize + 8];
-                        // SAFETY: the CPU has AVX2 (just checked).
-                        out.copy_from_slice(&unsafe { rows.block(x) });
-                        x += 8;
-                    }
-                    for (x, out) in (0..reach.min(i64::from(w))).zip(row.iter_mut()) {
-                        *out = rows.at(x);
-                    }
-                }
+                let x = rows.blocks(row, chart.step);
                 for (x, out) in (x..i64::from(w)).zip(row[x as usize..].iter_mut()) {
                     *out = rows.at(x);
                 }
