@@ -1086,6 +1086,18 @@ impl GuideMasks {
         self.bits.get(i).copied().filter(|&m| m != 0)
     }
 
+    /// The bits of the eight texels from `at` along its row, as [`GuideMasks::at`] reads them
+    /// (0 where it gives `None`), when all eight lie in the map.
+    #[cfg(target_arch = "x86_64")]
+    #[inline]
+    pub(crate) fn eight(&self, at: Texel) -> Option<&[u32; 8]> {
+        if at.x.checked_add(8)? > self.size[0] {
+            return None;
+        }
+        let i = flat_index(self.size, self.layers, at)?;
+        self.bits.get(i..i + 8)?.try_into().ok()
+    }
+
     /// Bytes of the bits.
     pub fn bytes(&self) -> usize {
         self.bits.len() * 4

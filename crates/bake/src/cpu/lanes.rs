@@ -120,6 +120,9 @@ mod avx2 {
                 .then(|| src.index(at.layer, at.x, at.y))
                 .flatten()
                 .filter(|b| b + 4 * LANES <= src.data.len())?;
+            if let Some(bits) = masks.eight(at) {
+                return Some(Centres::of_eight(src, nrm, bits, base));
+            }
             let mut lanes = [[0.0f32; LANES]; 4];
             let mut bits = [0i32; LANES];
             let mut alone = [false; LANES];
@@ -149,6 +152,47 @@ mod avx2 {
                 mask,
                 alone,
             })
+        }
+
+        /// [`Centres::new`] for a block whose eight chart tests lie side by side (`bits`), its
+        /// first texel at float `base` of the maps: the same tests and the same
+        /// normalisation ([`normalize`]: `n / ‖n‖`, `‖n‖ = √((x² + y²) + z²)`, positive and
+        /// finite), eight lanes at once; a lane left alone holds zeros, as there.
+        #[target_feature(enable = "avx2")]
+        fn of_eight(src: View<'_>, nrm: View<'_>, bits: &[u32; LANES], base: usize) -> Centres {
+            let Texels(c) = Texels::load(src.data, base as i64);
+            let Texels(v) = Texels::load(nrm.data, base as i64);
+            let set = _mm256_set1_ps;
+            let l = _mm256_sqrt_ps(_mm256_add_ps(
+                _mm256_add_ps(_mm256_mul_ps(v[0], v[0]), _mm256_mul_ps(v[1], v[1])),
+                _mm256_mul_ps(v[2], v[2]),
+            ));
+            // SAFETY: eight integers from an array of eight.
+            let m = unsafe { _mm256_loadu_si256(bits.as_ptr().cast()) };
+            let tested = _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, _mm256_setzero_si256()));
+            // Valid in `src`, a normal of positive finite length, chart tests known.
+            let keep = _mm256_andnot_ps(
+                tested,
+                _mm256_and_ps(
+                    _mm256_cmp_ps::<_CMP_GT_OQ>(c[3], set(0.5)),
+                    _mm256_and_ps(
+                        _mm256_cmp_ps::<_CMP_GT_OQ>(l, _mm256_setzero_ps()),
+                        _mm256_cmp_ps::<_CMP_LT_OQ>(l, set(f32::INFINITY)),
+                    ),
+                ),
+            );
+            let lanes = _mm256_movemask_ps(keep);
+            Centres {
+                base,
+                n: [
+                    _mm256_and_ps(keep, _mm256_div_ps(v[0], l)),
+                    _mm256_and_ps(keep, _mm256_div_ps(v[1], l)),
+                    _mm256_and_ps(keep, _mm256_div_ps(v[2], l)),
+                ],
+                object: _mm256_and_ps(keep, v[3]),
+                mask: _mm256_and_si256(_mm256_castps_si256(keep), m),
+                alone: std::array::from_fn(|l| lanes & (1 << l) == 0),
+            }
         }
 
         /// Tap `k` of the 5 × 5 (rows outer) at `offset` texels in every lane: its value, `n̂·nₜ`
