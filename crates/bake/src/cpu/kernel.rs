@@ -875,6 +875,18 @@ pub(crate) struct Chart {
 }
 
 impl Chart {
+    /// Per tap of the 5 × 5 (rows outer) its offset and its shell.
+    fn taps(self) -> [([i64; 2], Shell); 25] {
+        let [reach_min2, reach2] = self.reach.map(|r| r * r);
+        std::array::from_fn(|k| {
+            let o = [
+                (k as i64 % 5 - 2) * self.step,
+                (k as i64 / 5 - 2) * self.step,
+            ];
+            (o, Shell::new(o, reach2, reach_min2))
+        })
+    }
+
     /// The parameters as bits, the nearest bound cleared where no tap reaches it (a step of
     /// 1: every offset within 2 texels).
     fn key(self) -> [u64; 3] {
@@ -1033,16 +1045,7 @@ impl GuideMasks {
     /// The masks of `pos` for `chart`.
     pub(crate) fn new(pos: View<'_>, chart: Chart) -> GuideMasks {
         let [w, h] = pos.size;
-        let reach2 = chart.reach[1] * chart.reach[1];
-        let reach_min2 = chart.reach[0] * chart.reach[0];
-        // Per tap: its offset and its shell.
-        let taps: [([i64; 2], Shell); 25] = std::array::from_fn(|k| {
-            let o = [
-                (k as i64 % 5 - 2) * chart.step,
-                (k as i64 / 5 - 2) * chart.step,
-            ];
-            (o, Shell::new(o, reach2, reach_min2))
-        });
+        let taps = chart.taps();
         let row_floats = 4 * w as usize;
         let rows = pos.layers as usize * h as usize;
         let mut bits = vec![0u32; rows * w as usize];
@@ -1239,10 +1242,7 @@ mod tests {
                 for reach in [[0.0, 0.1], [0.04, 0.1], [0.02, 0.3]] {
                     let chart = Chart { step, reach };
                     let masks = GuideMasks::new(pos, chart);
-                    let taps: [([i64; 2], Shell); 25] = std::array::from_fn(|k| {
-                        let o = [(k as i64 % 5 - 2) * step, (k as i64 / 5 - 2) * step];
-                        (o, Shell::new(o, reach[1] * reach[1], reach[0] * reach[0]))
-                    });
+                    let taps = chart.taps();
                     let mut set = 0;
                     for layer in 0..2usize {
                         for y in 0..i64::from(size[1]) {

@@ -109,7 +109,11 @@ mod avx2 {
 
     impl Centres {
         /// The centres of the [`LANES`] texels from `at` along its row, when `src`, `pos` and
-        /// `nrm` have one shape and the block lies in them.
+        /// `nrm` have one shape, the block lies in them and its chart tests lie side by side
+        /// ([`GuideMasks::eight`]): per lane the texel reference's tests (valid in `src`, a
+        /// normal of positive finite length, chart tests known) and its normalisation
+        /// ([`normalize`]: `n / ‖n‖`, `‖n‖ = √((x² + y²) + z²)`), eight lanes at once; a lane
+        /// left alone holds zeros.
         #[target_feature(enable = "avx2")]
         pub(crate) fn new(
             [src, pos, nrm]: [View<'_>; 3],
@@ -120,46 +124,7 @@ mod avx2 {
                 .then(|| src.index(at.layer, at.x, at.y))
                 .flatten()
                 .filter(|b| b + 4 * LANES <= src.data.len())?;
-            if let Some(bits) = masks.eight(at) {
-                return Some(Centres::of_eight(src, nrm, bits, base));
-            }
-            let mut lanes = [[0.0f32; LANES]; 4];
-            let mut bits = [0i32; LANES];
-            let mut alone = [false; LANES];
-            for l in 0..LANES {
-                let t = Texel {
-                    x: at.x + l as u32,
-                    ..at
-                };
-                let (c, nc) = (src.at_offset(base + 4 * l), nrm.at_offset(base + 4 * l));
-                match (c[3] > 0.5, normalize(xyz(nc)), masks.at(t)) {
-                    (true, Some(n), Some(m)) => {
-                        for (v, lane) in [n[0], n[1], n[2], nc[3]].into_iter().zip(&mut lanes) {
-                            lane[l] = v;
-                        }
-                        bits[l] = m as i32;
-                    }
-                    _ => alone[l] = true,
-                }
-            }
-            let [n0, n1, n2, object] = lanes.each_ref().map(|a| vector(a));
-            // SAFETY: eight integers from an array of eight.
-            let mask = unsafe { _mm256_loadu_si256(bits.as_ptr().cast()) };
-            Some(Centres {
-                base,
-                n: [n0, n1, n2],
-                object,
-                mask,
-                alone,
-            })
-        }
-
-        /// [`Centres::new`] for a block whose eight chart tests lie side by side (`bits`), its
-        /// first texel at float `base` of the maps: the same tests and the same
-        /// normalisation ([`normalize`]: `n / ‖n‖`, `‖n‖ = √((x² + y²) + z²)`, positive and
-        /// finite), eight lanes at once; a lane left alone holds zeros, as there.
-        #[target_feature(enable = "avx2")]
-        fn of_eight(src: View<'_>, nrm: View<'_>, bits: &[u32; LANES], base: usize) -> Centres {
+            let bits = masks.eight(at)?;
             let Texels(c) = Texels::load(src.data, base as i64);
             let Texels(v) = Texels::load(nrm.data, base as i64);
             let set = _mm256_set1_ps;
@@ -169,10 +134,9 @@ mod avx2 {
             ));
             // SAFETY: eight integers from an array of eight.
             let m = unsafe { _mm256_loadu_si256(bits.as_ptr().cast()) };
-            let tested = _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, _mm256_setzero_si256()));
-            // Valid in `src`, a normal of positive finite length, chart tests known.
+            let untested = _mm256_castsi256_ps(_mm256_cmpeq_epi32(m, _mm256_setzero_si256()));
             let keep = _mm256_andnot_ps(
-                tested,
+                untested,
                 _mm256_and_ps(
                     _mm256_cmp_ps::<_CMP_GT_OQ>(c[3], set(0.5)),
                     _mm256_and_ps(
@@ -182,7 +146,7 @@ mod avx2 {
                 ),
             );
             let lanes = _mm256_movemask_ps(keep);
-            Centres {
+            Some(Centres {
                 base,
                 n: [
                     _mm256_and_ps(keep, _mm256_div_ps(v[0], l)),
@@ -192,7 +156,7 @@ mod avx2 {
                 object: _mm256_and_ps(keep, v[3]),
                 mask: _mm256_and_si256(_mm256_castps_si256(keep), m),
                 alone: std::array::from_fn(|l| lanes & (1 << l) == 0),
-            }
+            })
         }
 
         /// Tap `k` of the 5 × 5 (rows outer) at `offset` texels in every lane: its value, `n̂·nₜ`
