@@ -15,8 +15,9 @@ use std::sync::Arc;
 
 use luxbake::bake::BakeOutput;
 use luxbake::gbuffer::rasterize;
-use luxbake::scene::{Albedo, Blur, Lamp, LampModel, Object, Scene, Settings, Transform};
+use luxbake::scene::{Albedo, Blur, Lamp, LampModel, Object, Quality, Scene, Settings, Transform};
 use luxbake::sources::meshes;
+use luxbake::{DirectStage, GpuBackend, Room};
 use luxbake_backends::BackendKind;
 use luxbake_ies::Photometry;
 use luxbake_testkit::RelativeError;
@@ -277,6 +278,83 @@ fn the_point_models_error_on_a_disks_axis_and_its_far_field() {
         let rel = (sums[1] - sums[0]).abs() / sums[0];
         println!("{backend} 10 D: area vs point {:.3} %", 100.0 * rel);
         assert!(rel < 0.003, "{backend}: {rel}");
+        tally.compared(1);
+    }
+    tally.finish();
+}
+
+/// A bake that hands its direct light over first ([`luxbake::bake_room_direct_first`]) with a
+/// lamp that bakes its opening hands over a preview before it, every lamp a point: on every
+/// backend the preview is the point's inverse-square and cosine law `E = I(θ) cos θ / r²`
+/// (under the Lambertian disk `I₀ cos θ · cos θ / r² = I₀ h² / r⁴`), and the direct light
+/// after it the disk's closed form, both at every floor texel.
+#[test]
+fn the_preview_of_an_openings_direct_light_is_the_point_on_every_backend() {
+    let d = 0.4f64;
+    let h = d;
+    let l_disk = I0 / (std::f64::consts::PI * d * d / 4.0);
+    let mut lamp = Lamp::new("disk", lambertian(-d, -d), [0.0, h, 0.0]);
+    lamp.model = LampModel::Area;
+    let mut scene = floor_scene(lamp, 3.0, 24.0, SAMPLES);
+    scene.settings = Settings {
+        bounces: 0,
+        blur: Blur::None,
+        texels_per_metre: 24.0,
+        opening_samples: SAMPLES,
+        ..Settings::preset(Quality::Default)
+    };
+    let mut tally = Tally::new("opening_preview");
+    for backend in ALL {
+        let Some(mut b) = tally.open(backend) else {
+            continue;
+        };
+        let room = Room::prepare(&scene, &scene.settings, b.limits(), &mut |_| {}).expect("room");
+        let mut shown = Vec::new();
+        let out = luxbake::bake_room_direct_first(
+            &mut b,
+            &room,
+            &scene.lamps,
+            &scene.settings,
+            &mut |_| {},
+            &mut |stage, maps| shown.push((stage, maps[0].illuminance().clone())),
+        )
+        .unwrap_or_else(|e| panic!("{backend} bake: {e}"));
+        let stages: Vec<DirectStage> = shown.iter().map(|s| s.0).collect();
+        assert_eq!(
+            stages,
+            [DirectStage::Preview, DirectStage::Direct],
+            "{backend}"
+        );
+        let g = rasterize(&scene, &out.layout);
+        let floor = |map: &luxbake::map::MapImage| -> Vec<(f64, f64, f64)> {
+            out.maps[0]
+                .texels(&g, map)
+                .map(|(p, t)| (p[0], p[2], f64::from(t[1])))
+                .collect()
+        };
+        let point = errors(
+            &floor(&shown[0].1),
+            |x, z| {
+                let r2 = h * h + x * x + z * z;
+                I0 * h * h / (r2 * r2)
+            },
+            0.01,
+        );
+        let opening = errors(
+            &floor(&shown[1].1),
+            |x, z| disk(l_disk, d / 2.0, h, (x * x + z * z).sqrt()),
+            0.01,
+        );
+        println!(
+            "{backend}: preview against the point {} texels, max |rel| {:.3} %; direct light \
+             against the disk {} texels, max {:.3} %",
+            point.n,
+            100.0 * point.max,
+            opening.n,
+            100.0 * opening.max
+        );
+        assert!(point.n > 100 && point.max < 0.005, "{backend} preview");
+        assert!(opening.n > 100 && opening.max < 0.005, "{backend} direct");
         tally.compared(1);
     }
     tally.finish();

@@ -427,6 +427,19 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     else {
         return Ok(());
     };
+    // The swap's preview, natively: the same lamp as a point, its direct light alone.
+    let mut point_settings = swap_settings.clone();
+    point_settings["lampModel"] = json!("point");
+    point_settings["bounces"] = json!(0);
+    let Some(point_native) = native_bake(
+        &format!("{SWAP_SCENE}.glb"),
+        &swap_glb,
+        &point_settings,
+        &swap_lamp,
+    )?
+    else {
+        return Ok(());
+    };
 
     let web_rows = web_catalogue(root, &project)?;
     validate_glbs(&project, &web_rows)?;
@@ -442,7 +455,7 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     let s = driver.session.as_ref().ok_or("no session")?;
     let result = run_checks(s, page_port, &settings, &native, &dir)
         .and_then(|()| check_generated_uvs(s, &sofa_settings, &sofa_native))
-        .and_then(|()| check_swap(s, &swap_native, &dir))
+        .and_then(|()| check_swap(s, [&swap_native, &point_native], &dir))
         .and_then(|()| check_dispose(s))
         .and_then(|()| check_web_glb(s, &web_rows));
     if let Some(s) = driver.session.take() {
@@ -916,15 +929,17 @@ fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result
 
 /// 8. The lamp swap (issue #26) on [`SWAP_SCENE`]: `baker.load`, a first `room.bake` with
 ///    [`CHECK_LAMP`], then a second with [`SWAP_LAMP`] on the same room, its direct light
-///    handed over first (`onDirect`); the second equals a fresh `baker.bake` with its lamp,
-///    and its direct light and the one handed over agree with a native glow bake's. Then
+///    handed over first (`onDirect`: `rw_5.IES` bakes its luminous opening, so a preview of it
+///    as a point comes before); the second equals a fresh `baker.bake` with its lamp, its
+///    direct light and the one handed over agree with a native glow bake's, and the preview
+///    with a native bake of the lamp as a point (`lampModel` "point", no bounces). Then
 ///    a layered bake of the same lamp equals the second bake, `setLamp` halves and switches it
 ///    off (maps, `measure` and what `applyToThree` drew follow, in at most
 ///    [`MAX_SET_LAMP_MS`]), bad input rejects with the right kind, `applyToThree` removes or
 ///    keeps the file's punctual lights, `setExposure` sets tone mapping, a bake at another
 ///    density reads the room again (as a fresh bake does), and a disposed room rejects with
 ///    `disposed`. The timings are printed and written to `swap.json`.
-fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
+fn check_swap(s: &Session, [native, point]: [&Native; 2], dir: &Path) -> Result<(), String> {
     let started = Instant::now();
     let settings: Value = serde_json::from_str(SWAP_SETTINGS).map_err(|e| e.to_string())?;
     let script = format!(
@@ -937,14 +952,14 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          const t1 = performance.now(); \
          const first = await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}}); \
          const t2 = performance.now(); \
-         let directAt = null; let direct = null; \
+         let directAt = null; let direct = null; let previewAt = null; let preview = null; const stages = []; \
          const swap = await room.bake({{lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}], \
-           onDirect: (d) => {{ directAt = performance.now(); direct = d; }}}}); \
+           onDirect: (d) => {{ stages.push(d.stage); if (d.stage === 'preview') {{ previewAt = performance.now(); preview = d; }} else {{ directAt = performance.now(); direct = d; }} }}}}); \
          const t3 = performance.now(); \
          const fresh = await ex.baker.bake({{...settings, scene: glb, lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}]}}); \
          const t4 = performance.now(); \
          {JS_DIFF} const asFresh = diff(swap, fresh, 1); fresh.dispose(); \
-         window.__swapRoom = room; window.__swapGlb = glb; window.__swap = swap; window.__direct = direct; \
+         window.__swapRoom = room; window.__swapGlb = glb; window.__swap = swap; window.__direct = direct; window.__preview = preview; \
          const gpu = (r) => r.report.passes.reduce((a, p) => a + p.seconds, 0); \
          const setup = (r) => r.timings.setup.reduce((a, p) => a + p.seconds, 0); \
          const byPass = (r) => r.report.passes.reduce((m, p) => (m[p.label] = (m[p.label] || 0) + p.seconds, m), {{}}); \
@@ -952,6 +967,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          const times = (r) => ({{bake: r.timings.bake, call: r.timings.total, gpu: gpu(r), phases: setup(r) + gpu(r), prepared: r.report.roomPrepared, byPass: byPass(r), bySetup: bySetup(r)}}); \
          done({{load: (t1 - t0) / 1000, loadWorker: room.seconds, first: {{...times(first), wall: (t2 - t1) / 1000}}, \
            swap: {{...times(swap), wall: (t3 - t2) / 1000}}, fresh: {{...times(fresh), wall: (t4 - t3) / 1000}}, direct: directAt === null ? null : (directAt - t2) / 1000, \
+           preview: previewAt === null ? null : (previewAt - t2) / 1000, stages, \
            directStage: direct?.stage, texels: room.texels, regionTexels: swap.report.regionTexels, asFresh}});",
         first = SWAP_FIRST_POSITION,
         swap = SWAP_POSITION,
@@ -969,6 +985,13 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     if got["directStage"] != json!("direct") || !(direct > 0.0 && direct < f(&swap["wall"])) {
         return Err(format!(
             "the swap's direct light did not come before its result: {got}"
+        ));
+    }
+    // The swapped-in lamp bakes its opening: a preview (every lamp a point) comes first.
+    let preview = f(&got["preview"]);
+    if got["stages"] != json!(["preview", "direct"]) || !(preview > 0.0 && preview < direct) {
+        return Err(format!(
+            "the swap's preview did not come before its direct light: {got}"
         ));
     }
     if first["prepared"] != json!(false) || swap["prepared"] != json!(false) {
@@ -995,16 +1018,27 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         &[("illuminance", "direct"), ("direct", "direct")],
         &TOLERANCES,
     )?;
+    // The preview is the lamp as a point: a native bake's with `lampModel` "point".
+    let preview_maps = read_maps(s, "window.__preview")?;
+    let preview_texels = compare_stages(
+        &preview_maps,
+        point,
+        &[("illuminance", "direct"), ("direct", "direct")],
+        &TOLERANCES,
+    )?;
     println!(
         "lamp swap on {SWAP_SCENE} ({} texels): load {load:.2} s (host work {:.2} s), first bake {:.2} s; \
-         swap {:.2} s = {:.2} of the first (load + bake), direct light after {direct:.2} s = {:.2}; \
+         swap {:.2} s = {:.2} of the first (load + bake), its preview after {preview:.2} s = {:.2}, \
+         direct light after {direct:.2} s = {:.2}; \
          the swap equals a fresh bake (worst {:.1e} over {} values), its direct light and the one handed \
-         over first agree with the native bake ({texels} texel comparisons)",
+         over agree with the native bake ({texels} texel comparisons), the preview with a native bake of \
+         the lamp as a point ({preview_texels})",
         got["texels"],
         f(&got["loadWorker"]),
         f(&first["wall"]),
         f(&swap["wall"]),
         f(&swap["wall"]) / first_total,
+        preview / first_total,
         direct / first_total,
         f(&as_fresh["worst"]),
         as_fresh["n"],
@@ -1044,12 +1078,13 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     );
     println!(
         "first bake: {}; swap: {}; a fresh bake with the swap's lamp {:.2} s ({}): the swap takes {:.2} of it, \
-         its direct light comes after {:.2} of it",
+         its preview comes after {:.3} of it, its direct light after {:.2} of it",
         split(first),
         split(swap),
         f(&fresh["wall"]),
         split(fresh),
         f(&swap["wall"]) / f(&fresh["wall"]),
+        preview / f(&fresh["wall"]),
         direct / f(&fresh["wall"]),
     );
 
@@ -1222,6 +1257,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "fresh_same_lamp_s": fresh["wall"], "swap_to_fresh_ratio": f(&swap["wall"]) / f(&fresh["wall"]),
         "fresh_worker_s": fresh["bake"], "fresh_gpu_s": fresh["gpu"],
         "direct_s": direct, "direct_ratio": direct / first_total,
+        "preview_s": preview, "preview_to_fresh_ratio": preview / f(&fresh["wall"]),
         "first_worker_s": first["bake"], "first_gpu_s": first["gpu"],
         "swap_worker_s": swap["bake"], "swap_gpu_s": swap["gpu"],
         "swap_phases_over_bake": f(&swap["phases"]) / f(&swap["bake"]),

@@ -41,7 +41,8 @@ use crate::graph::{BakeGraph, GraphConfig, GraphError};
 use crate::prepare::{Lamps, PrepareError};
 pub use crate::prepare::{Room, recentring_shift};
 pub use crate::report::{
-    BakeOutput, BakeReport, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped,
+    BakeOutput, BakeReport, DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack,
+    Skipped,
 };
 use crate::scene::{BvhMode, Lamp, Method, Scene, Settings};
 
@@ -113,15 +114,18 @@ pub fn bake_room<B: GpuBackend>(
 
 /// [`bake_room`], handing the direct light to `direct` as soon as it exists: per receiver,
 /// [`ObjectMaps`] with only the blurred direct illuminance (Figure 5 stage 3, which
-/// [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`] return), before the bounces run.
-/// It costs one read-back of one map.
+/// [`ObjectMaps::illuminance`] and [`ObjectMaps::direct`] return), before the bounces run,
+/// with [`DirectStage::Direct`]. It costs one read-back of one map. In the converged method,
+/// when a lamp bakes its luminous opening, a preview comes first ([`DirectStage::Preview`]:
+/// every lamp a point, one shadow ray a texel, before the opening's direct pass): one more
+/// direct pass without openings and one more read-back.
 pub fn bake_room_direct_first<B: GpuBackend>(
     backend: &mut B,
     room: &Room,
     lamps: &[Lamp],
     settings: &Settings,
     progress: &mut dyn FnMut(&Progress<'_>),
-    direct: &mut dyn FnMut(&[ObjectMaps]),
+    direct: OnDirect<'_>,
 ) -> Result<BakeOutput, BakeError<B::Error>> {
     bake_room_reading(
         backend,
@@ -200,6 +204,9 @@ pub fn bake_room_reading<B: GpuBackend>(
                 .unwrap_or(u32::MAX),
         ),
         opening_probe_stride: settings.opening_probe_stride,
+        // Direct light handed over first: a preview with every lamp a point before an
+        // opening's direct pass.
+        direct_preview: direct.is_some(),
         luminance_scale: crate::program::luminance_scale_for(lamps.peak_candela()),
         gather_chunk,
         direct_chunk,

@@ -32,7 +32,7 @@ use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
 use crate::program::{CombineParams, Params, Program, TilePlan};
-use crate::report::{ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
+use crate::report::{DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
 
@@ -239,7 +239,8 @@ fn work_to_come(graph: &BakeGraph, room: &Room, index: usize, stop: u32) -> f64 
 
 /// Runs `graph` for `room` lit by `lamps` on `backend` (module docs). `direct`, if given,
 /// receives the blurred direct maps (Figure 5 stage 3, the maps a bake without bounces
-/// shows) as soon as the graph has computed them.
+/// shows) as soon as the graph has computed them, and before them the graph's preview
+/// ([`BakeGraph::preview`]) if it has one.
 pub(crate) fn run<B: GpuBackend>(
     backend: &mut B,
     (room, lamps): (&Room, &mut Lamps),
@@ -404,11 +405,18 @@ pub(crate) fn run<B: GpuBackend>(
             bounce: pass.bounce,
             seconds,
         });
-        if let (Some(show), Some(tex)) = (direct.as_mut(), blurred_direct)
-            && direct_done == Some(index)
-        {
-            let maps = collect_stages(backend, room, &textures, &[(2, tex)])?;
-            show(&maps);
+        if let Some(show) = direct.as_mut() {
+            let shown = if graph.preview == Some(index) {
+                Some((DirectStage::Preview, graph.direct))
+            } else if direct_done == Some(index) {
+                blurred_direct.map(|t| (DirectStage::Direct, t))
+            } else {
+                None
+            };
+            if let Some((stage, tex)) = shown {
+                let maps = collect_stages(backend, room, &textures, &[(2, tex)])?;
+                show(stage, &maps);
+            }
         }
     }
     if shown < 1.0 {

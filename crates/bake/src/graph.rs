@@ -56,6 +56,12 @@
 //! once: Variance, Atrous… (denoise indirect), Combine direct + indirect, AlbedoMul
 //! ```
 //!
+//! A converged bake that hands its direct light over first, with a lamp that bakes its
+//! luminous opening ([`GraphConfig::direct_preview`]), starts with a `direct_preview` pass:
+//! the direct program with every lamp a point (one shadow ray a texel), into `direct`, which
+//! the driver reads back and hands over ([`BakeGraph::preview`]) before the opening's direct
+//! passes overwrite it.
+//!
 //! Every light-map texture carries the texel mask in its alpha channel (1 = a valid texel of a
 //! receiver's chart, 0 = empty), which the blur and the gather's bilinear look-up use.
 //!
@@ -339,6 +345,10 @@ pub struct GraphConfig {
     /// Opening samples per visibility probe ([`DirectParams::probe_stride`], from
     /// `Settings::opening_probe_stride`).
     pub opening_probe_stride: u32,
+    /// [`Method::Converged`] with a lamp's opening among the lamps ([`GraphConfig::openings`]):
+    /// a first direct pass with every lamp a point ([`DirectParams::points_only`]), whose
+    /// result a bake hands over before the opening's direct pass runs ([`BakeGraph::preview`]).
+    pub direct_preview: bool,
     /// [`Method::Converged`]: the denoiser's and refinement's power of two for luminances
     /// ([`AtrousConfig::luminance_scale`], [`crate::program::luminance_scale_for`]); 1:
     /// unscaled.
@@ -390,6 +400,9 @@ pub struct BakeGraph {
     pub method: Method,
     /// Explicit bounces the graph can run.
     pub bounces: u32,
+    /// The pass after which [`BakeGraph::direct`] holds the preview of the direct light, every
+    /// lamp a point ([`GraphConfig::direct_preview`]); the direct passes after it overwrite it.
+    pub preview: Option<usize>,
 }
 
 /// Builds a [`BakeGraph`]: textures are added on demand, passes appended in order.
@@ -525,7 +538,12 @@ impl Builder {
                 lit[w.index()] |= p.lamps;
             }
         }
+        let preview = self
+            .passes
+            .iter()
+            .position(|p| matches!(p.params, Params::Direct(d) if d.points_only != 0));
         BakeGraph {
+            preview,
             textures: self.textures,
             passes: self.passes,
             gbuffer,
@@ -593,8 +611,15 @@ fn connect_stage(b: &mut Builder, g: GBufferTex, params: ConnectParams) {
 /// its energy is measured for the bounces' checks. With [`GraphConfig::direct_chunk`] an
 /// opening's samples are split over several direct passes, each adding to the one before,
 /// alternating between the target and `spare` (which holds nothing live before the direct
-/// light is done) so that the last lands in the target.
-fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: TexId) -> TexId {
+/// light is done) so that the last lands in the target. With `preview` and a lamp's opening,
+/// a first pass writes the target with every lamp a point ([`BakeGraph::preview`]).
+fn direct_stage(
+    b: &mut Builder,
+    g: GBufferTex,
+    config: &GraphConfig,
+    spare: TexId,
+    preview: bool,
+) -> TexId {
     let direct = b.texture("direct");
     let whole = DirectParams {
         lamp_count: config.lamp_count,
@@ -604,6 +629,20 @@ fn direct_stage(b: &mut Builder, g: GBufferTex, config: &GraphConfig, spare: Tex
         probe_stride: config.opening_probe_stride,
         ..DirectParams::default()
     };
+    if preview && whole.openings > 0 {
+        b.pass(
+            PassKind::Run(Program::Direct),
+            "direct_preview",
+            vec![g.position, g.normal, g.position],
+            vec![direct],
+            0,
+            Params::Direct(DirectParams {
+                openings: 0,
+                points_only: 1,
+                ..whole
+            }),
+        );
+    }
     let chunks = whole.chunked(config.direct_chunk);
     let mut prior = g.position;
     for (c, params) in chunks.iter().enumerate() {
@@ -936,7 +975,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered. Until then
     // its texture is the split direct pass's spare.
     let reflected_direct = b.texture("reflected_direct");
-    let direct = direct_stage(&mut b, g, config, reflected_direct);
+    let direct = direct_stage(&mut b, g, config, reflected_direct, config.direct_preview);
     albedo_stage(&mut b, g, direct, reflected_direct, 0, "albedo_direct");
     let connect = ConnectParams {
         rays: config.rays,
@@ -1200,7 +1239,8 @@ impl BakeGraph {
         let g = gbuffer_stage(&mut b, false);
         // Written after the direct light: until then the split direct pass's spare.
         let direct_blurred = b.texture("direct_blurred");
-        let direct = direct_stage(&mut b, g, config, direct_blurred);
+        // The paper's direct light is handed over blurred: no preview before it.
+        let direct = direct_stage(&mut b, g, config, direct_blurred, false);
         let blurs = matches!(config.blur, Blur::Sigma(s) if s > 0.0 && s.is_finite());
         // The blur scratch texture exists only when a blur runs.
         let tmp = blurs.then(|| b.texture("blur_tmp"));
@@ -1482,6 +1522,7 @@ mod tests {
             lamp_path_count: 0,
             openings: (0, 0),
             opening_probe_stride: 0,
+            direct_preview: false,
             luminance_scale: 1.0,
             gather_chunk: 0,
             direct_chunk: 0,
@@ -1897,6 +1938,7 @@ mod tests {
             lamp_path_count: 100,
             openings: (0, 0),
             opening_probe_stride: 0,
+            direct_preview: false,
             luminance_scale: 1.0,
             ..converged(2, Blur::Sigma(1.5))
         });
@@ -2018,6 +2060,7 @@ mod tests {
             lamp_path_count: 1000,
             openings: (0, 0),
             opening_probe_stride: 0,
+            direct_preview: false,
             luminance_scale: 1.0,
             ..config(3, Blur::Sigma(1.0))
         };

@@ -183,8 +183,8 @@ pub use luxbake_scene::sources;
 
 pub use backend::{GpuBackend, Limits};
 pub use bake::{
-    BakeError, BakeOutput, BakeReport, Progress, ReadBack, bake, bake_room, bake_room_direct_first,
-    bake_room_reading,
+    BakeError, BakeOutput, BakeReport, DirectStage, Progress, ReadBack, bake, bake_room,
+    bake_room_direct_first, bake_room_reading,
 };
 pub use graph::BakeGraph;
 pub use prepare::Room;

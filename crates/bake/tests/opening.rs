@@ -373,3 +373,75 @@ fn opening_probes_keep_the_penumbrae_of_every_ray() {
     assert!(mp <= 1.05 * me, "mean {mp} vs {me}");
     assert!(xp <= 1.5 * xe, "max {xp} vs {xe}");
 }
+
+#[test]
+fn a_lamp_baking_its_opening_hands_over_a_point_preview_before_its_direct_light() {
+    let test = "opening_preview";
+    let Some(linear) = photometry(test, "photometry/real-world/rw_5.IES") else {
+        return;
+    };
+    let downlight = Arc::new(Photometry::parse(DEFAULT_LAMP_IES.as_bytes()).expect("downlight"));
+    let lamps = vec![
+        Lamp::new("pendant", linear, [0.0, 1.3, 0.0]),
+        Lamp::new("downlight", downlight, [1.5, 2.5, 1.2]),
+    ];
+    let mut scene = dining(lamps, 8.0, 16);
+    scene.settings.bounces = 1;
+    scene.settings.rays = 4;
+    let room = common::prepare(&scene);
+    let mut stages = Vec::new();
+    let bounce_started = std::cell::Cell::new(false);
+    let mut shown = Vec::new();
+    let out = luxbake::bake_room_direct_first(
+        &mut luxbake_backend_cpu::CpuBackend::new(),
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |p| {
+            if let luxbake::Progress::PassStart { bounce, .. } = p {
+                bounce_started.set(bounce_started.get() || *bounce >= 1);
+            }
+        },
+        &mut |stage, maps| {
+            assert!(!bounce_started.get(), "{stage:?} after a bounce started");
+            stages.push(stage);
+            shown.push(maps.to_vec());
+        },
+    )
+    .expect("bake");
+    assert!(
+        out.report.lamp_models[0].area,
+        "{}",
+        out.report.lamp_models[0]
+    );
+    assert_eq!(
+        stages,
+        [luxbake::DirectStage::Preview, luxbake::DirectStage::Direct]
+    );
+    // The preview is both lamps as points: a bake with every lamp's model `point`, bit for
+    // bit; then the bake's own direct light.
+    let mut points = scene.clone();
+    for l in &mut points.lamps {
+        l.model = LampModel::Point;
+    }
+    points.settings.bounces = 0;
+    let point = run(&points);
+    assert_finite(&point);
+    let mut differs = 0;
+    for ((preview, direct), (p, o)) in shown[0]
+        .iter()
+        .zip(&shown[1])
+        .zip(point.maps.iter().zip(&out.maps))
+    {
+        assert_eq!(preview.illuminance(), p.direct(), "{}", p.name);
+        assert_eq!(direct.illuminance(), o.direct(), "{}", o.name);
+        differs += usize::from(preview.illuminance() != direct.illuminance());
+    }
+    // The pendant 0.55 m over the table lights it from its opening: the preview differs.
+    assert!(differs > 0, "the preview equals the opening's direct light");
+    // Handing the light over changes nothing in the result.
+    let plain = run(&scene);
+    for (a, b) in plain.maps.iter().zip(&out.maps) {
+        assert_eq!(a.illuminance(), b.illuminance(), "{}", a.name);
+    }
+}

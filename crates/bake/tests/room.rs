@@ -187,7 +187,9 @@ fn progress_follows_the_work_and_the_direct_light_comes_first() {
             Progress::Setup("lamp paths") => events.borrow_mut().push(Event::LampPaths),
             _ => {}
         },
-        &mut |maps| {
+        &mut |stage, maps| {
+            // The small room's lamp is a point: no preview.
+            assert_eq!(stage, luxbake::DirectStage::Direct);
             shown = Some(maps.to_vec());
             events.borrow_mut().push(Event::Direct);
         },
@@ -278,7 +280,7 @@ fn reading_back_the_light_only_gives_the_same_illuminance_and_direct_light() {
         &scene.settings,
         ReadBack::LIGHT,
         &mut |_| {},
-        Some(&mut |_: &[luxbake::bake::ObjectMaps]| early += 1),
+        Some(&mut |_: luxbake::DirectStage, _: &[luxbake::bake::ObjectMaps]| early += 1),
     )
     .expect("light only");
     assert_eq!(early, 1, "the direct light is still handed over first");

@@ -100,7 +100,7 @@ export type LoadOptions = Omit<BakeOptions, 'lamps'>;
 
 /** What a room is baked with (`room.bake`): the lamps and settings over the load's. */
 export interface RoomBakeOptions extends Omit<BakeOptions, 'scene'> {
-  /** Called once with the blurred direct light (a BakeResult with `stage` 'direct', for applyToThree; no measure) before the bounces run. Not with `layers`. */
+  /** Called with the blurred direct light (a BakeResult with `stage` 'direct', for applyToThree; no measure) before the bounces run; when a lamp bakes its luminous opening, first with a preview (`stage` 'preview': every lamp a point, one shadow ray a texel). Not with `layers`. */
   onDirect?: (direct: BakeResult) => void;
   /** Bake each lamp alone, so that `result.setLamp` dims, tints or switches it without a ray (costs one bake per lamp, and memory per lamp: see `bytesPerLamp`). */
   layers?: boolean;
@@ -156,7 +156,7 @@ export class BakeResult {
   readonly timings: BakeTimings;
   readonly report: Record<string, unknown>;
   /** 'converged', or 'direct' for the direct light handed to `onDirect`. */
-  readonly stage: 'converged' | 'direct';
+  readonly stage: 'converged' | 'direct' | 'preview';
   /** Layered results: the lamps in their current states. */
   readonly lamps: LampState[];
   /** Layered results: bytes the worker keeps per lamp (the page keeps 32 and the GPU 8 more per region texel). */

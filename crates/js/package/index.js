@@ -284,7 +284,7 @@ export class Luxbake {
     if (room._generation !== this._generation) await this._loadInWorker(room, { signal });
     const started = performance.now();
     const direct = onDirect ? (m) => {
-      const result = new BakeResult(null, { id: 0, report: '{}', warnings: [], objects: m.objects }, (performance.now() - started) / 1000, { stage: 'direct' });
+      const result = new BakeResult(null, { id: 0, report: '{}', warnings: [], objects: m.objects }, (performance.now() - started) / 1000, { stage: m.stage === 'preview' ? 'preview' : 'direct' });
       try { onDirect(result); } catch (err) { console.error(err); }
     } : null;
     return this.#run(
@@ -417,7 +417,8 @@ export class Room {
    * Bakes the room lit by `lamps`. Options: those of `baker.bake` but `scene` (the settings
    * start from the load's; another `texelsPerMetre` or `blurSigma` reads the room again),
    * `onDirect(result)` called with the direct light (a BakeResult for `applyToThree`) before
-   * the bounces run, and `layers: true` to bake each lamp alone so that `result.setLamp`
+   * the bounces run (twice when a lamp bakes its luminous opening: first a preview, every
+   * lamp a point, `result.stage` 'preview', then the direct light, 'direct'), and `layers: true` to bake each lamp alone so that `result.setLamp`
    * dims, tints or switches it without a ray. Resolves to a BakeResult.
    */
   bake(options) {
@@ -460,7 +461,11 @@ export class BakeResult {
     const report = JSON.parse(raw.report);
     /** Bake id inside the worker (for `measure`). */
     this.id = raw.id;
-    /** `converged`, or `direct` for the direct light handed to `onDirect` before the bounces. */
+    /**
+     * `converged`; `direct` for the direct light handed to `onDirect` before the bounces;
+     * `preview` for the direct light with every lamp a point, handed to `onDirect` before
+     * that when a lamp bakes its luminous opening.
+     */
     this.stage = stage;
     /** Per baked object: name, glTF origin, light maps (RGBA Float32Array, lux). */
     this.objects = raw.objects;
@@ -582,7 +587,7 @@ export class BakeResult {
    */
   async measure(points) {
     const flat = Float64Array.from(Array.isArray(points) && Array.isArray(points[0]) ? points.flat() : points);
-    if (this.stage === 'direct') throw new LuxbakeError('measure', 'the direct light handed to onDirect has no measure: measure the bake\'s result');
+    if (this.stage !== 'converged') throw new LuxbakeError('measure', 'the direct light handed to onDirect has no measure: measure the bake\'s result');
     if (!this.#baker) throw new LuxbakeError('measure', 'this result was disposed, or its baker aborted a bake or was disposed');
     return this.#baker._measure(this.id, flat, this.#layers?.states);
   }

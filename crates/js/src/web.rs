@@ -19,7 +19,7 @@ use luxbake::bake::ObjectMaps;
 use luxbake::layers::{LampLayers, LampState, LayerError, bake_layers};
 use luxbake::map::MapImage;
 use luxbake::scene::{Scene, Settings};
-use luxbake::{BakeOutput, Progress, ReadBack, Room};
+use luxbake::{BakeOutput, DirectStage, Progress, ReadBack, Room};
 use luxbake_backend_glow::{GlContext, GlowBackend};
 use serde::Deserialize;
 use serde_json::json;
@@ -720,11 +720,16 @@ impl Baker {
             // Without a `direct` callback the direct light is not read back early. The page
             // shows the illuminance and the direct light: only those stages come back.
             let mut sent = Ok(());
-            let mut on_direct = |maps: &[ObjectMaps]| {
+            let mut on_direct = |stage: DirectStage, maps: &[ObjectMaps]| {
                 if let Some(direct) = &direct {
                     sent = objects_of(&imported, maps, &settings).map(|objects| {
                         let event = js_sys::Object::new();
                         let _ = set(&event, "objects", array_of(objects).into());
+                        let stage = match stage {
+                            DirectStage::Preview => "preview",
+                            DirectStage::Direct => "direct",
+                        };
+                        let _ = set(&event, "stage", stage.into());
                         // A throwing callback must not stop the bake.
                         let _ = direct.call1(&JsValue::NULL, &event);
                     });
@@ -739,7 +744,7 @@ impl Baker {
                 on_progress,
                 direct
                     .is_some()
-                    .then_some(&mut on_direct as &mut dyn FnMut(&[ObjectMaps])),
+                    .then_some(&mut on_direct as &mut dyn FnMut(DirectStage, &[ObjectMaps])),
             )
             .map_err(gpu)?;
             sent?;

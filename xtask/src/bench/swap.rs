@@ -9,7 +9,9 @@
 //! 2. **whole re-bake**: [`luxbake::bake()`] of the same scene on the warm backend (nothing of the
 //!    room reused);
 //! 3. **swap**: [`bake_room_direct_first`] on the same room with `rw_5.IES` at [0, 2, 0]:
-//!    the time to the direct light and to the converged maps;
+//!    the time to the first direct light handed over (with an opening baked, the preview of
+//!    every lamp as a point, [`DirectStage::Preview`]), to the bake's own direct light and to
+//!    the converged maps;
 //! 4. **dim**: the swapped lamp's layer ([`bake_layers`]) recombined at multiplier 0.5
 //!    ([`LampLayers::combine`](luxbake::layers::LampLayers::combine)): no ray;
 //! 5. **fresh bake with the swapped lamp**: a fresh backend, [`Room::prepare`] and
@@ -17,7 +19,7 @@
 //!    anew for the new lamp (issue 26's "first bake of the same room and lamp").
 //!
 //! Reported as ratios against the first bake of the same run (the median over `--runs`), the
-//! swap also against the fresh bake with its own lamp,
+//! swap and its direct lights also against the fresh bake with its own lamp,
 //! with the swap's host share (the CPU work before and around the passes: lamp reach, the
 //! lamp paths' pool, upload, read-back), how well the report's phases add up to its wall
 //! time, and the longest time its progress fraction ([`Progress::Work`]) stood still, as a
@@ -30,7 +32,9 @@ use std::path::Path;
 use std::time::Instant;
 
 use luxbake::GpuBackend;
-use luxbake::bake::{BakeOutput, Progress, Room, bake, bake_room, bake_room_direct_first};
+use luxbake::bake::{
+    BakeOutput, DirectStage, Progress, Room, bake, bake_room, bake_room_direct_first,
+};
 use luxbake::layers::{LampState, bake_layers};
 use luxbake::scene::{Lamp, LampModel, Quality, Scene, Settings};
 use luxbake::sources::scenefile::read_photometry;
@@ -112,7 +116,11 @@ fn scene(name: &str, settings: &Settings, model: Option<LampModel>) -> Result<Sc
 struct Measured {
     first: f64,
     whole: f64,
+    /// When the first direct light was handed over: the preview when a lamp bakes its
+    /// opening ([`DirectStage::Preview`]), else the bake's direct light.
     direct: f64,
+    /// When the bake's own direct light was handed over ([`DirectStage::Direct`]).
+    exact: f64,
     swap: f64,
     swap_cpu: f64,
     swap_host: f64,
@@ -165,7 +173,9 @@ fn measure_once(
     let whole = t.elapsed().as_secs_f64();
 
     let (t, c) = (Instant::now(), cpu_seconds());
-    let mut direct = None;
+    // When the first direct light was handed over (a preview with a lamp's opening), and the
+    // bake's own direct light.
+    let (mut direct, mut exact) = (None, None);
     // When the progress fraction last grew, and the longest wait for it to grow.
     let (mut grew, mut still) = (0.0f64, 0.0f64);
     let out = bake_room_direct_first(
@@ -180,7 +190,13 @@ fn measure_once(
                 grew = now;
             }
         },
-        &mut |_| direct = Some(t.elapsed().as_secs_f64()),
+        &mut |stage, _| {
+            let now = Some(t.elapsed().as_secs_f64());
+            direct = direct.or(now);
+            if stage == DirectStage::Direct {
+                exact = now;
+            }
+        },
     )
     .map_err(|e| e.to_string())?;
     let swap = t.elapsed().as_secs_f64();
@@ -209,6 +225,7 @@ fn measure_once(
             first,
             whole,
             direct: direct.ok_or("the direct light was never handed over")?,
+            exact: exact.ok_or("the bake's direct light was never handed over")?,
             swap,
             swap_cpu,
             swap_host: host_seconds(&out),
@@ -266,11 +283,11 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
     );
     let _ = writeln!(
         md,
-        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] | kept [MB] | fresh bake, swapped lamp [s] | swap / fresh |"
+        "| scene | backend | first bake [s] | whole re-bake | swap: direct | swap: converged | swap host share | swap CPU / wall | phases / wall | progress still | dim [ms] | kept [MB] | fresh bake, swapped lamp [s] | swap / fresh | direct / fresh | the bake's direct / fresh |"
     );
     let _ = writeln!(
         md,
-        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+        "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
     );
     let mut rows = Vec::new();
     for name in &scenes {
@@ -306,7 +323,7 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
             };
             let _ = writeln!(
                 md,
-                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} | {} | {:.2} | {:.2}× |",
+                "| {name} | {} | {first:.2} | {:.2}× | {:.2}× | {:.2}× | {:.0} % | {:.2} | {:.2} | {:.0} % | {:.1} | {} | {:.2} | {:.2}× | {:.2}× | {:.2}× |",
                 kind.name(),
                 ratio(|m| m.whole),
                 ratio(|m| m.direct),
@@ -319,11 +336,14 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
                 kept_mb,
                 med(|m| m.fresh).median,
                 swap / med(|m| m.fresh).median,
+                med(|m| m.direct).median / med(|m| m.fresh).median,
+                med(|m| m.exact).median / med(|m| m.fresh).median,
             );
             rows.push(json!({
                 "scene": name, "backend": kind.name(), "renderer": renderer,
                 "first_s": med(|m| m.first).json(), "whole_s": med(|m| m.whole).json(),
-                "direct_s": med(|m| m.direct).json(), "swap_s": med(|m| m.swap).json(),
+                "direct_s": med(|m| m.direct).json(), "direct_exact_s": med(|m| m.exact).json(),
+                "swap_s": med(|m| m.swap).json(),
                 "swap_cpu_s": med(|m| m.swap_cpu).json(), "swap_host_s": med(|m| m.swap_host).json(),
                 "swap_phases_over_wall": med(|m| m.swap_phases).json(),
                 "swap_longest_still_over_wall": med(|m| m.swap_still).json(),

@@ -658,7 +658,7 @@ mod tests {
         first_sample: 0,
         chunk_samples: 0,
         probe_stride: 0,
-        pad1: 0,
+        points_only: 0,
     };
 
     #[test]

@@ -4,7 +4,8 @@
 // Evaluates the first u_lamp_count uploaded lamps (luxLamp, scene.glsl); near a lamp's
 // luminous opening, u_samples points of it (luxOpening*, opening.glsl). With
 // u_chunk_samples > 0 an opening's samples are split over dispatches, each adding its share
-// to the one before (u_prior); the lamps without an opening come with the first.
+// to the one before (u_prior); the lamps without an opening come with the first. With
+// u_points_only = 1 every lamp is a point (the preview of the direct light).
 
 // cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
 // squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
@@ -198,7 +199,7 @@ vec4 luxRun(ivec3 c) {
     for (int li = 0; li < int(u_lamp_count); ++li) {
         vec3 lampPos = luxLamp(li, 0).xyz;
         LuxOpening opening = luxOpening(li);
-        if (luxOpeningNear(opening, lampPos, p)) {
+        if (u_points_only == 0u && luxOpeningNear(opening, lampPos, p)) {
             uvec2 shift = luxOpeningShift(texel, uint(li), u_seed);
             float k = luxFromOpening(li, opening, p, n, o0, off2, shift, first, end);
             e += k * luxLamp(li, 4).rgb;

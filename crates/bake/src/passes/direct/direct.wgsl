@@ -2,7 +2,8 @@
 // through the BVH (cpu::direct_texel, operation for operation); near a lamp's luminous
 // opening, lux_pass.samples points of it (lux_opening_*, opening.wgsl). With
 // lux_pass.chunk_samples > 0 an opening's samples are split over dispatches, each adding its
-// share to the one before (lux_prior); the lamps without an opening come with the first.
+// share to the one before (lux_prior); the lamps without an opening come with the first. With
+// lux_pass.points_only = 1 every lamp is a point (the preview of the direct light).
 
 // cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
 // squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
@@ -211,7 +212,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         let lamp = lux_lamps[li];
         let lamp_pos = lamp.position.xyz;
         let opening = lux_opening(li);
-        if (lux_opening_near(opening, lamp_pos, p)) {
+        if (lux_pass.points_only == 0u && lux_opening_near(opening, lamp_pos, p)) {
             let shift = lux_opening_shift(texel, li, lux_pass.seed);
             let k = lux_from_opening(li, opening, p, n, o0, off2, shift, first, end);
             e += k * lamp.scale.xyz;

@@ -39,8 +39,11 @@ param_block! {
         /// them reach the opening the other points are taken as seen without a ray, else
         /// every point casts its own ([`crate::opening`], "Probes").
         probe_stride: u32,
-        /// Padding.
-        pad1: u32,
+        /// 1: every lamp from its photometric centre, its opening left out even where a texel
+        /// lies within [`crate::opening::OpeningParams::near`] — the preview of the direct
+        /// light a bake hands over before an opening's direct pass has run
+        /// ([`crate::graph::BakeGraph::preview`]); 0: as the lamps say.
+        points_only: u32,
     }
 }
 

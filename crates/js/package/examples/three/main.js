@@ -130,13 +130,17 @@ async function bake() {
         example.progress.push(e.fraction);
         $('progress').value = e.fraction;
       },
-      // The direct light first, while the bounces run.
+      // The direct light first, while the bounces run (a lamp that bakes its luminous
+      // opening sends a preview, every lamp a point, before it).
       onDirect: (d) => {
-        directSeconds = (performance.now() - t0) / 1000;
-        direct = d;
+        directSeconds ??= (performance.now() - t0) / 1000;
         d.applyToThree(gltf, THREE);
+        direct?.dispose();
+        direct = d;
         draw();
-        $('status').textContent = 'direct light shown; baking the bounces…';
+        $('status').textContent = d.stage === 'preview'
+          ? 'direct light (preview) shown; baking the luminous opening…'
+          : 'direct light shown; baking the bounces…';
       },
     });
     const t1 = performance.now();
