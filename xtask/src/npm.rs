@@ -318,6 +318,9 @@ fn pack(out: &Path) -> Result<Option<PathBuf>, String> {
 /// The native glow bake of the check's request: light maps dilated as the package sends them.
 struct Native {
     maps: Vec<(usize, String, [u32; 2], MapImage, MapImage)>,
+    /// The preview of the direct light handed over before it (`DirectStage::Preview`), per
+    /// object as `maps` (dilated); empty when the bake had none.
+    preview: Vec<MapImage>,
     seconds: f64,
     /// Lux at [`MEASURE_POINTS`] ([`luxbake_js::measure`] on the native maps).
     measured: Vec<f64>,
@@ -427,19 +430,6 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     else {
         return Ok(());
     };
-    // The swap's preview, natively: the same lamp as a point, its direct light alone.
-    let mut point_settings = swap_settings.clone();
-    point_settings["lampModel"] = json!("point");
-    point_settings["bounces"] = json!(0);
-    let Some(point_native) = native_bake(
-        &format!("{SWAP_SCENE}.glb"),
-        &swap_glb,
-        &point_settings,
-        &swap_lamp,
-    )?
-    else {
-        return Ok(());
-    };
 
     let web_rows = web_catalogue(root, &project)?;
     validate_glbs(&project, &web_rows)?;
@@ -455,7 +445,7 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     let s = driver.session.as_ref().ok_or("no session")?;
     let result = run_checks(s, page_port, &settings, &native, &dir)
         .and_then(|()| check_generated_uvs(s, &sofa_settings, &sofa_native))
-        .and_then(|()| check_swap(s, [&swap_native, &point_native], &dir))
+        .and_then(|()| check_swap(s, &swap_native, &dir))
         .and_then(|()| check_dispose(s))
         .and_then(|()| check_web_glb(s, &web_rows));
     if let Some(s) = driver.session.take() {
@@ -487,8 +477,29 @@ fn native_bake(
         Err(e) => return Err(format!("native glow: {e}")),
     };
     let t = Instant::now();
-    let out = luxbake::bake(&mut backend, scene, &scene.settings, &mut |_| {})
-        .map_err(|e| format!("native glow bake: {e}"))?;
+    // As the page bakes: the direct light handed over first, a preview (every lamp a point)
+    // before it when a lamp bakes its opening.
+    let room = luxbake::Room::prepare(
+        scene,
+        &scene.settings,
+        luxbake::GpuBackend::limits(&backend),
+        &mut |_| {},
+    )
+    .map_err(|e| format!("native glow room: {e}"))?;
+    let mut preview = Vec::new();
+    let out = luxbake::bake_room_direct_first(
+        &mut backend,
+        &room,
+        &scene.lamps,
+        &scene.settings,
+        &mut |_| {},
+        &mut |stage, maps| {
+            if stage == luxbake::DirectStage::Preview {
+                preview = maps.iter().map(|m| m.illuminance().clone()).collect();
+            }
+        },
+    )
+    .map_err(|e| format!("native glow bake: {e}"))?;
     let seconds = t.elapsed().as_secs_f64();
     println!(
         "native glow bake of {name} with {lamp_name}: {} texels, {} objects in {seconds:.2} s",
@@ -518,10 +529,57 @@ fn native_bake(
     let measured = luxbake_js::measure(scene, &raw, MEASURE_POINTS.as_flattened(), tolerance)
         .map_err(|e| e.to_string())?;
     Ok(Some(Native {
+        preview: preview.iter().map(|m| m.dilated(passes)).collect(),
         maps,
         seconds,
         measured,
     }))
+}
+
+/// How far `native`'s preview of the direct light lies from its direct light, per kind of
+/// object (the room's surfaces, the furniture): mean |relative error|, bias and 95th
+/// percentile over the valid texels with more than 1 % of the direct map's peak (green).
+fn preview_error(native: &Native) -> Result<String, String> {
+    let peak = native
+        .maps
+        .iter()
+        .flat_map(|m| m.4.texels.chunks_exact(4).map(|t| t[1]))
+        .fold(0.0f32, f32::max);
+    let mut kinds: [(&str, Vec<f64>); 2] = [("room", Vec::new()), ("furniture", Vec::new())];
+    for (p, e) in native.preview.iter().zip(&native.maps) {
+        if p.texels.len() != e.4.texels.len() {
+            return Err(format!(
+                "the preview and the direct light differ in object {}",
+                e.1
+            ));
+        }
+        let kind = usize::from(!e.1.starts_with("room"));
+        for (a, b) in p.texels.chunks_exact(4).zip(e.4.texels.chunks_exact(4)) {
+            if b[3] > 0.5 && b[1] > 0.01 * peak {
+                kinds[kind].1.push(f64::from(a[1]) / f64::from(b[1]) - 1.0);
+            }
+        }
+    }
+    let mut parts = Vec::new();
+    for (kind, mut rel) in kinds {
+        if rel.is_empty() {
+            return Err(format!("no {kind} texel with direct light"));
+        }
+        let n = rel.len() as f64;
+        let bias = rel.iter().sum::<f64>() / n;
+        let mean = rel.iter().map(|r| r.abs()).sum::<f64>() / n;
+        rel.iter_mut().for_each(|r| *r = r.abs());
+        rel.sort_by(f64::total_cmp);
+        let p95 = rel[((0.95 * n) as usize).min(rel.len() - 1)];
+        parts.push(format!(
+            "{kind} {} texels, mean |rel| {:.2} %, bias {:+.2} %, p95 {:.2} %",
+            rel.len(),
+            100.0 * mean,
+            100.0 * bias,
+            100.0 * p95
+        ));
+    }
+    Ok(parts.join("; "))
 }
 
 /// The maps of a result held by the page in `expr` (a `BakeResult`), as JSON.
@@ -929,17 +987,16 @@ fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result
 
 /// 8. The lamp swap (issue #26) on [`SWAP_SCENE`]: `baker.load`, a first `room.bake` with
 ///    [`CHECK_LAMP`], then a second with [`SWAP_LAMP`] on the same room, its direct light
-///    handed over first (`onDirect`: `rw_5.IES` bakes its luminous opening, so a preview of it
-///    as a point comes before); the second equals a fresh `baker.bake` with its lamp, its
-///    direct light and the one handed over agree with a native glow bake's, and the preview
-///    with a native bake of the lamp as a point (`lampModel` "point", no bounces). Then
+///    handed over first (`onDirect`: `rw_5.IES` bakes its luminous opening, so a preview of the
+///    lamp as a point comes before); the second equals a fresh `baker.bake` with its lamp, its direct light,
+///    the one handed over and the preview agree with a native glow bake's. Then
 ///    a layered bake of the same lamp equals the second bake, `setLamp` halves and switches it
 ///    off (maps, `measure` and what `applyToThree` drew follow, in at most
 ///    [`MAX_SET_LAMP_MS`]), bad input rejects with the right kind, `applyToThree` removes or
 ///    keeps the file's punctual lights, `setExposure` sets tone mapping, a bake at another
 ///    density reads the room again (as a fresh bake does), and a disposed room rejects with
 ///    `disposed`. The timings are printed and written to `swap.json`.
-fn check_swap(s: &Session, [native, point]: [&Native; 2], dir: &Path) -> Result<(), String> {
+fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     let started = Instant::now();
     let settings: Value = serde_json::from_str(SWAP_SETTINGS).map_err(|e| e.to_string())?;
     let script = format!(
@@ -987,7 +1044,7 @@ fn check_swap(s: &Session, [native, point]: [&Native; 2], dir: &Path) -> Result<
             "the swap's direct light did not come before its result: {got}"
         ));
     }
-    // The swapped-in lamp bakes its opening: a preview (every lamp a point) comes first.
+    // The swapped-in lamp bakes its opening: a preview (the lamp as a point) comes first.
     let preview = f(&got["preview"]);
     if got["stages"] != json!(["preview", "direct"]) || !(preview > 0.0 && preview < direct) {
         return Err(format!(
@@ -1018,21 +1075,38 @@ fn check_swap(s: &Session, [native, point]: [&Native; 2], dir: &Path) -> Result<
         &[("illuminance", "direct"), ("direct", "direct")],
         &TOLERANCES,
     )?;
-    // The preview is the lamp as a point: a native bake's with `lampModel` "point".
+    // The preview is the native bake's.
     let preview_maps = read_maps(s, "window.__preview")?;
+    let native_preview = Native {
+        maps: native
+            .maps
+            .iter()
+            .zip(&native.preview)
+            .map(|(m, p)| (m.0, m.1.clone(), m.2, p.clone(), p.clone()))
+            .collect(),
+        preview: Vec::new(),
+        seconds: native.seconds,
+        measured: Vec::new(),
+    };
+    if native.preview.len() != native.maps.len() {
+        return Err("the native bake handed over no preview".into());
+    }
     let preview_texels = compare_stages(
         &preview_maps,
-        point,
+        &native_preview,
         &[("illuminance", "direct"), ("direct", "direct")],
         &TOLERANCES,
     )?;
+    println!(
+        "the preview against the direct light: {}",
+        preview_error(native)?
+    );
     println!(
         "lamp swap on {SWAP_SCENE} ({} texels): load {load:.2} s (host work {:.2} s), first bake {:.2} s; \
          swap {:.2} s = {:.2} of the first (load + bake), its preview after {preview:.2} s = {:.2}, \
          direct light after {direct:.2} s = {:.2}; \
          the swap equals a fresh bake (worst {:.1e} over {} values), its direct light and the one handed \
-         over agree with the native bake ({texels} texel comparisons), the preview with a native bake of \
-         the lamp as a point ({preview_texels})",
+         over agree with the native bake ({texels} texel comparisons), and so does the preview ({preview_texels})",
         got["texels"],
         f(&got["loadWorker"]),
         f(&first["wall"]),
