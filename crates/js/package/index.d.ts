@@ -155,7 +155,7 @@ export class BakeResult {
   readonly warnings: string[];
   readonly timings: BakeTimings;
   readonly report: Record<string, unknown>;
-  /** 'converged', or 'direct' for the direct light handed to `onDirect`. */
+  /** 'converged'; 'direct' for the direct light handed to `onDirect`; 'preview' for the preview of it (every lamp a point) handed before when a lamp bakes its luminous opening. */
   readonly stage: 'converged' | 'direct' | 'preview';
   /** Layered results: the lamps in their current states. */
   readonly lamps: LampState[];
