@@ -142,7 +142,9 @@ function onWorker(e) {
     try {
       viewer.showBake(JSON.stringify(hooks.request), m.maps);
       hooks.direct = { bake: bakeId, wall: m.wall };
-      $('status').textContent = 'direct light shown; baking the bounces…';
+      $('status').textContent = m.stage === 'preview'
+        ? 'direct light (preview, the lamps as points) shown; baking the luminous opening…'
+        : 'direct light shown; baking the bounces…';
     } catch (err) {
       showError(`display: ${err.message || err}`);
     }

@@ -30,9 +30,10 @@ onmessage = async (e) => {
   try {
     const result = baker.bake(m.request, m.lampFile, (event) => {
       postMessage({ type: 'progress', id: m.id, event: JSON.parse(event) });
-    }, (maps) => {
-      // The direct light, shown while the bounces run.
-      postMessage({ type: 'direct', id: m.id, maps, wall: (performance.now() - t0) / 1000 },
+    }, (maps, stage) => {
+      // The direct light (first its preview, for a lamp that bakes its opening), shown while
+      // the bounces run.
+      postMessage({ type: 'direct', id: m.id, maps, stage, wall: (performance.now() - t0) / 1000 },
         maps.map((map) => map.illuminance.buffer));
     });
     const transfer = [];

@@ -273,8 +273,10 @@ pub fn run(args: &Args, quick: bool, runs: Option<usize>, out: &Path) -> Result<
         md,
         "\nRatios against the first bake (fresh backend: room prepared, programs compiled, \
          {} at {:?}) in the same run; the swap puts {} at {:?} on the same room; lamp model \
-         `{}`; the last column is the swap against a fresh backend's first bake of the room \
-         with the swapped lamp.\n",
+         `{}`; the last three columns are against a fresh backend's first bake of the room \
+         with the swapped lamp: the swap, the first direct light it handed over (\"swap: direct\"; \
+         with an opening baked, the preview of the lamps as points) and the bake's own direct \
+         light.\n",
         FIRST.0,
         FIRST.1,
         SWAPPED.0,

@@ -138,8 +138,9 @@ impl Baker {
     /// for lamp source `file`. `progress` is called with one JSON event per set-up step, pass
     /// start, finished tile and finished pass; `direct` with the blurred direct light, as
     /// `maps` entries `{object, name, width, height, illuminance}` ([`Viewer::show_bake`]
-    /// shows them), before the bounces run ([`luxbake::bake_room_direct_first`]): once, or
-    /// twice when a lamp bakes its opening (first its preview, every lamp a point). Returns
+    /// shows them) and the stage (`"direct"`, or `"preview"`), before the bounces run
+    /// ([`luxbake::bake_room_direct_first`]): once, or twice when a lamp bakes its opening
+    /// (first its preview, every lamp a point). Returns
     /// `{report, maps}`: `report` a JSON string (texels, passes with seconds, total), `maps`
     /// one entry per receiver `{object, name, width, height, illuminance, direct, exitance}`
     /// (Float32Arrays, RGBA, row 0 first; stages 7, 3 and 8 of Figure 5).
@@ -230,10 +231,14 @@ impl Baker {
             &scene.lamps,
             settings,
             &mut on_progress,
-            &mut |_, maps: &[ObjectMaps]| {
+            &mut |stage, maps: &[ObjectMaps]| {
+                let stage = match stage {
+                    luxbake::DirectStage::Preview => "preview",
+                    luxbake::DirectStage::Direct => "direct",
+                };
                 sent = maps_of(maps, false).map(|maps| {
                     // A throwing callback must not stop the bake.
-                    let _ = direct.call1(&JsValue::NULL, &maps);
+                    let _ = direct.call2(&JsValue::NULL, &maps, &JsValue::from_str(stage));
                 });
             },
         )
