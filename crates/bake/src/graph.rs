@@ -1636,6 +1636,65 @@ mod tests {
         }
     }
 
+    /// With a preview asked for and a lamp's opening, the converged graph's first direct pass
+    /// is the preview (every lamp a point, no opening's work in its tile plan) into `direct`,
+    /// before the opening's (chunked) direct passes that overwrite it; without an opening, or
+    /// in the paper method, there is none and the graph is the one without a preview.
+    #[test]
+    fn a_preview_of_the_direct_light_comes_first_only_where_an_opening_is_baked() {
+        let opening = GraphConfig {
+            openings: (48, 1),
+            opening_probe_stride: 4,
+            direct_chunk: 64,
+            ..converged(2, Blur::Sigma(1.0))
+        };
+        let with = BakeGraph::build(&GraphConfig {
+            direct_preview: true,
+            ..opening.clone()
+        });
+        with.validate().expect("valid");
+        let directs: Vec<usize> = (0..with.passes.len())
+            .filter(|&i| with.passes[i].kind == PassKind::Run(Program::Direct))
+            .collect();
+        // The preview, then the opening's 96 samples in two chunks of 64.
+        assert_eq!(directs.len(), 3, "{directs:?}");
+        assert_eq!(with.preview, Some(directs[0]));
+        let p = &with.passes[directs[0]];
+        assert_eq!(p.writes, vec![with.direct]);
+        match p.params {
+            Params::Direct(d) => {
+                assert_eq!((d.points_only, d.openings, d.first_sample), (1, 0, 0));
+                assert_eq!(crate::passes::direct::work(&d), u64::from(d.lamp_count));
+            }
+            other => panic!("{other:?}"),
+        }
+        assert!(directs[1..].iter().all(|&i| matches!(
+            with.passes[i].params,
+            Params::Direct(d) if d.points_only == 0
+        )));
+        assert_eq!(with.passes[directs[2]].writes, vec![with.direct]);
+        let without = BakeGraph::build(&opening);
+        assert_eq!(without.preview, None);
+        assert_eq!(without.passes.len() + 1, with.passes.len());
+        for config in [
+            GraphConfig {
+                openings: (48, 0),
+                ..opening.clone()
+            },
+            GraphConfig {
+                method: Method::Paper,
+                ..opening.clone()
+            },
+        ] {
+            let g = BakeGraph::build(&GraphConfig {
+                direct_preview: true,
+                ..config.clone()
+            });
+            assert_eq!(g.preview, None);
+            assert_eq!(g, BakeGraph::build(&config));
+        }
+    }
+
     /// On a loop-limited driver a texel's rays are split over gather passes of
     /// `gather_chunk` rays that add up, alternating with a spare texture so that the last
     /// writes where the unsplit gather would; both methods and refinement, and the graph
