@@ -14,7 +14,8 @@
 use std::sync::Arc;
 
 use luxbake::bake::BakeOutput;
-use luxbake::gbuffer::rasterize;
+use luxbake::gbuffer::{GBuffer, rasterize};
+use luxbake::map::MapImage;
 use luxbake::scene::{Albedo, Blur, Lamp, LampModel, Object, Quality, Scene, Settings, Transform};
 use luxbake::sources::meshes;
 use luxbake::{DirectStage, GpuBackend, Room};
@@ -80,9 +81,17 @@ fn floor_scene(lamp: Lamp, size: f32, texels_per_metre: f32, samples: u32) -> Sc
 
 /// The floor's texels as `(x, z, lux)` (green channel; the lamp is white).
 fn texels(scene: &Scene, out: &BakeOutput) -> Vec<(f64, f64, f64)> {
-    let g = rasterize(scene, &out.layout);
-    let maps = &out.maps[0];
-    maps.texels(&g, maps.illuminance())
+    floor_texels(
+        &rasterize(scene, &out.layout),
+        out,
+        out.maps[0].illuminance(),
+    )
+}
+
+/// The texels of `map`, a map of the floor of `out` (whose G-buffer is `g`), as `(x, z, lux)`.
+fn floor_texels(g: &GBuffer, out: &BakeOutput, map: &MapImage) -> Vec<(f64, f64, f64)> {
+    out.maps[0]
+        .texels(g, map)
         .map(|(p, t)| (p[0], p[2], f64::from(t[1])))
         .collect()
 }
@@ -326,12 +335,7 @@ fn the_preview_of_an_openings_direct_light_is_the_point_on_every_backend() {
             "{backend}"
         );
         let g = rasterize(&scene, &out.layout);
-        let floor = |map: &luxbake::map::MapImage| -> Vec<(f64, f64, f64)> {
-            out.maps[0]
-                .texels(&g, map)
-                .map(|(p, t)| (p[0], p[2], f64::from(t[1])))
-                .collect()
-        };
+        let floor = |map: &MapImage| floor_texels(&g, &out, map);
         let point = errors(
             &floor(&shown[0].1),
             |x, z| {

@@ -627,7 +627,8 @@ fn compare_within(
 }
 
 /// [`compare`] for `(page map, native stage)` pairs: the page's map of that name against the
-/// native stage (`illuminance` or `direct`), within that stage's tolerance.
+/// native stage (`illuminance`, `direct`, or `preview`: [`Native::preview`], within the direct
+/// light's tolerance), within that stage's tolerance.
 fn compare_stages(
     browser: &Value,
     native: &Native,
@@ -646,11 +647,12 @@ fn compare_stages(
     let mut texels = 0;
     for o in objects {
         let object = o["object"].as_u64().unwrap_or(u64::MAX) as usize;
-        let (_, name, size, illuminance, direct) = native
+        let index = native
             .maps
             .iter()
-            .find(|m| m.0 == object)
+            .position(|m| m.0 == object)
             .ok_or_else(|| format!("object {object} was not baked natively"))?;
+        let (_, name, size, illuminance, direct) = &native.maps[index];
         let (w, h) = (
             o["width"].as_u64().unwrap_or(0) as u32,
             o["height"].as_u64().unwrap_or(0) as u32,
@@ -662,14 +664,21 @@ fn compare_stages(
             ));
         }
         for &(key, stage) in stages {
-            let expected = if stage == "direct" {
-                direct
-            } else {
-                illuminance
+            // The preview is a direct light: it is held to the direct light's tolerance.
+            let (expected, tolerance) = match stage {
+                "direct" => (direct, stage),
+                "preview" => (
+                    native
+                        .preview
+                        .get(index)
+                        .ok_or_else(|| format!("{name}: the native bake handed over no preview"))?,
+                    "direct",
+                ),
+                _ => (illuminance, stage),
             };
             let tol = tolerances
                 .iter()
-                .find(|(s, _)| *s == stage)
+                .find(|(s, _)| *s == tolerance)
                 .map(|(_, t)| *t)
                 .ok_or("no tolerance")?;
             let actual = map_from_json(&o[key], w, h)?;
@@ -1077,24 +1086,10 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     )?;
     // The preview is the native bake's.
     let preview_maps = read_maps(s, "window.__preview")?;
-    let native_preview = Native {
-        maps: native
-            .maps
-            .iter()
-            .zip(&native.preview)
-            .map(|(m, p)| (m.0, m.1.clone(), m.2, p.clone(), p.clone()))
-            .collect(),
-        preview: Vec::new(),
-        seconds: native.seconds,
-        measured: Vec::new(),
-    };
-    if native.preview.len() != native.maps.len() {
-        return Err("the native bake handed over no preview".into());
-    }
     let preview_texels = compare_stages(
         &preview_maps,
-        &native_preview,
-        &[("illuminance", "direct"), ("direct", "direct")],
+        native,
+        &[("illuminance", "preview"), ("direct", "preview")],
         &TOLERANCES,
     )?;
     println!(

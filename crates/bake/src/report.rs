@@ -88,6 +88,16 @@ pub enum DirectStage {
     Direct,
 }
 
+impl DirectStage {
+    /// The lower-case name the JavaScript package and the viewer give it: `preview`, `direct`.
+    pub fn name(self) -> &'static str {
+        match self {
+            DirectStage::Preview => "preview",
+            DirectStage::Direct => "direct",
+        }
+    }
+}
+
 /// Wall time of one executed pass.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PassTiming {

@@ -722,17 +722,16 @@ impl Baker {
             let mut sent = Ok(());
             let mut on_direct = |stage: DirectStage, maps: &[ObjectMaps]| {
                 if let Some(direct) = &direct {
-                    sent = objects_of(&imported, maps, &settings).map(|objects| {
-                        let event = js_sys::Object::new();
-                        let _ = set(&event, "objects", array_of(objects).into());
-                        let stage = match stage {
-                            DirectStage::Preview => "preview",
-                            DirectStage::Direct => "direct",
-                        };
-                        let _ = set(&event, "stage", stage.into());
-                        // A throwing callback must not stop the bake.
-                        let _ = direct.call1(&JsValue::NULL, &event);
-                    });
+                    // A preview that could not be sent keeps its error (and nothing follows).
+                    sent = std::mem::replace(&mut sent, Ok(()))
+                        .and_then(|()| objects_of(&imported, maps, &settings))
+                        .map(|objects| {
+                            let event = js_sys::Object::new();
+                            let _ = set(&event, "objects", array_of(objects).into());
+                            let _ = set(&event, "stage", stage.name().into());
+                            // A throwing callback must not stop the bake.
+                            let _ = direct.call1(&JsValue::NULL, &event);
+                        });
                 }
             };
             let out = luxbake::bake_room_reading(

@@ -232,14 +232,14 @@ impl Baker {
             settings,
             &mut on_progress,
             &mut |stage, maps: &[ObjectMaps]| {
-                let stage = match stage {
-                    luxbake::DirectStage::Preview => "preview",
-                    luxbake::DirectStage::Direct => "direct",
-                };
-                sent = maps_of(maps, false).map(|maps| {
-                    // A throwing callback must not stop the bake.
-                    let _ = direct.call2(&JsValue::NULL, &maps, &JsValue::from_str(stage));
-                });
+                // A preview that could not be sent keeps its error (and nothing follows).
+                sent = std::mem::replace(&mut sent, Ok(()))
+                    .and_then(|()| maps_of(maps, false))
+                    .map(|maps| {
+                        // A throwing callback must not stop the bake.
+                        let _ =
+                            direct.call2(&JsValue::NULL, &maps, &JsValue::from_str(stage.name()));
+                    });
             },
         )
         .map_err(js_err)?;
