@@ -19,7 +19,9 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
     let fy = f32(c.y - y0) / f32(s);
     r.corners = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x0 + s, y0),
                                     vec2<i32>(x0, y0 + s), vec2<i32>(x0 + s, y0 + s));
-    let bilinear = array<f32, 4>((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy,
+    // A variable, not a value: naga's SPIR-V copies an array value at every access with a
+    // variable index.
+    var bilinear = array<f32, 4>((1.0 - fx) * (1.0 - fy), fx * (1.0 - fy), (1.0 - fx) * fy,
                                  fx * fy);
     r.weights = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
     r.total = 0.0;

@@ -40,9 +40,11 @@ fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f3
     let y0 = i32(y0f);
     let x1 = min(x0 + 1, size.x - 1);
     let y1 = min(y0 + 1, size.y - 1);
-    let xs = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x1, y0), vec2<i32>(x0, y1),
+    // Variables, not values: naga's SPIR-V copies an array value at every access with a
+    // variable index.
+    var xs = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x1, y0), vec2<i32>(x0, y1),
                                  vec2<i32>(x1, y1));
-    let ws = array<f32, 4>((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    var ws = array<f32, 4>((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
     var sum = vec3<f32>(0.0);
     var wsum = 0.0;
     for (var i = 0; i < 4; i++) {

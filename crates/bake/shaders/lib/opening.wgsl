@@ -191,18 +191,20 @@ fn lux_visible_areas(o: LuxOpening, receiver: vec3<f32>) -> array<f32, 6> {
 
 // opening::counts: n samples shared among the parts in proportion to their areas, at least
 // one per part of positive area.
-fn lux_counts(areas: array<f32, 6>, n: u32) -> array<u32, 6> {
+// `areas` by pointer: naga's SPIR-V copies an array value at every access with a variable
+// index.
+fn lux_counts(areas: ptr<function, array<f32, 6>>, n: u32) -> array<u32, 6> {
     var counts = array<u32, 6>(0u, 0u, 0u, 0u, 0u, 0u);
     var total = 0.0;
     for (var i = 0; i < 6; i++) {
-        total += areas[i];
+        total += (*areas)[i];
     }
     if (!(total > 0.0)) {
         return counts;
     }
     for (var i = 0; i < 6; i++) {
-        if (areas[i] > 0.0) {
-            counts[i] = max(u32(f32(n) * areas[i] / total + 0.5), 1u);
+        if ((*areas)[i] > 0.0) {
+            counts[i] = max(u32(f32(n) * (*areas)[i] / total + 0.5), 1u);
         }
     }
     return counts;

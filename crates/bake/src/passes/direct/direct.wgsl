@@ -121,7 +121,9 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
     let rel = p - lamp_pos;
     let receiver = vec3<f32>(lux_dot(m0, rel), lux_dot(m1, rel), lux_dot(m2, rel));
     let n_texel = lux_texel_samples(o, sqrt(lux_dot(rel, rel)), lux_pass.samples);
-    let counts = lux_counts(lux_visible_areas(o, receiver), n_texel);
+    // Variables, read with a variable index (see opening.wgsl's lux_counts).
+    var areas = lux_visible_areas(o, receiver);
+    var counts = lux_counts(&areas, n_texel);
     // A chunk past the texel's points adds nothing (and asks no probe).
     var total = 0u;
     for (var part = 0; part < 6; part++) {

@@ -8,7 +8,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let own = lux_load(lux_src, c);
-    let k = lux_coarse_weights(c, lux_pass.stride, lux_pass.reach);
+    // A variable: its arrays are read with a variable index (see coarse.wgsl).
+    var k = lux_coarse_weights(c, lux_pass.stride, lux_pass.reach);
     let total = k.total;
     if (!(total > 0.0)) {
         return own;

@@ -9,8 +9,12 @@
 // direct light (`direct`), against which refinement weighs the noise: refine::refines).
 
 // The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
-fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
-    let dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
+// The window is read through pointers: indexing an array value with a variable index makes
+// naga's SPIR-V copy the whole array at every access (on lavapipe the pass took 7.5 times
+// glow's on llvmpipe).
+fn lux_window_variance(lum: ptr<function, array<f32, 25>>, ok: ptr<function, array<bool, 25>>)
+    -> f32 {
+    var dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
                                    vec2<i32>(1, -1));
     var found = false;
     var best = 0.0;
@@ -24,8 +28,8 @@ fn lux_window_variance(lum: array<f32, 25>, ok: array<bool, 25>) -> f32 {
                 continue;
             }
             let b = j * 5 + i;
-            if (ok[k] && ok[b]) {
-                let diff = lum[b] - lum[k];
+            if ((*ok)[k] && (*ok)[b]) {
+                let diff = (*lum)[b] - (*lum)[k];
                 sum += diff * diff;
                 n += 1u;
             }
@@ -61,9 +65,9 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
             && cosine >= LUX_BLUR_NORMAL_COS;
         lum[k] = select(0.0, lux_luminance(t.rgb) * lux_pass.luminance_scale, ok[k]);
     }
-    let with_centre = lux_window_variance(lum, ok);
+    let with_centre = lux_window_variance(&lum, &ok);
     ok[12] = false;
-    let without_centre = lux_window_variance(lum, ok);
+    let without_centre = lux_window_variance(&lum, &ok);
     // The mean luminance without the centre (cpu::variance_texel), for refinement and the
     // denoiser's wide term (atrous).
     var sum = 0.0;
