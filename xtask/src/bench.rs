@@ -56,7 +56,7 @@ use luxbake_backends::{AnyBackend, BackendKind};
 mod grain;
 mod nearfield;
 mod rays;
-mod refcheck;
+pub(crate) mod refcheck;
 mod sampling;
 mod scaling;
 mod swap;

@@ -69,6 +69,7 @@ use luxbake_backends::image_diff::{Tolerance, diff};
 use luxbake_js::{BakeOptions, build_scene};
 use serde_json::{Value, json};
 
+use crate::bench::refcheck::Stats;
 use crate::web::{
     self, Session, TOLERANCES, check_lit_floor, map_from_json, open_session, run_cmd, serve,
     start_driver, target_dir, webdriver, workspace_root,
@@ -538,14 +539,19 @@ fn native_bake(
 
 /// How far `native`'s preview of the direct light lies from its direct light, per kind of
 /// object (the room's surfaces, the furniture): mean |relative error|, bias and 95th
-/// percentile over the valid texels with more than 1 % of the direct map's peak (green).
+/// percentile ([`Stats`]) over the valid texels with more than 1 % of the direct map's peak
+/// (green).
 fn preview_error(native: &Native) -> Result<String, String> {
     let peak = native
         .maps
         .iter()
         .flat_map(|m| m.4.texels.chunks_exact(4).map(|t| t[1]))
         .fold(0.0f32, f32::max);
-    let mut kinds: [(&str, Vec<f64>); 2] = [("room", Vec::new()), ("furniture", Vec::new())];
+    // Per kind, the preview's texels and the direct light's.
+    let mut kinds: [(&str, Vec<f64>, Vec<f64>); 2] = [
+        ("room", Vec::new(), Vec::new()),
+        ("furniture", Vec::new(), Vec::new()),
+    ];
     for (p, e) in native.preview.iter().zip(&native.maps) {
         if p.texels.len() != e.4.texels.len() {
             return Err(format!(
@@ -553,30 +559,26 @@ fn preview_error(native: &Native) -> Result<String, String> {
                 e.1
             ));
         }
-        let kind = usize::from(!e.1.starts_with("room"));
+        let (_, preview, direct) = &mut kinds[usize::from(!e.1.starts_with("room"))];
         for (a, b) in p.texels.chunks_exact(4).zip(e.4.texels.chunks_exact(4)) {
             if b[3] > 0.5 && b[1] > 0.01 * peak {
-                kinds[kind].1.push(f64::from(a[1]) / f64::from(b[1]) - 1.0);
+                preview.push(f64::from(a[1]));
+                direct.push(f64::from(b[1]));
             }
         }
     }
     let mut parts = Vec::new();
-    for (kind, mut rel) in kinds {
-        if rel.is_empty() {
+    for (kind, preview, direct) in kinds {
+        let s = Stats::of(&preview, &direct);
+        if s.n == 0 {
             return Err(format!("no {kind} texel with direct light"));
         }
-        let n = rel.len() as f64;
-        let bias = rel.iter().sum::<f64>() / n;
-        let mean = rel.iter().map(|r| r.abs()).sum::<f64>() / n;
-        rel.iter_mut().for_each(|r| *r = r.abs());
-        rel.sort_by(f64::total_cmp);
-        let p95 = rel[((0.95 * n) as usize).min(rel.len() - 1)];
         parts.push(format!(
             "{kind} {} texels, mean |rel| {:.2} %, bias {:+.2} %, p95 {:.2} %",
-            rel.len(),
-            100.0 * mean,
-            100.0 * bias,
-            100.0 * p95
+            s.n,
+            100.0 * s.mean_abs_rel,
+            100.0 * s.bias,
+            100.0 * s.p95_abs_rel
         ));
     }
     Ok(parts.join("; "))
@@ -627,8 +629,8 @@ fn compare_within(
 }
 
 /// [`compare`] for `(page map, native stage)` pairs: the page's map of that name against the
-/// native stage (`illuminance`, `direct`, or `preview`: [`Native::preview`], within the direct
-/// light's tolerance), within that stage's tolerance.
+/// native stage (`illuminance`, `direct`, or `preview`: [`Native::preview`]), within that
+/// stage's tolerance (the preview's is the direct light's).
 fn compare_stages(
     browser: &Value,
     native: &Native,

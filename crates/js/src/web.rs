@@ -721,17 +721,17 @@ impl Baker {
             // shows the illuminance and the direct light: only those stages come back.
             let mut sent = Ok(());
             let mut on_direct = |stage: DirectStage, maps: &[ObjectMaps]| {
-                if let Some(direct) = &direct {
-                    // A preview that could not be sent keeps its error (and nothing follows).
-                    sent = std::mem::replace(&mut sent, Ok(()))
-                        .and_then(|()| objects_of(&imported, maps, &settings))
-                        .map(|objects| {
-                            let event = js_sys::Object::new();
-                            let _ = set(&event, "objects", array_of(objects).into());
-                            let _ = set(&event, "stage", stage.name().into());
-                            // A throwing callback must not stop the bake.
-                            let _ = direct.call1(&JsValue::NULL, &event);
-                        });
+                // A preview that could not be sent keeps its error (and nothing follows).
+                if let Some(direct) = &direct
+                    && sent.is_ok()
+                {
+                    sent = objects_of(&imported, maps, &settings).map(|objects| {
+                        let event = js_sys::Object::new();
+                        let _ = set(&event, "objects", array_of(objects).into());
+                        let _ = set(&event, "stage", stage.name().into());
+                        // A throwing callback must not stop the bake.
+                        let _ = direct.call1(&JsValue::NULL, &event);
+                    });
                 }
             };
             let out = luxbake::bake_room_reading(

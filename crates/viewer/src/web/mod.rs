@@ -233,13 +233,13 @@ impl Baker {
             &mut on_progress,
             &mut |stage, maps: &[ObjectMaps]| {
                 // A preview that could not be sent keeps its error (and nothing follows).
-                sent = std::mem::replace(&mut sent, Ok(()))
-                    .and_then(|()| maps_of(maps, false))
-                    .map(|maps| {
+                if sent.is_ok() {
+                    sent = maps_of(maps, false).map(|maps| {
                         // A throwing callback must not stop the bake.
                         let _ =
                             direct.call2(&JsValue::NULL, &maps, &JsValue::from_str(stage.name()));
                     });
+                }
             },
         )
         .map_err(js_err)?;

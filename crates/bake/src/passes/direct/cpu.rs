@@ -59,7 +59,9 @@ pub(crate) fn direct_texel(
     };
     let mut e = prior;
     for (li, lamp) in scene.lamps.iter().take(params.lamp_count as usize).enumerate() {
-        if let Some(o) = near_opening(lamp, p).filter(|_| params.points_only == 0) {
+        if params.points_only == 0
+            && let Some(o) = near_opening(lamp, p)
+        {
             let shift = opening::shift(texel, li as u32, params.seed);
             let k = from_opening(
                 scene,
