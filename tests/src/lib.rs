@@ -63,6 +63,8 @@ pub struct SceneCase {
     pub refine_rays: u32,
     /// [`Settings::denoise_correction`] (false in every preset but `final`).
     pub denoise_correction: bool,
+    /// [`Settings::direct_at_hits`].
+    pub direct_at_hits: bool,
     /// Tolerance per stage, in [`Figure5::NAMES`] order.
     pub stages: [Tolerance; 8],
 }
@@ -114,6 +116,7 @@ const fn paper(scene: &'static str, sampler: Sampler) -> SceneCase {
         quality: Quality::Default,
         refine_rays: 0,
         denoise_correction: false,
+        direct_at_hits: false,
         stages: STAGES,
     }
 }
@@ -132,6 +135,7 @@ const fn converged(
         quality,
         refine_rays,
         denoise_correction: false,
+        direct_at_hits: false,
         stages,
     }
 }
@@ -148,9 +152,11 @@ pub const SCENES: [SceneCase; 8] = [
     converged("chairs_01", Quality::Draft, 0, DRAFT_STAGES),
     // Progressive refinement of the first bounce (its rays and, with the preset's lamp paths,
     // its connections: the refine_connect pass), with the denoiser's bias correction (its
-    // signed residual and linear filter).
+    // signed residual and linear filter), the first bounce's gather and refinement reading
+    // the direct light at their hits (the downlight a point beyond its opening's 0.75 m).
     SceneCase {
         denoise_correction: true,
+        direct_at_hits: true,
         ..converged("chairs_01", Quality::Default, 16, CONVERGED_STAGES)
     },
 ];
@@ -203,6 +209,9 @@ impl SceneCase {
         if self.denoise_correction {
             name.push_str("_corrected");
         }
+        if self.direct_at_hits {
+            name.push_str("_direct_at_hits");
+        }
         name
     }
 
@@ -214,6 +223,7 @@ impl SceneCase {
             refine_rays: self.refine_rays,
             refine_error: REFINE_ERROR,
             denoise_correction: self.denoise_correction,
+            direct_at_hits: self.direct_at_hits,
             ..settings(self.method, self.quality)
         }
     }

@@ -1,7 +1,8 @@
 //! Every stage of the paper's Figure 5 compared between every pair of backends (cpu-vs-glow,
 //! cpu-vs-wgpu, glow-vs-wgpu) on `chairs_01`, `floor` and `sphere` (paper method) and
 //! `chairs_01` and `sphere` (converged method; `chairs_01` also at the `draft` preset, whose
-//! gathers run at reduced resolution, and with refinement and the denoiser's bias correction),
+//! gathers run at reduced resolution, and with refinement, the denoiser's bias correction and
+//! the direct light at the first bounce's hits),
 //! `chairs_01` with a second lamp
 //! (converged, lamp paths weighted over both lamps), and a room with a lamp 0.1 mm from a wall
 //! (paper method), `chairs_01` with lamps baked from their luminous openings (converged), with
@@ -34,7 +35,8 @@ fn converged_chairs_01(scene: &'static str) -> SceneCase {
             base.sampler,
             base.quality,
             base.refine_rays,
-            base.denoise_correction
+            base.denoise_correction,
+            base.direct_at_hits
         ),
         (
             "chairs_01",
@@ -42,6 +44,7 @@ fn converged_chairs_01(scene: &'static str) -> SceneCase {
             Sampler::Sobol,
             Quality::Default,
             0,
+            false,
             false
         )
     );
@@ -111,7 +114,7 @@ case_tests! {
     chairs_01_converged_every_stage_agrees_across_backends = 4;
     sphere_converged_every_stage_agrees_across_backends = 5;
     chairs_01_converged_draft_every_stage_agrees_across_backends = 6;
-    chairs_01_converged_refine_corrected_every_stage_agrees_across_backends = 7;
+    chairs_01_converged_refine_corrected_direct_at_hits_every_stage_agrees_across_backends = 7;
 }
 
 #[test]
@@ -127,7 +130,7 @@ fn the_table_covers_three_scenes_both_methods_and_both_samplers() {
             "chairs_01_converged",
             "sphere_converged",
             "chairs_01_converged_draft",
-            "chairs_01_converged_refine_corrected",
+            "chairs_01_converged_refine_corrected_direct_at_hits",
         ]
     );
 }
@@ -149,6 +152,7 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
         quality: Quality::Default,
         refine_rays: 0,
         denoise_correction: false,
+        direct_at_hits: false,
         stages: SCENES[1].stages,
     };
     let settings = case.settings();
@@ -224,6 +228,38 @@ fn chairs_01_with_luminous_openings_agrees_across_backends() {
     }
     let mut box_pendant = Lamp::new("box", Arc::new(pendant), [0.8, 2.3, -0.6]);
     box_pendant.model = LampModel::Area;
+    box_pendant.multiplier = 0.2;
+    scene.lamps.push(box_pendant);
+    run_scene(&case, &scene);
+}
+
+/// The openings' scene of [`chairs_01_with_luminous_openings_agrees_across_backends`] with
+/// the box pendant baked by `auto` (its opening near it, the point beyond) and the first
+/// bounce reading the direct light at its hits: hits near the pendant read the direct map,
+/// the others sum both lamps as points (the downlight's opening everywhere, so those hits
+/// read the map too where it is near; `luxPointLampsAt` / `lux_point_lamps_at` against
+/// `points_at`), and every stage agrees across backends.
+#[test]
+fn chairs_01_with_an_opening_and_the_direct_light_at_the_hits_agrees_across_backends() {
+    use std::sync::Arc;
+
+    use luxbake::scene::{Lamp, LampModel};
+
+    let case = SceneCase {
+        direct_at_hits: true,
+        ..converged_chairs_01("chairs_01_opening")
+    };
+    let Some(path) = luxbake_testkit::shared_data(
+        "cross_backend::chairs_01_opening_direct_at_hits",
+        "photometry/real-world/rw_1.IES",
+    ) else {
+        return;
+    };
+    let bytes = std::fs::read(&path).expect("rw_1.IES");
+    let pendant = luxbake_ies::Photometry::parse(&bytes).expect("rw_1.IES parses");
+    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
+    let mut box_pendant = Lamp::new("box", Arc::new(pendant), [0.8, 2.3, -0.6]);
+    box_pendant.model = LampModel::Auto;
     box_pendant.multiplier = 0.2;
     scene.lamps.push(box_pendant);
     run_scene(&case, &scene);

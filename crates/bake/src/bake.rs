@@ -189,6 +189,7 @@ pub fn bake_room_reading<B: GpuBackend>(
         higher_stride: settings.higher_stride,
         refine: Some((settings.refine_rays, settings.refine_error)),
         denoise_correction: settings.denoise_correction,
+        direct_at_hits: settings.direct_at_hits,
         texel_size: room.texel_sizes(),
         // The pool is traced after the direct pass: its size and density scale go into the
         // passes then ([`execute::run`]).

@@ -323,6 +323,9 @@ pub struct GraphConfig {
     pub refine: Option<(u32, f32)>,
     /// [`Method::Converged`] with a denoiser: its bias correction ([`correction_steps`]).
     pub denoise_correction: bool,
+    /// [`Method::Converged`]: the first bounce evaluates the direct light at its hits
+    /// ([`GatherParams::direct_at_hits`]).
+    pub direct_at_hits: bool,
     /// Sampler of the gather directions.
     pub sampler: Sampler,
     /// [`Method::Converged`]: world size of a texel, `[smallest, largest]` over the receivers,
@@ -738,6 +741,8 @@ struct GatherSampling {
     lamp_paths: (u32, f32, u32),
     /// Most rays of a texel per dispatch ([`GraphConfig::gather_chunk`]); 0: all at once.
     chunk: u32,
+    /// [`GatherParams::direct_at_hits`].
+    direct_at_hits: bool,
 }
 
 /// Stage (5): one bounce of indirect light gathered from `reflected` into `indirect`; a
@@ -783,7 +788,7 @@ fn gather_stage(
             PassKind::Run(Program::Gather),
             "gather",
             // Before the first chunk nothing is added: `reflected` stands in for `prior`.
-            vec![g.position, g.normal, reflected, connected, prior],
+            vec![g.position, g.normal, reflected, connected, prior, g.albedo],
             vec![out],
             bounce,
             Params::Gather(GatherParams {
@@ -799,6 +804,8 @@ fn gather_stage(
                 lamp_count: lamps,
                 first_ray: c * sampling.chunk,
                 chunk_rays: if chunks > 1 { sampling.chunk } else { 0 },
+                direct_at_hits: u32::from(sampling.direct_at_hits),
+                ..GatherParams::default()
             }),
         );
         prior = out;
@@ -1039,6 +1046,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                     (0, 0.0, 0)
                 },
                 chunk: config.gather_chunk,
+                direct_at_hits: k == 1 && config.direct_at_hits,
             };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
@@ -1087,6 +1095,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             scratch,
                             variance,
                             connected.unwrap_or(source),
+                            g.albedo,
                         ],
                         vec![delta],
                         k,
@@ -1104,6 +1113,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             },
                             density_scale: sampling.lamp_paths.1,
                             lamp_count: sampling.lamp_paths.2,
+                            direct_at_hits: u32::from(sampling.direct_at_hits),
                             ..RefineParams::default()
                         }),
                     );
@@ -1286,6 +1296,7 @@ impl BakeGraph {
                     reach: 0.0,
                     lamp_paths: (0, 0.0, 0),
                     chunk: config.gather_chunk,
+                    direct_at_hits: false,
                 };
                 // `combined` is rewritten from this gather's result: free during it.
                 gather_stage(
@@ -1516,6 +1527,7 @@ mod tests {
             higher_stride: 1,
             refine: None,
             denoise_correction: false,
+            direct_at_hits: false,
             texel_size: [1.0 / 64.0; 2],
             sampler: Sampler::Sobol,
             lamp_paths: (0, 0.0),
@@ -2219,10 +2231,13 @@ mod tests {
         assert_eq!(rw[4], (vec![tmp, gb.normal], vec![f[2]]));
         assert_eq!(rw[5], (vec![f[2], gb.albedo], vec![f[3]]));
         // Without lamp paths the gather's `connected` slot holds `reflected` (never read), and
-        // so does `prior` of an unsplit gather.
+        // so does `prior` of an unsplit gather; `albedo` is read with `direct_at_hits`.
         assert_eq!(
             rw[6],
-            (vec![gb.position, gb.normal, f[3], f[3], f[3]], vec![f[4]])
+            (
+                vec![gb.position, gb.normal, f[3], f[3], f[3], gb.albedo],
+                vec![f[4]]
+            )
         );
         assert_eq!(rw[7], (vec![f[1], f[4]], vec![f[5]]));
         assert_eq!(rw[8], (vec![f[5]], vec![f[6]]));

@@ -119,6 +119,11 @@ pub struct Args {
     /// curves within its kernel.
     #[arg(long)]
     denoise_correction: Option<bool>,
+    /// Converged: the first bounce evaluates the lamps' direct light at each of its gather
+    /// rays' hits instead of reading the direct light map there (true or false; the `final`
+    /// preset: true): a shadow ray per ray and lamp, without the map's texel interpolation.
+    #[arg(long)]
+    direct_at_hits: Option<bool>,
     /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
     #[arg(long)]
     lamp_paths: Option<u32>,
@@ -167,6 +172,7 @@ impl Args {
             refine_rays: self.refine_rays,
             refine_error: self.refine_error,
             denoise_correction: self.denoise_correction,
+            direct_at_hits: self.direct_at_hits,
             lamp_paths: self.lamp_paths,
             opening_samples: self.opening_samples,
             opening_probe_stride: self.opening_probe_stride,

@@ -82,6 +82,8 @@ export interface BakeOptions {
   lampPaths?: number;
   /** Converged: the denoiser's bias correction (default: the preset's, true at 'default'): its residual filtered once more and added back. */
   denoiseCorrection?: boolean;
+  /** Converged: the first bounce evaluates the lamps' direct light at each gather ray's hit instead of reading the direct light map there (default: the preset's, true at 'final'). */
+  directAtHits?: boolean;
   /** Points of a lamp's luminous opening per texel near it (default: the preset's, 48 at 'default'). */
   openingSamples?: number;
   /** Opening points per visibility probe: a texel first casts the shadow rays of every Nth point and,

@@ -23,7 +23,7 @@ use crate::JsBakeError;
 pub struct BakeOptions {
     /// The settings: every key of a [`SettingsPatch`] in camelCase (`blur` is `blurSigma`, a
     /// sigma in texels, 0 = no blur), e.g. `method`, `quality`, `rays`, `bounces`, `tail`,
-    /// `texelsPerMetre`, `seed`, `lampPaths`, `denoiseCorrection`. Missing ones take the
+    /// `texelsPerMetre`, `seed`, `lampPaths`, `denoiseCorrection`, `directAtHits`. Missing ones take the
     /// preset's value.
     pub settings: SettingsPatch,
     /// Largest distance of a `measure` point from a baked surface, metres (default 0.01).

@@ -836,6 +836,16 @@ pub struct Settings {
     /// iteration than [`Settings::blur`]'s, without the luminance term, and a light map of
     /// memory. On in the `default` preset ([`Settings::preset`]).
     pub denoise_correction: bool,
+    /// [`Method::Converged`]: the first bounce evaluates the lamps' direct light at each of its
+    /// gather ray's hits, as the direct pass does at a texel (a shadow ray per lamp), instead
+    /// of reading it from the direct light map there; a hit within a lamp's luminous opening's
+    /// near distance reads the map as without it. The map holds the direct light at texel
+    /// centres, and a gather ray that meets it between them reads it interpolated: where a
+    /// shadow's edge or the light's bend crosses a texel that read is off by a share of the
+    /// texel, and a surface that sees such a patch (a seat's underside over its own shadow on
+    /// the floor) gathers its error (`luxbake::passes::gather`, "Direct light at the hits").
+    /// A shadow ray per gather ray and lamp. On in the `final` preset ([`Settings::preset`]).
+    pub direct_at_hits: bool,
     /// [`Method::Converged`]: lamp paths per texel of the first bounce — points lit by the
     /// lamps, connected to the texel and combined with its gather by multiple importance
     /// sampling (`luxbake::lightpaths`); 0 = the gather alone ([`Method::Paper`] ignores it).
@@ -892,6 +902,7 @@ impl Settings {
             refine_rays: 0,
             refine_error: 0.1,
             denoise_correction: false,
+            direct_at_hits: false,
             lamp_paths: 0,
             opening_samples: 32,
             opening_probe_stride: Settings::OPENING_PROBE_STRIDE,
@@ -1199,6 +1210,8 @@ pub struct SettingsPatch {
     pub refine_error: Option<f32>,
     /// [`Settings::denoise_correction`].
     pub denoise_correction: Option<bool>,
+    /// [`Settings::direct_at_hits`].
+    pub direct_at_hits: Option<bool>,
     /// [`Settings::lamp_paths`].
     pub lamp_paths: Option<u32>,
     /// [`Settings::opening_samples`].
@@ -1209,7 +1222,7 @@ pub struct SettingsPatch {
 
 impl SettingsPatch {
     /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
-    pub const KEYS: [&'static str; 20] = [
+    pub const KEYS: [&'static str; 21] = [
         "method",
         "quality",
         "rays",
@@ -1230,6 +1243,7 @@ impl SettingsPatch {
         "opening_samples",
         "opening_probe_stride",
         "denoise_correction",
+        "direct_at_hits",
     ];
 
     /// A patch from `key → value` entries of any serde format (a TOML table, a JSON object);
@@ -1310,6 +1324,7 @@ impl SettingsPatch {
             refine_rays: other.refine_rays.or(base.refine_rays),
             refine_error: other.refine_error.or(base.refine_error),
             denoise_correction: other.denoise_correction.or(base.denoise_correction),
+            direct_at_hits: other.direct_at_hits.or(base.direct_at_hits),
             lamp_paths: other.lamp_paths.or(base.lamp_paths),
             opening_samples: other.opening_samples.or(base.opening_samples),
             opening_probe_stride: other.opening_probe_stride.or(base.opening_probe_stride),
@@ -1348,6 +1363,7 @@ impl SettingsPatch {
         set(&mut s.refine_rays, self.refine_rays);
         set(&mut s.refine_error, self.refine_error);
         set(&mut s.denoise_correction, self.denoise_correction);
+        set(&mut s.direct_at_hits, self.direct_at_hits);
         set(&mut s.lamp_paths, self.lamp_paths);
         set(&mut s.opening_samples, self.opening_samples);
         set(&mut s.opening_probe_stride, self.opening_probe_stride);

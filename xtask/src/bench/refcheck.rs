@@ -108,6 +108,10 @@ pub struct Args {
     /// The denoiser's bias correction, true or false (default: the preset's).
     #[arg(long)]
     denoise_correction: Option<bool>,
+    /// The first bounce's direct light evaluated at its hits, true or false (default: the
+    /// preset's).
+    #[arg(long)]
+    direct_at_hits: Option<bool>,
     /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
     /// (see the module docs).
     #[arg(long, default_value_t = 1)]
@@ -702,6 +706,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 refine_rays: args.refine_rays,
                 refine_error: args.refine_error,
                 denoise_correction: args.denoise_correction,
+                direct_at_hits: args.direct_at_hits,
                 bounces: args.bounces,
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
@@ -767,6 +772,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 "lamp_paths": s.lamp_paths,
                 "refine_rays": s.refine_rays, "refine_error": s.refine_error,
                 "denoise_correction": s.denoise_correction,
+                "direct_at_hits": s.direct_at_hits,
                 "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
                 "blur": s.blur.to_string() }, "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });

@@ -58,6 +58,39 @@ vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
     return vec3(0.0);
 }
 
+// The albedo (slot `albedo`) at light-map UV `uv` of a region, read with the masked
+// bilinear weights luxSampleMasked gives the reflected map there (its mask, not the albedo's).
+vec3 luxSampleMaskedAlbedo(int layer, ivec2 offset, ivec2 size, vec2 uv) {
+    if (size.x == 0 || size.y == 0 || !luxFinite(uv.x) || !luxFinite(uv.y)) {
+        return vec3(0.0);
+    }
+    float fx = clamp(uv.x * float(size.x) - 0.5, 0.0, float(size.x - 1));
+    float fy = clamp(uv.y * float(size.y) - 0.5, 0.0, float(size.y - 1));
+    float x0f = floor(fx);
+    float y0f = floor(fy);
+    float tx = fx - x0f;
+    float ty = fy - y0f;
+    int x0 = int(x0f);
+    int y0 = int(y0f);
+    int x1 = min(x0 + 1, size.x - 1);
+    int y1 = min(y0 + 1, size.y - 1);
+    ivec2 xs[4] = ivec2[4](ivec2(x0, y0), ivec2(x1, y0), ivec2(x0, y1), ivec2(x1, y1));
+    float ws[4] = float[4]((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    vec3 sum = vec3(0.0);
+    float wsum = 0.0;
+    for (int i = 0; i < 4; ++i) {
+        ivec3 at = ivec3(offset + xs[i], layer);
+        if (texelFetch(u_reflected, at, 0).a > 0.5) {
+            sum += ws[i] * texelFetch(u_albedo, at, 0).rgb;
+            wsum += ws[i];
+        }
+    }
+    if (wsum > 0.0) {
+        return vec3(sum.x / wsum, sum.y / wsum, sum.z / wsum);
+    }
+    return vec3(0.0);
+}
+
 // lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
 // n) over the first `lamps` uploaded lamps, each lamp's intensity from its density proxy, the
 // lamp paths' density proxy.
@@ -102,10 +135,12 @@ float luxGatherWeight(uint rays, uint k, float scale, float density, float r, fl
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `firstRay .. firstRay + count`
 // of the texel's draws (`stream`: rng::Stream's key and first index), cast from `origin` around
 // the unit normal `n`, each weighted against `lampPaths` lamp paths of a gather of `misRays`
-// rays (lightpaths; 0: weight 1).
+// rays (lightpaths; 0: weight 1). With directAtHits = 1 a hit away from every lamp's opening
+// reads the lamps' direct light there times its albedo (luxPointLampsAt,
+// gather::GatherParams::direct_at_hits).
 vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
                   uint samplerId, uint bounce, uint seed, uint lampPaths, uint misRays,
-                  float densityScale, int lamps) {
+                  float densityScale, int lamps, uint directAtHits) {
     float infinity = uintBitsToFloat(0x7f800000u);
     int objects = textureSize(u_regions, 0).x;
     vec3 sum = vec3(0.0);
@@ -152,7 +187,18 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
         vec4 uv01 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_UV01_LAYER), 0);
         vec2 uv = vec2(w0 * uv01.x + u * uv01.z + v * uv2Object.x,
                        w0 * uv01.y + u * uv01.w + v * uv2Object.y);
-        vec3 m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+        vec3 m;
+        vec3 e;
+        vec3 nd;
+        vec3 yd = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                       origin.z + hit.x * dir.z);
+        if (directAtHits != 0u && luxNormalize(nh, nd) && luxPointLampsAt(yd, nd, lamps, e)) {
+            vec3 a = luxSampleMaskedAlbedo(int(region0.x), ivec2(region0.yz), ivec2(region1.xy),
+                                           uv);
+            m = vec3(a.x * e.x, a.y * e.y, a.z * e.z);
+        } else {
+            m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+        }
         float weight = 1.0;
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
         if (lampPaths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {

@@ -60,6 +60,42 @@ fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f3
     return vec3<f32>(0.0);
 }
 
+// The albedo (slot `albedo`) at light-map UV `uv` of a region, read with the masked
+// bilinear weights lux_sample_masked gives the reflected map there (its mask, not the
+// albedo's).
+fn lux_sample_masked_albedo(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f32>)
+    -> vec3<f32> {
+    if (size.x == 0 || size.y == 0 || !lux_finite(uv.x) || !lux_finite(uv.y)) {
+        return vec3<f32>(0.0);
+    }
+    let fx = clamp(uv.x * f32(size.x) - 0.5, 0.0, f32(size.x - 1));
+    let fy = clamp(uv.y * f32(size.y) - 0.5, 0.0, f32(size.y - 1));
+    let x0f = floor(fx);
+    let y0f = floor(fy);
+    let tx = fx - x0f;
+    let ty = fy - y0f;
+    let x0 = i32(x0f);
+    let y0 = i32(y0f);
+    let x1 = min(x0 + 1, size.x - 1);
+    let y1 = min(y0 + 1, size.y - 1);
+    // Variables, not values (lux_sample_masked).
+    var xs = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x1, y0), vec2<i32>(x0, y1),
+                                 vec2<i32>(x1, y1));
+    var ws = array<f32, 4>((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    var sum = vec3<f32>(0.0);
+    var wsum = 0.0;
+    for (var i = 0; i < 4; i++) {
+        if (textureLoad(lux_reflected, offset + xs[i], layer, 0).a > 0.5) {
+            sum += ws[i] * textureLoad(lux_albedo, offset + xs[i], layer, 0).rgb;
+            wsum += ws[i];
+        }
+    }
+    if (wsum > 0.0) {
+        return vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum);
+    }
+    return vec3<f32>(0.0);
+}
+
 // lightpaths::density: the lamps' unshadowed luminance-weighted illuminance at y (unit normal
 // n) over the first `lamps` uploaded lamps, each lamp's intensity from its density proxy, the
 // lamp paths' density proxy.
@@ -109,11 +145,13 @@ fn lux_gather_weight(rays: u32, k: u32, scale: f32, density: f32, r: f32, cx: f3
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `first_ray .. first_ray + count`
 // of the texel's draws (`stream`: rng::Stream's key and first index), cast from `origin` around
 // the unit normal `n`, each weighted against `lamp_paths` lamp paths of a gather of `mis_rays`
-// rays (lightpaths; 0: weight 1). `texel` (lux_texel_index) places a replayed hit.
+// rays (lightpaths; 0: weight 1). `texel` (lux_texel_index) places a replayed hit. With
+// direct_at_hits = 1 a hit away from every lamp's opening reads the lamps' direct light there
+// times its albedo (lux_point_lamps_at, gather::GatherParams::direct_at_hits).
 fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>,
                   first_ray: u32, count: u32,
                   sampler_id: u32, bounce: u32, seed: u32, lamp_paths: u32, mis_rays: u32,
-                  density_scale: f32, lamps: u32) -> vec3<f32> {
+                  density_scale: f32, lamps: u32, direct_at_hits: u32) -> vec3<f32> {
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = first_ray; s < first_ray + count; s++) {
@@ -149,8 +187,19 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
         let uv01 = lux_triangle_at(tc, LUX_TRI_UV01_LAYER);
         let uv = vec2<f32>(w0 * uv01.x + u * uv01.z + v * uv2_object.x,
                            w0 * uv01.y + u * uv01.w + v * uv2_object.y);
-        let m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
+        var m: vec3<f32>;
+        var e: vec3<f32>;
+        var nd: vec3<f32>;
+        let yd = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                           origin.z + hit.x * dir.z);
+        if (direct_at_hits != 0u && lux_normalize(nh, &nd) && lux_point_lamps_at(yd, nd, lamps, &e)) {
+            let a = lux_sample_masked_albedo(i32(region0.x), vec2<i32>(region0.yz),
+                                             vec2<i32>(region1.xy), uv);
+            m = vec3<f32>(a.x * e.x, a.y * e.y, a.z * e.z);
+        } else {
+            m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
                                   uv);
+        }
         var weight = 1.0;
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
         if (lamp_paths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {

@@ -104,6 +104,31 @@ pub(crate) fn direct_texel(
     [guard(e[0]), guard(e[1]), guard(e[2]), 1.0]
 }
 
+/// The direct illuminance at a gather ray's hit `p` (normal `n`, normalized here) from the first
+/// `lamp_count` lamps, each as a point from its photometric centre with its shadow ray: the
+/// direct pass's sum at a texel there with [`DirectParams::points_only`]
+/// ([`crate::passes::gather`], "Direct light at the hits"); `None` where `p` lies within a
+/// lamp's opening's near distance, whose light the point would miss.
+pub(crate) fn points_at(
+    scene: &CpuScene,
+    trav: Trav,
+    lamp_count: u32,
+    p: [f32; 3],
+    n: [f32; 3],
+) -> Option<[f32; 3]> {
+    let lamps = scene.lamps.iter().take(lamp_count as usize);
+    if lamps.into_iter().any(|lamp| near_opening(lamp, p).is_some()) {
+        return None;
+    }
+    let params = DirectParams {
+        lamp_count,
+        points_only: 1,
+        ..DirectParams::default()
+    };
+    let e = direct_texel(scene, params, trav, 0, [p[0], p[1], p[2], 1.0], [n[0], n[1], n[2], 0.0], [0.0; 3]);
+    Some(xyz(e))
+}
+
 /// Where a texel's shadow rays start: its point `p`, unit normal `n`, the offset origin `o0`
 /// ([`offset_origin`]) and the offset squared.
 pub(crate) struct Start {

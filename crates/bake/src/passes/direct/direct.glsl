@@ -7,37 +7,6 @@
 // to the one before (u_prior); the lamps without an opening come with the first. With
 // u_points_only = 1 every lamp is a point (the preview of the direct light).
 
-// cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
-// squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
-// occluder: the triangle that blocked the texel's last ray (-1: none yet), tested first; it
-// blocks most of the texel's next rays and spares their traversal (the same answer: a ray that
-// hits it would hit a leaf the traversal reaches).
-bool luxSees(vec3 p, vec3 n, vec3 o0, float off2, vec3 x, vec3 back, float r, float r2,
-             inout int occluder) {
-    vec3 origin = 16.0 * off2 > r2 ? p + n * (0.25 * r) : o0;
-    vec3 dir = x - origin;
-    float len = sqrt(luxDot(dir, dir));
-    vec3 xOff = luxOffsetOrigin(x, back, u_ray_epsilon) - x;
-    float stopShort = min(sqrt(luxDot(xOff, xOff)), 0.25 * r);
-    float tMax = 1.0 - stopShort / len;
-    if (!(len > 0.0 && tMax > 0.0)) {
-        return true;
-    }
-    vec3 tuv;
-    LuxRay ray;
-    if (occluder >= 0 && luxRaySetup(origin, dir, ray)
-        && luxTriangleTest(ray, occluder, 0.0, tMax, tuv)) {
-        return false;
-    }
-    vec3 hit;
-    int t = luxTrace(origin, dir, 0.0, tMax, true, hit);
-    if (t >= 0) {
-        occluder = t;
-        return false;
-    }
-    return true;
-}
-
 // cpu::OpeningView::point: lattice point k of count on part `part` of an opening (its lamp
 // at lampPos, rows m0..m2 of its rotation, its table and size) as the texel at p sees it, before
 // the point's shadow ray: its share `value` and the ray's end x, back, r, r2; false when it

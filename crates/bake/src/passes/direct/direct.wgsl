@@ -5,42 +5,6 @@
 // share to the one before (lux_prior); the lamps without an opening come with the first. With
 // lux_pass.points_only = 1 every lamp is a point (the preview of the direct light).
 
-// cpu::Start::sees: nothing lies between texel p (unit normal n, offset origin o0, offset
-// squared off2) and x, r away (r2 its square), back the unit direction from x toward p.
-// *occluder: the triangle that blocked the texel's last ray (-1: none yet), tested first; it
-// blocks most of the texel's next rays and spares their traversal (the same answer: a ray that
-// hits it would hit a leaf the traversal reaches).
-fn lux_sees(p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32, x: vec3<f32>, back: vec3<f32>,
-            r: f32, r2: f32, occluder: ptr<function, i32>) -> bool {
-    var origin = o0;
-    if (16.0 * off2 > r2) {
-        origin = p + n * (0.25 * r);
-    }
-    let dir = x - origin;
-    let len = sqrt(lux_dot(dir, dir));
-    let x_off = lux_offset_origin(x, back, lux_scene.ray_epsilon) - x;
-    let stop_short = min(sqrt(lux_dot(x_off, x_off)), 0.25 * r);
-    let t_max = 1.0 - stop_short / len;
-    if (!(len > 0.0 && t_max > 0.0)) {
-        return true;
-    }
-    if (*occluder >= 0) {
-        var ray: LuxRay;
-        var tuv = vec3<f32>(0.0);
-        if (lux_ray_setup(origin, dir, &ray)
-            && lux_triangle_test(ray, *occluder, 0.0, t_max, &tuv)) {
-            return false;
-        }
-    }
-    var hit: vec3<f32>;
-    let t = lux_trace(origin, dir, 0.0, t_max, true, &hit);
-    if (t >= 0) {
-        *occluder = t;
-        return false;
-    }
-    return true;
-}
-
 // cpu::OpeningView::point: lattice point k of count on part `part` of lamp li's opening as
 // the texel at p sees it, before the point's shadow ray: its share `value` and the ray's end
 // x, back, r, r2; valid false when it gives p nothing whatever the ray finds.

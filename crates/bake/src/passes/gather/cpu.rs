@@ -37,7 +37,7 @@ impl CpuPass for Pass {
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, texels: &mut [f32], scratch: &mut GatherScratch) {
         let v = ctx.views;
-        let views = [v[0], v[1], v[2], v[3], v[4]];
+        let views = [v[0], v[1], v[2], v[3], v[4], v[5]];
         let at = [ctx.tile.layer, ctx.tile.x0, y];
         let masks = self.masks.as_deref();
         gather_row(ctx.scene, views, ctx.trav, self.params, masks, at, texels, scratch);
@@ -64,6 +64,25 @@ pub(crate) struct GatherTexel {
     pub(crate) mis: Mis,
 }
 
+/// Where a gather's hits read their light: `reflected`, or with `direct` (the albedo map and
+/// the lamps to evaluate) the lamps' direct light at the hit times the albedo there
+/// ([`GatherParams::direct_at_hits`]).
+#[derive(Clone, Copy)]
+pub(crate) struct Source<'a> {
+    pub(crate) reflected: View<'a>,
+    pub(crate) direct: Option<(View<'a>, u32)>,
+}
+
+impl<'a> Source<'a> {
+    /// The source of a gather with `direct_at_hits` (1: on) over `lamp_count` lamps.
+    pub(crate) fn new(reflected: View<'a>, albedo: View<'a>, direct_at_hits: u32, lamp_count: u32) -> Source<'a> {
+        Source {
+            reflected,
+            direct: (direct_at_hits != 0).then_some((albedo, lamp_count)),
+        }
+    }
+}
+
 /// Per texel of `texels`, the sum of the reflected exitance seen along its rays (see the
 /// module docs), pushed to `sums` (cleared first), the directions drawn with the gather's
 /// `[sampler, bounce, seed]`; `chunks` are the stage buffers, reused from call to call. The
@@ -77,7 +96,7 @@ pub(crate) struct GatherTexel {
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_sums(
     scene: &CpuScene,
-    reflected: View<'_>,
+    source: Source<'_>,
     trav: Trav,
     [sampler_id, bounce, seed]: [u32; 3],
     texels: &[GatherTexel],
@@ -107,13 +126,13 @@ pub(crate) fn gather_sums(
             .unwrap_or(rest.len())
             .max(1);
         let (chunk, tail) = rest.split_at(n);
-        ahead.trace(scene, reflected, trav, &draws, chunk, hits);
-        behind.sum(scene, reflected, pending, sums);
+        ahead.trace(scene, source.reflected, trav, &draws, chunk, hits);
+        behind.sum(scene, source, trav, pending, sums);
         std::mem::swap(ahead, behind);
         pending = chunk;
         rest = tail;
     }
-    behind.sum(scene, reflected, pending, sums);
+    behind.sum(scene, source, trav, pending, sums);
 }
 
 /// Where [`gather_sums`]' hits come from ([`crate::cpu::hits`]).
@@ -188,10 +207,12 @@ impl GatherChunk {
     pub(crate) fn sum(
         &mut self,
         scene: &CpuScene,
-        reflected: View<'_>,
+        source: Source<'_>,
+        trav: Trav,
         texels: &[GatherTexel],
         sums: &mut Vec<[f32; 3]>,
     ) {
+        let reflected = source.reflected;
         let GatherChunk {
             dirs,
             traced,
@@ -222,13 +243,30 @@ impl GatherChunk {
                 let (Some(lookup), Some(hit)) = (lookup, hit) else {
                     continue;
                 };
-                let m = lookup.weights.map_or([0.0; 3], |w| {
-                    masked_blend([
-                        (texels[0], w[0]),
-                        (texels[1], w[1]),
-                        (texels[2], w[2]),
-                        (texels[3], w[3]),
-                    ])
+                let at_hit = source.direct.and_then(|(albedo, lamps)| {
+                    let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
+                    // The shaders' test; the direct texel normalizes the normal itself.
+                    normalize(lookup.normal)?;
+                    let e = crate::passes::direct::cpu::points_at(scene, trav, lamps, y, lookup.normal)?;
+                    // The albedo where the reflected map is read, with its mask and weights.
+                    let a = lookup.weights.map_or([0.0; 3], |w| {
+                        let at = |i: usize| {
+                            let r = albedo.at_offset(lookup.texels[i]);
+                            [r[0], r[1], r[2], texels[i][3]]
+                        };
+                        masked_blend([(at(0), w[0]), (at(1), w[1]), (at(2), w[2]), (at(3), w[3])])
+                    });
+                    Some([a[0] * e[0], a[1] * e[1], a[2] * e[2]])
+                });
+                let m = at_hit.unwrap_or_else(|| {
+                    lookup.weights.map_or([0.0; 3], |w| {
+                        masked_blend([
+                            (texels[0], w[0]),
+                            (texels[1], w[1]),
+                            (texels[2], w[2]),
+                            (texels[3], w[3]),
+                        ])
+                    })
                 });
                 // Nothing to weigh where the hit reflects no light (the weight is finite):
                 // the sum's bits are those of adding `weight × 0`.
@@ -459,7 +497,7 @@ fn row_key(
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn gather_row(
     scene: &CpuScene,
-    [pos_map, nrm_map, reflected, connected, prior]: [View<'_>; 5],
+    [pos_map, nrm_map, reflected, connected, prior, albedo]: [View<'_>; 6],
     trav: Trav,
     params: GatherParams,
     masks: Option<&CoarseMasks>,
@@ -530,7 +568,8 @@ pub(crate) fn gather_row(
         (None, Some((c, _))) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
         _ => Hits::Trace,
     };
-    gather_sums(scene, reflected, trav, draws, texels, &mut hits, chunks, sums);
+    let source = Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count);
+    gather_sums(scene, source, trav, draws, texels, &mut hits, chunks, sums);
     if let Some((c, (key, inputs))) = cache {
         if let Hits::Record(recorded) = hits {
             c.record(&scene.bvh, key, inputs, recorded);

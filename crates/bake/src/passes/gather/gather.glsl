@@ -26,7 +26,8 @@ vec4 luxRun(ivec3 c) {
     uint first = min(u_first_ray, rays);
     uint count = u_chunk_rays > 0u ? min(u_chunk_rays, rays - first) : rays - first;
     vec3 sum = luxGatherSum(origin, n, stream, first, count, u_sampler, u_bounce, u_seed,
-                            u_lamp_paths, rays, u_density_scale, int(u_lamp_count));
+                            u_lamp_paths, rays, u_density_scale, int(u_lamp_count),
+                            u_direct_at_hits);
     float inv = 1.0 / float(rays);
     vec3 paths = u_lamp_paths > 0u && u_first_ray == 0u ? texelFetch(u_connected, c, 0).rgb
                                                          : vec3(0.0);

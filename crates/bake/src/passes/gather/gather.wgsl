@@ -33,7 +33,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     }
     let sum = lux_gather_sum(origin, n, texel, stream, first, count, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths, rays,
-                             lux_pass.density_scale, lux_pass.lamp_count);
+                             lux_pass.density_scale, lux_pass.lamp_count,
+                             lux_pass.direct_at_hits);
     let inv = 1.0 / f32(rays);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u && lux_pass.first_ray == 0u) {

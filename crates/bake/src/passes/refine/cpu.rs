@@ -3,7 +3,7 @@
 
 use crate::backend::offset_origin;
 use crate::cpu::kernel::*;
-use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, gather_sums};
+use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, Source, gather_sums};
 use crate::rng;
 
 use super::{RefineParams, refines};
@@ -15,7 +15,7 @@ impl CpuPass for RefineParams {
     type Scratch = GatherScratch;
 
     fn row(&self, ctx: &Ctx<'_>, y: u32, out: &mut [f32], scratch: &mut GatherScratch) {
-        let [pos_map, nrm_map, reflected, first_map, variance, connected] = ctx.maps();
+        let [pos_map, nrm_map, reflected, first_map, variance, connected, albedo] = ctx.maps();
         let (scene, params) = (ctx.scene, *self);
         scratch.texels.clear();
         scratch.at.clear();
@@ -68,7 +68,7 @@ impl CpuPass for RefineParams {
         let draws = [params.sampler, params.bounce, params.seed];
         gather_sums(
             scene,
-            reflected,
+            Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count),
             ctx.trav,
             draws,
             &scratch.texels,

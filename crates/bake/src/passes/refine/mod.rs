@@ -94,23 +94,24 @@ param_block! {
         density_scale: f32,
         /// Uploaded lamps the lamp paths' density sums over.
         lamp_count: u32,
+        /// [`GatherParams::direct_at_hits`](crate::passes::gather::GatherParams::direct_at_hits)
+        /// of the first gather: the further rays read their hits as it did.
+        direct_at_hits: u32,
         /// Padding.
         pad0: u32,
         /// Padding.
         pad1: u32,
-        /// Padding.
-        pad2: u32,
     }
 }
 
 signature! {
     refine {
-        reads: ["position", "normal", "reflected", "first", "variance", "connected"],
+        reads: ["position", "normal", "reflected", "first", "variance", "connected", "albedo"],
         // The lamps and their tables: the gather loop weights the rays against the lamp
         // paths.
         scene: [bvh, lamps, regions],
         params: RefineParams,
-        libraries: [Common, Rng, Scene, Bvh, Ies, Gather],
+        libraries: [Common, Rng, Scene, Bvh, Ies, Lamp, Gather],
     }
 }
 
