@@ -209,58 +209,49 @@ fn chairs_01_with_two_lamps_and_lamp_paths_agrees_across_backends() {
 /// later stage agree across backends within the converged method's tolerances.
 #[test]
 fn chairs_01_with_luminous_openings_agrees_across_backends() {
-    use std::sync::Arc;
-
-    use luxbake::scene::{Lamp, LampModel};
+    use luxbake::scene::LampModel;
 
     let case = converged_chairs_01("chairs_01_openings");
-    let Some(path) = luxbake_testkit::shared_data(
-        "cross_backend::chairs_01_openings",
-        "photometry/real-world/rw_1.IES",
-    ) else {
+    let Some(mut scene) = with_box_pendant(&case, LampModel::Area) else {
         return;
     };
-    let bytes = std::fs::read(&path).expect("rw_1.IES");
-    let pendant = luxbake_ies::Photometry::parse(&bytes).expect("rw_1.IES parses");
-    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
     for lamp in &mut scene.lamps {
         lamp.model = LampModel::Area;
     }
-    let mut box_pendant = Lamp::new("box", Arc::new(pendant), [0.8, 2.3, -0.6]);
-    box_pendant.model = LampModel::Area;
+    run_scene(&case, &scene);
+}
+
+/// `chairs_01` with `case`'s settings and a box-shaped direct/indirect pendant (`rw_1.IES`,
+/// bottom, top and sides emitting, at 0.2 of its candela) 0.3 m under the ceiling, baked as
+/// `model`; `None` (the test skipped with a message) without the shared photometry.
+fn with_box_pendant(case: &SceneCase, model: luxbake::scene::LampModel) -> Option<Scene> {
+    let test = format!("cross_backend::{}", case.name());
+    let path = luxbake_testkit::shared_data(&test, "photometry/real-world/rw_1.IES")?;
+    let bytes = std::fs::read(&path).expect("rw_1.IES");
+    let pendant = luxbake_ies::Photometry::parse(&bytes).expect("rw_1.IES parses");
+    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
+    let mut box_pendant =
+        luxbake::scene::Lamp::new("box", std::sync::Arc::new(pendant), [0.8, 2.3, -0.6]);
+    box_pendant.model = model;
     box_pendant.multiplier = 0.2;
     scene.lamps.push(box_pendant);
-    run_scene(&case, &scene);
+    Some(scene)
 }
 
 /// The openings' scene of [`chairs_01_with_luminous_openings_agrees_across_backends`] with
 /// the box pendant baked by `auto` (its opening near it, the point beyond) and the first
-/// bounce reading the direct light at its hits: hits near the pendant read the direct map,
-/// the others sum both lamps as points (the downlight's opening everywhere, so those hits
-/// read the map too where it is near; `luxPointLampsAt` / `lux_point_lamps_at` against
-/// `points_at`), and every stage agrees across backends.
+/// bounce reading the direct light at its hits: hits near the pendant's or the downlight's
+/// opening read the direct map, the others sum both lamps as points (`luxPointLampsAt` /
+/// `lux_point_lamps_at` against `points_at`), and every stage agrees across backends.
 #[test]
 fn chairs_01_with_an_opening_and_the_direct_light_at_the_hits_agrees_across_backends() {
-    use std::sync::Arc;
-
-    use luxbake::scene::{Lamp, LampModel};
+    use luxbake::scene::LampModel;
 
     let case = SceneCase {
         direct_at_hits: true,
         ..converged_chairs_01("chairs_01_opening")
     };
-    let Some(path) = luxbake_testkit::shared_data(
-        "cross_backend::chairs_01_opening_direct_at_hits",
-        "photometry/real-world/rw_1.IES",
-    ) else {
-        return;
-    };
-    let bytes = std::fs::read(&path).expect("rw_1.IES");
-    let pendant = luxbake_ies::Photometry::parse(&bytes).expect("rw_1.IES parses");
-    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
-    let mut box_pendant = Lamp::new("box", Arc::new(pendant), [0.8, 2.3, -0.6]);
-    box_pendant.model = LampModel::Auto;
-    box_pendant.multiplier = 0.2;
-    scene.lamps.push(box_pendant);
-    run_scene(&case, &scene);
+    if let Some(scene) = with_box_pendant(&case, LampModel::Auto) {
+        run_scene(&case, &scene);
+    }
 }

@@ -114,7 +114,7 @@ pub struct Args {
     /// Converged: the relative standard error per texel that refinement aims at.
     #[arg(long)]
     refine_error: Option<f32>,
-    /// Converged: the denoiser's bias correction (true or false; the `default` preset: true):
+    /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):
     /// its residual filtered once more and added back, which cancels its bias where the light
     /// curves within its kernel.
     #[arg(long)]

@@ -80,7 +80,7 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
-  /** Converged: the denoiser's bias correction (default: the preset's, true at 'default'): its residual filtered once more and added back. */
+  /** Converged: the denoiser's bias correction (default: the preset's, true at 'default' and 'final'): its residual filtered once more and added back. */
   denoiseCorrection?: boolean;
   /** Converged: the first bounce evaluates the lamps' direct light at each gather ray's hit instead of reading the direct light map there (default: the preset's, true at 'final'). */
   directAtHits?: boolean;

@@ -36,8 +36,8 @@ pub const MIN_CHART_PADDING_TEXELS: f32 = 4.0;
 /// `R` texels or less. With this padding the valid texels of two charts (each up to one texel
 /// wider than its chart, by conservative rasterisation) stay at least `R + 1` texels apart.
 /// The converged method's filters (coarse interpolation, à-trous) test world-space distance
-/// and never cross charts, so for it the blur term is conservative: σ 1 (default) gives 5
-/// texels, σ 2 (paper, final) 8, no blur (draft) 4.
+/// and never cross charts, so for it the blur term is conservative: σ 1 (default, final) gives 5
+/// texels, σ 2 (paper) 8, no blur (draft) 4.
 pub fn chart_padding_texels(blur: Blur) -> f32 {
     let reach = match blur {
         Blur::Sigma(s) => blur_radius(s),
@@ -834,7 +834,7 @@ pub struct Settings {
     /// cancels the filter's bias where the light curves within its kernel (the chairs' seat
     /// undersides and aprons; `luxbake::program::correction_steps`). One more filter
     /// iteration than [`Settings::blur`]'s, without the luminance term, and a light map of
-    /// memory. On in the `default` preset ([`Settings::preset`]).
+    /// memory. On in the `default` and `final` presets ([`Settings::preset`]).
     pub denoise_correction: bool,
     /// [`Method::Converged`]: the first bounce evaluates the lamps' direct light at each of its
     /// gather ray's hits, as the direct pass does at a texel (a shadow ray per lamp), instead
@@ -919,7 +919,7 @@ impl Settings {
     /// |---|--:|--:|--:|--:|--:|--:|--:|--:|
     /// | draft | 8 (4) | — | 4 (8) | 3 | 5 % | none | — | 12 |
     /// | default | 8 (1) | 4 | 16 (4) | 32 | 1 % | 1 (3) | yes | 48 |
-    /// | final | 256 (1) | 32 | 32 (1) | 32 | 0.01 % | 2 (4) | — | 128 |
+    /// | final | 256 (1) | 32 | 32 (1) | 32 | 0.01 % | 1 (3) | yes | 128 |
     ///
     /// `default`'s first bounce and denoiser (8 rays, 4 lamp paths, the bias correction; before
     /// 2026-12-06 4 rays, 12 lamp paths, no correction) were chosen on the furniture of three
@@ -936,9 +936,14 @@ impl Settings {
     /// 6 lands where the last bounce did, a little more in open places than the later bounces
     /// would put it (+0.1 % at the points of `chairs_10`); twice the rays and a tolerance that
     /// lets it run to bounce 9 lower both (noise 0.24 → 0.19 %, bias +0.12 → +0.10 %; mean
-    /// 0.38 → 0.28 % there), at 2.2–2.3× the time (docs/performance.md). What is left on the
-    /// held-out `chairs_10` (its furniture 0.38 % at 64 texels/m) is the maps' resolution, not
-    /// samples: 0.26 % at 128 texels/m (a density no preset sets).
+    /// 0.38 → 0.28 % there), at 2.2–2.3× the time (docs/performance.md). What was left on the
+    /// held-out `chairs_10` (its furniture 0.38 % at 64 texels/m, 0.26 % at 128) was the
+    /// maps' resolution where the first bounce read them: since 2026-12-06 `final` evaluates
+    /// the direct light at its first bounce's hits ([`Settings::direct_at_hits`]) and filters
+    /// at σ 1 with the bias correction (σ 2 without it before). Chosen on the tuned rooms
+    /// (`chairs_05` furniture 0.31 → 0.29 %, `sofa_01` 0.59 → 0.47 %, two seeds); on the
+    /// held-out rooms the furniture reads 0.31 / 0.26 / 0.27 % (`chairs_01` / `chairs_03` /
+    /// `chairs_10`; 0.26 / 0.29 / 0.38 % before) and every other kind 0.09–0.22 %.
     ///
     /// Opening samples ([`Settings::opening_samples`]): at `default` the direct light on a
     /// table 0.55 m under a 0.61 m linear pendant (`rw_5.IES`) is within 0.7 % of a
@@ -995,7 +1000,9 @@ impl Settings {
                 lamp_paths: 32,
                 higher_rays: 32,
                 tail_tolerance: 0.0001,
-                blur: Blur::Sigma(2.0),
+                blur: Blur::Sigma(1.0),
+                denoise_correction: true,
+                direct_at_hits: true,
                 opening_samples: 128,
                 ..base
             },

@@ -26,41 +26,10 @@ vec3 luxCosineDirection(vec3 n, vec2 u) {
                 t.z * x + b.z * y + n.z * z);
 }
 
-// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region.
-vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv) {
-    if (size.x == 0 || size.y == 0 || !luxFinite(uv.x) || !luxFinite(uv.y)) {
-        return vec3(0.0);
-    }
-    float fx = clamp(uv.x * float(size.x) - 0.5, 0.0, float(size.x - 1));
-    float fy = clamp(uv.y * float(size.y) - 0.5, 0.0, float(size.y - 1));
-    float x0f = floor(fx);
-    float y0f = floor(fy);
-    float tx = fx - x0f;
-    float ty = fy - y0f;
-    int x0 = int(x0f);
-    int y0 = int(y0f);
-    int x1 = min(x0 + 1, size.x - 1);
-    int y1 = min(y0 + 1, size.y - 1);
-    ivec2 xs[4] = ivec2[4](ivec2(x0, y0), ivec2(x1, y0), ivec2(x0, y1), ivec2(x1, y1));
-    float ws[4] = float[4]((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
-    vec3 sum = vec3(0.0);
-    float wsum = 0.0;
-    for (int i = 0; i < 4; ++i) {
-        vec4 t = texelFetch(u_reflected, ivec3(offset + xs[i], layer), 0);
-        if (t.a > 0.5) {
-            sum += ws[i] * t.rgb;
-            wsum += ws[i];
-        }
-    }
-    if (wsum > 0.0) {
-        return vec3(sum.x / wsum, sum.y / wsum, sum.z / wsum);
-    }
-    return vec3(0.0);
-}
-
-// The albedo (slot `albedo`) at light-map UV `uv` of a region, read with the masked
-// bilinear weights luxSampleMasked gives the reflected map there (its mask, not the albedo's).
-vec3 luxSampleMaskedAlbedo(int layer, ivec2 offset, ivec2 size, vec2 uv) {
+// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region of the
+// reflected map; with `albedo` the albedo map's (slot `albedo`) with the reflected map's mask
+// and weights (gather::GatherParams::direct_at_hits).
+vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv, bool albedo) {
     if (size.x == 0 || size.y == 0 || !luxFinite(uv.x) || !luxFinite(uv.y)) {
         return vec3(0.0);
     }
@@ -80,8 +49,9 @@ vec3 luxSampleMaskedAlbedo(int layer, ivec2 offset, ivec2 size, vec2 uv) {
     float wsum = 0.0;
     for (int i = 0; i < 4; ++i) {
         ivec3 at = ivec3(offset + xs[i], layer);
-        if (texelFetch(u_reflected, at, 0).a > 0.5) {
-            sum += ws[i] * texelFetch(u_albedo, at, 0).rgb;
+        vec4 t = texelFetch(u_reflected, at, 0);
+        if (t.a > 0.5) {
+            sum += ws[i] * (albedo ? texelFetch(u_albedo, at, 0).rgb : t.rgb);
             wsum += ws[i];
         }
     }
@@ -193,11 +163,11 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
         vec3 yd = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
                        origin.z + hit.x * dir.z);
         if (directAtHits != 0u && luxNormalize(nh, nd) && luxPointLampsAt(yd, nd, lamps, e)) {
-            vec3 a = luxSampleMaskedAlbedo(int(region0.x), ivec2(region0.yz), ivec2(region1.xy),
-                                           uv);
+            vec3 a = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv,
+                                     true);
             m = vec3(a.x * e.x, a.y * e.y, a.z * e.z);
         } else {
-            m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv);
+            m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv, false);
         }
         float weight = 1.0;
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).

@@ -25,8 +25,11 @@ fn lux_cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
                      t.z * x + b.z * y + n.z * z);
 }
 
-// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region.
-fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f32>) -> vec3<f32> {
+// map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region of the
+// reflected map; with `albedo` the albedo map's (slot `albedo`) with the reflected map's mask
+// and weights (gather::GatherParams::direct_at_hits).
+fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f32>,
+                     albedo: bool) -> vec3<f32> {
     if (size.x == 0 || size.y == 0 || !lux_finite(uv.x) || !lux_finite(uv.y)) {
         return vec3<f32>(0.0);
     }
@@ -50,43 +53,11 @@ fn lux_sample_masked(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f3
     for (var i = 0; i < 4; i++) {
         let t = textureLoad(lux_reflected, offset + xs[i], layer, 0);
         if (t.a > 0.5) {
-            sum += ws[i] * t.rgb;
-            wsum += ws[i];
-        }
-    }
-    if (wsum > 0.0) {
-        return vec3<f32>(sum.x / wsum, sum.y / wsum, sum.z / wsum);
-    }
-    return vec3<f32>(0.0);
-}
-
-// The albedo (slot `albedo`) at light-map UV `uv` of a region, read with the masked
-// bilinear weights lux_sample_masked gives the reflected map there (its mask, not the
-// albedo's).
-fn lux_sample_masked_albedo(layer: i32, offset: vec2<i32>, size: vec2<i32>, uv: vec2<f32>)
-    -> vec3<f32> {
-    if (size.x == 0 || size.y == 0 || !lux_finite(uv.x) || !lux_finite(uv.y)) {
-        return vec3<f32>(0.0);
-    }
-    let fx = clamp(uv.x * f32(size.x) - 0.5, 0.0, f32(size.x - 1));
-    let fy = clamp(uv.y * f32(size.y) - 0.5, 0.0, f32(size.y - 1));
-    let x0f = floor(fx);
-    let y0f = floor(fy);
-    let tx = fx - x0f;
-    let ty = fy - y0f;
-    let x0 = i32(x0f);
-    let y0 = i32(y0f);
-    let x1 = min(x0 + 1, size.x - 1);
-    let y1 = min(y0 + 1, size.y - 1);
-    // Variables, not values (lux_sample_masked).
-    var xs = array<vec2<i32>, 4>(vec2<i32>(x0, y0), vec2<i32>(x1, y0), vec2<i32>(x0, y1),
-                                 vec2<i32>(x1, y1));
-    var ws = array<f32, 4>((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
-    var sum = vec3<f32>(0.0);
-    var wsum = 0.0;
-    for (var i = 0; i < 4; i++) {
-        if (textureLoad(lux_reflected, offset + xs[i], layer, 0).a > 0.5) {
-            sum += ws[i] * textureLoad(lux_albedo, offset + xs[i], layer, 0).rgb;
+            var v = t.rgb;
+            if (albedo) {
+                v = textureLoad(lux_albedo, offset + xs[i], layer, 0).rgb;
+            }
+            sum += ws[i] * v;
             wsum += ws[i];
         }
     }
@@ -193,12 +164,12 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
         let yd = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
                            origin.z + hit.x * dir.z);
         if (direct_at_hits != 0u && lux_normalize(nh, &nd) && lux_point_lamps_at(yd, nd, lamps, &e)) {
-            let a = lux_sample_masked_albedo(i32(region0.x), vec2<i32>(region0.yz),
-                                             vec2<i32>(region1.xy), uv);
+            let a = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz),
+                                      vec2<i32>(region1.xy), uv, true);
             m = vec3<f32>(a.x * e.x, a.y * e.y, a.z * e.z);
         } else {
             m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
-                                  uv);
+                                  uv, false);
         }
         var weight = 1.0;
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).

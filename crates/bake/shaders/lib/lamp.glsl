@@ -60,6 +60,26 @@ bool luxSees(vec3 p, vec3 n, vec3 o0, float off2, vec3 x, vec3 back, float r, fl
     return true;
 }
 
+// cpu::direct_texel's point term: uploaded lamp li as a point from its photometric centre,
+// seen from p (unit normal n, offset origin o0, offset squared off2) through its shadow ray
+// (luxSees, `occluder` its cache): false when it gives p nothing, else its illuminance k.
+bool luxPointLamp(int li, vec3 p, vec3 n, vec3 o0, float off2, inout int occluder, out vec3 k) {
+    k = vec3(0.0);
+    float d2;
+    float d;
+    vec3 w;
+    float cosTheta;
+    float intensity;
+    if (!luxLampToward(li, p, n, d2, d, w, cosTheta, intensity)) {
+        return false;
+    }
+    if (!luxSees(p, n, o0, off2, luxLamp(li, 0).xyz, -w, d, d2, occluder)) {
+        return false;
+    }
+    k = intensity * cosTheta / max(d2, off2) * luxLamp(li, 4).rgb;
+    return true;
+}
+
 // passes::direct::cpu::points_at: the direct illuminance e at a gather hit p (unit normal n)
 // from the first `lamps` uploaded lamps, each as a point from its photometric centre with its
 // shadow ray (the direct pass's sum with u_points_only = 1); false where p lies within a
@@ -77,19 +97,10 @@ bool luxPointLampsAt(vec3 p, vec3 n, int lamps, out vec3 e) {
     float off2 = luxDot(off, off);
     int occluder = -1;
     for (int li = 0; li < lamps; ++li) {
-        float d2;
-        float d;
-        vec3 w;
-        float cosTheta;
-        float intensity;
-        if (!luxLampToward(li, p, n, d2, d, w, cosTheta, intensity)) {
-            continue;
+        vec3 k;
+        if (luxPointLamp(li, p, n, o0, off2, occluder, k)) {
+            e += k;
         }
-        if (!luxSees(p, n, o0, off2, luxLamp(li, 0).xyz, -w, d, d2, occluder)) {
-            continue;
-        }
-        float k = intensity * cosTheta / max(d2, off2);
-        e += k * luxLamp(li, 4).rgb;
     }
     e = luxGuard3(e);
     return true;

@@ -72,6 +72,24 @@ fn lux_sees(p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32, x: vec3<f32>, 
     return true;
 }
 
+// cpu::direct_texel's point term: uploaded lamp li as a point from its photometric centre,
+// seen from p (unit normal n, offset origin o0, offset squared off2) through its shadow ray
+// (lux_sees, *occluder its cache): false when it gives p nothing, else its illuminance *k.
+fn lux_point_lamp(li: u32, p: vec3<f32>, n: vec3<f32>, o0: vec3<f32>, off2: f32,
+                  occluder: ptr<function, i32>, k: ptr<function, vec3<f32>>) -> bool {
+    *k = vec3<f32>(0.0);
+    let lamp = lux_lamps[li];
+    let view = lux_lamp_toward(li, p, n);
+    if (!view.valid) {
+        return false;
+    }
+    if (!lux_sees(p, n, o0, off2, lamp.position.xyz, -view.w, view.d, view.d2, occluder)) {
+        return false;
+    }
+    *k = view.intensity * view.cos_theta / max(view.d2, off2) * lamp.scale.xyz;
+    return true;
+}
+
 // passes::direct::cpu::points_at: the direct illuminance *e at a gather hit p (unit normal n)
 // from the first `lamps` uploaded lamps, each as a point from its photometric centre with its
 // shadow ray (the direct pass's sum with points_only = 1); false where p lies within a lamp's
@@ -93,16 +111,10 @@ fn lux_point_lamps_at(p: vec3<f32>, n: vec3<f32>, lamps: u32, e: ptr<function, v
     var occluder = -1;
     var sum = vec3<f32>(0.0);
     for (var li = 0u; li < count; li++) {
-        let lamp = lux_lamps[li];
-        let view = lux_lamp_toward(li, p, n);
-        if (!view.valid) {
-            continue;
+        var k: vec3<f32>;
+        if (lux_point_lamp(li, p, n, o0, off2, &occluder, &k)) {
+            sum += k;
         }
-        if (!lux_sees(p, n, o0, off2, lamp.position.xyz, -view.w, view.d, view.d2, &occluder)) {
-            continue;
-        }
-        let k = view.intensity * view.cos_theta / max(view.d2, off2);
-        sum += k * lamp.scale.xyz;
     }
     *e = lux_guard3(sum);
     return true;

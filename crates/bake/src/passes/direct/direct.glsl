@@ -178,19 +178,10 @@ vec4 luxRun(ivec3 c) {
         if (first > 0u) {
             continue;
         }
-        float d2;
-        float d;
-        vec3 w;
-        float cosTheta;
-        float intensity;
-        if (!luxLampToward(li, p, n, d2, d, w, cosTheta, intensity)) {
-            continue;
+        vec3 k;
+        if (luxPointLamp(li, p, n, o0, off2, occluder, k)) {
+            e += k;
         }
-        if (!luxSees(p, n, o0, off2, lampPos, -w, d, d2, occluder)) {
-            continue;
-        }
-        float k = intensity * cosTheta / max(d2, off2);
-        e += k * luxLamp(li, 4).rgb;
     }
     return vec4(luxGuard3(e), 1.0);
 }

@@ -188,19 +188,10 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         if (first > 0u) {
             continue;
         }
-        let view = lux_lamp_toward(li, p, n);
-        if (!view.valid) {
-            continue;
+        var k: vec3<f32>;
+        if (lux_point_lamp(li, p, n, o0, off2, &occluder, &k)) {
+            e += k;
         }
-        let d2 = view.d2;
-        let d = view.d;
-        let cos_theta = view.cos_theta;
-        let intensity = view.intensity;
-        if (!lux_sees(p, n, o0, off2, lamp_pos, -view.w, d, d2, &occluder)) {
-            continue;
-        }
-        let k = intensity * cos_theta / max(d2, off2);
-        e += k * lamp.scale.xyz;
     }
     return vec4<f32>(lux_guard3(e), 1.0);
 }
