@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads, Variant};
+use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Uploads, Variant};
 use luxbake::program::{GatherParams, ParamBlock, Scalar};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{glsl_param, glsl_slot, glsl_variant, program_traversal};
@@ -186,7 +186,7 @@ impl GlowBackend {
         call: &Dispatch<'_, GlowTexture, GlowScene>,
         traversal: BvhMode,
     ) -> Option<HitKey> {
-        if call.program != Pass::Gather || self.kept.is_none() {
+        if call.program != Pass::Gather || self.kept.is_none() || !kept::replayable(call.params) {
             return None;
         }
         // Read slots 0 and 1 are the position and normal maps.

@@ -5,7 +5,7 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{HitKey, KeptHitStats, KeptHits, Uploads, Variant};
+use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Uploads, Variant};
 use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{program_traversal, wgsl, wgsl_variant};
@@ -293,7 +293,8 @@ impl WgpuBackend {
         call: &Dispatch<'_, WgpuTexture, WgpuScene>,
         traversal: BvhMode,
     ) -> Option<HitKey> {
-        if call.program != Program::Gather || self.kept.is_none() {
+        if call.program != Program::Gather || self.kept.is_none() || !kept::replayable(call.params)
+        {
             return None;
         }
         // Read slots 0 and 1 are the position and normal maps.

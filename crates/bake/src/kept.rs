@@ -83,6 +83,14 @@ impl Variant {
     }
 }
 
+/// Whether a gather dispatch with `words` (its [`GatherParams`]) can keep and replay its hits:
+/// not one that evaluates the direct light at its hits
+/// ([`GatherParams::direct_at_hits`]), whose shadow rays depend on the lamps (the replay
+/// programs leave that code out, so that a swap's gather stays a look-up).
+pub fn replayable(words: &[u32]) -> bool {
+    GatherParams::from_words(words).direct_at_hits == 0
+}
+
 /// What places a gather dispatch's rays (module docs).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct HitKey {
@@ -339,6 +347,22 @@ pub fn hash_floats(texels: &[f32]) -> u64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A gather that evaluates the direct light at its hits keeps none: its replay would
+    /// need the lamps' shadow rays, which the replay programs leave out.
+    #[test]
+    fn only_gathers_that_read_the_maps_at_their_hits_are_replayable() {
+        let words = |direct_at_hits| {
+            GatherParams {
+                rays: 8,
+                direct_at_hits,
+                ..GatherParams::default()
+            }
+            .words()
+        };
+        assert!(replayable(&words(0)));
+        assert!(!replayable(&words(1)));
+    }
 
     #[test]
     fn uploads_hash_every_layer_once_uploaded() {

@@ -158,6 +158,9 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
         vec2 uv = vec2(w0 * uv01.x + u * uv01.z + v * uv2Object.x,
                        w0 * uv01.y + u * uv01.w + v * uv2Object.y);
         vec3 m;
+#ifndef LUX_REPLAY
+        // Not in the replay: a gather with the direct light at its hits keeps no hits
+        // (kept::replayable), and the replay stays a look-up without the lamps' shadow rays.
         vec3 e;
         vec3 nd;
         vec3 yd = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
@@ -166,7 +169,9 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
             vec3 a = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv,
                                      true);
             m = vec3(a.x * e.x, a.y * e.y, a.z * e.z);
-        } else {
+        } else
+#endif
+        {
             m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv, false);
         }
         float weight = 1.0;

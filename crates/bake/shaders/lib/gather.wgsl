@@ -160,10 +160,9 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
                            w0 * uv01.y + u * uv01.w + v * uv2_object.y);
         var m: vec3<f32>;
         var e: vec3<f32>;
-        var nd: vec3<f32>;
         let yd = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
                            origin.z + hit.x * dir.z);
-        if (direct_at_hits != 0u && lux_normalize(nh, &nd) && lux_point_lamps_at(yd, nd, lamps, &e)) {
+        if (direct_at_hits != 0u && lux_gather_direct(yd, nh, lamps, &e)) {
             let a = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz),
                                       vec2<i32>(region1.xy), uv, true);
             m = vec3<f32>(a.x * e.x, a.y * e.y, a.z * e.z);
