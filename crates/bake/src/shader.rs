@@ -574,12 +574,7 @@ mod tests {
         );
         for p in Program::ALL {
             for storage in [BvhStorage::Buffers, BvhStorage::Textures] {
-                let variants: &[Variant] = if p == Program::Gather {
-                    &[Variant::Plain, Variant::Trace, Variant::Replay]
-                } else {
-                    &[Variant::Plain]
-                };
-                for &v in variants {
+                for &v in Variant::of(p) {
                     let module = wgsl_variant(p, BvhMode::Mtbvh, storage, v);
                     let found = array_values(&module);
                     assert!(found.is_empty(), "{} {v:?}: {found:?}", p.label());

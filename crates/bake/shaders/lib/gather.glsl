@@ -157,15 +157,16 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
         vec4 uv01 = texelFetch(u_triangles, ivec3(tc, LUX_TRI_UV01_LAYER), 0);
         vec2 uv = vec2(w0 * uv01.x + u * uv01.z + v * uv2Object.x,
                        w0 * uv01.y + u * uv01.w + v * uv2Object.y);
+        // The hit's point, for the direct light there and the lamp paths' weight.
+        vec3 y = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                      origin.z + hit.x * dir.z);
         vec3 m;
 #ifndef LUX_REPLAY
         // Not in the replay: a gather with the direct light at its hits keeps no hits
         // (kept::replayable), and the replay stays a look-up without the lamps' shadow rays.
         vec3 e;
         vec3 nd;
-        vec3 yd = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
-                       origin.z + hit.x * dir.z);
-        if (directAtHits != 0u && luxNormalize(nh, nd) && luxPointLampsAt(yd, nd, lamps, e)) {
+        if (directAtHits != 0u && luxNormalize(nh, nd) && luxPointLampsAt(y, nd, lamps, e)) {
             vec3 a = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv,
                                      true);
             m = vec3(a.x * e.x, a.y * e.y, a.z * e.z);
@@ -181,8 +182,6 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
             if (!luxNormalize(nh, ny)) {
                 ny = vec3(0.0);
             }
-            vec3 y = vec3(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
-                          origin.z + hit.x * dir.z);
             float density = luxLampDensity(y, ny, lamps);
             weight = luxGatherWeight(misRays, lampPaths, densityScale, density, hit.x,
                                      luxDot(n, dir), -luxDot(ny, dir));

@@ -158,11 +158,12 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
         let uv01 = lux_triangle_at(tc, LUX_TRI_UV01_LAYER);
         let uv = vec2<f32>(w0 * uv01.x + u * uv01.z + v * uv2_object.x,
                            w0 * uv01.y + u * uv01.w + v * uv2_object.y);
+        // The hit's point, for the direct light there and the lamp paths' weight.
+        let y = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
+                          origin.z + hit.x * dir.z);
         var m: vec3<f32>;
         var e: vec3<f32>;
-        let yd = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
-                           origin.z + hit.x * dir.z);
-        if (direct_at_hits != 0u && lux_gather_direct(yd, nh, lamps, &e)) {
+        if (direct_at_hits != 0u && lux_gather_direct(y, nh, lamps, &e)) {
             let a = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz),
                                       vec2<i32>(region1.xy), uv, true);
             m = vec3<f32>(a.x * e.x, a.y * e.y, a.z * e.z);
@@ -177,8 +178,6 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
             if (!lux_normalize(nh, &ny)) {
                 ny = vec3<f32>(0.0);
             }
-            let y = vec3<f32>(origin.x + hit.x * dir.x, origin.y + hit.x * dir.y,
-                              origin.z + hit.x * dir.z);
             let density = lux_lamp_density(y, ny, lamps);
             weight = lux_gather_weight(mis_rays, lamp_paths, density_scale, density, hit.x,
                                        lux_dot(n, dir), -lux_dot(ny, dir));

@@ -116,8 +116,8 @@ pub(crate) fn points_at(
     p: [f32; 3],
     n: [f32; 3],
 ) -> Option<[f32; 3]> {
-    let lamps = scene.lamps.iter().take(lamp_count as usize);
-    if lamps.into_iter().any(|lamp| near_opening(lamp, p).is_some()) {
+    let mut lamps = scene.lamps.iter().take(lamp_count as usize);
+    if lamps.any(|lamp| near_opening(lamp, p).is_some()) {
         return None;
     }
     let params = DirectParams {

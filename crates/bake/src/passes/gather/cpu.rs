@@ -243,8 +243,9 @@ impl GatherChunk {
                 let (Some(lookup), Some(hit)) = (lookup, hit) else {
                     continue;
                 };
+                // The hit's point, for the direct light there and the lamp paths' weight.
+                let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
                 let at_hit = source.direct.and_then(|(albedo, lamps)| {
-                    let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
                     // The shaders' test; the direct texel normalizes the normal itself.
                     normalize(lookup.normal)?;
                     let e = crate::passes::direct::cpu::points_at(scene, trav, lamps, y, lookup.normal)?;
@@ -273,7 +274,7 @@ impl GatherChunk {
                 if m == [0.0; 3] {
                     continue;
                 }
-                let weight = gather_weight(scene, hit, lookup.normal, dir, t);
+                let weight = gather_weight(scene, hit, y, lookup.normal, dir, t);
                 for c in 0..3 {
                     sum[c] += weight * m[c];
                 }
@@ -332,17 +333,23 @@ pub(crate) fn shading_normal(attr: &TriangleAttributes, hit: &Hit) -> [f32; 3] {
     ]
 }
 
-/// The weight of texel `t`'s gather ray along `dir` that met `hit` (a front hit of a
+/// The weight of texel `t`'s gather ray along `dir` that met `hit` at `y` (a front hit of a
 /// receiver, interpolated shading normal `nh`): 1, or with lamp paths the balance heuristic
 /// against them ([`crate::lightpaths`]).
 #[inline]
-pub(crate) fn gather_weight(scene: &CpuScene, hit: &Hit, nh: [f32; 3], dir: [f32; 3], t: &GatherTexel) -> f32 {
+pub(crate) fn gather_weight(
+    scene: &CpuScene,
+    hit: &Hit,
+    y: [f32; 3],
+    nh: [f32; 3],
+    dir: [f32; 3],
+    t: &GatherTexel,
+) -> f32 {
     let mis = t.mis;
     if mis.lamp_paths == 0 {
         return 1.0;
     }
     let ny = normalize(nh).unwrap_or([0.0; 3]);
-    let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
     let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
     let lamp_density = lightpaths::density(lamps, &scene.proxies, y, ny);
     lightpaths::gather_weight(
