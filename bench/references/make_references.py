@@ -46,7 +46,8 @@ Sub-commands:
                  --dark-below lux traced again with --ad-dark hemisphere samples, written with
                  the other rows unchanged to <out>/<scene>.csv: points in a gap (under a sofa)
                  see the lit room through a narrow slit of their hemisphere, so their noise at
-                 -ad 4096 is tens of per cent (--scenes: one scene)
+                 -ad 4096 is tens of per cent (--scenes: one scene; --surface: of one kind only;
+                 --trace-offset: traced that far off the surface instead of at the rows' 1 mm)
 """
 
 from __future__ import annotations
@@ -566,6 +567,26 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
     return summary
 
 
+def surface_points(name: str, scene: dict, pos: np.ndarray, nrm: np.ndarray) -> np.ndarray:
+    """The exact surface points (float64, before the 1 mm offset) of the CSV rows at `pos`
+    (1 mm off, written to 0.1 mm) with normals `nrm`: the scene's points chosen again (the
+    choice is seeded), matched to the rows. `retrace --trace-offset` traces from them: a point
+    1 mm below a seat, 6 cm above its aprons' lower edges, sees a wider ring of the lit floor
+    than the seat's surface does (+0.57 % of the first bounce at the undersides of `chairs_01`'s
+    seat), and the CSV's 0.1 mm rounding is too coarse for a smaller offset."""
+    exact = points_for(name, scene)
+    p = np.array([q[0] for q in exact])
+    n = np.array([q[1] for q in exact])
+    out = []
+    for x, m in zip(pos, nrm):
+        d = np.linalg.norm(p + OFFSET * n - x, axis=1)
+        i = int(np.argmin(d))
+        if d[i] > 2e-4 or np.dot(n[i], m) < 1 - 1e-4:
+            sys.exit(f"error: no chosen point of {name} at {x} (nearest {d[i] * 1000:.2f} mm)")
+        out.append(p[i])
+    return np.array(out)
+
+
 def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Path,
                  settings: dict) -> dict:
     """`retrace`: the dark points of `source` traced again at settings["ad_dark"]."""
@@ -573,7 +594,8 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
     work.mkdir(parents=True, exist_ok=True)
     glb = work / f"{name}.glb"
     export_glb(name, glb)
-    octree = write_scene(load_scene(glb), work, env)
+    scene = load_scene(glb)
+    octree = write_scene(scene, work, env)
     lines = source.read_text().splitlines(keepends=True)
     header = [i for i, line in enumerate(lines) if line.startswith("x,y,z,")]
     if len(header) != 1:
@@ -581,33 +603,46 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
     cols = lines[header[0]].strip().split(",")
     rows = [(i, line.strip().split(",")) for i, line in enumerate(lines)
             if i > header[0] and line.strip() and not line.startswith("#")]
-    dark = [(i, f) for i, f in rows if float(f[cols.index("lux")]) < settings["dark_below"]]
+    dark = [(i, f) for i, f in rows if float(f[cols.index("lux")]) < settings["dark_below"]
+            and settings.get("surface") in (None, f[cols.index("surface")])]
     if not dark:
         sys.exit(f"error: {source}: no point under {settings['dark_below']:g} lx")
     pos = np.array([[float(f[cols.index(c)]) for c in "xyz"] for _, f in dark])
     nrm = np.array([[float(f[cols.index(c)]) for c in ("nx", "ny", "nz")] for _, f in dark])
+    offset = settings.get("trace_offset")
+    if offset is not None:
+        pos = surface_points(name, scene, pos, nrm) + offset * nrm
     rays = np.concatenate([to_rad(pos), to_rad(nrm)], axis=1)  # positions already 1 mm off
     t0 = time.time()
     total = lux(rtrace(octree, rays, settings["ab"], settings["ad_dark"], settings["lw"], env,
                        work))
+    # Traced from elsewhere, the direct light is traced again there too (-ab 0).
+    direct = None if offset is None else lux(
+        rtrace(octree, rays, 0, settings["ad_dark"], settings["lw"], env, work)) @ REC709
     seconds = time.time() - t0
     y = total @ REC709
     changes = []
-    for (i, f), yt, rgb in zip(dark, y, total):
+    for k, ((i, f), yt, rgb) in enumerate(zip(dark, y, total)):
         old = float(f[cols.index("lux")])
         changes.append((yt - old) / yt if yt > 0 else 0.0)
         f[cols.index("lux")] = f"{yt:.3f}"
+        if direct is not None:
+            f[cols.index("direct_lux")] = f"{direct[k]:.3f}"
         for c, v in zip(("lux_r", "lux_g", "lux_b"), rgb):
             f[cols.index(c)] = f"{v:.3f}"
         lines[i] = ",".join(f) + "\n"
-    note = (f"# retrace: the {len(dark)} points under {settings['dark_below']:g} lx traced again "
-            f"with -ad {settings['ad_dark']} (make_references.py retrace --from "
-            f"{source.name}); their lux, lux_r, lux_g, lux_b are those\n")
+    kind = f" {settings['surface']}" if settings.get("surface") else ""
+    where = "" if offset is None else f" {offset * 1000:g} mm off their surfaces (not 1 mm)"
+    note = (f"# retrace: the {len(dark)}{kind} points under {settings['dark_below']:g} lx traced again "
+            f"with -ad {settings['ad_dark']}{where} (make_references.py retrace --from "
+            f"{source.name}); their lux, lux_r, lux_g, lux_b"
+            f"{'' if offset is None else ', direct_lux'} are those\n")
     lines.insert(header[0], note)
     path = out_dir / f"{name}.csv"
     path.write_text("".join(lines))
     print(f"{name}: wrote {path} ({len(dark)} points retraced, rtrace {seconds:.0f} s)")
-    return {"source": str(source.name), "points": len(dark),
+    return {"source": str(source.name), "points": len(dark), "surface": settings.get("surface"),
+            "trace_offset_m": offset,
             "dark_below_lux": settings["dark_below"], "ad_dark": settings["ad_dark"],
             "seconds_rtrace": round(seconds, 1),
             "mean_abs_change_of_old": float(np.mean(np.abs(changes))),
@@ -1426,8 +1461,15 @@ def main() -> None:
                     help="retrace: points with less total lux than this are traced again")
     ap.add_argument("--ad-dark", type=int, default=65536,
                     help="retrace: hemisphere samples of the second trace")
+    ap.add_argument("--trace-offset", type=float,
+                    help="retrace: trace from this far off the surface, in m (default: the "
+                    "CSV's positions, 1 mm off), from the exact surface points")
+    ap.add_argument("--surface",
+                    help="retrace: only the dark points of this surface kind (e.g. furniture)")
     ap.add_argument("--keep", type=Path, help="keep the Radiance files in this folder")
     args = ap.parse_args()
+    # Made before any trace, so that hours of rtrace are never lost to a missing folder.
+    args.out.mkdir(parents=True, exist_ok=True)
     env = radiance_env()
     settings = {"ab": args.ab, "ad": args.ad, "lw": args.lw}
     workroot = args.keep or Path(tempfile.mkdtemp(prefix="luxbake-radiance-"))
@@ -1449,7 +1491,8 @@ def main() -> None:
     elif args.what == "retrace":
         if args.source is None or "," in args.scenes:
             sys.exit("error: retrace needs --from CSV and one scene in --scenes")
-        settings.update(dark_below=args.dark_below, ad_dark=args.ad_dark)
+        settings.update(dark_below=args.dark_below, ad_dark=args.ad_dark, surface=args.surface,
+                        trace_offset=args.trace_offset)
         log = {"meta": meta, "settings": settings, "common_flags": COMMON,
                "retraced": retrace_dark(args.scenes, args.source, args.out, env, workroot,
                                         settings)}
