@@ -34,7 +34,9 @@ Cost on the 2-core development machine (shared, niced): about 5 to 6 minutes of 
 furnished scene, 21 minutes for all five scenes, 9 minutes for `validate`.
 
 Sub-commands:
-    scenes       (default) write <scene>.csv for the scenes given (--scenes)
+    scenes       (default) write <scene>.csv for the scenes given (--scenes): built-in names,
+                 or scene files (a path ending in .toml, <stem>.csv) whose lamps are IES files
+                 (bench/scenes/real_*.toml: each file through ies2rad as the downlight's)
     validate     direct-only check (inverse-square-cosine law with the IES intensity), the CIE
                  171:2006 closed box (test case 5.8) and the convergence check; writes
                  validation.json
@@ -250,7 +252,7 @@ def load_scene(glb: Path) -> dict:
 # Scene description
 
 
-def lamp_rad(lamp: dict, index: int, workdir: Path, env: dict) -> str:
+def lamp_rad(lamp: dict, index: int, workdir: Path, env: dict, files: dict) -> str:
     """Radiance text of one luxbake lamp (see the module docs)."""
     aim = np.array(lamp.get("aim", [0, -1, 0]), dtype=np.float64)
     aim_ok = np.linalg.norm(aim) > 0 and np.allclose(aim / np.linalg.norm(aim), [0, -1, 0])
@@ -260,8 +262,12 @@ def lamp_rad(lamp: dict, index: int, workdir: Path, env: dict) -> str:
     color = [float(c) for c in lamp.get("color", [1, 1, 1])]
     x, y, z = to_rad(np.array(lamp["position"]))
     name = f"lamp{index}"
-    if lamp["name"] == "downlight":
-        shutil.copy(DOWNLIGHT_IES, workdir / f"{name}.ies")
+    # A scene file's lamp with a file of its own: that file as a point, like the downlight.
+    source = files.get(lamp["name"]) or (DOWNLIGHT_IES if lamp["name"] == "downlight" else None)
+    if source is not None:
+        if source.suffix.lower() != ".ies":
+            raise NotImplementedError(f"lamp {lamp['name']}: {source.name}: ies2rad reads IES only")
+        shutil.copy(source, workdir / f"{name}.ies")
         subprocess.run(["ies2rad", "-dm", "-i", str(LAMP_RADIUS), "-c", *map(str, color),
                         "-m", str(mult), "-o", name, f"{name}.ies"],
                        cwd=workdir, env=env, check=True, capture_output=True)
@@ -291,7 +297,7 @@ def write_scene(scene: dict, workdir: Path, env: dict) -> Path:
         coords = " ".join(f"{v:.7f}" for v in t.reshape(-1))
         lines.append(f"{m} polygon t{i}\n0\n0\n9 {coords}\n")
     for k, lamp in enumerate(scene["lamps"]):
-        lines.append(lamp_rad(lamp, k, workdir, env))
+        lines.append(lamp_rad(lamp, k, workdir, env, scene.get("lamp_files", {})))
     (workdir / "scene.rad").write_text("\n".join(lines))
     with open(workdir / "scene.oct", "wb") as f:
         subprocess.run(["oconv", "scene.rad"], cwd=workdir, env=env, stdout=f, check=True)
@@ -521,15 +527,36 @@ def lux(irradiance: np.ndarray) -> np.ndarray:
     return EFFICACY * irradiance
 
 
+def scene_stem(name: str) -> str:
+    """The name a scene's files go by: a built-in's name, or a scene file's stem."""
+    return Path(name).stem if name.endswith(".toml") else name
+
+
+def lamp_files(name: str) -> dict:
+    """Lamp name -> photometric file of a scene file's lamps that name one (none for a
+    built-in, whose lamp is the built-in downlight)."""
+    if not name.endswith(".toml"):
+        return {}
+    import tomllib
+    path = Path(name).resolve()
+    files = {}
+    for i, lamp in enumerate(tomllib.loads(path.read_text()).get("lamp", [])):
+        ies = lamp.get("ies", "builtin:downlight")
+        if not ies.startswith(("builtin:", "isotropic:")):
+            files[lamp.get("name", f"lamp_{i}")] = (path.parent / ies).resolve()
+    return files
+
+
 def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: dict) -> dict:
-    work = workroot / name
+    stem = scene_stem(name)
+    work = workroot / stem
     work.mkdir(parents=True, exist_ok=True)
-    glb = work / f"{name}.glb"
+    glb = work / f"{stem}.glb"
     export_glb(name, glb)
-    scene = load_scene(glb)
+    scene = {**load_scene(glb), "lamp_files": lamp_files(name)}
     octree = write_scene(scene, work, env)
     t0 = time.time()
-    points = points_for(name, scene)
+    points = points_for(stem, scene)
     t_points = time.time() - t0
     rays = rays_of(points)
     t0 = time.time()
@@ -537,9 +564,10 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
     total = lux(rtrace(octree, rays, settings["ab"], settings["ad"], settings["lw"], env, work))
     t_trace = time.time() - t0
     y_total, y_direct = total @ REC709, direct @ REC709
-    path = out_dir / f"{name}.csv"
+    path = out_dir / f"{stem}.csv"
     with open(path, "w") as f:
-        f.write(f"# Radiance reference for the built-in scene `{name}`: made by "
+        what = f"scene file `{name}`" if name.endswith(".toml") else f"built-in scene `{name}`"
+        f.write(f"# Radiance reference for the {what}: made by "
                 f"make_references.py (see README.md)\n")
         f.write(f"# {radiance_version(env)}; rtrace -I -ab {settings['ab']} -ad {settings['ad']} "
                 f"-lw {settings['lw']:g} {' '.join(COMMON)}\n")

@@ -47,6 +47,7 @@ use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
 use super::{machine, open, result_path, timed_bake, utc_now, write};
+use luxbake::sources::scenefile::from_file_patched;
 use luxbake_cli::measure;
 
 /// Largest distance from a reference point to a baked surface, metres (`measure`'s default;
@@ -61,7 +62,8 @@ pub const MIN_DIRECT_LUX: f64 = 1.0;
 #[derive(clap::Args)]
 pub struct Args {
     /// Built-in scene with a reference in `bench/references/` (chairs_01, chairs_03,
-    /// chairs_05, chairs_10, sofa_01, floor, sphere).
+    /// chairs_05, chairs_10, sofa_01, floor, sphere), or a scene file (`.toml`, e.g.
+    /// `bench/scenes/real_office.toml`) whose reference is `bench/references/<file stem>.csv`.
     #[arg(long, default_value = "chairs_05")]
     scene: String,
     /// Compare this folder written by `cargo xtask bake` (of the same scene) instead of baking.
@@ -163,7 +165,11 @@ pub fn shown(path: &Path) -> String {
 
 /// The committed reference of built-in scene `name`.
 pub fn reference_path(name: &str) -> PathBuf {
-    references_dir().join(format!("{name}.csv"))
+    let stem = Path::new(name)
+        .file_stem()
+        .filter(|_| name.ends_with(".toml"))
+        .map_or(name.into(), |s| s.to_string_lossy());
+    references_dir().join(format!("{stem}.csv"))
 }
 
 /// Parses a reference CSV: `#` comments and blank lines skipped, then a header naming the
@@ -671,6 +677,18 @@ fn points_table(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> String {
     csv
 }
 
+/// The scene `name` names: a built-in, or a scene file (a path ending in `.toml`, its meshes
+/// loaded), with `patch` over its settings.
+fn scene_of(name: &str, patch: &SettingsPatch) -> Result<Scene, String> {
+    if name.ends_with(".toml") {
+        let loader = luxbake_assets::SceneLoader::default();
+        return from_file_patched(Path::new(name), Some(&loader), patch)
+            .map_err(|e| format!("{name}: {e}"));
+    }
+    let settings = patch.settings().map_err(|e| e.to_string())?;
+    Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())
+}
+
 /// Runs the check; prints and writes `refcheck-<date>-<machine>.{md,json}` into `out`.
 pub fn run(args: &Args, out: &Path) -> Result<(), String> {
     let ref_path = args
@@ -697,7 +715,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
         None => {
             // The flags as `cargo xtask bake`'s: a patch over the default (`--bounces` alone
             // then bakes exactly that many bounces, without the tail).
-            let s = SettingsPatch {
+            let patch = SettingsPatch {
                 quality: args.quality,
                 rays: args.rays,
                 higher_rays: args.higher_rays,
@@ -711,11 +729,9 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 texels_per_metre: args.texels_per_metre,
                 blur: args.blur,
                 ..SettingsPatch::default()
-            }
-            .settings()
-            .map_err(|e| e.to_string())?;
-            let scene =
-                Scene::builtin_with_settings(&args.scene, s.clone()).map_err(|e| e.to_string())?;
+            };
+            let scene = scene_of(&args.scene, &patch)?;
+            let s = scene.settings.clone();
             let (mut backend, renderer) =
                 open(args.backend).map_err(|e| format!("{}: {e}", args.backend.name()))?;
             let located = locate(&scene, &refs, &label)?;
@@ -833,6 +849,29 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_scene_file_reads_the_reference_named_by_its_stem() {
+        assert_eq!(
+            reference_path("chairs_05"),
+            references_dir().join("chairs_05.csv")
+        );
+        assert_eq!(
+            reference_path("bench/scenes/real_office.toml"),
+            references_dir().join("real_office.csv")
+        );
+        let patch = SettingsPatch::default();
+        let scene = scene_of(
+            &format!(
+                "{}/../bench/scenes/real_office.toml",
+                env!("CARGO_MANIFEST_DIR")
+            ),
+            &patch,
+        )
+        .expect("the scene file");
+        assert_eq!(scene.lamps.len(), 2);
+        assert!(scene_of("no_such_room", &patch).is_err());
+    }
 
     #[test]
     fn parses_by_header_names() {
