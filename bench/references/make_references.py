@@ -547,14 +547,20 @@ def lamp_files(name: str) -> dict:
     return files
 
 
-def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: dict) -> dict:
+def build_scene(name: str, env: dict, workroot: Path):
+    """Exports scene `name` (a built-in or a scene file) into `workroot/<stem>` and writes its
+    Radiance scene there; returns the stem, the working folder, the scene and its octree."""
     stem = scene_stem(name)
     work = workroot / stem
     work.mkdir(parents=True, exist_ok=True)
     glb = work / f"{stem}.glb"
     export_glb(name, glb)
     scene = {**load_scene(glb), "lamp_files": lamp_files(name)}
-    octree = write_scene(scene, work, env)
+    return stem, work, scene, write_scene(scene, work, env)
+
+
+def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: dict) -> dict:
+    stem, work, scene, octree = build_scene(name, env, workroot)
     t0 = time.time()
     points = points_for(stem, scene)
     t_points = time.time() - t0
@@ -618,12 +624,7 @@ def surface_points(name: str, scene: dict, pos: np.ndarray, nrm: np.ndarray) -> 
 def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Path,
                  settings: dict) -> dict:
     """`retrace`: the dark points of `source` traced again at settings["ad_dark"]."""
-    work = workroot / name
-    work.mkdir(parents=True, exist_ok=True)
-    glb = work / f"{name}.glb"
-    export_glb(name, glb)
-    scene = load_scene(glb)
-    octree = write_scene(scene, work, env)
+    stem, work, scene, octree = build_scene(name, env, workroot)
     lines = source.read_text().splitlines(keepends=True)
     header = [i for i, line in enumerate(lines) if line.startswith("x,y,z,")]
     if len(header) != 1:
@@ -639,7 +640,7 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
     nrm = np.array([[float(f[cols.index(c)]) for c in ("nx", "ny", "nz")] for _, f in dark])
     offset = settings.get("trace_offset")
     if offset is not None:
-        pos = surface_points(name, scene, pos, nrm) + offset * nrm
+        pos = surface_points(stem, scene, pos, nrm) + offset * nrm
     rays = np.concatenate([to_rad(pos), to_rad(nrm)], axis=1)  # positions already 1 mm off
     t0 = time.time()
     total = lux(rtrace(octree, rays, settings["ab"], settings["ad_dark"], settings["lw"], env,
@@ -666,7 +667,7 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
             f"{source.name}); their lux, lux_r, lux_g, lux_b"
             f"{'' if offset is None else ', direct_lux'} are those\n")
     lines.insert(header[0], note)
-    path = out_dir / f"{name}.csv"
+    path = out_dir / f"{stem}.csv"
     path.write_text("".join(lines))
     print(f"{name}: wrote {path} ({len(dark)} points retraced, rtrace {seconds:.0f} s)")
     return {"source": str(source.name), "points": len(dark), "surface": settings.get("surface"),
@@ -1525,7 +1526,7 @@ def main() -> None:
                "retraced": retrace_dark(args.scenes, args.source, args.out, env, workroot,
                                         settings)}
         log["seconds"] = round(time.time() - started, 1)
-        (args.out / f"retrace_{args.scenes}.json").write_text(json.dumps(log, indent=2) + "\n")
+        (args.out / f"retrace_{scene_stem(args.scenes)}.json").write_text(json.dumps(log, indent=2) + "\n")
     elif args.what == "nearfield":
         log = {"meta": meta, "flags": NF_FLAGS, "ds": NF_DS, "piece_m": NF_PIECE,
                "strip_m": NF_STRIP, "min_distance_m": NF_MIN_DIST, "rooms": {}}

@@ -43,11 +43,11 @@ use luxbake::GpuBackend;
 use luxbake::bake::BakeOutput;
 use luxbake::probe::SurfacePoint;
 use luxbake::scene::{Blur, Quality, Scene, Settings, SettingsPatch};
+use luxbake::sources::scenefile::from_file_patched;
 use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
 use super::{machine, open, result_path, timed_bake, utc_now, write};
-use luxbake::sources::scenefile::from_file_patched;
 use luxbake_cli::measure;
 
 /// Largest distance from a reference point to a baked surface, metres (`measure`'s default;
@@ -163,12 +163,13 @@ pub fn shown(path: &Path) -> String {
         .to_string()
 }
 
-/// The committed reference of built-in scene `name`.
+/// The committed reference of `name`: a built-in scene's, or a scene file's (`.toml`) by its
+/// file stem.
 pub fn reference_path(name: &str) -> PathBuf {
-    let stem = Path::new(name)
-        .file_stem()
-        .filter(|_| name.ends_with(".toml"))
-        .map_or(name.into(), |s| s.to_string_lossy());
+    let stem = match Path::new(name).file_stem() {
+        Some(stem) if name.ends_with(".toml") => stem.to_string_lossy(),
+        _ => name.into(),
+    };
     references_dir().join(format!("{stem}.csv"))
 }
 
