@@ -516,8 +516,8 @@ def points_for(name: str, scene: dict):
     return choose_points(scene, COUNTS, seed=sum(map(ord, name)))
 
 
-def rays_of(points) -> np.ndarray:
-    p = np.array([q[0] + OFFSET * q[1] for q in points])
+def rays_of(points, offset: float = OFFSET) -> np.ndarray:
+    p = np.array([q[0] + offset * q[1] for q in points])
     n = np.array([q[1] for q in points])
     return np.concatenate([to_rad(p), to_rad(n)], axis=1)
 
@@ -564,7 +564,8 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
     t0 = time.time()
     points = points_for(stem, scene)
     t_points = time.time() - t0
-    rays = rays_of(points)
+    offset = settings.get("trace_offset")
+    rays = rays_of(points, OFFSET if offset is None else offset)
     t0 = time.time()
     direct = lux(rtrace(octree, rays, 0, settings["ad"], settings["lw"], env, work))
     total = lux(rtrace(octree, rays, settings["ab"], settings["ad"], settings["lw"], env, work))
@@ -577,8 +578,10 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
                 f"make_references.py (see README.md)\n")
         f.write(f"# {radiance_version(env)}; rtrace -I -ab {settings['ab']} -ad {settings['ad']} "
                 f"-lw {settings['lw']:g} {' '.join(COMMON)}\n")
-        f.write("# position 1 mm off the surface along the normal; lux = Rec. 709 Y of the RGB "
-                "illuminance (179 lm/W); direct = -ab 0\n")
+        traced = ("" if offset is None else
+                  f", traced {offset * 1000:g} mm off it (make_references.py --trace-offset)")
+        f.write(f"# position 1 mm off the surface along the normal{traced}; lux = Rec. 709 Y "
+                "of the RGB illuminance (179 lm/W); direct = -ab 0\n")
         f.write("x,y,z,nx,ny,nz,surface,object,lux,direct_lux,lux_r,lux_g,lux_b\n")
         for (p, n, kind, obj), off, yt, yd, rgb in zip(points, rays, y_total, y_direct, total):
             q = p + OFFSET * n
@@ -595,6 +598,7 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
             np.max(np.abs(total @ RADIANCE_Y / np.maximum(y_total, 1e-9) - 1))),
         "seconds_points": round(t_points, 1),
         "seconds_rtrace": round(t_trace, 1),
+        "trace_offset_m": OFFSET if offset is None else offset,
         "triangles": int(len(scene["tris"])),
     }
     print(f"{name}: wrote {path} ({len(points)} points, rtrace {t_trace:.0f} s)")
@@ -662,7 +666,9 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
         lines[i] = ",".join(f) + "\n"
     kind = f" {settings['surface']}" if settings.get("surface") else ""
     where = "" if offset is None else f" {offset * 1000:g} mm off their surfaces (not 1 mm)"
-    note = (f"# retrace: the {len(dark)}{kind} points under {settings['dark_below']:g} lx traced again "
+    of_kind = [f for _, f in rows if settings.get("surface") in (None, f[cols.index("surface")])]
+    under = "" if len(dark) == len(of_kind) else f" under {settings['dark_below']:g} lx"
+    note = (f"# retrace: the {len(dark)}{kind} points{under} traced again "
             f"with -ad {settings['ad_dark']}{where} (make_references.py retrace --from "
             f"{source.name}); their lux, lux_r, lux_g, lux_b"
             f"{'' if offset is None else ', direct_lux'} are those\n")
@@ -1491,8 +1497,8 @@ def main() -> None:
     ap.add_argument("--ad-dark", type=int, default=65536,
                     help="retrace: hemisphere samples of the second trace")
     ap.add_argument("--trace-offset", type=float,
-                    help="retrace: trace from this far off the surface, in m (default: the "
-                    "CSV's positions, 1 mm off), from the exact surface points")
+                    help="scenes, retrace: trace from this far off the surface, in m (default: "
+                    "1 mm, the CSV's positions), from the exact surface points")
     ap.add_argument("--surface",
                     help="retrace: only the dark points of this surface kind (e.g. furniture)")
     ap.add_argument("--keep", type=Path, help="keep the Radiance files in this folder")
@@ -1501,6 +1507,8 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     env = radiance_env()
     settings = {"ab": args.ab, "ad": args.ad, "lw": args.lw}
+    if args.what == "scenes" and args.trace_offset is not None:
+        settings["trace_offset"] = args.trace_offset
     workroot = args.keep or Path(tempfile.mkdtemp(prefix="luxbake-radiance-"))
     workroot.mkdir(parents=True, exist_ok=True)
     started = time.time()
