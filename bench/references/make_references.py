@@ -36,7 +36,8 @@ furnished scene, 21 minutes for all five scenes, 9 minutes for `validate`.
 Sub-commands:
     scenes       (default) write <scene>.csv for the scenes given (--scenes): built-in names,
                  or scene files (a path ending in .toml, <stem>.csv) whose lamps are IES files
-                 (bench/scenes/real_*.toml: each file through ies2rad as the downlight's)
+                 (bench/scenes/real_*.toml: each file through ies2rad as the downlight's);
+                 --trace-offset: traced that far off the surface (the rows stay 1 mm off)
     validate     direct-only check (inverse-square-cosine law with the IES intensity), the CIE
                  171:2006 closed box (test case 5.8) and the convergence check; writes
                  validation.json
