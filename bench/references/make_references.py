@@ -565,8 +565,9 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
     t0 = time.time()
     points = points_for(stem, scene)
     t_points = time.time() - t0
-    offset = settings.get("trace_offset")
-    rays = rays_of(points, OFFSET if offset is None else offset)
+    offset = settings.get("trace_offset")  # None: from the rows' 1 mm
+    traced_at = OFFSET if offset is None else offset
+    rays = rays_of(points, traced_at)
     t0 = time.time()
     direct = lux(rtrace(octree, rays, 0, settings["ad"], settings["lw"], env, work))
     total = lux(rtrace(octree, rays, settings["ab"], settings["ad"], settings["lw"], env, work))
@@ -584,7 +585,7 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
         f.write(f"# position 1 mm off the surface along the normal{traced}; lux = Rec. 709 Y "
                 "of the RGB illuminance (179 lm/W); direct = -ab 0\n")
         f.write("x,y,z,nx,ny,nz,surface,object,lux,direct_lux,lux_r,lux_g,lux_b\n")
-        for (p, n, kind, obj), off, yt, yd, rgb in zip(points, rays, y_total, y_direct, total):
+        for (p, n, kind, obj), yt, yd, rgb in zip(points, y_total, y_direct, total):
             q = p + OFFSET * n
             f.write(f"{q[0]:.4f},{q[1]:.4f},{q[2]:.4f},{n[0]:.5f},{n[1]:.5f},{n[2]:.5f},"
                     f"{kind},{obj},{yt:.3f},{yd:.3f},{rgb[0]:.3f},{rgb[1]:.3f},{rgb[2]:.3f}\n")
@@ -599,7 +600,7 @@ def make_scene(name: str, out_dir: Path, env: dict, workroot: Path, settings: di
             np.max(np.abs(total @ RADIANCE_Y / np.maximum(y_total, 1e-9) - 1))),
         "seconds_points": round(t_points, 1),
         "seconds_rtrace": round(t_trace, 1),
-        "trace_offset_m": OFFSET if offset is None else offset,
+        "trace_offset_m": traced_at,
         "triangles": int(len(scene["tris"])),
     }
     print(f"{name}: wrote {path} ({len(points)} points, rtrace {t_trace:.0f} s)")
@@ -637,8 +638,9 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
     cols = lines[header[0]].strip().split(",")
     rows = [(i, line.strip().split(",")) for i, line in enumerate(lines)
             if i > header[0] and line.strip() and not line.startswith("#")]
-    dark = [(i, f) for i, f in rows if float(f[cols.index("lux")]) < settings["dark_below"]
-            and settings.get("surface") in (None, f[cols.index("surface")])]
+    of_kind = [(i, f) for i, f in rows
+               if settings.get("surface") in (None, f[cols.index("surface")])]
+    dark = [(i, f) for i, f in of_kind if float(f[cols.index("lux")]) < settings["dark_below"]]
     if not dark:
         sys.exit(f"error: {source}: no point under {settings['dark_below']:g} lx")
     pos = np.array([[float(f[cols.index(c)]) for c in "xyz"] for _, f in dark])
@@ -667,7 +669,6 @@ def retrace_dark(name: str, source: Path, out_dir: Path, env: dict, workroot: Pa
         lines[i] = ",".join(f) + "\n"
     kind = f" {settings['surface']}" if settings.get("surface") else ""
     where = "" if offset is None else f" {offset * 1000:g} mm off their surfaces (not 1 mm)"
-    of_kind = [f for _, f in rows if settings.get("surface") in (None, f[cols.index("surface")])]
     under = "" if len(dark) == len(of_kind) else f" under {settings['dark_below']:g} lx"
     note = (f"# retrace: the {len(dark)}{kind} points{under} traced again "
             f"with -ad {settings['ad_dark']}{where} (make_references.py retrace --from "
