@@ -314,9 +314,11 @@ pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 /// [`atrous_steps`](crate::program::atrous_steps)). A texel with counted corners is interpolated
 /// from them; one without —
 /// a chart narrower than the grid, a chart's rim — is an **orphan**: the gather traces it
-/// itself, so no texel is left without light. The gather and the upsample evaluate the same
-/// test on the same G-buffer, so they agree on the orphans. Grid texels count themselves
-/// (weight 1).
+/// itself, so no texel is left without light. A texel in a narrow gap (its position's w is
+/// [`NARROW`](crate::validity::NARROW): it faces another surface a few texels away, where the
+/// light changes faster than the grid) counts no corner and is an orphan too, grid texels
+/// included. The gather and the upsample evaluate the same test on the same G-buffer, so they
+/// agree on the orphans. Other grid texels count themselves (weight 1).
 ///
 /// A grid texel's rays stand for its cell of `stride²` texels; an orphan lies in a strip
 /// narrower than the grid (a chair leg's chart, a chart's corner) and stands for itself, so it

@@ -13,7 +13,9 @@
 //! Three RGBA32F texture arrays of `layers` layers of `layer_size[0] × layer_size[1]`
 //! texels, row 0 first, 4 floats per texel: the float index of texel `(x, y)` of layer `l` is
 //! `((l · height + y) · width + x) · 4` ([`GBuffer::index`]).
-//! - `position`: world xyz in metres, w = 1 for a valid texel, 0 for an empty one.
+//! - `position`: world xyz in metres, w = 1 for a valid texel, 0 for an empty one; after
+//!   unocclusion, w = 2 ([`crate::validity::NARROW`]) for a valid texel facing another surface
+//!   a few texels away. A texel is valid where w > 0.5.
 //! - `normal`: world unit normal xyz (the interpolated vertex normal; the triangle's geometric
 //!   normal where that cannot be normalised), w = object index as f32.
 //! - `albedo`: linear RGB in [0, 1] (factor × vertex colour × texture), w = coverage: the
@@ -62,7 +64,8 @@ pub struct GBuffer {
     pub layer_size: [u32; 2],
     /// Number of layers.
     pub layers: u32,
-    /// World xyz, w = 1 for a valid texel, 0 for empty.
+    /// World xyz, w = 1 for a valid texel, 0 for empty (2 for a valid texel in a narrow gap,
+    /// after [`crate::validity::unocclude`]).
     pub position: Vec<f32>,
     /// World unit normal xyz, w = object index as f32.
     pub normal: Vec<f32>,
@@ -90,15 +93,12 @@ impl GBuffer {
         }
         self.position
             .get(self.index(layer, x, y) + 3)
-            .is_some_and(|&w| w == 1.0)
+            .is_some_and(|&w| w > 0.5)
     }
 
     /// Number of valid texels.
     pub fn valid_texels(&self) -> u64 {
-        self.position
-            .chunks_exact(4)
-            .filter(|t| t[3] == 1.0)
-            .count() as u64
+        self.position.chunks_exact(4).filter(|t| t[3] > 0.5).count() as u64
     }
 }
 

@@ -164,8 +164,8 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
 }
 
 /// The generated constants after the BVH layout's, in order: the traversal ids and the choice
-/// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step and the cells
-/// per side of the density proxy's grid; each a name, its type and its value as both languages
+/// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step, the narrow
+/// texels' position w and the cells per side of the density proxy's grid; each a name, its type and its value as both languages
 /// write it.
 fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
     let int = |name: &str, v: i32| (name.to_string(), Scalar::I32, v.to_string());
@@ -196,6 +196,11 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
         crate::opening::OPENING_PASS,
     ));
     c.push(uint("LUX_PHI".into(), crate::opening::PHI));
+    c.push((
+        "LUX_NARROW".to_string(),
+        Scalar::F32,
+        format!("{:?}", crate::validity::NARROW),
+    ));
     c.push(int(
         "LUX_PROXY_CELLS",
         crate::lightpaths::PROXY_CELLS as i32,

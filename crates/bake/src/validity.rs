@@ -30,6 +30,14 @@
 //!    it, and the written maps fill it by dilation where it lies within the padding's reach of
 //!    a valid texel (`luxbake-output`).
 //!
+//! 4. **Narrow.** Every texel still valid then casts one ray along `n` from the offset origin,
+//!    up to [`NARROW_REACH_TEXELS`]` · s`: where it meets any surface (the back of a bookcase
+//!    2.5 cm from its wall, the wall behind it, a floor under a low plinth), the texel faces
+//!    another surface across a gap a few texels wide and its position's w becomes
+//!    [`NARROW`] (still valid: every pass tests w > 0.5). The light in such a gap changes over a
+//!    texel or two, faster than a reduced-resolution gather's grid can follow: the coarse
+//!    gathers trace these texels themselves, as orphans ([`crate::contract::coarse`]).
+//!
 //! Only receivers' texels are tested; non-receivers still occlude. As with Unity's back-face
 //! tolerance, a texel that mostly sees the back of one-sided geometry (under a single-sided
 //! plane facing up, behind a wall of an open model, or anywhere in a mesh with inverted
@@ -74,6 +82,12 @@ pub const DISK_DRAWS: u32 = 16;
 pub const PUSH_MARGIN: f32 = 0.5;
 /// The RNG pass of the test's directions (no bake pass uses it).
 pub const RNG_PASS: u32 = 0xF00D;
+/// How far a texel's normal ray looks for a surface facing it (step 4), in texels: a gap up to
+/// 1.5 grid cells of the default's later bounces (stride 4), 9.4 cm at 64 texels per metre.
+pub const NARROW_REACH_TEXELS: f32 = 6.0;
+/// The position's w of a valid texel that faces another surface within
+/// [`NARROW_REACH_TEXELS`] (module docs, step 4); 1 for the other valid texels.
+pub const NARROW: f32 = 2.0;
 
 /// What [`unocclude`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -84,6 +98,8 @@ pub struct Unoccluded {
     pub moved: u64,
     /// Texels made empty.
     pub removed: u64,
+    /// Valid texels facing another surface within [`NARROW_REACH_TEXELS`] (marked [`NARROW`]).
+    pub narrow: u64,
 }
 
 /// The distance to the first hit along `dir` from `o` within `t_max`, and whether it is a back
@@ -162,7 +178,6 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
     let bvh = (&*bvh.encoded, &*bvh.wide);
     let (w, h) = (g.layer_size[0], g.layer_size[1]);
     let texels = g.layers as usize * w as usize * h as usize;
-    let density = scene.settings.texels_per_metre;
     let outcomes: Vec<(usize, Outcome)> = (0..texels)
         .into_par_iter()
         .filter(|&i| g.position[4 * i + 3] > 0.5)
@@ -180,14 +195,9 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
             );
             let layer = (i / (w as usize * h as usize)) as u32;
             let texel = rng::texel_index(g.layer_size, layer, x, y);
-            let scale = scene
-                .objects
-                .get(nw[3] as usize)
-                .map_or(1.0, |o| o.texel_scale);
-            let s = 1.0 / (density * scale);
-            if !(s.is_finite() && s > 0.0) {
+            let Some(s) = texel_size(scene, nw[3]) else {
                 return (i, Outcome::Keep);
-            }
+            };
             let reach = TEST_REACH_TEXELS * s;
             if !occluded(bvh, texel, (p, n), eps, reach) {
                 return (i, Outcome::Keep);
@@ -234,5 +244,45 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
             }
         }
     }
+    stats.narrow = mark_narrow(g, scene, bvh, eps);
     stats
+}
+
+/// World size of a texel of object `object` (the normal's w), metres; `None` where the
+/// object's density gives none.
+fn texel_size(scene: &Scene, object: f32) -> Option<f32> {
+    let scale = scene
+        .objects
+        .get(object as usize)
+        .map_or(1.0, |o| o.texel_scale);
+    let s = 1.0 / (scene.settings.texels_per_metre * scale);
+    (s.is_finite() && s > 0.0).then_some(s)
+}
+
+/// Step 4 of the module docs: marks every valid texel whose normal ray meets a surface within
+/// [`NARROW_REACH_TEXELS`] texels with w = [`NARROW`]; returns how many.
+fn mark_narrow(g: &mut GBuffer, scene: &Scene, bvh: (&EncodedScene, &WideBvh), eps: f32) -> u64 {
+    let position = &g.position;
+    let normal = &g.normal;
+    let narrow: Vec<usize> = (0..position.len() / 4)
+        .into_par_iter()
+        .filter(|&i| {
+            let (pw, nw) = (&position[4 * i..4 * i + 4], &normal[4 * i..4 * i + 4]);
+            if pw[3] <= 0.5 {
+                return false;
+            }
+            let Some(n) = normalize([nw[0], nw[1], nw[2]]) else {
+                return false;
+            };
+            let Some(s) = texel_size(scene, nw[3]) else {
+                return false;
+            };
+            let o = offset_origin([pw[0], pw[1], pw[2]], n, eps);
+            first_hit(bvh, o, n, NARROW_REACH_TEXELS * s).is_some()
+        })
+        .collect();
+    for &i in &narrow {
+        g.position[4 * i + 3] = NARROW;
+    }
+    narrow.len() as u64
 }

@@ -1,13 +1,17 @@
 //! Texel validity (issue 14, item 1): floor texels inside chair legs and sofa feet are moved
 //! out of them or made empty, and the floor next to a contact is not darker than the floor a
-//! few texels further out.
+//! few texels further out. Texels across a narrow gap from another surface are marked (issue
+//! 29), at any scale.
 
+use luxbake::GpuBackend;
 use luxbake::backend::{SceneBvh, ray_epsilon};
+use luxbake::bake::Room;
 use luxbake::bake::bake;
 use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::scene::{Scene, Settings};
-use luxbake::validity::unocclude;
+use luxbake::sources::scenefile;
+use luxbake::validity::{NARROW, NARROW_REACH_TEXELS, unocclude};
 use luxbake_backend_cpu::CpuBackend;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, encode};
 
@@ -228,4 +232,101 @@ fn the_floor_at_a_contact_is_not_darker_than_next_to_it() {
             );
         }
     }
+}
+
+/// A 4 × 2.5 × 3 m room at 32 texels per metre (3.1 cm texels) with a panel 0.1 m thick, 1.5 m
+/// high and 1 m wide standing `gap` metres in front of its −x wall.
+fn panel_room(gap: f64) -> Scene {
+    let x = -2.0 + gap + 0.05;
+    let text = format!(
+        r#"
+[settings]
+texels_per_metre = 32.0
+
+[[lamp]]
+name = "lamp"
+ies = "isotropic:100"
+position = [0.5, 2.0, 0.0]
+
+[[object]]
+name = "room"
+primitive = "room"
+size = [4.0, 2.5, 3.0]
+
+[[object]]
+name = "panel"
+primitive = "box"
+size = [0.1, 1.5, 1.0]
+position = [{x}, 0.0, 0.0]
+"#
+    );
+    scenefile::from_str(&text, std::path::Path::new("."), None).expect("scene")
+}
+
+/// Texels of a prepared room: (world position scaled back by `1/scale`, normal, narrow).
+fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], bool)> {
+    let scene = scene.scaled(scale);
+    let room = Room::prepare(
+        &scene,
+        &scene.settings,
+        CpuBackend::new().limits(),
+        &mut |_| {},
+    )
+    .expect("room");
+    let shift = room.shift.unwrap_or([0.0; 3]);
+    let g = &room.gbuffer;
+    (0..g.position.len() / 4)
+        .filter(|&i| g.position[4 * i + 3] > 0.5)
+        .map(|i| {
+            let p = [0, 1, 2]
+                .map(|c| ((f64::from(g.position[4 * i + c]) + shift[c]) / f64::from(scale)) as f32);
+            let n = [0, 1, 2].map(|c| g.normal[4 * i + c]);
+            (p, n, g.position[4 * i + 3] == NARROW)
+        })
+        .collect()
+}
+
+#[test]
+fn texels_across_a_narrow_gap_are_marked_at_any_scale() {
+    // 2.5 cm is 0.8 texel; 0.5 m is 16 texels, beyond the reach of 6.
+    let (narrow, wide) = (panel_room(0.025), panel_room(0.5));
+    for scale in [1e-3, 1.0, 1e3] {
+        let texels = marked(&narrow, scale);
+        let s = 1.0 / 32.0;
+        let (mut back, mut wall, mut others) = (0, 0, 0);
+        for &(p, n, is_narrow) in &texels {
+            // Inside the panel's footprint by two texels, off its edges.
+            let inside = p[1] > 2.0 * s && p[1] < 1.5 - 2.0 * s && p[2].abs() < 0.5 - 2.0 * s;
+            let panel_back = n[0] < -0.99 && (p[0] + 1.975).abs() < 1e-3;
+            let wall_behind = n[0] > 0.99 && (p[0] + 2.0).abs() < 1e-3;
+            if panel_back && inside {
+                assert!(
+                    is_narrow,
+                    "×{scale}: the panel's back at {p:?} is not marked"
+                );
+                back += 1;
+            } else if wall_behind && inside {
+                assert!(
+                    is_narrow,
+                    "×{scale}: the wall behind the panel at {p:?} is not marked"
+                );
+                wall += 1;
+            } else if !panel_back && !wall_behind {
+                // Every other surface (floor, ceiling, the other walls, the panel's front,
+                // top and sides) faces nothing within the reach.
+                assert!(!is_narrow, "×{scale}: {p:?} facing {n:?} is marked");
+                others += 1;
+            }
+        }
+        eprintln!(
+            "×{scale}: {} texels; marked: the panel's back {back}, the wall behind it {wall}; \
+             unmarked elsewhere {others}",
+            texels.len()
+        );
+        assert!(back > 500 && wall > 500 && others > 10_000, "×{scale}");
+        // The same panel half a metre from the wall (16 texels): nothing is marked.
+        let far = marked(&wide, scale);
+        assert!(far.len() > 10_000 && far.iter().all(|t| !t.2), "×{scale}");
+    }
+    const { assert!(NARROW_REACH_TEXELS / 32.0 < 0.5) };
 }

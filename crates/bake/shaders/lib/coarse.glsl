@@ -3,7 +3,8 @@
 // weight. For programs reading the slots position and normal.
 
 // The weights of texel c's grid-cell corners (order (x0, y0), (x1, y0), (x0, y1), (x1, y1))
-// that lie on c's surface, 0 for the others; returns their sum.
+// that lie on c's surface, 0 for the others (all 0 where c lies in a narrow gap); returns their
+// sum.
 float luxCoarseWeights(ivec3 c, uint stride, float reach, out ivec2 corners[4],
                        out float weights[4]) {
     int s = int(max(stride, 1u));
@@ -17,9 +18,11 @@ float luxCoarseWeights(ivec3 c, uint stride, float reach, out ivec2 corners[4],
                                  fx * fy);
     weights = float[4](0.0, 0.0, 0.0, 0.0);
     vec4 nc = texelFetch(u_normal, c, 0);
-    vec3 p = texelFetch(u_position, c, 0).xyz;
+    vec4 pc = texelFetch(u_position, c, 0);
+    vec3 p = pc.xyz;
     vec3 n;
-    if (!luxNormalize(nc.xyz, n)) {
+    // A texel in a narrow gap (validity::NARROW) counts no corner: an orphan.
+    if (!luxNormalize(nc.xyz, n) || pc.w >= LUX_NARROW) {
         return 0.0;
     }
     float reach2 = reach * reach;
@@ -52,10 +55,11 @@ float luxCoarseWeights(ivec3 c, uint stride, float reach, out ivec2 corners[4],
 }
 
 // cpu::coarse_rays: the rays the gather at `stride` casts at texel c: `rays` at every texel at
-// stride 1 and at grid texels, `orphanRays` at orphans (no corner on c's surface), else 0.
+// stride 1, at grid texels and in a narrow gap, `orphanRays` at the other orphans (no corner on
+// c's surface), else 0.
 uint luxCoarseRays(ivec3 c, uint stride, float reach, uint rays, uint orphanRays) {
     int s = int(stride);
-    if (s <= 1 || (c.x % s == 0 && c.y % s == 0)) {
+    if (s <= 1 || (c.x % s == 0 && c.y % s == 0) || texelFetch(u_position, c, 0).w >= LUX_NARROW) {
         return rays;
     }
     ivec2 corners[4];

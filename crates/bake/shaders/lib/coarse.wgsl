@@ -9,7 +9,7 @@ struct LuxCoarse {
 }
 
 // The weights of texel c's grid-cell corners (order (x0, y0), (x1, y0), (x0, y1), (x1, y1))
-// that lie on c's surface, 0 for the others, and their sum.
+// that lie on c's surface, 0 for the others (all 0 where c lies in a narrow gap), and their sum.
 fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
     var r: LuxCoarse;
     let s = i32(max(stride, 1u));
@@ -26,9 +26,11 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
     r.weights = array<f32, 4>(0.0, 0.0, 0.0, 0.0);
     r.total = 0.0;
     let nc = lux_load(lux_normal, c);
-    let p = lux_load(lux_position, c).xyz;
+    let pc = lux_load(lux_position, c);
+    let p = pc.xyz;
     var n: vec3<f32>;
-    if (!lux_normalize(nc.xyz, &n)) {
+    // A texel in a narrow gap (validity::NARROW) counts no corner: an orphan.
+    if (!lux_normalize(nc.xyz, &n) || pc.w >= LUX_NARROW) {
         return r;
     }
     let reach2 = reach * reach;
@@ -59,10 +61,11 @@ fn lux_coarse_weights(c: vec2<i32>, stride: u32, reach: f32) -> LuxCoarse {
 }
 
 // cpu::coarse_rays: the rays the gather at `stride` casts at texel c: `rays` at every texel at
-// stride 1 and at grid texels, `orphan_rays` at orphans (no corner on c's surface), else 0.
+// stride 1, at grid texels and in a narrow gap, `orphan_rays` at the other orphans (no corner
+// on c's surface), else 0.
 fn lux_coarse_rays(c: vec2<i32>, stride: u32, reach: f32, rays: u32, orphan_rays: u32) -> u32 {
     let s = i32(stride);
-    if (s <= 1 || (c.x % s == 0 && c.y % s == 0)) {
+    if (s <= 1 || (c.x % s == 0 && c.y % s == 0) || lux_load(lux_position, c).w >= LUX_NARROW) {
         return rays;
     }
     return select(orphan_rays, 0u, lux_coarse_weights(c, stride, reach).total > 0.0);

@@ -561,7 +561,8 @@ pub(crate) fn coarse_weights(corners: u8, stride: u32, at: Texel) -> ([([i64; 2]
 }
 
 /// Which of texel `at`'s grid-cell corners ([`program::coarse`], bit `k` for corner `k`) have
-/// a positive weight and lie on its surface; none where its normal cannot be normalised.
+/// a positive weight and lie on its surface; none where its normal cannot be normalised or it
+/// lies in a narrow gap.
 pub(crate) fn coarse_corners([pos, nrm]: [View<'_>; 2], stride: u32, reach: f32, at: Texel) -> u8 {
     let Some(centre) = CoarseCentre::new([pos, nrm], reach, at) else {
         return 0;
@@ -601,14 +602,18 @@ struct CoarseCentre<'a> {
 }
 
 impl<'a> CoarseCentre<'a> {
-    /// `None` when the texel's normal cannot be normalised.
+    /// `None` when the texel's normal cannot be normalised or it lies in a narrow gap
+    /// ([`crate::validity::NARROW`]: no corner counts, it is an orphan).
     fn new([pos, nrm]: [View<'a>; 2], reach: f32, at: Texel) -> Option<CoarseCentre<'a>> {
-        let nc = nrm.fetch(at);
+        let (pc, nc) = (pos.fetch(at), nrm.fetch(at));
+        if pc[3] >= crate::validity::NARROW {
+            return None;
+        }
         Some(CoarseCentre {
             pos,
             nrm,
             at,
-            p: xyz(pos.fetch(at)),
+            p: xyz(pc),
             n: normalize(xyz(nc))?,
             object: nc[3],
             reach2: reach * reach,
@@ -642,8 +647,9 @@ impl<'a> CoarseCentre<'a> {
     }
 }
 
-/// The rays the gather casts at texel `at`: `rays` at every texel at stride 1 and at grid
-/// texels, `orphan_rays` at orphans, else 0 ([`program::coarse`]).
+/// The rays the gather casts at texel `at`: `rays` at every texel at stride 1, at grid texels
+/// and at texels in a narrow gap ([`crate::validity::NARROW`]), `orphan_rays` at the other
+/// orphans, else 0 ([`program::coarse`]).
 /// The bits of [`CoarseMasks`] stand in for the corners' tests where given.
 pub(crate) fn coarse_rays(
     maps: [View<'_>; 2],
@@ -654,7 +660,11 @@ pub(crate) fn coarse_rays(
     let stride = params.stride;
     // Covered: some corner of its cell counts (then the upsampling fills it in).
     let covered = || corners_at(masks, maps, stride, params.reach, at) != 0;
-    if stride <= 1 || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride)) {
+    let [pos, _] = maps;
+    if stride <= 1
+        || (at.x.is_multiple_of(stride) && at.y.is_multiple_of(stride))
+        || pos.fetch(at)[3] >= crate::validity::NARROW
+    {
         params.rays
     } else if covered() {
         0
