@@ -1,4 +1,5 @@
-//! The à-trous denoiser's programs (`Program::Variance`, `Program::Atrous`) run directly on
+//! The à-trous denoiser's programs (`Program::Variance`, `Program::Atrous`, and the bias
+//! correction's `Program::Combine` steps) run directly on
 //! every backend, pass by pass as `luxbake::program::atrous_steps` lists them, on the same
 //! synthetic light map and G-buffer (two layers: a floor chart with a contact shadow and a dark
 //! corner, a second object touching it, a second chart of the floor's object next to it in the
@@ -10,7 +11,9 @@ use luxbake::backend::{Dispatch, GpuBackend, SceneData};
 use luxbake::graph::{TexDesc, TexFormat};
 use luxbake::map::MapImage;
 use luxbake::prepare::SceneBvh;
-use luxbake::program::{AtrousConfig, Params, Program, TilePlan, atrous_steps, correction_steps};
+use luxbake::program::{
+    AtrousConfig, CombineParams, Params, Program, TilePlan, atrous_steps, correction_steps,
+};
 use luxbake::rng;
 use luxbake::scene::BvhMode;
 use luxbake_backends::BackendKind;
@@ -103,14 +106,19 @@ fn one_triangle() -> EncodedScene {
     encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode")
 }
 
-/// Runs `steps` on `backend` (textures 0–2 the input, 3 the variance, 4 and 5 ping-pong) in
-/// small row tiles; returns every pass's output, all layers.
+/// Runs `steps` on `backend` (textures 0–2 the input, 3 the variance, 4 and 5 the à-trous
+/// iterations' ping-pong, 6 and 7 the bias correction's, 8 its result) in small row tiles;
+/// returns every pass's output, all layers. A [`CombineParams::PAIR`] step pairs the map with
+/// the last à-trous output, the linear iterations filter the pair, and
+/// [`CombineParams::RATIO`] scales that output by the filtered pair.
 fn run<B: GpuBackend>(
     backend: &mut B,
     inp: &Input,
     steps: &[(Program, Params)],
 ) -> Result<Vec<Vec<f32>>, B::Error> {
-    let labels = ["map", "position", "normal", "variance", "ping", "pong"];
+    let labels = [
+        "map", "position", "normal", "variance", "ping", "pong", "pair", "pair2", "out",
+    ];
     let mut tex = Vec::new();
     for label in labels {
         tex.push(backend.create_texture(&TexDesc {
@@ -141,12 +149,20 @@ fn run<B: GpuBackend>(
         lamp_paths: &[],
     })?;
     let mut outputs = Vec::new();
-    let mut current = 0;
+    let (mut current, mut filtered) = (0, 0);
     for (k, (program, params)) in steps.iter().enumerate() {
         let (reads, write) = match params {
             // The map stands in for the direct light too (alpha: its luminance).
             Params::Variance(_) => (vec![0, 1, 2, 0], 3),
+            Params::Atrous(a) if a.linear != 0 => {
+                (vec![current, 3, 1, 2], if current == 6 { 7 } else { 6 })
+            }
             Params::Atrous(_) => (vec![current, 3, 1, 2], 4 + k % 2),
+            Params::Combine(c) if *c == CombineParams::PAIR => {
+                filtered = current;
+                (vec![0, current], 6)
+            }
+            Params::Combine(c) if *c == CombineParams::RATIO => (vec![filtered, current], 8),
             other => panic!("not a denoiser step: {other:?}"),
         };
         let reads: Vec<&B::Texture> = reads.iter().map(|&r| &tex[r]).collect();
@@ -170,9 +186,7 @@ fn run<B: GpuBackend>(
             out.extend(backend.read_back(&tex[write], l)?);
         }
         outputs.push(out);
-        if *program == Program::Atrous {
-            current = write;
-        }
+        current = write;
     }
     Ok(outputs)
 }
@@ -199,8 +213,8 @@ fn the_denoiser_passes_agree_across_backends() {
         scene_size: 100.0,
         ..config
     };
-    let default = agree_across_backends(test, &atrous_steps(&config), &input());
-    let wide = agree_across_backends(test, &atrous_steps(&quiet), &input());
+    let default = agree_across_backends(test, &atrous_steps(&config), &input()).0;
+    let wide = agree_across_backends(test, &atrous_steps(&quiet), &input()).0;
     // The wide term is taken (where a GPU backend ran too, it agreed on it).
     let changed = default
         .chunks_exact(4)
@@ -210,39 +224,38 @@ fn the_denoiser_passes_agree_across_backends() {
     assert!(changed > 100, "the wide term changed {changed} texels");
 }
 
-/// The bias correction's linear filter (`correction_steps`: no luminance term, signed values)
-/// of a residual — the test map less its mean, so that about half its texels are negative —
-/// agrees across backends as the à-trous iterations do, and keeps the signs.
+/// The whole bias-corrected denoiser as the graph chains it (`atrous_steps`, the luminances
+/// of the map and of the à-trous output side by side, `correction_steps`' linear filter of
+/// them, the output scaled by their ratio) agrees across backends pass by pass, and the
+/// correction changes the à-trous output.
 #[test]
-fn the_bias_corrections_linear_filter_agrees_across_backends() {
-    let test = "atrous::the_bias_corrections_linear_filter_agrees_across_backends";
-    let mut inp = input();
-    let valid: Vec<f32> = inp
-        .map
-        .chunks_exact(4)
-        .filter(|t| t[3] > 0.5)
-        .flat_map(|t| t[..3].to_vec())
-        .collect();
-    let mean = valid.iter().sum::<f32>() / valid.len() as f32;
-    for t in inp.map.chunks_exact_mut(4).filter(|t| t[3] > 0.5) {
-        for c in &mut t[..3] {
-            *c -= mean;
-        }
-    }
+fn the_bias_correction_agrees_across_backends() {
+    let test = "atrous::the_bias_correction_agrees_across_backends";
+    let inp = input();
     let config = AtrousConfig::new(5, H).with_correction(true);
-    let steps = correction_steps(&config);
-    assert_eq!(steps.len(), 6);
-    let last = agree_across_backends(test, &steps, &inp);
-    let negative = last
+    let mut steps = atrous_steps(&config);
+    let denoised = steps.len() - 1;
+    steps.push((Program::Combine, Params::Combine(CombineParams::PAIR)));
+    let correction = correction_steps(&config);
+    assert_eq!(correction.len(), 6);
+    steps.extend(correction);
+    steps.push((Program::Combine, Params::Combine(CombineParams::RATIO)));
+    let (last, outputs) = agree_across_backends(test, &steps, &inp);
+    let changed = last
         .chunks_exact(4)
-        .filter(|t| t[3] > 0.5 && t[0] < 0.0)
+        .zip(outputs[denoised].chunks_exact(4))
+        .filter(|(a, b)| b[3] > 0.5 && a[..3] != b[..3])
         .count();
-    assert!(negative > 100, "{negative} negative texels");
+    assert!(changed > 1000, "the correction changed {changed} texels");
 }
 
 /// Every pass of `steps` (the denoiser's) on every backend, from the map of `inp`, against
-/// the CPU's: the CPU's last output.
-fn agree_across_backends(test: &str, steps: &[(Program, Params)], inp: &Input) -> Vec<f32> {
+/// the CPU's: the CPU's last output, and every pass's.
+fn agree_across_backends(
+    test: &str,
+    steps: &[(Program, Params)],
+    inp: &Input,
+) -> (Vec<f32>, Vec<Vec<f32>>) {
     let mut tally = Tally::new(test);
     let mut results = Vec::new();
     for b in BackendKind::ALL {
@@ -303,5 +316,5 @@ fn agree_across_backends(test: &str, steps: &[(Program, Params)], inp: &Input) -
         tally.compared(1);
     }
     tally.finish();
-    last.clone()
+    (last.clone(), reference.clone())
 }

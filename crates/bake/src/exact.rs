@@ -129,20 +129,6 @@ pub fn guard(v: f32) -> f32 {
     }
 }
 
-/// [`guard`] for a signed value (the denoiser's bias correction filters a residual,
-/// [`crate::program::correction_steps`]): NaN to 0, clamped to `[−f32::MAX, f32::MAX]`.
-///
-/// GLSL: `luxGuardSigned3` (`shaders/lib/common.glsl`); WGSL: `lux_guard_signed3`
-/// (`shaders/lib/common.wgsl`).
-#[inline]
-pub fn guard_signed(v: f32) -> f32 {
-    if v.is_nan() {
-        0.0
-    } else {
-        v.clamp(-f32::MAX, f32::MAX)
-    }
-}
-
 /// Photometric (Rec. 709) luminance of linear RGB, summed left to right:
 /// `0.2126·r + 0.7152·g + 0.0722·b`.
 ///

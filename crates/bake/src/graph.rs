@@ -855,8 +855,9 @@ pub fn atrous_iterations(blur: Blur) -> u32 {
 /// writes it), then the à-trous iterations. Without the bias correction
 /// ([`correction_steps`]) they alternate between `scratch` and `noisy`, ending in `noisy`;
 /// with it they alternate between `scratch` and a texture of its own (`residual`), keeping
-/// the noisy map `x` for the residual `x − y` of their result `y`, whose linear filter `B`
-/// ping-pongs between `noisy` and the spare; `y + B(x − y)` goes to the texture left free.
+/// the noisy map `x` for the luminances of `x` and of their result `y`, whose linear filter
+/// `B` ping-pongs between `noisy` and the spare; `y · B(L(x)) / B(L(y))` goes to the texture
+/// left free.
 #[allow(clippy::too_many_arguments)]
 fn denoise_stage(
     b: &mut Builder,
@@ -919,7 +920,7 @@ fn denoise_stage(
     noisy
 }
 
-/// The bias correction `y + B(x − y)` ([`correction_steps`]) of the à-trous filter's output
+/// The bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]) of the à-trous filter's output
 /// `y` from the noisy map `x` (`[x, y]`), through `x`'s texture and the spare `y` is not in:
 /// returns the texture of the result.
 fn correct_stage(
@@ -938,7 +939,8 @@ fn correct_stage(
             .find(|&&t| t != a && t != b)
             .expect("three textures")
     };
-    // The residual `x − y`, signed, into the spare `y` is not in.
+    // The luminances of `x` and `y` side by side (the pass keeps its label, "residual": what
+    // `B` filters), into the spare `y` is not in.
     let mut residual = other(noisy, y);
     b.pass(
         PassKind::Run(Program::Combine),
@@ -946,9 +948,9 @@ fn correct_stage(
         vec![noisy, y],
         vec![residual],
         bounce,
-        Params::Combine(CombineParams::RESIDUAL),
+        Params::Combine(CombineParams::PAIR),
     );
-    // `B(x − y)`, between that spare and `noisy` (`x` is no longer read).
+    // `B` of both, between that spare and `noisy` (`x` is no longer read).
     for &(_, params) in correction {
         let target = other(y, residual);
         b.pass(
@@ -968,7 +970,7 @@ fn correct_stage(
         vec![y, residual],
         vec![out],
         bounce,
-        Params::Combine(CombineParams::SUM),
+        Params::Combine(CombineParams::RATIO),
     );
     out
 }
@@ -1965,9 +1967,10 @@ mod tests {
     }
 
     /// The denoiser's passes `finish` (from the variance estimate to the final combine) chain
-    /// `y + B(x − y)`: the residual of the noisy map `x` (what the variance estimate and the
-    /// first iteration read) and the à-trous result `y`; `B`'s linear iterations from it, each
-    /// reading the last one's output; the sum of `y` and `B`'s result, which the combine with
+    /// `y · B(L(x)) / B(L(y))`: the luminances of the noisy map `x` (what the variance estimate
+    /// and the first iteration read) and of the à-trous result `y`; `B`'s linear iterations
+    /// from them, each reading the last one's output; `y` scaled by the ratio of `B`'s two
+    /// channels, which the combine with
     /// the direct light reads; no pass writes `x` or `y` before they are read.
     fn assert_bias_corrected(finish: &[PassDesc]) {
         let find = |label: &str| finish.iter().position(|p| p.label == label).expect(label);
@@ -1977,7 +1980,7 @@ mod tests {
         let y = atrous.last().expect("à-trous").writes[0];
         let residual = &finish[find("residual")];
         assert_eq!(residual.reads, [x, y]);
-        assert_eq!(residual.params, Params::Combine(CombineParams::RESIDUAL));
+        assert_eq!(residual.params, Params::Combine(CombineParams::PAIR));
         let mut last = residual.writes[0];
         for p in finish.iter().filter(|p| p.label == "correction") {
             assert_eq!(p.kind, PassKind::Run(Program::Atrous));
@@ -1991,7 +1994,7 @@ mod tests {
         }
         let corrected = &finish[find("corrected")];
         assert_eq!(corrected.reads, [y, last]);
-        assert_eq!(corrected.params, Params::Combine(CombineParams::SUM));
+        assert_eq!(corrected.params, Params::Combine(CombineParams::RATIO));
         let out = corrected.writes[0];
         assert!(![y, last].contains(&out));
         assert_eq!(finish[find("combine")].reads[1], out);

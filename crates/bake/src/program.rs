@@ -437,12 +437,13 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
     steps
 }
 
-/// The bias correction of the denoiser ([`atrous_steps`]): the linear filter `B` of the
-/// residual `x − y` (`x` the noisy map, `y` the à-trous output), whose result is added back:
-/// the denoised map is `y + B(x − y)`. [`AtrousConfig::correction_iterations`] iterations of
+/// The bias correction of the denoiser ([`atrous_steps`]): a linear filter `B` of the
+/// luminances `L(x)` and `L(y)` (`x` the noisy map, `y` the à-trous output), whose ratio
+/// scales `y`: the denoised map is `y · B(L(x)) / B(L(y))` (`y` where `B(L(y))` is 0).
+/// [`AtrousConfig::correction_iterations`] iterations of
 /// [`Program::Atrous`] with [`AtrousParams::linear`]: steps 1, 2, 4, …, the B3 spline, the
 /// normal weight and the chart test in mirrored pairs as in [`atrous_steps`], no luminance
-/// term, signed values. Empty when the config has no iterations or no correction
+/// term. Empty when the config has no iterations or no correction
 /// ([`AtrousConfig::with_correction`]; the bake's [`crate::scene::Settings::denoise_correction`]).
 ///
 /// # Why
@@ -459,7 +460,19 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
 /// With `A` the à-trous filter and `B` any filter of unit weight that is symmetric, the
 /// corrected filter `A + B − B·A` (i.e. `y + B(x − y)`) has unit weight and, since the second
 /// moments of a convolution add, second moment `m₂(A) + m₂(B) − (m₂(A) + m₂(B)) = 0`: the
-/// curvature's bias cancels whatever `B` is (Tukey's "twicing" is `B = A`). What `B` decides
+/// curvature's bias cancels whatever `B` is (Tukey's "twicing" is `B = A`). The bake applies
+/// it as a ratio, `y · B(x) / B(y)` (of luminances, `L` below): with `y ≈ s + ½m₂(A)∇²s`,
+/// `B(x) ≈ s + ½m₂(B)∇²s` and `B(y) ≈ s + ½(m₂(A) + m₂(B))∇²s`, the ratio is
+/// `1 − ½m₂(A)∇²s / s` to first order and the product `s`, as the sum's: the same
+/// cancellation where the light is smooth (the chairs rooms' figures below agree to the
+/// second decimal). Where it is not — light entering a gap 2.5 cm wide behind a bookcase, a
+/// hundredfold over a few texels — the sum's `B(x − y)` carried the bright texels' residuals
+/// onto the dark ones and pushed them below 0, where the clamp left 0: the gap's points under
+/// 1 lx read −40 … −95 % at `default`. The ratio cannot go below 0 and there stays near 1
+/// (both of `B`'s sums are the same bright texels'): those points read −21 … +13 %
+/// (`docs/performance.md`, "Narrow gaps"). Of the colour, the ratio of luminances scales the
+/// three channels alike: one texture of two channels for `B`, as the sum's residual took.
+/// What `B` decides
 /// is the noise that comes back with the residual: the residual is mostly the noise the
 /// à-trous filter removed, and `B` must average it again. A `B` as wide as `A` (twicing)
 /// gave back much of the noise (`chairs_01`'s furniture 1.26 → 1.38 % mean |rel|); one
@@ -473,12 +486,12 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
 /// residual's noise averages as white noise does and the iterations are cheaper (no
 /// exponential per tap).
 ///
-/// The residual is signed: [`Program::Combine`] with [`CombineParams::RESIDUAL`] keeps its
-/// negative values ([`crate::exact::guard_signed`]), and so does the linear filter; the final
-/// sum `y + B(x − y)` is clamped at 0 like every reported map. At a chart's edge and at a
-/// contact the mirrored pairs keep `B` point-symmetric, so a linear residual passes
-/// unchanged, as in [`atrous_steps`]. As the rays grow, `x − y` shrinks to the curvature
-/// term alone, and the correction with it: the corrected filter stays consistent.
+/// [`Program::Combine`] with [`CombineParams::PAIR`] writes `L(x)` and `L(y)` side by side
+/// (the pass labelled `residual`), `B`'s iterations filter both, and
+/// [`CombineParams::RATIO`] scales `y` by their ratio (the pass labelled `corrected`); every
+/// value is non-negative. At a chart's edge and at a contact the mirrored pairs keep `B`
+/// point-symmetric, so a linear signal passes unchanged, as in [`atrous_steps`]. As the rays
+/// grow, `y` tends to `x`, the ratio to 1, and the corrected filter stays consistent.
 pub fn correction_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
     if config.iterations == 0 {
         return Vec::new();

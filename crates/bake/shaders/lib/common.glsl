@@ -33,15 +33,6 @@ vec3 luxGuard3(vec3 v) {
     return vec3(luxGuard(v.x), luxGuard(v.y), luxGuard(v.z));
 }
 
-// exact::guard_signed: NaN to 0, clamped to [-FLT_MAX, FLT_MAX] (a residual's signed values).
-float luxGuardSigned(float v) {
-    return isnan(v) ? 0.0 : clamp(v, -3.40282347e38, 3.40282347e38);
-}
-
-vec3 luxGuardSigned3(vec3 v) {
-    return vec3(luxGuardSigned(v.x), luxGuardSigned(v.y), luxGuardSigned(v.z));
-}
-
 // passes::refine::refines: whether the first bounce's refinement refines a texel whose
 // variance estimate (the variance pass's texel) is `noise`: its first gather's standard error
 // over the light known at the texel, the window's mean and the texel's direct light.

@@ -51,18 +51,6 @@ fn lux_guard3(v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(lux_guard(v.x), lux_guard(v.y), lux_guard(v.z));
 }
 
-// exact::guard_signed: NaN to 0, clamped to [-FLT_MAX, FLT_MAX] (a residual's signed values).
-fn lux_guard_signed(v: f32) -> f32 {
-    if (lux_is_nan(v)) {
-        return 0.0;
-    }
-    return clamp(v, -LUX_FLT_MAX, LUX_FLT_MAX);
-}
-
-fn lux_guard_signed3(v: vec3<f32>) -> vec3<f32> {
-    return vec3<f32>(lux_guard_signed(v.x), lux_guard_signed(v.y), lux_guard_signed(v.z));
-}
-
 // passes::refine::refines: whether the first bounce's refinement refines a texel whose
 // variance estimate (the variance pass's texel) is `noise`: its first gather's standard error
 // over the light known at the texel, the window's mean and the texel's direct light.

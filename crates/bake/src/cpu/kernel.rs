@@ -15,7 +15,7 @@ use rayon::prelude::*;
 use crate::backend::{LAMP_PATH_TEXELS, LampParams, SceneData};
 use crate::contract::{BLUR_NORMAL_COS, ParamBlock, TileParams, coarse};
 use crate::cpu::hits::GatherHits;
-pub(crate) use crate::exact::{basis, dot, guard, guard_signed, luminance, mad, normalize, sub};
+pub(crate) use crate::exact::{basis, dot, guard, luminance, mad, normalize, sub};
 use crate::layout::Region;
 use crate::passes::gather::GatherParams;
 use crate::scene::BvhMode;

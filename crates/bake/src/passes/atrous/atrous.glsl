@@ -11,8 +11,8 @@
 // inside a wide chart with little noise (every pair counts, variance under
 // u_wide_max_relative_variance x the window's squared mean; program::atrous_steps, "Wide charts
 // with little noise"): both sums are taken there, the one that counts known at the end.
-// u_linear: the bias correction's filter of a residual (program::correction_steps): no
-// luminance term, signed values kept, the variance map not read.
+// u_linear: the bias correction's filter of two luminances (program::correction_steps): no
+// luminance term, the variance map not read.
 
 float luxB3(int i) {
     return i == 0 ? 0.375 : (i == 1 || i == -1 ? 0.25 : 0.0625);
@@ -24,7 +24,7 @@ vec4 luxRun(ivec3 c) {
         return vec4(0.0);
     }
     bool linear = u_linear != 0u;
-    vec4 kept = vec4(linear ? luxGuardSigned3(centre.rgb) : luxGuard3(centre.rgb), 1.0);
+    vec4 kept = vec4(luxGuard3(centre.rgb), 1.0);
     LuxGuide g;
     if (!luxGuide(c, u_reach_min, u_reach, g)) {
         return kept;
@@ -105,7 +105,7 @@ vec4 luxRun(ivec3 c) {
     }
     if (wsum > 0.0) {
         vec3 r = vec3(centre.r + sum.x / wsum, centre.g + sum.y / wsum, centre.b + sum.z / wsum);
-        return vec4(linear ? luxGuardSigned3(r) : luxGuard3(r), 1.0);
+        return vec4(luxGuard3(r), 1.0);
     }
     return kept;
 }

@@ -7,20 +7,13 @@
 // little noise (every pair counts, variance under lux_pass.wide_max_relative_variance x the
 // window's squared mean; program::atrous_steps, "Wide charts with little noise") the scale is
 // lux_pass.wide_variance_scale: both sums are taken there, the one that counts known at the end.
-// lux_pass.linear: the bias correction's filter of a residual (program::correction_steps): no
-// luminance term, signed values kept, the variance map not read.
+// lux_pass.linear: the bias correction's filter of two luminances (program::correction_steps):
+// no luminance term, the variance map not read.
 
 fn lux_b3(i: i32) -> f32 {
     return select(select(0.0625, 0.25, i == 1 || i == -1), 0.375, i == 0);
 }
 
-// The guard of the filter's output: signed for the linear filter of a residual.
-fn lux_atrous_guard(v: vec3<f32>, linear: bool) -> vec3<f32> {
-    if (linear) {
-        return lux_guard_signed3(v);
-    }
-    return lux_guard3(v);
-}
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let centre = lux_load(lux_src, c);
@@ -28,7 +21,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     let linear = lux_pass.linear != 0u;
-    let kept = vec4<f32>(lux_atrous_guard(centre.rgb, linear), 1.0);
+    let kept = vec4<f32>(lux_guard3(centre.rgb), 1.0);
     var g: LuxGuide;
     if (!lux_guide(c, lux_pass.reach_min, lux_pass.reach, &g)) {
         return kept;
@@ -114,9 +107,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         wsum = wide_wsum;
     }
     if (wsum > 0.0) {
-        return vec4<f32>(lux_atrous_guard(vec3<f32>(centre.r + sum.x / wsum,
-                                                    centre.g + sum.y / wsum,
-                                                    centre.b + sum.z / wsum), linear), 1.0);
+        return vec4<f32>(lux_guard3(vec3<f32>(centre.r + sum.x / wsum, centre.g + sum.y / wsum,
+                                              centre.b + sum.z / wsum)), 1.0);
     }
     return kept;
 }

@@ -119,7 +119,6 @@ mod avx2 {
     ) -> Option<usize> {
         let [src, variance, pos, nrm] = maps;
         let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
-        let g = if LINEAR { guard_signed } else { guard };
         // Per lane the centre's value, its variance scales and whether it is quiet
         // (`quiet`: all ones).
         let mut lanes = [[0.0f32; LANES]; 6];
@@ -253,9 +252,9 @@ mod avx2 {
             let c = [lanes[0][l], lanes[1][l], lanes[2][l]];
             let wsum = sums[3][l];
             let r = if wsum > 0.0 {
-                [0, 1, 2].map(|q| g(c[q] + sums[q][l] / wsum))
+                [0, 1, 2].map(|q| guard(c[q] + sums[q][l] / wsum))
             } else {
-                c.map(g)
+                c.map(guard)
             };
             o.copy_from_slice(&[r[0], r[1], r[2], 1.0]);
         }
@@ -285,8 +284,7 @@ pub(crate) fn atrous_texel(
         return [0.0; 4];
     }
     let linear = params.linear != 0;
-    let g = if linear { guard_signed } else { guard };
-    let kept = [g(c[0]), g(c[1]), g(c[2]), 1.0];
+    let kept = [guard(c[0]), guard(c[1]), guard(c[2]), 1.0];
     let reach = [params.reach_min, params.reach];
     let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
         return kept;
@@ -355,9 +353,9 @@ pub(crate) fn atrous_texel(
     let sum = [s0, s1, s2];
     if wsum > 0.0 {
         [
-            g(c[0] + sum[0] / wsum),
-            g(c[1] + sum[1] / wsum),
-            g(c[2] + sum[2] / wsum),
+            guard(c[0] + sum[0] / wsum),
+            guard(c[1] + sum[1] / wsum),
+            guard(c[2] + sum[2] / wsum),
             1.0,
         ]
     } else {

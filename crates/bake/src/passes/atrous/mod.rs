@@ -3,7 +3,7 @@
 //! shaders mirror.
 //!
 //! One iteration of the edge-stopping à-trous wavelet filter, or (`linear`) of the bias
-//! correction's linear filter of a residual.
+//! correction's linear filter.
 
 pub(crate) mod cpu;
 
@@ -43,8 +43,7 @@ param_block! {
         wide_max_relative_variance: f32,
         /// 1: the bias correction's filter ([`correction_steps`](crate::program::correction_steps)):
         /// no luminance term (a tap's weight is its spline and normal weights alone, so the
-        /// filter is linear in its input) and signed values kept
-        /// ([`guard_signed`](crate::exact::guard_signed)); the variance map is not read.
+        /// filter is linear in its input); the variance map is not read.
         linear: u32,
         /// Padding.
         pad0: u32,

@@ -1,5 +1,5 @@
-//! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, guarded (signed where
-//! `signed`), `a`'s mask.
+//! The CPU reference of pass `combine`: `a_weight · a + b_weight · b`, the luminances of `a`
+//! and `b`, or `a` scaled by `b.r / b.g` (by `mode`), guarded, `a`'s mask.
 
 use crate::cpu::kernel::*;
 
@@ -19,11 +19,22 @@ impl TexelPass for CombineParams {
 /// One texel of the pass from its two inputs' texels.
 #[inline]
 pub(crate) fn combine_texel(w: CombineParams, a: [f32; 4], b: [f32; 4]) -> [f32; 4] {
-    let g = if w.signed != 0 { guard_signed } else { guard };
-    [
-        g(w.a_weight * a[0] + w.b_weight * b[0]),
-        g(w.a_weight * a[1] + w.b_weight * b[1]),
-        g(w.a_weight * a[2] + w.b_weight * b[2]),
-        a[3],
-    ]
+    match w.mode {
+        CombineParams::LUMINANCES => [
+            guard(luminance(xyz(a))),
+            guard(luminance(xyz(b))),
+            0.0,
+            a[3],
+        ],
+        CombineParams::SCALED => {
+            let r = if b[1] > 0.0 { b[0] / b[1] } else { 1.0 };
+            [guard(a[0] * r), guard(a[1] * r), guard(a[2] * r), a[3]]
+        }
+        _ => [
+            guard(w.a_weight * a[0] + w.b_weight * b[0]),
+            guard(w.a_weight * a[1] + w.b_weight * b[1]),
+            guard(w.a_weight * a[2] + w.b_weight * b[2]),
+            a[3],
+        ],
+    }
 }
