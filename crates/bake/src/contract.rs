@@ -323,7 +323,9 @@ pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 /// A grid texel's rays stand for its cell of `stride²` texels; an orphan lies in a strip
 /// narrower than the grid (a chair leg's chart, a chart's corner) and stands for itself, so it
 /// gets [`orphan_rays`](coarse::orphan_rays)`(rays, stride)` = ⌈rays / stride⌉: still more
-/// rays per texel of surface than the grid's `rays / stride²`.
+/// rays per texel of surface than the grid's `rays / stride²`. A texel in a narrow gap gets the
+/// grid's `rays`: the gap's light is gathered at full resolution, each texel with a grid texel's
+/// rays (`docs/performance.md`, "Narrow gaps").
 pub mod coarse {
     /// Rays of an orphan of a gather of `rays` rays per grid texel at `stride`.
     pub fn orphan_rays(rays: u32, stride: u32) -> u32 {
