@@ -152,7 +152,7 @@ pub const SCENES: [SceneCase; 8] = [
     converged("chairs_01", Quality::Draft, 0, DRAFT_STAGES),
     // Progressive refinement of the first bounce (its rays and, with the preset's lamp paths,
     // its connections: the refine_connect pass), with the denoiser's bias correction (its
-    // signed residual and linear filter), the first bounce's gather and refinement reading
+    // pair of luminances and linear filter), the first bounce's gather and refinement reading
     // the direct light at their hits (the downlight a point beyond its opening's 0.75 m).
     SceneCase {
         denoise_correction: true,

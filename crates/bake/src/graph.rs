@@ -941,33 +941,33 @@ fn correct_stage(
     };
     // The luminances of `x` and `y` side by side (the pass keeps its label, "residual": what
     // `B` filters), into the spare `y` is not in.
-    let mut residual = other(noisy, y);
+    let mut pair = other(noisy, y);
     b.pass(
         PassKind::Run(Program::Combine),
         "residual",
         vec![noisy, y],
-        vec![residual],
+        vec![pair],
         bounce,
         Params::Combine(CombineParams::PAIR),
     );
     // `B` of both, between that spare and `noisy` (`x` is no longer read).
     for &(_, params) in correction {
-        let target = other(y, residual);
+        let target = other(y, pair);
         b.pass(
             PassKind::Run(Program::Atrous),
             "correction",
-            vec![residual, variance, g.position, g.normal],
+            vec![pair, variance, g.position, g.normal],
             vec![target],
             bounce,
             params,
         );
-        residual = target;
+        pair = target;
     }
-    let out = other(y, residual);
+    let out = other(y, pair);
     b.pass(
         PassKind::Run(Program::Combine),
         "corrected",
-        vec![y, residual],
+        vec![y, pair],
         vec![out],
         bounce,
         Params::Combine(CombineParams::RATIO),
