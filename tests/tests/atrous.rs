@@ -186,7 +186,10 @@ fn run<B: GpuBackend>(
             out.extend(backend.read_back(&tex[write], l)?);
         }
         outputs.push(out);
-        current = write;
+        // The variance map is read beside the map, never filtered.
+        if !matches!(params, Params::Variance(_)) {
+            current = write;
+        }
     }
     Ok(outputs)
 }

@@ -920,9 +920,9 @@ fn denoise_stage(
     noisy
 }
 
-/// The bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]) of the à-trous filter's output
-/// `y` from the noisy map `x` (`[x, y]`), through `x`'s texture and the spare `y` is not in:
-/// returns the texture of the result.
+/// The bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]) of the à-trous
+/// filter's output `y` from the noisy map `x` (`[x, y]`), through `x`'s texture and the spare
+/// `y` is not in: returns the texture of the result.
 fn correct_stage(
     b: &mut Builder,
     g: GBufferTex,
@@ -1970,8 +1970,8 @@ mod tests {
     /// `y · B(L(x)) / B(L(y))`: the luminances of the noisy map `x` (what the variance estimate
     /// and the first iteration read) and of the à-trous result `y`; `B`'s linear iterations
     /// from them, each reading the last one's output; `y` scaled by the ratio of `B`'s two
-    /// channels, which the combine with
-    /// the direct light reads; no pass writes `x` or `y` before they are read.
+    /// channels, which the combine with the direct light reads; no pass writes `x` or `y`
+    /// before they are read.
     fn assert_bias_corrected(finish: &[PassDesc]) {
         let find = |label: &str| finish.iter().position(|p| p.label == label).expect(label);
         let x = finish[find("variance")].reads[0];

@@ -469,7 +469,7 @@ pub fn atrous_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
 /// hundredfold over a few texels — the sum's `B(x − y)` carried the bright texels' residuals
 /// onto the dark ones and pushed them below 0, where the clamp left 0: the gap's points under
 /// 1 lx read −40 … −95 % at `default`. The ratio cannot go below 0 and there stays near 1
-/// (both of `B`'s sums are the same bright texels'): those points read −21 … +13 %
+/// (both of `B`'s sums are the same bright texels'): those points read −21 … +6 %
 /// (`docs/performance.md`, "Narrow gaps"). Of the colour, the ratio of luminances scales the
 /// three channels alike: one texture of two channels for `B`, as the sum's residual took.
 /// What `B` decides

@@ -165,8 +165,8 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
 
 /// The generated constants after the BVH layout's, in order: the traversal ids and the choice
 /// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step, the narrow
-/// texels' position w and the cells per side of the density proxy's grid; each a name, its type and its value as both languages
-/// write it.
+/// texels' position w and the cells per side of the density proxy's grid; each a name, its
+/// type and its value as both languages write it.
 fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
     let int = |name: &str, v: i32| (name.to_string(), Scalar::I32, v.to_string());
     let uint = |name: String, v: u32| (name, Scalar::U32, format!("{v}u"));

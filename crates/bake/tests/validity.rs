@@ -101,6 +101,13 @@ fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
         let encoded = encode(&bvh, &tris, &attrs, &EncodeOptions::default()).expect("encode");
         let bvh = SceneBvh::new(encoded);
         let stats = unocclude(&mut after, &scene, &bvh, ray_epsilon(2.5));
+        // The narrow texels it reports are those it marked.
+        let marked = after
+            .position
+            .chunks_exact(4)
+            .filter(|t| t[3] == NARROW)
+            .count();
+        assert_eq!(stats.narrow, marked as u64, "{name}");
         let quads = contacts(&scene);
         let s = 1.0 / scene.settings.texels_per_metre;
         let (mut inside, mut deep, mut moved) = (0, 0, 0);

@@ -840,8 +840,8 @@ mod denoiser_tests {
         }
 
         /// The denoiser as the graph chains it: the variance estimate, the à-trous iterations
-        /// and the bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]): the variance map and
-        /// the result.
+        /// and the bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]): the variance
+        /// map and the result.
         fn denoise(&self, config: &AtrousConfig) -> (Vec<f32>, Vec<f32>) {
             let (variance, y) = self.atrous(config);
             let correction = correction_steps(config);
@@ -931,8 +931,8 @@ mod denoiser_tests {
 
     const ITERATIONS: u32 = 5;
 
-    /// The bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]) cancels the à-trous filter's
-    /// curvature bias: on a noiseless paraboloid peaking mid-chart (as the light on a seat's
+    /// The bias correction `y · B(L(x)) / B(L(y))` ([`correction_steps`]) cancels the à-trous
+    /// filter's curvature bias: on a noiseless paraboloid peaking mid-chart (as the light on a seat's
     /// underside does), with a luminance term wide enough for the à-trous filter to average
     /// it (as noise makes it do), the à-trous filter alone reads low by half its kernel's
     /// second moment times the Laplacian (3 iterations: 21 texels² per axis), and the
@@ -985,9 +985,8 @@ mod denoiser_tests {
     /// exponential `s = 100·e^(−x/2 − y/3)` (not constant along any of the variance
     /// estimate's four directions, so the luminance term sees it). A symmetric filter of unit
     /// weight multiplies an exponential by a constant away from the edges, `A·s = c_A·s`, so
-    /// the ratio
-    /// `y·B(L(x))/B(L(y))` returns `s` exactly there, while the sum `y + B(x − y)` gives
-    /// `(c_A + c_B − c_A·c_B)·s`, below 0 (clamped: a dark texel read as black) once both
+    /// the ratio `y·B(L(x))/B(L(y))` returns `s` exactly there, while the sum `y + B(x − y)`
+    /// gives `(c_A + c_B − c_A·c_B)·s`, below 0 (clamped: a dark texel read as black) once both
     /// filters are wide. Checked where every tap of both, and of A under B's, lies on the
     /// chart.
     #[test]

@@ -14,7 +14,6 @@ fn lux_b3(i: i32) -> f32 {
     return select(select(0.0625, 0.25, i == 1 || i == -1), 0.375, i == 0);
 }
 
-
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let centre = lux_load(lux_src, c);
     if (centre.a <= 0.5) {
