@@ -188,6 +188,8 @@ pub fn bake_room_reading<B: GpuBackend>(
         stride: settings.stride,
         higher_stride: settings.higher_stride,
         refine: Some((settings.refine_rays, settings.refine_error)),
+        narrow_rays: settings.narrow_rays,
+        narrow_texels: [room.narrow_texels, room.valid_texels],
         denoise_correction: settings.denoise_correction,
         direct_at_hits: settings.direct_at_hits,
         texel_size: room.texel_sizes(),

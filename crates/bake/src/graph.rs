@@ -321,6 +321,15 @@ pub struct GraphConfig {
     /// [`Method::Converged`]: progressive refinement of the first bounce, `(rays, max_error)`
     /// ([`Program::Refine`]); `None` or 0 rays: off.
     pub refine: Option<(u32, f32)>,
+    /// [`Method::Converged`]: rays per texel in a narrow gap, in every bounce: a bounce
+    /// that gathers fewer there (the first with `stride` 1, the later ones with
+    /// `higher_stride` > 1) adds the rest as a refinement ([`RefineParams::narrow_rays`]);
+    /// 0 (or no more than a bounce's rays): none. Within a budget:
+    /// [`crate::passes::refine::narrow_more`].
+    pub narrow_rays: u32,
+    /// The room's texels in narrow gaps and its valid texels, for the budget of
+    /// [`GraphConfig::narrow_rays`]; no texel in a gap: no refinement for them.
+    pub narrow_texels: [u64; 2],
     /// [`Method::Converged`] with a denoiser: its bias correction ([`correction_steps`]).
     pub denoise_correction: bool,
     /// [`Method::Converged`]: the first bounce evaluates the direct light at its hits
@@ -743,13 +752,19 @@ struct GatherSampling {
     chunk: u32,
     /// [`GatherParams::direct_at_hits`].
     direct_at_hits: bool,
+    /// A reduced gather's further rays at the texels in narrow gaps (which it gathers at
+    /// full resolution with `rays`): a refine pass between the gather and the upsample
+    /// ([`RefineParams::narrow_rays`]); 0: none.
+    narrow_rays: u32,
 }
 
 /// Stage (5): one bounce of indirect light gathered from `reflected` into `indirect`; a
 /// reduced-resolution gather goes through `coarse` and is upsampled into `indirect`. With
 /// [`GatherSampling::chunk`] a texel's rays are split over several gather passes, each adding
 /// to the one before, alternating between the target and `spare` (which holds nothing live
-/// during the gather) so that the last lands in the target.
+/// during the gather) so that the last lands in the target. With
+/// [`GatherSampling::narrow_rays`] a reduced gather's texels in narrow gaps get that many
+/// more rays (the refine pass, from `coarse` into `spare`, which the upsample then reads).
 fn gather_stage(
     b: &mut Builder,
     g: GBufferTex,
@@ -810,6 +825,32 @@ fn gather_stage(
         );
         prior = out;
     }
+    let coarse = if reduced && sampling.narrow_rays > 0 {
+        debug_assert!(spare != coarse, "a refined gather needs a spare texture");
+        // The refine pass copies every other texel as it is; the slots it does not read
+        // (no variance estimate, no lamp paths) take `coarse`.
+        b.pass(
+            PassKind::Run(Program::Refine),
+            "refine_narrow",
+            vec![
+                g.position, g.normal, reflected, coarse, coarse, coarse, g.albedo,
+            ],
+            vec![spare],
+            bounce,
+            Params::Refine(RefineParams {
+                bounce,
+                seed: sampling.seed,
+                sampler: sampling.sampler.id(),
+                first_rays: sampling.rays,
+                narrow_rays: sampling.narrow_rays,
+                direct_at_hits: u32::from(sampling.direct_at_hits),
+                ..RefineParams::default()
+            }),
+        );
+        spare
+    } else {
+        coarse
+    };
     if reduced {
         b.pass(
             PassKind::Run(Program::Upsample),
@@ -979,6 +1020,26 @@ fn correct_stage(
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder::new(config);
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
+    // The first bounce's refinement: `(rays by noise, target, rays in narrow gaps)`, when
+    // either applies.
+    // A bounce's further rays in narrow gaps, up to `narrow_rays` there, within the budget.
+    let narrow_more = |rays: u32| {
+        crate::passes::refine::narrow_more(
+            config.narrow_rays,
+            rays,
+            config.rays,
+            config.narrow_texels,
+        )
+    };
+    let narrow = if config.stride <= 1 {
+        narrow_more(config.rays)
+    } else {
+        0
+    };
+    let refinement = (refine.is_some() || narrow > 0).then(|| {
+        let (more, max_error) = refine.unwrap_or((0, 0.0));
+        (more, max_error, narrow)
+    });
     let lamp_paths = config.lamp_paths.0 > 0 && config.bounces > 0 && config.stride <= 1;
     let g = gbuffer_stage(&mut b, lamp_paths);
     // The direct light carries no Monte Carlo noise: it is reflected unfiltered. Until then
@@ -1021,6 +1082,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 config.rays,
             )
             .with_correction(config.denoise_correction)
+            .with_narrow_rays(config.rays + narrow)
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
@@ -1049,28 +1111,44 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 },
                 chunk: config.gather_chunk,
                 direct_at_hits: k == 1 && config.direct_at_hits,
+                // The later bounces' reduced gathers: their texels in narrow gaps up to
+                // `narrow_rays` (the first bounce's are refined below).
+                narrow_rays: if k > 1 && config.higher_stride > 1 {
+                    narrow_more(config.higher_rays)
+                } else {
+                    0
+                },
             };
             // The next bounce gathers this increment as it is: its noise averages out in the
             // gather (unbiased); only what is reported is denoised, once, at the end.
-            match (k, refine, variance) {
-                (1, Some((more, max_error)), Some(variance)) if config.stride <= 1 => {
+            match (k, refinement) {
+                (1, Some((more, max_error, narrow_more))) if config.stride <= 1 => {
                     // Progressive refinement: the first gather into `scratch`, its variance
-                    // estimate, then more rays where the estimate misses the target
-                    // (`delta`, which the refinement writes last, is free until then).
+                    // estimate (when texels are refined by their noise), then more rays where
+                    // the estimate misses the target and in narrow gaps (`delta`, which the
+                    // refinement writes last, is free until then).
                     gather_stage(&mut b, g, [source, scratch, scratch, delta], k, sampling);
-                    b.pass(
-                        PassKind::Run(Program::Variance),
-                        "refine_variance",
-                        vec![scratch, g.position, g.normal, direct],
-                        vec![variance],
-                        k,
-                        Params::Variance(VarianceParams {
-                            reach: denoise.reach(),
-                            min_pairs: ATROUS_MIN_PAIRS,
-                            luminance_scale: denoise.luminance_scale(),
-                            ..VarianceParams::default()
-                        }),
-                    );
+                    // Without refinement by noise the slot is not read: the first gather
+                    // stands in for it.
+                    let variance = match variance.filter(|_| more > 0) {
+                        Some(variance) => {
+                            b.pass(
+                                PassKind::Run(Program::Variance),
+                                "refine_variance",
+                                vec![scratch, g.position, g.normal, direct],
+                                vec![variance],
+                                k,
+                                Params::Variance(VarianceParams {
+                                    reach: denoise.reach(),
+                                    min_pairs: ATROUS_MIN_PAIRS,
+                                    luminance_scale: denoise.luminance_scale(),
+                                    ..VarianceParams::default()
+                                }),
+                            );
+                            variance
+                        }
+                        None => scratch,
+                    };
                     // With lamp paths the second estimate's connections, at the texels the
                     // refinement refines (`Program::Refine`, module docs).
                     let connected = g.connected.map(|_| {
@@ -1081,7 +1159,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             vec![g.position, g.normal, variance],
                             vec![second],
                             k,
-                            Params::Connect(connect.refinement(more, max_error)),
+                            Params::Connect(connect.refinement(more, max_error, narrow_more)),
                         );
                         second
                     });
@@ -1116,6 +1194,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             density_scale: sampling.lamp_paths.1,
                             lamp_count: sampling.lamp_paths.2,
                             direct_at_hits: u32::from(sampling.direct_at_hits),
+                            narrow_rays: narrow_more,
                             ..RefineParams::default()
                         }),
                     );
@@ -1299,6 +1378,7 @@ impl BakeGraph {
                     lamp_paths: (0, 0.0, 0),
                     chunk: config.gather_chunk,
                     direct_at_hits: false,
+                    narrow_rays: 0,
                 };
                 // `combined` is rewritten from this gather's result: free during it.
                 gather_stage(
@@ -1528,6 +1608,8 @@ mod tests {
             stride: 1,
             higher_stride: 1,
             refine: None,
+            narrow_rays: 0,
+            narrow_texels: [0, 0],
             denoise_correction: false,
             direct_at_hits: false,
             texel_size: [1.0 / 64.0; 2],
@@ -1641,6 +1723,151 @@ mod tests {
             ..converged(2, Blur::None)
         });
         assert!(g.passes.iter().all(|p| p.label != "refine"));
+    }
+
+    /// Rays in narrow gaps alone: the first bounce's refinement without its variance
+    /// estimate (the slot reads the first gather, which the passes do not read for it), the
+    /// later bounces' reduced gathers refined between gather and upsample, the counts up to
+    /// `narrow_rays` in the refine and connect parameters, and the denoiser's early term
+    /// narrowed for those texels by their rays; with strides of 1 and 2 in turn, or with none
+    /// asked, no refinement of that bounce and the denoiser's terms as without.
+    #[test]
+    fn narrow_gaps_are_refined_without_a_variance_estimate() {
+        use crate::program::{ATROUS_EARLY_ITERATIONS, AtrousParams};
+        let base = GraphConfig {
+            rays: 8,
+            higher_rays: 16,
+            higher_stride: 4,
+            lamp_paths: (4, 0.0),
+            // 1 % of the texels in narrow gaps: within the budget.
+            narrow_texels: [100, 10_000],
+            ..converged(3, Blur::Sigma(1.0))
+        };
+        let g = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            ..base
+        });
+        assert_eq!(g.validate(), Ok(()));
+        assert_eq!(labels(&g, 0)[..3], ["gather", "refine_connect", "refine"]);
+        let pass = |label: &str| g.passes.iter().find(|p| p.label == label).expect(label);
+        let (first, refine, second) = (pass("gather"), pass("refine"), pass("refine_connect"));
+        assert_eq!(refine.reads[3..5], [first.writes[0], first.writes[0]]);
+        assert_eq!(second.reads[2], first.writes[0]);
+        assert_eq!(refine.reads[5], second.writes[0]);
+        let Params::Refine(rp) = refine.params else {
+            panic!("{:?}", refine.params)
+        };
+        // Up to 64 rays: 56 more than the first gather's 8.
+        assert_eq!((rp.rays, rp.narrow_rays, rp.first_rays), (0, 56, 8));
+        let Params::Connect(cp) = second.params else {
+            panic!("{:?}", second.params)
+        };
+        // K · 56 / N = 4 · 56 / 8.
+        assert_eq!((cp.k, cp.picks, cp.narrow_picks), (4, 0, 28));
+        // Bounces 2 and 3: the coarse gather, its narrow texels refined into the spare, which
+        // the upsample reads.
+        for bounce in [1, 2] {
+            assert_eq!(
+                labels(&g, bounce)[..3],
+                ["gather", "refine_narrow", "upsample"]
+            );
+            let [gather, narrow, up, ..] = bounce_from(&g, bounce) else {
+                panic!("bounce {}", bounce + 1)
+            };
+            let Params::Refine(np) = narrow.params else {
+                panic!("{:?}", narrow.params)
+            };
+            assert_eq!(
+                (np.rays, np.narrow_rays, np.first_rays, np.lamp_paths),
+                (0, 48, 16, 0)
+            );
+            assert_eq!(np.bounce as usize, bounce + 1);
+            assert_eq!(narrow.reads[3], gather.writes[0]);
+            assert_eq!(up.reads[0], narrow.writes[0]);
+            assert_ne!(narrow.writes[0], gather.writes[0]);
+        }
+        let atrous = |g: &BakeGraph| -> Vec<AtrousParams> {
+            g.passes
+                .iter()
+                .filter_map(|p| match p.params {
+                    Params::Atrous(a) if a.linear == 0 => Some(a),
+                    _ => None,
+                })
+                .collect()
+        };
+        let steps = atrous(&g);
+        assert!(steps.len() > ATROUS_EARLY_ITERATIONS as usize);
+        for (i, a) in steps.iter().enumerate() {
+            if i < ATROUS_EARLY_ITERATIONS as usize {
+                // The early term of 64 rays against 8 rays' (√8 narrower): σ² an eighth.
+                let ratio = a.narrow_variance_scale / a.variance_scale;
+                assert!((ratio - 0.125).abs() < 1e-5, "{i}: {ratio}");
+            } else {
+                assert_eq!(a.narrow_variance_scale, a.variance_scale, "{i}");
+            }
+        }
+        // With noise refinement too: its variance estimate comes back, and both counts.
+        let both = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            refine: Some((8, 0.2)),
+            ..base
+        });
+        assert_eq!(both.validate(), Ok(()));
+        assert_eq!(
+            labels(&both, 0)[..4],
+            ["gather", "refine_variance", "refine_connect", "refine"]
+        );
+        // A room with no texel in a gap: no refinement; with a fifth of its texels in gaps, a
+        // quarter of 8 rays over the room is 10 more a texel there, in every bounce.
+        let none = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            narrow_texels: [0, 10_000],
+            ..base
+        });
+        assert!(none.passes.iter().all(|p| !p.label.starts_with("refine")));
+        let many = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            narrow_texels: [2_000, 10_000],
+            ..base
+        });
+        let counts: Vec<u32> = many
+            .passes
+            .iter()
+            .filter_map(|p| match p.params {
+                Params::Refine(r) => Some(r.narrow_rays),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(counts, [10, 10, 10]);
+        // A first bounce on a grid and later bounces at full resolution: no refinement.
+        let strided = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            stride: 2,
+            higher_stride: 1,
+            ..base
+        });
+        assert_eq!(strided.validate(), Ok(()));
+        assert!(
+            strided
+                .passes
+                .iter()
+                .all(|p| !p.label.starts_with("refine"))
+        );
+        // None asked, or no more than the bounces' own rays: no refinement, equal terms.
+        for narrow_rays in [0, 8, 16] {
+            let g = BakeGraph::build(&GraphConfig {
+                narrow_rays,
+                ..base
+            });
+            assert_eq!(g.validate(), Ok(()));
+            assert!(g.passes.iter().all(|p| p.label != "refine_narrow"));
+            if narrow_rays <= 8 {
+                assert!(g.passes.iter().all(|p| !p.label.starts_with("refine")));
+                for a in atrous(&g) {
+                    assert_eq!(a.narrow_variance_scale, a.variance_scale);
+                }
+            }
+        }
     }
 
     fn converged(bounces: u32, blur: Blur) -> GraphConfig {

@@ -185,6 +185,8 @@ pub struct Room {
     pub half_extent: f32,
     /// Valid light-map texels.
     pub valid_texels: u64,
+    /// Of those, the texels in narrow gaps ([`crate::validity::NARROW`]).
+    pub narrow_texels: u64,
     /// Objects left without a light map ([`Skipped::NonReceiver`]).
     pub skipped: Vec<Skipped>,
     /// Host steps and their wall time, seconds.
@@ -257,7 +259,7 @@ impl Room {
         // The ray offset's size term from the extent of the scene's geometry (not from where
         // the scene or its lamps lie: backend::offset_origin adds the position's own ULPs).
         let eps = ray_epsilon(half_extent);
-        timed(HostNode::Unocclude, &mut timings, progress, || {
+        let unoccluded = timed(HostNode::Unocclude, &mut timings, progress, || {
             validity::unocclude(&mut gbuffer, &scene, &bvh, eps)
         });
         let valid_texels = gbuffer.valid_texels();
@@ -272,6 +274,7 @@ impl Room {
             ray_epsilon: eps,
             half_extent,
             valid_texels,
+            narrow_texels: unoccluded.narrow,
             skipped,
             timings,
         })

@@ -184,7 +184,10 @@ impl Skipped {
         // The gathers split a texel's rays over passes on such a driver
         // ([`crate::graph::GraphConfig::gather_chunk`]), the direct pass an opening's samples
         // ([`crate::graph::GraphConfig::direct_chunk`]); refinement and lamp paths do not yet.
-        let samples = settings.refine_rays.max(settings.lamp_paths);
+        let samples = settings
+            .refine_rays
+            .max(settings.narrow_rays)
+            .max(settings.lamp_paths);
         (samples > crate::backend::LOOP_LIMITED_SAMPLES)
             .then_some(Skipped::LoopLimit { samples, limit })
     }

@@ -1,7 +1,7 @@
 //! `luxbake bake [SCENE_FILE | --scene NAME] [--out DIR] [--backend cpu|glow|wgpu]
 //! [--method paper|converged] [--quality draft|default|final] [--rays N] [--bounces K]
 //! [--tail true|false] [--tail-tolerance F] [--stride N] [--higher-rays N] [--higher-stride N]
-//! [--refine-rays N] [--refine-error F] [--texels-per-metre D] [--blur SIGMA|none]
+//! [--refine-rays N] [--refine-error F] [--narrow-rays N] [--texels-per-metre D] [--blur SIGMA|none]
 //! [--bvh mtbvh|tbvh|none] [--seed S] [--sampler hash|sobol] [--lamp FILE|DIR]...
 //! [--lamp-layers]`: bake a scene's light maps into a folder.
 //!
@@ -114,6 +114,10 @@ pub struct Args {
     /// Converged: the relative standard error per texel that refinement aims at.
     #[arg(long)]
     refine_error: Option<f32>,
+    /// Converged: rays per texel in a narrow gap in every bounce, whatever its noise (a
+    /// bounce that gathers fewer there adds the rest; 0 = none; the `default` preset: 64).
+    #[arg(long)]
+    narrow_rays: Option<u32>,
     /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):
     /// its residual filtered once more and added back, which cancels its bias where the light
     /// curves within its kernel.
@@ -171,6 +175,7 @@ impl Args {
             higher_stride: self.higher_stride,
             refine_rays: self.refine_rays,
             refine_error: self.refine_error,
+            narrow_rays: self.narrow_rays,
             denoise_correction: self.denoise_correction,
             direct_at_hits: self.direct_at_hits,
             lamp_paths: self.lamp_paths,

@@ -80,6 +80,8 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
+  /** Converged: rays per texel in a narrow gap (a bookcase's back near a wall) in every bounce, whatever its noise; a bounce that gathers fewer there adds the rest (default: the preset's, 64 at 'default'; 0 = none). */
+  narrowRays?: number;
   /** Converged: the denoiser's bias correction (default: the preset's, true at 'default' and 'final'): its residual filtered once more and added back. */
   denoiseCorrection?: boolean;
   /** Converged: the first bounce evaluates the lamps' direct light at each gather ray's hit instead of reading the direct light map there (default: the preset's, true at 'final'). */

@@ -19,7 +19,7 @@ export const QUALITIES = Object.freeze(['draft', 'default', 'final']);
 /** The bake methods (the CLI's `--method`). */
 export const METHODS = Object.freeze(['converged', 'paper']);
 
-const SETTING_KEYS = ['method', 'quality', 'rays', 'bounces', 'tail', 'blurSigma', 'texelsPerMetre', 'seed', 'lampPaths', 'denoiseCorrection', 'directAtHits', 'openingSamples', 'openingProbeStride', 'lampModel', 'measureTolerance'];
+const SETTING_KEYS = ['method', 'quality', 'rays', 'bounces', 'tail', 'blurSigma', 'texelsPerMetre', 'seed', 'lampPaths', 'narrowRays', 'denoiseCorrection', 'directAtHits', 'openingSamples', 'openingProbeStride', 'lampModel', 'measureTolerance'];
 const LAMP_KEYS = ['name', 'position', 'aim', 'rotation', 'multiplier', 'color', 'lampModel'];
 
 function toBytes(value, what) {
@@ -191,7 +191,7 @@ export class Luxbake {
 
   /**
    * Bakes `scene` (glTF/GLB bytes) lit by `lamps`. Options: `quality`, `method` and the
-   * settings' overrides (`rays`, `bounces`, `tail`, `blurSigma`, `texelsPerMetre`, `seed`, `lampPaths`, `denoiseCorrection`, `directAtHits`), checked by
+   * settings' overrides (`rays`, `bounces`, `tail`, `blurSigma`, `texelsPerMetre`, `seed`, `lampPaths`, `narrowRays`, `denoiseCorrection`, `directAtHits`), checked by
    * the same code as the CLI; `onProgress(event)` with `event.fraction` from 0 to 1;
    * `signal` an AbortSignal. Resolves to a BakeResult.
    */

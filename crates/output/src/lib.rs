@@ -33,7 +33,7 @@
 //! # Manifest (`manifest.json`)
 //! `format` ("luxbake-bake"), `version` (1), `scene` (`source`), `units`, `backend`,
 //! `settings` (method, quality, tail_tolerance, rays, bounces, tail, blur, texels_per_metre, bvh,
-//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, denoise_correction, direct_at_hits, lamp_paths,
+//! seed, sampler, stride, higher_rays, higher_stride, refine_rays, refine_error, narrow_rays, denoise_correction, direct_at_hits, lamp_paths,
 //! opening_samples, opening_probe_stride), `layout`
 //! (`layer_size`, `layers`), `lamps` (name, position, aim, rotation_deg, tilt_deg (the tilt
 //! the file's tilt factors are taken at, [`luxbake::scene::Lamp::tilt_deg`]), multiplier,
@@ -440,6 +440,7 @@ pub fn write_bake(
             "higher_stride": s.higher_stride,
             "refine_rays": s.refine_rays,
             "refine_error": s.refine_error,
+            "narrow_rays": s.narrow_rays,
             "denoise_correction": s.denoise_correction,
             "direct_at_hits": s.direct_at_hits,
         },

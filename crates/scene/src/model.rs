@@ -770,6 +770,7 @@ impl BvhMode {
 /// | `higher_rays`      | 1 ..= `MAX_RAYS`                                           |
 /// | `stride`, `higher_stride` | 1 ..= [`MAX_STRIDE`](Settings::MAX_STRIDE) (16)     |
 /// | `refine_rays`      | 0 ..= `MAX_RAYS`, and 0 unless `stride` is 1; `refine_error` > 0 |
+/// | `narrow_rays`      | 0 ..= `MAX_RAYS`                                          |
 /// | `lamp_paths`       | 0 ..= [`MAX_LAMP_PATHS`](Settings::MAX_LAMP_PATHS) (1024); used with `stride` 1 only (else reported as skipped) |
 /// | `opening_samples`  | 1 ..= [`MAX_OPENING_SAMPLES`] (1024) |
 /// | `opening_probe_stride` | 0 ..= [`MAX_OPENING_SAMPLES`]; 0 and 1: every point casts its ray |
@@ -829,6 +830,15 @@ pub struct Settings {
     /// [`Method::Converged`]: the relative standard error per texel that refinement aims at
     /// (of the first bounce's noise over the direct light and the first bounce together).
     pub refine_error: f32,
+    /// [`Method::Converged`]: rays per texel in a narrow gap (`luxbake::validity::NARROW`:
+    /// its surface faces another within a few texels, the back of a bookcase near a wall), in
+    /// every bounce, whatever its noise: a bounce that gathers fewer there adds the rest as
+    /// refinement adds rays (`luxbake::passes::refine`, "Narrow gaps") — the first bounce
+    /// with `stride` 1 (and `lamp_paths · (narrow_rays − rays) / rays` further connections),
+    /// the later ones with `higher_stride` > 1 — and the denoiser's first iterations narrow
+    /// there with the rays (`luxbake::program::atrous_steps`). 0 (or no more than a bounce's
+    /// own rays): none.
+    pub narrow_rays: u32,
     /// [`Method::Converged`] with [`Settings::blur`]: the denoiser's bias correction — the
     /// à-trous filter's residual filtered once more and added back, `y + B(x − y)`, which
     /// cancels the filter's bias where the light curves within its kernel (the chairs' seat
@@ -901,6 +911,7 @@ impl Settings {
             higher_stride: 1,
             refine_rays: 0,
             refine_error: 0.1,
+            narrow_rays: 0,
             denoise_correction: false,
             direct_at_hits: false,
             lamp_paths: 0,
@@ -966,7 +977,12 @@ impl Settings {
     ///
     /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the
     /// box room it refined 60–77 % of the texels at targets that lowered the error, so it
-    /// cost as many rays as sampling every texel more (docs/performance.md).
+    /// cost as many rays as sampling every texel more (docs/performance.md). `default` refines
+    /// the texels in narrow gaps instead ([`Settings::narrow_rays`]: 64 rays there in every
+    /// bounce, on 0.01–9 % of a room's texels), where the light reaches a gap's middle by a
+    /// few paths, and 8 or 16 rays' skewed noise and the denoiser's early term spread the
+    /// light of the gap's rim into it (docs/performance.md, "Narrow gaps refined"); `final`'s
+    /// 256 and 32 rays at full resolution need none.
     pub fn preset(quality: Quality) -> Settings {
         let base = Settings {
             method: Method::Converged,
@@ -990,6 +1006,7 @@ impl Settings {
             },
             Quality::Default => Settings {
                 rays: 8,
+                narrow_rays: Settings::DEFAULT_NARROW_RAYS,
                 lamp_paths: 4,
                 denoise_correction: true,
                 opening_samples: 48,
@@ -1032,13 +1049,15 @@ impl Settings {
     pub const MAX_STRIDE: u32 = 16;
     /// Largest [`Settings::lamp_paths`].
     pub const MAX_LAMP_PATHS: u32 = 1024;
+    /// [`Settings::narrow_rays`] of the `default` preset (see [`Settings::preset`]).
+    pub const DEFAULT_NARROW_RAYS: u32 = 64;
     /// [`Settings::opening_probe_stride`] of every preset: 12 probes of the `default` preset's
     /// 48 points (24 of 96 near an opening).
     pub const OPENING_PROBE_STRIDE: u32 = 4;
 
     /// Checks every setting against the limits in the type's docs; the error names the first
     /// setting out of range (`rays`, `bounces`, `blur`, `tail_tolerance`, `stride`,
-    /// `higher_stride`, `higher_rays`, `refine_rays`, `lamp_paths`, `opening_samples`,
+    /// `higher_stride`, `higher_rays`, `refine_rays`, `narrow_rays`, `lamp_paths`, `opening_samples`,
     /// `opening_probe_stride`, `refine_error` or `texels_per_metre`).
     pub fn validate(&self) -> Result<(), SettingError> {
         let invalid = |name, reason| Err(SettingError { name, reason });
@@ -1097,6 +1116,13 @@ impl Settings {
                      not {}); set refine_rays = 0 or stride = 1",
                     self.refine_rays, self.stride
                 ),
+            );
+        }
+        if self.narrow_rays > Settings::MAX_RAYS {
+            let max = Settings::MAX_RAYS;
+            return invalid(
+                "narrow_rays",
+                format!("{}; expected 0..={max}", self.narrow_rays),
             );
         }
         if self.lamp_paths > Settings::MAX_LAMP_PATHS {
@@ -1219,6 +1245,8 @@ pub struct SettingsPatch {
     pub refine_rays: Option<u32>,
     /// [`Settings::refine_error`].
     pub refine_error: Option<f32>,
+    /// [`Settings::narrow_rays`].
+    pub narrow_rays: Option<u32>,
     /// [`Settings::denoise_correction`].
     pub denoise_correction: Option<bool>,
     /// [`Settings::direct_at_hits`].
@@ -1233,7 +1261,7 @@ pub struct SettingsPatch {
 
 impl SettingsPatch {
     /// The keys a patch reads, as its fields and the scene file's `[settings]` name them.
-    pub const KEYS: [&'static str; 21] = [
+    pub const KEYS: [&'static str; 22] = [
         "method",
         "quality",
         "rays",
@@ -1250,6 +1278,7 @@ impl SettingsPatch {
         "higher_stride",
         "refine_rays",
         "refine_error",
+        "narrow_rays",
         "lamp_paths",
         "opening_samples",
         "opening_probe_stride",
@@ -1334,6 +1363,7 @@ impl SettingsPatch {
             higher_stride: other.higher_stride.or(base.higher_stride),
             refine_rays: other.refine_rays.or(base.refine_rays),
             refine_error: other.refine_error.or(base.refine_error),
+            narrow_rays: other.narrow_rays.or(base.narrow_rays),
             denoise_correction: other.denoise_correction.or(base.denoise_correction),
             direct_at_hits: other.direct_at_hits.or(base.direct_at_hits),
             lamp_paths: other.lamp_paths.or(base.lamp_paths),
@@ -1373,6 +1403,7 @@ impl SettingsPatch {
         set(&mut s.higher_stride, self.higher_stride);
         set(&mut s.refine_rays, self.refine_rays);
         set(&mut s.refine_error, self.refine_error);
+        set(&mut s.narrow_rays, self.narrow_rays);
         set(&mut s.denoise_correction, self.denoise_correction);
         set(&mut s.direct_at_hits, self.direct_at_hits);
         set(&mut s.lamp_paths, self.lamp_paths);

@@ -107,6 +107,9 @@ pub struct Args {
     /// The relative standard error per texel that refinement aims at (default: the preset's).
     #[arg(long)]
     refine_error: Option<f32>,
+    /// Rays per texel in a narrow gap in every bounce (default: the preset's).
+    #[arg(long)]
+    narrow_rays: Option<u32>,
     /// The denoiser's bias correction, true or false (default: the preset's).
     #[arg(long)]
     denoise_correction: Option<bool>,
@@ -724,6 +727,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 lamp_paths: args.lamp_paths,
                 refine_rays: args.refine_rays,
                 refine_error: args.refine_error,
+                narrow_rays: args.narrow_rays,
                 denoise_correction: args.denoise_correction,
                 direct_at_hits: args.direct_at_hits,
                 bounces: args.bounces,
@@ -787,7 +791,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 "quality": s.quality.name(), "rays": s.rays,
                 "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
                 "lamp_paths": s.lamp_paths,
-                "refine_rays": s.refine_rays, "refine_error": s.refine_error,
+                "refine_rays": s.refine_rays, "refine_error": s.refine_error, "narrow_rays": s.narrow_rays,
                 "denoise_correction": s.denoise_correction,
                 "direct_at_hits": s.direct_at_hits,
                 "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,

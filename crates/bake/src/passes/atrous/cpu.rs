@@ -130,7 +130,8 @@ mod avx2 {
             };
             // The linear filter does not read the variance map.
             let v = if LINEAR { [0.0; 4] } else { variance.fetch(t) };
-            let scales = [params.variance_scale * v[0], params.wide_variance_scale * v[0]];
+            let own = centre_scale(params, pos.at_offset(centres.base + 4 * l)[3]);
+            let scales = [own * v[0], params.wide_variance_scale * v[0]];
             let flag = if !LINEAR && quiet(params, v) {
                 f32::from_bits(!0)
             } else {
@@ -262,6 +263,18 @@ mod avx2 {
     }
 }
 
+/// The luminance term's scale at a centre whose position's w is `w`: in a narrow gap
+/// ([`crate::validity::NARROW`]) [`AtrousParams::narrow_variance_scale`], else
+/// [`AtrousParams::variance_scale`].
+#[inline]
+fn centre_scale(params: AtrousParams, w: f32) -> f32 {
+    if w >= crate::validity::NARROW {
+        params.narrow_variance_scale
+    } else {
+        params.variance_scale
+    }
+}
+
 /// Whether the centre's noise is low enough for the wide luminance term (`v`: its variance
 /// estimate, `[variance, window mean luminance, …]`; `program::atrous_steps`, "Wide charts
 /// with little noise"): the variance under `wide_max_relative_variance` times the squared
@@ -292,7 +305,7 @@ pub(crate) fn atrous_texel(
     let guide = guide.with_masks(masks, at);
     // The linear filter does not read the variance map.
     let v = if linear { [0.0; 4] } else { variance.fetch(at) };
-    let scale = params.variance_scale * v[0];
+    let scale = centre_scale(params, pos.fetch(at)[3]) * v[0];
     // Inside a wide chart with little noise the wide term (`program::atrous_steps`, "Wide
     // charts with little noise"): both sums are taken, the wide one only where the noise is
     // low, and which one counts is known once every pair has been tested.

@@ -45,8 +45,10 @@ param_block! {
         /// no luminance term (a tap's weight is its spline and normal weights alone, so the
         /// filter is linear in its input); the variance map is not read.
         linear: u32,
-        /// Padding.
-        pad0: u32,
+        /// `variance_scale` where the centre lies in a narrow gap
+        /// ([`crate::validity::NARROW`]), whose first bounce has more rays
+        /// ([`AtrousConfig::narrow_early_sigma_luminance`](crate::program::AtrousConfig::narrow_early_sigma_luminance)).
+        narrow_variance_scale: f32,
         /// Padding.
         pad1: u32,
         /// Padding.

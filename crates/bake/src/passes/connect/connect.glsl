@@ -5,6 +5,9 @@
 // operation). The pool: luxPathPoint (scene.glsl). With u_picks > 0 the refinement's second
 // estimate: u_picks further picks continuing the texel's (luxRefineStream), at the texels whose
 // variance estimate (u_variance) misses u_max_error only, the sum scaled by u_k / u_picks.
+// With u_narrow_picks > 0 the same at the texels in a narrow gap (position w >= LUX_NARROW),
+// whatever their noise: the larger count where both apply, the picks' draws spanning the
+// larger of the two counts (ConnectParams::connections_at).
 
 vec4 luxRun(ivec3 c) {
     vec4 pw = texelFetch(u_position, c, 0);
@@ -22,13 +25,17 @@ vec4 luxRun(ivec3 c) {
     uint picks = u_k;
     uvec2 size = uvec2(textureSize(u_position, 0).xy);
     uvec2 stream;
-    if (u_picks > 0u) {
-        if (!luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
+    bool refinement = u_picks > 0u || u_narrow_picks > 0u;
+    if (refinement) {
+        picks = pw.w >= LUX_NARROW ? u_narrow_picks : 0u;
+        if (u_picks > 0u && luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
+            picks = max(picks, u_picks);
+        }
+        if (picks == 0u) {
             return vec4(0.0, 0.0, 0.0, 1.0);
         }
-        picks = u_picks;
         stream = luxRefineStream(LUX_SAMPLER_SOBOL, size, uint(c.z), uint(c.x), uint(c.y), u_k,
-                                 u_picks);
+                                 max(u_picks, u_narrow_picks));
     } else {
         stream = luxGatherStream(LUX_SAMPLER_SOBOL, size, uint(c.z), uint(c.x), uint(c.y), 1u,
                                  u_k);
@@ -75,6 +82,6 @@ vec4 luxRun(ivec3 c) {
         float f = pv * geometry / denominator;
         sum += f * power;
     }
-    float scale = u_picks > 0u ? kf / float(u_picks) : 1.0;
+    float scale = refinement ? kf / float(picks) : 1.0;
     return vec4(luxGuard3(sum * scale), 1.0);
 }

@@ -5,7 +5,9 @@
 // operation). The pool: lux_path_point (scene.wgsl). With lux_pass.picks > 0 the refinement's
 // second estimate: that many further picks continuing the texel's (lux_refine_stream), at the
 // texels whose variance estimate (lux_variance) misses lux_pass.max_error only, the sum scaled
-// by k / picks.
+// by k / picks. With lux_pass.narrow_picks > 0 the same at the texels in a narrow gap
+// (position w >= LUX_NARROW), whatever their noise: the larger count where both apply, the
+// picks' draws spanning the larger of the two counts (ConnectParams::connections_at).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pw = lux_load(lux_position, c);
@@ -23,13 +25,17 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     var picks = lux_pass.k;
     let size = textureDimensions(lux_position).xy;
     var stream: vec2<u32>;
-    if (lux_pass.picks > 0u) {
-        if (!lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
+    let refinement = lux_pass.picks > 0u || lux_pass.narrow_picks > 0u;
+    if (refinement) {
+        picks = select(0u, lux_pass.narrow_picks, pw.w >= LUX_NARROW);
+        if (lux_pass.picks > 0u && lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
+            picks = max(picks, lux_pass.picks);
+        }
+        if (picks == 0u) {
             return vec4<f32>(0.0, 0.0, 0.0, 1.0);
         }
-        picks = lux_pass.picks;
         stream = lux_refine_stream(LUX_SAMPLER_SOBOL, size, lux_tile.layer, u32(c.x), u32(c.y),
-                                   lux_pass.k, lux_pass.picks);
+                                   lux_pass.k, max(lux_pass.picks, lux_pass.narrow_picks));
     } else {
         stream = lux_gather_stream(LUX_SAMPLER_SOBOL, size, lux_tile.layer, u32(c.x), u32(c.y),
                                    1u, lux_pass.k);
@@ -77,8 +83,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         sum += f * power;
     }
     var scale = 1.0;
-    if (lux_pass.picks > 0u) {
-        scale = kf / f32(lux_pass.picks);
+    if (refinement) {
+        scale = kf / f32(picks);
     }
     return vec4<f32>(lux_guard3(sum * scale), 1.0);
 }

@@ -10,6 +10,7 @@ use crate::cpu::kernel::*;
 use crate::exact::div;
 use crate::lightpaths::CONNECT_PASS;
 use crate::rng;
+use crate::validity::NARROW;
 
 use super::ConnectParams;
 
@@ -34,17 +35,22 @@ impl CpuPass for ConnectParams {
             ((u * count as f32) as u32).min(count - 1) as usize
         };
         let (pos, variance): (View<'_>, View<'_>) = (ctx.views[0], ctx.views[2]);
-        let n = self.connections();
-        // A valid texel's picks (none for the others, which connect nothing; with `picks` the
-        // texels the refinement refines, continuing their picks).
+        // A valid texel's picks (none for the others, which connect nothing; in the
+        // refinement's pass the texels it refines, continuing their picks).
         let picks_of = |x: u32, out: &mut Vec<usize>| {
             out.clear();
             let here = Texel { layer, x, y };
-            if count > 0 && pos.fetch(here)[3] > 0.5 && self.connects(variance.fetch(here)) {
+            let w = pos.fetch(here)[3];
+            if count == 0 || w <= 0.5 {
+                return;
+            }
+            let n = self.connections_at(w >= NARROW, || variance.fetch(here));
+            if n > 0 {
                 let at = [layer, x, y];
                 let sobol = rng::Sampler::Sobol;
-                let stream = if self.picks > 0 {
-                    rng::Stream::refine(sobol, scene.layer_size, at, self.k, self.picks)
+                let stream = if self.is_refinement() {
+                    let span = self.connections();
+                    rng::Stream::refine(sobol, scene.layer_size, at, self.k, span)
                 } else {
                     rng::Stream::gather(sobol, scene.layer_size, at, 1, self.k)
                 };
@@ -83,12 +89,6 @@ impl CpuPass for ConnectParams {
 }
 
 impl ConnectParams {
-    /// Whether a texel with variance estimate `noise` (the variance map's texel) connects:
-    /// every texel for the first bounce's connections, the refined ones for the refinement's.
-    fn connects(&self, noise: [f32; 4]) -> bool {
-        self.picks == 0 || crate::passes::refine::refines(noise, self.max_error)
-    }
-
     /// The connections of texel `at` to the pool points `picks` (its picks, in order; empty
     /// when the pool is, or when the texel does not connect): with `lanes` (only where the
     /// CPU has AVX2), up to
@@ -137,7 +137,7 @@ impl ConnectParams {
                     }
                 }
             }
-            let k = self.scale();
+            let k = self.scale(picks.len() as u32);
             return [guard(sum[0] * k), guard(sum[1] * k), guard(sum[2] * k), 1.0];
         }
         #[cfg(not(target_arch = "x86_64"))]
@@ -179,7 +179,7 @@ impl ConnectParams {
                 *sc += f * pc;
             }
         }
-        let k = self.scale();
+        let k = self.scale(picks.len() as u32);
         [guard(sum[0] * k), guard(sum[1] * k), guard(sum[2] * k), 1.0]
     }
 }

@@ -17,6 +17,10 @@
 //! draws of [`Stream::refine`](crate::rng::Stream::refine)), weighted by the same balance
 //! heuristic (for `rays` and `k`) and scaled by `k / picks`, at the texels the refinement
 //! refines only (the same test of the variance map, slot `variance`; the others read 0).
+//! [`ConnectParams::narrow_picks`] does the same at the texels in a narrow gap, whatever their
+//! noise (the refinement's "Narrow gaps"): a texel takes the larger count where both apply,
+//! its picks continue its first ones over the larger of the two counts, and its sum is scaled
+//! by `k` over its own count.
 
 pub(crate) mod cpu;
 
@@ -35,15 +39,17 @@ param_block! {
         count: u32,
         /// [`crate::lightpaths::LampPaths::density_scale`].
         density_scale: f32,
-        /// 0: the first bounce's `k` connections at every texel. Otherwise the refinement's:
-        /// this many further connections, at the texels whose estimated relative error
-        /// exceeds [`ConnectParams::max_error`] (see the module docs).
+        /// With [`ConnectParams::narrow_picks`], 0: the first bounce's `k` connections at
+        /// every texel. Otherwise the refinement's: this many further connections, at the
+        /// texels whose estimated relative error exceeds [`ConnectParams::max_error`] (see the
+        /// module docs).
         picks: u32,
         /// With `picks` > 0: the refinement's target
         /// ([`RefineParams::max_error`](crate::passes::refine::RefineParams::max_error)).
         max_error: f32,
-        /// Padding.
-        pad0: u32,
+        /// The refinement's further connections at the texels in a narrow gap
+        /// ([`crate::validity::NARROW`]), whatever their noise; 0: none.
+        narrow_picks: u32,
     }
 }
 
@@ -67,27 +73,64 @@ impl ConnectParams {
     /// picks (rounded, at least 1, at most
     /// [`MAX_LAMP_PATHS`](crate::scene::Settings::MAX_LAMP_PATHS)), so that a refined
     /// texel's second estimate has the first's ratio of rays to connections, at the texels
-    /// whose relative error exceeds `max_error`.
-    pub fn refinement(self, more: u32, max_error: f32) -> ConnectParams {
+    /// whose relative error exceeds `max_error`, and likewise for `narrow_more` further rays
+    /// at the texels in a narrow gap (0 rays: none).
+    pub fn refinement(self, more: u32, max_error: f32, narrow_more: u32) -> ConnectParams {
         let (k, rays) = (u64::from(self.k), u64::from(self.rays.max(1)));
         let max = u64::from(crate::scene::Settings::MAX_LAMP_PATHS);
+        let picks = |more: u32| {
+            if more == 0 {
+                0
+            } else {
+                ((k * u64::from(more) + rays / 2) / rays).clamp(1, max) as u32
+            }
+        };
         ConnectParams {
-            picks: ((k * u64::from(more) + rays / 2) / rays).clamp(1, max) as u32,
+            picks: picks(more),
             max_error,
+            narrow_picks: picks(narrow_more),
             ..self
         }
     }
 
-    /// Connections per texel this pass makes: [`ConnectParams::picks`], or `k` when it is 0.
-    pub fn connections(&self) -> u32 {
-        if self.picks > 0 { self.picks } else { self.k }
+    /// Whether this is the refinement's pass ([`ConnectParams::picks`] or
+    /// [`ConnectParams::narrow_picks`] > 0), not the first connections.
+    pub fn is_refinement(&self) -> bool {
+        self.picks > 0 || self.narrow_picks > 0
     }
 
-    /// What the sum of the connections is multiplied by: `k / picks` for the refinement's
-    /// (an estimate of the same part from `picks` points), 1 for the first.
-    pub fn scale(&self) -> f32 {
-        if self.picks > 0 {
-            self.k as f32 / self.picks as f32
+    /// Most connections per texel this pass makes: `k`, or the refinement's larger count
+    /// (the span of its picks' draws).
+    pub fn connections(&self) -> u32 {
+        if self.is_refinement() {
+            self.picks.max(self.narrow_picks)
+        } else {
+            self.k
+        }
+    }
+
+    /// Connections at a texel that is `narrow`, with variance estimate `noise` (read only by
+    /// the refinement with `picks` > 0): `k` for the first; the refinement's larger count that
+    /// applies, or 0.
+    pub fn connections_at(&self, narrow: bool, noise: impl FnOnce() -> [f32; 4]) -> u32 {
+        if !self.is_refinement() {
+            return self.k;
+        }
+        let by_gap = if narrow { self.narrow_picks } else { 0 };
+        let by_noise = if self.picks > 0 && crate::passes::refine::refines(noise(), self.max_error)
+        {
+            self.picks
+        } else {
+            0
+        };
+        by_gap.max(by_noise)
+    }
+
+    /// What the sum of a texel's `count` connections is multiplied by: `k / count` for the
+    /// refinement's (an estimate of the same part from `count` points), 1 for the first.
+    pub fn scale(&self, count: u32) -> f32 {
+        if self.is_refinement() && count > 0 {
+            self.k as f32 / count as f32
         } else {
             1.0
         }

@@ -6,7 +6,8 @@ use crate::cpu::kernel::*;
 use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, Source, gather_sums};
 use crate::rng;
 
-use super::{RefineParams, refines};
+use super::RefineParams;
+use crate::validity::NARROW;
 
 /// The refinement for one dispatch.
 pub(crate) type Pass = RefineParams;
@@ -34,10 +35,11 @@ impl CpuPass for RefineParams {
                 continue;
             }
             texel.copy_from_slice(&first_map.fetch(here));
-            let (Some(n), 1..) = (normalize(xyz(nrm_map.fetch(here))), params.rays) else {
+            let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
                 continue;
             };
-            if !refines(variance.fetch(here), params.max_error) {
+            let more = params.more(pos[3] >= NARROW, || variance.fetch(here));
+            if more == 0 {
                 continue;
             }
             let at_texel = [layer, here.x, y];
@@ -46,11 +48,11 @@ impl CpuPass for RefineParams {
                 scene.layer_size,
                 at_texel,
                 params.first_rays,
-                params.rays,
+                params.span(),
             );
             scratch.texels.push(GatherTexel {
                 texel: stream.key,
-                rays: stream.first..stream.first + params.rays,
+                rays: stream.first..stream.first + more,
                 o: offset_origin(xyz(pos), n, scene.ray_epsilon),
                 frame: Frame::new(n),
                 mis: Mis {
@@ -76,9 +78,10 @@ impl CpuPass for RefineParams {
             &mut scratch.chunks,
             &mut scratch.sums,
         );
-        let total = (params.first_rays + params.rays) as f32;
-        let (k, more) = (params.first_rays as f32, params.rays as f32);
-        for (sum, &i) in scratch.sums.iter().zip(&scratch.at) {
+        let k = params.first_rays as f32;
+        for ((sum, &i), t) in scratch.sums.iter().zip(&scratch.at).zip(&scratch.texels) {
+            let more = t.rays.len() as f32;
+            let total = k + more;
             let here = Texel {
                 layer,
                 x: ctx.tile.x0 + i as u32,

@@ -6,7 +6,9 @@
 // both; every other texel keeps the first gather's value (cpu.rs). With u_lamp_paths > 0 the
 // further rays are weighted against the lamp paths as the first u_first_rays were and, with
 // the refinement's own connections (u_connected, the connect pass with picks), make a second
-// estimate, averaged with the first by ray count.
+// estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
+// LUX_NARROW) gets u_narrow_rays further rays whatever its noise, the larger count where both
+// apply (RefineParams::more); every texel's draws span the larger of the two counts.
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);
@@ -15,21 +17,25 @@ vec4 luxRun(ivec3 c) {
         return vec4(0.0);
     }
     vec3 n;
-    if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n) || u_rays == 0u) {
+    if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n)) {
         return first;
     }
-    if (!luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
+    uint more = pos.w >= LUX_NARROW ? u_narrow_rays : 0u;
+    if (u_rays > 0u && luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
+        more = max(more, u_rays);
+    }
+    if (more == 0u) {
         return first;
     }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uvec2 stream = luxRefineStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
-                                   u_first_rays, u_rays);
+                                   u_first_rays, max(u_rays, u_narrow_rays));
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
-    vec3 sum = luxGatherSum(origin, n, stream, 0u, u_rays, u_sampler, u_bounce, u_seed,
+    vec3 sum = luxGatherSum(origin, n, stream, 0u, more, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, u_first_rays, u_density_scale, int(u_lamp_count),
                             u_direct_at_hits);
     vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
-    float total = float(u_first_rays + u_rays);
-    vec3 m = float(u_first_rays) * first.rgb + sum + float(u_rays) * paths;
+    float total = float(u_first_rays + more);
+    vec3 m = float(u_first_rays) * first.rgb + sum + float(more) * paths;
     return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);
 }

@@ -6,7 +6,9 @@
 // both; every other texel keeps the first gather's value (cpu.rs). With lux_pass.lamp_paths > 0
 // the further rays are weighted against the lamp paths as the first first_rays were and, with
 // the refinement's own connections (lux_connected, the connect pass with picks), make a second
-// estimate, averaged with the first by ray count.
+// estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
+// LUX_NARROW) gets lux_pass.narrow_rays further rays whatever its noise, the larger count
+// where both apply (RefineParams::more); every texel's draws span the larger of the two.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pos = lux_load(lux_position, c);
@@ -15,17 +17,21 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         return vec4<f32>(0.0);
     }
     var n: vec3<f32>;
-    let rays = lux_pass.rays;
-    if (!lux_normalize(lux_load(lux_normal, c).xyz, &n) || rays == 0u) {
+    if (!lux_normalize(lux_load(lux_normal, c).xyz, &n)) {
         return first;
     }
-    if (!lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
+    var rays = select(0u, lux_pass.narrow_rays, pos.w >= LUX_NARROW);
+    if (lux_pass.rays > 0u && lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
+        rays = max(rays, lux_pass.rays);
+    }
+    if (rays == 0u) {
         return first;
     }
     let layer_size = vec2<u32>(lux_tile.layer_w, lux_tile.layer_h);
     let texel = lux_texel_index(layer_size, lux_tile.layer, u32(c.x), u32(c.y));
     let stream = lux_refine_stream(lux_pass.sampler, layer_size, lux_tile.layer, u32(c.x),
-                                   u32(c.y), lux_pass.first_rays, rays);
+                                   u32(c.y), lux_pass.first_rays,
+                                   max(lux_pass.rays, lux_pass.narrow_rays));
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
     let sum = lux_gather_sum(origin, n, texel, stream, 0u, rays, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths,
