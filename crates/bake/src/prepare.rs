@@ -185,7 +185,7 @@ pub struct Room {
     pub half_extent: f32,
     /// Valid light-map texels.
     pub valid_texels: u64,
-    /// Of those, the texels in narrow gaps ([`crate::validity::NARROW`]).
+    /// Of those, the texels in narrow gaps against the room ([`crate::validity::NARROW_GAP`]).
     pub narrow_texels: u64,
     /// Objects left without a light map ([`Skipped::NonReceiver`]).
     pub skipped: Vec<Skipped>,
@@ -274,7 +274,7 @@ impl Room {
             ray_epsilon: eps,
             half_extent,
             valid_texels,
-            narrow_texels: unoccluded.narrow,
+            narrow_texels: unoccluded.gaps,
             skipped,
             timings,
         })

@@ -125,7 +125,7 @@ pub struct AtrousConfig {
     /// Width of the luminance term of the first [`AtrousConfig::early_iterations`].
     pub early_sigma_luminance: f32,
     /// [`AtrousConfig::early_sigma_luminance`] at a centre in a narrow gap
-    /// ([`crate::validity::NARROW`]), whose first bounce has more rays
+    /// ([`crate::validity::NARROW_GAP`]), whose first bounce has more rays
     /// ([`crate::scene::Settings::narrow_rays`]; [`AtrousConfig::with_narrow_rays`]); 0: the
     /// same as elsewhere.
     pub narrow_early_sigma_luminance: f32,
@@ -376,7 +376,7 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// room, is filtered alike.
 ///
 /// # Narrow gaps
-/// A texel in a narrow gap ([`crate::validity::NARROW`]) gathers its first bounce with more
+/// A texel in a narrow gap ([`crate::validity::NARROW_GAP`]) gathers its first bounce with more
 /// rays ([`crate::scene::Settings::narrow_rays`], the refinement's "Narrow gaps"), so its
 /// noise is less skewed, and its early iterations take the early term of its own ray count,
 /// [`early_sigma_luminance_for`]`(rays + narrow_rays)`

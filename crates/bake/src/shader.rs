@@ -201,6 +201,11 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
         Scalar::F32,
         format!("{:?}", crate::validity::NARROW),
     ));
+    c.push((
+        "LUX_NARROW_GAP".to_string(),
+        Scalar::F32,
+        format!("{:?}", crate::validity::NARROW_GAP),
+    ));
     c.push(int(
         "LUX_PROXY_CELLS",
         crate::lightpaths::PROXY_CELLS as i32,

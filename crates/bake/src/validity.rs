@@ -36,7 +36,11 @@
 //!    another surface across a gap a few texels wide and its position's w becomes
 //!    [`NARROW`] (still valid: every pass tests w > 0.5). The light in such a gap changes over a
 //!    texel or two, faster than a reduced-resolution gather's grid can follow: the coarse
-//!    gathers trace these texels themselves, as orphans ([`crate::contract::coarse`]).
+//!    gathers trace these texels themselves, as orphans ([`crate::contract::coarse`]). Where
+//!    the surface met also lies within [`GAP_FRACTION`] of the room's size, w becomes
+//!    [`NARROW_GAP`] (still narrow: w ≥ [`NARROW`]): light reaches such a gap through the few
+//!    directions that leave it, and these texels get more rays in every bounce
+//!    ([`crate::scene::Settings::narrow_rays`]).
 //!
 //! Only receivers' texels are tested; non-receivers still occlude. As with Unity's back-face
 //! tolerance, a texel that mostly sees the back of one-sided geometry (under a single-sided
@@ -88,6 +92,15 @@ pub const NARROW_REACH_TEXELS: f32 = 6.0;
 /// The position's w of a valid texel that faces another surface within
 /// [`NARROW_REACH_TEXELS`] (module docs, step 4); 1 for the other valid texels.
 pub const NARROW: f32 = 2.0;
+/// The position's w of a narrow texel ([`NARROW`]) whose gap is also narrow against the room:
+/// the surface it faces lies within [`GAP_FRACTION`] of the room's size (module docs, step 4).
+/// Such texels get more rays in every bounce ([`crate::scene::Settings::narrow_rays`]).
+pub const NARROW_GAP: f32 = 3.0;
+/// A narrow texel's gap counts against the room ([`NARROW_GAP`]) when it is at most this
+/// fraction of the largest side of the valid texels' bounding box: 1/64, 7.8 cm in a room 5 m
+/// long (the back of a bookcase, a cabinet or a sideboard standing 2.5–7.5 cm from a wall),
+/// not a chair's seat over its crossbars. A fraction, so that a room bakes alike at any scale.
+pub const GAP_FRACTION: f32 = 1.0 / 64.0;
 
 /// What [`unocclude`] did.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
@@ -98,8 +111,11 @@ pub struct Unoccluded {
     pub moved: u64,
     /// Texels made empty.
     pub removed: u64,
-    /// Valid texels facing another surface within [`NARROW_REACH_TEXELS`] (marked [`NARROW`]).
+    /// Valid texels facing another surface within [`NARROW_REACH_TEXELS`] (marked [`NARROW`]
+    /// or [`NARROW_GAP`]).
     pub narrow: u64,
+    /// Of those, the texels whose gap is narrow against the room (marked [`NARROW_GAP`]).
+    pub gaps: u64,
 }
 
 /// The distance to the first hit along `dir` from `o` within `t_max`, and whether it is a back
@@ -244,7 +260,7 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
             }
         }
     }
-    stats.narrow = mark_narrow(g, scene, bvh, eps);
+    (stats.narrow, stats.gaps) = mark_narrow(g, scene, bvh, eps);
     stats
 }
 
@@ -260,29 +276,47 @@ fn texel_size(scene: &Scene, object: f32) -> Option<f32> {
 }
 
 /// Step 4 of the module docs: marks every valid texel whose normal ray meets a surface within
-/// [`NARROW_REACH_TEXELS`] texels with w = [`NARROW`]; returns how many.
-fn mark_narrow(g: &mut GBuffer, scene: &Scene, bvh: (&EncodedScene, &WideBvh), eps: f32) -> u64 {
+/// [`NARROW_REACH_TEXELS`] texels with w = [`NARROW`], or [`NARROW_GAP`] where that surface
+/// also lies within [`GAP_FRACTION`] of the room's size; returns how many of each
+/// (`[narrow, of them in gaps]`).
+fn mark_narrow(
+    g: &mut GBuffer,
+    scene: &Scene,
+    bvh: (&EncodedScene, &WideBvh),
+    eps: f32,
+) -> (u64, u64) {
     let position = &g.position;
     let normal = &g.normal;
-    let narrow: Vec<usize> = (0..position.len() / 4)
+    // The room's size: the largest side of the valid texels' bounding box.
+    let (lo, hi) = position.chunks_exact(4).filter(|p| p[3] > 0.5).fold(
+        ([f32::MAX; 3], [f32::MIN; 3]),
+        |(lo, hi), p| {
+            (
+                [0, 1, 2].map(|c| lo[c].min(p[c])),
+                [0, 1, 2].map(|c| hi[c].max(p[c])),
+            )
+        },
+    );
+    let size = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
+    let gap = GAP_FRACTION * size;
+    let narrow: Vec<(usize, bool)> = (0..position.len() / 4)
         .into_par_iter()
-        .filter(|&i| {
+        .filter_map(|i| {
             let (pw, nw) = (&position[4 * i..4 * i + 4], &normal[4 * i..4 * i + 4]);
             if pw[3] <= 0.5 {
-                return false;
+                return None;
             }
-            let Some(n) = normalize([nw[0], nw[1], nw[2]]) else {
-                return false;
-            };
-            let Some(s) = texel_size(scene, nw[3]) else {
-                return false;
-            };
+            let n = normalize([nw[0], nw[1], nw[2]])?;
+            let s = texel_size(scene, nw[3])?;
             let o = offset_origin([pw[0], pw[1], pw[2]], n, eps);
-            first_hit(bvh, o, n, NARROW_REACH_TEXELS * s).is_some()
+            let (t, _) = first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)?;
+            Some((i, t <= gap))
         })
         .collect();
-    for &i in &narrow {
-        g.position[4 * i + 3] = NARROW;
+    let mut gaps = 0;
+    for &(i, in_gap) in &narrow {
+        g.position[4 * i + 3] = if in_gap { NARROW_GAP } else { NARROW };
+        gaps += u64::from(in_gap);
     }
-    narrow.len() as u64
+    (narrow.len() as u64, gaps)
 }

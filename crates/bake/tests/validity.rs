@@ -11,7 +11,7 @@ use luxbake::gbuffer::{GBuffer, rasterize};
 use luxbake::layout::Layout;
 use luxbake::scene::{Scene, Settings};
 use luxbake::sources::scenefile;
-use luxbake::validity::{NARROW, NARROW_REACH_TEXELS, unocclude};
+use luxbake::validity::{GAP_FRACTION, NARROW, NARROW_GAP, NARROW_REACH_TEXELS, unocclude};
 use luxbake_backend_cpu::CpuBackend;
 use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, encode};
 
@@ -105,7 +105,7 @@ fn floor_texels_inside_legs_and_feet_are_moved_out_or_removed() {
         let marked = after
             .position
             .chunks_exact(4)
-            .filter(|t| t[3] == NARROW)
+            .filter(|t| t[3] >= NARROW)
             .count();
         assert_eq!(stats.narrow, marked as u64, "{name}");
         let quads = contacts(&scene);
@@ -270,8 +270,9 @@ position = [{x}, 0.0, 0.0]
     scenefile::from_str(&text, std::path::Path::new("."), None).expect("scene")
 }
 
-/// Texels of a prepared room: (world position scaled back by `1/scale`, normal, narrow).
-fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], bool)> {
+/// Texels of a prepared room: (world position scaled back by `1/scale`, normal, the
+/// position's w: 1, [`NARROW`] or [`NARROW_GAP`]).
+fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], f32)> {
     let scene = scene.scaled(scale);
     let room = Room::prepare(
         &scene,
@@ -288,7 +289,7 @@ fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], bool)> {
             let p = [0, 1, 2]
                 .map(|c| ((f64::from(g.position[4 * i + c]) + shift[c]) / f64::from(scale)) as f32);
             let n = [0, 1, 2].map(|c| g.normal[4 * i + c]);
-            (p, n, g.position[4 * i + 3] == NARROW)
+            (p, n, g.position[4 * i + 3])
         })
         .collect()
 }
@@ -296,20 +297,22 @@ fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], bool)> {
 #[test]
 fn texels_across_a_narrow_gap_are_marked_at_any_scale() {
     // 2.5 cm is 0.8 texel; 0.5 m is 16 texels, beyond the reach of 6.
-    let (narrow, wide) = (panel_room(0.025), panel_room(0.5));
+    let (narrow, mid, wide) = (panel_room(0.025), panel_room(0.12), panel_room(0.5));
     for scale in [1e-3, 1.0, 1e3] {
         let texels = marked(&narrow, scale);
         let s = 1.0 / 32.0;
         let (mut back, mut wall, mut others) = (0, 0, 0);
-        for &(p, n, is_narrow) in &texels {
+        for &(p, n, w) in &texels {
+            let is_narrow = w >= NARROW;
             // Inside the panel's footprint by two texels, off its edges.
             let inside = p[1] > 2.0 * s && p[1] < 1.5 - 2.0 * s && p[2].abs() < 0.5 - 2.0 * s;
             let panel_back = n[0] < -0.99 && (p[0] + 1.975).abs() < 1e-3;
             let wall_behind = n[0] > 0.99 && (p[0] + 2.0).abs() < 1e-3;
             if panel_back && inside {
+                // 2.5 cm is within a 64th of the room's 4 m: a gap against the room too.
                 assert!(
-                    is_narrow,
-                    "×{scale}: the panel's back at {p:?} is not marked"
+                    w == NARROW_GAP,
+                    "×{scale}: the panel's back at {p:?} is marked {w}"
                 );
                 back += 1;
             } else if wall_behind && inside {
@@ -333,7 +336,25 @@ fn texels_across_a_narrow_gap_are_marked_at_any_scale() {
         assert!(back > 500 && wall > 500 && others > 10_000, "×{scale}");
         // The same panel half a metre from the wall (16 texels): nothing is marked.
         let far = marked(&wide, scale);
-        assert!(far.len() > 10_000 && far.iter().all(|t| !t.2), "×{scale}");
+        assert!(
+            far.len() > 10_000 && far.iter().all(|t| t.2 < NARROW),
+            "×{scale}"
+        );
+        // 12 cm from it (3.8 texels, over a 64th of 4 m): narrow, but no gap against the room.
+        let (mut narrow_only, mut gaps) = (0, 0);
+        for &(p, n, w) in &marked(&mid, scale) {
+            let inside = p[1] > 2.0 * s && p[1] < 1.5 - 2.0 * s && p[2].abs() < 0.5 - 2.0 * s;
+            if n[0] < -0.99 && (p[0] + 1.88).abs() < 1e-3 && inside {
+                assert_eq!(w, NARROW, "×{scale}: the panel's back at {p:?}");
+                narrow_only += 1;
+            }
+            gaps += usize::from(w == NARROW_GAP);
+        }
+        assert!(
+            narrow_only > 500 && gaps == 0,
+            "×{scale}: {narrow_only}, {gaps}"
+        );
     }
+    const { assert!(0.025 < GAP_FRACTION * 4.0 && 0.12 > GAP_FRACTION * 4.0) };
     const { assert!(NARROW_REACH_TEXELS / 32.0 < 0.5) };
 }

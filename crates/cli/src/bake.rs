@@ -115,7 +115,7 @@ pub struct Args {
     #[arg(long)]
     refine_error: Option<f32>,
     /// Converged: rays per texel in a narrow gap in every bounce, whatever its noise (a
-    /// bounce that gathers fewer there adds the rest; 0 = none; the `default` preset: 64).
+    /// bounce that gathers fewer there adds the rest; 0 = none, every preset; 64 measured).
     #[arg(long)]
     narrow_rays: Option<u32>,
     /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):

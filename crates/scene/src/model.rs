@@ -830,14 +830,15 @@ pub struct Settings {
     /// [`Method::Converged`]: the relative standard error per texel that refinement aims at
     /// (of the first bounce's noise over the direct light and the first bounce together).
     pub refine_error: f32,
-    /// [`Method::Converged`]: rays per texel in a narrow gap (`luxbake::validity::NARROW`:
-    /// its surface faces another within a few texels, the back of a bookcase near a wall), in
+    /// [`Method::Converged`]: rays per texel in a narrow gap (`luxbake::validity::NARROW_GAP`:
+    /// its surface faces another within a few texels and a 64th of the room's size, the back of
+    /// a bookcase near a wall), in
     /// every bounce, whatever its noise: a bounce that gathers fewer there adds the rest as
     /// refinement adds rays (`luxbake::passes::refine`, "Narrow gaps") — the first bounce
     /// with `stride` 1 (and `lamp_paths · (narrow_rays − rays) / rays` further connections),
     /// the later ones with `higher_stride` > 1 — and the denoiser's first iterations narrow
     /// there with the rays (`luxbake::program::atrous_steps`). 0 (or no more than a bounce's
-    /// own rays): none.
+    /// own rays): none, in every preset ([`Settings::NARROW_RAYS`] as measured).
     pub narrow_rays: u32,
     /// [`Method::Converged`] with [`Settings::blur`]: the denoiser's bias correction — the
     /// à-trous filter's residual filtered once more and added back, `y + B(x − y)`, which
@@ -977,12 +978,13 @@ impl Settings {
     ///
     /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the
     /// box room it refined 60–77 % of the texels at targets that lowered the error, so it
-    /// cost as many rays as sampling every texel more (docs/performance.md). `default` refines
-    /// the texels in narrow gaps instead ([`Settings::narrow_rays`]: 64 rays there in every
-    /// bounce, on 0.01–9 % of a room's texels), where the light reaches a gap's middle by a
-    /// few paths, and 8 or 16 rays' skewed noise and the denoiser's early term spread the
-    /// light of the gap's rim into it (docs/performance.md, "Narrow gaps refined"); `final`'s
-    /// 256 and 32 rays at full resolution need none.
+    /// cost as many rays as sampling every texel more (docs/performance.md). So are the rays
+    /// in narrow gaps ([`Settings::narrow_rays`]): with [`Settings::NARROW_RAYS`] (64 in every
+    /// bounce there) `default` holds 1 % on every surface kind of two of the three real rooms
+    /// (the furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a wall: the
+    /// lounge 3.7 → 1.4 %, the dining room 1.2 → 0.88 %) for 1.1–1.2× their bake's time, but
+    /// in the browser at 24 texels/m, where the chairs' own gaps count, it made a lamp swap
+    /// 0.79 of a fresh bake instead of 0.54 (docs/performance.md, "Narrow gaps refined").
     pub fn preset(quality: Quality) -> Settings {
         let base = Settings {
             method: Method::Converged,
@@ -1006,7 +1008,6 @@ impl Settings {
             },
             Quality::Default => Settings {
                 rays: 8,
-                narrow_rays: Settings::DEFAULT_NARROW_RAYS,
                 lamp_paths: 4,
                 denoise_correction: true,
                 opening_samples: 48,
@@ -1049,8 +1050,9 @@ impl Settings {
     pub const MAX_STRIDE: u32 = 16;
     /// Largest [`Settings::lamp_paths`].
     pub const MAX_LAMP_PATHS: u32 = 1024;
-    /// [`Settings::narrow_rays`] of the `default` preset (see [`Settings::preset`]).
-    pub const DEFAULT_NARROW_RAYS: u32 = 64;
+    /// [`Settings::narrow_rays`] as measured (see [`Settings::preset`]): 64 rays in every
+    /// bounce in narrow gaps.
+    pub const NARROW_RAYS: u32 = 64;
     /// [`Settings::opening_probe_stride`] of every preset: 12 probes of the `default` preset's
     /// 48 points (24 of 96 near an opening).
     pub const OPENING_PROBE_STRIDE: u32 = 4;

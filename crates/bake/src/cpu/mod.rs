@@ -1622,7 +1622,7 @@ mod guide_mask_tests {
             .with_correction(true)
             .with_narrow_rays(64);
         let narrow = (0..texels)
-            .filter(|&i| g.position[4 * i + 3] >= crate::validity::NARROW)
+            .filter(|&i| g.position[4 * i + 3] >= crate::validity::NARROW_GAP)
             .count();
         assert!(narrow > 100, "{narrow} texels in narrow gaps");
         let (mut compared, mut vector, mut wide) = (0usize, 0usize, 0usize);

@@ -264,11 +264,11 @@ mod avx2 {
 }
 
 /// The luminance term's scale at a centre whose position's w is `w`: in a narrow gap
-/// ([`crate::validity::NARROW`]) [`AtrousParams::narrow_variance_scale`], else
+/// ([`crate::validity::NARROW_GAP`]) [`AtrousParams::narrow_variance_scale`], else
 /// [`AtrousParams::variance_scale`].
 #[inline]
 fn centre_scale(params: AtrousParams, w: f32) -> f32 {
-    if w >= crate::validity::NARROW {
+    if w >= crate::validity::NARROW_GAP {
         params.narrow_variance_scale
     } else {
         params.variance_scale

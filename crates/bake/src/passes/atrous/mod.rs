@@ -46,7 +46,7 @@ param_block! {
         /// filter is linear in its input); the variance map is not read.
         linear: u32,
         /// `variance_scale` where the centre lies in a narrow gap
-        /// ([`crate::validity::NARROW`]), whose first bounce has more rays
+        /// ([`crate::validity::NARROW_GAP`]), whose first bounce has more rays
         /// ([`AtrousConfig::narrow_early_sigma_luminance`](crate::program::AtrousConfig::narrow_early_sigma_luminance)).
         narrow_variance_scale: f32,
         /// Padding.

@@ -5,7 +5,7 @@
 // operation). The pool: luxPathPoint (scene.glsl). With u_picks > 0 the refinement's second
 // estimate: u_picks further picks continuing the texel's (luxRefineStream), at the texels whose
 // variance estimate (u_variance) misses u_max_error only, the sum scaled by u_k / u_picks.
-// With u_narrow_picks > 0 the same at the texels in a narrow gap (position w >= LUX_NARROW),
+// With u_narrow_picks > 0 the same at the texels in a narrow gap (position w >= LUX_NARROW_GAP),
 // whatever their noise: the larger count where both apply, the picks' draws spanning the
 // larger of the two counts (ConnectParams::connections_at).
 
@@ -27,7 +27,7 @@ vec4 luxRun(ivec3 c) {
     uvec2 stream;
     bool refinement = u_picks > 0u || u_narrow_picks > 0u;
     if (refinement) {
-        picks = pw.w >= LUX_NARROW ? u_narrow_picks : 0u;
+        picks = pw.w >= LUX_NARROW_GAP ? u_narrow_picks : 0u;
         if (u_picks > 0u && luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
             picks = max(picks, u_picks);
         }

@@ -6,7 +6,7 @@
 // second estimate: that many further picks continuing the texel's (lux_refine_stream), at the
 // texels whose variance estimate (lux_variance) misses lux_pass.max_error only, the sum scaled
 // by k / picks. With lux_pass.narrow_picks > 0 the same at the texels in a narrow gap
-// (position w >= LUX_NARROW), whatever their noise: the larger count where both apply, the
+// (position w >= LUX_NARROW_GAP), whatever their noise: the larger count where both apply, the
 // picks' draws spanning the larger of the two counts (ConnectParams::connections_at).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
@@ -27,7 +27,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     var stream: vec2<u32>;
     let refinement = lux_pass.picks > 0u || lux_pass.narrow_picks > 0u;
     if (refinement) {
-        picks = select(0u, lux_pass.narrow_picks, pw.w >= LUX_NARROW);
+        picks = select(0u, lux_pass.narrow_picks, pw.w >= LUX_NARROW_GAP);
         if (lux_pass.picks > 0u && lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
             picks = max(picks, lux_pass.picks);
         }

@@ -10,7 +10,7 @@ use crate::cpu::kernel::*;
 use crate::exact::div;
 use crate::lightpaths::CONNECT_PASS;
 use crate::rng;
-use crate::validity::NARROW;
+use crate::validity::NARROW_GAP;
 
 use super::ConnectParams;
 
@@ -44,7 +44,7 @@ impl CpuPass for ConnectParams {
             if count == 0 || w <= 0.5 {
                 return;
             }
-            let n = self.connections_at(w >= NARROW, || variance.fetch(here));
+            let n = self.connections_at(w >= NARROW_GAP, || variance.fetch(here));
             if n > 0 {
                 let at = [layer, x, y];
                 let sobol = rng::Sampler::Sobol;

@@ -48,7 +48,7 @@ param_block! {
         /// ([`RefineParams::max_error`](crate::passes::refine::RefineParams::max_error)).
         max_error: f32,
         /// The refinement's further connections at the texels in a narrow gap
-        /// ([`crate::validity::NARROW`]), whatever their noise; 0: none.
+        /// ([`crate::validity::NARROW_GAP`]), whatever their noise; 0: none.
         narrow_picks: u32,
     }
 }

@@ -7,7 +7,7 @@ use crate::passes::gather::cpu::{GatherScratch, GatherTexel, Hits, Mis, Source, 
 use crate::rng;
 
 use super::RefineParams;
-use crate::validity::NARROW;
+use crate::validity::NARROW_GAP;
 
 /// The refinement for one dispatch.
 pub(crate) type Pass = RefineParams;
@@ -38,7 +38,7 @@ impl CpuPass for RefineParams {
             let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
                 continue;
             };
-            let more = params.more(pos[3] >= NARROW, || variance.fetch(here));
+            let more = params.more(pos[3] >= NARROW_GAP, || variance.fetch(here));
             if more == 0 {
                 continue;
             }

@@ -48,7 +48,7 @@
 //! where the connections carry the light (`sofa_01`'s furniture 1.65 → 2.16 %).
 //!
 //! # Narrow gaps
-//! A texel in a narrow gap ([`crate::validity::NARROW`]: its surface faces another within a
+//! A texel in a narrow gap ([`crate::validity::NARROW_GAP`]: its surface faces another within a
 //! few texels) gets [`RefineParams::narrow_rays`] further rays whatever its noise (and its
 //! second estimate `K·narrow_rays/N` connections). In such a gap the light comes from the
 //! few directions that leave it, most of it after bounces inside the gap, so a few rays give
@@ -132,7 +132,7 @@ param_block! {
         /// [`GatherParams::direct_at_hits`](crate::passes::gather::GatherParams::direct_at_hits)
         /// of the first gather: the further rays read their hits as it did.
         direct_at_hits: u32,
-        /// Further rays at every texel in a narrow gap ([`crate::validity::NARROW`]), whatever
+        /// Further rays at every texel in a narrow gap ([`crate::validity::NARROW_GAP`]), whatever
         /// its noise (module docs, "Narrow gaps"); 0: none.
         narrow_rays: u32,
         /// Padding.
@@ -147,7 +147,7 @@ impl RefineParams {
         self.rays.max(self.narrow_rays)
     }
 
-    /// Further rays at a texel that is `narrow` (position w ≥ [`crate::validity::NARROW`]),
+    /// Further rays at a texel that is `narrow` (position w ≥ [`crate::validity::NARROW_GAP`]),
     /// with variance estimate `noise` (read only when [`RefineParams::rays`] > 0): the larger
     /// of the narrow count (when narrow) and the refinement's (when it misses the target).
     pub fn more(&self, narrow: bool, noise: impl FnOnce() -> [f32; 4]) -> u32 {

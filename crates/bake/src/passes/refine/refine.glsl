@@ -7,7 +7,7 @@
 // further rays are weighted against the lamp paths as the first u_first_rays were and, with
 // the refinement's own connections (u_connected, the connect pass with picks), make a second
 // estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
-// LUX_NARROW) gets u_narrow_rays further rays whatever its noise, the larger count where both
+// LUX_NARROW_GAP) gets u_narrow_rays further rays whatever its noise, the larger count where both
 // apply (RefineParams::more); every texel's draws span the larger of the two counts.
 
 vec4 luxRun(ivec3 c) {
@@ -20,7 +20,7 @@ vec4 luxRun(ivec3 c) {
     if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n)) {
         return first;
     }
-    uint more = pos.w >= LUX_NARROW ? u_narrow_rays : 0u;
+    uint more = pos.w >= LUX_NARROW_GAP ? u_narrow_rays : 0u;
     if (u_rays > 0u && luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
         more = max(more, u_rays);
     }

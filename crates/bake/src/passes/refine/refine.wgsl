@@ -7,7 +7,7 @@
 // the further rays are weighted against the lamp paths as the first first_rays were and, with
 // the refinement's own connections (lux_connected, the connect pass with picks), make a second
 // estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
-// LUX_NARROW) gets lux_pass.narrow_rays further rays whatever its noise, the larger count
+// LUX_NARROW_GAP) gets lux_pass.narrow_rays further rays whatever its noise, the larger count
 // where both apply (RefineParams::more); every texel's draws span the larger of the two.
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
@@ -20,7 +20,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(lux_load(lux_normal, c).xyz, &n)) {
         return first;
     }
-    var rays = select(0u, lux_pass.narrow_rays, pos.w >= LUX_NARROW);
+    var rays = select(0u, lux_pass.narrow_rays, pos.w >= LUX_NARROW_GAP);
     if (lux_pass.rays > 0u && lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
         rays = max(rays, lux_pass.rays);
     }
