@@ -59,7 +59,9 @@ pub struct SceneCase {
     /// The converged method's preset ([`settings`]; the paper's method ignores it).
     pub quality: Quality,
     /// [`Settings::refine_rays`] (0: none, as in every preset), at a target of
-    /// [`REFINE_ERROR`].
+    /// [`REFINE_ERROR`]; with it the rays in narrow gaps too ([`Settings::narrow_rays`] at
+    /// [`Settings::NARROW_RAYS`]: the first bounce's refinement then takes the larger of both
+    /// counts where both apply, and the later bounces' reduced gathers are refined in the gaps).
     pub refine_rays: u32,
     /// [`Settings::denoise_correction`] (false in every preset but `final`).
     pub denoise_correction: bool,
@@ -222,6 +224,11 @@ impl SceneCase {
             sampler: self.sampler,
             refine_rays: self.refine_rays,
             refine_error: REFINE_ERROR,
+            narrow_rays: if self.refine_rays > 0 {
+                Settings::NARROW_RAYS
+            } else {
+                0
+            },
             denoise_correction: self.denoise_correction,
             direct_at_hits: self.direct_at_hits,
             ..settings(self.method, self.quality)
