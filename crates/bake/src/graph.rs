@@ -1020,8 +1020,6 @@ fn correct_stage(
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder::new(config);
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
-    // The first bounce's refinement: `(rays by noise, target, rays in narrow gaps)`, when
-    // either applies.
     // A bounce's further rays in narrow gaps, up to `narrow_rays` there, within the budget.
     let narrow_more = |rays: u32| {
         crate::passes::refine::narrow_more(
@@ -1036,6 +1034,8 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
     } else {
         0
     };
+    // The first bounce's refinement: `(rays by noise, target, rays in narrow gaps)`, when
+    // either applies.
     let refinement = (refine.is_some() || narrow > 0).then(|| {
         let (more, max_error) = refine.unwrap_or((0, 0.0));
         (more, max_error, narrow)

@@ -116,14 +116,12 @@ impl ConnectParams {
         if !self.is_refinement() {
             return self.k;
         }
-        let by_gap = if narrow { self.narrow_picks } else { 0 };
-        let by_noise = if self.picks > 0 && crate::passes::refine::refines(noise(), self.max_error)
-        {
-            self.picks
-        } else {
-            0
-        };
-        by_gap.max(by_noise)
+        crate::passes::refine::larger_count(
+            narrow,
+            [self.narrow_picks, self.picks],
+            noise,
+            self.max_error,
+        )
     }
 
     /// What the sum of a texel's `count` connections is multiplied by: `k / count` for the

@@ -48,8 +48,9 @@
 //! where the connections carry the light (`sofa_01`'s furniture 1.65 → 2.16 %).
 //!
 //! # Narrow gaps
-//! A texel in a narrow gap ([`crate::validity::NARROW_GAP`]: its surface faces another within a
-//! few texels) gets [`RefineParams::narrow_rays`] further rays whatever its noise (and its
+//! A texel in a narrow gap ([`crate::validity::NARROW_GAP`]: its surface faces another within
+//! a few texels and a 64th of the room's size) gets [`RefineParams::narrow_rays`] further rays
+//! whatever its noise (and its
 //! second estimate `K·narrow_rays/N` connections). In such a gap the light comes from the
 //! few directions that leave it, most of it after bounces inside the gap, so a few rays give
 //! skewed, heavy noise — the points behind a bookcase 2.5 cm from a wall read −21 … +40 % at
@@ -57,10 +58,10 @@
 //! decision reads no estimate, so it biases nothing. The later bounces' reduced gathers are
 //! refined the same way, between the gather and the upsample (the graph's `refine_narrow`,
 //! with `rays` 0 and no lamp paths); [`narrow_more`] sets the counts
-//! ([`crate::scene::Settings::narrow_rays`] in all, within a budget). Where a texel is both narrow and refined for its noise it takes the
-//! larger count; every texel draws from [`Stream::refine`](crate::rng::Stream::refine) with
-//! the larger of the two counts as its span, so the draws of a block's texels never overlap
-//! whatever count each takes.
+//! ([`crate::scene::Settings::narrow_rays`] in all, within a budget). Where a texel is both
+//! narrow and refined for its noise it takes the larger count ([`RefineParams::more`]); every texel
+//! draws from [`Stream::refine`](crate::rng::Stream::refine) with the larger of the two counts
+//! as its span, so the draws of a block's texels never overlap whatever count each takes.
 
 pub(crate) mod cpu;
 
@@ -78,6 +79,27 @@ pub(crate) fn refines(noise: [f32; 4], max_error: f32) -> bool {
 }
 
 use crate::contract::{param_block, signature};
+
+/// The further rays (or connections) of a texel that is `narrow`, with variance estimate
+/// `noise` (read only when `by_noise` > 0): the larger of `by_gap` (when narrow) and
+/// `by_noise` (when it misses the target `max_error`). The refine pass
+/// ([`RefineParams::more`]) and the connect pass of its second connections
+/// ([`ConnectParams::connections_at`](crate::passes::connect::ConnectParams::connections_at))
+/// decide alike.
+pub(crate) fn larger_count(
+    narrow: bool,
+    [by_gap, by_noise]: [u32; 2],
+    noise: impl FnOnce() -> [f32; 4],
+    max_error: f32,
+) -> u32 {
+    let gap = if narrow { by_gap } else { 0 };
+    let refined = if by_noise > 0 && refines(noise(), max_error) {
+        by_noise
+    } else {
+        0
+    };
+    gap.max(refined)
+}
 
 /// The most rays the refinements in narrow gaps add in one bounce, as a fraction
 /// `1 / NARROW_BUDGET` of the first bounce's gather rays over the room: 4, a quarter.
@@ -151,13 +173,7 @@ impl RefineParams {
     /// with variance estimate `noise` (read only when [`RefineParams::rays`] > 0): the larger
     /// of the narrow count (when narrow) and the refinement's (when it misses the target).
     pub fn more(&self, narrow: bool, noise: impl FnOnce() -> [f32; 4]) -> u32 {
-        let by_gap = if narrow { self.narrow_rays } else { 0 };
-        let by_noise = if self.rays > 0 && refines(noise(), self.max_error) {
-            self.rays
-        } else {
-            0
-        };
-        by_gap.max(by_noise)
+        larger_count(narrow, [self.narrow_rays, self.rays], noise, self.max_error)
     }
 }
 
@@ -179,7 +195,7 @@ pub fn work(p: &RefineParams) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{RefineParams, refines};
+    use super::{RefineParams, narrow_more, refines};
     use crate::passes::connect::ConnectParams;
 
     /// A texel's further rays and connections: the narrow count in a gap whatever the noise
@@ -229,7 +245,6 @@ mod tests {
         assert_eq!(both.connections_at(false, || quiet), 0);
         // Up to 64 rays where a gap holds 1 % of the room's texels; where it holds 10 %, a
         // quarter of 8 rays over the room is 20 a texel there; none where no texel is in one.
-        use super::narrow_more;
         assert_eq!(narrow_more(64, 8, 8, [1, 100]), 56);
         assert_eq!(narrow_more(64, 16, 8, [1, 100]), 48);
         assert_eq!(narrow_more(64, 8, 8, [10, 100]), 20);
