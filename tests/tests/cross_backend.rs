@@ -221,6 +221,66 @@ fn chairs_01_with_luminous_openings_agrees_across_backends() {
     run_scene(&case, &scene);
 }
 
+/// `chairs_01` with two lamps whose openings are curved, baked with `lamp_model = "area"` at
+/// the converged `default` preset: a vertical cylinder 0.2 m across and 0.3 m tall whose
+/// mantle and ends emit, and a globe 0.3 m across (an ellipsoid's surface), both synthetic
+/// files of uniform intensity. Their points come from the curved parts' samplers
+/// (`luxOpeningSamplePart` / `lux_opening_sample_part`, which run them in loops a flat part
+/// skips), and every stage agrees across backends within the converged method's tolerances.
+#[test]
+fn chairs_01_with_curved_openings_agrees_across_backends() {
+    use luxbake::scene::{Lamp, LampModel};
+    use luxbake_ies::SolidKind;
+
+    let case = converged_chairs_01("chairs_01_curved_openings");
+    let mut scene = Scene::builtin_with_settings("chairs_01", case.settings()).expect("chairs_01");
+    for (name, dims, position, kind) in [
+        (
+            "cylinder",
+            [-0.2, -0.2, 0.3],
+            [0.7, 2.2, -0.5],
+            SolidKind::Cylinder,
+        ),
+        (
+            "globe",
+            [-0.3, -0.3, -0.3],
+            [-0.8, 1.9, 0.6],
+            SolidKind::Ellipsoid,
+        ),
+    ] {
+        let photometry = uniform(60.0, dims);
+        // The solid, with its curved part emitting (a cylinder's mantle; an ellipsoid's all).
+        let emitter = photometry.emitter().expect("an opening");
+        assert_eq!(
+            (emitter.kind, emitter.faces & 4),
+            (kind, 4),
+            "{name}: {emitter:?}"
+        );
+        let mut lamp = Lamp::new(name, photometry, position);
+        lamp.model = LampModel::Area;
+        scene.lamps.push(lamp);
+    }
+    run_scene(&case, &scene);
+}
+
+/// An LM-63 file of `candela` in every direction with the luminous opening of the signed
+/// LM-63 dimensions `[width, length, height]` (metres; negative: round).
+fn uniform(
+    candela: f64,
+    [width, length, height]: [f64; 3],
+) -> std::sync::Arc<luxbake_ies::Photometry> {
+    let angles: Vec<String> = (0..=18).map(|g| (10 * g).to_string()).collect();
+    let values = vec![format!("{candela}"); angles.len()];
+    let text = format!(
+        "IESNA:LM-63-2002\n[TEST] uniform, curved opening\nTILT=NONE\n\
+         1 -1 1 {} 1 1 2 {width} {length} {height}\n1 1 0\n{}\n0\n{}\n",
+        angles.len(),
+        angles.join(" "),
+        values.join(" ")
+    );
+    std::sync::Arc::new(luxbake_ies::Photometry::parse(text.as_bytes()).expect("synthetic IES"))
+}
+
 /// `chairs_01` with `case`'s settings and a box-shaped direct/indirect pendant (`rw_1.IES`,
 /// bottom, top and sides emitting, at 0.2 of its candela) 0.3 m under the ceiling, baked as
 /// `model`; `None` (the test skipped with a message) without the shared photometry.
