@@ -221,6 +221,54 @@ fn chairs_01_with_luminous_openings_agrees_across_backends() {
     run_scene(&case, &scene);
 }
 
+/// The refinement's case ([`SCENES`]`[7]`: the first bounce refined for its noise and in narrow
+/// gaps, the later bounces' reduced gathers refined in the gaps) on `chairs_01` with a panel
+/// standing 4 cm in front of a wall: the panel's back and the wall behind it lie in a gap
+/// closed to its sides (`luxbake::validity::NARROW_GAP`), a few hundred texels, so that every
+/// backend's `refine` and `refine_narrow` passes cast their rays in the gaps there (the
+/// built-in room has almost none: its chairs' gaps are open to their sides).
+#[test]
+fn chairs_01_with_a_panel_in_a_gap_refined_agrees_across_backends() {
+    use luxbake::scene::{Albedo, Object, Transform};
+    use luxbake::sources::meshes;
+
+    let case = SceneCase {
+        scene: "chairs_01_gap",
+        ..SCENES[7]
+    };
+    let settings = case.settings();
+    assert!(
+        settings.narrow_rays > 0 && settings.refine_rays > 0,
+        "{settings:?}"
+    );
+    let mut scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
+    // The room's −x wall is at x = −2.5; the panel is 0.1 m thick.
+    scene.objects.push(Object {
+        name: "panel".into(),
+        mesh: meshes::cuboid([0.1, 1.2, 1.0], false, 4.0 / settings.texels_per_metre),
+        transform: Transform {
+            translation: [-2.5 + 0.04 + 0.05, 0.0, 0.8],
+            ..Transform::IDENTITY
+        },
+        albedo: Albedo::grey(0.6),
+        receiver: true,
+        texel_scale: 1.0,
+    });
+    let limits = luxbake::GpuBackend::limits(&luxbake_backend_cpu::CpuBackend::new());
+    let gaps = |scene: &Scene| {
+        luxbake::Room::prepare(scene, &settings, limits, &mut |_| {})
+            .expect("room")
+            .narrow_texels
+    };
+    let (with_panel, without) = (
+        gaps(&scene),
+        gaps(&Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01")),
+    );
+    eprintln!("texels in narrow gaps: {with_panel} with the panel, {without} without");
+    assert!(with_panel >= without + 200, "{with_panel} / {without}");
+    run_scene(&case, &scene);
+}
+
 /// `chairs_01` with two lamps whose openings are curved, baked with `lamp_model = "area"` at
 /// the converged `default` preset: a vertical cylinder 0.2 m across and 0.3 m tall whose
 /// mantle and ends emit, and a globe 0.3 m across (an ellipsoid's surface), both synthetic

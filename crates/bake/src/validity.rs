@@ -37,10 +37,16 @@
 //!    [`NARROW`] (still valid: every pass tests w > 0.5). The light in such a gap changes over a
 //!    texel or two, faster than a reduced-resolution gather's grid can follow: the coarse
 //!    gathers trace these texels themselves, as orphans ([`crate::contract::coarse`]). Where
-//!    the surface met also lies within [`GAP_FRACTION`] of the room's size, w becomes
-//!    [`NARROW_GAP`] (still narrow: w ≥ [`NARROW`]): light reaches such a gap through the few
-//!    directions that leave it, and these texels get more rays in every bounce
-//!    ([`crate::scene::Settings::narrow_rays`]).
+//!    the surface met also lies within [`GAP_FRACTION`] of the room's size, and four rays
+//!    tilted 45° off the normal toward the texel's tangent directions meet a surface within
+//!    the same distance of its plane (the gap is closed to every side: the back of a bookcase
+//!    against a wall, not a chair's slats or legs facing each other, nor a wall behind a thin
+//!    bar), w becomes [`NARROW_GAP`] (still narrow: w ≥ [`NARROW`]): light reaches such a gap
+//!    through the few directions that leave it, and these texels get more rays in every bounce
+//!    ([`crate::scene::Settings::narrow_rays`]). The tilted rays cut the texels in gaps of
+//!    `chairs_05` at 24 texels per metre from 1 330 to 200 and leave the real rooms' bookcase,
+//!    sideboard and cabinet gaps as they were (lounge 19 918 → 19 333, dining 11 385 →
+//!    10 967, office 11 005 → 9 960; docs/performance.md).
 //!
 //! Only receivers' texels are tested; non-receivers still occlude. As with Unity's back-face
 //! tolerance, a texel that mostly sees the back of one-sided geometry (under a single-sided
@@ -92,9 +98,10 @@ pub const NARROW_REACH_TEXELS: f32 = 6.0;
 /// The position's w of a valid texel that faces another surface within
 /// [`NARROW_REACH_TEXELS`] (module docs, step 4); 1 for the other valid texels.
 pub const NARROW: f32 = 2.0;
-/// The position's w of a narrow texel ([`NARROW`]) whose gap is also narrow against the room:
-/// the surface it faces lies within [`GAP_FRACTION`] of the room's size (module docs, step 4).
-/// Such texels get more rays in every bounce ([`crate::scene::Settings::narrow_rays`]).
+/// The position's w of a narrow texel ([`NARROW`]) whose gap is also narrow against the room
+/// and closed to its sides: the surface it faces lies within [`GAP_FRACTION`] of the room's
+/// size, and so do the surfaces its rays tilted 45° meet (module docs, step 4). Such texels get
+/// more rays in every bounce ([`crate::scene::Settings::narrow_rays`]).
 pub const NARROW_GAP: f32 = 3.0;
 /// A narrow texel's gap counts against the room ([`NARROW_GAP`]) when it is at most this
 /// fraction of the largest side of the valid texels' bounding box: 1/64, 7.8 cm in a room 5 m
@@ -264,6 +271,22 @@ pub fn unocclude(g: &mut GBuffer, scene: &Scene, bvh: &SceneBvh, eps: f32) -> Un
     stats
 }
 
+/// Whether the rays from `o` tilted 45° off the unit normal `n` toward the four tangent
+/// directions of [`basis`] all meet a surface within `gap` of `o`'s plane (`gap·√2` along
+/// them): the texel's gap is closed to every side, as behind a bookcase against a wall, not
+/// open as between a chair's slats or legs or behind a thin bar (module docs, step 4).
+fn enclosed(bvh: (&EncodedScene, &WideBvh), o: [f32; 3], n: [f32; 3], gap: f32) -> bool {
+    let (t, b) = basis(n);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let reach = gap * std::f32::consts::SQRT_2;
+    [[h, 0.0], [0.0, h], [-h, 0.0], [0.0, -h]]
+        .iter()
+        .all(|&[ct, cb]| {
+            let d = [0, 1, 2].map(|c| h * n[c] + ct * t[c] + cb * b[c]);
+            first_hit(bvh, o, d, reach).is_some()
+        })
+}
+
 /// World size of a texel of object `object` (the normal's w), metres; `None` where the
 /// object's density gives none.
 fn texel_size(scene: &Scene, object: f32) -> Option<f32> {
@@ -277,8 +300,8 @@ fn texel_size(scene: &Scene, object: f32) -> Option<f32> {
 
 /// Step 4 of the module docs: marks every valid texel whose normal ray meets a surface within
 /// [`NARROW_REACH_TEXELS`] texels with w = [`NARROW`], or [`NARROW_GAP`] where that surface
-/// also lies within [`GAP_FRACTION`] of the room's size; returns how many of each
-/// (`[narrow, of them in gaps]`).
+/// also lies within [`GAP_FRACTION`] of the room's size and the gap is closed to its sides
+/// ([`enclosed`]); returns how many of each (`[narrow, of them in gaps]`).
 fn mark_narrow(
     g: &mut GBuffer,
     scene: &Scene,
@@ -310,7 +333,7 @@ fn mark_narrow(
             let s = texel_size(scene, nw[3])?;
             let o = offset_origin([pw[0], pw[1], pw[2]], n, eps);
             let (t, _) = first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)?;
-            Some((i, t <= gap))
+            Some((i, t <= gap && enclosed(bvh, o, n, gap)))
         })
         .collect();
     let mut gaps = 0;

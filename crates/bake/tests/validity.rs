@@ -244,6 +244,11 @@ fn the_floor_at_a_contact_is_not_darker_than_next_to_it() {
 /// A 4 × 2.5 × 3 m room at 32 texels per metre (3.1 cm texels) with a panel 0.1 m thick, 1.5 m
 /// high and 1 m wide standing `gap` metres in front of its −x wall.
 fn panel_room(gap: f64) -> Scene {
+    bar_room(gap, 1.0)
+}
+
+/// [`panel_room`] with the panel `width` metres wide (along z).
+fn bar_room(gap: f64, width: f64) -> Scene {
     let x = -2.0 + gap + 0.05;
     let text = format!(
         r#"
@@ -263,11 +268,55 @@ size = [4.0, 2.5, 3.0]
 [[object]]
 name = "panel"
 primitive = "box"
-size = [0.1, 1.5, 1.0]
+size = [0.1, 1.5, {width}]
 position = [{x}, 0.0, 0.0]
 "#
     );
     scenefile::from_str(&text, std::path::Path::new("."), None).expect("scene")
+}
+
+#[test]
+fn a_gap_open_to_its_sides_is_narrow_but_no_gap() {
+    // 4 cm from the wall, within a 64th of the room's 4 m: a bar 4 cm wide leaves the wall
+    // behind it open to the sides (its rays tilted 45° pass the bar's edges), a panel 1 m wide
+    // closes it; the bar's own back faces the wall on every side.
+    let (gap, s) = (0.04, 1.0 / 32.0);
+    const { assert!(0.04 < GAP_FRACTION * 4.0) };
+    let (bar, panel) = (bar_room(gap, 0.04), bar_room(gap, 1.0));
+    let tall = |p: [f32; 3]| p[1] > 2.0 * s && p[1] < 1.5 - 2.0 * s;
+    let wall = |p: [f32; 3], n: [f32; 3]| n[0] > 0.99 && (p[0] + 2.0).abs() < 1e-3;
+    let back = |p: [f32; 3], n: [f32; 3]| n[0] < -0.99 && (p[0] + 2.0 - gap as f32).abs() < 1e-3;
+    for scale in [1e-3, 1.0, 1e3] {
+        let (mut open, mut bar_back, mut closed) = (0, 0, 0);
+        for (p, n, w) in marked(&bar, scale) {
+            if wall(p, n) && tall(p) && p[2].abs() < 0.015 {
+                assert_eq!(w, NARROW, "×{scale}: the wall behind the bar at {p:?}");
+                open += 1;
+            } else if back(p, n) {
+                if tall(p) {
+                    assert_eq!(w, NARROW_GAP, "×{scale}: the bar's back at {p:?}");
+                    bar_back += 1;
+                }
+            } else {
+                assert!(w < NARROW_GAP, "×{scale}: {p:?} facing {n:?} is marked {w}");
+            }
+        }
+        for (p, n, w) in marked(&panel, scale) {
+            // Off the panel's edges by more than the tilted rays' reach to the side.
+            if wall(p, n) && tall(p) && p[2].abs() < 0.5 - 2.0 * s - gap as f32 {
+                assert_eq!(
+                    w, NARROW_GAP,
+                    "×{scale}: the wall behind the panel at {p:?}"
+                );
+                closed += 1;
+            }
+        }
+        eprintln!(
+            "×{scale}: the wall behind the bar narrow {open}, the bar's back in a gap {bar_back}, \
+             the wall behind the panel in a gap {closed}"
+        );
+        assert!(open >= 20 && bar_back >= 20 && closed > 500, "×{scale}");
+    }
 }
 
 /// Texels of a prepared room: (world position scaled back by `1/scale`, normal, the

@@ -49,10 +49,10 @@
 //!
 //! # Narrow gaps
 //! A texel in a narrow gap ([`crate::validity::NARROW_GAP`]: its surface faces another within
-//! a few texels and a 64th of the room's size) gets [`RefineParams::narrow_rays`] further rays
-//! whatever its noise (and its
-//! second estimate `K·narrow_rays/N` connections). In such a gap the light comes from the
-//! few directions that leave it, most of it after bounces inside the gap, so a few rays give
+//! a few texels and a 64th of the room's size, and the gap is closed to its sides) gets
+//! [`RefineParams::narrow_rays`] further rays whatever its noise (and its second estimate
+//! `K·narrow_rays/N` connections). In such a gap the light comes from the few directions that
+//! leave it, most of it after bounces inside the gap, so a few rays give
 //! skewed, heavy noise — the points behind a bookcase 2.5 cm from a wall read −21 … +40 % at
 //! 8 rays, four seeds — over a few per cent of a room's texels (`crate::validity`). The
 //! decision reads no estimate, so it biases nothing. The later bounces' reduced gathers are
