@@ -36,7 +36,8 @@
 //! 8. the lamp swap of issue #26 ([`SWAP_SCENE`], [`SWAP_SETTINGS`]): `baker.load`, a first
 //!    `room.bake` with [`CHECK_LAMP`], a second with [`SWAP_LAMP`] whose direct light comes
 //!    first (`onDirect`) and agrees with the native bake's, and whose maps equal a fresh
-//!    `baker.bake` with that lamp; a
+//!    `baker.bake` with that lamp; [`SWAP_REPEATS`] more swaps and fresh bakes in the page
+//!    give the swap's ratio to a fresh bake per pair and their median; a
 //!    layered bake equals it, and `setLamp` (within [`MAX_SET_LAMP_MS`]) halves and switches it
 //!    off in the maps, `measure` and what `applyToThree` drew; bad `setLamp` input, punctual
 //!    lights removed or kept, `setExposure`'s tone mapping, a bake of the room at another
@@ -116,6 +117,11 @@ pub const CHECK_UNWRAPPED: &str = "../shared/models/GlamVelvetSofa/GlamVelvetSof
 /// at [`SWAP_FIRST_POSITION`], then the same loaded room with [`SWAP_LAMP`] at
 /// [`SWAP_POSITION`], at [`SWAP_SETTINGS`].
 pub const SWAP_SCENE: &str = "chairs_05";
+
+/// Swaps the check repeats after its first, each after a bake with [`CHECK_LAMP`] again and
+/// followed by a fresh bake with [`SWAP_LAMP`]: the swap's ratio to a fresh bake is reported
+/// per pair and as the median of all of them (one bake's seconds in SwiftShader scatter).
+pub const SWAP_REPEATS: usize = 2;
 
 /// The swap's second lamp: a manufacturer's IES file from the shared test data.
 pub const SWAP_LAMP: &str = "../shared/photometry/real-world/rw_5.IES";
@@ -1000,7 +1006,9 @@ fn check_generated_uvs(s: &Session, settings: &Value, native: &Native) -> Result
 ///    [`CHECK_LAMP`], then a second with [`SWAP_LAMP`] on the same room, its direct light
 ///    handed over first (`onDirect`: `rw_5.IES` bakes its luminous opening, so a preview of the
 ///    lamp as a point comes before); the second equals a fresh `baker.bake` with its lamp, its direct light,
-///    the one handed over and the preview agree with a native glow bake's. Then
+///    the one handed over and the preview agree with a native glow bake's. [`SWAP_REPEATS`]
+///    more swaps (each after a bake with [`CHECK_LAMP`]) and fresh bakes give the swap's ratio
+///    per pair and their median. Then
 ///    a layered bake of the same lamp equals the second bake, `setLamp` halves and switches it
 ///    off (maps, `measure` and what `applyToThree` drew follow, in at most
 ///    [`MAX_SET_LAMP_MS`]), bad input rejects with the right kind, `applyToThree` removes or
@@ -1157,6 +1165,49 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         f(&swap["wall"]) / f(&fresh["wall"]),
         preview / f(&fresh["wall"]),
         direct / f(&fresh["wall"]),
+    );
+
+    // More swaps, each after a bake with the first lamp again and each followed by a fresh
+    // bake: in SwiftShader one bake's seconds scatter by a fifth or more from bake to bake, so
+    // the swap's ratio to a fresh bake is given per pair and as the pairs' median.
+    let script = format!(
+        "const ex = window.luxbakeExample; const room = window.__swapRoom; const glb = window.__swapGlb; \
+         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
+         const [ies7, ies5] = await Promise.all([bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
+         const settings = {settings}; const pairs = []; \
+         for (let k = 0; k < {SWAP_REPEATS}; k++) {{ \
+           (await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}})).dispose(); \
+           let t = performance.now(); \
+           const swap = await room.bake({{lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}], onDirect: () => {{}}}}); \
+           const swapS = (performance.now() - t) / 1000; swap.dispose(); \
+           t = performance.now(); \
+           const fresh = await ex.baker.bake({{...settings, scene: glb, lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}]}}); \
+           pairs.push([swapS, (performance.now() - t) / 1000]); fresh.dispose(); }} \
+         done({{pairs}});",
+        first = SWAP_FIRST_POSITION,
+        swap = SWAP_POSITION,
+    );
+    let got_pairs = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
+    ))?;
+    let mut ratios = vec![f(&swap["wall"]) / f(&fresh["wall"])];
+    for pair in got_pairs["pairs"].as_array().into_iter().flatten() {
+        ratios.push(f(&pair[0]) / f(&pair[1]));
+    }
+    if ratios.len() != 1 + SWAP_REPEATS || !ratios.iter().all(|r| r.is_finite() && *r > 0.0) {
+        return Err(format!("the repeated swaps failed: {got_pairs}"));
+    }
+    let mut sorted = ratios.clone();
+    sorted.sort_by(f64::total_cmp);
+    let swap_to_fresh_median = sorted[sorted.len() / 2];
+    println!(
+        "the swap / a fresh bake with its lamp, {} pairs in this page: {} (median {swap_to_fresh_median:.2})",
+        ratios.len(),
+        ratios
+            .iter()
+            .map(|r| format!("{r:.2}"))
+            .collect::<Vec<_>>()
+            .join(", ")
     );
 
     // Layers: the same lamp layered equals the swap; setLamp recombines without a ray.
@@ -1326,6 +1377,8 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "regionTexels": got["regionTexels"], "load_s": load, "first_bake_s": first["wall"],
         "swap_s": swap["wall"], "swap_ratio": f(&swap["wall"]) / first_total,
         "fresh_same_lamp_s": fresh["wall"], "swap_to_fresh_ratio": f(&swap["wall"]) / f(&fresh["wall"]),
+        "swap_to_fresh_ratios": ratios, "swap_to_fresh_median": swap_to_fresh_median,
+        "swap_and_fresh_s_repeated": got_pairs["pairs"],
         "fresh_worker_s": fresh["bake"], "fresh_gpu_s": fresh["gpu"],
         "direct_s": direct, "direct_ratio": direct / first_total,
         "preview_s": preview, "preview_to_fresh_ratio": preview / f(&fresh["wall"]),
