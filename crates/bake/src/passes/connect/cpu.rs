@@ -101,16 +101,18 @@ impl ConnectParams {
         picks: &[usize],
         lanes: bool,
     ) -> [f32; 4] {
-        let [pw, nw, _] = ctx.maps().map(|m| m.fetch(at));
+        let [pos, nrm, _] = ctx.maps();
+        let pw = pos.fetch(at);
         if pw[3] <= 0.5 {
             return [0.0; 4];
         }
-        let Some(n) = normalize(xyz(nw)) else {
-            return [0.0, 0.0, 0.0, 1.0];
-        };
+        // A texel that connects nothing (most, in the refinement's pass) reads no more.
         if picks.is_empty() || self.k == 0 {
             return [0.0, 0.0, 0.0, 1.0];
         }
+        let Some(n) = normalize(xyz(nrm.fetch(at))) else {
+            return [0.0, 0.0, 0.0, 1.0];
+        };
         let p = xyz(pw);
         let scene = ctx.scene;
         let origin = offset_origin(p, n, scene.ray_epsilon);

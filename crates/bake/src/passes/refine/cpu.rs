@@ -35,13 +35,14 @@ impl CpuPass for RefineParams {
                 continue;
             }
             texel.copy_from_slice(&first_map.fetch(here));
-            let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
-                continue;
-            };
+            // A texel the refinement passes over (most) reads no more.
             let more = params.more(pos[3] >= NARROW_GAP, || variance.fetch(here));
             if more == 0 {
                 continue;
             }
+            let Some(n) = normalize(xyz(nrm_map.fetch(here))) else {
+                continue;
+            };
             let at_texel = [layer, here.x, y];
             let stream = rng::Stream::refine(
                 sampler,
