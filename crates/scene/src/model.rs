@@ -831,8 +831,8 @@ pub struct Settings {
     /// (of the first bounce's noise over the direct light and the first bounce together).
     pub refine_error: f32,
     /// [`Method::Converged`]: rays per texel in a narrow gap (`luxbake::validity::NARROW_GAP`:
-    /// its surface faces another within a few texels and a 64th of the room's size, the back of
-    /// a bookcase near a wall), in
+    /// its surface faces another within a few texels and a 64th of the room's size, in a gap
+    /// closed to its sides, as the back of a bookcase near a wall is), in
     /// every bounce, whatever its noise: a bounce that gathers fewer there adds the rest as
     /// refinement adds rays (`luxbake::passes::refine`, "Narrow gaps") — the first bounce
     /// with `stride` 1 (and `lamp_paths · (narrow_rays − rays) / rays` further connections),
@@ -982,9 +982,9 @@ impl Settings {
     /// in narrow gaps ([`Settings::narrow_rays`]): with [`Settings::NARROW_RAYS`] (64 in every
     /// bounce there) `default` holds 1 % on every surface kind of two of the three real rooms
     /// (the furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a wall: the
-    /// lounge 3.7 → 1.4 %, the dining room 1.2 → 0.88 %) for 1.1–1.2× their bake's time, but
-    /// in the browser at 24 texels/m, where the chairs' own gaps count, it made a lamp swap
-    /// 0.79 of a fresh bake instead of 0.54 (docs/performance.md, "Narrow gaps refined").
+    /// lounge 3.7 → 1.4 %, the dining room 1.2 → 0.88 %) for 1.1–1.2× their bake's time, and
+    /// in the browser (24 texels/m) a lamp swap takes 0.60 of a fresh bake instead of 0.56
+    /// (docs/performance.md, "Narrow gaps refined" and "Gaps closed to their sides").
     pub fn preset(quality: Quality) -> Settings {
         let base = Settings {
             method: Method::Converged,
