@@ -43,6 +43,8 @@
 //!    lights removed or kept, `setExposure`'s tone mapping, a bake of the room at another
 //!    density (read again, as a fresh bake), a disposed room (the example's
 //!    first bake, 1, goes through `baker.load` and `room.bake` with `onDirect`);
+//!    The same swap on the furnished room ([`SWAP_FURNISHED`]) equals a fresh bake there, its
+//!    times and ratios in `swap_furnished.json`;
 //! 9. after `dispose()` a bake rejects with `disposed`; the page logged no error;
 //! 10. the catalogue's web output (issue 28): `chairs_01` × [`WEB_LAMPS`] planned and run as
 //!     catalogue rows (draft, 16 texels/m) into `project/catalogue/out/`; every `web.glb`
@@ -117,6 +119,11 @@ pub const CHECK_UNWRAPPED: &str = "../shared/models/GlamVelvetSofa/GlamVelvetSof
 /// at [`SWAP_FIRST_POSITION`], then the same loaded room with [`SWAP_LAMP`] at
 /// [`SWAP_POSITION`], at [`SWAP_SETTINGS`].
 pub const SWAP_SCENE: &str = "chairs_05";
+
+/// The second room of the swap (issue #26: "the 3 × SheenChair + GlamVelvetSofa room"): the
+/// scene file of `cargo xtask bench swap`'s furnished room, exported without its lamp, baked
+/// and swapped with the same lamps, positions and settings as [`SWAP_SCENE`].
+pub const SWAP_FURNISHED: &str = "bench/scenes/furnished_room.toml";
 
 /// Swaps the check repeats after its first, each after a bake with [`CHECK_LAMP`] again and
 /// followed by a fresh bake with [`SWAP_LAMP`]: the swap's ratio to a fresh bake is reported
@@ -397,6 +404,17 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     let swap_glb_path = project.join(format!("{SWAP_SCENE}.glb"));
     luxbake_assets::export::export_scene(&swap_room, &swap_glb_path).map_err(|e| e.to_string())?;
     let swap_glb = std::fs::read(&swap_glb_path).map_err(|e| e.to_string())?;
+    let furnished_path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("..")
+        .join(SWAP_FURNISHED);
+    let mut furnished = luxbake::sources::scenefile::from_file_with(
+        &furnished_path,
+        &luxbake_assets::SceneLoader::default(),
+    )
+    .map_err(|e| format!("{SWAP_FURNISHED}: {e}"))?;
+    furnished.lamps.clear();
+    luxbake_assets::export::export_scene(&furnished, &project.join("furnished_room.glb"))
+        .map_err(|e| e.to_string())?;
 
     // The request: the package's room, the builtin lamp position of chairs_01.
     let glb_path = project.join("node_modules/luxbake/examples/three/chairs_01.glb");
@@ -453,6 +471,7 @@ fn check(args: &Args, root: &Path, tgz: &Path) -> Result<(), String> {
     let result = run_checks(s, page_port, &settings, &native, &dir)
         .and_then(|()| check_generated_uvs(s, &sofa_settings, &sofa_native))
         .and_then(|()| check_swap(s, &swap_native, &dir))
+        .and_then(|()| check_furnished_swap(s, &dir))
         .and_then(|()| check_dispose(s))
         .and_then(|()| check_web_glb(s, &web_rows));
     if let Some(s) = driver.session.take() {
@@ -1396,6 +1415,83 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         "lamp swap checks passed in {:.1} s",
         started.elapsed().as_secs_f64()
     );
+    Ok(())
+}
+
+/// 8b. The lamp swap on the furnished room ([`SWAP_FURNISHED`]): `baker.load`, a first bake
+///    with [`CHECK_LAMP`], the swap to [`SWAP_LAMP`] (its direct light handed over first), a
+///    fresh bake with it; the swap equals the fresh bake. The times and ratios are printed and
+///    written to `swap_furnished.json`.
+fn check_furnished_swap(s: &Session, dir: &Path) -> Result<(), String> {
+    let started = Instant::now();
+    let settings: Value = serde_json::from_str(SWAP_SETTINGS).map_err(|e| e.to_string())?;
+    let script = format!(
+        "const ex = window.luxbakeExample; \
+         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
+         const [glb, ies7, ies5] = await Promise.all([bytes('/furnished_room.glb'), bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
+         const settings = {settings}; \
+         const t0 = performance.now(); \
+         const room = await ex.baker.load({{...settings, scene: glb}}); \
+         const t1 = performance.now(); \
+         (await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}})).dispose(); \
+         const t2 = performance.now(); let directAt = null; \
+         const swap = await room.bake({{lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}], \
+           onDirect: (d) => {{ if (d.stage === 'direct') directAt = performance.now(); }}}}); \
+         const t3 = performance.now(); \
+         const fresh = await ex.baker.bake({{...settings, scene: glb, lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}]}}); \
+         const t4 = performance.now(); \
+         {JS_DIFF} const asFresh = diff(swap, fresh, 1); const texels = room.texels; \
+         swap.dispose(); fresh.dispose(); room.dispose(); \
+         done({{texels, load: (t1 - t0) / 1000, first: (t2 - t1) / 1000, swap: (t3 - t2) / 1000, \
+           fresh: (t4 - t3) / 1000, direct: directAt === null ? null : (directAt - t2) / 1000, asFresh}});",
+        first = SWAP_FIRST_POSITION,
+        swap = SWAP_POSITION,
+    );
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
+    ))?;
+    if got.get("thrown").is_some() {
+        return Err(format!("the furnished room's lamp swap failed: {got}"));
+    }
+    let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+    let as_fresh = &got["asFresh"];
+    if as_fresh["n"].as_u64().unwrap_or(0) == 0 || !at_most(f(&as_fresh["worst"]), 1e-6) {
+        return Err(format!(
+            "the furnished room's swap differs from a fresh bake with its lamp: {as_fresh}"
+        ));
+    }
+    let (load, first, swap, fresh, direct) = (
+        f(&got["load"]),
+        f(&got["first"]),
+        f(&got["swap"]),
+        f(&got["fresh"]),
+        f(&got["direct"]),
+    );
+    if !(direct > 0.0 && direct < swap) {
+        return Err(format!(
+            "the furnished room's swap handed no direct light over first: {got}"
+        ));
+    }
+    println!(
+        "lamp swap on the furnished room ({} texels): load {load:.2} s, first bake {first:.2} s; \
+         swap {swap:.2} s = {:.2} of the first (load + bake) and {:.2} of a fresh bake with its lamp \
+         ({fresh:.2} s), its direct light after {:.2} of the fresh bake; the swap equals the fresh \
+         bake (worst {:.1e} over {} values)",
+        got["texels"],
+        swap / (load + first),
+        swap / fresh,
+        direct / fresh,
+        f(&as_fresh["worst"]),
+        as_fresh["n"],
+    );
+    let record = json!({
+        "scene": SWAP_FURNISHED, "settings": settings, "texels": got["texels"], "load_s": load,
+        "first_bake_s": first, "swap_s": swap, "fresh_same_lamp_s": fresh, "direct_s": direct,
+        "swap_ratio": swap / (load + first), "swap_to_fresh_ratio": swap / fresh,
+        "direct_to_fresh_ratio": direct / fresh, "check_s": started.elapsed().as_secs_f64(),
+    });
+    std::fs::write(dir.join("swap_furnished.json"), record.to_string())
+        .map_err(|e| e.to_string())?;
     Ok(())
 }
 
