@@ -1038,13 +1038,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     let started = Instant::now();
     let settings: Value = serde_json::from_str(SWAP_SETTINGS).map_err(|e| e.to_string())?;
     let script = format!(
-        "const ex = window.luxbakeExample; \
-         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
-         const [glb, ies7, ies5] = await Promise.all([bytes('/{SWAP_SCENE}.glb'), bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
-         const settings = {settings}; \
-         const t0 = performance.now(); \
-         const room = await ex.baker.load({{...settings, scene: glb}}); \
-         const t1 = performance.now(); \
+        "{load} \
          const first = await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}}); \
          const t2 = performance.now(); \
          let directAt = null; let direct = null; let previewAt = null; let preview = null; const stages = []; \
@@ -1064,15 +1058,11 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
            swap: {{...times(swap), wall: (t3 - t2) / 1000}}, fresh: {{...times(fresh), wall: (t4 - t3) / 1000}}, direct: directAt === null ? null : (directAt - t2) / 1000, \
            preview: previewAt === null ? null : (previewAt - t2) / 1000, stages, \
            directStage: direct?.stage, texels: room.texels, regionTexels: swap.report.regionTexels, asFresh}});",
+        load = js_load_room(&format!("{SWAP_SCENE}.glb"), &settings),
         first = SWAP_FIRST_POSITION,
         swap = SWAP_POSITION,
     );
-    let got = s.script(&format!(
-        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
-    ))?;
-    if got.get("thrown").is_some() {
-        return Err(format!("the lamp swap failed: {got}"));
-    }
+    let got = run_async(s, &script, "the lamp swap")?;
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let (load, first, swap, fresh) = (f(&got["load"]), &got["first"], &got["swap"], &got["fresh"]);
     let first_total = load + f(&first["wall"]);
@@ -1206,9 +1196,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         first = SWAP_FIRST_POSITION,
         swap = SWAP_POSITION,
     );
-    let got_pairs = s.script(&format!(
-        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
-    ))?;
+    let got_pairs = run_async(s, &script, "the repeated swaps")?;
     let mut ratios = vec![f(&swap["wall"]) / f(&fresh["wall"])];
     for pair in got_pairs["pairs"].as_array().into_iter().flatten() {
         ratios.push(f(&pair[0]) / f(&pair[1]));
@@ -1279,12 +1267,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
         swap = SWAP_POSITION,
         points = json!(MEASURE_POINTS),
     );
-    let l = s.script(&format!(
-        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
-    ))?;
-    if l.get("thrown").is_some() {
-        return Err(format!("the layered bake failed: {l}"));
-    }
+    let l = run_async(s, &script, "the layered bake")?;
     let worst = |v: &Value| f(&v["worst"]);
     let compared = |v: &Value| v["n"].as_u64().unwrap_or(0);
     println!(
@@ -1426,13 +1409,7 @@ fn check_furnished_swap(s: &Session, dir: &Path) -> Result<(), String> {
     let started = Instant::now();
     let settings: Value = serde_json::from_str(SWAP_SETTINGS).map_err(|e| e.to_string())?;
     let script = format!(
-        "const ex = window.luxbakeExample; \
-         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
-         const [glb, ies7, ies5] = await Promise.all([bytes('/furnished_room.glb'), bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
-         const settings = {settings}; \
-         const t0 = performance.now(); \
-         const room = await ex.baker.load({{...settings, scene: glb}}); \
-         const t1 = performance.now(); \
+        "{load} \
          (await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}})).dispose(); \
          const t2 = performance.now(); let directAt = null; \
          const swap = await room.bake({{lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}], \
@@ -1444,15 +1421,11 @@ fn check_furnished_swap(s: &Session, dir: &Path) -> Result<(), String> {
          swap.dispose(); fresh.dispose(); room.dispose(); \
          done({{texels, load: (t1 - t0) / 1000, first: (t2 - t1) / 1000, swap: (t3 - t2) / 1000, \
            fresh: (t4 - t3) / 1000, direct: directAt === null ? null : (directAt - t2) / 1000, asFresh}});",
+        load = js_load_room("furnished_room.glb", &settings),
         first = SWAP_FIRST_POSITION,
         swap = SWAP_POSITION,
     );
-    let got = s.script(&format!(
-        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
-    ))?;
-    if got.get("thrown").is_some() {
-        return Err(format!("the furnished room's lamp swap failed: {got}"));
-    }
+    let got = run_async(s, &script, "the furnished room's lamp swap")?;
     let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
     let as_fresh = &got["asFresh"];
     if as_fresh["n"].as_u64().unwrap_or(0) == 0 || !at_most(f(&as_fresh["worst"]), 1e-6) {
@@ -1493,6 +1466,33 @@ fn check_furnished_swap(s: &Session, dir: &Path) -> Result<(), String> {
     std::fs::write(dir.join("swap_furnished.json"), record.to_string())
         .map_err(|e| e.to_string())?;
     Ok(())
+}
+
+/// Runs `script` (JavaScript that ends by calling `done(result)`) as an async function in the
+/// page and returns its result; `what` (which failed) and the error when it throws.
+fn run_async(s: &Session, script: &str, what: &str) -> Result<Value, String> {
+    let got = s.script(&format!(
+        "(async () => {{ {script} }})().catch(e => done({{thrown: String(e), kind: e.kind}}));"
+    ))?;
+    if got.get("thrown").is_some() {
+        return Err(format!("{what} failed: {got}"));
+    }
+    Ok(got)
+}
+
+/// JavaScript: the swap's lamp files and the room `glb` (served by the check) fetched, the
+/// room loaded with `settings` (`baker.load`), timed: `ex`, `glb`, `ies7`, `ies5`,
+/// `settings`, `room`, and `t0`, `t1` around the load.
+fn js_load_room(glb: &str, settings: &Value) -> String {
+    format!(
+        "const ex = window.luxbakeExample; \
+         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
+         const [glb, ies7, ies5] = await Promise.all([bytes('/{glb}'), bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
+         const settings = {settings}; \
+         const t0 = performance.now(); \
+         const room = await ex.baker.load({{...settings, scene: glb}}); \
+         const t1 = performance.now();"
+    )
 }
 
 /// Whether `v` is at most `max` (false for NaN).
