@@ -273,8 +273,8 @@ fn chairs_01_with_a_panel_in_a_gap_refined_agrees_across_backends() {
 /// the converged `default` preset: a vertical cylinder 0.2 m across and 0.3 m tall whose
 /// mantle and ends emit, and a globe 0.3 m across (an ellipsoid's surface), both synthetic
 /// files of uniform intensity. Their points come from the curved parts' samplers
-/// (`luxOpeningSamplePart` / `lux_opening_sample_part`, which run them in loops a flat part
-/// skips), and every stage agrees across backends within the converged method's tolerances.
+/// (`luxOpeningSamplePart` / `lux_opening_sample_part` against `opening::PartSampler`), and
+/// every stage agrees across backends within the converged method's tolerances.
 #[test]
 fn chairs_01_with_curved_openings_agrees_across_backends() {
     use luxbake::scene::{Lamp, LampModel};

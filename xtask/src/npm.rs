@@ -1048,7 +1048,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
          const fresh = await ex.baker.bake({{...settings, scene: glb, lamps: [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}]}}); \
          const t4 = performance.now(); \
          {JS_DIFF} const asFresh = diff(swap, fresh, 1); fresh.dispose(); \
-         window.__swapRoom = room; window.__swapGlb = glb; window.__swap = swap; window.__direct = direct; window.__preview = preview; \
+         window.__swapRoom = room; window.__swapGlb = glb; window.__swapIes = [ies7, ies5]; window.__swap = swap; window.__direct = direct; window.__preview = preview; \
          const gpu = (r) => r.report.passes.reduce((a, p) => a + p.seconds, 0); \
          const setup = (r) => r.timings.setup.reduce((a, p) => a + p.seconds, 0); \
          const byPass = (r) => r.report.passes.reduce((m, p) => (m[p.label] = (m[p.label] || 0) + p.seconds, m), {{}}); \
@@ -1181,8 +1181,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     // the swap's ratio to a fresh bake is given per pair and as the pairs' median.
     let script = format!(
         "const ex = window.luxbakeExample; const room = window.__swapRoom; const glb = window.__swapGlb; \
-         const bytes = async (u) => (await fetch(u)).arrayBuffer(); \
-         const [ies7, ies5] = await Promise.all([bytes('/lamp.ies'), bytes('/lamp5.ies')]); \
+         const [ies7, ies5] = window.__swapIes; \
          const settings = {settings}; const pairs = []; \
          for (let k = 0; k < {SWAP_REPEATS}; k++) {{ \
            (await room.bake({{lamps: [{{photometry: ies7, position: {first:?}, name: 'rw_7.IES'}}]}})).dispose(); \
@@ -1220,7 +1219,7 @@ fn check_swap(s: &Session, native: &Native, dir: &Path) -> Result<(), String> {
     // Layers: the same lamp layered equals the swap; setLamp recombines without a ray.
     let script = format!(
         "const ex = window.luxbakeExample; const T = ex.THREE; const room = window.__swapRoom; const swap = window.__swap; \
-         const ies5 = await (await fetch('/lamp5.ies')).arrayBuffer(); \
+         const ies5 = window.__swapIes[1]; \
          const lamps = [{{photometry: ies5, position: {swap:?}, name: 'rw_5.IES'}}]; \
          const lay = await room.bake({{lamps, layers: true}}); window.__layers = lay; \
          {JS_DIFF} const same = diff(lay, swap, 1); \
