@@ -128,7 +128,10 @@
 //!   object's reflected map is read (masked bilinear, [`map`]) at the hit's light-map UV.
 //!   With `L = M/π` and cosine-weighted sampling, `E_ind = π·mean(L) = mean(M_hit)`. Back-face
 //!   hits (the ray meets the side the shading normal points away from), misses and hits on
-//!   non-receivers contribute 0. The directions come from the stateless random numbers of
+//!   non-receivers contribute 0. A texel facing a surface a few centimetres away (a narrow
+//!   gap, [`validity`]) draws its rays uniformly instead, each weighted by `2 cos θ`, so that
+//!   the grazing directions along the gap, its only view of the lit room, are drawn 19 times
+//!   as often ([`lightpaths::gather_weight`]). The directions come from the stateless random numbers of
 //!   [`rng`]: the paper's independent hash per ray, or a scrambled Sobol sequence whose error
 //!   falls faster with N, shared by blocks of 2 × 2 texels whose directions it stratifies
 //!   against one another ([`scene::Settings::sampler`], [`rng::Stream`]). The converged method's

@@ -11,17 +11,18 @@ void luxBasis(vec3 n, out vec3 t, out vec3 b) {
     b = vec3(bb, s + n.y * n.y * a, -n.y);
 }
 
-// cpu::cosine_direction.
-vec3 luxCosineDirection(vec3 n, vec2 u) {
+// cpu::Frame::cosine_direction, or with `uniform` Frame::uniform_direction (the rays of a
+// texel in a narrow gap, lightpaths::gather_weight).
+vec3 luxGatherDirection(vec3 n, vec2 u, bool uniformRays) {
     const float TWO_PI = 6.28318530717959;
     vec3 t;
     vec3 b;
     luxBasis(n, t, b);
-    float r = sqrt(u.x);
+    float r = uniformRays ? sqrt(max(u.x * (2.0 - u.x), 0.0)) : sqrt(u.x);
     float phi = TWO_PI * u.y;
     float x = r * cos(phi);
     float y = r * sin(phi);
-    float z = sqrt(max(1.0 - u.x, 0.0));
+    float z = uniformRays ? 1.0 - u.x : sqrt(max(1.0 - u.x, 0.0));
     return vec3(t.x * x + b.x * y + n.x * z, t.y * x + b.y * y + n.y * z,
                 t.z * x + b.z * y + n.z * z);
 }
@@ -88,18 +89,23 @@ float luxLampDensity(vec3 y, vec3 n, int lamps) {
     return sum;
 }
 
-// lightpaths::gather_weight: the balance heuristic of a gather hit against `k` lamp paths.
-float luxGatherWeight(uint rays, uint k, float scale, float density, float r, float cx, float cy) {
+// lightpaths::gather_weight: a gather hit's share of the reflected exitance (1 for the
+// cosine-weighted rays, 2 cx for a gap's uniform ones) times the balance heuristic against `k`
+// lamp paths.
+float luxGatherWeight(uint rays, uint k, float scale, float density, float r, float cx, float cy,
+                      bool uniformRays) {
+    float pdf = uniformRays ? 0.5 : cx;
+    float share = uniformRays ? 2.0 * cx : 1.0;
     if (k == 0u) {
-        return 1.0;
+        return share;
     }
     float v = 3.14159265358979 * float(k) * (scale * density) * (r * r);
     if (!(v > 0.0)) {
-        return 1.0;
+        return share;
     }
-    float g = float(rays) * (cx * cy);
+    float g = float(rays) * (pdf * cy);
     float d = g + v;
-    return luxFinite(d) ? g / d : 0.0;
+    return luxFinite(d) ? share * (g / d) : 0.0;
 }
 
 // cpu::gather_rays: the sum of the reflected exitance seen along rays `firstRay .. firstRay + count`
@@ -107,16 +113,17 @@ float luxGatherWeight(uint rays, uint k, float scale, float density, float r, fl
 // the unit normal `n`, each weighted against `lampPaths` lamp paths of a gather of `misRays`
 // rays (lightpaths; 0: weight 1). With directAtHits = 1 a hit away from every lamp's opening
 // reads the lamps' direct light there times its albedo (luxPointLampsAt,
-// gather::GatherParams::direct_at_hits).
+// gather::GatherParams::direct_at_hits). With `uniform` (a texel in a narrow gap) the rays
+// are drawn uniformly over the hemisphere and weighted by their share (luxGatherWeight).
 vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
                   uint samplerId, uint bounce, uint seed, uint lampPaths, uint misRays,
-                  float densityScale, int lamps, uint directAtHits) {
+                  float densityScale, int lamps, uint directAtHits, bool uniformRays) {
     float infinity = uintBitsToFloat(0x7f800000u);
     int objects = textureSize(u_regions, 0).x;
     vec3 sum = vec3(0.0);
     for (uint s = firstRay; s < firstRay + count; ++s) {
-        vec3 dir = luxCosineDirection(n, luxSample2(samplerId, stream.x, stream.y + s, bounce,
-                                                    seed));
+        vec3 dir = luxGatherDirection(n, luxSample2(samplerId, stream.x, stream.y + s, bounce,
+                                                    seed), uniformRays);
         vec3 hit;
 #ifdef LUX_REPLAY
         // Kept hits (luxbake::kept): the hit this ray had when its trace pass cast it,
@@ -175,7 +182,7 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
         {
             m = luxSampleMasked(int(region0.x), ivec2(region0.yz), ivec2(region1.xy), uv, false);
         }
-        float weight = 1.0;
+        float weight = uniformRays ? 2.0 * luxDot(n, dir) : 1.0;
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
         if (lampPaths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {
             vec3 ny;
@@ -184,7 +191,7 @@ vec3 luxGatherSum(vec3 origin, vec3 n, uvec2 stream, uint firstRay, uint count,
             }
             float density = luxLampDensity(y, ny, lamps);
             weight = luxGatherWeight(misRays, lampPaths, densityScale, density, hit.x,
-                                     luxDot(n, dir), -luxDot(ny, dir));
+                                     luxDot(n, dir), -luxDot(ny, dir), uniformRays);
         }
         sum += weight * m;
     }

@@ -11,16 +11,17 @@ fn lux_basis(n: vec3<f32>, t: ptr<function, vec3<f32>>, b: ptr<function, vec3<f3
     *b = vec3<f32>(bb, s + n.y * n.y * a, -n.y);
 }
 
-// cpu::cosine_direction.
-fn lux_cosine_direction(n: vec3<f32>, u: vec2<f32>) -> vec3<f32> {
+// cpu::Frame::cosine_direction, or with `uniform` Frame::uniform_direction (the rays of a
+// texel in a narrow gap, lightpaths::gather_weight).
+fn lux_gather_direction(n: vec3<f32>, u: vec2<f32>, uniform_rays: bool) -> vec3<f32> {
     var t: vec3<f32>;
     var b: vec3<f32>;
     lux_basis(n, &t, &b);
-    let r = sqrt(u.x);
+    let r = select(sqrt(u.x), sqrt(max(u.x * (2.0 - u.x), 0.0)), uniform_rays);
     let phi = 6.28318530717959 * u.y;
     let x = r * cos(phi);
     let y = r * sin(phi);
-    let z = sqrt(max(1.0 - u.x, 0.0));
+    let z = select(sqrt(max(1.0 - u.x, 0.0)), 1.0 - u.x, uniform_rays);
     return vec3<f32>(t.x * x + b.x * y + n.x * z, t.y * x + b.y * y + n.y * z,
                      t.z * x + b.z * y + n.z * z);
 }
@@ -95,20 +96,24 @@ fn lux_lamp_density(y: vec3<f32>, n: vec3<f32>, lamps: u32) -> f32 {
     return sum;
 }
 
-// lightpaths::gather_weight: the balance heuristic of a gather hit against `k` lamp paths.
+// lightpaths::gather_weight: a gather hit's share of the reflected exitance (1 for the
+// cosine-weighted rays, 2 cx for a gap's uniform ones) times the balance heuristic against `k`
+// lamp paths.
 fn lux_gather_weight(rays: u32, k: u32, scale: f32, density: f32, r: f32, cx: f32,
-                     cy: f32) -> f32 {
+                     cy: f32, uniform_rays: bool) -> f32 {
+    let pdf = select(cx, 0.5, uniform_rays);
+    let share = select(1.0, 2.0 * cx, uniform_rays);
     if (k == 0u) {
-        return 1.0;
+        return share;
     }
     let v = 3.14159265358979 * f32(k) * (scale * density) * (r * r);
     if (!(v > 0.0)) {
-        return 1.0;
+        return share;
     }
-    let g = f32(rays) * (cx * cy);
+    let g = f32(rays) * (pdf * cy);
     let d = g + v;
     if (lux_finite(d)) {
-        return g / d;
+        return share * (g / d);
     }
     return 0.0;
 }
@@ -118,16 +123,19 @@ fn lux_gather_weight(rays: u32, k: u32, scale: f32, density: f32, r: f32, cx: f3
 // the unit normal `n`, each weighted against `lamp_paths` lamp paths of a gather of `mis_rays`
 // rays (lightpaths; 0: weight 1). `texel` (lux_texel_index) places a replayed hit. With
 // direct_at_hits = 1 a hit away from every lamp's opening reads the lamps' direct light there
-// times its albedo (lux_point_lamps_at, gather::GatherParams::direct_at_hits).
+// times its albedo (lux_point_lamps_at, gather::GatherParams::direct_at_hits). With `uniform`
+// (a texel in a narrow gap) the rays are drawn uniformly over the hemisphere and weighted by
+// their share (lux_gather_weight).
 fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>,
                   first_ray: u32, count: u32,
                   sampler_id: u32, bounce: u32, seed: u32, lamp_paths: u32, mis_rays: u32,
-                  density_scale: f32, lamps: u32, direct_at_hits: u32) -> vec3<f32> {
+                  density_scale: f32, lamps: u32, direct_at_hits: u32,
+                  uniform_rays: bool) -> vec3<f32> {
     let objects = lux_scene.object_count;
     var sum = vec3<f32>(0.0);
     for (var s = first_ray; s < first_ray + count; s++) {
-        let dir = lux_cosine_direction(n, lux_sample2(sampler_id, stream.x, stream.y + s, bounce,
-                                                      seed));
+        let dir = lux_gather_direction(n, lux_sample2(sampler_id, stream.x, stream.y + s, bounce,
+                                                      seed), uniform_rays);
         var hit: vec3<f32>;
         let tri = lux_gather_hit(origin, dir, texel, s - first_ray, &hit);
         if (tri < 0) {
@@ -171,7 +179,7 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
             m = lux_sample_masked(i32(region0.x), vec2<i32>(region0.yz), vec2<i32>(region1.xy),
                                   uv, false);
         }
-        var weight = 1.0;
+        var weight = select(1.0, 2.0 * lux_dot(n, dir), uniform_rays);
         // Nothing to weigh where the hit reflects no light (cpu::GatherChunk::sum).
         if (lamp_paths > 0u && (m.x != 0.0 || m.y != 0.0 || m.z != 0.0)) {
             var ny: vec3<f32>;
@@ -180,7 +188,7 @@ fn lux_gather_sum(origin: vec3<f32>, n: vec3<f32>, texel: u32, stream: vec2<u32>
             }
             let density = lux_lamp_density(y, ny, lamps);
             weight = lux_gather_weight(mis_rays, lamp_paths, density_scale, density, hit.x,
-                                       lux_dot(n, dir), -lux_dot(ny, dir));
+                                       lux_dot(n, dir), -lux_dot(ny, dir), uniform_rays);
         }
         sum += weight * m;
     }

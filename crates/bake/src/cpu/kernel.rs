@@ -319,6 +319,24 @@ impl Frame {
         out
     }
 
+    /// The uniformly distributed direction over the hemisphere of sample `(u0, u1)`: the
+    /// cosine of its angle to the normal is `1 − u0` (density `1/2π` per steradian), its
+    /// azimuth that of [`Frame::cosine_direction`]. The gather draws a texel's rays so in a
+    /// narrow gap ([`crate::validity::NARROW_GAP`]; see [`crate::lightpaths::gather_weight`]).
+    #[inline]
+    pub fn uniform_direction(&self, u: [f32; 2]) -> [f32; 3] {
+        let Frame { t, b, n } = *self;
+        let r = (u[0] * (2.0 - u[0])).max(0.0).sqrt();
+        let (sin, cos) = sin_cos_turns(u[1]);
+        let (x, y) = (r * cos, r * sin);
+        let z = 1.0 - u[0];
+        [
+            t[0] * x + b[0] * y + n[0] * z,
+            t[1] * x + b[1] * y + n[1] * z,
+            t[2] * x + b[2] * y + n[2] * z,
+        ]
+    }
+
     /// [`cosine_direction`]`(n, u)`, bit for bit.
     #[inline]
     pub fn cosine_direction(&self, u: [f32; 2]) -> [f32; 3] {

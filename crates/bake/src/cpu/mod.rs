@@ -56,7 +56,11 @@
 //!   the hit object's region by [`map::sample_masked`](crate::map::sample_masked). Back faces,
 //!   misses and non-receivers add 0. Output `(Σ / N, 1)`. Since `E = π·mean(L)` over a
 //!   cosine-weighted hemisphere and a Lambertian surface's radiance is `L = M/π`, the mean
-//!   exitance is the indirect illuminance.
+//!   exitance is the indirect illuminance. A texel in a narrow gap (position `w ≥`
+//!   [`NARROW_GAP`](crate::validity::NARROW_GAP)) draws its directions uniformly over the
+//!   hemisphere instead, local `(r cos φ, r sin φ, 1 − u₀)` with `r = √(u₀(2 − u₀))`
+//!   ([`Frame::uniform_direction`]), and weights each hit by `2·n̂·dir`
+//!   ([`lightpaths::gather_weight`](crate::lightpaths::gather_weight) says why).
 //! - **Variance** (the à-trous filter's noise estimate; derivation in
 //!   [`atrous_steps`](crate::program::atrous_steps)): `a` is the noisy map, `b` the G-buffer
 //!   position, then the normal. The window is the 5×5 taps at offsets `o ∈ [−2, 2]²` that lie
@@ -349,6 +353,40 @@ mod tests {
         assert!((m - 2.0 / 3.0).abs() < 0.01, "{m}");
     }
 
+    /// A gap's uniform directions ([`Frame::uniform_direction`]) lie in the hemisphere, and
+    /// their cosine is uniform on [0, 1] (mean ½, mean square ⅓, a tenth of them within 0.1
+    /// of the surface against a hundredth of the cosine-weighted ones). So the weight `2 cos θ`
+    /// that [`crate::lightpaths::gather_weight`] gives each of them has mean 1: under an even
+    /// sky of exitance `M` (the furnace) the gather reads `M`, as the cosine-weighted rays do.
+    #[test]
+    fn uniform_directions_have_a_uniform_cosine_and_a_weight_of_mean_one() {
+        for n in [[0.3f32, -0.8, 0.2], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]] {
+            let frame = Frame::new(normalize(n).expect("unit"));
+            let count = 20_000u32;
+            let (mut weight, mut square, mut grazing, mut grazing_cos) = (0.0f64, 0.0f64, 0, 0);
+            for s in 0..count {
+                let u = rng::sobol2(17, s, 1, 3);
+                let d = frame.uniform_direction(u);
+                let c = dot(d, frame.n);
+                assert!((0.0..=1.0).contains(&c), "sample {s}: {c}");
+                assert!((dot(d, d) - 1.0).abs() < 1e-5, "sample {s}");
+                weight += 2.0 * f64::from(c);
+                square += f64::from(c * c);
+                grazing += u32::from(c < 0.1);
+                grazing_cos += u32::from(dot(frame.cosine_direction(u), frame.n) < 0.1);
+            }
+            let count = f64::from(count);
+            let (w, q) = (weight / count, square / count);
+            assert!((w - 1.0).abs() < 1e-3, "{n:?}: mean weight {w}");
+            assert!((q - 1.0 / 3.0).abs() < 1e-3, "{n:?}: mean square {q}");
+            let (g, gc) = (f64::from(grazing) / count, f64::from(grazing_cos) / count);
+            assert!(
+                (g - 0.1).abs() < 2e-3 && (gc - 0.01).abs() < 1e-3,
+                "{n:?}: {g} / {gc}"
+            );
+        }
+    }
+
     fn one_triangle_scene(lamp: [f32; 3]) -> CpuScene {
         use luxbake_bvh::{BuildOptions, Bvh, EncodeOptions, TriangleAttributes, encode};
         let tris = vec![[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [1.0, 0.0, 0.0]]];
@@ -429,7 +467,12 @@ mod tests {
         for i in 0..size[0] * size[1] {
             let [a, b] = u(1000 + i, 0);
             let y = if i % 3 == 0 { 0.0 } else { 0.5 * b };
-            let valid = if i % 11 == 0 { 0.0 } else { 1.0 };
+            // Some in a narrow gap, whose gather's rays are uniform (the weights differ).
+            let valid = match i % 11 {
+                0 => 0.0,
+                3 | 7 => crate::validity::NARROW_GAP,
+                _ => 1.0,
+            };
             let p = if i == 5 {
                 [0.25, 0.0, 0.25]
             } else {
@@ -510,8 +553,8 @@ mod tests {
 
     /// The gather's directions (four draws at a time, with AVX2 where the CPU has it) are the
     /// module docs' per-ray rule bit for bit, `cosine_direction(n̂, uniform2(texel, s, bounce,
-    /// seed))`, for both samplers, ray counts with and without a remainder of four, and
-    /// samples inside and past the pass's precomputed ones.
+    /// seed))` (a gap's texels: `uniform_direction`), for both samplers, ray counts with and
+    /// without a remainder of four, and samples inside and past the pass's precomputed ones.
     #[test]
     fn gather_directions_are_the_per_ray_rule_bit_for_bit() {
         let (pass, seed) = (2, 77);
@@ -526,6 +569,7 @@ mod tests {
                     o: [0.0; 3],
                     frame: Frame::new(n),
                     mis: Mis::NONE,
+                    uniform: i % 7 == 3,
                 }
             })
             .collect();
@@ -536,7 +580,12 @@ mod tests {
                 .flat_map(|t| {
                     t.rays.clone().map(move |s| {
                         let u = sampler.uniform2(t.texel, s, pass, seed);
-                        cosine_direction(t.frame.n, u).map(f32::to_bits)
+                        let d = if t.uniform {
+                            t.frame.uniform_direction(u)
+                        } else {
+                            cosine_direction(t.frame.n, u)
+                        };
+                        d.map(f32::to_bits)
                     })
                 })
                 .collect();

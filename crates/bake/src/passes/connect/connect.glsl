@@ -43,6 +43,9 @@ vec4 luxRun(ivec3 c) {
     vec3 p = pw.xyz;
     vec3 origin = luxOffsetOrigin(p, n, u_ray_epsilon);
     float nc = float(u_rays);
+    // The gather's density per steradian times pi toward a point: cx for its cosine-weighted
+    // rays, 1/2 for a gap's uniform ones (lightpaths::gather_weight).
+    bool uniformRays = pw.w >= LUX_NARROW_GAP;
     float kf = float(u_k);
     vec3 sum = vec3(0.0);
     for (uint s = 0u; s < picks; ++s) {
@@ -75,7 +78,8 @@ vec4 luxRun(ivec3 c) {
         }
         float pv = a.w * u_density_scale;
         float geometry = cx * cy;
-        float denominator = 3.14159265358979 * kf * pv * r2 + nc * geometry;
+        float gathered = uniformRays ? 0.5 * cy : geometry;
+        float denominator = 3.14159265358979 * kf * pv * r2 + nc * gathered;
         if (!(denominator > 0.0)) {
             continue;
         }

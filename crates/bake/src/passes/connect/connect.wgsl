@@ -43,6 +43,9 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let p = pw.xyz;
     let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let nc = f32(lux_pass.rays);
+    // The gather's density per steradian times pi toward a point: cx for its cosine-weighted
+    // rays, 1/2 for a gap's uniform ones (lightpaths::gather_weight).
+    let uniform_rays = pw.w >= LUX_NARROW_GAP;
     let kf = f32(lux_pass.k);
     var sum = vec3<f32>(0.0);
     for (var s = 0u; s < picks; s++) {
@@ -75,7 +78,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         }
         let pv = a.w * lux_pass.density_scale;
         let geometry = cx * cy;
-        let denominator = 3.14159265358979 * kf * pv * r2 + nc * geometry;
+        let gathered = select(geometry, 0.5 * cy, uniform_rays);
+        let denominator = 3.14159265358979 * kf * pv * r2 + nc * gathered;
         if (!(denominator > 0.0)) {
             continue;
         }

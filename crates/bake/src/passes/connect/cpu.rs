@@ -116,12 +116,15 @@ impl ConnectParams {
         let p = xyz(pw);
         let scene = ctx.scene;
         let origin = offset_origin(p, n, scene.ray_epsilon);
+        // The gather's density per steradian times π at the point's direction: `cx` for its
+        // cosine-weighted rays, ½ for a gap's uniform ones (lightpaths::gather_weight).
+        let uniform = pw[3] >= NARROW_GAP;
         let mut sum = [0.0f32; 3];
         #[cfg(target_arch = "x86_64")]
         if lanes {
             for group in picks.chunks(LANES) {
                 // SAFETY: `lanes` only where the CPU has AVX2 (`row`, the tests).
-                let c = unsafe { avx2::connections(self, scene, group, (p, n, origin)) };
+                let c = unsafe { avx2::connections(self, scene, group, (p, n, origin), uniform) };
                 for (l, &j) in group.iter().enumerate() {
                     let Some(point) = scene.lamp_paths.get(j).filter(|_| c.ok & (1 << l) != 0)
                     else {
@@ -172,7 +175,8 @@ impl ConnectParams {
             }
             let pv = point.position[3] * self.density_scale;
             let geometry = cx * cy;
-            let denominator = std::f32::consts::PI * kf * pv * r2 + nc * geometry;
+            let gathered = if uniform { 0.5 * cy } else { geometry };
+            let denominator = std::f32::consts::PI * kf * pv * r2 + nc * gathered;
             if !(denominator > 0.0) {
                 continue;
             }
@@ -215,13 +219,15 @@ mod avx2 {
     }
 
     /// The connections of a texel at `p` (unit normal `n`, ray origin `origin`) to the pool
-    /// points `picks` (at most [`LANES`]).
+    /// points `picks` (at most [`LANES`]); `uniform`: its gather's rays are a gap's uniform
+    /// ones.
     #[target_feature(enable = "avx2")]
     pub(super) fn connections(
         params: &ConnectParams,
         scene: &CpuScene,
         picks: &[usize],
         (p, n, origin): ([f32; 3], [f32; 3], [f32; 3]),
+        uniform: bool,
     ) -> Lanes {
         // The points' fields, a row of lanes each (lanes without a point stay 0 and fail).
         let mut rows = [[0.0f32; LANES]; 10];
@@ -284,10 +290,11 @@ mod avx2 {
         // The balance heuristic's weight.
         let pv = mul(density, set(params.density_scale));
         let geometry = mul(cx, cy);
+        let gathered = if uniform { mul(set(0.5), cy) } else { geometry };
         let pi_k = std::f32::consts::PI * params.k as f32;
         let denominator = add(
             mul(mul(set(pi_k), pv), r2),
-            mul(set(params.rays as f32), geometry),
+            mul(set(params.rays as f32), gathered),
         );
         let ok = _mm256_and_ps(ok, _mm256_cmp_ps::<_CMP_GT_OQ>(denominator, zero));
         let f = div(mul(pv, geometry), denominator);

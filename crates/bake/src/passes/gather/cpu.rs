@@ -12,6 +12,7 @@ use crate::cpu::kernel::*;
 use crate::lightpaths;
 use crate::map::{bilinear_footprint, masked_blend};
 use crate::rng;
+use crate::validity::NARROW_GAP;
 
 use super::GatherParams;
 
@@ -62,6 +63,9 @@ pub(crate) struct GatherTexel {
     pub(crate) o: [f32; 3],
     pub(crate) frame: Frame,
     pub(crate) mis: Mis,
+    /// The rays drawn uniformly over the hemisphere ([`Frame::uniform_direction`]), not
+    /// cosine-weighted: a texel in a narrow gap ([`crate::lightpaths::gather_weight`]).
+    pub(crate) uniform: bool,
 }
 
 /// Where a gather's hits read their light: `reflected`, or with `direct` (the albedo map and
@@ -310,6 +314,10 @@ pub(crate) fn directions_inline(dirs: &mut Vec<[f32; 3]>, draws: &rng::PassDraws
     dirs.clear();
     for t in texels {
         let d = draws.texel(t.texel);
+        if t.uniform {
+            dirs.extend(t.rays.clone().map(|s| t.frame.uniform_direction(d.uniform2(s))));
+            continue;
+        }
         let mut s = t.rays.start;
         while t.rays.end - s >= 4 {
             dirs.extend(t.frame.cosine_directions4(d.uniform2x4(s)));
@@ -347,7 +355,7 @@ pub(crate) fn gather_weight(
 ) -> f32 {
     let mis = t.mis;
     if mis.lamp_paths == 0 {
-        return 1.0;
+        return if t.uniform { 2.0 * dot(t.frame.n, dir) } else { 1.0 };
     }
     let ny = normalize(nh).unwrap_or([0.0; 3]);
     let lamps = &scene.lamps[..(mis.lamp_count as usize).min(scene.lamps.len())];
@@ -360,6 +368,7 @@ pub(crate) fn gather_weight(
         hit.t,
         dot(t.frame.n, dir),
         -dot(ny, dir),
+        t.uniform,
     )
 }
 
@@ -490,6 +499,7 @@ fn row_key(
         h.add(t.texel);
         h.add(t.rays.start);
         h.add(t.rays.end);
+        h.add(u32::from(t.uniform));
         for c in t.o.into_iter().chain(t.frame.n) {
             h.add(c.to_bits());
         }
@@ -556,6 +566,7 @@ pub(crate) fn gather_row(
                 density_scale: params.density_scale,
                 lamp_count: params.lamp_count,
             },
+            uniform: pos[3] >= NARROW_GAP,
         });
         at.push(i);
     }

@@ -1,5 +1,6 @@
 // Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
-// exitance seen along `u_rays` cosine-weighted rays (cpu::gather_texel, operation for operation).
+// exitance seen along `u_rays` cosine-weighted rays (cpu::gather_texel, operation for operation;
+// uniform rays, weighted 2 cos, at a texel in a narrow gap: lightpaths::gather_weight).
 // With u_stride > 1 only the coarse grid's texels (u_rays) and its orphans (u_orphan_rays) are
 // gathered (coarse.glsl); the others are written as 0 for the upsample pass to fill. With
 // u_lamp_paths > 0 each hit is weighted against the lamp paths, whose part (u_connected,
@@ -27,7 +28,7 @@ vec4 luxRun(ivec3 c) {
     uint count = u_chunk_rays > 0u ? min(u_chunk_rays, rays - first) : rays - first;
     vec3 sum = luxGatherSum(origin, n, stream, first, count, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, rays, u_density_scale, int(u_lamp_count),
-                            u_direct_at_hits);
+                            u_direct_at_hits, pos.w >= LUX_NARROW_GAP);
     float inv = 1.0 / float(rays);
     vec3 paths = u_lamp_paths > 0u && u_first_ray == 0u ? texelFetch(u_connected, c, 0).rgb
                                                          : vec3(0.0);

@@ -1,6 +1,7 @@
 // Pass "gather" (paper Figure 4, box 5): one bounce of indirect illuminance, the mean reflected
 // exitance seen along lux_pass.rays cosine-weighted rays (cpu::gather_texel, operation for
-// operation). With lux_pass.stride > 1 only the coarse grid's texels (lux_pass.rays) and its
+// operation; uniform rays, weighted 2 cos, at a texel in a narrow gap:
+// lightpaths::gather_weight). With lux_pass.stride > 1 only the coarse grid's texels (lux_pass.rays) and its
 // orphans (lux_pass.orphan_rays) are gathered (coarse.wgsl); the others are written as 0 for
 // the upsample pass to fill. With lux_pass.lamp_paths > 0 each hit is weighted against the
 // lamp paths, whose part (lux_connected, computed by the connect pass)
@@ -34,7 +35,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let sum = lux_gather_sum(origin, n, texel, stream, first, count, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths, rays,
                              lux_pass.density_scale, lux_pass.lamp_count,
-                             lux_pass.direct_at_hits);
+                             lux_pass.direct_at_hits, pos.w >= LUX_NARROW_GAP);
     let inv = 1.0 / f32(rays);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u && lux_pass.first_ray == 0u) {

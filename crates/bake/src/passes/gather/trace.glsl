@@ -28,8 +28,9 @@ void main() {
         uint count = min(min(u_hit_rays, 4u), rays - u_first_ray);
         for (uint k = 0u; k < count; ++k) {
             uint s = u_first_ray + k;
-            vec3 dir = luxCosineDirection(n, luxSample2(u_sampler, stream.x, stream.y + s,
-                                                        u_bounce, u_seed));
+            vec3 dir = luxGatherDirection(n, luxSample2(u_sampler, stream.x, stream.y + s,
+                                                        u_bounce, u_seed),
+                                          pos.w >= LUX_NARROW_GAP);
             vec3 hit;
             int tri = luxTrace(origin, dir, 0.0, uintBitsToFloat(0x7f800000u), false, hit);
             if (tri >= 0) {

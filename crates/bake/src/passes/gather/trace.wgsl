@@ -38,9 +38,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
         for (var k = 0u; k < count; k++) {
             let s = lux_pass.first_ray + k;
-            let dir = lux_cosine_direction(n, lux_sample2(lux_pass.sampler, stream.x,
+            let dir = lux_gather_direction(n, lux_sample2(lux_pass.sampler, stream.x,
                                                           stream.y + s, lux_pass.bounce,
-                                                          lux_pass.seed));
+                                                          lux_pass.seed),
+                                           pos.w >= LUX_NARROW_GAP);
             var hit: vec3<f32>;
             let tri = lux_trace(origin, dir, 0.0, lux_scene.t_far, false, &hit);
             if (tri >= 0) {

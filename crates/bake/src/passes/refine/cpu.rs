@@ -62,6 +62,7 @@ impl CpuPass for RefineParams {
                     density_scale: params.density_scale,
                     lamp_count: params.lamp_count,
                 },
+                uniform: pos[3] >= NARROW_GAP,
             });
             scratch.at.push(i);
         }

@@ -33,7 +33,7 @@ vec4 luxRun(ivec3 c) {
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
     vec3 sum = luxGatherSum(origin, n, stream, 0u, more, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, u_first_rays, u_density_scale, int(u_lamp_count),
-                            u_direct_at_hits);
+                            u_direct_at_hits, pos.w >= LUX_NARROW_GAP);
     vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
     float total = float(u_first_rays + more);
     vec3 m = float(u_first_rays) * first.rgb + sum + float(more) * paths;

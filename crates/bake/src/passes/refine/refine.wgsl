@@ -36,7 +36,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let sum = lux_gather_sum(origin, n, texel, stream, 0u, rays, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths,
                              lux_pass.first_rays, lux_pass.density_scale, lux_pass.lamp_count,
-                             lux_pass.direct_at_hits);
+                             lux_pass.direct_at_hits, pos.w >= LUX_NARROW_GAP);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u) {
         paths = lux_load(lux_connected, c).rgb;
