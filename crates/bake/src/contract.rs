@@ -201,8 +201,10 @@ impl SceneNeeds {
 /// A shared shader library file (one per language in `shaders/lib/`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Library {
-    /// The gather's ray loop: cosine-weighted directions, the masked bilinear look-up of the
-    /// hit's light-map texel (`cpu::gather_rays`); for programs reading the slot `reflected`.
+    /// The gather's ray loop: cosine-weighted directions (uniform ones, weighted `2 cos θ`, at
+    /// a texel in a narrow gap: [`crate::lightpaths::gather_weight`]), the masked bilinear
+    /// look-up of the hit's light-map texel (`cpu::gather_rays`); for programs reading the slot
+    /// `reflected`.
     Gather,
     /// The reduced-resolution gather's grid test ([`coarse`]); for programs reading the slots
     /// `position` and `normal`.
