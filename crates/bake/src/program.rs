@@ -389,6 +389,18 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// rays' noise, read low); 56 more first-bounce rays alone 15.3 % and 9.8 % (as 24 more);
 /// with their early term 13.1 % and 8.9 % (24 more), 10.3 % and 7.0 % (56 more).
 ///
+/// An iteration whose taps reach farther than the gap,
+/// [`NARROW_REACH_TEXELS`](crate::validity::NARROW_REACH_TEXELS) (`2·step > 6`: step 4 on),
+/// leaves a centre in a gap as it is ([`AtrousParams::narrow_keep`], in the bias correction's
+/// filter too). Near a gap's open side its light changes tenfold within a few texels, and the
+/// wide taps carry the side's light into the gap: along the lounge's slot (`default`, sixteen
+/// seeds, against Radiance points traced across it) the texels 3–9 texels in from its side
+/// read +15 … +34 % with every iteration. Measured (`bench refcheck`, CPU, four seeds; the
+/// furniture's mean |rel| %, then the gap's points'), every iteration → this rule: lounge
+/// 2.19 → 1.78 (10.6 → 8.2), with 64 gap rays 1.05 → 0.96 (4.06 → 3.53); dining 0.90 →
+/// 0.88 and 0.79 → 0.71; office 0.65 → 0.63 and 0.55 → 0.56. Keeping them from step 2 on
+/// (reach 4) instead: lounge 2.60 and 1.13; unfiltered: 4.39 and 1.80, the gap's noise left.
+///
 /// # Consistency
 /// With the variance estimate falling with the noise, `σ_l` fixed and the early term
 /// narrowing to it, every luminance term narrows as the rays grow and the filter lets
@@ -557,6 +569,8 @@ pub fn correction_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
 fn iteration(config: &AtrousConfig, i: u32) -> AtrousParams {
     AtrousParams {
         step: 1 << i,
+        // The taps reach `2·step` texels each way.
+        narrow_keep: u32::from((2u32 << i) as f32 > crate::validity::NARROW_REACH_TEXELS),
         reach: config.reach(),
         reach_min: config.reach_min(),
         normal_log2: config.normal_log2,

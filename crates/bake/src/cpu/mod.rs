@@ -1718,6 +1718,30 @@ mod guide_mask_tests {
                     |at| atrous_texel(maps, p, None, at),
                 );
                 (compared, vector) = (compared + c, vector + v);
+                // Iterations whose taps reach beyond a gap (2·step > 6 texels) leave its
+                // texels as they are; the nearer ones filter them.
+                assert_eq!(p.narrow_keep, u32::from(p.step >= 4), "step {}", p.step);
+                let (mut kept, mut moved) = (0, 0);
+                for i in (0..texels).filter(|&i| position[4 * i + 3] >= crate::validity::NARROW_GAP)
+                {
+                    let x = (i as u32) % size[0];
+                    let y = (i as u32 / size[0]) % size[1];
+                    let at = Texel {
+                        layer: i as u32 / (size[0] * size[1]),
+                        x,
+                        y,
+                    };
+                    let same = atrous_texel(maps, p, None, at)[..3] == src.fetch(at)[..3];
+                    assert!(same || p.narrow_keep == 0, "step {}: {at:?}", p.step);
+                    (kept, moved) = (kept + usize::from(same), moved + usize::from(!same));
+                }
+                if p.narrow_keep == 0 {
+                    assert!(
+                        moved > kept,
+                        "step {}: {moved} filtered, {kept} not",
+                        p.step
+                    );
+                }
                 // The wide term is taken, and changes texels, where the rule says (never in
                 // the linear filter).
                 if p.wide_max_relative_variance > 0.0 && !linear {

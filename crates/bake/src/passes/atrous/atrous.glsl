@@ -12,7 +12,8 @@
 // u_wide_max_relative_variance x the window's squared mean; program::atrous_steps, "Wide charts
 // with little noise"): both sums are taken there, the one that counts known at the end.
 // u_narrow_variance_scale: u_variance_scale at a centre in a narrow gap (position w >=
-// LUX_NARROW_GAP), whose first bounce has more rays. u_linear: the bias correction's filter of two luminances (program::correction_steps): no
+// LUX_NARROW_GAP), whose first bounce has more rays; u_narrow_keep: such a centre keeps its value
+// (the iteration's taps reach beyond the gap, program::atrous_steps, "Narrow gaps"). u_linear: the bias correction's filter of two luminances (program::correction_steps): no
 // luminance term, the variance map not read.
 
 float luxB3(int i) {
@@ -26,13 +27,16 @@ vec4 luxRun(ivec3 c) {
     }
     bool linear = u_linear != 0u;
     vec4 kept = vec4(luxGuard3(centre.rgb), 1.0);
+    bool narrow = texelFetch(u_position, c, 0).w >= LUX_NARROW_GAP;
+    if (narrow && u_narrow_keep != 0u) {
+        return kept;
+    }
     LuxGuide g;
     if (!luxGuide(c, u_reach_min, u_reach, g)) {
         return kept;
     }
     // The linear filter does not read the variance map.
     vec4 v = linear ? vec4(0.0) : texelFetch(u_variance, c, 0);
-    bool narrow = texelFetch(u_position, c, 0).w >= LUX_NARROW_GAP;
     float scale = (narrow ? u_narrow_variance_scale : u_variance_scale) * v.r;
     float wide = u_wide_variance_scale * v.r;
     bool quiet = !linear && u_wide_max_relative_variance > 0.0 &&

@@ -8,7 +8,9 @@
 // window's squared mean; program::atrous_steps, "Wide charts with little noise") the scale is
 // lux_pass.wide_variance_scale: both sums are taken there, the one that counts known at the end.
 // lux_pass.narrow_variance_scale: lux_pass.variance_scale at a centre in a narrow gap
-// (position w >= LUX_NARROW_GAP), whose first bounce has more rays.
+// (position w >= LUX_NARROW_GAP), whose first bounce has more rays; lux_pass.narrow_keep: such
+// a centre keeps its value (the iteration's taps reach beyond the gap, program::atrous_steps,
+// "Narrow gaps").
 // lux_pass.linear: the bias correction's filter of two luminances (program::correction_steps):
 // no luminance term, the variance map not read.
 
@@ -23,6 +25,10 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     }
     let linear = lux_pass.linear != 0u;
     let kept = vec4<f32>(lux_guard3(centre.rgb), 1.0);
+    let narrow = lux_load(lux_position, c).w >= LUX_NARROW_GAP;
+    if (narrow && lux_pass.narrow_keep != 0u) {
+        return kept;
+    }
     var g: LuxGuide;
     if (!lux_guide(c, lux_pass.reach_min, lux_pass.reach, &g)) {
         return kept;
@@ -32,7 +38,6 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!linear) {
         v = lux_load(lux_variance, c);
     }
-    let narrow = lux_load(lux_position, c).w >= LUX_NARROW_GAP;
     let scale = select(lux_pass.variance_scale, lux_pass.narrow_variance_scale, narrow) * v.r;
     let wide = lux_pass.wide_variance_scale * v.r;
     let quiet = !linear && lux_pass.wide_max_relative_variance > 0.0 &&

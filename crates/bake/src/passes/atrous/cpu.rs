@@ -246,7 +246,9 @@ mod avx2 {
                 x: at.x + l as u32,
                 ..at
             };
-            if centres.alone[l] {
+            // A centre that keeps its value (in a narrow gap) takes it from the texel's
+            // reference too.
+            if centres.alone[l] || keeps(params, pos.at_offset(centres.base + 4 * l)[3]) {
                 o.copy_from_slice(&atrous_texel(maps, params, Some(masks), t));
                 continue;
             }
@@ -275,6 +277,14 @@ fn centre_scale(params: AtrousParams, w: f32) -> f32 {
     }
 }
 
+/// Whether a centre whose position's w is `w` keeps its value in this iteration: in a narrow
+/// gap ([`crate::validity::NARROW_GAP`]) where the taps reach beyond the gap
+/// ([`AtrousParams::narrow_keep`]).
+#[inline]
+fn keeps(params: AtrousParams, w: f32) -> bool {
+    params.narrow_keep != 0 && w >= crate::validity::NARROW_GAP
+}
+
 /// Whether the centre's noise is low enough for the wide luminance term (`v`: its variance
 /// estimate, `[variance, window mean luminance, …]`; `program::atrous_steps`, "Wide charts
 /// with little noise"): the variance under `wide_max_relative_variance` times the squared
@@ -298,6 +308,9 @@ pub(crate) fn atrous_texel(
     }
     let linear = params.linear != 0;
     let kept = [guard(c[0]), guard(c[1]), guard(c[2]), 1.0];
+    if keeps(params, pos.fetch(at)[3]) {
+        return kept;
+    }
     let reach = [params.reach_min, params.reach];
     let Some(guide) = Guide::new([src, pos, nrm], reach, at) else {
         return kept;

@@ -49,8 +49,10 @@ param_block! {
         /// ([`crate::validity::NARROW_GAP`]), whose first bounce has more rays
         /// ([`AtrousConfig::narrow_early_sigma_luminance`](crate::program::AtrousConfig::narrow_early_sigma_luminance)).
         narrow_variance_scale: f32,
-        /// Padding.
-        pad1: u32,
+        /// 1: a centre in a narrow gap keeps its value in this iteration, whose taps reach
+        /// farther than [`crate::validity::NARROW_REACH_TEXELS`]
+        /// ([`atrous_steps`](crate::program::atrous_steps), "Narrow gaps").
+        narrow_keep: u32,
         /// Padding.
         pad2: u32,
     }
