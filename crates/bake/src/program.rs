@@ -394,7 +394,7 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// leaves a centre in a gap as it is ([`AtrousParams::narrow_keep`], in the bias correction's
 /// filter too). Near a gap's open side its light changes tenfold within a few texels, and the
 /// wide taps carry the side's light into the gap: along the lounge's slot (`default`, sixteen
-/// seeds, against Radiance points traced across it) the texels 3–9 texels in from its side
+/// seeds, against Radiance points traced across it) the texels 2–10 texels in from its side
 /// read +15 … +34 % with every iteration. Measured (`bench refcheck`, CPU, four seeds; the
 /// furniture's mean |rel| %, then the gap's points'), every iteration → this rule: lounge
 /// 2.19 → 1.78 (10.6 → 8.2), with 64 gap rays 1.05 → 0.96 (4.06 → 3.53); dining 0.90 →
