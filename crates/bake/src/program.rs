@@ -566,11 +566,17 @@ pub fn correction_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
 
 /// What iteration `i` of [`atrous_steps`] and of [`correction_steps`] share: its step
 /// `2^i`, its chart test, its normal weight and the luminance scale (no luminance term).
+/// How far a narrow gap reaches, texels: [`crate::validity::NARROW_REACH_TEXELS`] (test
+/// `the_narrow_reach_is_the_gaps`; a constant of its own, as `validity` builds on the backend
+/// contract this module is part of). An iteration whose taps reach farther leaves a centre in a
+/// gap as it is ([`AtrousParams::narrow_keep`], [`atrous_steps`], "Narrow gaps").
+pub const ATROUS_NARROW_REACH: f32 = 6.0;
+
 fn iteration(config: &AtrousConfig, i: u32) -> AtrousParams {
     AtrousParams {
         step: 1 << i,
         // The taps reach `2·step` texels each way.
-        narrow_keep: u32::from((2u32 << i) as f32 > crate::validity::NARROW_REACH_TEXELS),
+        narrow_keep: u32::from((2u32 << i) as f32 > ATROUS_NARROW_REACH),
         reach: config.reach(),
         reach_min: config.reach_min(),
         normal_log2: config.normal_log2,
@@ -643,6 +649,11 @@ impl TilePlan {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_narrow_reach_is_the_gaps() {
+        assert_eq!(ATROUS_NARROW_REACH, crate::validity::NARROW_REACH_TEXELS);
+    }
 
     #[test]
     fn signatures_are_indexed_by_program_and_labels_are_unique() {

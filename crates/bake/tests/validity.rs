@@ -319,17 +319,21 @@ fn a_gap_open_to_its_sides_is_narrow_but_no_gap() {
     }
 }
 
-/// Texels of a prepared room: (world position scaled back by `1/scale`, normal, the
-/// position's w: 1, [`NARROW`] or [`NARROW_GAP`]).
-fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], f32)> {
-    let scene = scene.scaled(scale);
-    let room = Room::prepare(
-        &scene,
+/// `scene` prepared for its own settings and the CPU backend's limits.
+fn prepared(scene: &Scene) -> Room {
+    Room::prepare(
+        scene,
         &scene.settings,
         CpuBackend::new().limits(),
         &mut |_| {},
     )
-    .expect("room");
+    .expect("room")
+}
+
+/// Texels of a prepared room: (world position scaled back by `1/scale`, normal, the
+/// position's w: 1, [`NARROW`] or [`NARROW_GAP`]).
+fn marked(scene: &Scene, scale: f32) -> Vec<([f32; 3], [f32; 3], f32)> {
+    let room = prepared(&scene.scaled(scale));
     let shift = room.shift.unwrap_or([0.0; 3]);
     let g = &room.gbuffer;
     (0..g.position.len() / 4)
@@ -418,13 +422,7 @@ fn texels_across_a_narrow_gap_are_marked_at_any_scale() {
 fn a_gaps_uniform_rays_bake_alike_at_any_scale_and_far_from_the_origin() {
     let mut scene = panel_room(0.04);
     scene.settings.narrow_rays = 16;
-    let room = Room::prepare(
-        &scene,
-        &scene.settings,
-        CpuBackend::new().limits(),
-        &mut |_| {},
-    )
-    .expect("room");
+    let room = prepared(&scene);
     assert!(room.narrow_texels > 200, "{}", room.narrow_texels);
     let g = &room.gbuffer;
     // Per texel of every object's region (row by row): whether it is in a gap, its luminance
