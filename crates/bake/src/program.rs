@@ -564,14 +564,15 @@ pub fn correction_steps(config: &AtrousConfig) -> Vec<(Program, Params)> {
         .collect()
 }
 
-/// What iteration `i` of [`atrous_steps`] and of [`correction_steps`] share: its step
-/// `2^i`, its chart test, its normal weight and the luminance scale (no luminance term).
 /// How far a narrow gap reaches, texels: [`crate::validity::NARROW_REACH_TEXELS`] (test
 /// `the_narrow_reach_is_the_gaps`; a constant of its own, as `validity` builds on the backend
 /// contract this module is part of). An iteration whose taps reach farther leaves a centre in a
 /// gap as it is ([`AtrousParams::narrow_keep`], [`atrous_steps`], "Narrow gaps").
 pub const ATROUS_NARROW_REACH: f32 = 6.0;
 
+/// What iteration `i` of [`atrous_steps`] and of [`correction_steps`] share: its step
+/// `2^i`, its chart test, its normal weight, the luminance scale (no luminance term) and
+/// whether a centre in a narrow gap keeps its value.
 fn iteration(config: &AtrousConfig, i: u32) -> AtrousParams {
     AtrousParams {
         step: 1 << i,

@@ -980,11 +980,12 @@ impl Settings {
     /// box room it refined 60–77 % of the texels at targets that lowered the error, so it
     /// cost as many rays as sampling every texel more (docs/performance.md). So are the rays
     /// in narrow gaps ([`Settings::narrow_rays`]): with [`Settings::NARROW_RAYS`] (64 in every
-    /// bounce there) `default` holds 1 % on every surface kind of two of the three real rooms
-    /// (the furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a wall: the
-    /// lounge 3.7 → 1.4 %, the dining room 1.2 → 0.88 %) for 1.1–1.2× their bake's time, and
-    /// in the browser (24 texels/m) a lamp swap takes 0.60 of a fresh bake instead of 0.56
-    /// (docs/performance.md, "Narrow gaps refined" and "Gaps closed to their sides").
+    /// bounce there) `default` holds 1 % on every surface kind of all three real rooms (the
+    /// furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a wall: the
+    /// lounge 1.76 → 0.98 %, the dining room 0.92 → 0.66 %, sixteen seeds) for 1.08× the bake's
+    /// time of `chairs_05` and 1.12× the lounge's, and in the browser (24 texels/m) a lamp swap
+    /// takes 0.60 of a fresh bake instead of 0.56 (docs/performance.md, "Narrow gaps refined",
+    /// "Gaps closed to their sides" and "The denoiser's reach in a gap").
     pub fn preset(quality: Quality) -> Settings {
         let base = Settings {
             method: Method::Converged,

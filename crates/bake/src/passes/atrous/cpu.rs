@@ -119,10 +119,15 @@ mod avx2 {
     ) -> Option<usize> {
         let [src, variance, pos, nrm] = maps;
         let centres = Centres::new([src, pos, nrm], masks, at).filter(|_| out.len() == 4 * LANES)?;
+        // The lanes filtered here: not those left to the texel's reference, nor a centre that
+        // keeps its value (in a narrow gap), which the reference returns as it is.
+        let filtered: [bool; LANES] = std::array::from_fn(|l| {
+            !centres.alone[l] && !keeps(params, pos.at_offset(centres.base + 4 * l)[3])
+        });
         // Per lane the centre's value, its variance scales and whether it is quiet
         // (`quiet`: all ones).
         let mut lanes = [[0.0f32; LANES]; 6];
-        for l in (0..LANES).filter(|&l| !centres.alone[l]) {
+        for l in (0..LANES).filter(|&l| filtered[l]) {
             let c = src.at_offset(centres.base + 4 * l);
             let t = Texel {
                 x: at.x + l as u32,
@@ -246,9 +251,7 @@ mod avx2 {
                 x: at.x + l as u32,
                 ..at
             };
-            // A centre that keeps its value (in a narrow gap) takes it from the texel's
-            // reference too.
-            if centres.alone[l] || keeps(params, pos.at_offset(centres.base + 4 * l)[3]) {
+            if !filtered[l] {
                 o.copy_from_slice(&atrous_texel(maps, params, Some(masks), t));
                 continue;
             }
@@ -261,7 +264,7 @@ mod avx2 {
             };
             o.copy_from_slice(&[r[0], r[1], r[2], 1.0]);
         }
-        Some(centres.alone.iter().filter(|&&a| !a).count())
+        Some(filtered.iter().filter(|&&f| f).count())
     }
 }
 
