@@ -321,11 +321,13 @@ pub struct GraphConfig {
     /// [`Method::Converged`]: progressive refinement of the first bounce, `(rays, max_error)`
     /// ([`Program::Refine`]); `None` or 0 rays: off.
     pub refine: Option<(u32, f32)>,
-    /// [`Method::Converged`]: rays per texel in a narrow gap, in every bounce: a bounce
-    /// that gathers fewer there (the first with `stride` 1, the later ones with
-    /// `higher_stride` > 1) adds the rest as a refinement ([`RefineParams::narrow_rays`]);
-    /// 0 (or no more than a bounce's rays): none. Within a budget:
-    /// [`crate::passes::refine::narrow_more`].
+    /// [`Method::Converged`]: rays per texel in a narrow gap in the first two bounces, half
+    /// as many in each bounce after ([`crate::passes::refine::narrow_rays_in`]): a bounce that
+    /// gathers fewer there (the first with `stride` 1, the later ones with a `higher_stride`
+    /// over 1) adds the rest as a refinement ([`RefineParams::narrow_rays`]; without
+    /// `direct_at_hits` the first bounce's refinement gathers all of them there,
+    /// [`RefineParams::narrow_direct`]); 0 (or no more than a bounce's rays): none. Within a
+    /// budget: [`crate::passes::refine::narrow_more`].
     pub narrow_rays: u32,
     /// The room's texels in narrow gaps and its valid texels, for the budget of
     /// [`GraphConfig::narrow_rays`]; no texel in a gap: no refinement for them.
@@ -1020,19 +1022,30 @@ fn correct_stage(
 fn build_converged(config: &GraphConfig) -> BakeGraph {
     let mut b = Builder::new(config);
     let refine = config.refine.filter(|&(rays, _)| rays > 0);
-    // A bounce's further rays in narrow gaps, up to `narrow_rays` there, within the budget.
-    let narrow_more = |rays: u32| {
+    // A bounce's further rays in narrow gaps, up to its share of `narrow_rays` there, within
+    // the budget.
+    let narrow_more = |rays: u32, bounce: u32| {
         crate::passes::refine::narrow_more(
-            config.narrow_rays,
+            crate::passes::refine::narrow_rays_in(config.narrow_rays, bounce),
             rays,
             config.rays,
             config.narrow_texels,
         )
     };
-    let narrow = if config.stride <= 1 {
-        narrow_more(config.rays)
+    // Without the direct light at every hit, the first bounce's texels in narrow gaps take
+    // their refinement's estimate alone, which reads the direct light at its hits
+    // ([`RefineParams::narrow_direct`]): all their rays are the refinement's.
+    let narrow_direct = !config.direct_at_hits;
+    let narrow = if config.stride <= 1 && narrow_more(config.rays, 1) > 0 {
+        narrow_more(if narrow_direct { 0 } else { config.rays }, 1)
     } else {
         0
+    };
+    // The rays of a texel in a narrow gap in the first bounce (for the denoiser's early term).
+    let narrow_total = match narrow {
+        0 => config.rays,
+        n if narrow_direct => n,
+        n => config.rays + n,
     };
     // The first bounce's refinement: `(rays by noise, target, rays in narrow gaps)`, when
     // either applies.
@@ -1082,7 +1095,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 config.rays,
             )
             .with_correction(config.denoise_correction)
-            .with_narrow_rays(config.rays + narrow)
+            .with_narrow_rays(narrow_total)
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
         let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
@@ -1114,7 +1127,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 // The later bounces' reduced gathers: their texels in narrow gaps up to
                 // `narrow_rays` (the first bounce's are refined below).
                 narrow_rays: if k > 1 && config.higher_stride > 1 {
-                    narrow_more(config.higher_rays)
+                    narrow_more(config.higher_rays, k)
                 } else {
                     0
                 },
@@ -1195,7 +1208,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                             lamp_count: sampling.lamp_paths.2,
                             direct_at_hits: u32::from(sampling.direct_at_hits),
                             narrow_rays: narrow_more,
-                            ..RefineParams::default()
+                            narrow_direct: u32::from(narrow_more > 0 && narrow_direct),
                         }),
                     );
                 }
@@ -1728,7 +1741,8 @@ mod tests {
     /// Rays in narrow gaps alone: the first bounce's refinement without its variance
     /// estimate (the slot reads the first gather, which the passes do not read for it), the
     /// later bounces' reduced gathers refined between gather and upsample, the counts up to
-    /// `narrow_rays` in the refine and connect parameters, and the denoiser's early term
+    /// `narrow_rays` in the refine and connect parameters (halved from the third bounce on),
+    /// and the denoiser's early term
     /// narrowed for those texels by their rays; with strides of 1 and 2 in turn, or with none
     /// asked, no refinement of that bounce and the denoiser's terms as without.
     #[test]
@@ -1741,7 +1755,7 @@ mod tests {
             lamp_paths: (4, 0.0),
             // 1 % of the texels in narrow gaps: within the budget.
             narrow_texels: [100, 10_000],
-            ..converged(3, Blur::Sigma(1.0))
+            ..converged(4, Blur::Sigma(1.0))
         };
         let g = BakeGraph::build(&GraphConfig {
             narrow_rays: 64,
@@ -1757,16 +1771,36 @@ mod tests {
         let Params::Refine(rp) = refine.params else {
             panic!("{:?}", refine.params)
         };
-        // Up to 64 rays: 56 more than the first gather's 8.
-        assert_eq!((rp.rays, rp.narrow_rays, rp.first_rays), (0, 56, 8));
+        // Up to 64 rays, all the refinement's: its estimate alone, reading the direct light
+        // at its hits, stands for the texel's first bounce.
+        assert_eq!(
+            (rp.rays, rp.narrow_rays, rp.first_rays, rp.narrow_direct),
+            (0, 64, 8, 1)
+        );
         let Params::Connect(cp) = second.params else {
             panic!("{:?}", second.params)
         };
-        // K · 56 / N = 4 · 56 / 8.
-        assert_eq!((cp.k, cp.picks, cp.narrow_picks), (4, 0, 28));
+        // K · 64 / N = 4 · 64 / 8.
+        assert_eq!((cp.k, cp.picks, cp.narrow_picks), (4, 0, 32));
+        // With the direct light at every hit the first gather's rays count: 56 more.
+        let at_hits = BakeGraph::build(&GraphConfig {
+            narrow_rays: 64,
+            direct_at_hits: true,
+            ..base
+        });
+        let Params::Refine(rp) = at_hits
+            .passes
+            .iter()
+            .find(|p| p.label == "refine")
+            .expect("refine")
+            .params
+        else {
+            panic!("not a refinement")
+        };
+        assert_eq!((rp.narrow_rays, rp.narrow_direct), (56, 0));
         // Bounces 2 and 3: the coarse gather, its narrow texels refined into the spare, which
-        // the upsample reads.
-        for bounce in [1, 2] {
+        // the upsample reads; up to 64 rays in the second bounce, 32 in the third.
+        for (bounce, more) in [(1, 48), (2, 16)] {
             assert_eq!(
                 labels(&g, bounce)[..3],
                 ["gather", "refine_narrow", "upsample"]
@@ -1779,13 +1813,15 @@ mod tests {
             };
             assert_eq!(
                 (np.rays, np.narrow_rays, np.first_rays, np.lamp_paths),
-                (0, 48, 16, 0)
+                (0, more, 16, 0)
             );
             assert_eq!(np.bounce as usize, bounce + 1);
             assert_eq!(narrow.reads[3], gather.writes[0]);
             assert_eq!(up.reads[0], narrow.writes[0]);
             assert_ne!(narrow.writes[0], gather.writes[0]);
         }
+        // The fourth bounce's 16 rays are its share, 64 / 4: nothing added.
+        assert_eq!(labels(&g, 3)[..2], ["gather", "upsample"]);
         let atrous = |g: &BakeGraph| -> Vec<AtrousParams> {
             g.passes
                 .iter()
@@ -1818,7 +1854,8 @@ mod tests {
             ["gather", "refine_variance", "refine_connect", "refine"]
         );
         // A room with no texel in a gap: no refinement; with a fifth of its texels in gaps, a
-        // quarter of 8 rays over the room is 10 more a texel there, in every bounce.
+        // quarter of 8 rays over the room is 10 more a texel there, in every bounce that
+        // adds more than that.
         let none = BakeGraph::build(&GraphConfig {
             narrow_rays: 64,
             narrow_texels: [0, 10_000],

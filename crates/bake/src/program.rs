@@ -200,8 +200,8 @@ impl AtrousConfig {
         }
     }
 
-    /// The config for a first bounce of `rays` rays per texel in narrow gaps (the first
-    /// gather's and the refinement's there): their early luminance term from
+    /// The config for a first bounce of `rays` rays per texel in narrow gaps (those of the
+    /// estimate that stands for it there): their early luminance term from
     /// [`early_sigma_luminance_for`] (see [`atrous_steps`], "Narrow gaps").
     pub fn with_narrow_rays(self, rays: u32) -> AtrousConfig {
         AtrousConfig {
@@ -379,7 +379,9 @@ pub fn early_sigma_luminance_for(rays: u32) -> f32 {
 /// A texel in a narrow gap ([`crate::validity::NARROW_GAP`]) gathers its first bounce with more
 /// rays ([`crate::scene::Settings::narrow_rays`], the refinement's "Narrow gaps"), so its
 /// noise is less skewed, and its early iterations take the early term of its own ray count,
-/// [`early_sigma_luminance_for`]`(rays + narrow_rays)`
+/// [`early_sigma_luminance_for`] of its first bounce's rays there (`narrow_rays`, all the
+/// refinement's where its estimate stands alone, the refinement's "The direct light at a
+/// gap's mouth"; else `rays + narrow_rays`)
 /// ([`AtrousConfig::narrow_early_sigma_luminance`], [`AtrousParams::narrow_variance_scale`]):
 /// the rule above applied per texel. In a gap the light falls a hundredfold over a few
 /// texels, and the early term, nearly linear at 8 rays, spreads the rim's light into the

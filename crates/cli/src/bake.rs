@@ -114,8 +114,9 @@ pub struct Args {
     /// Converged: the relative standard error per texel that refinement aims at.
     #[arg(long)]
     refine_error: Option<f32>,
-    /// Converged: rays per texel in a narrow gap in every bounce, whatever its noise (a
-    /// bounce that gathers fewer there adds the rest; 0 = none, every preset; 64 measured).
+    /// Converged: rays per texel in a narrow gap in the first two bounces, half as many in
+    /// each after, whatever its noise (a bounce that gathers fewer there adds the rest; the
+    /// `default` preset 64, `draft` and `final` 0 = none).
     #[arg(long)]
     narrow_rays: Option<u32>,
     /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):

@@ -392,10 +392,10 @@ mod tests {
         assert_eq!((s.rays, s.blur, s.texels_per_metre), (16, Blur::None, 12.0));
         let s = settings(r#"{"lampPaths":3,"tailTolerance":0.05}"#).unwrap();
         assert_eq!((s.lamp_paths, s.tail_tolerance), (3, 0.05));
-        // No preset refines the texels in narrow gaps; a page can ask for it.
-        assert_eq!(settings("{}").unwrap().narrow_rays, 0);
-        let s = settings(r#"{"narrowRays":64}"#).unwrap();
-        assert_eq!(s.narrow_rays, Settings::NARROW_RAYS);
+        // The default preset refines the texels in narrow gaps; a page can turn that off.
+        assert_eq!(settings("{}").unwrap().narrow_rays, Settings::NARROW_RAYS);
+        let s = settings(r#"{"narrowRays":0}"#).unwrap();
+        assert_eq!(s.narrow_rays, 0);
         // The default preset corrects its denoiser's bias; a page can turn that off.
         assert!(settings("{}").unwrap().denoise_correction);
         let s = settings(r#"{"denoiseCorrection":false}"#).unwrap();

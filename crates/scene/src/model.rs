@@ -832,13 +832,17 @@ pub struct Settings {
     pub refine_error: f32,
     /// [`Method::Converged`]: rays per texel in a narrow gap (`luxbake::validity::NARROW_GAP`:
     /// its surface faces another within a few texels and a 64th of the room's size, in a gap
-    /// closed to its sides, as the back of a bookcase near a wall is), in
-    /// every bounce, whatever its noise: a bounce that gathers fewer there adds the rest as
-    /// refinement adds rays (`luxbake::passes::refine`, "Narrow gaps") — the first bounce
-    /// with `stride` 1 (and `lamp_paths · (narrow_rays − rays) / rays` further connections),
-    /// the later ones with `higher_stride` > 1 — and the denoiser's first iterations narrow
+    /// closed to its sides, as the back of a bookcase near a wall is), in the first two
+    /// bounces, half as many in each bounce after (as the bounces' light shrinks), whatever
+    /// its noise: a bounce that gathers fewer there adds the rest as refinement adds rays
+    /// (`luxbake::passes::refine`, "Narrow gaps") — the first bounce with `stride` 1 (and
+    /// `lamp_paths · narrow_rays / rays` further connections; without
+    /// [`Settings::direct_at_hits`] these rays read the lamps' direct light at their hits and
+    /// stand for the texel's first bounce alone, with it they add to the first gather's), the
+    /// later ones with `higher_stride` > 1 — and the denoiser's first iterations narrow
     /// there with the rays (`luxbake::program::atrous_steps`). 0 (or no more than a bounce's
-    /// own rays): none, in every preset ([`Settings::NARROW_RAYS`] as measured).
+    /// own rays): none. [`Settings::NARROW_RAYS`] at `default`, 0 at `draft` (its first
+    /// bounce on a grid) and `final` (256 rays everywhere).
     pub narrow_rays: u32,
     /// [`Method::Converged`] with [`Settings::blur`]: the denoiser's bias correction — the
     /// à-trous filter's residual filtered once more and added back, `y + B(x − y)`, which
@@ -1014,6 +1018,7 @@ impl Settings {
                 opening_samples: 48,
                 higher_rays: 16,
                 higher_stride: 4,
+                narrow_rays: Settings::NARROW_RAYS,
                 tail_tolerance: 0.01,
                 blur: Blur::Sigma(1.0),
                 ..base
@@ -1051,8 +1056,8 @@ impl Settings {
     pub const MAX_STRIDE: u32 = 16;
     /// Largest [`Settings::lamp_paths`].
     pub const MAX_LAMP_PATHS: u32 = 1024;
-    /// [`Settings::narrow_rays`] as measured (see [`Settings::preset`]): 64 rays in every
-    /// bounce in narrow gaps.
+    /// [`Settings::narrow_rays`] of the `default` preset (see [`Settings::preset`]): 64 rays in
+    /// narrow gaps in the first two bounces, half as many in each bounce after.
     pub const NARROW_RAYS: u32 = 64;
     /// [`Settings::opening_probe_stride`] of every preset: 12 probes of the `default` preset's
     /// 48 points (24 of 96 near an opening).

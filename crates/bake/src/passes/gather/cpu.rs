@@ -75,6 +75,9 @@ pub(crate) struct GatherTexel {
 pub(crate) struct Source<'a> {
     pub(crate) reflected: View<'a>,
     pub(crate) direct: Option<(View<'a>, u32)>,
+    /// With `direct`: only the hits of texels in narrow gaps ([`GatherTexel::uniform`]) read
+    /// the direct light there (the refinement's `narrow_direct`), the others `reflected`.
+    pub(crate) gaps_only: bool,
 }
 
 impl<'a> Source<'a> {
@@ -83,6 +86,21 @@ impl<'a> Source<'a> {
         Source {
             reflected,
             direct: (direct_at_hits != 0).then_some((albedo, lamp_count)),
+            gaps_only: false,
+        }
+    }
+
+    /// This source, where it reads `reflected` everywhere, with the texels in narrow gaps
+    /// reading the direct light at their hits (`in_gaps`; the albedo map and the lamps as in
+    /// [`Source::new`]).
+    pub(crate) fn with_direct_in_gaps(self, albedo: View<'a>, lamp_count: u32, in_gaps: bool) -> Source<'a> {
+        if self.direct.is_some() || !in_gaps {
+            return self;
+        }
+        Source {
+            direct: Some((albedo, lamp_count)),
+            gaps_only: true,
+            ..self
         }
     }
 }
@@ -249,7 +267,8 @@ impl GatherChunk {
                 };
                 // The hit's point, for the direct light there and the lamp paths' weight.
                 let y = [0, 1, 2].map(|c| t.o[c] + hit.t * dir[c]);
-                let at_hit = source.direct.and_then(|(albedo, lamps)| {
+                let direct = source.direct.filter(|_| !source.gaps_only || t.uniform);
+                let at_hit = direct.and_then(|(albedo, lamps)| {
                     // The shaders' test; the direct texel normalizes the normal itself.
                     normalize(lookup.normal)?;
                     let e = crate::passes::direct::cpu::points_at(scene, trav, lamps, y, lookup.normal)?;

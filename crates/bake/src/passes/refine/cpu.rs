@@ -72,7 +72,11 @@ impl CpuPass for RefineParams {
         let draws = [params.sampler, params.bounce, params.seed];
         gather_sums(
             scene,
-            Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count),
+            Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count).with_direct_in_gaps(
+                albedo,
+                params.lamp_count,
+                params.narrow_direct != 0,
+            ),
             ctx.trav,
             draws,
             &scratch.texels,
@@ -80,9 +84,15 @@ impl CpuPass for RefineParams {
             &mut scratch.chunks,
             &mut scratch.sums,
         );
-        let k = params.first_rays as f32;
         for ((sum, &i), t) in scratch.sums.iter().zip(&scratch.at).zip(&scratch.texels) {
             let more = t.rays.len() as f32;
+            // A texel in a gap with `narrow_direct` takes the second estimate alone (module
+            // docs, "Narrow gaps").
+            let k = if params.replaces(t.uniform) {
+                0.0
+            } else {
+                params.first_rays as f32
+            };
             let total = k + more;
             let here = Texel {
                 layer,

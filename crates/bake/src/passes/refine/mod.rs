@@ -58,10 +58,41 @@
 //! decision reads no estimate, so it biases nothing. The later bounces' reduced gathers are
 //! refined the same way, between the gather and the upsample (the graph's `refine_narrow`,
 //! with `rays` 0 and no lamp paths); [`narrow_more`] sets the counts
-//! ([`crate::scene::Settings::narrow_rays`] in all, within a budget). Where a texel is both
+//! ([`crate::scene::Settings::narrow_rays`] in all in the first two bounces, half as many in
+//! each bounce after, [`narrow_rays_in`]; within a budget). The halving follows the light:
+//! a bounce's noise counts in the reported light as much as the bounce's light does, and
+//! each bounce brings about half as much as the one before (the manifests' `bounce_ratio`
+//! 0.50–0.64 in the demo room and the three real rooms), so rays in proportion to it spend
+//! them where they lower the error most. Measured on the lounge's gap (`bench refcheck`, four
+//! seeds, `default` with 64 gap rays, furniture mean |rel|): 64 rays in every bounce 0.957 %,
+//! halved from the third bounce 0.976 % for a third of the later bounces' refinement time,
+//! halved from the second 1.074 %. Where a texel is both
 //! narrow and refined for its noise it takes the larger count ([`RefineParams::more`]); every texel
 //! draws from [`Stream::refine`](crate::rng::Stream::refine) with the larger of the two counts
 //! as its span, so the draws of a block's texels never overlap whatever count each takes.
+//!
+//! ## The direct light at a gap's mouth
+//! Without [`GatherParams::direct_at_hits`](crate::passes::gather::GatherParams::direct_at_hits)
+//! a gather ray reads the direct light where it lands from the direct map, bilinearly between
+//! texels. At a gap's open side the lamps light its walls at grazing incidence over the first
+//! centimetre or so and then not at all, a step the map's texels (1.6 cm at 64 texels per
+//! metre) spread inward, and a gap's first bounce is mostly that light: along the lounge's
+//! slot (`default`, sixteen seeds, against ten Radiance points traced across it,
+//! `bench/results/real-rooms-2026-12-07c/slot-profile`) the bake read +6.5 … +11 % over the
+//! 10 cm next to the open side with every denoiser setting, and −1.6 … +2.3 % on the layout
+//! without the denoiser's padding, where the texels fall elsewhere. So with
+//! [`RefineParams::narrow_direct`] (the graph sets it when the bake does not read the direct
+//! light at every hit) a texel in a narrow gap takes the refinement's estimate alone, all its
+//! `narrow_rays` reading the lamps' direct light at their hits (a shadow ray per ray and
+//! lamp, as [`GatherParams::direct_at_hits`](crate::passes::gather::GatherParams::direct_at_hits)
+//! does everywhere) instead of averaging in the first gather's rays, which read the map;
+//! every other texel's rays still read the map. The refinement's estimate is unbiased on its
+//! own (its rays and connections weighted by the same heuristic as the first's), so dropping
+//! the first gather's few rays there biases nothing. Measured (sixteen seeds, against
+//! Radiance): the slot's six points within 10 cm of the open side −4.8 … +2.9 %; the real
+//! rooms' furniture
+//! (mean |rel| / bias %) lounge 1.015 / −0.08 → 0.945 / −0.21, dining 0.670 → 0.653, office
+//! 0.572 → 0.561, every other surface kind the same to the third decimal.
 
 pub(crate) mod cpu;
 
@@ -104,6 +135,17 @@ pub(crate) fn larger_count(
 /// The most rays the refinements in narrow gaps add in one bounce, as a fraction
 /// `1 / NARROW_BUDGET` of the first bounce's gather rays over the room: 4, a quarter.
 pub const NARROW_BUDGET: u64 = 4;
+
+/// The rays per texel in a narrow gap that bounce `bounce` (1-based) aims at, of
+/// [`crate::scene::Settings::narrow_rays`] `narrow_rays`: all of them in the first two
+/// bounces, half as many in each bounce after (module docs, "Narrow gaps"): a gap's light
+/// shrinks from bounce to bounce as the room's does, and a bounce's noise counts in the
+/// total only as much as its light, so the rays follow the light.
+pub fn narrow_rays_in(narrow_rays: u32, bounce: u32) -> u32 {
+    narrow_rays
+        .checked_shr(bounce.saturating_sub(2))
+        .unwrap_or(0)
+}
 
 /// The rays a bounce of `rays` rays per texel adds at each texel in a narrow gap: up to
 /// `narrow_rays` there, and in all at most a quarter ([`NARROW_BUDGET`]) of the first
@@ -157,8 +199,10 @@ param_block! {
         /// Further rays at every texel in a narrow gap ([`crate::validity::NARROW_GAP`]), whatever
         /// its noise (module docs, "Narrow gaps"); 0: none.
         narrow_rays: u32,
-        /// Padding.
-        pad1: u32,
+        /// 1: a texel in a narrow gap takes its refinement's estimate alone, its rays reading
+        /// the lamps' direct light at their hits (module docs, "Narrow gaps"); 0: the
+        /// first gather's and the refinement's averaged by ray count there too.
+        narrow_direct: u32,
     }
 }
 
@@ -174,6 +218,12 @@ impl RefineParams {
     /// of the narrow count (when narrow) and the refinement's (when it misses the target).
     pub fn more(&self, narrow: bool, noise: impl FnOnce() -> [f32; 4]) -> u32 {
         larger_count(narrow, [self.narrow_rays, self.rays], noise, self.max_error)
+    }
+
+    /// Whether a refined texel that is `narrow` takes the refinement's estimate alone
+    /// ([`RefineParams::narrow_direct`]).
+    pub fn replaces(&self, narrow: bool) -> bool {
+        narrow && self.narrow_direct != 0
     }
 }
 
@@ -195,7 +245,7 @@ pub fn work(p: &RefineParams) -> u64 {
 
 #[cfg(test)]
 mod tests {
-    use super::{RefineParams, narrow_more, refines};
+    use super::{RefineParams, narrow_more, narrow_rays_in, refines};
     use crate::passes::connect::ConnectParams;
 
     /// A texel's further rays and connections: the narrow count in a gap whatever the noise
@@ -245,6 +295,11 @@ mod tests {
         assert_eq!(both.connections_at(false, || quiet), 0);
         // Up to 64 rays where a gap holds 1 % of the room's texels; where it holds 10 %, a
         // quarter of 8 rays over the room is 20 a texel there; none where no texel is in one.
+        // All 64 in the first two bounces, then half as many in each.
+        let shares: Vec<u32> = (1..=9).map(|k| narrow_rays_in(64, k)).collect();
+        assert_eq!(shares, [64, 64, 32, 16, 8, 4, 2, 1, 0]);
+        assert_eq!(narrow_rays_in(64, u32::MAX), 0);
+        assert_eq!(narrow_rays_in(0, 1), 0);
         assert_eq!(narrow_more(64, 8, 8, [1, 100]), 56);
         assert_eq!(narrow_more(64, 16, 8, [1, 100]), 48);
         assert_eq!(narrow_more(64, 8, 8, [10, 100]), 20);

@@ -8,7 +8,9 @@
 // the refinement's own connections (u_connected, the connect pass with picks), make a second
 // estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
 // LUX_NARROW_GAP) gets u_narrow_rays further rays whatever its noise, the larger count where both
-// apply (RefineParams::more); every texel's draws span the larger of the two counts.
+// apply (RefineParams::more); every texel's draws span the larger of the two counts. With
+// u_narrow_direct such a texel takes the second estimate alone, its rays reading the lamps'
+// direct light at their hits (RefineParams::narrow_direct).
 
 vec4 luxRun(ivec3 c) {
     vec4 pos = texelFetch(u_position, c, 0);
@@ -20,7 +22,8 @@ vec4 luxRun(ivec3 c) {
     if (!luxNormalize(texelFetch(u_normal, c, 0).xyz, n)) {
         return first;
     }
-    uint more = pos.w >= LUX_NARROW_GAP ? u_narrow_rays : 0u;
+    bool gap = pos.w >= LUX_NARROW_GAP;
+    uint more = gap ? u_narrow_rays : 0u;
     if (u_rays > 0u && luxRefines(texelFetch(u_variance, c, 0), u_max_error)) {
         more = max(more, u_rays);
     }
@@ -31,11 +34,13 @@ vec4 luxRun(ivec3 c) {
     uvec2 stream = luxRefineStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
                                    u_first_rays, max(u_rays, u_narrow_rays));
     vec3 origin = luxOffsetOrigin(pos.xyz, n, u_ray_epsilon);
+    bool replaces = gap && u_narrow_direct != 0u;
     vec3 sum = luxGatherSum(origin, n, stream, 0u, more, u_sampler, u_bounce, u_seed,
                             u_lamp_paths, u_first_rays, u_density_scale, int(u_lamp_count),
-                            u_direct_at_hits, pos.w >= LUX_NARROW_GAP);
+                            replaces ? 1u : u_direct_at_hits, gap);
     vec3 paths = u_lamp_paths > 0u ? texelFetch(u_connected, c, 0).rgb : vec3(0.0);
-    float total = float(u_first_rays + more);
-    vec3 m = float(u_first_rays) * first.rgb + sum + float(more) * paths;
+    float kept = replaces ? 0.0 : float(u_first_rays);
+    float total = kept + float(more);
+    vec3 m = kept * first.rgb + sum + float(more) * paths;
     return vec4(luxGuard3(vec3(m.x / total, m.y / total, m.z / total)), 1.0);
 }

@@ -9,6 +9,8 @@
 // estimate, averaged with the first by ray count. A texel in a narrow gap (position w >=
 // LUX_NARROW_GAP) gets lux_pass.narrow_rays further rays whatever its noise, the larger count
 // where both apply (RefineParams::more); every texel's draws span the larger of the two.
+// With lux_pass.narrow_direct such a texel takes the second estimate alone, its rays reading
+// the lamps' direct light at their hits (RefineParams::narrow_direct).
 
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let pos = lux_load(lux_position, c);
@@ -20,7 +22,8 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_normalize(lux_load(lux_normal, c).xyz, &n)) {
         return first;
     }
-    var rays = select(0u, lux_pass.narrow_rays, pos.w >= LUX_NARROW_GAP);
+    let gap = pos.w >= LUX_NARROW_GAP;
+    var rays = select(0u, lux_pass.narrow_rays, gap);
     if (lux_pass.rays > 0u && lux_refines(lux_load(lux_variance, c), lux_pass.max_error)) {
         rays = max(rays, lux_pass.rays);
     }
@@ -33,15 +36,17 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
                                    u32(c.y), lux_pass.first_rays,
                                    max(lux_pass.rays, lux_pass.narrow_rays));
     let origin = lux_offset_origin(pos.xyz, n, lux_scene.ray_epsilon);
+    let replaces = gap && lux_pass.narrow_direct != 0u;
     let sum = lux_gather_sum(origin, n, texel, stream, 0u, rays, lux_pass.sampler,
                              lux_pass.bounce, lux_pass.seed, lux_pass.lamp_paths,
                              lux_pass.first_rays, lux_pass.density_scale, lux_pass.lamp_count,
-                             lux_pass.direct_at_hits, pos.w >= LUX_NARROW_GAP);
+                             select(lux_pass.direct_at_hits, 1u, replaces), gap);
     var paths = vec3<f32>(0.0);
     if (lux_pass.lamp_paths > 0u) {
         paths = lux_load(lux_connected, c).rgb;
     }
-    let total = f32(lux_pass.first_rays + rays);
-    let m = f32(lux_pass.first_rays) * first.rgb + sum + f32(rays) * paths;
+    let kept = select(f32(lux_pass.first_rays), 0.0, replaces);
+    let total = kept + f32(rays);
+    let m = kept * first.rgb + sum + f32(rays) * paths;
     return vec4<f32>(lux_guard3(vec3<f32>(m.x / total, m.y / total, m.z / total)), 1.0);
 }
