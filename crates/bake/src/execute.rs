@@ -31,7 +31,7 @@ use crate::graph::{
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
-use crate::program::{CombineParams, Params, Program, TilePlan};
+use crate::program::{CombineParams, Params, Program, TileParams, TilePlan, tiles_by_rows};
 use crate::report::{DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
@@ -212,14 +212,38 @@ const RAY_COST: f64 = 12.0;
 fn pass_work(pass: &PassDesc, room: &Room) -> f64 {
     let [w, h] = room.layout.layer_size;
     let texels = f64::from(w) * f64::from(h) * f64::from(room.layout.layers);
+    let ray_cost = if pass.kind.program().is_some_and(|p| p.signature().scene.bvh) {
+        RAY_COST
+    } else {
+        1.0
+    };
+    // A refinement in narrow gaps works at the gaps' texels alone.
+    if let Some(gap) = pass.params.gap_work() {
+        return texels + room.narrow_texels as f64 * gap as f64 * ray_cost;
+    }
     let mut per_texel = pass.params.work_per_texel() as f64;
     if let Params::Gather(g) = pass.params {
         per_texel /= f64::from(g.stride.max(1)).powi(2);
     }
-    if pass.kind.program().is_some_and(|p| p.signature().scene.bvh) {
-        per_texel *= RAY_COST;
-    }
-    texels * per_texel
+    texels * per_texel * ray_cost
+}
+
+/// Per row of the layout (layer by layer, rows top to bottom), the evaluations of a pass with
+/// `gap` evaluations at each texel in a narrow gap and one at every other texel
+/// ([`Params::gap_work`]), from the G-buffer's positions.
+fn gap_row_work(room: &Room, gap: u64) -> Vec<u64> {
+    let width = room.layout.layer_size[0] as usize;
+    room.gbuffer
+        .position
+        .chunks(4 * width.max(1))
+        .map(|row| {
+            let gaps = row
+                .chunks_exact(4)
+                .filter(|p| p[3] >= crate::validity::NARROW_GAP)
+                .count() as u64;
+            width as u64 + gaps * gap.saturating_sub(1)
+        })
+        .collect()
 }
 
 /// Work of the passes after `index` that run if the bake stops at bounce `stop`.
@@ -346,14 +370,27 @@ pub(crate) fn run<B: GpuBackend>(
             // `graph.validate()` checked the slots, the parameter block and the sizes.
             let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
             let params = with_lamp_paths(decisions.params(pass), lamps.pool()).words();
-            let plan = TilePlan::new(
-                graph.textures[write.index()].size,
-                layout.layers,
-                pass.params.work_per_texel(),
-                backend.tile_work(),
-            );
+            let size = graph.textures[write.index()].size;
+            // A refinement in narrow gaps in tiles by where its work lies (`tiles_by_rows`):
+            // rows without a gap share a dispatch.
+            let plan: Vec<TileParams> = match pass.params.gap_work() {
+                Some(gap) if size == layout.layer_size => tiles_by_rows(
+                    size,
+                    layout.layers,
+                    &gap_row_work(room, gap),
+                    backend.tile_work(),
+                ),
+                _ => TilePlan::new(
+                    size,
+                    layout.layers,
+                    pass.params.work_per_texel(),
+                    backend.tile_work(),
+                )
+                .tiles()
+                .collect(),
+            };
             let tiles = plan.len();
-            for (done, tile) in plan.tiles().enumerate() {
+            for (done, &tile) in plan.iter().enumerate() {
                 backend.dispatch(&Dispatch {
                     label: pass.label,
                     program,

@@ -649,9 +649,106 @@ impl TilePlan {
     }
 }
 
+impl Params {
+    /// Evaluations at each texel in a narrow gap ([`crate::validity::NARROW_GAP`]) of a pass
+    /// that works there alone, every other texel keeping a value it reads (one evaluation):
+    /// the refinements in gaps only (a refine pass without refinement by noise, and its
+    /// connect pass). `None` for every other pass. Such a pass is split by where its work lies
+    /// ([`tiles_by_rows`]).
+    pub fn gap_work(&self) -> Option<u64> {
+        match self {
+            Params::Refine(r) if r.rays == 0 && r.narrow_rays > 0 => Some(u64::from(r.span())),
+            Params::Connect(c) if c.is_refinement() && c.picks == 0 => {
+                Some(u64::from(c.narrow_picks))
+            }
+            _ => None,
+        }
+    }
+}
+
+/// The tiles of a pass over `layers` layers of `size` texels whose work per row is known,
+/// `row_work` (layer by layer, rows top to bottom): row tiles of at most about `tile_work`
+/// evaluations (at least one row each), so that rows with little work (a refinement in
+/// narrow gaps over rows without a gap) share a dispatch and rows with much get their own,
+/// each dispatch's cost bounded as in [`TilePlan`]. Every row of every layer lies in exactly
+/// one tile; rows past `row_work`'s end count `size[0]` evaluations.
+pub fn tiles_by_rows(
+    size: [u32; 2],
+    layers: u32,
+    row_work: &[u64],
+    tile_work: u64,
+) -> Vec<TileParams> {
+    let mut tiles = Vec::new();
+    let tile = |layer: u32, y0: u32, height: u32| TileParams {
+        x0: 0,
+        y0,
+        width: size[0],
+        height,
+        layer,
+        layer_w: size[0],
+        layer_h: size[1],
+        pad0: 0,
+    };
+    for layer in 0..layers {
+        let (mut y0, mut work) = (0u32, 0u64);
+        for y in 0..size[1] {
+            let at = layer as usize * size[1] as usize + y as usize;
+            let w = row_work.get(at).copied().unwrap_or(u64::from(size[0]));
+            if y > y0 && work.saturating_add(w) > tile_work {
+                tiles.push(tile(layer, y0, y - y0));
+                (y0, work) = (y, 0);
+            }
+            work = work.saturating_add(w);
+        }
+        if size[1] > y0 {
+            tiles.push(tile(layer, y0, size[1] - y0));
+        }
+    }
+    tiles
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Row-weighted tiles cover every row of every layer once, in order, within the budget
+    /// but for a single heavy row; rows without work share one tile, where the uniform plan
+    /// of the heaviest row's work would cut many.
+    #[test]
+    fn tiles_by_rows_cover_every_row_once_and_follow_the_work() {
+        let (size, layers, budget) = ([100u32, 50u32], 2u32, 1_000u64);
+        // Layer 0: a gap of 64 evaluations a texel on rows 10..13 (5 texels each) and one row
+        // heavier than the budget; layer 1: no gap.
+        let mut rows = vec![100u64; 100];
+        rows[10..13].fill(100 + 5 * 63);
+        rows[30] = 5_000;
+        let tiles = tiles_by_rows(size, layers, &rows, budget);
+        for layer in 0..layers {
+            let mut next = 0;
+            for t in tiles.iter().filter(|t| t.layer == layer) {
+                assert_eq!((t.y0, t.x0, t.width), (next, 0, 100), "{t:?}");
+                assert_eq!((t.layer_w, t.layer_h), (100, 50));
+                let work: u64 = (t.y0..t.y0 + t.height)
+                    .map(|y| rows[(layer * 50 + y) as usize])
+                    .sum();
+                assert!(work <= budget || t.height == 1, "{t:?}: {work}");
+                next += t.height;
+            }
+            assert_eq!(next, 50);
+        }
+        assert!(
+            tiles
+                .iter()
+                .any(|t| t.layer == 0 && t.y0 == 30 && t.height == 1)
+        );
+        // A layer without a gap: five tiles of ten rows at the budget, against fifty tiles
+        // for the gap's 64 evaluations a texel.
+        assert_eq!(tiles.iter().filter(|t| t.layer == 1).count(), 5);
+        assert_eq!(TilePlan::new(size, 1, 64, budget).len(), 50);
+        // Short work lists count whole rows past their end; no layer, no tile.
+        assert_eq!(tiles_by_rows(size, 1, &[], budget).len(), 5);
+        assert!(tiles_by_rows(size, 0, &rows, budget).is_empty());
+    }
 
     #[test]
     fn the_narrow_reach_is_the_gaps() {
