@@ -982,14 +982,16 @@ impl Settings {
     ///
     /// Refinement ([`Settings::refine_rays`]) is off in every preset: on `chairs_05` and the
     /// box room it refined 60–77 % of the texels at targets that lowered the error, so it
-    /// cost as many rays as sampling every texel more (docs/performance.md). So are the rays
-    /// in narrow gaps ([`Settings::narrow_rays`]): with [`Settings::NARROW_RAYS`] (64 in every
-    /// bounce there) `default` holds 1 % on every surface kind of all three real rooms (the
-    /// furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a wall: the
-    /// lounge 1.76 → 0.98 %, the dining room 0.92 → 0.66 %, sixteen seeds) for 1.08× the bake's
-    /// time of `chairs_05` and 1.12× the lounge's, and in the browser (24 texels/m) a lamp swap
-    /// takes 0.60 of a fresh bake instead of 0.56 (docs/performance.md, "Narrow gaps refined",
-    /// "Gaps closed to their sides" and "The denoiser's reach in a gap").
+    /// cost as many rays as sampling every texel more (docs/performance.md). The rays in narrow
+    /// gaps ([`Settings::narrow_rays`]) are on at `default`: with [`Settings::NARROW_RAYS`] (64
+    /// in the first two bounces there, half as many in each after, the first bounce's reading
+    /// the lamps' direct light where they land) it holds 1 % on every surface kind of all three
+    /// real rooms (the furniture behind which a bookcase or a sideboard stands 2.5–3 cm from a
+    /// wall: the lounge 1.76 → 0.95 %, the dining room 0.92 → 0.65 %, the office 0.64 → 0.56 %,
+    /// sixteen seeds), in 0.86–0.90× the time `default` took when issue 29 was filed and
+    /// 1.02–1.23× the time without them (the built-in rooms, whose gaps are open to their
+    /// sides, read as before within 0.002 %; docs/performance.md, "The default's rays in
+    /// narrow gaps").
     pub fn preset(quality: Quality) -> Settings {
         let base = Settings {
             method: Method::Converged,
