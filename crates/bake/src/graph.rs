@@ -323,8 +323,8 @@ pub struct GraphConfig {
     pub refine: Option<(u32, f32)>,
     /// [`Method::Converged`]: rays per texel in a narrow gap in the first two bounces, half
     /// as many in each bounce after ([`crate::passes::refine::narrow_rays_in`]): a bounce that
-    /// gathers fewer there (the first with `stride` 1, the later ones with a `higher_stride`
-    /// over 1) adds the rest as a refinement ([`RefineParams::narrow_rays`]; without
+    /// gathers fewer there (the first with `stride` 1, the later ones at any `higher_stride`)
+    /// adds the rest as a refinement ([`RefineParams::narrow_rays`]; without
     /// `direct_at_hits` the first bounce's refinement gathers all of them there,
     /// [`RefineParams::narrow_direct`]); 0 (or no more than a bounce's rays): none. Within a
     /// budget: [`crate::passes::refine::narrow_more`].
@@ -754,9 +754,9 @@ struct GatherSampling {
     chunk: u32,
     /// [`GatherParams::direct_at_hits`].
     direct_at_hits: bool,
-    /// A reduced gather's further rays at the texels in narrow gaps (which it gathers at
-    /// full resolution with `rays`): a refine pass between the gather and the upsample
-    /// ([`RefineParams::narrow_rays`]); 0: none.
+    /// A later bounce's further rays at the texels in narrow gaps (which a reduced gather
+    /// gathers at full resolution with `rays`): a refine pass after the gather, before the
+    /// upsample of a reduced one ([`RefineParams::narrow_rays`]); 0: none.
     narrow_rays: u32,
 }
 
@@ -765,8 +765,9 @@ struct GatherSampling {
 /// [`GatherSampling::chunk`] a texel's rays are split over several gather passes, each adding
 /// to the one before, alternating between the target and `spare` (which holds nothing live
 /// during the gather) so that the last lands in the target. With
-/// [`GatherSampling::narrow_rays`] a reduced gather's texels in narrow gaps get that many
-/// more rays (the refine pass, from `coarse` into `spare`, which the upsample then reads).
+/// [`GatherSampling::narrow_rays`] the texels in narrow gaps get that many more rays: the
+/// gather writes `coarse`, and the refine pass reads it and writes `spare`, which the upsample
+/// then reads, or at full resolution `indirect`.
 fn gather_stage(
     b: &mut Builder,
     g: GBufferTex,
@@ -781,7 +782,9 @@ fn gather_stage(
         Some(c) if paths > 0 => c,
         _ => reflected,
     };
-    let target = if reduced { coarse } else { indirect };
+    // A refined gather goes through `coarse` too, the refinement writing what it read on.
+    let refined = sampling.narrow_rays > 0;
+    let target = if reduced || refined { coarse } else { indirect };
     let orphan_rays = coarse::orphan_rays(sampling.rays, sampling.stride);
     let most = sampling.rays.max(orphan_rays);
     let chunks = if sampling.chunk > 0 {
@@ -827,8 +830,10 @@ fn gather_stage(
         );
         prior = out;
     }
-    let coarse = if reduced && sampling.narrow_rays > 0 {
+    let coarse = if refined {
         debug_assert!(spare != coarse, "a refined gather needs a spare texture");
+        // At full resolution the refinement writes the bounce itself.
+        let out = if reduced { spare } else { indirect };
         // The refine pass copies every other texel as it is; the slots it does not read
         // (no variance estimate, no lamp paths) take `coarse`.
         b.pass(
@@ -837,7 +842,7 @@ fn gather_stage(
             vec![
                 g.position, g.normal, reflected, coarse, coarse, coarse, g.albedo,
             ],
-            vec![spare],
+            vec![out],
             bounce,
             Params::Refine(RefineParams {
                 bounce,
@@ -849,7 +854,7 @@ fn gather_stage(
                 ..RefineParams::default()
             }),
         );
-        spare
+        out
     } else {
         coarse
     };
@@ -1098,7 +1103,10 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
             .with_narrow_rays(narrow_total)
         };
         let variance = (denoise.iterations > 0 || refine.is_some()).then(|| b.texture("variance"));
-        let coarse = (config.stride > 1 || (config.higher_stride > 1 && config.bounces > 1))
+        // At full resolution the later bounces' refinements in narrow gaps need it too.
+        let later_narrow = config.bounces > 1 && narrow_more(config.higher_rays, 2) > 0;
+        let coarse = (config.stride > 1
+            || (config.bounces > 1 && (config.higher_stride > 1 || later_narrow)))
             .then(|| b.texture("coarse"));
         for k in 1..=config.bounces {
             b.when = RunWhen::Bounce(k);
@@ -1126,7 +1134,7 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 direct_at_hits: k == 1 && config.direct_at_hits,
                 // The later bounces' reduced gathers: their texels in narrow gaps up to
                 // `narrow_rays` (the first bounce's are refined below).
-                narrow_rays: if k > 1 && config.higher_stride > 1 {
+                narrow_rays: if k > 1 {
                     narrow_more(config.higher_rays, k)
                 } else {
                     0
@@ -1876,7 +1884,8 @@ mod tests {
             })
             .collect();
         assert_eq!(counts, [10, 10, 10]);
-        // A first bounce on a grid and later bounces at full resolution: no refinement.
+        // A first bounce on a grid: not refined; later bounces at full resolution: the gather
+        // into `coarse`, refined from there into the bounce's texture, no upsample.
         let strided = BakeGraph::build(&GraphConfig {
             narrow_rays: 64,
             stride: 2,
@@ -1884,12 +1893,17 @@ mod tests {
             ..base
         });
         assert_eq!(strided.validate(), Ok(()));
-        assert!(
-            strided
-                .passes
-                .iter()
-                .all(|p| !p.label.starts_with("refine"))
+        assert_eq!(labels(&strided, 0)[..2], ["gather", "upsample"]);
+        let [gather, narrow, accumulate, ..] = bounce_from(&strided, 1) else {
+            panic!("bounce 2")
+        };
+        assert_eq!(
+            [gather.label, narrow.label, accumulate.label],
+            ["gather", "refine_narrow", "accumulate"]
         );
+        assert_eq!(narrow.reads[3], gather.writes[0]);
+        assert_eq!(accumulate.reads[1], narrow.writes[0]);
+        assert_ne!(narrow.writes[0], gather.writes[0]);
         // None asked, or no more than the bounces' own rays: no refinement, equal terms.
         for narrow_rays in [0, 8, 16] {
             let g = BakeGraph::build(&GraphConfig {

@@ -55,9 +55,9 @@
 //! leave it, most of it after bounces inside the gap, so a few rays give
 //! skewed, heavy noise — the points behind a bookcase 2.5 cm from a wall read −21 … +40 % at
 //! 8 rays, four seeds — over a few per cent of a room's texels (`crate::validity`). The
-//! decision reads no estimate, so it biases nothing. The later bounces' reduced gathers are
-//! refined the same way, between the gather and the upsample (the graph's `refine_narrow`,
-//! with `rays` 0 and no lamp paths); [`narrow_more`] sets the counts
+//! decision reads no estimate, so it biases nothing. The later bounces' gathers are refined
+//! the same way, after the gather and before the upsample of a reduced one (the graph's
+//! `refine_narrow`, with `rays` 0 and no lamp paths); [`narrow_more`] sets the counts
 //! ([`crate::scene::Settings::narrow_rays`] in all in the first two bounces, half as many in
 //! each bounce after, [`narrow_rays_in`]; within a budget). The halving follows the light:
 //! a bounce's noise counts in the reported light as much as the bounce's light does, and
