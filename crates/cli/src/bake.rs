@@ -116,7 +116,7 @@ pub struct Args {
     refine_error: Option<f32>,
     /// Converged: rays per texel in a narrow gap in the first two bounces, half as many in
     /// each after, whatever its noise (a bounce that gathers fewer there adds the rest; the
-    /// `default` preset 64, `draft` and `final` 0 = none).
+    /// `default` preset 64, `final` 256, `draft` 0 = none).
     #[arg(long)]
     narrow_rays: Option<u32>,
     /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):

@@ -80,7 +80,7 @@ export interface BakeOptions {
   seed?: number;
   /** Converged: lamp paths per texel of the first bounce (default: the preset's; 0 = none). */
   lampPaths?: number;
-  /** Converged: rays per texel in a narrow gap (a bookcase's back near a wall) in the first two bounces, half as many in each after, whatever its noise; a bounce that gathers fewer there adds the rest (default: the preset's, 64 at 'default', 0 = none at 'draft' and 'final'). */
+  /** Converged: rays per texel in a narrow gap (a bookcase's back near a wall) in the first two bounces, half as many in each after, whatever its noise; a bounce that gathers fewer there adds the rest (default: the preset's, 64 at 'default', 256 at 'final', 0 = none at 'draft'). */
   narrowRays?: number;
   /** Converged: the denoiser's bias correction (default: the preset's, true at 'default' and 'final'): its residual filtered once more and added back. */
   denoiseCorrection?: boolean;
