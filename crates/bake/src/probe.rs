@@ -326,6 +326,11 @@ pub const GATHER_AT_PASS: u32 = 0x6761_7468;
 /// (`exitance` gives what it gives for it: zero where it has no map) add nothing. A point
 /// gets the light reflected onto it by every baked bounce; the direct part is
 /// [`direct_at`]'s. On the CPU, in parallel over the points.
+///
+/// A point in a narrow gap ([`gathers_uniformly`]) draws its lattice uniformly over the
+/// hemisphere instead, each ray weighted `2 cos θ` (`E = mean(2 cos θ · M)`), as the bakes'
+/// texels there do (`crate::passes::refine`, "Narrow gaps"): its light comes from the few
+/// grazing directions that leave the gap, which cosine-distributed rays seldom draw.
 pub fn indirect_at(
     room: &Room,
     points: &[CalcPoint],
@@ -335,6 +340,7 @@ pub fn indirect_at(
 ) -> Vec<[f32; 3]> {
     let shift = room.shift.unwrap_or([0.0; 3]);
     let rays = rays.max(1);
+    let gap = crate::validity::room_gap(&room.gbuffer.position);
     points
         .par_iter()
         .enumerate()
@@ -345,6 +351,8 @@ pub fn indirect_at(
                 return [0.0; 3];
             };
             let origin = offset_origin(p, n, room.ray_epsilon);
+            let uniform = in_gap(room, origin, n, gap);
+            let frame = crate::cpu::kernel::Frame::new(n);
             let lattice_shift = {
                 let h = crate::rng::hash(i as u32, 0, GATHER_AT_PASS, seed);
                 [h, crate::rng::pcg(h)]
@@ -352,20 +360,45 @@ pub fn indirect_at(
             let mut sum = [0.0f64; 3];
             for k in 0..rays {
                 let u = crate::opening::lattice(k, rays, lattice_shift);
-                let dir = crate::cpu::kernel::cosine_direction(n, u);
+                let (dir, weight) = if uniform {
+                    let dir = frame.uniform_direction(u);
+                    (dir, 2.0 * f64::from(crate::exact::dot(n, dir)))
+                } else {
+                    (frame.cosine_direction(u), 1.0)
+                };
                 let Some((object, uv)) = front_hit(room, origin, dir) else {
                     continue;
                 };
                 let m = exitance(object, uv);
                 for c in 0..3 {
                     if m[c].is_finite() {
-                        sum[c] += f64::from(m[c]);
+                        sum[c] += weight * f64::from(m[c]);
                     }
                 }
             }
             sum.map(|v| (v / f64::from(rays)) as f32)
         })
         .collect()
+}
+
+/// Whether [`indirect_at`] gathers at `point` of the prepared `room` with rays drawn uniformly
+/// over the hemisphere: where a texel at the point, at the room's density, would lie in a
+/// narrow gap ([`crate::validity::point_in_gap`]).
+pub fn gathers_uniformly(room: &Room, point: &CalcPoint) -> bool {
+    let shift = room.shift.unwrap_or([0.0; 3]);
+    let p = [0, 1, 2].map(|c| (point.position[c] + -shift[c]) as f32);
+    crate::exact::normalize(point.normal.map(|c| c as f32)).is_some_and(|n| {
+        let gap = crate::validity::room_gap(&room.gbuffer.position);
+        in_gap(room, offset_origin(p, n, room.ray_epsilon), n, gap)
+    })
+}
+
+/// [`crate::validity::point_in_gap`] at the room's texel size (its `texels_per_metre`).
+fn in_gap(room: &Room, origin: [f32; 3], n: [f32; 3], gap: f32) -> bool {
+    let s = 1.0 / room.scene.settings.texels_per_metre;
+    s.is_finite()
+        && s > 0.0
+        && crate::validity::point_in_gap((&room.bvh.encoded, &room.bvh.wide), origin, n, s, gap)
 }
 
 #[cfg(test)]

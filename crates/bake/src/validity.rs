@@ -298,6 +298,37 @@ fn texel_size(scene: &Scene, object: f32) -> Option<f32> {
     (s.is_finite() && s > 0.0).then_some(s)
 }
 
+/// The gap against the room of a G-buffer's `position` map ([`GAP_FRACTION`] of the largest
+/// side of its valid texels' bounding box), metres.
+pub fn room_gap(position: &[f32]) -> f32 {
+    let (lo, hi) = position.chunks_exact(4).filter(|p| p[3] > 0.5).fold(
+        ([f32::MAX; 3], [f32::MIN; 3]),
+        |(lo, hi), p| {
+            (
+                [0, 1, 2].map(|c| lo[c].min(p[c])),
+                [0, 1, 2].map(|c| hi[c].max(p[c])),
+            )
+        },
+    );
+    let size = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
+    GAP_FRACTION * size
+}
+
+/// Whether a point whose offset origin is `o`, with unit normal `n`, on a surface of texel
+/// size `s` metres, lies in a narrow gap as a texel there would ([`NARROW_GAP`], module docs,
+/// step 4): its normal ray meets a surface within [`NARROW_REACH_TEXELS`]` · s` and `gap`
+/// ([`room_gap`]), and the gap is closed to its sides.
+pub fn point_in_gap(
+    bvh: (&EncodedScene, &WideBvh),
+    o: [f32; 3],
+    n: [f32; 3],
+    s: f32,
+    gap: f32,
+) -> bool {
+    first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)
+        .is_some_and(|(t, _)| t <= gap && enclosed(bvh, o, n, gap))
+}
+
 /// Step 4 of the module docs: marks every valid texel whose normal ray meets a surface within
 /// [`NARROW_REACH_TEXELS`] texels with w = [`NARROW`], or [`NARROW_GAP`] where that surface
 /// also lies within [`GAP_FRACTION`] of the room's size and the gap is closed to its sides
@@ -310,18 +341,7 @@ fn mark_narrow(
 ) -> (u64, u64) {
     let position = &g.position;
     let normal = &g.normal;
-    // The room's size: the largest side of the valid texels' bounding box.
-    let (lo, hi) = position.chunks_exact(4).filter(|p| p[3] > 0.5).fold(
-        ([f32::MAX; 3], [f32::MIN; 3]),
-        |(lo, hi), p| {
-            (
-                [0, 1, 2].map(|c| lo[c].min(p[c])),
-                [0, 1, 2].map(|c| hi[c].max(p[c])),
-            )
-        },
-    );
-    let size = (0..3).map(|c| hi[c] - lo[c]).fold(0.0f32, f32::max);
-    let gap = GAP_FRACTION * size;
+    let gap = room_gap(position);
     let narrow: Vec<(usize, bool)> = (0..position.len() / 4)
         .into_par_iter()
         .filter_map(|i| {

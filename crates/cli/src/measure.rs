@@ -29,7 +29,9 @@
 //! `--indirect-at-points` adds `indirect_at_point_lux` (and `total_at_point_lux`): the
 //! inter-reflected light gathered at each point itself (`luxbake::probe::indirect_at`: a final
 //! gather of `--gather-rays` rays, by default [`POINT_GATHER_RAYS`], from the located surface
-//! point, each reading the bake's exitance maps where it meets a surface). The maps' texels
+//! point, each reading the bake's exitance maps where it meets a surface; cosine-weighted, or
+//! drawn uniformly over the hemisphere at a point in a narrow gap, as the bakes' texels
+//! there, `luxbake::probe::gathers_uniformly`). The maps' texels
 //! then enter only through the light the point sees, averaged over its hemisphere: a point on
 //! a strip a few texels wide (a chair's apron, the rim of a seat's underside) is not read from
 //! texels half a texel or more away. With both flags `total_at_point_lux` is the sum of the
