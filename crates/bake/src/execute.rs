@@ -228,20 +228,17 @@ fn pass_work(pass: &PassDesc, room: &Room) -> f64 {
     texels * per_texel * ray_cost
 }
 
-/// Per row of the layout (layer by layer, rows top to bottom), the evaluations of a pass with
-/// `gap` evaluations at each texel in a narrow gap and one at every other texel
-/// ([`Params::gap_work`]), from the G-buffer's positions.
-fn gap_row_work(room: &Room, gap: u64) -> Vec<u64> {
+/// Per row of the layout (layer by layer, rows top to bottom), its texels in narrow gaps, from
+/// the G-buffer's positions.
+fn gap_rows_of(room: &Room) -> Vec<u64> {
     let width = room.layout.layer_size[0] as usize;
     room.gbuffer
         .position
         .chunks(4 * width.max(1))
         .map(|row| {
-            let gaps = row
-                .chunks_exact(4)
+            row.chunks_exact(4)
                 .filter(|p| p[3] >= crate::validity::NARROW_GAP)
-                .count() as u64;
-            width as u64 + gaps * gap.saturating_sub(1)
+                .count() as u64
         })
         .collect()
 }
@@ -307,6 +304,8 @@ pub(crate) fn run<B: GpuBackend>(
         .iter()
         .rposition(|p| blurred_direct.is_some_and(|t| p.writes.contains(&t)));
     let mut shown = 0.0f32;
+    // The texels in narrow gaps per row ([`gap_rows_of`]), once a pass needs them.
+    let mut gap_rows: Option<Vec<u64>> = None;
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
             continue;
@@ -374,12 +373,15 @@ pub(crate) fn run<B: GpuBackend>(
             // A refinement in narrow gaps in tiles by where its work lies (`tiles_by_rows`):
             // rows without a gap share a dispatch.
             let plan: Vec<TileParams> = match pass.params.gap_work() {
-                Some(gap) if size == layout.layer_size => tiles_by_rows(
-                    size,
-                    layout.layers,
-                    &gap_row_work(room, gap),
-                    backend.tile_work(),
-                ),
+                Some(gap) if size == layout.layer_size => {
+                    // `gap` evaluations at a texel in a gap, one at every other.
+                    let rows = gap_rows.get_or_insert_with(|| gap_rows_of(room));
+                    let work: Vec<u64> = rows
+                        .iter()
+                        .map(|&n| u64::from(size[0]) + n * gap.saturating_sub(1))
+                        .collect();
+                    tiles_by_rows(size, layout.layers, &work, backend.tile_work())
+                }
                 _ => TilePlan::new(
                     size,
                     layout.layers,

@@ -1132,8 +1132,8 @@ fn build_converged(config: &GraphConfig) -> BakeGraph {
                 },
                 chunk: config.gather_chunk,
                 direct_at_hits: k == 1 && config.direct_at_hits,
-                // The later bounces' reduced gathers: their texels in narrow gaps up to
-                // `narrow_rays` (the first bounce's are refined below).
+                // The later bounces' gathers: their texels in narrow gaps up to their share
+                // of `narrow_rays` (the first bounce's are refined below).
                 narrow_rays: if k > 1 {
                     narrow_more(config.higher_rays, k)
                 } else {

@@ -338,19 +338,15 @@ pub fn indirect_at(
     seed: u32,
     exitance: &(dyn Fn(usize, [f32; 2]) -> [f32; 3] + Sync),
 ) -> Vec<[f32; 3]> {
-    let shift = room.shift.unwrap_or([0.0; 3]);
     let rays = rays.max(1);
     let gap = crate::validity::room_gap(&room.gbuffer.position);
     points
         .par_iter()
         .enumerate()
         .map(|(i, point)| {
-            let p = [0, 1, 2].map(|c| (point.position[c] + -shift[c]) as f32);
-            let n = point.normal.map(|c| c as f32);
-            let Some(n) = crate::exact::normalize(n) else {
+            let Some((origin, n)) = gather_origin(room, point) else {
                 return [0.0; 3];
             };
-            let origin = offset_origin(p, n, room.ray_epsilon);
             let uniform = in_gap(room, origin, n, gap);
             let frame = crate::cpu::kernel::Frame::new(n);
             let lattice_shift = {
@@ -381,16 +377,24 @@ pub fn indirect_at(
         .collect()
 }
 
-/// Whether [`indirect_at`] gathers at `point` of the prepared `room` with rays drawn uniformly
-/// over the hemisphere: where a texel at the point, at the room's density, would lie in a
-/// narrow gap ([`crate::validity::point_in_gap`]).
-pub fn gathers_uniformly(room: &Room, point: &CalcPoint) -> bool {
+/// Per point of `points`, whether [`indirect_at`] gathers there with rays drawn uniformly over
+/// the hemisphere: where a texel at the point, at the room's density, would lie in a narrow
+/// gap ([`crate::validity::point_in_gap`]).
+pub fn gathers_uniformly(room: &Room, points: &[CalcPoint]) -> Vec<bool> {
+    let gap = crate::validity::room_gap(&room.gbuffer.position);
+    points
+        .par_iter()
+        .map(|point| gather_origin(room, point).is_some_and(|(o, n)| in_gap(room, o, n, gap)))
+        .collect()
+}
+
+/// The ray origin and unit normal of a final gather at `point` of the prepared `room` (moved
+/// with the room, offset as the bakes offset a texel's rays); `None` without a normal.
+fn gather_origin(room: &Room, point: &CalcPoint) -> Option<([f32; 3], [f32; 3])> {
     let shift = room.shift.unwrap_or([0.0; 3]);
     let p = [0, 1, 2].map(|c| (point.position[c] + -shift[c]) as f32);
-    crate::exact::normalize(point.normal.map(|c| c as f32)).is_some_and(|n| {
-        let gap = crate::validity::room_gap(&room.gbuffer.position);
-        in_gap(room, offset_origin(p, n, room.ray_epsilon), n, gap)
-    })
+    let n = crate::exact::normalize(point.normal.map(|c| c as f32))?;
+    Some((offset_origin(p, n, room.ray_epsilon), n))
 }
 
 /// [`crate::validity::point_in_gap`] at the room's texel size (its `texels_per_metre`).

@@ -325,8 +325,21 @@ pub fn point_in_gap(
     s: f32,
     gap: f32,
 ) -> bool {
-    first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)
-        .is_some_and(|(t, _)| t <= gap && enclosed(bvh, o, n, gap))
+    narrow_class(bvh, o, n, s, gap) == Some(true)
+}
+
+/// Step 4's test at offset origin `o` with unit normal `n`, texel size `s`: `None` where the
+/// normal ray meets no surface within [`NARROW_REACH_TEXELS`]` · s` (not narrow), else whether
+/// the gap is also narrow against the room (`gap`, [`room_gap`]) and closed to its sides.
+fn narrow_class(
+    bvh: (&EncodedScene, &WideBvh),
+    o: [f32; 3],
+    n: [f32; 3],
+    s: f32,
+    gap: f32,
+) -> Option<bool> {
+    let (t, _) = first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)?;
+    Some(t <= gap && enclosed(bvh, o, n, gap))
 }
 
 /// Step 4 of the module docs: marks every valid texel whose normal ray meets a surface within
@@ -352,8 +365,7 @@ fn mark_narrow(
             let n = normalize([nw[0], nw[1], nw[2]])?;
             let s = texel_size(scene, nw[3])?;
             let o = offset_origin([pw[0], pw[1], pw[2]], n, eps);
-            let (t, _) = first_hit(bvh, o, n, NARROW_REACH_TEXELS * s)?;
-            Some((i, t <= gap && enclosed(bvh, o, n, gap)))
+            Some((i, narrow_class(bvh, o, n, s, gap)?))
         })
         .collect();
     let mut gaps = 0;

@@ -511,13 +511,16 @@ fn a_point_in_a_narrow_gap_gathers_uniformly() {
         gap.len(),
         open.len()
     );
-    let uniform = gap.iter().filter(|p| gathers_uniformly(&room, p)).count();
+    let uniform = gathers_uniformly(&room, &gap)
+        .iter()
+        .filter(|&&u| u)
+        .count();
     assert!(
         uniform as f64 >= 0.95 * gap.len() as f64,
         "{uniform} of {}",
         gap.len()
     );
-    assert!(open.iter().all(|p| !gathers_uniformly(&room, p)));
+    assert!(gathers_uniformly(&room, &open).iter().all(|&u| !u));
     // The wall's points behind the panel, lit only by what lies beyond it (the room: object
     // 0; the panel: nothing), the grazing directions out of the gap: 64 rays against 4 096.
     let wall: Vec<CalcPoint> = gap.iter().filter(|p| p.normal[0] > 0.5).copied().collect();

@@ -81,26 +81,19 @@ pub(crate) struct Source<'a> {
 }
 
 impl<'a> Source<'a> {
-    /// The source of a gather with `direct_at_hits` (1: on) over `lamp_count` lamps.
-    pub(crate) fn new(reflected: View<'a>, albedo: View<'a>, direct_at_hits: u32, lamp_count: u32) -> Source<'a> {
+    /// The source of a gather with `direct_at_hits` (1: on) over `lamp_count` lamps; without
+    /// it, with `in_gaps` the texels in narrow gaps still read the direct light at their hits.
+    pub(crate) fn new(
+        reflected: View<'a>,
+        albedo: View<'a>,
+        [direct_at_hits, lamp_count]: [u32; 2],
+        in_gaps: bool,
+    ) -> Source<'a> {
+        let everywhere = direct_at_hits != 0;
         Source {
             reflected,
-            direct: (direct_at_hits != 0).then_some((albedo, lamp_count)),
-            gaps_only: false,
-        }
-    }
-
-    /// This source, where it reads `reflected` everywhere, with the texels in narrow gaps
-    /// reading the direct light at their hits (`in_gaps`; the albedo map and the lamps as in
-    /// [`Source::new`]).
-    pub(crate) fn with_direct_in_gaps(self, albedo: View<'a>, lamp_count: u32, in_gaps: bool) -> Source<'a> {
-        if self.direct.is_some() || !in_gaps {
-            return self;
-        }
-        Source {
-            direct: Some((albedo, lamp_count)),
-            gaps_only: true,
-            ..self
+            direct: (everywhere || in_gaps).then_some((albedo, lamp_count)),
+            gaps_only: !everywhere,
         }
     }
 }
@@ -605,7 +598,12 @@ pub(crate) fn gather_row(
         (None, Some((c, _))) if c.has_room(rays) => Hits::Record(Vec::with_capacity(rays)),
         _ => Hits::Trace,
     };
-    let source = Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count);
+    let source = Source::new(
+        reflected,
+        albedo,
+        [params.direct_at_hits, params.lamp_count],
+        false,
+    );
     gather_sums(scene, source, trav, draws, texels, &mut hits, chunks, sums);
     if let Some((c, (key, inputs))) = cache {
         if let Hits::Record(recorded) = hits {

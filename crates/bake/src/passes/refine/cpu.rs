@@ -72,9 +72,10 @@ impl CpuPass for RefineParams {
         let draws = [params.sampler, params.bounce, params.seed];
         gather_sums(
             scene,
-            Source::new(reflected, albedo, params.direct_at_hits, params.lamp_count).with_direct_in_gaps(
+            Source::new(
+                reflected,
                 albedo,
-                params.lamp_count,
+                [params.direct_at_hits, params.lamp_count],
                 params.narrow_direct != 0,
             ),
             ctx.trav,
