@@ -58,89 +58,9 @@ pub struct Args {
     /// Backend: cpu, glow or wgpu (default: the scene file's `settings.backend`, else cpu).
     #[arg(long)]
     backend: Option<BackendKind>,
-    /// Pipeline: `converged` (every bounce; the default) or `paper` (the paper's fixed bounces
-    /// and blur, with its measured defaults).
-    #[arg(long)]
-    method: Option<Method>,
-    /// Preset of the converged method: draft, default or final.
-    #[arg(long)]
-    quality: Option<Quality>,
-    /// Gather rays per texel per bounce (converged: of the first bounce).
-    #[arg(long)]
-    rays: Option<u32>,
-    /// Indirect bounces; 0 = direct light only. Converged: exactly this many, unless
-    /// `--tail true` makes it the most explicit bounces before the tail is added.
-    #[arg(long)]
-    bounces: Option<u32>,
-    /// Converged: after the explicit bounces, add the extrapolated rest of the
-    /// inter-reflection series (the presets: true; `--bounces` alone: false).
-    #[arg(long)]
-    tail: Option<bool>,
-    /// Converged: stop explicit bounces when the estimated tail is under this fraction of the
-    /// total, or (from bounce 5 on) two successive estimates of the total agree within it.
-    #[arg(long)]
-    tail_tolerance: Option<f32>,
-    /// Light-map density, texels per metre.
-    #[arg(long)]
-    texels_per_metre: Option<f32>,
-    /// Blur sigma in texels, or `none`.
-    #[arg(long)]
-    blur: Option<Blur>,
-    /// Ray traversal: wide (the default; the CPU backend's 8-wide BVH, the MTBVH on GPU
-    /// backends), mtbvh, tbvh or none (brute force).
-    #[arg(long)]
-    bvh: Option<BvhMode>,
-    /// Seed of the random-number hash.
-    #[arg(long)]
-    seed: Option<u32>,
-    /// Gather directions: hash (the paper's independent draws) or sobol (per-texel scrambled
-    /// Sobol sequence; the converged presets' default).
-    #[arg(long)]
-    sampler: Option<Sampler>,
-    /// Converged: gather the first bounce on every n-th texel per axis and interpolate on each
-    /// surface (1 = every texel).
-    #[arg(long)]
-    stride: Option<u32>,
-    /// Converged: rays per gathered texel of the bounces after the first.
-    #[arg(long)]
-    higher_rays: Option<u32>,
-    /// Converged: --stride of the bounces after the first.
-    #[arg(long)]
-    higher_stride: Option<u32>,
-    /// Converged: more first-bounce rays for texels whose estimated relative standard error
-    /// exceeds --refine-error (0 = no refinement).
-    #[arg(long)]
-    refine_rays: Option<u32>,
-    /// Converged: the relative standard error per texel that refinement aims at.
-    #[arg(long)]
-    refine_error: Option<f32>,
-    /// Converged: rays per texel in a narrow gap in the first two bounces, half as many in
-    /// each after, whatever its noise (a bounce that gathers fewer there adds the rest; the
-    /// `default` preset 64, `final` 256, `draft` 0 = none).
-    #[arg(long)]
-    narrow_rays: Option<u32>,
-    /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):
-    /// its residual filtered once more and added back, which cancels its bias where the light
-    /// curves within its kernel.
-    #[arg(long)]
-    denoise_correction: Option<bool>,
-    /// Converged: the first bounce evaluates the lamps' direct light at each of its gather
-    /// rays' hits instead of reading the direct light map there (true or false; the `final`
-    /// preset: true): a shadow ray per ray and lamp, without the map's texel interpolation.
-    #[arg(long)]
-    direct_at_hits: Option<bool>,
-    /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
-    #[arg(long)]
-    lamp_paths: Option<u32>,
-    /// Points of a lamp's luminous opening (each with a shadow ray) per texel near a lamp
-    /// baked with its opening (see --lamp-model).
-    #[arg(long)]
-    opening_samples: Option<u32>,
-    /// Opening samples per visibility probe: a texel first casts the shadow rays of every
-    /// Nth of its opening's points and, when all reach the opening, takes the others as seen
-    /// (0 or 1: every point casts its ray).
-    #[arg(long)]
-    opening_probe_stride: Option<u32>,
+    /// The settings' flags (`--method` … `--opening-probe-stride`).
+    #[command(flatten)]
+    pub settings: SettingsArgs,
     /// How every lamp emits, over the scene file's `lamp_model`: auto (its luminous opening
     /// where a receiver is near enough for the point model to be off by more than 1 %),
     /// point or area (the opening everywhere).
@@ -156,18 +76,108 @@ pub struct Args {
     lamp_layers: bool,
 }
 
-impl Args {
-    /// The settings flags as a patch.
-    fn patch(&self) -> SettingsPatch {
+/// The flags of `luxbake bake` (and `cargo xtask bake`) that set the bake's [`luxbake::scene::Settings`]
+/// over the scene's: a [`SettingsPatch`] ([`SettingsArgs::patch`]). `cargo xtask bench
+/// refcheck` takes the same flags for its in-memory bakes.
+#[derive(clap::Args, Debug, Default, Clone)]
+pub struct SettingsArgs {
+    /// Pipeline: `converged` (every bounce; the default) or `paper` (the paper's fixed bounces
+    /// and blur, with its measured defaults).
+    #[arg(long)]
+    pub method: Option<Method>,
+    /// Preset of the converged method: draft, default or final.
+    #[arg(long)]
+    pub quality: Option<Quality>,
+    /// Gather rays per texel per bounce (converged: of the first bounce).
+    #[arg(long)]
+    pub rays: Option<u32>,
+    /// Indirect bounces; 0 = direct light only. Converged: exactly this many, unless
+    /// `--tail true` makes it the most explicit bounces before the tail is added.
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    /// Converged: after the explicit bounces, add the extrapolated rest of the
+    /// inter-reflection series (the presets: true; `--bounces` alone: false).
+    #[arg(long)]
+    pub tail: Option<bool>,
+    /// Converged: stop explicit bounces when the estimated tail is under this fraction of the
+    /// total, or (from bounce 5 on) two successive estimates of the total agree within it.
+    #[arg(long)]
+    pub tail_tolerance: Option<f32>,
+    /// Light-map density, texels per metre.
+    #[arg(long)]
+    pub texels_per_metre: Option<f32>,
+    /// Blur sigma in texels, or `none`.
+    #[arg(long)]
+    pub blur: Option<Blur>,
+    /// Ray traversal: wide (the default; the CPU backend's 8-wide BVH, the MTBVH on GPU
+    /// backends), mtbvh, tbvh or none (brute force).
+    #[arg(long)]
+    pub bvh: Option<BvhMode>,
+    /// Seed of the random-number hash.
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Gather directions: hash (the paper's independent draws) or sobol (per-texel scrambled
+    /// Sobol sequence; the converged presets' default).
+    #[arg(long)]
+    pub sampler: Option<Sampler>,
+    /// Converged: gather the first bounce on every n-th texel per axis and interpolate on each
+    /// surface (1 = every texel).
+    #[arg(long)]
+    pub stride: Option<u32>,
+    /// Converged: rays per gathered texel of the bounces after the first.
+    #[arg(long)]
+    pub higher_rays: Option<u32>,
+    /// Converged: --stride of the bounces after the first.
+    #[arg(long)]
+    pub higher_stride: Option<u32>,
+    /// Converged: more first-bounce rays for texels whose estimated relative standard error
+    /// exceeds --refine-error (0 = no refinement).
+    #[arg(long)]
+    pub refine_rays: Option<u32>,
+    /// Converged: the relative standard error per texel that refinement aims at.
+    #[arg(long)]
+    pub refine_error: Option<f32>,
+    /// Converged: rays per texel in a narrow gap in the first two bounces, half as many in
+    /// each after, whatever its noise (a bounce that gathers fewer there adds the rest; the
+    /// `default` preset 64, `final` 256, `draft` 0 = none).
+    #[arg(long)]
+    pub narrow_rays: Option<u32>,
+    /// Converged: the denoiser's bias correction (true or false; the `default` and `final` presets: true):
+    /// its residual filtered once more and added back, which cancels its bias where the light
+    /// curves within its kernel.
+    #[arg(long)]
+    pub denoise_correction: Option<bool>,
+    /// Converged: the first bounce evaluates the lamps' direct light at each of its gather
+    /// rays' hits instead of reading the direct light map there (true or false; the `final`
+    /// preset: true): a shadow ray per ray and lamp, without the map's texel interpolation.
+    #[arg(long)]
+    pub direct_at_hits: Option<bool>,
+    /// Converged: lamp paths per texel combined with the first bounce's gather (0 = none).
+    #[arg(long)]
+    pub lamp_paths: Option<u32>,
+    /// Points of a lamp's luminous opening (each with a shadow ray) per texel near a lamp
+    /// baked with its opening (see --lamp-model).
+    #[arg(long)]
+    pub opening_samples: Option<u32>,
+    /// Opening samples per visibility probe: a texel first casts the shadow rays of every
+    /// Nth of its opening's points and, when all reach the opening, takes the others as seen
+    /// (0 or 1: every point casts its ray).
+    #[arg(long)]
+    pub opening_probe_stride: Option<u32>,
+}
+
+impl SettingsArgs {
+    /// The flags as a patch.
+    pub fn patch(&self) -> SettingsPatch {
         SettingsPatch {
             method: self.method,
             quality: self.quality,
             rays: self.rays,
             bounces: self.bounces,
             tail: self.tail,
-            blur: self.blur,
             tail_tolerance: self.tail_tolerance,
             texels_per_metre: self.texels_per_metre,
+            blur: self.blur,
             bvh: self.bvh,
             seed: self.seed,
             sampler: self.sampler,
@@ -198,11 +208,12 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
     match &args.scene_file {
         Some(path) => {
             let loader = luxbake_assets::SceneLoader::default();
-            let scene =
-                from_file_patched(path, Some(&loader), &args.patch()).map_err(|e| match e {
+            let scene = from_file_patched(path, Some(&loader), &args.settings.patch()).map_err(
+                |e| match e {
                     SceneError::Override(e) => flag_error(&e),
                     e => e.to_string(),
-                })?;
+                },
+            )?;
             // The file's backend is checked even when `--backend` overrides it.
             let preferred = match preferred_backend(path).map_err(|e| e.to_string())? {
                 Some(name) => Some(
@@ -217,7 +228,11 @@ fn load(args: &Args) -> Result<(Scene, BackendKind, String), String> {
         }
         None => {
             let name = args.scene.as_deref().unwrap_or("chairs_05");
-            let settings = args.patch().settings().map_err(|e| flag_error(&e))?;
+            let settings = args
+                .settings
+                .patch()
+                .settings()
+                .map_err(|e| flag_error(&e))?;
             let scene = Scene::builtin_with_settings(name, settings).map_err(|e| e.to_string())?;
             let backend = args.backend.unwrap_or(BackendKind::Cpu);
             Ok((scene, backend, format!("builtin:{name}")))

@@ -12,13 +12,14 @@
 //! with at least [`MIN_DIRECT_LUX`] of direct light) and the indirect part (total − direct)
 //! separate the lamp model from the inter-reflections.
 //!
-//! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults (override
-//! with `--quality`, `--rays`, `--higher-rays`, `--higher-stride`, `--lamp-paths`, `--bounces`
-//! (exactly that many explicit bounces, no tail, as `cargo xtask bake --bounces`),
-//! `--texels-per-metre`, `--blur`, `--backend`). `bench trade` calls [`evaluate`] for every
-//! bake of its grid.
+//! Without `--dir`, the scene is baked in memory with `cargo xtask bake`'s defaults, overridden
+//! by `cargo xtask bake`'s own settings flags (`luxbake_cli::bake::SettingsArgs`: `--quality`,
+//! `--rays`, `--higher-rays`, `--narrow-rays`, `--bounces` (exactly that many explicit bounces,
+//! no tail, as `cargo xtask bake --bounces`), `--texels-per-metre`, `--blur`, …) and
+//! `--backend`. `bench trade` calls [`evaluate`] for every bake of its grid.
 //!
-//! `--seeds N` bakes it N times, seeds 0 .. N − 1, and separates noise from what every bake
+//! `--seeds N` bakes it N times, seeds 0 .. N − 1 (from `--seed S`: S .. S + N − 1), and
+//! separates noise from what every bake
 //! shares: the main table gives each figure's mean over the bakes (what one bake is worth),
 //! and a second table per surface kind the noise — the mean over points of the standard
 //! deviation of a point's relative error across the seeds — beside the mean |relative error|
@@ -42,12 +43,13 @@ use std::path::{Path, PathBuf};
 use luxbake::GpuBackend;
 use luxbake::bake::BakeOutput;
 use luxbake::probe::SurfacePoint;
-use luxbake::scene::{Blur, Quality, Scene, Settings, SettingsPatch};
+use luxbake::scene::{Scene, Settings, SettingsPatch};
 use luxbake::sources::scenefile::from_file_patched;
 use luxbake_backends::BackendKind;
 use luxbake_output::picture::luminance;
 
 use super::{machine, open, result_path, timed_bake, utc_now, write};
+use luxbake_cli::bake::SettingsArgs;
 use luxbake_cli::measure;
 
 /// Largest distance from a reference point to a baked surface, metres (`measure`'s default;
@@ -75,50 +77,13 @@ pub struct Args {
     /// Backend of the in-memory bake.
     #[arg(long, default_value = "cpu")]
     backend: BackendKind,
-    /// Gather rays per texel per bounce (default: `cargo xtask bake`'s).
-    #[arg(long)]
-    rays: Option<u32>,
-    /// Indirect bounces (default: `cargo xtask bake`'s): as `cargo xtask bake --bounces`,
-    /// exactly this many explicit bounces, without the series' tail.
-    #[arg(long)]
-    bounces: Option<u32>,
-    /// Light-map density, texels per metre (default: `cargo xtask bake`'s).
-    #[arg(long)]
-    texels_per_metre: Option<f32>,
-    /// Blur sigma in texels, or `none` (default: `cargo xtask bake`'s).
-    #[arg(long)]
-    blur: Option<Blur>,
-    /// Quality preset (default: `cargo xtask bake`'s, `default`).
-    #[arg(long)]
-    quality: Option<Quality>,
-    /// Rays per gathered texel of the bounces after the first (default: the preset's).
-    #[arg(long)]
-    higher_rays: Option<u32>,
-    /// Grid stride of the bounces after the first (default: the preset's).
-    #[arg(long)]
-    higher_stride: Option<u32>,
-    /// Lamp paths per texel of the first bounce (default: the preset's).
-    #[arg(long)]
-    lamp_paths: Option<u32>,
-    /// Further first-bounce rays where a texel's estimated relative error exceeds
-    /// `--refine-error` (default: the preset's, 0 = no refinement).
-    #[arg(long)]
-    refine_rays: Option<u32>,
-    /// The relative standard error per texel that refinement aims at (default: the preset's).
-    #[arg(long)]
-    refine_error: Option<f32>,
-    /// Rays per texel in a narrow gap in every bounce (default: the preset's).
-    #[arg(long)]
-    narrow_rays: Option<u32>,
-    /// The denoiser's bias correction, true or false (default: the preset's).
-    #[arg(long)]
-    denoise_correction: Option<bool>,
-    /// The first bounce's direct light evaluated at its hits, true or false (default: the
-    /// preset's).
-    #[arg(long)]
-    direct_at_hits: Option<bool>,
-    /// Bakes in memory with seeds 0 .. N − 1 and reports their mean figures and their noise
-    /// (see the module docs).
+    /// The bake's settings: `cargo xtask bake`'s flags (`--quality`, `--rays`, `--bounces`,
+    /// `--texels-per-metre`, `--narrow-rays`, …), over its defaults; `--bounces` alone bakes
+    /// exactly that many bounces, without the series' tail.
+    #[command(flatten)]
+    settings: SettingsArgs,
+    /// Bakes in memory with seeds 0 .. N − 1 (from `--seed S`: S .. S + N − 1) and reports
+    /// their mean figures and their noise (see the module docs).
     #[arg(long, default_value_t = 1)]
     seeds: u32,
     /// Reads each point as computed at the point itself (direct light there, indirect light
@@ -649,13 +614,24 @@ fn settings_label(s: &Settings) -> String {
     )
 }
 
+/// The seeds of `--seeds N`: N of them from `--seed` (default 0), `first .. first + N − 1`
+/// (at least one, and none past `u32::MAX`).
+fn seed_range(first: Option<u32>, n: u32) -> std::ops::RangeInclusive<u32> {
+    let first = first.unwrap_or(0);
+    first..=first.saturating_add(n.max(1) - 1)
+}
+
 /// Every reference point with what each bake measured there, one row a point: its line in the
-/// reference file, surface kind, object, the reference's total and direct lux, then per seed
-/// `total_lux_<seed>` and `rel_<seed>` (relative error of the total; empty where the
-/// reference is not positive).
-fn points_table(refs: &[RefPoint], bakes: &[Vec<Measured>]) -> String {
+/// reference file, surface kind, object, the reference's total and direct lux, then per bake
+/// (its seed from `seeds`) `total_lux_<seed>` and `rel_<seed>` (relative error of the total;
+/// empty where the reference is not positive).
+fn points_table(
+    refs: &[RefPoint],
+    seeds: std::ops::RangeInclusive<u32>,
+    bakes: &[Vec<Measured>],
+) -> String {
     let mut csv = String::from("line,surface,object,x,y,z,nx,ny,nz,lux,direct_lux");
-    for seed in 0..bakes.len() {
+    for seed in seeds.take(bakes.len()) {
         let _ = write!(csv, ",total_lux_{seed},rel_{seed}");
     }
     csv.push('\n');
@@ -719,22 +695,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
         None => {
             // The flags as `cargo xtask bake`'s: a patch over the default (`--bounces` alone
             // then bakes exactly that many bounces, without the tail).
-            let patch = SettingsPatch {
-                quality: args.quality,
-                rays: args.rays,
-                higher_rays: args.higher_rays,
-                higher_stride: args.higher_stride,
-                lamp_paths: args.lamp_paths,
-                refine_rays: args.refine_rays,
-                refine_error: args.refine_error,
-                narrow_rays: args.narrow_rays,
-                denoise_correction: args.denoise_correction,
-                direct_at_hits: args.direct_at_hits,
-                bounces: args.bounces,
-                texels_per_metre: args.texels_per_metre,
-                blur: args.blur,
-                ..SettingsPatch::default()
-            };
+            let patch = args.settings.patch();
             let scene = scene_of(&args.scene, &patch)?;
             let s = scene.settings.clone();
             let (mut backend, renderer) =
@@ -752,7 +713,8 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 None
             };
             let (mut comparisons, mut bakes, mut walls) = (Vec::new(), Vec::new(), Vec::new());
-            for seed in 0..args.seeds.max(1) {
+            let seeds = seed_range(args.settings.seed, args.seeds);
+            for seed in seeds.clone() {
                 let s = Settings { seed, ..s.clone() };
                 eprintln!("refcheck: baking {} ({})", args.scene, settings_label(&s));
                 let run = timed_bake(&mut backend, &scene, &s)?;
@@ -765,7 +727,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 bakes.push(measured);
             }
             let wall = walls.iter().sum::<f64>() / walls.len() as f64;
-            points_csv = Some(points_table(&refs, &bakes));
+            points_csv = Some(points_table(&refs, seeds.clone(), &bakes));
             let what = format!(
                 "in-memory bake of `{}`: {} on {} ({renderer}), passes {:.1} s{}{}",
                 args.scene,
@@ -774,9 +736,10 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                 wall,
                 if args.seeds > 1 {
                     format!(
-                        " (mean of {} bakes, seeds 0 .. {})",
-                        args.seeds,
-                        args.seeds - 1
+                        " (mean of {} bakes, seeds {} .. {})",
+                        bakes.len(),
+                        seeds.start(),
+                        seeds.end()
                     )
                 } else {
                     String::new()
@@ -854,6 +817,7 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use luxbake::scene::Blur;
 
     #[test]
     fn a_scene_file_reads_the_reference_named_by_its_stem() {
@@ -992,7 +956,7 @@ mod tests {
             point("floor", 0.0, None),
         ];
         let bakes = vec![vec![[0.0, 12.0], [0.0, 1.0]], vec![[0.0, 20.0], [0.0, 2.0]]];
-        let csv = points_table(&refs, &bakes);
+        let csv = points_table(&refs, seed_range(None, 2), &bakes);
         let lines: Vec<&str> = csv.lines().collect();
         assert_eq!(
             lines,
@@ -1004,6 +968,56 @@ mod tests {
                 "1,floor,,0,0,0,0,1,0,0,,1,,2,",
             ]
         );
+        // From `--seed 5` the columns name seeds 5 and 6.
+        let from_five = points_table(&refs, seed_range(Some(5), 2), &bakes);
+        assert!(
+            from_five
+                .lines()
+                .next()
+                .is_some_and(|h| h.ends_with(",total_lux_5,rel_5,total_lux_6,rel_6")),
+            "{from_five}"
+        );
+    }
+
+    #[test]
+    fn seeds_run_from_the_seed_flag() {
+        assert_eq!(seed_range(None, 3), 0..=2);
+        assert_eq!(seed_range(Some(7), 1), 7..=7);
+        // `--seeds 0` bakes once; no seed past u32::MAX.
+        assert_eq!(seed_range(Some(4), 0), 4..=4);
+        assert_eq!(seed_range(Some(u32::MAX - 1), 4), u32::MAX - 1..=u32::MAX);
+    }
+
+    #[test]
+    fn refcheck_takes_the_bakes_settings_flags() {
+        use clap::Parser;
+        #[derive(Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: Args,
+        }
+        let cli = Cli::try_parse_from([
+            "refcheck",
+            "--quality",
+            "final",
+            "--narrow-rays",
+            "1024",
+            "--texels-per-metre",
+            "128",
+            "--opening-samples",
+            "96",
+            "--seed",
+            "3",
+            "--seeds",
+            "2",
+        ])
+        .expect("the bake's flags parse");
+        let patch = cli.args.settings.patch();
+        assert_eq!(patch.quality, Some(luxbake::scene::Quality::Final));
+        assert_eq!(patch.narrow_rays, Some(1024));
+        assert_eq!(patch.texels_per_metre, Some(128.0));
+        assert_eq!(patch.opening_samples, Some(96));
+        assert_eq!(seed_range(patch.seed, cli.args.seeds), 3..=4);
     }
 
     #[test]
