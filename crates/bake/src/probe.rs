@@ -339,15 +339,15 @@ pub fn indirect_at(
     exitance: &(dyn Fn(usize, [f32; 2]) -> [f32; 3] + Sync),
 ) -> Vec<[f32; 3]> {
     let rays = rays.max(1);
-    let gap = crate::validity::room_gap(&room.gbuffer.position);
+    let uniform = gathers_uniformly(room, points);
     points
         .par_iter()
+        .zip(&uniform)
         .enumerate()
-        .map(|(i, point)| {
+        .map(|(i, (point, &uniform))| {
             let Some((origin, n)) = gather_origin(room, point) else {
                 return [0.0; 3];
             };
-            let uniform = in_gap(room, origin, n, gap);
             let frame = crate::cpu::kernel::Frame::new(n);
             let lattice_shift = {
                 let h = crate::rng::hash(i as u32, 0, GATHER_AT_PASS, seed);
