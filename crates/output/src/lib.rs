@@ -326,6 +326,35 @@ fn object_files(stem: &str) -> [(&'static str, String); 6] {
     ]
 }
 
+/// A bake's settings as the manifest's `settings` object (every field of [`Settings`], the
+/// blur a sigma in texels or `"none"`).
+pub fn settings_json(s: &Settings) -> Value {
+    json!({
+        "method": s.method.name(),
+        "quality": s.quality.name(),
+        "tail_tolerance": s.tail_tolerance,
+        "rays": s.rays,
+        "bounces": s.bounces,
+        "tail": s.tail,
+        "blur": blur_json(s.blur),
+        "texels_per_metre": s.texels_per_metre,
+        "bvh": s.bvh.name(),
+        "seed": s.seed,
+        "sampler": s.sampler.name(),
+        "stride": s.stride,
+        "higher_rays": s.higher_rays,
+        "lamp_paths": s.lamp_paths,
+        "opening_samples": s.opening_samples,
+        "opening_probe_stride": s.opening_probe_stride,
+        "higher_stride": s.higher_stride,
+        "refine_rays": s.refine_rays,
+        "refine_error": s.refine_error,
+        "narrow_rays": s.narrow_rays,
+        "denoise_correction": s.denoise_correction,
+        "direct_at_hits": s.direct_at_hits,
+    })
+}
+
 fn blur_json(b: Blur) -> Value {
     match b {
         Blur::None => json!("none"),
@@ -420,30 +449,7 @@ pub fn write_bake(
         "scene": {"source": source},
         "units": {"length": "m", "illuminance": "lux", "exitance": "lm/m^2"},
         "backend": rep.backend,
-        "settings": {
-            "method": s.method.name(),
-            "quality": s.quality.name(),
-            "tail_tolerance": s.tail_tolerance,
-            "rays": s.rays,
-            "bounces": s.bounces,
-            "tail": s.tail,
-            "blur": blur_json(s.blur),
-            "texels_per_metre": s.texels_per_metre,
-            "bvh": s.bvh.name(),
-            "seed": s.seed,
-            "sampler": s.sampler.name(),
-            "stride": s.stride,
-            "higher_rays": s.higher_rays,
-            "lamp_paths": s.lamp_paths,
-            "opening_samples": s.opening_samples,
-            "opening_probe_stride": s.opening_probe_stride,
-            "higher_stride": s.higher_stride,
-            "refine_rays": s.refine_rays,
-            "refine_error": s.refine_error,
-            "narrow_rays": s.narrow_rays,
-            "denoise_correction": s.denoise_correction,
-            "direct_at_hits": s.direct_at_hits,
-        },
+        "settings": settings_json(s),
         "layout": {"layer_size": output.layout.layer_size, "layers": output.layout.layers},
         "lamps": lamps,
         "objects": objects,

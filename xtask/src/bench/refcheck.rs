@@ -750,15 +750,10 @@ pub fn run(args: &Args, out: &Path) -> Result<(), String> {
                     ""
                 }
             );
-            let mut extra = serde_json::json!({ "at_points": args.at_points, "settings": {
-                "quality": s.quality.name(), "rays": s.rays,
-                "higher_rays": s.higher_rays, "higher_stride": s.higher_stride,
-                "lamp_paths": s.lamp_paths,
-                "refine_rays": s.refine_rays, "refine_error": s.refine_error, "narrow_rays": s.narrow_rays,
-                "denoise_correction": s.denoise_correction,
-                "direct_at_hits": s.direct_at_hits,
-                "bounces": s.bounces, "texels_per_metre": s.texels_per_metre,
-                "blur": s.blur.to_string() }, "backend": args.backend.name(),
+            // Every setting, as a bake's manifest records them: refcheck takes all the bake's
+            // settings flags.
+            let mut extra = serde_json::json!({ "at_points": args.at_points,
+                "settings": luxbake_output::settings_json(&s), "backend": args.backend.name(),
                 "renderer": renderer, "pass_wall_s": wall });
             if args.seeds > 1 {
                 let noise = Noise::of(&refs, &bakes);
