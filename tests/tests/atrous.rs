@@ -179,6 +179,7 @@ fn run<B: GpuBackend>(
                 scene: &scene,
                 params: &words,
                 tile,
+                idle: false,
             })?;
         }
         let mut out = Vec::new();

@@ -410,17 +410,9 @@ impl GpuBackend for GlowBackend {
             .hit_key(call, trav)
             .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
         let Some(key) = key else {
-            self.compile(call.program, trav, Variant::Plain)?;
-            return self.draw(
-                call,
-                trav,
-                Variant::Plain,
-                None,
-                rect,
-                call.params,
-                None,
-                true,
-            );
+            let variant = Variant::plain_or_idle(call.program, call.idle);
+            self.compile(call.program, trav, variant)?;
+            return self.draw(call, trav, variant, None, rect, call.params, None, true);
         };
         self.compile(call.program, trav, Variant::Replay)?;
         if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {

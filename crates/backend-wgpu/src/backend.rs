@@ -125,7 +125,7 @@ const STORAGE_RO: wgpu::BufferBindingType = wgpu::BufferBindingType::Storage { r
 fn variant_layout_entries(program: Program, variant: Variant) -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = pass_layout_entries(program);
     let read_only = match variant {
-        Variant::Plain => return entries,
+        Variant::Plain | Variant::Idle => return entries,
         Variant::Trace => false,
         Variant::Replay => true,
     };
@@ -668,8 +668,9 @@ impl GpuBackend for WgpuBackend {
             .hit_key(call, traversal)
             .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
         let Some(key) = key else {
-            self.pipeline(call.program, traversal, Variant::Plain)?;
-            return self.run(call, traversal, Variant::Plain, None);
+            let variant = Variant::plain_or_idle(call.program, call.idle);
+            self.pipeline(call.program, traversal, variant)?;
+            return self.run(call, traversal, variant, None);
         };
         self.pipeline(call.program, traversal, Variant::Replay)?;
         if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {

@@ -63,8 +63,8 @@ mod tests {
         }
         assert_eq!(
             checked,
-            Program::ALL.len() + 2,
-            "the gather's trace and replay"
+            Program::ALL.len() + 4,
+            "the gather's trace and replay, the refine and connect passes' idle programs"
         );
     }
 

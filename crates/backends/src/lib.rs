@@ -347,6 +347,7 @@ macro_rules! delegate {
                             scene,
                             params: call.params,
                             tile: call.tile,
+                            idle: call.idle,
                         })?)
                     })*
                     (b, s) => Err(foreign("scene", s.kind(), b.kind())),

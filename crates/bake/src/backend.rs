@@ -304,6 +304,12 @@ pub struct Dispatch<'a, T, S> {
     pub params: &'a [u32],
     /// The tile: rows of one layer of `write`.
     pub tile: TileParams,
+    /// No texel of the tile does the pass's work: a refinement in narrow gaps alone
+    /// ([`Params::gap_work`](crate::program::Params::gap_work)) over rows without a texel in a
+    /// gap, where every texel writes what it reads. A backend may run the pass's idle program
+    /// ([`Variant::Idle`](crate::kept::Variant::Idle)), which writes the same without the
+    /// rays' code; the CPU backend computes the tile as any other.
+    pub idle: bool,
 }
 
 impl<T: PartialEq, S> Dispatch<'_, T, S> {
@@ -488,6 +494,7 @@ mod tests {
             scene: &(),
             params: &[],
             tile,
+            idle: false,
         };
         let target = ([8, 4], 2);
         let ok = call(&[&1, &2], &3);

@@ -371,16 +371,11 @@ pub(crate) fn run<B: GpuBackend>(
             let params = with_lamp_paths(decisions.params(pass), lamps.pool()).words();
             let size = graph.textures[write.index()].size;
             // A refinement in narrow gaps in tiles by where its work lies (`tiles_by_rows`):
-            // rows without a gap share a dispatch.
-            let plan: Vec<TileParams> = match pass.params.gap_work() {
+            // rows without a gap share a dispatch, idle (`Dispatch::idle`).
+            let plan: Vec<(TileParams, bool)> = match pass.params.gap_work() {
                 Some(gap) if size == layout.layer_size => {
-                    // `gap` evaluations at a texel in a gap, one at every other.
                     let rows = gap_rows.get_or_insert_with(|| gap_rows_of(room));
-                    let work: Vec<u64> = rows
-                        .iter()
-                        .map(|&n| u64::from(size[0]) + n * gap.saturating_sub(1))
-                        .collect();
-                    tiles_by_rows(size, layout.layers, &work, backend.tile_work())
+                    tiles_by_rows(size, layout.layers, rows, gap, backend.tile_work())
                 }
                 _ => TilePlan::new(
                     size,
@@ -389,10 +384,11 @@ pub(crate) fn run<B: GpuBackend>(
                     backend.tile_work(),
                 )
                 .tiles()
+                .map(|t| (t, false))
                 .collect(),
             };
             let tiles = plan.len();
-            for (done, &tile) in plan.iter().enumerate() {
+            for (done, &(tile, idle)) in plan.iter().enumerate() {
                 backend.dispatch(&Dispatch {
                     label: pass.label,
                     program,
@@ -402,6 +398,7 @@ pub(crate) fn run<B: GpuBackend>(
                     scene: &scene,
                     params: &params,
                     tile,
+                    idle,
                 })?;
                 report((done as u64 + 1) as f32 / tiles as f32);
             }

@@ -50,8 +50,9 @@ use crate::scene::BvhMode;
 /// Bytes of one kept hit: four 32-bit floats `(t, triangle, u, v)`.
 pub const HIT_BYTES: u64 = 16;
 
-/// Which program a GPU backend runs for a pass: the pass's own, or for a gather with kept hits
-/// (module docs) the trace pass that writes them or the gather that replays them
+/// Which program a GPU backend runs for a pass: the pass's own, for a gather with kept hits
+/// (module docs) the trace pass that writes them or the gather that replays them, or for a
+/// refinement's dispatch in which no texel does the pass's work its idle program
 /// ([`crate::shader::glsl_variant`], [`crate::shader::wgsl_variant`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Variant {
@@ -61,24 +62,44 @@ pub enum Variant {
     Trace,
     /// The gather replaying kept hits.
     Replay,
+    /// The refine or connect pass's program with `LUX_IDLE` 1: each texel writes what it
+    /// writes where it refines nothing, the rays' code compiled out. The driver runs it on the
+    /// dispatches that it knows have no texel to refine ([`crate::backend::Dispatch::idle`]:
+    /// the refinements in narrow gaps alone, over rows without a gap). On software rasterisers
+    /// (llvmpipe, lavapipe, SwiftShader) a branch runs in SIMD lanes with a mask, so the whole
+    /// refinement's code ran for every texel that skipped it.
+    Idle,
 }
 
 impl Variant {
-    /// The variants of `pass`: the gather has all three, every other pass its own program.
+    /// The variants of `pass`: the gather has the first three, the refine and connect passes
+    /// their own and the idle one, every other pass its own program.
     pub fn of(pass: Program) -> &'static [Variant] {
-        if pass == Program::Gather {
-            &[Variant::Plain, Variant::Trace, Variant::Replay]
-        } else {
-            &[Variant::Plain]
+        match pass {
+            Program::Gather => &[Variant::Plain, Variant::Trace, Variant::Replay],
+            Program::Refine | Program::Connect => &[Variant::Plain, Variant::Idle],
+            _ => &[Variant::Plain],
         }
     }
 
-    /// The program's label: the pass's, with ` (trace)` or ` (replay)`.
+    /// The variant a backend runs for a dispatch of `pass` that is `idle`
+    /// ([`crate::backend::Dispatch::idle`]) and keeps no gather hits: [`Variant::Idle`] where
+    /// `pass` has one, else [`Variant::Plain`].
+    pub fn plain_or_idle(pass: Program, idle: bool) -> Variant {
+        if idle && Variant::of(pass).contains(&Variant::Idle) {
+            Variant::Idle
+        } else {
+            Variant::Plain
+        }
+    }
+
+    /// The program's label: the pass's, with ` (trace)`, ` (replay)` or ` (idle)`.
     pub fn label(self, pass: Program) -> String {
         match self {
             Variant::Plain => pass.label().to_owned(),
             Variant::Trace => format!("{} (trace)", pass.label()),
             Variant::Replay => format!("{} (replay)", pass.label()),
+            Variant::Idle => format!("{} (idle)", pass.label()),
         }
     }
 }

@@ -276,6 +276,7 @@ pub fn direct_at<B: GpuBackend>(
                         scene: &scene,
                         params: &words,
                         tile,
+                        idle: false,
                     })?;
                 }
                 prior = out;

@@ -666,18 +666,22 @@ impl Params {
     }
 }
 
-/// The tiles of a pass over `layers` layers of `size` texels whose work per row is known,
-/// `row_work` (layer by layer, rows top to bottom): row tiles of at most about `tile_work`
-/// evaluations (at least one row each), so that rows with little work (a refinement in
-/// narrow gaps over rows without a gap) share a dispatch and rows with much get their own,
-/// each dispatch's cost bounded as in [`TilePlan`]. Every row of every layer lies in exactly
-/// one tile; rows past `row_work`'s end count `size[0]` evaluations.
+/// The tiles of a pass that works at the texels in narrow gaps alone ([`Params::gap_work`]:
+/// `gap` evaluations at each, one at every other texel) over `layers` layers of `size` texels,
+/// `row_gaps` its texels in gaps per row (layer by layer, rows top to bottom): row tiles of at
+/// most about `tile_work` evaluations (at least one row each), so that rows with little work
+/// share a dispatch and rows with much get their own, each dispatch's cost bounded as in
+/// [`TilePlan`]. A tile's rows all have a texel in a gap or none has; a tile of rows without
+/// one is idle (`true`): no texel there does the pass's work
+/// ([`crate::backend::Dispatch::idle`]). Every row of every layer lies in exactly one tile;
+/// rows past `row_gaps`' end count `size[0]` evaluations and are not idle.
 pub fn tiles_by_rows(
     size: [u32; 2],
     layers: u32,
-    row_work: &[u64],
+    row_gaps: &[u64],
+    gap: u64,
     tile_work: u64,
-) -> Vec<TileParams> {
+) -> Vec<(TileParams, bool)> {
     let mut tiles = Vec::new();
     let tile = |layer: u32, y0: u32, height: u32| TileParams {
         x0: 0,
@@ -689,19 +693,29 @@ pub fn tiles_by_rows(
         layer_h: size[1],
         pad0: 0,
     };
+    let width = u64::from(size[0]);
     for layer in 0..layers {
-        let (mut y0, mut work) = (0u32, 0u64);
+        let (mut y0, mut work, mut idle) = (0u32, 0u64, false);
         for y in 0..size[1] {
             let at = layer as usize * size[1] as usize + y as usize;
-            let w = row_work.get(at).copied().unwrap_or(u64::from(size[0]));
-            if y > y0 && work.saturating_add(w) > tile_work {
-                tiles.push(tile(layer, y0, y - y0));
+            let (w, row_idle) = match row_gaps.get(at) {
+                Some(&n) => (
+                    width.saturating_add(n.saturating_mul(gap.saturating_sub(1))),
+                    n == 0,
+                ),
+                None => (width, false),
+            };
+            if y > y0 && (row_idle != idle || work.saturating_add(w) > tile_work) {
+                tiles.push((tile(layer, y0, y - y0), idle));
                 (y0, work) = (y, 0);
+            }
+            if y == y0 {
+                idle = row_idle;
             }
             work = work.saturating_add(w);
         }
         if size[1] > y0 {
-            tiles.push(tile(layer, y0, size[1] - y0));
+            tiles.push((tile(layer, y0, size[1] - y0), idle));
         }
     }
     tiles
@@ -716,38 +730,54 @@ mod tests {
     /// of the heaviest row's work would cut many.
     #[test]
     fn tiles_by_rows_cover_every_row_once_and_follow_the_work() {
-        let (size, layers, budget) = ([100u32, 50u32], 2u32, 1_000u64);
-        // Layer 0: a gap of 64 evaluations a texel on rows 10..13 (5 texels each) and one row
-        // heavier than the budget; layer 1: no gap.
-        let mut rows = vec![100u64; 100];
-        rows[10..13].fill(100 + 5 * 63);
-        rows[30] = 5_000;
-        let tiles = tiles_by_rows(size, layers, &rows, budget);
+        let (size, layers, budget, gap) = ([100u32, 50u32], 2u32, 1_000u64, 64u64);
+        // Layer 0: 5 texels in a gap on rows 10..13 and 80 on row 30 (heavier than the
+        // budget); layer 1: no gap.
+        let mut rows = vec![0u64; 100];
+        rows[10..13].fill(5);
+        rows[30] = 80;
+        let tiles = tiles_by_rows(size, layers, &rows, gap, budget);
+        let work = |layer: u32, y: u32| 100 + rows[(layer * 50 + y) as usize] * (gap - 1);
         for layer in 0..layers {
             let mut next = 0;
-            for t in tiles.iter().filter(|t| t.layer == layer) {
+            for (t, idle) in tiles.iter().filter(|(t, _)| t.layer == layer) {
                 assert_eq!((t.y0, t.x0, t.width), (next, 0, 100), "{t:?}");
                 assert_eq!((t.layer_w, t.layer_h), (100, 50));
-                let work: u64 = (t.y0..t.y0 + t.height)
-                    .map(|y| rows[(layer * 50 + y) as usize])
-                    .sum();
-                assert!(work <= budget || t.height == 1, "{t:?}: {work}");
+                let w: u64 = (t.y0..t.y0 + t.height).map(|y| work(layer, y)).sum();
+                assert!(w <= budget || t.height == 1, "{t:?}: {w}");
+                // Idle exactly when none of its rows has a texel in a gap, and never mixed.
+                let gaps: Vec<bool> = (t.y0..t.y0 + t.height)
+                    .map(|y| rows[(layer * 50 + y) as usize] > 0)
+                    .collect();
+                assert!(gaps.iter().all(|&g| g != *idle), "{t:?} {idle}: {gaps:?}");
                 next += t.height;
             }
             assert_eq!(next, 50);
         }
+        let at = |layer: u32, y0: u32| {
+            tiles
+                .iter()
+                .find(|(t, _)| t.layer == layer && t.y0 == y0)
+                .map(|&(t, idle)| (t.height, idle))
+        };
+        assert_eq!(at(0, 30), Some((1, false)));
+        assert_eq!(at(0, 31), Some((10, true)));
+        assert_eq!(at(0, 10).map(|(_, idle)| idle), Some(false));
+        // A layer without a gap: five idle tiles of ten rows at the budget, against fifty
+        // tiles for the gap's 64 evaluations a texel.
+        assert_eq!(tiles.iter().filter(|(t, _)| t.layer == 1).count(), 5);
         assert!(
             tiles
                 .iter()
-                .any(|t| t.layer == 0 && t.y0 == 30 && t.height == 1)
+                .filter(|(t, _)| t.layer == 1)
+                .all(|&(_, idle)| idle)
         );
-        // A layer without a gap: five tiles of ten rows at the budget, against fifty tiles
-        // for the gap's 64 evaluations a texel.
-        assert_eq!(tiles.iter().filter(|t| t.layer == 1).count(), 5);
         assert_eq!(TilePlan::new(size, 1, 64, budget).len(), 50);
-        // Short work lists count whole rows past their end; no layer, no tile.
-        assert_eq!(tiles_by_rows(size, 1, &[], budget).len(), 5);
-        assert!(tiles_by_rows(size, 0, &rows, budget).is_empty());
+        // Rows past a short list count whole rows and are not idle; no layer, no tile.
+        let short = tiles_by_rows(size, 1, &[], gap, budget);
+        assert_eq!(short.len(), 5);
+        assert!(short.iter().all(|&(_, idle)| !idle));
+        assert!(tiles_by_rows(size, 0, &rows, gap, budget).is_empty());
     }
 
     #[test]

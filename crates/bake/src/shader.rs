@@ -210,7 +210,18 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
         "LUX_PROXY_CELLS",
         crate::lightpaths::PROXY_CELLS as i32,
     ));
+    // 1 in the idle programs of the refine and connect passes (`Variant::Idle`, `idle`).
+    c.push(uint("LUX_IDLE".into(), 0));
     c
+}
+
+/// The idle program ([`Variant::Idle`]) from the source of the plain one: `LUX_IDLE` 1 instead
+/// of 0 (its `#define` in GLSL, its `const` in WGSL), so that the compilers drop the code
+/// behind `LUX_IDLE != 0u`.
+fn idle(source: String) -> String {
+    let (glsl, wgsl) = ("#define LUX_IDLE 0u\n", "const LUX_IDLE: u32 = 0u;\n");
+    let plain = if source.contains(glsl) { glsl } else { wgsl };
+    source.replacen(plain, &plain.replace("0u", "1u"), 1)
 }
 
 /// The generated GLSL constants: BVH layout, then the shared constants (blur, sampler ids,
@@ -258,11 +269,13 @@ pub fn glsl_gather_trace_sources() -> Vec<&'static str> {
 
 /// The GLSL prefix and files of `variant` of `pass` for traversal `bvh`: the pass's own
 /// ([`glsl_prefix`], [`glsl_sources`]); the gather's trace pass, the gather's prefix with
-/// [`glsl_gather_trace_sources`]; its replay, the gather after [`GLSL_GATHER_REPLAY`].
+/// [`glsl_gather_trace_sources`]; its replay, the gather after [`GLSL_GATHER_REPLAY`]; the idle
+/// program, the pass's own with `LUX_IDLE` 1.
 pub fn glsl_variant(pass: Program, bvh: BvhMode, variant: Variant) -> (String, Vec<&'static str>) {
     let mut prefix = glsl_prefix(pass, bvh);
     match variant {
         Variant::Plain => (prefix, glsl_sources(pass)),
+        Variant::Idle => (idle(prefix), glsl_sources(pass)),
         Variant::Trace => (prefix, glsl_gather_trace_sources()),
         Variant::Replay => {
             prefix.push_str(GLSL_GATHER_REPLAY);
@@ -380,10 +393,12 @@ pub fn wgsl_gather_trace_source(bvh: BvhMode, storage: BvhStorage) -> String {
 }
 
 /// The WGSL module of `variant` of `pass` for traversal `bvh`, the BVH read from `storage`:
-/// [`wgsl_source`], [`wgsl_gather_trace_source`] or [`wgsl_gather_replay_source`].
+/// [`wgsl_source`], [`wgsl_gather_trace_source`], [`wgsl_gather_replay_source`], or the
+/// pass's own source with `LUX_IDLE` 1.
 pub fn wgsl_variant(pass: Program, bvh: BvhMode, storage: BvhStorage, variant: Variant) -> String {
     match variant {
         Variant::Plain => wgsl_source(pass, bvh, storage),
+        Variant::Idle => idle(wgsl_source(pass, bvh, storage)),
         Variant::Trace => wgsl_gather_trace_source(bvh, storage),
         Variant::Replay => wgsl_gather_replay_source(bvh, storage),
     }
@@ -407,6 +422,43 @@ pub fn wgsl_source(program: Program, bvh: BvhMode, storage: BvhStorage) -> Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_idle_programs_differ_from_the_plain_ones_in_lux_idle_alone() {
+        for p in Program::ALL {
+            let has_idle = Variant::of(p).contains(&Variant::Idle);
+            let returns = "if (LUX_IDLE != 0u)";
+            let sig = p.signature();
+            assert_eq!(sig.glsl.contains(returns), has_idle, "{}", p.label());
+            assert_eq!(sig.wgsl.contains(returns), has_idle, "{}", p.label());
+            if !has_idle {
+                continue;
+            }
+            let (plain, sources) = glsl_variant(p, BvhMode::Mtbvh, Variant::Plain);
+            let (idle, idle_sources) = glsl_variant(p, BvhMode::Mtbvh, Variant::Idle);
+            assert_eq!(sources, idle_sources);
+            assert_ne!(plain, idle);
+            assert_eq!(plain.replace("LUX_IDLE 0u", "LUX_IDLE 1u"), idle);
+            for storage in [BvhStorage::Buffers, BvhStorage::Textures] {
+                let plain = wgsl_variant(p, BvhMode::Mtbvh, storage, Variant::Plain);
+                let idle = wgsl_variant(p, BvhMode::Mtbvh, storage, Variant::Idle);
+                assert_ne!(plain, idle);
+                assert_eq!(
+                    plain.replace("LUX_IDLE: u32 = 0u", "LUX_IDLE: u32 = 1u"),
+                    idle
+                );
+            }
+        }
+        assert_eq!(Variant::plain_or_idle(Program::Refine, true), Variant::Idle);
+        assert_eq!(
+            Variant::plain_or_idle(Program::Refine, false),
+            Variant::Plain
+        );
+        assert_eq!(
+            Variant::plain_or_idle(Program::Gather, true),
+            Variant::Plain
+        );
+    }
 
     #[test]
     fn the_gathers_replay_and_trace_sources_swap_the_ray_for_the_kept_hit() {

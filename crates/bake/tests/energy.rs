@@ -79,6 +79,7 @@ fn two_reductions_sum_a_map_as_the_host_does() {
                     scene: &uploaded,
                     params: &[],
                     tile,
+                    idle: false,
                 })
                 .expect("reduce");
         }

@@ -491,8 +491,8 @@ fn every_program_validates_with_naga_for_every_traversal() {
     assert_eq!(checked, 3 * variants);
     assert_eq!(
         variants,
-        Pass::ALL.len() + 2,
-        "the gather's trace and replay"
+        Pass::ALL.len() + 4,
+        "the gather's trace and replay, the refine and connect passes' idle programs"
     );
     // The check can fail: an undeclared name is rejected.
     let (prefix, _) = program_sources(Pass::Copy, BvhMode::None);

@@ -40,6 +40,11 @@ vec4 luxRun(ivec3 c) {
         stream = luxGatherStream(LUX_SAMPLER_SOBOL, size, uint(c.z), uint(c.x), uint(c.y), 1u,
                                  u_k);
     }
+    // The idle program (kept::Variant::Idle) runs where no texel gets further connections:
+    // without the shadow rays' code, which a SIMD rasteriser would run masked for every texel.
+    if (LUX_IDLE != 0u) {
+        return vec4(0.0, 0.0, 0.0, 1.0);
+    }
     vec3 p = pw.xyz;
     vec3 origin = luxOffsetOrigin(p, n, u_ray_epsilon);
     float nc = float(u_rays);

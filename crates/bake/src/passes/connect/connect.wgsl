@@ -40,6 +40,11 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
         stream = lux_gather_stream(LUX_SAMPLER_SOBOL, size, lux_tile.layer, u32(c.x), u32(c.y),
                                    1u, lux_pass.k);
     }
+    // The idle program (kept::Variant::Idle) runs where no texel gets further connections:
+    // without the shadow rays' code, which a SIMD rasteriser would run masked for every texel.
+    if (LUX_IDLE != 0u) {
+        return vec4<f32>(0.0, 0.0, 0.0, 1.0);
+    }
     let p = pw.xyz;
     let origin = lux_offset_origin(p, n, lux_scene.ray_epsilon);
     let nc = f32(lux_pass.rays);

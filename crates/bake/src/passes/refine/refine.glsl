@@ -30,6 +30,11 @@ vec4 luxRun(ivec3 c) {
     if (more == 0u) {
         return first;
     }
+    // The idle program (kept::Variant::Idle) runs where no texel gets further rays: without
+    // the rays' code, which a SIMD rasteriser would run masked for every texel.
+    if (LUX_IDLE != 0u) {
+        return first;
+    }
     uvec3 layerSize = uvec3(textureSize(u_position, 0));
     uvec2 stream = luxRefineStream(u_sampler, layerSize.xy, uint(c.z), uint(c.x), uint(c.y),
                                    u_first_rays, max(u_rays, u_narrow_rays));

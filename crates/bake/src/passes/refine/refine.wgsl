@@ -30,6 +30,11 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (rays == 0u) {
         return first;
     }
+    // The idle program (kept::Variant::Idle) runs where no texel gets further rays: without
+    // the rays' code, which a SIMD rasteriser would run masked for every texel.
+    if (LUX_IDLE != 0u) {
+        return first;
+    }
     let layer_size = vec2<u32>(lux_tile.layer_w, lux_tile.layer_h);
     let texel = lux_texel_index(layer_size, lux_tile.layer, u32(c.x), u32(c.y));
     let stream = lux_refine_stream(lux_pass.sampler, layer_size, lux_tile.layer, u32(c.x),
