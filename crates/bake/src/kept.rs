@@ -65,9 +65,10 @@ pub enum Variant {
     /// The refine or connect pass's program with `LUX_IDLE` 1: each texel writes what it
     /// writes where it refines nothing, the rays' code compiled out. The driver runs it on the
     /// dispatches that it knows have no texel to refine ([`crate::backend::Dispatch::idle`]:
-    /// the refinements in narrow gaps alone, over rows without a gap). On software rasterisers
-    /// (llvmpipe, lavapipe, SwiftShader) a branch runs in SIMD lanes with a mask, so the whole
-    /// refinement's code ran for every texel that skipped it.
+    /// the refinements in narrow gaps alone, over rows without a gap). llvmpipe and lavapipe
+    /// run a branch in SIMD lanes with a mask, so the refinement's code around its loops ran
+    /// for every texel that skipped it (docs/performance.md, "Refinements in gaps: an idle
+    /// program").
     Idle,
 }
 
