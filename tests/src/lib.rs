@@ -59,10 +59,13 @@ pub struct SceneCase {
     /// The converged method's preset ([`settings`]; the paper's method ignores it).
     pub quality: Quality,
     /// [`Settings::refine_rays`] (0: none, as in every preset), at a target of
-    /// [`REFINE_ERROR`]; with it the rays in narrow gaps too ([`Settings::narrow_rays`] at
-    /// [`Settings::NARROW_RAYS`]: the first bounce's refinement then takes the larger of both
-    /// counts where both apply, and the later bounces' reduced gathers are refined in the gaps).
+    /// [`REFINE_ERROR`].
     pub refine_rays: u32,
+    /// [`Settings::narrow_rays`]: [`Settings::NARROW_RAYS`] in the cases with refinement (the
+    /// first bounce's refinement then takes the larger of both counts where both apply, and
+    /// the later bounces' reduced gathers are refined in the gaps), else 0; with it and no
+    /// refinement, as at the `default` preset, every refinement works in the gaps alone.
+    pub narrow_rays: u32,
     /// [`Settings::denoise_correction`] (false in every preset but `final`).
     pub denoise_correction: bool,
     /// [`Settings::direct_at_hits`].
@@ -117,6 +120,7 @@ const fn paper(scene: &'static str, sampler: Sampler) -> SceneCase {
         sampler,
         quality: Quality::Default,
         refine_rays: 0,
+        narrow_rays: 0,
         denoise_correction: false,
         direct_at_hits: false,
         stages: STAGES,
@@ -136,6 +140,11 @@ const fn converged(
         sampler: Sampler::Sobol,
         quality,
         refine_rays,
+        narrow_rays: if refine_rays > 0 {
+            Settings::NARROW_RAYS
+        } else {
+            0
+        },
         denoise_correction: false,
         direct_at_hits: false,
         stages,
@@ -207,6 +216,8 @@ impl SceneCase {
         }
         if self.refine_rays > 0 {
             name.push_str("_refine");
+        } else if self.narrow_rays > 0 {
+            name.push_str("_gaps");
         }
         if self.denoise_correction {
             name.push_str("_corrected");
@@ -217,18 +228,14 @@ impl SceneCase {
         name
     }
 
-    /// The reduced settings ([`settings`]) of the case's method and preset with its sampler
-    /// and refinement.
+    /// The reduced settings ([`settings`]) of the case's method and preset with its sampler,
+    /// refinement and rays in narrow gaps.
     pub fn settings(&self) -> Settings {
         Settings {
             sampler: self.sampler,
             refine_rays: self.refine_rays,
             refine_error: REFINE_ERROR,
-            narrow_rays: if self.refine_rays > 0 {
-                Settings::NARROW_RAYS
-            } else {
-                0
-            },
+            narrow_rays: self.narrow_rays,
             denoise_correction: self.denoise_correction,
             direct_at_hits: self.direct_at_hits,
             ..settings(self.method, self.quality)

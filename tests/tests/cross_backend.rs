@@ -35,6 +35,7 @@ fn converged_chairs_01(scene: &'static str) -> SceneCase {
             base.sampler,
             base.quality,
             base.refine_rays,
+            base.narrow_rays,
             base.denoise_correction,
             base.direct_at_hits
         ),
@@ -43,6 +44,7 @@ fn converged_chairs_01(scene: &'static str) -> SceneCase {
             Method::Converged,
             Sampler::Sobol,
             Quality::Default,
+            0,
             0,
             false,
             false
@@ -151,6 +153,7 @@ fn a_lamp_a_tenth_of_a_millimetre_from_a_wall_agrees_across_backends() {
         sampler: Sampler::Hash,
         quality: Quality::Default,
         refine_rays: 0,
+        narrow_rays: 0,
         denoise_correction: false,
         direct_at_hits: false,
         stages: SCENES[1].stages,
@@ -232,9 +235,6 @@ fn chairs_01_with_luminous_openings_agrees_across_backends() {
 /// read the map (`RefineParams::narrow_direct`).
 #[test]
 fn chairs_01_with_a_panel_in_a_gap_refined_agrees_across_backends() {
-    use luxbake::scene::{Albedo, Object, Transform};
-    use luxbake::sources::meshes;
-
     let case = SceneCase {
         scene: "chairs_01_gap",
         direct_at_hits: false,
@@ -245,6 +245,57 @@ fn chairs_01_with_a_panel_in_a_gap_refined_agrees_across_backends() {
         settings.narrow_rays > 0 && settings.refine_rays > 0,
         "{settings:?}"
     );
+    let (scene, _) = with_a_panel_in_a_gap(&settings);
+    run_scene(&case, &scene);
+}
+
+/// The same room with the `default` preset's rays in narrow gaps and no refinement by noise:
+/// every refinement works in the gaps alone (`Params::gap_work`: the first bounce's `refine`
+/// and its `refine_connect`, the later bounces' `refine_narrow`), so the GPU backends run the
+/// refine and connect passes' idle programs (`kept::Variant::Idle`) over the rows without a
+/// gap and their own programs over the others, and the CPU backend computes every row.
+#[test]
+fn chairs_01_with_a_panel_in_a_gap_refined_in_the_gaps_alone_agrees_across_backends() {
+    let case = SceneCase {
+        scene: "chairs_01_gap",
+        narrow_rays: luxbake::scene::Settings::NARROW_RAYS,
+        ..converged_chairs_01("chairs_01_gap")
+    };
+    let settings = case.settings();
+    assert!(
+        settings.narrow_rays > 0 && settings.refine_rays == 0 && settings.lamp_paths > 0,
+        "{settings:?}"
+    );
+    let (scene, room) = with_a_panel_in_a_gap(&settings);
+    // Rows with a texel in a gap and rows without: both programs run.
+    let [w, h] = room.layout.layer_size;
+    let rows: Vec<u64> = room
+        .gbuffer
+        .position
+        .chunks(4 * w as usize)
+        .map(|row| {
+            row.chunks_exact(4)
+                .filter(|p| p[3] >= luxbake::validity::NARROW_GAP)
+                .count() as u64
+        })
+        .collect();
+    let tiles = luxbake::program::tiles_by_rows([w, h], room.layout.layers, &rows, 64, 1 << 20);
+    let idle = tiles.iter().filter(|&&(_, idle)| idle).count();
+    assert!(
+        idle > 0 && idle < tiles.len(),
+        "{idle} of {} tiles idle",
+        tiles.len()
+    );
+    run_scene(&case, &scene);
+}
+
+/// `chairs_01` baked with `settings` and a panel standing 4 cm in front of its −x wall, and
+/// the room prepared on the CPU backend's limits: at least 200 more texels in narrow gaps
+/// than without the panel (asserted).
+fn with_a_panel_in_a_gap(settings: &luxbake::scene::Settings) -> (Scene, luxbake::Room) {
+    use luxbake::scene::{Albedo, Object, Transform};
+    use luxbake::sources::meshes;
+
     let mut scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
     // The room's −x wall is at x = −2.5; the panel is 0.1 m thick.
     scene.objects.push(Object {
@@ -259,18 +310,16 @@ fn chairs_01_with_a_panel_in_a_gap_refined_agrees_across_backends() {
         texel_scale: 1.0,
     });
     let limits = luxbake::GpuBackend::limits(&luxbake_backend_cpu::CpuBackend::new());
-    let gaps = |scene: &Scene| {
-        luxbake::Room::prepare(scene, &settings, limits, &mut |_| {})
-            .expect("room")
-            .narrow_texels
-    };
-    let (with_panel, without) = (
-        gaps(&scene),
-        gaps(&Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01")),
-    );
+    let prepare =
+        |scene: &Scene| luxbake::Room::prepare(scene, settings, limits, &mut |_| {}).expect("room");
+    let room = prepare(&scene);
+    let without =
+        prepare(&Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01"))
+            .narrow_texels;
+    let with_panel = room.narrow_texels;
     eprintln!("texels in narrow gaps: {with_panel} with the panel, {without} without");
     assert!(with_panel >= without + 200, "{with_panel} / {without}");
-    run_scene(&case, &scene);
+    (scene, room)
 }
 
 /// `chairs_01` with two lamps whose openings are curved, baked with `lamp_model = "area"` at
