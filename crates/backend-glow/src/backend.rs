@@ -6,8 +6,8 @@ use std::collections::HashMap;
 use glow::HasContext;
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Uploads, Variant};
-use luxbake::program::{GatherParams, ParamBlock, Scalar};
+use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Part, Uploads, Variant};
+use luxbake::program::{GatherParams, ParamBlock, Scalar, TileParams, coarse};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{glsl_param, glsl_slot, glsl_variant, program_traversal};
 
@@ -32,6 +32,24 @@ struct Hits<'a> {
     texture: &'a TextureArray,
     origin: [u32; 2],
     rays: u32,
+}
+
+/// How a gather draw uses the compact grid of a strided gather ([`coarse::grid_tile`]): the
+/// uniforms `u_grid`, `u_grid_origin`, `u_from_grid` and the sampler `u_grid_values` of
+/// `coarse.glsl` and `gather.glsl`.
+#[derive(Clone, Copy)]
+enum GridUse<'a> {
+    /// Any draw but a strided gather's.
+    None,
+    /// A strided gather's grid texels alone: the compact tile whose first grid column and row
+    /// are `origin`, at `stride`.
+    Draw { stride: u32, origin: [u32; 2] },
+    /// The strided gather's tile: its grid texels copied from `values` (the compact tile whose
+    /// first grid column and row are `origin`), the orphans gathered.
+    From {
+        origin: [u32; 2],
+        values: &'a TextureArray,
+    },
 }
 
 /// The glow backend: a GL context, the RGBA32F texture arrays of a bake, the uploaded scene
@@ -178,13 +196,16 @@ impl GlowBackend {
         Ok(())
     }
 
-    /// The key of a gather dispatch whose hits can be kept: with kept hits on, the gather
-    /// reading uploaded position and normal maps, at most as many rays as a texture has
-    /// layers.
+    /// The key of `part` of a gather dispatch's hits, over `tile` (the call's, or for
+    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, the
+    /// gather reading uploaded position and normal maps, at least one ray and at most as many
+    /// as a texture has layers.
     fn hit_key(
         &self,
         call: &Dispatch<'_, GlowTexture, GlowScene>,
         traversal: BvhMode,
+        tile: TileParams,
+        part: Part,
     ) -> Option<HitKey> {
         if call.program != Pass::Gather || self.kept.is_none() || !kept::replayable(call.params) {
             return None;
@@ -203,19 +224,20 @@ impl GlowBackend {
             call.params,
             call.tile,
             gbuffer,
-        );
+        )
+        .part(part, tile);
         let layers = self
             .ctx
             .capabilities()
             .max_array_layers
             .min(crate::webgl2::ARRAY_LAYERS);
-        (key.rays() <= layers).then_some(key)
+        (key.rays() > 0 && key.rays() <= layers).then_some(key)
     }
 
     /// One draw of `variant` of the call's program into `layers` of `out` (`None`: the call's
     /// tile of the texture it writes), restricted to `rect`, with the call's reads, scene and
-    /// `params`; `hits`: the replay's kept hits, or what the trace writes. With `finish`,
-    /// waits for it.
+    /// `params`; `hits`: the replay's kept hits, or what the trace writes; `grid`: a strided
+    /// gather's use of its compact grid. With `finish`, waits for it.
     #[allow(clippy::too_many_arguments)]
     fn draw(
         &self,
@@ -226,6 +248,7 @@ impl GlowBackend {
         rect: [u32; 4],
         params: &[u32],
         hits: Option<Hits<'_>>,
+        grid: GridUse<'_>,
         finish: bool,
     ) -> Result<()> {
         let (label, sig) = (call.label, call.program.signature());
@@ -259,6 +282,16 @@ impl GlowBackend {
         if let (Variant::Replay, Some(h)) = (variant, &hits) {
             samplers.push(("u_hits".into(), h.texture));
         }
+        if call.program == Pass::Gather {
+            // Bound in every gather draw (read only with `u_from_grid` 1).
+            let values = match grid {
+                GridUse::From { values, .. } => values,
+                _ => samplers.first().map(|(_, tex)| *tex).ok_or_else(|| {
+                    GlowError::InvalidInput(format!("pass `{label}`: no position map"))
+                })?,
+            };
+            samplers.push(("u_grid_values".into(), values));
+        }
         let program = self
             .programs
             .get(&(call.program, traversal, variant))
@@ -278,6 +311,17 @@ impl GlowBackend {
             let at = |v: u32| i32::try_from(v).unwrap_or(i32::MAX);
             program.set_ivec2(gl, "u_hit_origin", h.origin.map(at));
             program.set_u32(gl, "u_hit_rays", h.rays);
+        }
+        if call.program == Pass::Gather {
+            let at = |v: u32| i32::try_from(v).unwrap_or(i32::MAX);
+            let (stride, origin, from) = match grid {
+                GridUse::None => (0, [0, 0], 0),
+                GridUse::Draw { stride, origin } => (stride, origin, 0),
+                GridUse::From { origin, .. } => (0, origin, 1),
+            };
+            program.set_i32(gl, "u_grid", at(stride));
+            program.set_ivec2(gl, "u_grid_origin", origin.map(at));
+            program.set_i32(gl, "u_from_grid", from);
         }
         if sig.scene.bvh {
             gpu_scene.bvh.set_uniforms(gl, program);
@@ -303,6 +347,107 @@ impl GlowBackend {
             self.target.wait(gl, label, [rect[0], rect[1]])?;
         }
         check(gl, label, "finishing a tile")
+    }
+
+    /// Draws the call over `tile` — its own tile into the texture it writes (`out` `None`),
+    /// or a strided gather's compact grid into layer 0 of `out` — with the call's program,
+    /// or for a gather whose hits are kept, their trace (once) and replay.
+    fn gather_or_draw(
+        &mut self,
+        call: &Dispatch<'_, GlowTexture, GlowScene>,
+        trav: BvhMode,
+        tile: TileParams,
+        out: Option<&TextureArray>,
+        grid: GridUse<'_>,
+    ) -> Result<()> {
+        let t = tile;
+        // Where the draw writes, and the tile's first texel there (what the hits are placed
+        // by).
+        let (target, rect, origin) = match out {
+            None => (None, [t.x0, t.y0, t.width, t.height], [t.x0, t.y0]),
+            Some(out) => (Some((out, &[0u32][..])), [0, 0, t.width, t.height], [0, 0]),
+        };
+        let part = match grid {
+            GridUse::None => Part::Whole,
+            GridUse::Draw { .. } => Part::Grid,
+            GridUse::From { .. } => Part::Rest,
+        };
+        let key = self
+            .hit_key(call, trav, tile, part)
+            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
+        let Some(key) = key else {
+            let variant = Variant::plain_or_idle(call.program, call.idle);
+            self.compile(call.program, trav, variant)?;
+            return self.draw(
+                call,
+                trav,
+                variant,
+                target,
+                rect,
+                call.params,
+                None,
+                grid,
+                true,
+            );
+        };
+        self.compile(call.program, trav, Variant::Replay)?;
+        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
+            // Trace the dispatch's rays once, one layer of hits per ray.
+            self.compile(call.program, trav, Variant::Trace)?;
+            let gl = self.ctx.gl()?;
+            let hits = TextureArray::new(gl, "gather hits", t.width, t.height, key.rays())?;
+            let mut params = GatherParams::from_words(call.params);
+            let first = params.first_ray;
+            let per_draw = MAX_ATTACHMENTS as u32;
+            let traced = (0..key.rays()).step_by(MAX_ATTACHMENTS).try_for_each(|k| {
+                // Up to four rays a draw, one colour attachment (hit layer) each.
+                let rays = per_draw.min(key.rays() - k);
+                let layers: Vec<u32> = (k..k + rays).collect();
+                params.first_ray = first + k;
+                self.draw(
+                    call,
+                    trav,
+                    Variant::Trace,
+                    Some((&hits, &layers)),
+                    [0, 0, t.width, t.height],
+                    &params.words(),
+                    Some(Hits {
+                        texture: &hits,
+                        origin,
+                        rays,
+                    }),
+                    grid,
+                    false,
+                )
+            });
+            if let Err(e) = traced {
+                hits.delete(gl);
+                return Err(e);
+            }
+            let replaced = self.kept.as_mut().and_then(|k| k.insert(key, hits));
+            self.delete(replaced.into_iter().collect())?;
+        }
+        let kept = self.kept.as_ref().and_then(|k| k.get(&key));
+        let hits = kept.ok_or_else(|| GlowError::InvalidInput("kept hits".into()))?;
+        self.draw(
+            call,
+            trav,
+            Variant::Replay,
+            target,
+            rect,
+            call.params,
+            Some(Hits {
+                texture: hits,
+                origin,
+                rays: key.rays(),
+            }),
+            grid,
+            true,
+        )?;
+        if let Some(k) = &mut self.kept {
+            k.replayed();
+        }
+        Ok(())
     }
 }
 
@@ -405,71 +550,37 @@ impl GpuBackend for GlowBackend {
         // A texture a pass writes is no upload any more.
         self.uploads.forget(call.write.0);
         let t = call.tile;
-        let rect = [t.x0, t.y0, t.width, t.height];
-        let key = self
-            .hit_key(call, trav)
-            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
-        let Some(key) = key else {
-            let variant = Variant::plain_or_idle(call.program, call.idle);
-            self.compile(call.program, trav, variant)?;
-            return self.draw(call, trav, variant, None, rect, call.params, None, true);
+        let stride = if call.program == Pass::Gather {
+            GatherParams::from_words(call.params).stride
+        } else {
+            0
         };
-        self.compile(call.program, trav, Variant::Replay)?;
-        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
-            // Trace the dispatch's rays once, one layer of hits per ray.
-            self.compile(call.program, trav, Variant::Trace)?;
-            let gl = self.ctx.gl()?;
-            let hits = TextureArray::new(gl, "gather hits", t.width, t.height, key.rays())?;
-            let mut params = GatherParams::from_words(call.params);
-            let first = params.first_ray;
-            let per_draw = MAX_ATTACHMENTS as u32;
-            let traced = (0..key.rays()).step_by(MAX_ATTACHMENTS).try_for_each(|k| {
-                // Up to four rays a draw, one colour attachment (hit layer) each.
-                let rays = per_draw.min(key.rays() - k);
-                let layers: Vec<u32> = (k..k + rays).collect();
-                params.first_ray = first + k;
-                self.draw(
-                    call,
-                    trav,
-                    Variant::Trace,
-                    Some((&hits, &layers)),
-                    [0, 0, t.width, t.height],
-                    &params.words(),
-                    Some(Hits {
-                        texture: &hits,
-                        origin: [t.x0, t.y0],
-                        rays,
-                    }),
-                    false,
-                )
+        let Some(grid) = coarse::grid_tile(t, stride) else {
+            return self.gather_or_draw(call, trav, t, None, GridUse::None);
+        };
+        // A strided gather: its grid texels alone into a texture of the compact tile's size,
+        // every fragment a grid texel, then the tile, which copies them and gathers the
+        // orphans (`coarse::grid_tile`).
+        let gl = self.ctx.gl()?;
+        let values = TextureArray::new(gl, "gather grid", grid.width, grid.height, 1)?;
+        let origin = [grid.x0, grid.y0];
+        let drawn = self
+            .gather_or_draw(
+                call,
+                trav,
+                grid,
+                Some(&values),
+                GridUse::Draw { stride, origin },
+            )
+            .and_then(|()| {
+                let from = GridUse::From {
+                    origin,
+                    values: &values,
+                };
+                self.gather_or_draw(call, trav, t, None, from)
             });
-            if let Err(e) = traced {
-                hits.delete(gl);
-                return Err(e);
-            }
-            let replaced = self.kept.as_mut().and_then(|k| k.insert(key, hits));
-            self.delete(replaced.into_iter().collect())?;
-        }
-        let kept = self.kept.as_ref().and_then(|k| k.get(&key));
-        let hits = kept.ok_or_else(|| GlowError::InvalidInput("kept hits".into()))?;
-        self.draw(
-            call,
-            trav,
-            Variant::Replay,
-            None,
-            rect,
-            call.params,
-            Some(Hits {
-                texture: hits,
-                origin: [t.x0, t.y0],
-                rays: key.rays(),
-            }),
-            true,
-        )?;
-        if let Some(k) = &mut self.kept {
-            k.replayed();
-        }
-        Ok(())
+        values.delete(self.ctx.gl()?);
+        drawn
     }
 
     fn read_back(&mut self, texture: &GlowTexture, layer: u32) -> Result<Vec<f32>> {

@@ -92,6 +92,17 @@
 //! `glFinish`, then a progress report, so that a browser's GPU watchdog never sees a long draw. The random numbers
 //! are a stateless hash of the texel, so tiling does not change any result.
 //!
+//! ## Strided gathers on a compact grid
+//! A gather at reduced resolution (`GatherParams::stride` > 1: the converged presets' later
+//! bounces, 16 rays on every fourth texel per axis) is drawn in two: first the tile's grid
+//! texels alone into a texture of `1/stride²` the tile's size
+//! ([`coarse::grid_tile`](luxbake::program::coarse::grid_tile)), every fragment a grid texel
+//! with its rays, then the tile, whose grid texels copy those values and whose orphans and
+//! narrow-gap texels gather as before. Over the whole tile, a grid texel's rays ran in a SIMD
+//! group of which it was the only busy lane. The same random numbers and operations: the
+//! maps are bit for bit those of one draw. With kept hits ([`GlowBackend::keep_gather_hits`])
+//! each of the two keeps its own (`luxbake::kept::Part`).
+//!
 //! ## Contexts
 //! Native: [`GlContext::headless`], EGL loaded at run time (`khronos-egl`, `dynamic`) on Mesa's
 //! surfaceless platform (`EGL_PLATFORM_SURFACELESS_MESA`), an OpenGL ES 3.0 context without any

@@ -5,9 +5,9 @@ mod common;
 
 use common::backend_or_skip;
 use luxbake::backend::GpuBackend;
-use luxbake::bake::{Progress, bake};
+use luxbake::bake::{Progress, Room, bake, bake_room};
 use luxbake::graph::{TexDesc, TexFormat};
-use luxbake::scene::{Blur, Scene, Settings};
+use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backend_glow::{GlowError, webgl2};
 
 fn desc(size: [u32; 2], layers: u32) -> TexDesc {
@@ -78,6 +78,44 @@ fn tiles_report_progress_and_do_not_change_the_result() {
     for (a, b) in whole_out.maps.iter().zip(&tiled_out.maps) {
         assert_eq!(a.stages, b.stages, "{}", a.name);
     }
+}
+
+/// The converged default's strided gathers (every fourth texel per axis, on a compact grid,
+/// then the rest of the tile: `coarse::grid_tile`) in tiles of a row or two, many of which
+/// hold no grid row, and with kept hits read back in a second bake: the maps of one tile per
+/// layer, bit for bit.
+#[test]
+fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() {
+    let test = "strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result";
+    let (Some(whole), Some(tiled)) = (backend_or_skip(test), backend_or_skip(test)) else {
+        return;
+    };
+    let settings = Settings {
+        texels_per_metre: 10.0,
+        ..Settings::preset(Quality::Default)
+    };
+    assert!(settings.higher_stride > 1);
+    let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
+    let mut whole = whole.with_tile_work(u64::MAX);
+    let want = bake(&mut whole, &scene, &settings, &mut |_| {}).expect("glow bake");
+    let mut tiled = tiled.with_tile_work(2_000);
+    tiled.keep_gather_hits(1 << 30).expect("keep hits");
+    let room = Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {}).expect("room");
+    let mut compared = 0;
+    for run in 0..2 {
+        let out = bake_room(&mut tiled, &room, &scene.lamps, &settings, &mut |_| {}).expect("bake");
+        for (a, b) in want.maps.iter().zip(&out.maps) {
+            assert_eq!(a.stages, b.stages, "bake {run}: {}", a.name);
+            compared += a.stages.iter().flatten().count();
+        }
+    }
+    assert!(compared > 0);
+    let kept = tiled.gather_hit_stats().expect("kept");
+    // The second bake read every dispatch's hits.
+    assert!(
+        kept.traced > 0 && kept.replayed == 2 * kept.traced,
+        "{kept:?}"
+    );
 }
 
 #[test]

@@ -329,6 +329,36 @@ pub const B3: [f32; 5] = [0.0625, 0.25, 0.375, 0.25, 0.0625];
 /// grid's `rays`: the gap's light is gathered at full resolution, each texel with a grid texel's
 /// rays (`docs/performance.md`, "Narrow gaps").
 pub mod coarse {
+    use super::TileParams;
+
+    /// The grid texels of `tile` at `stride` as a compact tile: its texel `(i, j)` is the
+    /// layout's texel `(i·stride, j·stride)` of the tile's layer, `x0 .. x0 + width` the grid
+    /// columns and `y0 .. y0 + height` the grid rows the tile holds, `layer_w × layer_h` the
+    /// grid of the whole layer. `None` at stride 1 (or 0) or where the tile holds no grid texel.
+    ///
+    /// A GPU backend may gather a strided dispatch's grid texels in a draw of this size and
+    /// then the tile itself, which reads them back and gathers the orphans: every lane of the
+    /// first draw is a grid texel, where a draw over the tile runs the grid texels' rays with
+    /// a lane of every few busy (docs/performance.md, "The strided gathers on a compact grid").
+    pub fn grid_tile(tile: TileParams, stride: u32) -> Option<TileParams> {
+        if stride <= 1 {
+            return None;
+        }
+        let first = |v: u32| v.div_ceil(stride);
+        let (i0, i1) = (first(tile.x0), first(tile.x0.saturating_add(tile.width)));
+        let (j0, j1) = (first(tile.y0), first(tile.y0.saturating_add(tile.height)));
+        (i1 > i0 && j1 > j0).then_some(TileParams {
+            x0: i0,
+            y0: j0,
+            width: i1 - i0,
+            height: j1 - j0,
+            layer: tile.layer,
+            layer_w: first(tile.layer_w),
+            layer_h: first(tile.layer_h),
+            pad0: 0,
+        })
+    }
+
     /// Rays of an orphan of a gather of `rays` rays per grid texel at `stride`.
     pub fn orphan_rays(rays: u32, stride: u32) -> u32 {
         rays.div_ceil(stride.max(1))

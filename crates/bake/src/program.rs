@@ -725,6 +725,47 @@ pub fn tiles_by_rows(
 mod tests {
     use super::*;
 
+    /// The compact grid of a tile holds exactly the tile's texels on the stride's grid, each
+    /// once over the tiles of a layer; a tile without one, and stride 1, has none.
+    #[test]
+    fn a_tiles_grid_holds_its_grid_texels_once() {
+        let (w, h, s) = (37u32, 23u32, 4u32);
+        let tile = |y0: u32, height: u32| TileParams {
+            x0: 0,
+            y0,
+            width: w,
+            height,
+            layer: 1,
+            layer_w: w,
+            layer_h: h,
+            pad0: 0,
+        };
+        for rows in [1u32, 2, 3, 5, 7, 23] {
+            let mut seen = std::collections::HashSet::new();
+            for y0 in (0..h).step_by(rows as usize) {
+                let t = tile(y0, rows.min(h - y0));
+                let grid = coarse::grid_tile(t, s);
+                let want: Vec<[u32; 2]> = (t.y0..t.y0 + t.height)
+                    .flat_map(|y| (0..w).map(move |x| [x, y]))
+                    .filter(|&[x, y]| x % s == 0 && y % s == 0)
+                    .collect();
+                let Some(g) = grid else {
+                    assert!(want.is_empty(), "{t:?}");
+                    continue;
+                };
+                assert_eq!((g.layer, g.layer_w, g.layer_h), (1, 10, 6));
+                let got: Vec<[u32; 2]> = (g.y0..g.y0 + g.height)
+                    .flat_map(|j| (g.x0..g.x0 + g.width).map(move |i| [i * s, j * s]))
+                    .collect();
+                assert_eq!(got, want, "{t:?}");
+                assert!(got.iter().all(|&x| seen.insert(x)));
+            }
+            assert_eq!(seen.len(), 10 * 6);
+        }
+        assert_eq!(coarse::grid_tile(tile(0, h), 1), None);
+        assert_eq!(coarse::grid_tile(tile(1, 3), s), None);
+    }
+
     /// Row-weighted tiles cover every row of every layer once, in order, within the budget
     /// but for a single heavy row; rows without work share one tile, where the uniform plan
     /// of the heaviest row's work would cut many.

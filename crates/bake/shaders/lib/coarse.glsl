@@ -2,6 +2,28 @@
 // operation): which corners of a texel's grid cell lie on its surface, and with what bilinear
 // weight. For programs reading the slots position and normal.
 
+// The glow backend draws a strided gather in two (program::coarse::grid_tile): its grid texels
+// alone (u_grid the stride, u_grid_origin the draw's first grid column and row), then the tile
+// (u_from_grid 1), whose grid texels copy the first draw's values (u_grid_values, layer 0).
+// Both 0 in every other draw.
+uniform int u_grid;
+uniform ivec2 u_grid_origin;
+uniform int u_from_grid;
+uniform highp sampler2DArray u_grid_values;
+
+// The layout's texel of texel c of the draw: c itself, or in the grid draw the grid texel
+// ((c.xy + u_grid_origin) · u_grid) of c's layer.
+ivec3 luxGridTexel(ivec3 c) {
+    return u_grid > 1 ? ivec3((c.xy + u_grid_origin) * u_grid, c.z) : c;
+}
+
+// Whether texel c of the tile's draw after the grid's is a grid texel (at `stride`), whose
+// value that draw copies.
+bool luxGridCopied(ivec3 c, uint stride) {
+    int s = int(stride);
+    return u_from_grid != 0 && s > 1 && c.x % s == 0 && c.y % s == 0;
+}
+
 // The weights of texel c's grid-cell corners (order (x0, y0), (x1, y0), (x0, y1), (x1, y1))
 // that lie on c's surface, 0 for the others (all 0 where c lies in a narrow gap); returns their
 // sum.

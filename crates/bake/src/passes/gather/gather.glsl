@@ -6,8 +6,15 @@
 // u_lamp_paths > 0 each hit is weighted against the lamp paths, whose part (u_connected,
 // computed by the connect pass) is added. With u_chunk_rays > 0 a texel's rays are split
 // over dispatches, each adding its share to the one before (u_prior).
+// The glow backend draws a strided gather in two (coarse.glsl): the grid texels alone, then
+// the tile, whose grid texels copy that draw's values from u_grid_values (texel
+// c.xy / u_stride − u_grid_origin of layer 0).
 
 vec4 luxRun(ivec3 c) {
+    c = luxGridTexel(c);
+    if (luxGridCopied(c, u_stride)) {
+        return texelFetch(u_grid_values, ivec3(c.xy / int(u_stride) - u_grid_origin, 0), 0);
+    }
     vec4 pos = texelFetch(u_position, c, 0);
     vec4 nrm = texelFetch(u_normal, c, 0);
     if (pos.w <= 0.5) {
