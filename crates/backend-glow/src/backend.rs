@@ -225,7 +225,7 @@ impl GlowBackend {
             call.tile,
             gbuffer,
         )
-        .part(part, tile);
+        .part(part, [tile.width, tile.height]);
         let layers = self
             .ctx
             .capabilities()

@@ -149,6 +149,9 @@ pub struct HitKey {
     gbuffer: [u64; 2],
     /// The texels whose hits are kept.
     part: Part,
+    /// Width and height of the hits' planes: the tile's, or for [`Part::Grid`] its compact
+    /// grid's.
+    extent: [u32; 2],
 }
 
 impl HitKey {
@@ -182,15 +185,16 @@ impl HitKey {
             tile: [tile.layer, tile.x0, tile.y0, tile.width, tile.height],
             gbuffer,
             part: Part::Whole,
+            extent: [tile.width, tile.height],
         }
     }
 
-    /// The key of `part` of the dispatch, its tile `tile` (for [`Part::Grid`] the compact
-    /// one).
-    pub fn part(self, part: Part, tile: TileParams) -> HitKey {
+    /// The key of `part` of the dispatch, whose hits' planes are `extent` (width, height)
+    /// texels: the tile's, or for [`Part::Grid`] its compact grid's.
+    pub fn part(self, part: Part, extent: [u32; 2]) -> HitKey {
         HitKey {
             part,
-            tile: [tile.layer, tile.x0, tile.y0, tile.width, tile.height],
+            extent,
             ..self
         }
     }
@@ -210,7 +214,7 @@ impl HitKey {
 
     /// Bytes of the dispatch's hits.
     pub fn bytes(&self) -> u64 {
-        u64::from(self.tile[3]) * u64::from(self.tile[4]) * u64::from(self.rays()) * HIT_BYTES
+        u64::from(self.extent[0]) * u64::from(self.extent[1]) * u64::from(self.rays()) * HIT_BYTES
     }
 }
 
@@ -496,15 +500,9 @@ mod tests {
         // A strided gather on its compact grid: the grid's texels keep their rays, the rest
         // as many; each part a key of its own.
         let strided = key(words(16, 20, 0, 0));
-        let grid = TileParams {
-            y0: 2,
-            width: 16,
-            height: 4,
-            ..tile
-        };
         let (g, r) = (
-            strided.part(Part::Grid, grid),
-            strided.part(Part::Rest, tile),
+            strided.part(Part::Grid, [16, 4]),
+            strided.part(Part::Rest, [64, 16]),
         );
         assert_eq!((strided.rays(), g.rays(), r.rays()), (20, 16, 20));
         assert_eq!(
@@ -512,6 +510,16 @@ mod tests {
             (16 * 4 * 16 * 16, 64 * 16 * 20 * 16)
         );
         assert!(g != strided && r != strided && g != r);
-        assert_eq!(key(words(16, 4, 16, 0)).part(Part::Grid, grid).rays(), 0);
+        assert_eq!(key(words(16, 4, 16, 0)).part(Part::Grid, [16, 4]).rays(), 0);
+        // The tile stays part of the key: two tiles' grids of one size are two keys.
+        let other = HitKey::new(
+            1,
+            1e-4,
+            BvhMode::Mtbvh,
+            &words(16, 20, 0, 0),
+            TileParams { y0: 24, ..tile },
+            [1, 2],
+        );
+        assert_ne!(other.part(Part::Grid, [16, 4]), g);
     }
 }
