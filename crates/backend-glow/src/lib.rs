@@ -94,8 +94,9 @@
 //!
 //! ## Strided gathers on a compact grid
 //! A gather at reduced resolution (`GatherParams::stride` > 1: the converged presets' later
-//! bounces, 16 rays on every fourth texel per axis) is drawn in two: first the tile's grid
-//! texels alone into a texture of `1/stride²` the tile's size
+//! bounces, 16 rays on every fourth texel per axis) is drawn in two (wgpu dispatches it in
+//! two the other way round, writing in place): first the tile's grid texels alone into a
+//! texture of `1/stride²` the tile's size
 //! ([`coarse::grid_tile`](luxbake::program::coarse::grid_tile)), every fragment a grid texel
 //! with its rays, then the tile, whose grid texels copy those values and whose orphans and
 //! narrow-gap texels gather as before. Over the whole tile, a grid texel's rays ran in a SIMD

@@ -5,8 +5,8 @@ use std::collections::HashMap;
 
 use luxbake::backend::{DEFAULT_TILE_WORK, Dispatch, GpuBackend, Limits, SceneData};
 use luxbake::graph::TexDesc;
-use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Uploads, Variant};
-use luxbake::program::{ParamBlock, Program, SceneNeeds, TileParams};
+use luxbake::kept::{self, HitKey, KeptHitStats, KeptHits, Part, Uploads, Variant};
+use luxbake::program::{GatherParams, ParamBlock, Program, SceneNeeds, TileParams, coarse};
 use luxbake::scene::BvhMode;
 use luxbake::shader::{program_traversal, wgsl, wgsl_variant};
 
@@ -286,12 +286,15 @@ impl WgpuBackend {
         self.kept.as_ref().map(KeptHits::stats)
     }
 
-    /// The key of a gather dispatch whose hits can be kept: with kept hits on, the gather
-    /// reading uploaded position and normal maps, its hits within one storage binding.
+    /// The key of `part` of a gather dispatch's hits, over `tile` (the call's, or for
+    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, the
+    /// gather reading uploaded position and normal maps, its hits within one storage binding.
     fn hit_key(
         &self,
         call: &Dispatch<'_, WgpuTexture, WgpuScene>,
         traversal: BvhMode,
+        tile: TileParams,
+        part: Part,
     ) -> Option<HitKey> {
         if call.program != Program::Gather || self.kept.is_none() || !kept::replayable(call.params)
         {
@@ -303,12 +306,13 @@ impl WgpuBackend {
             self.uploads.hash(call.reads.get(1)?.0)?,
         ];
         let &(bvh, epsilon) = self.scene_keys.get(call.scene.0)?;
-        let key = HitKey::new(bvh, epsilon, traversal, call.params, call.tile, gbuffer);
+        let key = HitKey::new(bvh, epsilon, traversal, call.params, call.tile, gbuffer)
+            .part(part, [tile.width, tile.height]);
         let limits = &self.gpu.limits;
         let most = limits
             .max_storage_buffer_binding_size
             .min(limits.max_buffer_size);
-        (key.bytes() <= most).then_some(key)
+        (key.bytes() > 0 && key.bytes() <= most).then_some(key)
     }
 
     /// The adapter in use (name, driver, backend, device type).
@@ -379,14 +383,16 @@ impl WgpuBackend {
         Ok(())
     }
 
-    /// Runs `variant` of the call's program over its tile with `params` (`hits`: the buffer
-    /// the trace pass writes or the replay reads) and waits for it.
+    /// Runs `variant` of the call's program over `t` (its tile, or a strided gather's part of
+    /// it, [`TileParams::grid`]) with `params` (`hits`: the buffer the trace pass writes or the
+    /// replay reads) and waits for it.
     fn run(
         &self,
         call: &Dispatch<'_, WgpuTexture, WgpuScene>,
         traversal: BvhMode,
         variant: Variant,
         hits: Option<&wgpu::Buffer>,
+        t: TileParams,
     ) -> Result<()> {
         let label = call.label;
         let gpu_scene = self.scene(call.scene)?;
@@ -396,7 +402,6 @@ impl WgpuBackend {
             .iter()
             .map(|r| self.texture(r))
             .collect::<Result<Vec<_>>>()?;
-        let t = call.tile;
         let pipeline = self
             .pipelines
             .get(&(call.program, traversal, variant))
@@ -482,6 +487,50 @@ impl WgpuBackend {
         // Wait for the tile: honest progress, no unbounded queue of GPU work and no dispatch
         // long enough for a watchdog.
         gpu.wait(&during)
+    }
+
+    /// Runs the call over `tile` (`part` of it), its program, or for a gather whose hits are
+    /// kept, their trace (once) and replay.
+    fn gather_or_run(
+        &mut self,
+        call: &Dispatch<'_, WgpuTexture, WgpuScene>,
+        traversal: BvhMode,
+        tile: TileParams,
+        part: Part,
+    ) -> Result<()> {
+        let label = call.label;
+        let key = self
+            .hit_key(call, traversal, tile, part)
+            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
+        let Some(key) = key else {
+            let variant = Variant::plain_or_idle(call.program, call.idle);
+            self.pipeline(call.program, traversal, variant)?;
+            return self.run(call, traversal, variant, None, tile);
+        };
+        self.pipeline(call.program, traversal, Variant::Replay)?;
+        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
+            // Trace the dispatch's rays once into a buffer of one tile-sized plane per ray.
+            self.pipeline(call.program, traversal, Variant::Trace)?;
+            let gpu = &self.gpu;
+            let hits = gpu.scoped(&format!("pass `{label}`"), || {
+                gpu.device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some("gather hits"),
+                    size: key.bytes(),
+                    usage: wgpu::BufferUsages::STORAGE,
+                    mapped_at_creation: false,
+                })
+            })?;
+            self.run(call, traversal, Variant::Trace, Some(&hits), tile)?;
+            // A replaced buffer (not reached: a key is traced only when missing) is dropped.
+            drop(self.kept.as_mut().and_then(|k| k.insert(key, hits)));
+        }
+        let hits = self.kept.as_ref().and_then(|k| k.get(&key));
+        let hits = hits.ok_or_else(|| WgpuError::InvalidInput("kept hits".into()))?;
+        self.run(call, traversal, Variant::Replay, Some(hits), tile)?;
+        if let Some(k) = &mut self.kept {
+            k.replayed();
+        }
+        Ok(())
     }
 }
 
@@ -664,38 +713,22 @@ impl GpuBackend for WgpuBackend {
             .map_err(|reason| WgpuError::InvalidInput(format!("pass `{label}`: {reason}")))?;
         // A texture a pass writes is no upload any more.
         self.uploads.forget(call.write.0);
-        let key = self
-            .hit_key(call, traversal)
-            .filter(|k| self.kept.as_ref().is_some_and(|kept| kept.usable(k)));
-        let Some(key) = key else {
-            let variant = Variant::plain_or_idle(call.program, call.idle);
-            self.pipeline(call.program, traversal, variant)?;
-            return self.run(call, traversal, variant, None);
+        let stride = if call.program == Program::Gather {
+            GatherParams::from_words(call.params).stride
+        } else {
+            0
         };
-        self.pipeline(call.program, traversal, Variant::Replay)?;
-        if self.kept.as_ref().is_some_and(|k| k.get(&key).is_none()) {
-            // Trace the dispatch's rays once into a buffer of one tile-sized plane per ray.
-            self.pipeline(call.program, traversal, Variant::Trace)?;
-            let gpu = &self.gpu;
-            let hits = gpu.scoped(&format!("pass `{label}`"), || {
-                gpu.device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some("gather hits"),
-                    size: key.bytes(),
-                    usage: wgpu::BufferUsages::STORAGE,
-                    mapped_at_creation: false,
-                })
-            })?;
-            self.run(call, traversal, Variant::Trace, Some(&hits))?;
-            // A replaced buffer (not reached: a key is traced only when missing) is dropped.
-            drop(self.kept.as_mut().and_then(|k| k.insert(key, hits)));
-        }
-        let hits = self.kept.as_ref().and_then(|k| k.get(&key));
-        let hits = hits.ok_or_else(|| WgpuError::InvalidInput("kept hits".into()))?;
-        self.run(call, traversal, Variant::Replay, Some(hits))?;
-        if let Some(k) = &mut self.kept {
-            k.replayed();
-        }
-        Ok(())
+        let Some(grid) = coarse::grid_tile(call.tile, stride) else {
+            return self.gather_or_run(call, traversal, call.tile, Part::Whole);
+        };
+        // A strided gather: the tile but its grid texels (the orphans), then the grid texels
+        // alone on their compact grid, every invocation a grid texel (`coarse::grid_tile`).
+        let rest = TileParams {
+            grid: 1,
+            ..call.tile
+        };
+        self.gather_or_run(call, traversal, rest, Part::Rest)?;
+        self.gather_or_run(call, traversal, grid, Part::Grid)
     }
 
     fn read_back(&mut self, texture: &WgpuTexture, layer: u32) -> Result<Vec<f32>> {
@@ -937,6 +970,47 @@ mod tests {
             maps.push(out.maps);
         }
         assert_eq!(maps[0], maps[1], "tiling changed the result");
+    }
+
+    /// The converged default's strided gathers (the tile but its grid texels, then the grid
+    /// texels on their compact grid: `coarse::grid_tile`) in tiles of a row or two, many of
+    /// which hold no grid row, and with kept hits read back in a second bake: the maps of the
+    /// default tiles, bit for bit.
+    #[test]
+    fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() {
+        let test = "strided gathers in small tiles";
+        let settings = Settings {
+            texels_per_metre: 6.0,
+            ..Settings::preset(luxbake::scene::Quality::Default)
+        };
+        assert!(settings.higher_stride > 1);
+        let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("scene");
+        let Some(mut whole) = backend(test, WgpuOptions::default()) else {
+            return;
+        };
+        let want = bake(&mut whole, &scene, &settings, &mut |_| {}).expect("bake");
+        let options = WgpuOptions {
+            tile_work: 2_000,
+            ..WgpuOptions::default()
+        };
+        let Some(mut tiled) = backend(test, options) else {
+            return;
+        };
+        tiled.keep_gather_hits(1 << 30);
+        let room = luxbake::bake::Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {})
+            .expect("room");
+        let staged = want.maps.iter().map(|m| m.stages.iter().flatten().count());
+        assert!(staged.sum::<usize>() > 0, "nothing to compare");
+        let lamps = &scene.lamps;
+        for run in ["first", "second"] {
+            let out = luxbake::bake::bake_room(&mut tiled, &room, lamps, &settings, &mut |_| {});
+            assert_eq!(want.maps, out.expect("bake").maps, "the {run} bake");
+        }
+        // The second bake read every dispatch's hits.
+        let KeptHitStats {
+            traced, replayed, ..
+        } = tiled.gather_hit_stats().expect("kept");
+        assert_eq!((traced > 0, replayed), (true, 2 * traced));
     }
 
     #[test]

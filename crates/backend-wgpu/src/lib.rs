@@ -51,6 +51,17 @@
 //! message (error scopes around every call, a device-lost callback and an uncaptured-error
 //! handler that only record), never panics.
 //!
+//! ## Strided gathers on a compact grid
+//! A gather at reduced resolution (`GatherParams::stride` > 1: the converged presets' later
+//! bounces, 16 rays on every fourth texel per axis) is dispatched in two: first over the tile
+//! but for its grid texels (the orphans and narrow-gap texels; `TileParams::grid` 1), then over
+//! the tile's compact grid ([`coarse::grid_tile`](luxbake::program::coarse::grid_tile),
+//! `TileParams::grid` the stride), each invocation a grid texel with its rays, written in place.
+//! Over the whole tile, a grid texel's rays ran in a SIMD group of which it was the only busy
+//! lane. The same random numbers and operations: the maps are bit for bit those of one
+//! dispatch. With kept hits ([`WgpuBackend::keep_gather_hits`]) each of the two keeps its own
+//! (`luxbake::kept::Part`).
+//!
 //! ## Drivers and environment
 //! - This build compiles wgpu's **Vulkan** backend only (lean: no GL, Metal or DX12 code).
 //!   On Linux without a GPU, install Mesa's lavapipe: `apt-get install mesa-vulkan-drivers`

@@ -168,8 +168,12 @@ param_block! {
         layer_w: u32,
         /// Layer height, texels.
         layer_h: u32,
-        /// Padding.
-        pad0: u32,
+        /// A strided gather's compact grid (`coarse::grid_tile`), for the backends that
+        /// dispatch it in two: 0 in every other dispatch; `s ≥ 2` in the dispatch of the grid
+        /// texels alone, whose columns and rows `x0 .. x0 + width`, `y0 .. y0 + height` are
+        /// then the grid's, its invocation `(i, j)` the layout's texel `(i·s, j·s)`; 1 in the
+        /// dispatch over the tile that comes before it, which leaves the grid texels to it.
+        grid: u32,
     }
 }
 
@@ -333,13 +337,14 @@ pub mod coarse {
 
     /// The grid texels of `tile` at `stride` as a compact tile: its texel `(i, j)` is the
     /// layout's texel `(i·stride, j·stride)` of the tile's layer, `x0 .. x0 + width` the grid
-    /// columns and `y0 .. y0 + height` the grid rows the tile holds, `layer_w × layer_h` the
-    /// grid of the whole layer. `None` at stride 1 (or 0) or where the tile holds no grid texel.
+    /// columns and `y0 .. y0 + height` the grid rows the tile holds, `grid` the stride
+    /// ([`TileParams::grid`]; the layer's size the tile's). `None` at stride 1 (or 0) or where
+    /// the tile holds no grid texel.
     ///
-    /// A GPU backend may gather a strided dispatch's grid texels in a draw of this size and
-    /// then the tile itself, which reads them back and gathers the orphans: every lane of the
-    /// first draw is a grid texel, where a draw over the tile runs the grid texels' rays with
-    /// a lane of every few busy (docs/performance.md, "The strided gathers on a compact grid").
+    /// A GPU backend may gather a strided dispatch's grid texels in a dispatch of this size,
+    /// every lane a grid texel, where one over the tile runs the grid texels' rays with a lane
+    /// of every few busy, and gather the tile's other texels (the orphans) in one over the
+    /// tile (docs/performance.md, "The strided gathers on a compact grid").
     pub fn grid_tile(tile: TileParams, stride: u32) -> Option<TileParams> {
         if stride <= 1 {
             return None;
@@ -353,9 +358,9 @@ pub mod coarse {
             width: i1 - i0,
             height: j1 - j0,
             layer: tile.layer,
-            layer_w: first(tile.layer_w),
-            layer_h: first(tile.layer_h),
-            pad0: 0,
+            layer_w: tile.layer_w,
+            layer_h: tile.layer_h,
+            grid: stride,
         })
     }
 

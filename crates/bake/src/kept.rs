@@ -36,9 +36,9 @@
 //! [`HIT_BYTES`] per texel of the tile and ray of the dispatch (the storage spans the tile's
 //! whole rows, texels outside the charts and off the coarse grid included); a dispatch whose
 //! hits would pass the budget is gathered as without kept hits. The first bake pays the hits'
-//! writes and reads, not another traversal. A backend that draws a strided gather's grid texels
-//! on their compact grid (the glow backend, [`crate::program::coarse::grid_tile`]) keeps two
-//! parts ([`Part`]): the grid's, `1/stride²` of the tile, and the rest of the tile's.
+//! writes and reads, not another traversal. A backend that gathers a strided gather's grid
+//! texels on their compact grid (glow and wgpu, [`crate::program::coarse::grid_tile`]) keeps
+//! two parts ([`Part`]): the grid's, `1/stride²` of the tile, and the rest of the tile's.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
@@ -463,7 +463,7 @@ mod tests {
             height: 16,
             layer_w: 64,
             layer_h: 64,
-            pad0: 0,
+            grid: 0,
         };
         let words = |rays: u32, orphans: u32, first: u32, chunk: u32| {
             GatherParams {

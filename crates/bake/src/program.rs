@@ -642,7 +642,7 @@ impl TilePlan {
                     layer,
                     layer_w: self.size[0],
                     layer_h: self.size[1],
-                    pad0: 0,
+                    grid: 0,
                 }
             })
         })
@@ -691,7 +691,7 @@ pub fn tiles_by_rows(
         layer,
         layer_w: size[0],
         layer_h: size[1],
-        pad0: 0,
+        grid: 0,
     };
     let width = u64::from(size[0]);
     for layer in 0..layers {
@@ -738,7 +738,7 @@ mod tests {
             layer: 1,
             layer_w: w,
             layer_h: h,
-            pad0: 0,
+            grid: 0,
         };
         for rows in [1u32, 2, 3, 5, 7, 23] {
             let mut seen = std::collections::HashSet::new();
@@ -753,7 +753,7 @@ mod tests {
                     assert!(want.is_empty(), "{t:?}");
                     continue;
                 };
-                assert_eq!((g.layer, g.layer_w, g.layer_h), (1, 10, 6));
+                assert_eq!((g.layer, g.layer_w, g.layer_h, g.grid), (1, w, h, s));
                 let got: Vec<[u32; 2]> = (g.y0..g.y0 + g.height)
                     .flat_map(|j| (g.x0..g.x0 + g.width).map(move |i| [i * s, j * s]))
                     .collect();

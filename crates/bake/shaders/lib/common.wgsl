@@ -63,7 +63,10 @@ fn lux_texel(gid: vec3<u32>) -> vec2<i32> {
     if (gid.x >= lux_tile.width || gid.y >= lux_tile.height) {
         return vec2<i32>(-1, -1);
     }
-    return vec2<i32>(i32(lux_tile.x0 + gid.x), i32(lux_tile.y0 + gid.y));
+    // A strided gather's grid texels alone (TileParams::grid ≥ 2): invocation (i, j) of the
+    // compact tile is the layout's texel (i·grid, j·grid).
+    let s = max(lux_tile.grid, 1u);
+    return vec2<i32>(i32((lux_tile.x0 + gid.x) * s), i32((lux_tile.y0 + gid.y) * s));
 }
 
 // Texel c of the tile's layer of map `t` (GLSL: texelFetch(u_<slot>, c, 0), c.z the layer).

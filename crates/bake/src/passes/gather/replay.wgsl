@@ -5,8 +5,11 @@
 
 fn lux_gather_hit(origin: vec3<f32>, dir: vec3<f32>, texel: u32, k: u32,
                   hit: ptr<function, vec3<f32>>) -> i32 {
-    let x = texel % lux_tile.layer_w - lux_tile.x0;
-    let y = (texel / lux_tile.layer_w) % lux_tile.layer_h - lux_tile.y0;
+    // In a dispatch of a strided gather's grid texels alone (TileParams::grid ≥ 2) the place is
+    // the grid texel's in the compact tile.
+    let s = select(1u, lux_tile.grid, lux_tile.grid > 1u);
+    let x = (texel % lux_tile.layer_w) / s - lux_tile.x0;
+    let y = ((texel / lux_tile.layer_w) % lux_tile.layer_h) / s - lux_tile.y0;
     let kept = lux_hits[(k * lux_tile.height + y) * lux_tile.width + x];
     *hit = kept.xzw;
     return i32(kept.y);

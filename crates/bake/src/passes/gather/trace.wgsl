@@ -3,7 +3,9 @@
 // rays, operation for operation — cast and their closest hits written to plane k of lux_hits
 // (declared by shader::wgsl_gather_trace_source) at the texel's place in the tile:
 // (t, triangle, u, v), triangle -1 where the texel casts no such ray or the ray meets
-// nothing. The gather compiled to replay (replay.wgsl) reads these instead of tracing.
+// nothing. The gather compiled to replay (replay.wgsl) reads these instead of tracing. In a
+// dispatch of a strided gather's grid texels alone (TileParams::grid ≥ 2) the places are the
+// compact tile's.
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -26,7 +28,10 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
     var n: vec3<f32>;
     var count = 0u;
     var rays = 0u;
-    if (pos.w > 0.5) {
+    // The tile's dispatch before its grid's (TileParams::grid 1) keeps no hit of a grid texel.
+    let s = i32(lux_pass.stride);
+    let grid_texel = lux_tile.grid == 1u && s > 1 && c.x % s == 0 && c.y % s == 0;
+    if (pos.w > 0.5 && !grid_texel) {
         rays = lux_coarse_rays(c, lux_pass.stride, lux_pass.reach, lux_pass.rays,
                                lux_pass.orphan_rays);
     }
