@@ -6,7 +6,8 @@ mod common;
 use common::backend_or_skip;
 use luxbake::backend::GpuBackend;
 use luxbake::bake::{Progress, Room, bake, bake_room};
-use luxbake::graph::{TexDesc, TexFormat};
+use luxbake::graph::{PassKind, TexDesc, TexFormat};
+use luxbake::program::{Params, Program as Pass};
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake_backend_glow::{GlowError, webgl2};
 
@@ -97,7 +98,30 @@ fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() 
     assert!(settings.higher_stride > 1);
     let scene = Scene::builtin_with_settings("chairs_01", settings.clone()).expect("chairs_01");
     let mut whole = whole.with_tile_work(u64::MAX);
+    whole.keep_gather_hits(1 << 30).expect("keep hits");
     let want = bake(&mut whole, &scene, &settings, &mut |_| {}).expect("glow bake");
+    // One tile per layer, each holding grid rows: a gather at stride 1 keeps one part, a
+    // strided one two, its compact grid's and the rest's.
+    let [mut plain, mut strided] = [0u64; 2];
+    for p in &want.graph.passes {
+        if let (PassKind::Run(Pass::Gather), Params::Gather(g)) = (p.kind, &p.params)
+            && p.bounce <= want.report.bounces_run
+        {
+            if g.stride > 1 {
+                strided += 1;
+            } else {
+                plain += 1;
+            }
+        }
+    }
+    let layers = u64::from(want.layout.layers);
+    let parts = whole.gather_hit_stats().expect("kept").traced;
+    assert!(strided > 0, "no strided gather");
+    assert_eq!(
+        parts,
+        layers * (plain + 2 * strided),
+        "{plain} + {strided} gathers"
+    );
     let mut tiled = tiled.with_tile_work(2_000);
     tiled.keep_gather_hits(1 << 30).expect("keep hits");
     let room = Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {}).expect("room");

@@ -988,7 +988,24 @@ mod tests {
         let Some(mut whole) = backend(test, WgpuOptions::default()) else {
             return;
         };
+        whole.keep_gather_hits(1 << 30);
         let want = bake(&mut whole, &scene, &settings, &mut |_| {}).expect("bake");
+        // One tile per layer, each holding grid rows: a gather at stride 1 keeps one part, a
+        // strided one two, the rest's and its compact grid's.
+        let strides: Vec<u32> = (want.graph.passes.iter())
+            .filter(|p| p.bounce <= want.report.bounces_run)
+            .filter_map(|p| match (p.kind, &p.params) {
+                (PassKind::Run(Program::Gather), luxbake::program::Params::Gather(g)) => {
+                    Some(g.stride)
+                }
+                _ => None,
+            })
+            .collect();
+        let strided = strides.iter().filter(|&&s| s > 1).count() as u64;
+        let parts = strides.len() as u64 + strided;
+        let traced = whole.gather_hit_stats().expect("kept").traced;
+        assert!(strided > 0, "no strided gather");
+        assert_eq!(traced, u64::from(want.layout.layers) * parts);
         let options = WgpuOptions {
             tile_work: 2_000,
             ..WgpuOptions::default()
