@@ -8,34 +8,38 @@
 // noise -- the mean luminance of the taps and their variance, and the luminance of the texel's
 // direct light (`direct`), against which refinement weighs the noise: refine::refines).
 
-// The smallest of the four directions' estimates over the taps `ok` (cpu::window_variances).
-// The window is read through pointers: indexing an array value with a variable index makes
-// naga's SPIR-V copy the whole array at every access (on lavapipe the pass took 7.5 times
-// glow's on llvmpipe).
-fn lux_window_variance(lum: ptr<function, array<f32, 25>>, ok: ptr<function, array<bool, 25>>)
-    -> f32 {
-    var dirs = array<vec2<i32>, 4>(vec2<i32>(1, 0), vec2<i32>(0, 1), vec2<i32>(1, 1),
-                                   vec2<i32>(1, -1));
+// A window tap (i, j), -2..2 each: whether it lies on the centre's surface facing within
+// LUX_BLUR_NORMAL_COS, and then its luminance in the pass's units (else 0).
+fn lux_window_tap(g: LuxGuide, i: i32, j: i32, lum: ptr<function, f32>) -> bool {
+    var t: vec4<f32>;
+    var cosine: f32;
+    let ok = lux_tap(g, vec2<i32>(i, j), &t, &cosine) && cosine >= LUX_BLUR_NORMAL_COS;
+    *lum = select(0.0, lux_luminance(t.rgb) * lux_pass.luminance_scale, ok);
+    return ok;
+}
+
+// A pair of taps, k and b = k + the direction: (the squared luminance difference, 1) for the
+// estimate with the centre and, unless the pair touches it, for the one without; zeros where
+// a tap is off the surface. Added to a direction's sums, zeros change nothing.
+fn lux_pair(ok_k: bool, lum_k: f32, ok_b: bool, lum_b: f32, centre: bool) -> vec4<f32> {
+    if (!(ok_k && ok_b)) {
+        return vec4<f32>(0.0);
+    }
+    let diff = lum_b - lum_k;
+    let d2 = diff * diff;
+    return select(vec4<f32>(d2, 1.0, d2, 1.0), vec4<f32>(d2, 1.0, 0.0, 0.0), centre);
+}
+
+// cpu::window_variances' choice for one estimate: the smallest of the directions' with enough
+// pairs (in the order (1, 0), (0, 1), (1, 1), (1, -1)), else 0; `sums` and `counts` per
+// direction.
+fn lux_smallest(sums: vec4<f32>, counts: vec4<f32>) -> f32 {
     var found = false;
     var best = 0.0;
     for (var e = 0; e < 4; e++) {
-        var sum = 0.0;
-        var n = 0u;
-        for (var k = 0; k < 25; k++) {
-            let i = k % 5 + dirs[e].x;
-            let j = k / 5 + dirs[e].y;
-            if (i < 0 || i >= 5 || j < 0 || j >= 5) {
-                continue;
-            }
-            let b = j * 5 + i;
-            if ((*ok)[k] && (*ok)[b]) {
-                let diff = (*lum)[b] - (*lum)[k];
-                sum += diff * diff;
-                n += 1u;
-            }
-        }
+        let n = u32(counts[e]);
         if (n >= lux_pass.min_pairs && n > 0u) {
-            let v = sum / f32(2u * n);
+            let v = sums[e] / f32(2u * n);
             if (!found || v < best) {
                 best = v;
                 found = true;
@@ -55,29 +59,97 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     if (!lux_guide(c, 0.0, lux_pass.reach, &g)) {
         return vec4<f32>(0.0, 0.0, 0.0, direct);
     }
-    // The window, row by row: the luminance of each tap on the surface.
-    var lum: array<f32, 25>;
-    var ok: array<bool, 25>;
-    for (var k = 0; k < 25; k++) {
-        var t: vec4<f32>;
-        var cosine: f32;
-        ok[k] = lux_tap(g, vec2<i32>(k % 5 - 2, k / 5 - 2), &t, &cosine)
-            && cosine >= LUX_BLUR_NORMAL_COS;
-        lum[k] = select(0.0, lux_luminance(t.rgb) * lux_pass.luminance_scale, ok[k]);
-    }
-    let with_centre = lux_window_variance(&lum, &ok);
-    ok[12] = false;
-    let without_centre = lux_window_variance(&lum, &ok);
-    // The mean luminance without the centre (cpu::variance_texel), for refinement and the
-    // denoiser's wide term (atrous).
+    // The window row by row, two rows held at a time (no array: a variable index into one
+    // makes drivers keep it in memory, and naga's SPIR-V copy it at every access): each
+    // direction's pairs (cpu::window_variances) are summed in the order of their first tap,
+    // row-major, as a pass over the whole window would. Per direction (1, 0), (0, 1), (1, 1),
+    // (1, -1): (sum, count) with the centre, then without.
+    var d10 = vec4<f32>(0.0);
+    var d01 = vec4<f32>(0.0);
+    var d11 = vec4<f32>(0.0);
+    var d1m = vec4<f32>(0.0);
+    var p0 = 0.0;
+    var p1 = 0.0;
+    var p2 = 0.0;
+    var p3 = 0.0;
+    var p4 = 0.0;
+    var q0 = false;
+    var q1 = false;
+    var q2 = false;
+    var q3 = false;
+    var q4 = false;
+    // The mean luminance of the taps but the centre (cpu::variance_texel), for refinement and
+    // the denoiser's wide term (atrous).
     var sum = 0.0;
     var count = 0u;
-    for (var k = 0; k < 25; k++) {
-        if (ok[k]) {
-            sum += lum[k];
+    for (var j = 0; j < 5; j++) {
+        var l0: f32;
+        var l1: f32;
+        var l2: f32;
+        var l3: f32;
+        var l4: f32;
+        let k0 = lux_window_tap(g, -2, j - 2, &l0);
+        let k1 = lux_window_tap(g, -1, j - 2, &l1);
+        let k2 = lux_window_tap(g, 0, j - 2, &l2);
+        let k3 = lux_window_tap(g, 1, j - 2, &l3);
+        let k4 = lux_window_tap(g, 2, j - 2, &l4);
+        // The centre is tap (2, 2): in this row when j = 2, in the one before when j = 3.
+        let here = j == 2;
+        let before = j == 3;
+        d10 += lux_pair(k0, l0, k1, l1, false);
+        d10 += lux_pair(k1, l1, k2, l2, here);
+        d10 += lux_pair(k2, l2, k3, l3, here);
+        d10 += lux_pair(k3, l3, k4, l4, false);
+        if (j > 0) {
+            d01 += lux_pair(q0, p0, k0, l0, false);
+            d01 += lux_pair(q1, p1, k1, l1, false);
+            d01 += lux_pair(q2, p2, k2, l2, here || before);
+            d01 += lux_pair(q3, p3, k3, l3, false);
+            d01 += lux_pair(q4, p4, k4, l4, false);
+            d11 += lux_pair(q0, p0, k1, l1, false);
+            d11 += lux_pair(q1, p1, k2, l2, here);
+            d11 += lux_pair(q2, p2, k3, l3, before);
+            d11 += lux_pair(q3, p3, k4, l4, false);
+            d1m += lux_pair(k0, l0, q1, p1, false);
+            d1m += lux_pair(k1, l1, q2, p2, before);
+            d1m += lux_pair(k2, l2, q3, p3, here);
+            d1m += lux_pair(k3, l3, q4, p4, false);
+        }
+        if (k0) {
+            sum += l0;
             count += 1u;
         }
+        if (k1) {
+            sum += l1;
+            count += 1u;
+        }
+        if (k2 && !here) {
+            sum += l2;
+            count += 1u;
+        }
+        if (k3) {
+            sum += l3;
+            count += 1u;
+        }
+        if (k4) {
+            sum += l4;
+            count += 1u;
+        }
+        p0 = l0;
+        p1 = l1;
+        p2 = l2;
+        p3 = l3;
+        p4 = l4;
+        q0 = k0;
+        q1 = k1;
+        q2 = k2;
+        q3 = k3;
+        q4 = k4;
     }
+    let with_centre = lux_smallest(vec4<f32>(d10.x, d01.x, d11.x, d1m.x),
+                                   vec4<f32>(d10.y, d01.y, d11.y, d1m.y));
+    let without_centre = lux_smallest(vec4<f32>(d10.z, d01.z, d11.z, d1m.z),
+                                      vec4<f32>(d10.w, d01.w, d11.w, d1m.w));
     var mean = 0.0;
     if (count > 0u) {
         mean = lux_guard(sum / f32(count));
