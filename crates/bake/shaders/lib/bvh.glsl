@@ -21,10 +21,16 @@ int luxDominantAxis(vec3 d) {
     return (a.x >= a.y && a.x >= a.z) ? 0 : (a.y >= a.z ? 1 : 2);
 }
 
+// v[k] for k in 0..2, by selection: a variable index into a vector is slow on some drivers
+// (SwiftShader, on which Chromium runs WebGL without a GPU, keeps the vector in memory).
+float luxPick(vec3 v, int k) {
+    return k == 0 ? v.x : (k == 1 ? v.y : v.z);
+}
+
 // traverse::dominant_direction: the MTBVH link layer, 2 * axis + (negative ? 1 : 0).
 int luxDominantDirection(vec3 d) {
     int k = luxDominantAxis(d);
-    return 2 * k + (d[k] < 0.0 ? 1 : 0);
+    return 2 * k + (luxPick(d, k) < 0.0 ? 1 : 0);
 }
 
 // traverse::WatertightRay.
@@ -45,14 +51,15 @@ bool luxRaySetup(vec3 origin, vec3 dir, out LuxRay r) {
     int kz = luxDominantAxis(dir);
     bool finite = !any(isnan(dir)) && !any(isinf(dir)) && !any(isnan(origin))
         && !any(isinf(origin));
-    if (!finite || dir[kz] == 0.0) {
+    float dz = luxPick(dir, kz);
+    if (!finite || dz == 0.0) {
         return false;
     }
     int kx = kz + 1;
     if (kx == 3) kx = 0;
     int ky = kx + 1;
     if (ky == 3) ky = 0;
-    if (dir[kz] < 0.0) {
+    if (dz < 0.0) {
         int tmp = kx;
         kx = ky;
         ky = tmp;
@@ -63,42 +70,49 @@ bool luxRaySetup(vec3 origin, vec3 dir, out LuxRay r) {
     r.kz = kz;
     r.parallel = lessThan(abs(dir), vec3(LUX_PARALLEL_EPSILON));
     r.inv = vec3(1.0) / mix(dir, vec3(1.0), r.parallel);
-    r.sx = dir[kx] / dir[kz];
-    r.sy = dir[ky] / dir[kz];
-    r.sz = 1.0 / dir[kz];
+    r.sx = luxPick(dir, kx) / dz;
+    r.sy = luxPick(dir, ky) / dz;
+    r.sz = 1.0 / dz;
     return true;
 }
 
 // WatertightRay::hits_box: slab test on [tMin, tMax], entry and exit widened by LUX_BOX_SLACK.
 bool luxHitsBox(LuxRay r, vec3 bmin, vec3 bmax, float tMin, float tMax) {
-    float boxNear = -LUX_BIG;
-    float boxFar = LUX_BIG;
-    for (int a = 0; a < 3; ++a) {
-        float t0 = (bmin[a] - r.origin[a]) * r.inv[a];
-        float t1 = (bmax[a] - r.origin[a]) * r.inv[a];
-        bool inside = bmin[a] <= r.origin[a] && r.origin[a] <= bmax[a];
-        float lo = r.parallel[a] ? (inside ? -LUX_BIG : LUX_BIG) : min(t0, t1);
-        float hi = r.parallel[a] ? (inside ? LUX_BIG : -LUX_BIG) : max(t0, t1);
-        boxNear = max(boxNear, lo);
-        boxFar = min(boxFar, hi);
-    }
+    // The three axes side by side, in vectors rather than a loop over components (a variable
+    // index into a vector is slow on some drivers); the same operations per axis, and the
+    // nearest and farthest taken in the axes' order.
+    vec3 t0 = (bmin - r.origin) * r.inv;
+    vec3 t1 = (bmax - r.origin) * r.inv;
+    vec3 o = r.origin;
+    bvec3 inside = bvec3(bmin.x <= o.x && o.x <= bmax.x, bmin.y <= o.y && o.y <= bmax.y,
+                         bmin.z <= o.z && o.z <= bmax.z);
+    vec3 lo = mix(min(t0, t1), mix(vec3(LUX_BIG), vec3(-LUX_BIG), inside), r.parallel);
+    vec3 hi = mix(max(t0, t1), mix(vec3(-LUX_BIG), vec3(LUX_BIG), inside), r.parallel);
+    float boxNear = max(max(max(-LUX_BIG, lo.x), lo.y), lo.z);
+    float boxFar = min(min(min(LUX_BIG, hi.x), hi.y), hi.z);
     float tNear = max(tMin, boxNear - abs(boxNear) * LUX_BOX_SLACK);
     float tFar = min(tMax, boxFar + abs(boxFar) * LUX_BOX_SLACK);
     return tNear <= tFar;
 }
 
+// (v[kx], v[ky], v[kz]) of ray r's axes (luxPick).
+vec3 luxPermute(vec3 v, LuxRay r) {
+    return vec3(luxPick(v, r.kx), luxPick(v, r.ky), luxPick(v, r.kz));
+}
+
 // WatertightRay::hits_triangle: true with (t, u, v) when t is in (tMin, tMax).
 bool luxHitsTriangle(LuxRay r, vec3 p0, vec3 p1, vec3 p2, float tMin, float tMax,
                      out vec3 tuv) {
-    vec3 a = p0 - r.origin;
-    vec3 b = p1 - r.origin;
-    vec3 c = p2 - r.origin;
-    float ax = a[r.kx] - r.sx * a[r.kz];
-    float ay = a[r.ky] - r.sy * a[r.kz];
-    float bx = b[r.kx] - r.sx * b[r.kz];
-    float by = b[r.ky] - r.sy * b[r.kz];
-    float cx = c[r.kx] - r.sx * c[r.kz];
-    float cy = c[r.ky] - r.sy * c[r.kz];
+    // The vertices relative to the origin, permuted to (kx, ky, kz).
+    vec3 a = luxPermute(p0 - r.origin, r);
+    vec3 b = luxPermute(p1 - r.origin, r);
+    vec3 c = luxPermute(p2 - r.origin, r);
+    float ax = a.x - r.sx * a.z;
+    float ay = a.y - r.sy * a.z;
+    float bx = b.x - r.sx * b.z;
+    float by = b.y - r.sy * b.z;
+    float cx = c.x - r.sx * c.z;
+    float cy = c.y - r.sy * c.z;
     // Edge functions, all in the antisymmetric form e(P, Q) = P.x * Q.y - P.y * Q.x.
     float u = cx * by - cy * bx;
     float v = ax * cy - ay * cx;
@@ -110,9 +124,9 @@ bool luxHitsTriangle(LuxRay r, vec3 p0, vec3 p1, vec3 p2, float tMin, float tMax
     if (det == 0.0) {
         return false;
     }
-    float az = r.sz * a[r.kz];
-    float bz = r.sz * b[r.kz];
-    float cz = r.sz * c[r.kz];
+    float az = r.sz * a.z;
+    float bz = r.sz * b.z;
+    float cz = r.sz * c.z;
     float t = (u * az + v * bz + w * cz) / det;
     if (!(t > tMin && t < tMax)) {
         return false;

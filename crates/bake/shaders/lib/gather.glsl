@@ -27,6 +27,16 @@ vec3 luxGatherDirection(vec3 n, vec2 u, bool uniformRays) {
                 t.z * x + b.z * y + n.z * z);
 }
 
+// One corner of luxSampleMasked: texel `at` of the reflected map (or, with `albedo`, of the
+// albedo map) added with weight w where the reflected map is valid.
+void luxMaskedTap(ivec3 at, float w, bool albedo, inout vec3 sum, inout float wsum) {
+    vec4 t = texelFetch(u_reflected, at, 0);
+    if (t.a > 0.5) {
+        sum += w * (albedo ? texelFetch(u_albedo, at, 0).rgb : t.rgb);
+        wsum += w;
+    }
+}
+
 // map::sample_masked: masked bilinear look-up of light-map UV `uv` in a region of the
 // reflected map; with `albedo` the albedo map's (slot `albedo`) with the reflected map's mask
 // and weights (gather::GatherParams::direct_at_hits).
@@ -44,18 +54,15 @@ vec3 luxSampleMasked(int layer, ivec2 offset, ivec2 size, vec2 uv, bool albedo) 
     int y0 = int(y0f);
     int x1 = min(x0 + 1, size.x - 1);
     int y1 = min(y0 + 1, size.y - 1);
-    ivec2 xs[4] = ivec2[4](ivec2(x0, y0), ivec2(x1, y0), ivec2(x0, y1), ivec2(x1, y1));
-    float ws[4] = float[4]((1.0 - tx) * (1.0 - ty), tx * (1.0 - ty), (1.0 - tx) * ty, tx * ty);
+    // The four corners in the CPU's order, each by a call rather than from an array (a variable
+    // index into one keeps it in memory on some drivers).
     vec3 sum = vec3(0.0);
     float wsum = 0.0;
-    for (int i = 0; i < 4; ++i) {
-        ivec3 at = ivec3(offset + xs[i], layer);
-        vec4 t = texelFetch(u_reflected, at, 0);
-        if (t.a > 0.5) {
-            sum += ws[i] * (albedo ? texelFetch(u_albedo, at, 0).rgb : t.rgb);
-            wsum += ws[i];
-        }
-    }
+    luxMaskedTap(ivec3(offset + ivec2(x0, y0), layer), (1.0 - tx) * (1.0 - ty), albedo, sum,
+                 wsum);
+    luxMaskedTap(ivec3(offset + ivec2(x1, y0), layer), tx * (1.0 - ty), albedo, sum, wsum);
+    luxMaskedTap(ivec3(offset + ivec2(x0, y1), layer), (1.0 - tx) * ty, albedo, sum, wsum);
+    luxMaskedTap(ivec3(offset + ivec2(x1, y1), layer), tx * ty, albedo, sum, wsum);
     if (wsum > 0.0) {
         return vec3(sum.x / wsum, sum.y / wsum, sum.z / wsum);
     }

@@ -1,7 +1,8 @@
 // A lamp's luminous opening (luxbake::opening, operation for operation): its parts, its
-// samples, its projected area and the per-texel lattice (after rng.glsl, scene.glsl, ies.glsl
-// and lamp.glsl). The opening is lamp rows 6 (half.uvw, near) and 7 (kind, axis, faces, 0)
-// (luxLamp); no emitting faces: a point lamp. Row 7's w is the opening's size.
+// samples, its projected area and the per-texel lattice (after rng.glsl, scene.glsl, bvh.glsl,
+// whose luxPick it uses, ies.glsl and lamp.glsl). The opening is lamp rows 6 (half.uvw, near)
+// and 7 (kind, axis, faces, 0) (luxLamp); no emitting faces: a point lamp. Row 7's w is the
+// opening's size.
 
 struct LuxOpening {
     int kind;
@@ -68,6 +69,13 @@ void luxOpeningParts(LuxOpening o, out float areas[6]) {
     } else {
         areas[0] = luxOpeningOn(o, 4, 4.0 * PI * (a * b + b * c + a * c) / 3.0);
     }
+}
+
+// The vector whose component `axis` is w and whose other two are xy's, in order (luxPick's
+// counterpart for writing).
+vec3 luxPlace(int axis, float w, vec2 xy) {
+    return vec3(axis == 0 ? w : xy.x, axis == 0 ? xy.x : (axis == 1 ? w : xy.y),
+                axis == 2 ? w : xy.y);
 }
 
 // opening::to_photometric, opening::to_solid.
@@ -178,7 +186,7 @@ void luxVisibleAreas(LuxOpening o, vec3 receiver, out float areas[6]) {
         vec2 ext;
         bool ellipse;
         if (luxFlatPart(o, part, axis, side, ext, ellipse)) {
-            float h = side * (r[axis] - side * o.halfAxes[axis]);
+            float h = side * (luxPick(r, axis) - side * luxPick(o.halfAxes, axis));
             if (!(h > 0.0)) {
                 areas[part] = 0.0;
             }
@@ -227,19 +235,15 @@ bool luxOpeningSamplePart(LuxOpening o, int part, vec2 u, vec3 receiver, out vec
         vec3 r = luxToSolid(o.axis, receiver);
         int i = planeAxis == 0 ? 1 : 0;
         int j = planeAxis == 2 ? 1 : 2;
-        float plane = side * o.halfAxes[planeAxis];
-        float h = side * (r[planeAxis] - plane);
+        float plane = side * luxPick(o.halfAxes, planeAxis);
+        float h = side * (luxPick(r, planeAxis) - plane);
         vec2 xy;
         float density;
-        if (!luxToward(u, h, vec2(r[i], r[j]), ext, ellipse, xy, density)) {
+        if (!luxToward(u, h, vec2(luxPick(r, i), luxPick(r, j)), ext, ellipse, xy, density)) {
             return false;
         }
-        p = vec3(0.0);
-        p[planeAxis] = plane;
-        p[i] = xy.x;
-        p[j] = xy.y;
-        n = vec3(0.0);
-        n[planeAxis] = side;
+        p = luxPlace(planeAxis, plane, xy);
+        n = luxPlace(planeAxis, side, vec2(0.0));
         element = 1.0 / density;
     } else if (o.kind == 1) {
         float s0 = 2.0 * u.x - 1.0;
