@@ -66,7 +66,11 @@ float luxAtan2(float y, float x) {
 }
 
 float luxIesAt(int table, int row, int col) {
-    return texelFetch(u_ies, ivec3(col >> 2, row, table), 0)[col & 3];
+    vec4 v = texelFetch(u_ies, ivec3(col >> 2, row, table), 0);
+    // The component by selection: a variable index into a vector is slow on some drivers
+    // (SwiftShader keeps the vector in memory).
+    int k = col & 3;
+    return k == 0 ? v.x : (k == 1 ? v.y : (k == 2 ? v.z : v.w));
 }
 
 // Candela toward `dir` (photometric frame, any length); size = (width, height) of the table.
@@ -94,8 +98,13 @@ float luxIesSample(int table, ivec2 size, vec3 dir) {
     float ty = clamp(fy - y0f, 0.0, 1.0);
     int y0 = int(y0f);
     int y1 = min(y0 + 1, size.y - 1);
-    float a = luxIesAt(table, y0, i0) + (luxIesAt(table, y0, i1) - luxIesAt(table, y0, i0)) * tx;
-    float b = luxIesAt(table, y1, i0) + (luxIesAt(table, y1, i1) - luxIesAt(table, y1, i0)) * tx;
+    // Each corner read once.
+    float v00 = luxIesAt(table, y0, i0);
+    float v01 = luxIesAt(table, y0, i1);
+    float v10 = luxIesAt(table, y1, i0);
+    float v11 = luxIesAt(table, y1, i1);
+    float a = v00 + (v01 - v00) * tx;
+    float b = v10 + (v11 - v10) * tx;
     return a + (b - a) * ty;
 }
 
@@ -124,8 +133,11 @@ float luxProxySample(int table, int height, vec3 dir) {
     float tu = fu - float(i);
     float tv = fv - float(j);
     int row = height + j;
-    float a = luxIesAt(table, row, i) + (luxIesAt(table, row, i + 1) - luxIesAt(table, row, i)) * tu;
-    float b = luxIesAt(table, row + 1, i)
-        + (luxIesAt(table, row + 1, i + 1) - luxIesAt(table, row + 1, i)) * tu;
+    float v00 = luxIesAt(table, row, i);
+    float v01 = luxIesAt(table, row, i + 1);
+    float v10 = luxIesAt(table, row + 1, i);
+    float v11 = luxIesAt(table, row + 1, i + 1);
+    float a = v00 + (v01 - v00) * tu;
+    float b = v10 + (v11 - v10) * tu;
     return a + (b - a) * tv;
 }
