@@ -22,14 +22,13 @@ fn program_sources(pass: Pass, bvh: BvhMode) -> (String, Vec<&'static str>) {
 const TRACE_FS: &str = "uniform highp sampler2DArray u_rays;\n\
     uniform float u_tmax;\n\
     uniform int u_any;\n\
-    out vec4 o;\n\
     void main() {\n\
         ivec2 p = ivec2(gl_FragCoord.xy);\n\
         vec3 org = texelFetch(u_rays, ivec3(p, 0), 0).xyz;\n\
         vec3 dir = texelFetch(u_rays, ivec3(p, 1), 0).xyz;\n\
         vec3 hit;\n\
         int best = luxTrace(org, dir, 0.0, u_tmax, u_any != 0, hit);\n\
-        o = vec4(hit, float(best));\n\
+        o_color = vec4(hit, float(best));\n\
     }\n";
 
 /// Random triangles in a 4 m box plus a closed box of 12 triangles around part of it.
@@ -152,7 +151,11 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
                 &ctx,
                 "debug_trace",
                 traversal,
-                &[glsl_library(Library::Bvh), TRACE_FS],
+                &[
+                    glsl_library(Library::Common),
+                    glsl_library(Library::Bvh),
+                    TRACE_FS,
+                ],
                 &samplers,
                 |gl, p| {
                     bvh_tex.set_uniforms(gl, p);

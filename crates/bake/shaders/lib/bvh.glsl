@@ -1,7 +1,7 @@
-// Stackless BVH traversal over the encoded textures of luxbake-bvh, line for line the CPU code
-// of `luxbake_bvh::traverse` (WatertightRay::new / hits_box / hits_triangle, EncodedScene::walk /
-// brute_force). The LUX_* texel-layout constants are generated from `luxbake_bvh::layout` and
-// prefixed at run time, so the two cannot drift.
+// Stackless BVH traversal over the encoded textures of luxbake-bvh (after common.glsl), line for
+// line the CPU code of `luxbake_bvh::traverse` (WatertightRay::new / hits_box / hits_triangle,
+// EncodedScene::walk / brute_force). The LUX_* texel-layout constants are generated from
+// `luxbake_bvh::layout` and prefixed at run time, so the two cannot drift.
 //
 // Compile-time selection: LUX_TRAVERSAL is LUX_TRAVERSAL_MTBVH (u_links = the 6-layer MTBVH
 // links, layer = dominant ray direction), LUX_TRAVERSAL_TBVH (u_links = the 1-layer TBVH links,
@@ -138,7 +138,8 @@ bool luxHitsTriangle(LuxRay r, vec3 p0, vec3 p1, vec3 p2, float tMin, float tMax
 // EncodedScene::coord_of for the triangle textures.
 ivec2 luxTriangleCoord(int t) {
     int w = max(textureSize(u_triangles, 0).x, 1);
-    return ivec2(t % w, t / w);
+    ivec2 qr = luxDivMod(t, w);
+    return ivec2(qr.y, qr.x);
 }
 
 // EncodedScene::triangle_test: three texelFetches, then the watertight test.

@@ -9,6 +9,22 @@ float luxDot(vec3 a, vec3 b) {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
+// (a / b rounded down, a - b * that) for |a| and 0 < b under 2^24, without an integer
+// division, which the drivers that run on a CPU (llvmpipe, SwiftShader) emulate lane by lane:
+// the float quotient of two exact integers is off by at most one, and corrected.
+ivec2 luxDivMod(int a, int b) {
+    int q = int(float(a) / float(b));
+    int r = a - q * b;
+    if (r < 0) {
+        q -= 1;
+        r += b;
+    } else if (r >= b) {
+        q += 1;
+        r -= b;
+    }
+    return ivec2(q, r);
+}
+
 bool luxFinite(float v) {
     return !isnan(v) && !isinf(v);
 }

@@ -89,11 +89,9 @@ float luxIesSample(int table, ivec2 size, vec3 dir) {
     float fx = c / TAU * float(size.x);
     float x0 = floor(fx);
     float tx = fx - x0;
-    int i0 = int(x0) % size.x;
-    if (i0 < 0) {
-        i0 += size.x;
-    }
-    int i1 = (i0 + 1) % size.x;
+    // The column and the next, modulo the width.
+    int i0 = luxDivMod(int(x0), size.x).y;
+    int i1 = i0 + 1 == size.x ? 0 : i0 + 1;
     float y0f = clamp(floor(fy), 0.0, float(size.y - 1));
     float ty = clamp(fy - y0f, 0.0, 1.0);
     int y0 = int(y0f);

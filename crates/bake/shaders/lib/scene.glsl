@@ -21,7 +21,8 @@ uniform highp sampler2DArray u_path_points;
 vec4 luxPathPoint(uint path, int row) {
     int i = int(path) * 3 + row;
     int width = textureSize(u_path_points, 0).x;
-    return texelFetch(u_path_points, ivec3(i % width, i / width, 0), 0);
+    ivec2 qr = luxDivMod(i, width);
+    return texelFetch(u_path_points, ivec3(qr.y, qr.x, 0), 0);
 }
 
 // The points the texture holds.
