@@ -206,6 +206,56 @@ fn traversal_matches_the_cpu_oracle_for_every_mode() {
     ray_tex.delete(gl);
 }
 
+/// `luxDivMod(u_a0 + x + 64 y, u_b)` at fragment (x, y): (quotient, remainder).
+const DIVMOD_FS: &str = "uniform int u_a0;\n\
+    uniform int u_b;\n\
+    void main() {\n\
+        ivec2 p = ivec2(gl_FragCoord.xy);\n\
+        ivec2 qr = luxDivMod(u_a0 + p.x + 64 * p.y, u_b);\n\
+        o_color = vec4(float(qr.x), float(qr.y), 0.0, 0.0);\n\
+    }\n";
+
+#[test]
+fn div_mod_without_an_integer_division_is_floor_division() {
+    let Some(ctx) = context_or_skip("div_mod_without_an_integer_division_is_floor_division") else {
+        return;
+    };
+    let max: i32 = 1 << 24;
+    let mut checked = 0;
+    for b in [1, 2, 3, 7, 64, 255, 1000, 4093, 65_537, 1 << 23, max - 1] {
+        // 4096 consecutive dividends from each start: below and above zero, up to the largest,
+        // and across multiples of b, where a quotient off by one would show.
+        for a0 in [
+            -max + 1,
+            -4096,
+            0,
+            (max / b / 2) * b - 2048,
+            b * 3 - 2048,
+            max - 4096,
+        ] {
+            let out = render(
+                &ctx,
+                "debug_divmod",
+                BvhMode::None,
+                &[glsl_library(Library::Common), DIVMOD_FS],
+                &[],
+                |gl, p| {
+                    p.set_i32(gl, "u_a0", a0);
+                    p.set_i32(gl, "u_b", b);
+                },
+                [64, 64],
+            );
+            for (i, qr) in out.chunks_exact(4).enumerate() {
+                let a = a0 + i as i32;
+                let want = [a.div_euclid(b) as f32, a.rem_euclid(b) as f32];
+                assert_eq!(qr[..2], want, "{a} / {b}");
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 11 * 6 * 4096);
+}
+
 /// `u_what` 0: the hash's bits (16 per channel) and the hash sampler's uniforms; 1: the Sobol
 /// sampler's bits; 2: both samplers' uniforms through `luxSample2` with their generated ids;
 /// 3: the Sobol sampler's gather stream (`rng::Stream`; stride `u_pass - 1`, `u_sample` rays);

@@ -11,7 +11,9 @@ float luxDot(vec3 a, vec3 b) {
 
 // (a / b rounded down, a - b * that) for |a| and 0 < b under 2^24, without an integer
 // division, which the drivers that run on a CPU (llvmpipe, SwiftShader) emulate lane by lane:
-// the float quotient of two exact integers is off by at most one, and corrected.
+// the float quotient of two exact integers, truncated, is off by at most one and corrected —
+// upward for a negative a, and either way on a GPU whose division is not correctly rounded
+// (GLSL ES allows 2.5 ULP).
 ivec2 luxDivMod(int a, int b) {
     int q = int(float(a) / float(b));
     int r = a - q * b;
