@@ -117,26 +117,13 @@ vec4 luxRun(ivec3 c) {
             d1m += luxPair(k2, l2, q3, p3, here);
             d1m += luxPair(k3, l3, q4, p4, false);
         }
-        if (k0) {
-            sum += l0;
-            count += 1u;
-        }
-        if (k1) {
-            sum += l1;
-            count += 1u;
-        }
-        if (k2 && !here) {
-            sum += l2;
-            count += 1u;
-        }
-        if (k3) {
-            sum += l3;
-            count += 1u;
-        }
-        if (k4) {
-            sum += l4;
-            count += 1u;
-        }
+        // The mean's taps in order, the centre left out (a tap off the surface adds its 0).
+        sum += l0;
+        sum += l1;
+        sum += here ? 0.0 : l2;
+        sum += l3;
+        sum += l4;
+        count += uint(k0) + uint(k1) + uint(k2 && !here) + uint(k3) + uint(k4);
         p0 = l0;
         p1 = l1;
         p2 = l2;

@@ -115,26 +115,13 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
             d1m += lux_pair(k2, l2, q3, p3, here);
             d1m += lux_pair(k3, l3, q4, p4, false);
         }
-        if (k0) {
-            sum += l0;
-            count += 1u;
-        }
-        if (k1) {
-            sum += l1;
-            count += 1u;
-        }
-        if (k2 && !here) {
-            sum += l2;
-            count += 1u;
-        }
-        if (k3) {
-            sum += l3;
-            count += 1u;
-        }
-        if (k4) {
-            sum += l4;
-            count += 1u;
-        }
+        // The mean's taps in order, the centre left out (a tap off the surface adds its 0).
+        sum += l0;
+        sum += l1;
+        sum += select(l2, 0.0, here);
+        sum += l3;
+        sum += l4;
+        count += u32(k0) + u32(k1) + u32(k2 && !here) + u32(k3) + u32(k4);
         p0 = l0;
         p1 = l1;
         p2 = l2;
