@@ -81,9 +81,9 @@ bool luxHitsBox(LuxRay r, vec3 bmin, vec3 bmax, float tMin, float tMax) {
     // The three axes side by side, in vectors rather than a loop over components (a variable
     // index into a vector is slow on some drivers); the same operations per axis, and the
     // nearest and farthest taken in the axes' order.
-    vec3 t0 = (bmin - r.origin) * r.inv;
-    vec3 t1 = (bmax - r.origin) * r.inv;
     vec3 o = r.origin;
+    vec3 t0 = (bmin - o) * r.inv;
+    vec3 t1 = (bmax - o) * r.inv;
     bvec3 inside = bvec3(bmin.x <= o.x && o.x <= bmax.x, bmin.y <= o.y && o.y <= bmax.y,
                          bmin.z <= o.z && o.z <= bmax.z);
     vec3 lo = mix(min(t0, t1), mix(vec3(LUX_BIG), vec3(-LUX_BIG), inside), r.parallel);

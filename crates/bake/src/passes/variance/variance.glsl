@@ -33,22 +33,29 @@ vec4 luxPair(bool okK, float lumK, bool okB, float lumB, bool centre) {
     return centre ? vec4(d2, 1.0, 0.0, 0.0) : vec4(d2, 1.0, d2, 1.0);
 }
 
+// One direction's estimate of cpu::window_variances (its pairs' sum and count): taken as `best`
+// when it has enough pairs and is the first so or smaller.
+void luxConsider(float sum, float count, inout bool found, inout float best) {
+    uint n = uint(count);
+    if (n >= u_min_pairs && n > 0u) {
+        float v = sum / float(2u * n);
+        if (!found || v < best) {
+            best = v;
+            found = true;
+        }
+    }
+}
+
 // cpu::window_variances' choice for one estimate: the smallest of the directions' with enough
-// pairs (in the order (1, 0), (0, 1), (1, 1), (1, -1)), else 0; `sums` and `counts` per
-// direction.
+// pairs, in the order (1, 0), (0, 1), (1, 1), (1, -1) (the components of `sums` and
+// `counts`), else 0.
 float luxSmallest(vec4 sums, vec4 counts) {
     bool found = false;
     float best = 0.0;
-    for (int e = 0; e < 4; ++e) {
-        uint n = uint(counts[e]);
-        if (n >= u_min_pairs && n > 0u) {
-            float v = sums[e] / float(2u * n);
-            if (!found || v < best) {
-                best = v;
-                found = true;
-            }
-        }
-    }
+    luxConsider(sums.x, counts.x, found, best);
+    luxConsider(sums.y, counts.y, found, best);
+    luxConsider(sums.z, counts.z, found, best);
+    luxConsider(sums.w, counts.w, found, best);
     return luxGuard(best);
 }
 

@@ -30,22 +30,29 @@ fn lux_pair(ok_k: bool, lum_k: f32, ok_b: bool, lum_b: f32, centre: bool) -> vec
     return select(vec4<f32>(d2, 1.0, d2, 1.0), vec4<f32>(d2, 1.0, 0.0, 0.0), centre);
 }
 
+// One direction's estimate of cpu::window_variances (its pairs' sum and count): taken as `best`
+// when it has enough pairs and is the first so or smaller.
+fn lux_consider(sum: f32, count: f32, found: ptr<function, bool>, best: ptr<function, f32>) {
+    let n = u32(count);
+    if (n >= lux_pass.min_pairs && n > 0u) {
+        let v = sum / f32(2u * n);
+        if (!*found || v < *best) {
+            *best = v;
+            *found = true;
+        }
+    }
+}
+
 // cpu::window_variances' choice for one estimate: the smallest of the directions' with enough
-// pairs (in the order (1, 0), (0, 1), (1, 1), (1, -1)), else 0; `sums` and `counts` per
-// direction.
+// pairs, in the order (1, 0), (0, 1), (1, 1), (1, -1) (the components of `sums` and
+// `counts`), else 0.
 fn lux_smallest(sums: vec4<f32>, counts: vec4<f32>) -> f32 {
     var found = false;
     var best = 0.0;
-    for (var e = 0; e < 4; e++) {
-        let n = u32(counts[e]);
-        if (n >= lux_pass.min_pairs && n > 0u) {
-            let v = sums[e] / f32(2u * n);
-            if (!found || v < best) {
-                best = v;
-                found = true;
-            }
-        }
-    }
+    lux_consider(sums.x, counts.x, &found, &best);
+    lux_consider(sums.y, counts.y, &found, &best);
+    lux_consider(sums.z, counts.z, &found, &best);
+    lux_consider(sums.w, counts.w, &found, &best);
     return lux_guard(best);
 }
 
