@@ -20,6 +20,42 @@ float luxB3(int i) {
     return i == 0 ? 0.375 : (i == 1 || i == -1 ? 0.25 : 0.0625);
 }
 
+// One tap's weight and value added to a sum of scale sc (its luminance term's; unused by the
+// linear filter).
+void luxAtrousAdd(vec3 d, float b, float wn, float dl, float sc, bool linear, inout vec3 sum,
+                  inout float wsum) {
+    float wl;
+    if (linear || dl == 0.0) {
+        wl = 1.0;
+    } else if (sc > 0.0) {
+        wl = exp(-(dl * dl) / sc);
+    } else {
+        wl = 0.0;
+    }
+    float w = b * wn * wl;
+    if (w > 0.0) {
+        sum += w * d;
+        wsum += w;
+    }
+}
+
+// A tap on the surface (cosine > 0) with its B3 weight b: into the sum, and into the wide
+// one at a quiet centre. The cosine's power: squaring keeps 0 and 1 as they are.
+void luxAtrousTap(vec4 t, float cosine, vec4 centre, float b, float scale, float wide,
+                  bool quiet, bool linear, inout vec3 sum, inout float wsum,
+                  inout vec3 wideSum, inout float wideWsum) {
+    float wn = cosine;
+    for (uint e = 0u; e < u_normal_log2; ++e) {
+        wn *= wn;
+    }
+    vec3 d = t.rgb - centre.rgb;
+    float dl = luxLuminance(d) * u_luminance_scale;
+    luxAtrousAdd(d, b, wn, dl, scale, linear, sum, wsum);
+    if (quiet) {
+        luxAtrousAdd(d, b, wn, dl, wide, linear, wideSum, wideWsum);
+    }
+}
+
 vec4 luxRun(ivec3 c) {
     vec4 centre = texelFetch(u_src, c, 0);
     if (centre.a <= 0.5) {
@@ -52,58 +88,31 @@ vec4 luxRun(ivec3 c) {
     float wideWsum = 0.0;
     int pairs = 0;
     // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
-    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge.
-    for (int k = 0; k < 13; ++k) {
+    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge. Each
+    // tap is one call (no loop over a pair's sides or the two sums: SwiftShader pays for every
+    // loop whose lanes diverge).
+    for (int k = 0; k < 12; ++k) {
         int i = k % 5 - 2;
         int j = k / 5 - 2;
         vec4 tn;
         vec4 tf;
         float cn;
         float cf;
-        if (!luxTap(g, ivec2(i * step, j * step), tn, cn) || !(cn > 0.0)) {
-            continue;
-        }
-        bool pair = k != 12;
-        if (pair && (!luxTap(g, ivec2(-i * step, -j * step), tf, cf) || !(cf > 0.0))) {
-            continue;
-        }
-        if (pair) {
+        if (luxTap(g, ivec2(i * step, j * step), tn, cn) && cn > 0.0 &&
+            luxTap(g, ivec2(-i * step, -j * step), tf, cf) && cf > 0.0) {
             ++pairs;
+            float b = luxB3(i) * luxB3(j);
+            luxAtrousTap(tn, cn, centre, b, scale, wide, quiet, linear, sum, wsum, wideSum,
+                         wideWsum);
+            luxAtrousTap(tf, cf, centre, b, scale, wide, quiet, linear, sum, wsum, wideSum,
+                         wideWsum);
         }
-        for (int side = 0; side < (pair ? 2 : 1); ++side) {
-            vec4 t = side == 0 ? tn : tf;
-            float wn = side == 0 ? cn : cf;
-            for (uint e = 0u; e < u_normal_log2; ++e) {
-                if (wn == 0.0 || wn == 1.0) {
-                    break;
-                }
-                wn *= wn;
-            }
-            vec3 d = t.rgb - centre.rgb;
-            float dl = luxLuminance(d) * u_luminance_scale;
-            for (int s = 0; s < (quiet ? 2 : 1); ++s) {
-                float sc = s == 0 ? scale : wide;
-                float wl;
-                if (linear || dl == 0.0) {
-                    wl = 1.0;
-                } else if (sc > 0.0) {
-                    wl = exp(-(dl * dl) / sc);
-                } else {
-                    wl = 0.0;
-                }
-                float w = luxB3(i) * luxB3(j) * wn * wl;
-                if (!(w > 0.0)) {
-                    continue;
-                }
-                if (s == 0) {
-                    sum += w * d;
-                    wsum += w;
-                } else {
-                    wideSum += w * d;
-                    wideWsum += w;
-                }
-            }
-        }
+    }
+    vec4 tc;
+    float cc;
+    if (luxTap(g, ivec2(0), tc, cc) && cc > 0.0) {
+        luxAtrousTap(tc, cc, centre, luxB3(0) * luxB3(0), scale, wide, quiet, linear, sum,
+                     wsum, wideSum, wideWsum);
     }
     if (quiet && pairs == 12) {
         sum = wideSum;

@@ -18,6 +18,43 @@ fn lux_b3(i: i32) -> f32 {
     return select(select(0.0625, 0.25, i == 1 || i == -1), 0.375, i == 0);
 }
 
+// One tap's weight and value added to a sum of scale sc (its luminance term's; unused by the
+// linear filter).
+fn lux_atrous_add(d: vec3<f32>, b: f32, wn: f32, dl: f32, sc: f32, linear: bool,
+                  sum: ptr<function, vec3<f32>>, wsum: ptr<function, f32>) {
+    var wl: f32;
+    if (linear || dl == 0.0) {
+        wl = 1.0;
+    } else if (sc > 0.0) {
+        wl = exp(-(dl * dl) / sc);
+    } else {
+        wl = 0.0;
+    }
+    let w = b * wn * wl;
+    if (w > 0.0) {
+        *sum += w * d;
+        *wsum += w;
+    }
+}
+
+// A tap on the surface (cosine > 0) with its B3 weight b: into the sum, and into the wide
+// one at a quiet centre. The cosine's power: squaring keeps 0 and 1 as they are.
+fn lux_atrous_tap(t: vec4<f32>, cosine: f32, centre: vec4<f32>, b: f32, scale: f32, wide: f32,
+                  quiet: bool, linear: bool, sum: ptr<function, vec3<f32>>,
+                  wsum: ptr<function, f32>, wide_sum: ptr<function, vec3<f32>>,
+                  wide_wsum: ptr<function, f32>) {
+    var wn = cosine;
+    for (var e = 0u; e < lux_pass.normal_log2; e++) {
+        wn *= wn;
+    }
+    let d = t.rgb - centre.rgb;
+    let dl = lux_luminance(d) * lux_pass.luminance_scale;
+    lux_atrous_add(d, b, wn, dl, scale, linear, sum, wsum);
+    if (quiet) {
+        lux_atrous_add(d, b, wn, dl, wide, linear, wide_sum, wide_wsum);
+    }
+}
+
 fn lux_run(c: vec2<i32>) -> vec4<f32> {
     let centre = lux_load(lux_src, c);
     if (centre.a <= 0.5) {
@@ -54,60 +91,30 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     var wide_wsum = 0.0;
     var pairs = 0;
     // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
-    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge.
-    for (var k = 0; k < 13; k++) {
+    // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge. Each
+    // tap is one call (no loop over a pair's sides or the two sums, as in atrous.glsl).
+    for (var k = 0; k < 12; k++) {
         let i = k % 5 - 2;
         let j = k / 5 - 2;
         var tn: vec4<f32>;
         var tf: vec4<f32>;
         var cn: f32;
         var cf: f32;
-        if (!lux_tap(g, vec2<i32>(i * step, j * step), &tn, &cn) || !(cn > 0.0)) {
-            continue;
-        }
-        let pair = k != 12;
-        if (pair && (!lux_tap(g, vec2<i32>(-i * step, -j * step), &tf, &cf) || !(cf > 0.0))) {
-            continue;
-        }
-        if (pair) {
+        if (lux_tap(g, vec2<i32>(i * step, j * step), &tn, &cn) && cn > 0.0 &&
+            lux_tap(g, vec2<i32>(-i * step, -j * step), &tf, &cf) && cf > 0.0) {
             pairs++;
+            let b = lux_b3(i) * lux_b3(j);
+            lux_atrous_tap(tn, cn, centre, b, scale, wide, quiet, linear, &sum, &wsum,
+                           &wide_sum, &wide_wsum);
+            lux_atrous_tap(tf, cf, centre, b, scale, wide, quiet, linear, &sum, &wsum,
+                           &wide_sum, &wide_wsum);
         }
-        let sides = select(1, 2, pair);
-        for (var side = 0; side < sides; side++) {
-            let t = select(tf, tn, side == 0);
-            var wn = select(cf, cn, side == 0);
-            for (var e = 0u; e < lux_pass.normal_log2; e++) {
-                if (wn == 0.0 || wn == 1.0) {
-                    break;
-                }
-                wn *= wn;
-            }
-            let d = t.rgb - centre.rgb;
-            let dl = lux_luminance(d) * lux_pass.luminance_scale;
-            let sets = select(1, 2, quiet);
-            for (var s = 0; s < sets; s++) {
-                let sc = select(wide, scale, s == 0);
-                var wl: f32;
-                if (linear || dl == 0.0) {
-                    wl = 1.0;
-                } else if (sc > 0.0) {
-                    wl = exp(-(dl * dl) / sc);
-                } else {
-                    wl = 0.0;
-                }
-                let w = lux_b3(i) * lux_b3(j) * wn * wl;
-                if (!(w > 0.0)) {
-                    continue;
-                }
-                if (s == 0) {
-                    sum += w * d;
-                    wsum += w;
-                } else {
-                    wide_sum += w * d;
-                    wide_wsum += w;
-                }
-            }
-        }
+    }
+    var tc: vec4<f32>;
+    var cc: f32;
+    if (lux_tap(g, vec2<i32>(0), &tc, &cc) && cc > 0.0) {
+        lux_atrous_tap(tc, cc, centre, lux_b3(0) * lux_b3(0), scale, wide, quiet, linear, &sum,
+                       &wsum, &wide_sum, &wide_wsum);
     }
     if (quiet && pairs == 12) {
         sum = wide_sum;
