@@ -214,7 +214,9 @@ pub enum Library {
     /// `position` and `normal`.
     Coarse,
     /// Helpers every pass uses (`luxDot`, `luxNormalize`, `luxGuard`, `luxLuminance`, the
-    /// output).
+    /// output; in GLSL also `luxPick` and `luxDivMod`, a vector's component and a floor
+    /// division without a variable index or an integer division, which SwiftShader runs
+    /// slowly).
     Common,
     /// The stateless RNG hash ([`crate::rng`], bit-exact).
     Rng,

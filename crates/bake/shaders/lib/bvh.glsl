@@ -21,12 +21,6 @@ int luxDominantAxis(vec3 d) {
     return (a.x >= a.y && a.x >= a.z) ? 0 : (a.y >= a.z ? 1 : 2);
 }
 
-// v[k] for k in 0..2, by selection: a variable index into a vector is slow on some drivers
-// (SwiftShader, on which Chromium runs WebGL without a GPU, keeps the vector in memory).
-float luxPick(vec3 v, int k) {
-    return k == 0 ? v.x : (k == 1 ? v.y : v.z);
-}
-
 // traverse::dominant_direction: the MTBVH link layer, 2 * axis + (negative ? 1 : 0).
 int luxDominantDirection(vec3 d) {
     int k = luxDominantAxis(d);

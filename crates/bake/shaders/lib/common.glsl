@@ -9,6 +9,12 @@ float luxDot(vec3 a, vec3 b) {
     return a.x * b.x + a.y * b.y + a.z * b.z;
 }
 
+// v[k] for k in 0..2, by selection: a variable index into a vector is slow on some drivers
+// (SwiftShader, on which Chromium runs WebGL without a GPU, keeps the vector in memory).
+float luxPick(vec3 v, int k) {
+    return k == 0 ? v.x : (k == 1 ? v.y : v.z);
+}
+
 // (a / b rounded down, a - b * that) for |a| and 0 < b under 2^24, without an integer
 // division, which the drivers that run on a CPU (llvmpipe, SwiftShader) emulate lane by lane:
 // the float quotient of two exact integers, truncated, is off by at most one and corrected —

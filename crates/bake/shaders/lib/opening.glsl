@@ -1,8 +1,8 @@
 // A lamp's luminous opening (luxbake::opening, operation for operation): its parts, its
-// samples, its projected area and the per-texel lattice (after rng.glsl, scene.glsl, bvh.glsl,
-// whose luxPick it uses, ies.glsl and lamp.glsl). The opening is lamp rows 6 (half.uvw, near)
-// and 7 (kind, axis, faces, 0) (luxLamp); no emitting faces: a point lamp. Row 7's w is the
-// opening's size.
+// samples, its projected area and the per-texel lattice (after common.glsl, whose luxPick it
+// uses, rng.glsl, scene.glsl, ies.glsl and lamp.glsl). The opening is lamp rows 6 (half.uvw,
+// near) and 7 (kind, axis, faces, 0) (luxLamp); no emitting faces: a point lamp. Row 7's w is
+// the opening's size.
 
 struct LuxOpening {
     int kind;
@@ -71,8 +71,8 @@ void luxOpeningParts(LuxOpening o, out float areas[6]) {
     }
 }
 
-// The vector whose component `axis` is w and whose other two are xy's, in order (luxPick's
-// counterpart for writing).
+// The vector whose component `axis` is w and whose other two are xy's, in order (common.glsl's
+// luxPick's counterpart for writing).
 vec3 luxPlace(int axis, float w, vec2 xy) {
     return vec3(axis == 0 ? w : xy.x, axis == 0 ? xy.x : (axis == 1 ? w : xy.y),
                 axis == 2 ? w : xy.y);

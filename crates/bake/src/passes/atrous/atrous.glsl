@@ -89,8 +89,9 @@ vec4 luxRun(ivec3 c) {
     int pairs = 0;
     // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
     // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge. Each
-    // tap is one call (no loop over a pair's sides or the two sums: SwiftShader pays for every
-    // loop whose lanes diverge).
+    // tap is one call, with no loop over a pair's sides or the two sums: SwiftShader ran such
+    // small loops inside the loop over the taps slowly (docs/performance.md, "SwiftShader: the
+    // à-trous taps without inner loops").
     for (int k = 0; k < 12; ++k) {
         int i = k % 5 - 2;
         int j = k / 5 - 2;

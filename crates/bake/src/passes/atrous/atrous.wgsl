@@ -92,7 +92,7 @@ fn lux_run(c: vec2<i32>) -> vec4<f32> {
     var pairs = 0;
     // Taps in mirrored pairs o, -o (the centre alone last): a pair counts only when both of
     // its taps are on the surface, so the kernel stays point-symmetric at a chart's edge. Each
-    // tap is one call (no loop over a pair's sides or the two sums, as in atrous.glsl).
+    // tap is one call, with no loop over a pair's sides or the two sums, as in atrous.glsl.
     for (var k = 0; k < 12; k++) {
         let i = k % 5 - 2;
         let j = k / 5 - 2;
