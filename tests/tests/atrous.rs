@@ -180,6 +180,7 @@ fn run<B: GpuBackend>(
                 params: &words,
                 tile,
                 idle: false,
+                narrow: true,
             })?;
         }
         let mut out = Vec::new();

@@ -185,12 +185,19 @@ fn cpu_rows_whose_texels_moved_are_traced_again() {
 
 // ---- The GPU backends: hits kept per gather dispatch on the device ----
 
-/// The GPU backends, each with the densities its tests bake at (wgpu on lavapipe is the
-/// slower: smaller rooms).
-const GPUS: [(BackendKind, [f32; 3]); 2] = [
-    (BackendKind::Glow, [16.0, 12.0, 8.0]),
-    (BackendKind::Wgpu, [12.0, 8.0, 6.0]),
+/// The GPU backends, each with the densities of its two rooms in
+/// `gpu_another_room_traces_its_own_rays_and_a_small_budget_keeps_nothing` (wgpu on lavapipe
+/// is the slower: smaller rooms).
+const GPUS: [(BackendKind, [f32; 2]); 2] = [
+    (BackendKind::Glow, [12.0, 8.0]),
+    (BackendKind::Wgpu, [8.0, 6.0]),
 ];
+
+/// The density of `gpu_a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps`: at
+/// 24 texels/m `chairs_01` has orphans in tiles without a narrow texel, whose rests keep the
+/// orphans' rays alone (`Part::Orphans`; a scratch build keeping one plane too few there fails
+/// the test on both backends, as it does not at 16 and 12).
+const SWAP_DENSITY: f32 = 24.0;
 
 /// What a GPU backend's kept hits come to (`None` unless it keeps them).
 fn gpu_stats(backend: &AnyBackend) -> KeptHitStats {
@@ -219,11 +226,11 @@ fn keeping_and_plain(
 #[test]
 fn gpu_a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
     let mut tally = Tally::new("gpu_gather_hits_swap");
-    for (kind, [density, ..]) in GPUS {
+    for (kind, _) in GPUS {
         let Some((mut backend, mut plain)) = keeping_and_plain(&mut tally, kind, 1 << 30) else {
             continue;
         };
-        let scene = scene(density);
+        let scene = scene(SWAP_DENSITY);
         let settings = &scene.settings;
         let room = Room::prepare(&scene, settings, backend.limits(), &mut |_| {}).expect("room");
         let first =
@@ -234,6 +241,8 @@ fn gpu_a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
         assert_eq!(recorded.replayed, recorded.traced, "{kind}");
         assert_eq!(recorded.dispatches as u64, recorded.traced, "{kind}");
         assert_eq!(recorded.bytes % HIT_BYTES, 0, "{kind}");
+        // Tiles without a narrow texel keep their rests' orphans' rays alone.
+        assert!(recorded.orphan_parts > 0, "{kind}");
 
         let other = other_lamp();
         let swapped = bake_room(&mut backend, &room, &other, settings, &mut |_| {}).expect("swap");
@@ -243,9 +252,14 @@ fn gpu_a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
             after.traced - recorded.traced,
         );
         println!(
-            "{kind} first bake: {} gather dispatches traced and kept ({} bytes); swap: \
-             {replayed} read kept hits, {traced} traced; bounces {} then {}",
-            recorded.traced, recorded.bytes, first.report.bounces_run, swapped.report.bounces_run
+            "{kind} first bake: {} gather dispatches traced and kept ({} bytes, {} of them the \
+             orphans' alone); swap: {replayed} read kept hits, {traced} traced; bounces {} then \
+             {}",
+            recorded.traced,
+            recorded.bytes,
+            recorded.orphan_parts,
+            first.report.bounces_run,
+            swapped.report.bounces_run
         );
         assert!(replayed > 0, "{kind}");
         if swapped.report.bounces_run <= first.report.bounces_run {
@@ -285,7 +299,7 @@ fn gpu_a_swap_reads_the_first_bakes_gather_hits_and_bakes_the_same_maps() {
 #[test]
 fn gpu_another_room_traces_its_own_rays_and_a_small_budget_keeps_nothing() {
     let mut tally = Tally::new("gpu_gather_hits_rooms_and_budget");
-    for (kind, [_, a, b]) in GPUS {
+    for (kind, [a, b]) in GPUS {
         let Some((mut backend, mut plain)) = keeping_and_plain(&mut tally, kind, 1 << 30) else {
             continue;
         };

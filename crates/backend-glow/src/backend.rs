@@ -370,7 +370,8 @@ impl GlowBackend {
         let part = match grid {
             GridUse::None => Part::Whole,
             GridUse::Draw { .. } => Part::Grid,
-            GridUse::From { .. } => Part::Rest,
+            GridUse::From { .. } if call.narrow => Part::Rest,
+            GridUse::From { .. } => Part::Orphans,
         };
         let key = self
             .hit_key(call, trav, tile, part)

@@ -727,7 +727,12 @@ impl GpuBackend for WgpuBackend {
             grid: 1,
             ..call.tile
         };
-        self.gather_or_run(call, traversal, rest, Part::Rest)?;
+        let part = if call.narrow {
+            Part::Rest
+        } else {
+            Part::Orphans
+        };
+        self.gather_or_run(call, traversal, rest, part)?;
         self.gather_or_run(call, traversal, grid, Part::Grid)
     }
 
@@ -990,22 +995,6 @@ mod tests {
         };
         whole.keep_gather_hits(1 << 30);
         let want = bake(&mut whole, &scene, &settings, &mut |_| {}).expect("bake");
-        // One tile per layer, each holding grid rows: a gather at stride 1 keeps one part, a
-        // strided one two, the rest's and its compact grid's.
-        let strides: Vec<u32> = (want.graph.passes.iter())
-            .filter(|p| p.bounce <= want.report.bounces_run)
-            .filter_map(|p| match (p.kind, &p.params) {
-                (PassKind::Run(Program::Gather), luxbake::program::Params::Gather(g)) => {
-                    Some(g.stride)
-                }
-                _ => None,
-            })
-            .collect();
-        let strided = strides.iter().filter(|&&s| s > 1).count() as u64;
-        let parts = strides.len() as u64 + strided;
-        let traced = whole.gather_hit_stats().expect("kept").traced;
-        assert!(strided > 0, "no strided gather");
-        assert_eq!(traced, u64::from(want.layout.layers) * parts);
         let options = WgpuOptions {
             tile_work: 2_000,
             ..WgpuOptions::default()
@@ -1016,6 +1005,33 @@ mod tests {
         tiled.keep_gather_hits(1 << 30);
         let room = luxbake::bake::Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {})
             .expect("room");
+        // One tile per layer: a gather at stride 1 keeps one part. A strided one is cut around
+        // the long runs of rows without a narrow texel (`TilePlan::tiles_by_flag`), and each
+        // piece keeps the rest's part (the orphans' alone where it holds no narrow texel) and
+        // its compact grid's where it holds grid rows.
+        let (size, layers) = (want.layout.layer_size, want.layout.layers);
+        let narrow = luxbake::validity::narrow_rows(&room.gbuffer.position, size[0]);
+        let pieces = luxbake::program::TilePlan::new(size, layers, 1, u64::MAX)
+            .tiles_by_flag(&narrow, luxbake::program::ORPHAN_ROWS_MIN);
+        let parts: u64 = (want.graph.passes.iter())
+            .filter(|p| p.bounce <= want.report.bounces_run)
+            .filter_map(|p| match (p.kind, &p.params) {
+                (PassKind::Run(Program::Gather), luxbake::program::Params::Gather(g)) => {
+                    Some(g.stride)
+                }
+                _ => None,
+            })
+            .map(|stride| match stride {
+                0 | 1 => u64::from(layers),
+                s => (pieces.iter())
+                    .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, s).is_some()))
+                    .sum(),
+            })
+            .sum();
+        let kept = whole.gather_hit_stats().expect("kept");
+        assert!(kept.orphan_parts > 0, "{kept:?}");
+        assert!(pieces.iter().any(|p| p.1), "{pieces:?}");
+        assert_eq!(kept.traced, parts);
         let staged = want.maps.iter().map(|m| m.stages.iter().flatten().count());
         assert!(staged.sum::<usize>() > 0, "nothing to compare");
         let lamps = &scene.lamps;

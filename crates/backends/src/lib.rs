@@ -348,6 +348,7 @@ macro_rules! delegate {
                             params: call.params,
                             tile: call.tile,
                             idle: call.idle,
+                            narrow: call.narrow,
                         })?)
                     })*
                     (b, s) => Err(foreign("scene", s.kind(), b.kind())),

@@ -310,6 +310,12 @@ pub struct Dispatch<'a, T, S> {
     /// ([`Variant::Idle`](crate::kept::Variant::Idle)), which writes the same without the
     /// rays' code; the CPU backend computes the tile as any other.
     pub idle: bool,
+    /// A texel of the tile may lie in a narrow region ([`crate::validity::NARROW`]: its
+    /// position's w at least that): `true` unless the driver knows that none does. Where it is
+    /// `false`, a strided gather's texels off its grid cast at most the orphans' rays
+    /// ([`crate::contract::coarse::orphan_rays`]), and a backend keeps that many hits a texel
+    /// for them ([`Part::Orphans`](crate::kept::Part::Orphans)) instead of a grid texel's.
+    pub narrow: bool,
 }
 
 impl<T: PartialEq, S> Dispatch<'_, T, S> {
@@ -495,6 +501,7 @@ mod tests {
             params: &[],
             tile,
             idle: false,
+            narrow: true,
         };
         let target = ([8, 4], 2);
         let ok = call(&[&1, &2], &3);

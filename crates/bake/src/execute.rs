@@ -31,7 +31,9 @@ use crate::graph::{
 use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
-use crate::program::{CombineParams, Params, Program, TileParams, TilePlan, tiles_by_rows};
+use crate::program::{
+    CombineParams, ORPHAN_ROWS_MIN, Params, Program, TileParams, TilePlan, tiles_by_rows,
+};
 use crate::report::{DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
 use crate::series::Series;
@@ -306,6 +308,8 @@ pub(crate) fn run<B: GpuBackend>(
     let mut shown = 0.0f32;
     // The texels in narrow gaps per row ([`gap_rows_of`]), once a pass needs them.
     let mut gap_rows: Option<Vec<u64>> = None;
+    // The rows with a narrow texel (`validity::narrow_rows`), once a pass needs them.
+    let mut narrow_rows: Option<Vec<bool>> = None;
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
             continue;
@@ -370,25 +374,40 @@ pub(crate) fn run<B: GpuBackend>(
             let reads: Vec<&B::Texture> = pass.reads.iter().map(|r| &textures[r.index()]).collect();
             let params = with_lamp_paths(decisions.params(pass), lamps.pool()).words();
             let size = graph.textures[write.index()].size;
-            // A refinement in narrow gaps in tiles by where its work lies (`tiles_by_rows`):
-            // rows without a gap share a dispatch, idle (`Dispatch::idle`).
-            let plan: Vec<(TileParams, bool)> = match pass.params.gap_work() {
-                Some(gap) if size == layout.layer_size => {
+            let uniform = TilePlan::new(
+                size,
+                layout.layers,
+                pass.params.work_per_texel(),
+                backend.tile_work(),
+            );
+            // Each tile with whether it is idle (`Dispatch::idle`) and may hold a narrow
+            // texel (`Dispatch::narrow`).
+            let plan: Vec<(TileParams, bool, bool)> = match (pass.params.gap_work(), pass.params) {
+                // A refinement in narrow gaps in tiles by where its work lies
+                // (`tiles_by_rows`): rows without a gap share a dispatch, idle.
+                (Some(gap), _) if size == layout.layer_size => {
                     let rows = gap_rows.get_or_insert_with(|| gap_rows_of(room));
                     tiles_by_rows(size, layout.layers, rows, gap, backend.tile_work())
+                        .into_iter()
+                        .map(|(t, idle)| (t, idle, true))
+                        .collect()
                 }
-                _ => TilePlan::new(
-                    size,
-                    layout.layers,
-                    pass.params.work_per_texel(),
-                    backend.tile_work(),
-                )
-                .tiles()
-                .map(|t| (t, false))
-                .collect(),
+                // A strided gather's tiles cut around long runs of rows without a narrow
+                // texel, whose texels off the grid keep the orphans' rays' hits alone.
+                (_, Params::Gather(g)) if g.stride > 1 && size == layout.layer_size => {
+                    let rows = narrow_rows.get_or_insert_with(|| {
+                        crate::validity::narrow_rows(&room.gbuffer.position, size[0])
+                    });
+                    uniform
+                        .tiles_by_flag(rows, ORPHAN_ROWS_MIN)
+                        .into_iter()
+                        .map(|(t, narrow)| (t, false, narrow))
+                        .collect()
+                }
+                _ => uniform.tiles().map(|t| (t, false, true)).collect(),
             };
             let tiles = plan.len();
-            for (done, &(tile, idle)) in plan.iter().enumerate() {
+            for (done, &(tile, idle, narrow)) in plan.iter().enumerate() {
                 backend.dispatch(&Dispatch {
                     label: pass.label,
                     program,
@@ -399,6 +418,7 @@ pub(crate) fn run<B: GpuBackend>(
                     params: &params,
                     tile,
                     idle,
+                    narrow,
                 })?;
                 report((done as u64 + 1) as f32 / tiles as f32);
             }

@@ -38,7 +38,11 @@
 //! hits would pass the budget is gathered as without kept hits. The first bake pays the hits'
 //! writes and reads, not another traversal. A backend that gathers a strided gather's grid
 //! texels on their compact grid (glow and wgpu, [`crate::program::coarse::grid_tile`]) keeps
-//! two parts ([`Part`]): the grid's, `1/stride²` of the tile, and the rest of the tile's.
+//! two parts ([`Part`]): the grid's, `1/stride²` of the tile, and the rest of the tile's, as
+//! many planes as a grid texel's rays where the tile may hold a narrow texel
+//! ([`crate::backend::Dispatch::narrow`]) and the orphans' rays' elsewhere — the driver cuts a
+//! strided gather's tiles around long runs of rows without one
+//! ([`crate::program::TilePlan::tiles_by_flag`]).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
@@ -129,6 +133,13 @@ pub enum Part {
     /// rays and tracing a narrow gap's others in the swap took the strided gathers of a
     /// `chairs_05` swap at 24 texels/m from 0.037 to 0.087 s a bounce under llvmpipe.
     Rest,
+    /// [`Part::Rest`] of a tile without a narrow texel
+    /// ([`crate::backend::Dispatch::narrow`] `false`): its texels off the grid that cast rays
+    /// are orphans, each with the orphans' rays, and so many planes are kept (a quarter of a
+    /// grid texel's at the `default`'s stride 4). A `chairs_05` bake's kept hits: 287 → 202 MB
+    /// at 24 texels/m, 1 073 MB (the 1 GiB budget full, a bounce traced again in every swap)
+    /// → 549 MB at 64 (docs/performance.md, "Kept hits: the orphans' rays alone").
+    Orphans,
 }
 
 /// What places a gather dispatch's rays (module docs).
@@ -201,12 +212,13 @@ impl HitKey {
 
     /// Rays whose hits a texel keeps at most: the chunk's share (the gather pass's `first` and
     /// `count`) of the larger of the grid texels' and the orphans' rays, for [`Part::Grid`] of
-    /// the grid texels'.
+    /// the grid texels', for [`Part::Orphans`] of the orphans'.
     pub fn rays(&self) -> u32 {
         let [rays, orphan, .., first, chunk] = self.rays;
         let rays = match self.part {
             Part::Whole | Part::Rest => rays.max(orphan),
             Part::Grid => rays,
+            Part::Orphans => orphan,
         };
         let left = rays.saturating_sub(first);
         if chunk > 0 { left.min(chunk) } else { left }
@@ -229,6 +241,9 @@ pub struct KeptHitStats {
     pub traced: u64,
     /// Gather dispatches that read kept hits (each one that traced too).
     pub replayed: u64,
+    /// Of `dispatches`, the rests of tiles without a narrow texel, which keep the orphans' rays
+    /// alone ([`Part::Orphans`]).
+    pub orphan_parts: usize,
 }
 
 /// The hits a GPU backend keeps (its storage `T` per dispatch key) and the budget.
@@ -339,6 +354,7 @@ impl<T> KeptHits<T> {
             dispatches: self.hits.len(),
             traced: self.traced,
             replayed: self.replayed,
+            orphan_parts: self.hits.keys().filter(|k| k.part == Part::Orphans).count(),
         }
     }
 
@@ -511,6 +527,19 @@ mod tests {
         );
         assert!(g != strided && r != strided && g != r);
         assert_eq!(key(words(16, 4, 16, 0)).part(Part::Grid, [16, 4]).rays(), 0);
+        // The rest of a tile without a narrow texel keeps the orphans' rays, a chunk's share
+        // of them, and is a key of its own.
+        let o = key(words(16, 4, 0, 0)).part(Part::Orphans, [64, 16]);
+        assert_eq!((o.rays(), o.bytes()), (4, 64 * 16 * 4 * 16));
+        assert_ne!(o, key(words(16, 4, 0, 0)).part(Part::Rest, [64, 16]));
+        assert_eq!(
+            key(words(16, 4, 2, 1)).part(Part::Orphans, [64, 16]).rays(),
+            1
+        );
+        assert_eq!(
+            key(words(16, 4, 4, 0)).part(Part::Orphans, [64, 16]).rays(),
+            0
+        );
         // The tile stays part of the key: two tiles' grids of one size are two keys.
         let other = HitKey::new(
             1,

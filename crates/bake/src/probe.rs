@@ -277,6 +277,7 @@ pub fn direct_at<B: GpuBackend>(
                         params: &words,
                         tile,
                         idle: false,
+                        narrow: true,
                     })?;
                 }
                 prior = out;

@@ -649,6 +649,58 @@ impl TilePlan {
     }
 }
 
+/// The fewest rows without a narrow texel that the driver cuts a strided gather's tile around
+/// ([`TilePlan::tiles_by_flag`], rows from [`crate::validity::narrow_rows`]): their texels off
+/// the grid keep the orphans' rays' hits alone ([`crate::kept::Part::Orphans`]), a quarter of a
+/// grid texel's at the `default`'s stride 4. Shorter runs share the narrow rows' piece, since
+/// each cut is another dispatch: in the browser (SwiftShader) cutting `chairs_05` at 24
+/// texels/m around every run (66 pieces instead of 4 tiles) took the swap's gathers from 0.23
+/// to 0.33 GPU s; at 32 rows it becomes 8 pieces (docs/performance.md, "Kept hits: the
+/// orphans' rays alone").
+pub const ORPHAN_ROWS_MIN: u32 = 32;
+
+impl TilePlan {
+    /// [`TilePlan::tiles`], each cut into pieces whose rows are all `flagged` or none is (its
+    /// rows layer by layer, top to bottom; rows past its end count as flagged), with whether
+    /// the piece's are. A run of unflagged rows shorter than `min_rows` is taken as flagged
+    /// (it shares its neighbours' piece), so that a tile is cut only around long runs. The
+    /// pieces cover the plan's tiles in order, each row once, none larger than its tile.
+    pub fn tiles_by_flag(&self, flagged: &[bool], min_rows: u32) -> Vec<(TileParams, bool)> {
+        let rows = self.size[1] as usize;
+        let mut pieces: Vec<(TileParams, bool)> = Vec::new();
+        for t in self.tiles() {
+            let flag = |y: u32| {
+                flagged
+                    .get(t.layer as usize * rows + y as usize)
+                    .copied()
+                    .unwrap_or(true)
+            };
+            let (mut y0, end) = (t.y0, t.y0 + t.height);
+            let first = pieces.len();
+            while y0 < end {
+                let f = flag(y0);
+                let y1 = (y0 + 1..end).find(|&y| flag(y) != f).unwrap_or(end);
+                let f = f || y1 - y0 < min_rows;
+                let within = pieces.len() > first;
+                match pieces.last_mut() {
+                    // Runs taken alike within the tile make one piece.
+                    Some((last, lf)) if within && *lf == f => last.height += y1 - y0,
+                    _ => pieces.push((
+                        TileParams {
+                            y0,
+                            height: y1 - y0,
+                            ..t
+                        },
+                        f,
+                    )),
+                }
+                y0 = y1;
+            }
+        }
+        pieces
+    }
+}
+
 impl Params {
     /// Evaluations at each texel in a narrow gap ([`crate::validity::NARROW_GAP`]) of a pass
     /// that works there alone, every other texel keeping a value it reads (one evaluation):
@@ -764,6 +816,68 @@ mod tests {
         }
         assert_eq!(coarse::grid_tile(tile(0, h), 1), None);
         assert_eq!(coarse::grid_tile(tile(1, 3), s), None);
+    }
+
+    /// A plan's tiles cut around long runs of unflagged rows: pieces within their tiles, every
+    /// row once, each piece's rows alike (short unflagged runs taken as flagged), the rows past
+    /// a short list flagged.
+    #[test]
+    fn tiles_cut_by_flag_cover_every_row_once_around_long_runs() {
+        let (size, layers) = ([8u32, 100u32], 2u32);
+        let plan = TilePlan::new(size, layers, 1, 8 * 40);
+        assert_eq!(plan.rows, 40);
+        let mut flagged = vec![false; 200];
+        for y in [10, 11, 50, 51] {
+            flagged[y] = true;
+        }
+        let spans = |min_rows: u32, flagged: &[bool]| -> Vec<(u32, u32, u32, bool)> {
+            let pieces = plan.tiles_by_flag(flagged, min_rows);
+            // Every row of every layer once, in order, each piece inside one of the plan's
+            // tiles.
+            let rows: Vec<(u32, u32)> = pieces
+                .iter()
+                .flat_map(|(t, _)| (t.y0..t.y0 + t.height).map(move |y| (t.layer, y)))
+                .collect();
+            let want: Vec<(u32, u32)> = (0..layers)
+                .flat_map(|l| (0..size[1]).map(move |y| (l, y)))
+                .collect();
+            assert_eq!(rows, want);
+            for (t, _) in &pieces {
+                assert!(
+                    t.height > 0 && t.y0 / 40 == (t.y0 + t.height - 1) / 40,
+                    "{t:?}"
+                );
+                assert_eq!((t.x0, t.width, t.grid), (0, 8, 0));
+            }
+            pieces
+                .iter()
+                .map(|(t, f)| (t.layer, t.y0, t.height, *f))
+                .collect()
+        };
+        assert_eq!(
+            spans(16, &flagged),
+            vec![
+                (0, 0, 12, true),
+                (0, 12, 28, false),
+                (0, 40, 12, true),
+                (0, 52, 28, false),
+                (0, 80, 20, false),
+                (1, 0, 40, false),
+                (1, 40, 40, false),
+                (1, 80, 20, false),
+            ]
+        );
+        assert_eq!(
+            spans(1, &flagged)[..3],
+            [(0, 0, 10, false), (0, 10, 2, true), (0, 12, 28, false)]
+        );
+        // Past the list every row is flagged: the plan's tiles as they are.
+        let plain: Vec<(u32, u32, u32, bool)> = plan
+            .tiles()
+            .map(|t| (t.layer, t.y0, t.height, true))
+            .collect();
+        assert_eq!(spans(16, &[]), plain);
+        assert_eq!(spans(1, &[]), plain);
     }
 
     /// Row-weighted tiles cover every row of every layer once, in order, within the budget

@@ -314,6 +314,17 @@ pub fn room_gap(position: &[f32]) -> f32 {
     GAP_FRACTION * size
 }
 
+/// Per row of a G-buffer's `position` map of rows `width` texels wide (layer by layer, rows
+/// top to bottom), whether a texel there is narrow ([`NARROW`]): the rows a strided gather's
+/// tiles are cut by ([`crate::program::TilePlan::tiles_by_flag`],
+/// [`crate::backend::Dispatch::narrow`]).
+pub fn narrow_rows(position: &[f32], width: u32) -> Vec<bool> {
+    position
+        .chunks(4 * (width as usize).max(1))
+        .map(|row| row.chunks_exact(4).any(|p| p[3] >= NARROW))
+        .collect()
+}
+
 /// Whether a point whose offset origin is `o`, with unit normal `n`, on a surface of texel
 /// size `s` metres, lies in a narrow gap as a texel there would ([`NARROW_GAP`], module docs,
 /// step 4): its normal ray meets a surface within [`NARROW_REACH_TEXELS`]` · s` and `gap`

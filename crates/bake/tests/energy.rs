@@ -80,6 +80,7 @@ fn two_reductions_sum_a_map_as_the_host_does() {
                     params: &[],
                     tile,
                     idle: false,
+                    narrow: true,
                 })
                 .expect("reduce");
         }

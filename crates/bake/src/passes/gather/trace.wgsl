@@ -2,10 +2,10 @@
 // dispatch's rays of each texel of the tile — gather.wgsl's prologue and lib/gather.wgsl's
 // rays, operation for operation — cast and their closest hits written to plane k of lux_hits
 // (declared by shader::wgsl_gather_trace_source) at the texel's place in the tile:
-// (t, triangle, u, v), triangle -1 where the texel casts no such ray or the ray meets
-// nothing. The gather compiled to replay (replay.wgsl) reads these instead of tracing. In a
-// dispatch of a strided gather's grid texels alone (TileParams::grid ≥ 2) the places are the
-// compact tile's.
+// (t, triangle, u, v), triangle -1 where the ray meets nothing; the planes past a texel's rays
+// are left as they are (the replay never reads them). The gather compiled to replay
+// (replay.wgsl) reads these instead of tracing. In a dispatch of a strided gather's grid
+// texels alone (TileParams::grid ≥ 2) the places are the compact tile's.
 
 @compute @workgroup_size(8, 8, 1)
 fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -14,19 +14,11 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let none = vec4<f32>(0.0, -1.0, 0.0, 0.0);
-    // The dispatch's planes: the chunk's share of the larger of the grid texels' and the
-    // orphans' rays (luxbake::kept::HitKey::rays).
-    let most = max(lux_pass.rays, lux_pass.orphan_rays);
-    var planes = most - min(lux_pass.first_ray, most);
-    if (lux_pass.chunk_rays > 0u) {
-        planes = min(lux_pass.chunk_rays, planes);
-    }
     let at = gid.y * lux_tile.width + gid.x;
     let plane = lux_tile.width * lux_tile.height;
     let pos = lux_load(lux_position, c);
     let nrm = lux_load(lux_normal, c);
     var n: vec3<f32>;
-    var count = 0u;
     var rays = 0u;
     // The tile's dispatch before its grid's (TileParams::grid 1) keeps no hit of a grid texel.
     let s = i32(lux_pass.stride);
@@ -36,7 +28,12 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                                lux_pass.orphan_rays);
     }
     if (rays > lux_pass.first_ray && lux_normalize(nrm.xyz, &n)) {
-        count = min(planes, rays - lux_pass.first_ray);
+        // The texel's share of the chunk: no more planes than the dispatch keeps
+        // (luxbake::kept::HitKey::rays, which a texel's rays never exceed).
+        var count = rays - lux_pass.first_ray;
+        if (lux_pass.chunk_rays > 0u) {
+            count = min(lux_pass.chunk_rays, count);
+        }
         let stream = lux_gather_stream(lux_pass.sampler,
                                        vec2<u32>(lux_tile.layer_w, lux_tile.layer_h),
                                        lux_tile.layer, u32(c.x), u32(c.y), lux_pass.stride, rays);
@@ -55,8 +52,5 @@ fn main(@builtin(global_invocation_id) gid: vec3<u32>) {
                 lux_hits[k * plane + at] = none;
             }
         }
-    }
-    for (var k = count; k < planes; k++) {
-        lux_hits[k * plane + at] = none;
     }
 }
