@@ -197,9 +197,9 @@ impl GlowBackend {
     }
 
     /// The key of `part` of a gather dispatch's hits, over `tile` (the call's, or for
-    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, the
-    /// gather reading uploaded position and normal maps, at least one ray and at most as many
-    /// as a texture has layers.
+    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, a gather
+    /// that is not idle ([`Dispatch::idle`]) reading uploaded position and normal maps, at least
+    /// one ray and at most as many as a texture has layers.
     fn hit_key(
         &self,
         call: &Dispatch<'_, GlowTexture, GlowScene>,
@@ -207,7 +207,12 @@ impl GlowBackend {
         tile: TileParams,
         part: Part,
     ) -> Option<HitKey> {
-        if call.program != Pass::Gather || self.kept.is_none() || !kept::replayable(call.params) {
+        // An idle gather (rows without a valid texel) casts no ray.
+        if call.program != Pass::Gather
+            || call.idle
+            || self.kept.is_none()
+            || !kept::replayable(call.params)
+        {
             return None;
         }
         // Read slots 0 and 1 are the position and normal maps.
@@ -551,6 +556,16 @@ impl GpuBackend for GlowBackend {
         // A texture a pass writes is no upload any more.
         self.uploads.forget(call.write.0);
         let t = call.tile;
+        // A gather over rows without a valid texel (`Dispatch::idle`) writes 0 at each of
+        // them, as a clear does: no program, no grid texture, no hits.
+        if call.program == Pass::Gather && call.idle {
+            let gl = self.ctx.gl()?;
+            let (_, out) = self.texture(call.write)?;
+            self.target.bind(gl, label, out, t.layer)?;
+            return self
+                .target
+                .clear(gl, label, [t.x0, t.y0, t.width, t.height]);
+        }
         let stride = if call.program == Pass::Gather {
             GatherParams::from_words(call.params).stride
         } else {

@@ -448,6 +448,24 @@ impl Target {
         check(gl, pass, "drawing")
     }
 
+    /// Clears the rectangle `[x, y, w, h]` (texels) of the bound layer to zero.
+    pub(crate) fn clear(&self, gl: &glow::Context, pass: &str, rect: [u32; 4]) -> Result<()> {
+        let [x, y, w, h] = rect;
+        // SAFETY: a scissored clear of colour attachment 0 of the bound, complete framebuffer.
+        unsafe {
+            gl.enable(glow::SCISSOR_TEST);
+            gl.scissor(
+                to_i32(x, "x")?,
+                to_i32(y, "y")?,
+                to_i32(w, "w")?,
+                to_i32(h, "h")?,
+            );
+            gl.clear_buffer_f32_slice(glow::COLOR, 0, &[0.0; 4]);
+            gl.disable(glow::SCISSOR_TEST);
+        }
+        check(gl, pass, "clearing")
+    }
+
     /// Reads one whole layer back: `width * height * 4` floats, row 0 first.
     pub(crate) fn read(
         &self,

@@ -7,7 +7,7 @@ use common::backend_or_skip;
 use luxbake::backend::GpuBackend;
 use luxbake::bake::{Progress, Room, bake, bake_room};
 use luxbake::graph::{PassKind, TexDesc, TexFormat};
-use luxbake::program::{ORPHAN_ROWS_MIN, Params, Program as Pass, TilePlan, coarse};
+use luxbake::program::{ORPHAN_ROWS_MIN, Params, Program as Pass, RowKind, TilePlan, coarse};
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake::validity;
 use luxbake_backend_glow::{GlowError, webgl2};
@@ -104,13 +104,16 @@ fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() 
     let mut tiled = tiled.with_tile_work(2_000);
     tiled.keep_gather_hits(1 << 30).expect("keep hits");
     let room = Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {}).expect("room");
-    // One tile per layer: a gather at stride 1 keeps one part. A strided one is cut around the
-    // long runs of rows without a narrow texel (`TilePlan::tiles_by_flag`), and each piece
-    // keeps its compact grid's part where it holds grid rows and the rest's (the orphans'
-    // alone where it holds no narrow texel).
+    // One tile per layer, cut around long runs of rows without a valid texel, which keep no
+    // hits, and for a strided gather also around those without a narrow texel
+    // (`TilePlan::tiles_by_kind`): a gather at stride 1 keeps one part a piece, a strided one
+    // its compact grid's where the piece holds grid rows and the rest's (the orphans' alone
+    // where it holds no narrow texel).
     let (size, layers) = (want.layout.layer_size, want.layout.layers);
-    let narrow = validity::narrow_rows(&room.gbuffer.position, size[0]);
-    let pieces = TilePlan::new(size, layers, 1, u64::MAX).tiles_by_flag(&narrow, ORPHAN_ROWS_MIN);
+    let kinds = validity::row_kinds(&room.gbuffer.position, size[0]);
+    let unstrided: Vec<RowKind> = kinds.iter().map(|&k| k.min(RowKind::Plain)).collect();
+    let plan = TilePlan::new(size, layers, 1, u64::MAX);
+    let pieces = plan.tiles_by_kind(&kinds, ORPHAN_ROWS_MIN);
     let [mut plain, mut strided, mut want_parts] = [0u64; 3];
     for p in &want.graph.passes {
         if let (PassKind::Run(Pass::Gather), Params::Gather(g)) = (p.kind, &p.params)
@@ -118,20 +121,23 @@ fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() 
         {
             if g.stride > 1 {
                 strided += 1;
-                want_parts += pieces
-                    .iter()
+                want_parts += (pieces.iter())
+                    .filter(|(_, k)| *k != RowKind::Empty)
                     .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, g.stride).is_some()))
                     .sum::<u64>();
             } else {
                 plain += 1;
-                want_parts += u64::from(layers);
+                want_parts += (plan.tiles_by_kind(&unstrided, ORPHAN_ROWS_MIN).iter())
+                    .filter(|(_, k)| *k != RowKind::Empty)
+                    .count() as u64;
             }
         }
     }
     let kept = whole.gather_hit_stats().expect("kept");
     assert!(strided > 0, "no strided gather");
     assert!(
-        pieces.iter().any(|p| p.1) && pieces.iter().any(|p| !p.1),
+        pieces.iter().any(|p| p.1 == RowKind::Narrow)
+            && pieces.iter().any(|p| p.1 == RowKind::Plain),
         "tiles with and without a narrow texel: {pieces:?}"
     );
     assert!(kept.orphan_parts > 0, "{kept:?}");

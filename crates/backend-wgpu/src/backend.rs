@@ -287,8 +287,9 @@ impl WgpuBackend {
     }
 
     /// The key of `part` of a gather dispatch's hits, over `tile` (the call's, or for
-    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, the
-    /// gather reading uploaded position and normal maps, its hits within one storage binding.
+    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, a gather
+    /// that is not idle ([`Dispatch::idle`]) reading uploaded position and normal maps, its hits
+    /// within one storage binding.
     fn hit_key(
         &self,
         call: &Dispatch<'_, WgpuTexture, WgpuScene>,
@@ -296,7 +297,11 @@ impl WgpuBackend {
         tile: TileParams,
         part: Part,
     ) -> Option<HitKey> {
-        if call.program != Program::Gather || self.kept.is_none() || !kept::replayable(call.params)
+        // An idle gather (rows without a valid texel) casts no ray.
+        if call.program != Program::Gather
+            || call.idle
+            || self.kept.is_none()
+            || !kept::replayable(call.params)
         {
             return None;
         }
@@ -1005,14 +1010,17 @@ mod tests {
         tiled.keep_gather_hits(1 << 30);
         let room = luxbake::bake::Room::prepare(&scene, &settings, tiled.limits(), &mut |_| {})
             .expect("room");
-        // One tile per layer: a gather at stride 1 keeps one part. A strided one is cut around
-        // the long runs of rows without a narrow texel (`TilePlan::tiles_by_flag`), and each
-        // piece keeps the rest's part (the orphans' alone where it holds no narrow texel) and
-        // its compact grid's where it holds grid rows.
+        // One tile per layer, cut around long runs of rows without a valid texel, which keep
+        // no hits, and for a strided gather also around those without a narrow texel
+        // (`TilePlan::tiles_by_kind`): a gather at stride 1 keeps one part a piece, a strided
+        // one the rest's (the orphans' alone where it holds no narrow texel) and its compact
+        // grid's where it holds grid rows.
+        use luxbake::program::{ORPHAN_ROWS_MIN, RowKind, TilePlan};
         let (size, layers) = (want.layout.layer_size, want.layout.layers);
-        let narrow = luxbake::validity::narrow_rows(&room.gbuffer.position, size[0]);
-        let pieces = luxbake::program::TilePlan::new(size, layers, 1, u64::MAX)
-            .tiles_by_flag(&narrow, luxbake::program::ORPHAN_ROWS_MIN);
+        let kinds = luxbake::validity::row_kinds(&room.gbuffer.position, size[0]);
+        let unstrided: Vec<RowKind> = kinds.iter().map(|&k| k.min(RowKind::Plain)).collect();
+        let plan = TilePlan::new(size, layers, 1, u64::MAX);
+        let pieces = plan.tiles_by_kind(&kinds, ORPHAN_ROWS_MIN);
         let parts: u64 = (want.graph.passes.iter())
             .filter(|p| p.bounce <= want.report.bounces_run)
             .filter_map(|p| match (p.kind, &p.params) {
@@ -1022,15 +1030,18 @@ mod tests {
                 _ => None,
             })
             .map(|stride| match stride {
-                0 | 1 => u64::from(layers),
+                0 | 1 => (plan.tiles_by_kind(&unstrided, ORPHAN_ROWS_MIN).iter())
+                    .filter(|(_, k)| *k != RowKind::Empty)
+                    .count() as u64,
                 s => (pieces.iter())
+                    .filter(|(_, k)| *k != RowKind::Empty)
                     .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, s).is_some()))
                     .sum(),
             })
             .sum();
         let kept = whole.gather_hit_stats().expect("kept");
         assert!(kept.orphan_parts > 0, "{kept:?}");
-        assert!(pieces.iter().any(|p| p.1), "{pieces:?}");
+        assert!(pieces.iter().any(|p| p.1 == RowKind::Narrow), "{pieces:?}");
         assert_eq!(kept.traced, parts);
         let staged = want.maps.iter().map(|m| m.stages.iter().flatten().count());
         assert!(staged.sum::<usize>() > 0, "nothing to compare");

@@ -306,9 +306,11 @@ pub struct Dispatch<'a, T, S> {
     pub tile: TileParams,
     /// No texel of the tile does the pass's work: a refinement in narrow gaps alone
     /// ([`Params::gap_work`](crate::program::Params::gap_work)) over rows without a texel in a
-    /// gap, where every texel writes what it reads. A backend may run the pass's idle program
-    /// ([`Variant::Idle`](crate::kept::Variant::Idle)), which writes the same without the
-    /// rays' code; the CPU backend computes the tile as any other.
+    /// gap, where every texel writes what it reads, or a gather over rows without a valid
+    /// texel ([`crate::program::RowKind::Empty`]), which writes 0 there. A backend may run the
+    /// pass's idle program ([`Variant::Idle`](crate::kept::Variant::Idle)), which writes the
+    /// same without the rays' code, and keeps no gather hits for it; the CPU backend computes
+    /// the tile as any other.
     pub idle: bool,
     /// A texel of the tile may lie in a narrow region ([`crate::validity::NARROW`]: its
     /// position's w at least that): `true` unless the driver knows that none does. Where it is

@@ -32,7 +32,7 @@ use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
 use crate::program::{
-    CombineParams, ORPHAN_ROWS_MIN, Params, Program, TileParams, TilePlan, tiles_by_rows,
+    CombineParams, ORPHAN_ROWS_MIN, Params, Program, RowKind, TileParams, TilePlan, tiles_by_rows,
 };
 use crate::report::{DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
@@ -308,8 +308,8 @@ pub(crate) fn run<B: GpuBackend>(
     let mut shown = 0.0f32;
     // The texels in narrow gaps per row ([`gap_rows_of`]), once a pass needs them.
     let mut gap_rows: Option<Vec<u64>> = None;
-    // The rows with a narrow texel (`validity::narrow_rows`), once a pass needs them.
-    let mut narrow_rows: Option<Vec<bool>> = None;
+    // What each row holds (`validity::row_kinds`), once a pass needs it.
+    let mut row_kinds: Option<Vec<RowKind>> = None;
     for (index, pass) in graph.passes.iter().enumerate() {
         if !decisions.runs(pass.when) {
             continue;
@@ -392,16 +392,28 @@ pub(crate) fn run<B: GpuBackend>(
                         .map(|(t, idle)| (t, idle, true))
                         .collect()
                 }
-                // A strided gather's tiles cut around long runs of rows without a narrow
-                // texel, whose texels off the grid keep the orphans' rays' hits alone.
-                (_, Params::Gather(g)) if g.stride > 1 && size == layout.layer_size => {
-                    let rows = narrow_rows.get_or_insert_with(|| {
-                        crate::validity::narrow_rows(&room.gbuffer.position, size[0])
+                // A gather's tiles cut around long runs of rows without a valid texel, which
+                // keep no hits (idle), and a strided gather's around those without a narrow
+                // texel, whose texels off the grid keep the orphans' rays' alone.
+                (_, Params::Gather(g)) if size == layout.layer_size => {
+                    let rows = row_kinds.get_or_insert_with(|| {
+                        crate::validity::row_kinds(&room.gbuffer.position, size[0])
                     });
+                    // At stride 1 the narrow rows keep as many hits as the others.
+                    let unstrided;
+                    let kinds: &[RowKind] = if g.stride > 1 {
+                        rows
+                    } else {
+                        unstrided = rows
+                            .iter()
+                            .map(|&k| k.min(RowKind::Plain))
+                            .collect::<Vec<_>>();
+                        &unstrided
+                    };
                     uniform
-                        .tiles_by_flag(rows, ORPHAN_ROWS_MIN)
+                        .tiles_by_kind(kinds, ORPHAN_ROWS_MIN)
                         .into_iter()
-                        .map(|(t, narrow)| (t, false, narrow))
+                        .map(|(t, k)| (t, k == RowKind::Empty, k == RowKind::Narrow))
                         .collect()
                 }
                 _ => uniform.tiles().map(|t| (t, false, true)).collect(),

@@ -36,13 +36,15 @@
 //! [`HIT_BYTES`] per texel of the tile and ray of the dispatch (the storage spans the tile's
 //! whole rows, texels outside the charts and off the coarse grid included); a dispatch whose
 //! hits would pass the budget is gathered as without kept hits. The first bake pays the hits'
-//! writes and reads, not another traversal. A backend that gathers a strided gather's grid
-//! texels on their compact grid (glow and wgpu, [`crate::program::coarse::grid_tile`]) keeps
-//! two parts ([`Part`]): the grid's, `1/stride²` of the tile, and the rest of the tile's, as
-//! many planes as a grid texel's rays where the tile may hold a narrow texel
-//! ([`crate::backend::Dispatch::narrow`]) and the orphans' rays' elsewhere — the driver cuts a
-//! strided gather's tiles around long runs of rows without one
-//! ([`crate::program::TilePlan::tiles_by_flag`]).
+//! writes and reads, not another traversal. The driver cuts a gather's tiles around long runs
+//! of rows without a valid texel, whose dispatches are idle and keep nothing
+//! ([`crate::backend::Dispatch::idle`]; glow clears them), and a strided gather's also around
+//! those without a narrow texel ([`crate::program::TilePlan::tiles_by_kind`]). A backend that
+//! gathers a strided gather's grid texels on their compact grid (glow and wgpu,
+//! [`crate::program::coarse::grid_tile`]) keeps two parts ([`Part`]): the grid's, `1/stride²`
+//! of the tile, and the rest of the tile's, as many planes as a grid texel's rays where the
+//! tile may hold a narrow texel ([`crate::backend::Dispatch::narrow`]) and the orphans' rays'
+//! elsewhere.
 
 use std::collections::HashMap;
 use std::sync::{Arc, Weak};
@@ -138,7 +140,8 @@ pub enum Part {
     /// are orphans, each with the orphans' rays, and so many planes are kept (a quarter of a
     /// grid texel's at the `default`'s stride 4). A `chairs_05` bake's kept hits: 287 → 202 MB
     /// at 24 texels/m, 1 073 MB (the 1 GiB budget full, a bounce traced again in every swap)
-    /// → 549 MB at 64 (docs/performance.md, "Kept hits: the orphans' rays alone").
+    /// → 549 MB at 64; with the empty rows' dispatches idle too, 144 and 456 MB
+    /// (docs/performance.md, "Kept hits: the orphans' rays alone").
     Orphans,
 }
 

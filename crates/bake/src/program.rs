@@ -649,52 +649,73 @@ impl TilePlan {
     }
 }
 
-/// The fewest rows without a narrow texel that the driver cuts a strided gather's tile around
-/// ([`TilePlan::tiles_by_flag`], rows from [`crate::validity::narrow_rows`]): their texels off
-/// the grid keep the orphans' rays' hits alone ([`crate::kept::Part::Orphans`]), a quarter of a
-/// grid texel's at the `default`'s stride 4. Shorter runs share the narrow rows' piece, since
+/// What a row of the layout holds, for cutting a gather's tiles by rows
+/// ([`crate::program::TilePlan::tiles_by_kind`]), in the order of what its texels may cast.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum RowKind {
+    /// No valid texel: a gather there casts no ray ([`crate::backend::Dispatch::idle`]).
+    Empty,
+    /// Valid texels, none of them narrow ([`crate::backend::Dispatch::narrow`] `false`).
+    Plain,
+    /// A narrow texel ([`crate::validity::NARROW`]) among them.
+    Narrow,
+}
+
+/// The fewest rows of one kind ([`RowKind`]) that the driver cuts a gather's tile around
+/// ([`TilePlan::tiles_by_kind`], rows from [`crate::validity::row_kinds`]): rows without a valid
+/// texel keep no hits ([`crate::backend::Dispatch::idle`]), and a strided gather's rows without
+/// a narrow texel keep the orphans' rays' alone ([`crate::kept::Part::Orphans`]), a quarter of a
+/// grid texel's at the `default`'s stride 4. Shorter runs share their neighbours' piece, since
 /// each cut is another dispatch: in the browser (SwiftShader) cutting `chairs_05` at 24
-/// texels/m around every run (66 pieces instead of 4 tiles) took the swap's gathers from 0.23
-/// to 0.33 GPU s; at 32 rows it becomes 8 pieces (docs/performance.md, "Kept hits: the
-/// orphans' rays alone").
+/// texels/m around every run of rows without a narrow texel (66 pieces instead of 4 tiles) took
+/// the swap's gathers from 0.23 to 0.33 GPU s; at 32 rows it becomes 8 pieces
+/// (docs/performance.md, "Kept hits: the orphans' rays alone").
 pub const ORPHAN_ROWS_MIN: u32 = 32;
 
 impl TilePlan {
-    /// [`TilePlan::tiles`], each cut into pieces whose rows are all `flagged` or none is (its
-    /// rows layer by layer, top to bottom; rows past its end count as flagged), with whether
-    /// the piece's are. A run of unflagged rows shorter than `min_rows` is taken as flagged
-    /// (it shares its neighbours' piece), so that a tile is cut only around long runs. The
-    /// pieces cover the plan's tiles in order, each row once, none larger than its tile.
-    pub fn tiles_by_flag(&self, flagged: &[bool], min_rows: u32) -> Vec<(TileParams, bool)> {
+    /// [`TilePlan::tiles`], each cut into pieces of rows of one kind (`kinds`: its rows layer
+    /// by layer, top to bottom; rows past its end count as [`RowKind::Narrow`]), with that kind.
+    /// A run shorter than `min_rows` takes the most demanding kind of itself and the runs
+    /// beside it in the tile (so that a tile is cut only around long runs), and runs of one
+    /// kind make one piece. The pieces cover the plan's tiles in order, each row once, none
+    /// larger than its tile, none of a kind below any of its rows'.
+    pub fn tiles_by_kind(&self, kinds: &[RowKind], min_rows: u32) -> Vec<(TileParams, RowKind)> {
         let rows = self.size[1] as usize;
-        let mut pieces: Vec<(TileParams, bool)> = Vec::new();
+        let mut pieces: Vec<(TileParams, RowKind)> = Vec::new();
         for t in self.tiles() {
-            let flag = |y: u32| {
-                flagged
+            let kind = |y: u32| {
+                kinds
                     .get(t.layer as usize * rows + y as usize)
                     .copied()
-                    .unwrap_or(true)
+                    .unwrap_or(RowKind::Narrow)
             };
+            // The tile's runs of one kind: (first row, rows, kind).
+            let mut runs: Vec<(u32, u32, RowKind)> = Vec::new();
             let (mut y0, end) = (t.y0, t.y0 + t.height);
-            let first = pieces.len();
             while y0 < end {
-                let f = flag(y0);
-                let y1 = (y0 + 1..end).find(|&y| flag(y) != f).unwrap_or(end);
-                let f = f || y1 - y0 < min_rows;
+                let k = kind(y0);
+                let y1 = (y0 + 1..end).find(|&y| kind(y) != k).unwrap_or(end);
+                runs.push((y0, y1 - y0, k));
+                y0 = y1;
+            }
+            let taken: Vec<RowKind> = (0..runs.len())
+                .map(|i| {
+                    let (_, n, k) = runs[i];
+                    if n >= min_rows {
+                        return k;
+                    }
+                    let before = i.checked_sub(1).map_or(k, |b| runs[b].2);
+                    let after = runs.get(i + 1).map_or(k, |r| r.2);
+                    k.max(before).max(after)
+                })
+                .collect();
+            let first = pieces.len();
+            for (&(y0, n, _), &k) in runs.iter().zip(&taken) {
                 let within = pieces.len() > first;
                 match pieces.last_mut() {
-                    // Runs taken alike within the tile make one piece.
-                    Some((last, lf)) if within && *lf == f => last.height += y1 - y0,
-                    _ => pieces.push((
-                        TileParams {
-                            y0,
-                            height: y1 - y0,
-                            ..t
-                        },
-                        f,
-                    )),
+                    Some((last, lk)) if within && *lk == k => last.height += n,
+                    _ => pieces.push((TileParams { y0, height: n, ..t }, k)),
                 }
-                y0 = y1;
             }
         }
         pieces
@@ -818,22 +839,53 @@ mod tests {
         assert_eq!(coarse::grid_tile(tile(1, 3), s), None);
     }
 
-    /// A plan's tiles cut around long runs of unflagged rows: pieces within their tiles, every
-    /// row once, each piece's rows alike (short unflagged runs taken as flagged), the rows past
-    /// a short list flagged.
+    /// A row's kind from the G-buffer's w, as the gather tests it: a narrow texel makes it
+    /// narrow, no texel over 0.5 empty (a NaN is not empty: the gather's `w <= 0.5` fails).
     #[test]
-    fn tiles_cut_by_flag_cover_every_row_once_around_long_runs() {
+    fn rows_are_empty_plain_or_narrow_by_their_texels_w() {
+        let row = |ws: [f32; 3]| {
+            ws.iter()
+                .flat_map(|&w| [1.0, 2.0, 3.0, w])
+                .collect::<Vec<_>>()
+        };
+        let map: Vec<f32> = [
+            row([0.0, 0.0, 0.5]),
+            row([0.0, 1.0, 0.0]),
+            row([1.0, crate::validity::NARROW, 0.0]),
+            row([crate::validity::NARROW_GAP, 0.0, 0.0]),
+            row([0.0, f32::NAN, 0.0]),
+        ]
+        .concat();
+        use RowKind::{Empty, Narrow, Plain};
+        assert_eq!(
+            crate::validity::row_kinds(&map, 3),
+            [Empty, Plain, Narrow, Narrow, Plain]
+        );
+        assert!(crate::validity::row_kinds(&[], 3).is_empty());
+    }
+
+    /// A plan's tiles cut around long runs of rows of one kind: pieces within their tiles,
+    /// every row once, each piece of one kind and none below its rows' (a short run takes the
+    /// most demanding kind beside it), the rows past a short list narrow.
+    #[test]
+    fn tiles_cut_by_kind_cover_every_row_once_around_long_runs() {
+        use RowKind::{Empty, Narrow, Plain};
         let (size, layers) = ([8u32, 100u32], 2u32);
         let plan = TilePlan::new(size, layers, 1, 8 * 40);
         assert_eq!(plan.rows, 40);
-        let mut flagged = vec![false; 200];
+        // Layer 0: narrow rows 10, 11, 50 and 51 among plain ones, rows 70.. empty; layer 1:
+        // plain rows 0..5, then empty but for a plain row 60.
+        let mut kinds = vec![Plain; 200];
         for y in [10, 11, 50, 51] {
-            flagged[y] = true;
+            kinds[y] = Narrow;
         }
-        let spans = |min_rows: u32, flagged: &[bool]| -> Vec<(u32, u32, u32, bool)> {
-            let pieces = plan.tiles_by_flag(flagged, min_rows);
+        kinds[70..100].fill(Empty);
+        kinds[105..200].fill(Empty);
+        kinds[160] = Plain;
+        let spans = |min_rows: u32, kinds: &[RowKind]| -> Vec<(u32, u32, u32, RowKind)> {
+            let pieces = plan.tiles_by_kind(kinds, min_rows);
             // Every row of every layer once, in order, each piece inside one of the plan's
-            // tiles.
+            // tiles and of no kind below its rows'.
             let rows: Vec<(u32, u32)> = pieces
                 .iter()
                 .flat_map(|(t, _)| (t.y0..t.y0 + t.height).map(move |y| (t.layer, y)))
@@ -842,39 +894,49 @@ mod tests {
                 .flat_map(|l| (0..size[1]).map(move |y| (l, y)))
                 .collect();
             assert_eq!(rows, want);
-            for (t, _) in &pieces {
+            for (t, k) in &pieces {
                 assert!(
                     t.height > 0 && t.y0 / 40 == (t.y0 + t.height - 1) / 40,
                     "{t:?}"
                 );
                 assert_eq!((t.x0, t.width, t.grid), (0, 8, 0));
+                for y in t.y0..t.y0 + t.height {
+                    let row = kinds.get((t.layer * 100 + y) as usize).copied();
+                    assert!(*k >= row.unwrap_or(Narrow), "{t:?} {k:?}");
+                }
             }
             pieces
                 .iter()
-                .map(|(t, f)| (t.layer, t.y0, t.height, *f))
+                .map(|(t, k)| (t.layer, t.y0, t.height, *k))
                 .collect()
         };
+        // Layer 0: rows 0..10 and 40..50 short beside narrow rows, 70..80 short empty rows
+        // beside plain ones. Layer 1: the plain rows 0..5 stand apart from the long empty run
+        // after them; row 60 alone is plain between two long empty runs.
         assert_eq!(
-            spans(16, &flagged),
+            spans(16, &kinds),
             vec![
-                (0, 0, 12, true),
-                (0, 12, 28, false),
-                (0, 40, 12, true),
-                (0, 52, 28, false),
-                (0, 80, 20, false),
-                (1, 0, 40, false),
-                (1, 40, 40, false),
-                (1, 80, 20, false),
+                (0, 0, 12, Narrow),
+                (0, 12, 28, Plain),
+                (0, 40, 12, Narrow),
+                (0, 52, 28, Plain),
+                (0, 80, 20, Empty),
+                (1, 0, 5, Plain),
+                (1, 5, 35, Empty),
+                (1, 40, 20, Empty),
+                (1, 60, 1, Plain),
+                (1, 61, 19, Empty),
+                (1, 80, 20, Empty),
             ]
         );
         assert_eq!(
-            spans(1, &flagged)[..3],
-            [(0, 0, 10, false), (0, 10, 2, true), (0, 12, 28, false)]
+            spans(1, &kinds)[..3],
+            [(0, 0, 10, Plain), (0, 10, 2, Narrow), (0, 12, 28, Plain)]
         );
-        // Past the list every row is flagged: the plan's tiles as they are.
-        let plain: Vec<(u32, u32, u32, bool)> = plan
+        // Past the list every row is narrow: the plan's tiles as they are.
+        let plain: Vec<(u32, u32, u32, RowKind)> = plan
             .tiles()
-            .map(|t| (t.layer, t.y0, t.height, true))
+            .map(|t| (t.layer, t.y0, t.height, Narrow))
             .collect();
         assert_eq!(spans(16, &[]), plain);
         assert_eq!(spans(1, &[]), plain);

@@ -59,6 +59,7 @@ use rayon::prelude::*;
 use crate::backend::{SceneBvh, offset_origin};
 use crate::exact::{basis, cross, dot, mad, normalize, sub};
 use crate::gbuffer::GBuffer;
+use crate::program::RowKind;
 
 use crate::rng;
 use crate::scene::Scene;
@@ -315,13 +316,22 @@ pub fn room_gap(position: &[f32]) -> f32 {
 }
 
 /// Per row of a G-buffer's `position` map of rows `width` texels wide (layer by layer, rows
-/// top to bottom), whether a texel there is narrow ([`NARROW`]): the rows a strided gather's
-/// tiles are cut by ([`crate::program::TilePlan::tiles_by_flag`],
-/// [`crate::backend::Dispatch::narrow`]).
-pub fn narrow_rows(position: &[f32], width: u32) -> Vec<bool> {
+/// top to bottom), what it holds ([`crate::program::RowKind`]), from the values the shaders
+/// test.
+pub fn row_kinds(position: &[f32], width: u32) -> Vec<RowKind> {
     position
         .chunks(4 * (width as usize).max(1))
-        .map(|row| row.chunks_exact(4).any(|p| p[3] >= NARROW))
+        .map(|row| {
+            let texels = row.chunks_exact(4);
+            if texels.clone().any(|p| p[3] >= NARROW) {
+                RowKind::Narrow
+            } else if texels.clone().all(|p| p[3] <= 0.5) {
+                // The gather's own test of an invalid texel (a NaN is not one).
+                RowKind::Empty
+            } else {
+                RowKind::Plain
+            }
+        })
         .collect()
 }
 
