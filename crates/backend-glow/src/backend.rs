@@ -197,9 +197,9 @@ impl GlowBackend {
     }
 
     /// The key of `part` of a gather dispatch's hits, over `tile` (the call's, or for
-    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, a gather
-    /// that is not idle ([`Dispatch::idle`]) reading uploaded position and normal maps, at least
-    /// one ray and at most as many as a texture has layers.
+    /// [`Part::Grid`] its compact grid's), where they can be kept: with kept hits on, the
+    /// gather reading uploaded position and normal maps, at least one ray and at most as many
+    /// as a texture has layers (an idle gather is a clear, [`GpuBackend::dispatch`]).
     fn hit_key(
         &self,
         call: &Dispatch<'_, GlowTexture, GlowScene>,
@@ -207,12 +207,7 @@ impl GlowBackend {
         tile: TileParams,
         part: Part,
     ) -> Option<HitKey> {
-        // An idle gather (rows without a valid texel) casts no ray.
-        if call.program != Pass::Gather
-            || call.idle
-            || self.kept.is_none()
-            || !kept::replayable(call.params)
-        {
+        if call.program != Pass::Gather || self.kept.is_none() || !kept::replayable(call.params) {
             return None;
         }
         // Read slots 0 and 1 are the position and normal maps.

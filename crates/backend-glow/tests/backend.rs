@@ -7,7 +7,7 @@ use common::backend_or_skip;
 use luxbake::backend::GpuBackend;
 use luxbake::bake::{Progress, Room, bake, bake_room};
 use luxbake::graph::{PassKind, TexDesc, TexFormat};
-use luxbake::program::{ORPHAN_ROWS_MIN, Params, Program as Pass, RowKind, TilePlan, coarse};
+use luxbake::program::{Params, Program as Pass, RowKind, TilePlan, coarse};
 use luxbake::scene::{Blur, Quality, Scene, Settings};
 use luxbake::validity;
 use luxbake_backend_glow::{GlowError, webgl2};
@@ -111,9 +111,8 @@ fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() 
     // where it holds no narrow texel).
     let (size, layers) = (want.layout.layer_size, want.layout.layers);
     let kinds = validity::row_kinds(&room.gbuffer.position, size[0]);
-    let unstrided: Vec<RowKind> = kinds.iter().map(|&k| k.min(RowKind::Plain)).collect();
     let plan = TilePlan::new(size, layers, 1, u64::MAX);
-    let pieces = plan.tiles_by_kind(&kinds, ORPHAN_ROWS_MIN);
+    let pieces = plan.gather_tiles(&kinds, 4);
     let [mut plain, mut strided, mut want_parts] = [0u64; 3];
     for p in &want.graph.passes {
         if let (PassKind::Run(Pass::Gather), Params::Gather(g)) = (p.kind, &p.params)
@@ -121,16 +120,13 @@ fn strided_gathers_in_small_tiles_and_from_kept_hits_do_not_change_the_result() 
         {
             if g.stride > 1 {
                 strided += 1;
-                want_parts += (pieces.iter())
-                    .filter(|(_, k)| *k != RowKind::Empty)
-                    .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, g.stride).is_some()))
-                    .sum::<u64>();
             } else {
                 plain += 1;
-                want_parts += (plan.tiles_by_kind(&unstrided, ORPHAN_ROWS_MIN).iter())
-                    .filter(|(_, k)| *k != RowKind::Empty)
-                    .count() as u64;
             }
+            want_parts += (plan.gather_tiles(&kinds, g.stride).iter())
+                .filter(|(_, k)| *k != RowKind::Empty)
+                .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, g.stride).is_some()))
+                .sum::<u64>();
         }
     }
     let kept = whole.gather_hit_stats().expect("kept");

@@ -1015,12 +1015,11 @@ mod tests {
         // (`TilePlan::tiles_by_kind`): a gather at stride 1 keeps one part a piece, a strided
         // one the rest's (the orphans' alone where it holds no narrow texel) and its compact
         // grid's where it holds grid rows.
-        use luxbake::program::{ORPHAN_ROWS_MIN, RowKind, TilePlan};
+        use luxbake::program::{RowKind, TilePlan};
         let (size, layers) = (want.layout.layer_size, want.layout.layers);
         let kinds = luxbake::validity::row_kinds(&room.gbuffer.position, size[0]);
-        let unstrided: Vec<RowKind> = kinds.iter().map(|&k| k.min(RowKind::Plain)).collect();
         let plan = TilePlan::new(size, layers, 1, u64::MAX);
-        let pieces = plan.tiles_by_kind(&kinds, ORPHAN_ROWS_MIN);
+        let pieces = plan.gather_tiles(&kinds, 4);
         let parts: u64 = (want.graph.passes.iter())
             .filter(|p| p.bounce <= want.report.bounces_run)
             .filter_map(|p| match (p.kind, &p.params) {
@@ -1029,14 +1028,11 @@ mod tests {
                 }
                 _ => None,
             })
-            .map(|stride| match stride {
-                0 | 1 => (plan.tiles_by_kind(&unstrided, ORPHAN_ROWS_MIN).iter())
+            .map(|stride| {
+                (plan.gather_tiles(&kinds, stride).iter())
                     .filter(|(_, k)| *k != RowKind::Empty)
-                    .count() as u64,
-                s => (pieces.iter())
-                    .filter(|(_, k)| *k != RowKind::Empty)
-                    .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, s).is_some()))
-                    .sum(),
+                    .map(|(t, _)| 1 + u64::from(coarse::grid_tile(*t, stride).is_some()))
+                    .sum::<u64>()
             })
             .sum();
         let kept = whole.gather_hit_stats().expect("kept");

@@ -32,7 +32,7 @@ use crate::layout::Region;
 use crate::map::MapImage;
 use crate::prepare::{Lamps, Room};
 use crate::program::{
-    CombineParams, ORPHAN_ROWS_MIN, Params, Program, RowKind, TileParams, TilePlan, tiles_by_rows,
+    CombineParams, Params, Program, RowKind, TileParams, TilePlan, tiles_by_rows,
 };
 use crate::report::{DirectStage, ObjectMaps, OnDirect, PassTiming, Progress, ReadBack, Skipped};
 use crate::scene::Settings;
@@ -399,19 +399,8 @@ pub(crate) fn run<B: GpuBackend>(
                     let rows = row_kinds.get_or_insert_with(|| {
                         crate::validity::row_kinds(&room.gbuffer.position, size[0])
                     });
-                    // At stride 1 the narrow rows keep as many hits as the others.
-                    let unstrided;
-                    let kinds: &[RowKind] = if g.stride > 1 {
-                        rows
-                    } else {
-                        unstrided = rows
-                            .iter()
-                            .map(|&k| k.min(RowKind::Plain))
-                            .collect::<Vec<_>>();
-                        &unstrided
-                    };
                     uniform
-                        .tiles_by_kind(kinds, ORPHAN_ROWS_MIN)
+                        .gather_tiles(rows, g.stride)
                         .into_iter()
                         .map(|(t, k)| (t, k == RowKind::Empty, k == RowKind::Narrow))
                         .collect()

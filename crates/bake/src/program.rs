@@ -722,6 +722,19 @@ impl TilePlan {
     }
 }
 
+impl TilePlan {
+    /// A gather's pieces ([`TilePlan::tiles_by_kind`] at [`ORPHAN_ROWS_MIN`]): what the driver
+    /// dispatches for a gather at `stride` over rows of `kinds`. At stride 1 a narrow row keeps
+    /// as many hits as any other, so only the rows without a valid texel are cut around.
+    pub fn gather_tiles(&self, kinds: &[RowKind], stride: u32) -> Vec<(TileParams, RowKind)> {
+        if stride > 1 {
+            return self.tiles_by_kind(kinds, ORPHAN_ROWS_MIN);
+        }
+        let unstrided: Vec<RowKind> = kinds.iter().map(|&k| k.min(RowKind::Plain)).collect();
+        self.tiles_by_kind(&unstrided, ORPHAN_ROWS_MIN)
+    }
+}
+
 impl Params {
     /// Evaluations at each texel in a narrow gap ([`crate::validity::NARROW_GAP`]) of a pass
     /// that works there alone, every other texel keeping a value it reads (one evaluation):
@@ -932,6 +945,23 @@ mod tests {
         assert_eq!(
             spans(1, &kinds)[..3],
             [(0, 0, 10, Plain), (0, 10, 2, Narrow), (0, 12, 28, Plain)]
+        );
+        // A gather at stride 1 cuts around the empty rows alone; at stride 4 as above.
+        assert_eq!(
+            plan.gather_tiles(&kinds, 4),
+            plan.tiles_by_kind(&kinds, ORPHAN_ROWS_MIN)
+        );
+        let unstrided: Vec<(u32, u32, u32, RowKind)> = (plan.gather_tiles(&kinds, 1).iter())
+            .map(|(t, k)| (t.layer, t.y0, t.height, *k))
+            .collect();
+        assert_eq!(
+            unstrided[..4],
+            [
+                (0, 0, 40, Plain),
+                (0, 40, 40, Plain),
+                (0, 80, 20, Empty),
+                (1, 0, 5, Plain)
+            ]
         );
         // Past the list every row is narrow: the plan's tiles as they are.
         let plain: Vec<(u32, u32, u32, RowKind)> = plan
