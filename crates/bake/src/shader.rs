@@ -164,7 +164,8 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
 }
 
 /// The generated constants after the BVH layout's, in order: the traversal ids and the choice
-/// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step, the narrow
+/// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step, the opening's
+/// control variate's bound and fewest probes, the narrow
 /// texels' position w and the cells per side of the density proxy's grid; each a name, its
 /// type and its value as both languages write it.
 fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
@@ -196,6 +197,16 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
         crate::opening::OPENING_PASS,
     ));
     c.push(uint("LUX_PHI".into(), crate::opening::PHI));
+    c.push((
+        "LUX_CONTROL_MAX_ERROR".to_string(),
+        Scalar::F32,
+        format!("{:?}", crate::opening::CONTROL_MAX_ERROR),
+    ));
+    c.push(uint(
+        "LUX_CONTROL_MIN_PROBES".into(),
+        crate::opening::CONTROL_MIN_PROBES,
+    ));
+
     c.push((
         "LUX_NARROW".to_string(),
         Scalar::F32,

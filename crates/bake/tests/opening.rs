@@ -302,80 +302,99 @@ fn texels_of(scene: &Scene, out: &BakeOutput, name: &str) -> Vec<([f64; 3], f64)
         .collect()
 }
 
-/// The opening's probes (`Settings::opening_probe_stride`) on the floor around a table under
-/// a linear pendant, whose edges cast penumbrae: a probed texel is never darker than with
-/// every ray (it only takes rays as seen), equals it bit for bit wherever the probes see the
-/// whole opening truly, and against 512 samples its error is the exhaustive estimate's.
-#[test]
-fn opening_probes_keep_the_penumbrae_of_every_ray() {
-    let test = "opening_probes";
-    let Some(linear) = photometry(test, "photometry/real-world/rw_5.IES") else {
-        return;
-    };
-    let bake = |samples, stride| {
-        let mut l = Lamp::new("pendant", linear.clone(), [0.0, 1.3, 0.0]);
-        l.model = LampModel::Area;
-        let mut scene = dining(vec![l], 32.0, samples);
-        scene.settings.opening_probe_stride = stride;
-        // A grate of 5 mm bars 10 cm apart, 0.4 m over the lit floor beside the table (the
-        // table shades the floor within about 1.06 m of the lamp in z, 2.1 m in x): from the
-        // floor under it each bar hides about 1.6 cm of the opening, between probes or not.
-        for i in 0..5 {
-            let step = 0.1 * i as f64;
-            for (size, at) in [
-                ([0.5, 0.005, 0.005], [0.0, 0.4, 1.2 + step]),
-                ([0.005, 0.005, 0.5], [-0.2 + step, 0.4, 1.4]),
-            ] {
-                scene.objects.push(Object {
-                    name: format!("bar {i} {}", at[0]),
-                    mesh: meshes::cuboid(size, false, 0.0),
-                    transform: Transform::from_trs(at, [0.0; 3], [1.0; 3]),
-                    albedo: Albedo::grey(0.5),
-                    receiver: false,
-                    texel_scale: 1.0,
-                });
-            }
+/// The floor texels around a table under a pendant `lamp` (its opening, at 1.3 m) with a grate
+/// of thin bars beside the table, baked with `samples` opening samples and probes every
+/// `stride` points.
+fn grate_floor(lamp: &Arc<Photometry>, samples: u32, stride: u32) -> Vec<([f64; 3], f64)> {
+    let mut l = Lamp::new("pendant", lamp.clone(), [0.0, 1.3, 0.0]);
+    l.model = LampModel::Area;
+    let mut scene = dining(vec![l], 32.0, samples);
+    scene.settings.opening_probe_stride = stride;
+    // A grate of 5 mm bars 10 cm apart, 0.4 m over the lit floor beside the table (the table
+    // shades the floor within about 1.06 m of the lamp in z, 2.1 m in x): from the floor under
+    // it each bar hides about 1.6 cm of the opening, between probes or not.
+    for i in 0..5 {
+        let step = 0.1 * i as f64;
+        for (size, at) in [
+            ([0.5, 0.005, 0.005], [0.0, 0.4, 1.2 + step]),
+            ([0.005, 0.005, 0.5], [-0.2 + step, 0.4, 1.4]),
+        ] {
+            scene.objects.push(Object {
+                name: format!("bar {i} {}", at[0]),
+                mesh: meshes::cuboid(size, false, 0.0),
+                transform: Transform::from_trs(at, [0.0; 3], [1.0; 3]),
+                albedo: Albedo::grey(0.5),
+                receiver: false,
+                texel_scale: 1.0,
+            });
         }
-        let out = run(&scene);
-        assert_finite(&out);
-        texels_of(&scene, &out, "floor")
-    };
+    }
+    let out = run(&scene);
+    assert_finite(&out);
+    texels_of(&scene, &out, "floor")
+}
+
+/// Mean, 99.9th percentile and largest of `v`.
+fn stats(mut v: Vec<f64>) -> (f64, f64, f64) {
+    v.sort_by(f64::total_cmp);
+    let mean = v.iter().sum::<f64>() / v.len() as f64;
+    (mean, v[v.len() * 999 / 1000], v[v.len() - 1])
+}
+
+/// `lamp`'s floor under the grate ([`grate_floor`]) at the default preset with every ray, with
+/// its probes and with every ray at 512 samples, and each texel's error against the last
+/// (relative to its light, floored at 1 % of the peak: the umbra).
+fn grate_errors(lamp: &Arc<Photometry>) -> (Vec<[f64; 3]>, Vec<f64>, Vec<f64>) {
     let samples = Settings::preset(Quality::Default).opening_samples;
     let stride = Settings::preset(Quality::Default).opening_probe_stride;
     assert!(stride > 1, "the default probes");
-    let (every, probed, reference) = (bake(samples, 0), bake(samples, stride), bake(512, 0));
+    let every = grate_floor(lamp, samples, 0);
+    let probed = grate_floor(lamp, samples, stride);
+    let reference = grate_floor(lamp, 512, 0);
     assert_eq!(every.len(), probed.len());
     assert_eq!(every.len(), reference.len());
     let peak = reference.iter().map(|t| t.1).fold(0.0, f64::max);
-    let (mut differ, mut worst_change) = (0usize, 0.0f64);
+    let mut texels = Vec::new();
     let (mut err_every, mut err_probed) = (Vec::new(), Vec::new());
     for ((e, p), r) in every.iter().zip(&probed).zip(&reference) {
         assert_eq!(e.0, p.0);
-        assert!(
-            p.1 >= e.1,
-            "a probed texel darker than every ray's: {} < {}",
-            p.1,
-            e.1
-        );
-        differ += usize::from(p.1 != e.1);
-        worst_change = worst_change.max((p.1 - e.1) / r.1.max(0.01 * peak));
-        // Error relative to the texel's light, floored at 1 % of the peak (the umbra).
         let scale = r.1.max(0.01 * peak);
+        texels.push([e.1, p.1, scale]);
         err_every.push((e.1 - r.1).abs() / scale);
         err_probed.push((p.1 - r.1).abs() / scale);
     }
-    let stats = |v: &mut Vec<f64>| {
-        v.sort_by(f64::total_cmp);
-        let mean = v.iter().sum::<f64>() / v.len() as f64;
-        (mean, v[v.len() * 999 / 1000], v[v.len() - 1])
-    };
-    let (me, pe, xe) = stats(&mut err_every);
-    let (mp, pp, xp) = stats(&mut err_probed);
+    (texels, err_every, err_probed)
+}
+
+/// The opening's probes (`Settings::opening_probe_stride`) on the floor around a table with
+/// the grate ([`grate_floor`]) under `lamp`: a texel whose probes all see the opening takes its
+/// rectangles' shares by their control variate from the probes alone
+/// (`luxbake::opening`, "Control variate") and every other part's points as seen. Against
+/// 512 samples the error is the exhaustive estimate's (mean at most `mean_ratio` of it, p99.9
+/// and the largest at most 1.5×), and what the probes miss (a bar between them) brightens
+/// only a few texels (under `few` of them by over 2 % of their light), by at most `sliver`;
+/// none is darker by over 2 % (the two estimates differ by the lattices' noise, some 0.1 %,
+/// where both see the whole opening).
+fn probes_keep_the_penumbrae(lamp: &Arc<Photometry>, mean_ratio: f64, few: f64, sliver: f64) {
+    let (texels, err_every, err_probed) = grate_errors(lamp);
+    let brighter = texels
+        .iter()
+        .filter(|t| (t[1] - t[0]) / t[2] > 0.02)
+        .count();
+    let darker = texels
+        .iter()
+        .filter(|t| (t[0] - t[1]) / t[2] > 0.02)
+        .count();
+    let worst_change = texels
+        .iter()
+        .map(|t| (t[1] - t[0]) / t[2])
+        .fold(0.0, f64::max);
+    let ((me, pe, xe), (mp, pp, xp)) = (stats(err_every), stats(err_probed));
     println!(
-        "{} floor texels, {differ} changed by the probes (at most by {:.2} %); \
-         against 512 samples: every ray mean {:.3} %, p99.9 {:.2} %, max {:.2} %; probed mean \
-         {:.3} %, p99.9 {:.2} %, max {:.2} %",
-        every.len(),
+        "{} floor texels, {brighter} brighter and {darker} darker than with every ray by over \
+         2 % (at most {:.2} % brighter); against 512 samples: every ray mean {:.3} %, p99.9 \
+         {:.2} %, max {:.2} %; probed mean {:.3} %, p99.9 {:.2} %, max {:.2} %",
+        texels.len(),
         100.0 * worst_change,
         100.0 * me,
         100.0 * pe,
@@ -384,17 +403,42 @@ fn opening_probes_keep_the_penumbrae_of_every_ray() {
         100.0 * pp,
         100.0 * xp
     );
-    // The bars hide slivers between probes from some texels, and only from a few.
-    assert!(differ > 0, "the probes missed no bar");
+    assert!(brighter > 0, "the probes missed no bar");
     assert!(
-        differ * 100 < every.len(),
-        "{differ} of {} texels",
-        every.len()
+        (brighter as f64) < few * texels.len() as f64 && darker == 0,
+        "{brighter} brighter, {darker} darker of {} texels",
+        texels.len()
     );
-    // What a missed bar adds is the sliver it hides: a twelfth of the opening or two.
-    assert!(worst_change < 0.2, "a texel {worst_change} brighter");
-    assert!(mp <= 1.05 * me, "mean {mp} vs {me}");
-    assert!(xp <= 1.5 * xe, "max {xp} vs {xe}");
+    assert!(worst_change < sliver, "a texel {worst_change} brighter");
+    assert!(mp <= mean_ratio * me, "mean {mp} vs {me}");
+    assert!(
+        pp <= 1.5 * pe && xp <= 1.5 * xe,
+        "p99.9 {pp} vs {pe}, max {xp} vs {xe}"
+    );
+}
+
+/// [`probes_keep_the_penumbrae`] under a linear pendant's rectangle (`rw_5.IES`). Measured:
+/// mean 0.441 against every ray's 0.438 % (0.444 % with the probes before the control
+/// variate), p99.9 and the largest the same; 27 of 14 336 texels brighter by over 2 %, by at
+/// most 9 %.
+#[test]
+fn opening_probes_keep_the_penumbrae_of_every_ray() {
+    let Some(linear) = photometry("opening_probes", "photometry/real-world/rw_5.IES") else {
+        return;
+    };
+    probes_keep_the_penumbrae(&linear, 1.02, 0.01, 0.2);
+}
+
+/// [`probes_keep_the_penumbrae`] under a downlight's 0.21 m disk (`rw_2.IES`), whose twelve
+/// probes leave wider gaps for the bars than the pendant's narrow rectangle. Measured: mean
+/// 1.224 against every ray's 1.127 % (as with the probes before the control variate), p99.9
+/// and the largest the same; 218 of 14 336 texels brighter by over 2 %, by at most 35 %.
+#[test]
+fn opening_probes_keep_the_penumbrae_of_every_ray_under_a_disk() {
+    let Some(disk) = photometry("opening_probes_disk", "photometry/real-world/rw_2.IES") else {
+        return;
+    };
+    probes_keep_the_penumbrae(&disk, 1.1, 0.02, 0.4);
 }
 
 #[test]

@@ -312,6 +312,51 @@ float luxOpeningProjectedArea(LuxOpening o, vec3 w) {
     return PI * sqrt(x * x + y * y + z * z);
 }
 
+// opening::rectangle_control: flat part `part` of a box's geometric integral
+// G = ∫ cos θx · cos θp / r² dA toward a receiver with unit normal n (both photometric), by
+// Lambert's formula over its four corners, and the unit direction from its centre toward the
+// receiver; false for a part that is no rectangle or that the receiver does not see wholly.
+bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
+                         out vec3 toward) {
+    g = 0.0;
+    toward = vec3(0.0);
+    int axis;
+    float side;
+    vec2 ext;
+    bool ellipse;
+    if (o.kind != 0 || !luxFlatPart(o, part, axis, side, ext, ellipse)) {
+        return false;
+    }
+    vec3 r = luxToSolid(o.axis, receiver);
+    float plane = side * luxPick(o.halfAxes, axis);
+    if (!(side * (luxPick(r, axis) - plane) > 0.0)) {
+        return false;
+    }
+    vec3 v0 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(-ext.x, -ext.y))) - receiver;
+    vec3 v1 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(ext.x, -ext.y))) - receiver;
+    vec3 v2 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(ext.x, ext.y))) - receiver;
+    vec3 v3 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(-ext.x, ext.y))) - receiver;
+    if (!(luxDot(n, v0) > 0.0 && luxDot(n, v1) > 0.0 && luxDot(n, v2) > 0.0 &&
+          luxDot(n, v3) > 0.0)) {
+        return false;
+    }
+    float sum = 0.0;
+    bool ok = true;
+    for (int e = 0; e < 4; ++e) {
+        vec3 a = e == 0 ? v0 : (e == 1 ? v1 : (e == 2 ? v2 : v3));
+        vec3 b = e == 0 ? v1 : (e == 1 ? v2 : (e == 2 ? v3 : v0));
+        vec3 c = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+        float len = sqrt(luxDot(c, c));
+        ok = ok && len > 0.0;
+        sum += luxAtan2(len, luxDot(a, b)) * (luxDot(n, c) / len);
+    }
+    g = 0.5 * abs(sum);
+    vec3 centre = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(0.0))) - receiver;
+    float d = sqrt(luxDot(centre, centre));
+    toward = vec3(-centre.x / d, -centre.y / d, -centre.z / d);
+    return ok && g > 0.0 && luxFinite(g) && d > 0.0 && luxFinite(d);
+}
+
 // opening::shift and opening::lattice.
 uvec2 luxOpeningShift(uint texel, uint lamp, uint seed) {
     uint h0 = luxHash(texel, lamp, LUX_OPENING_PASS, seed);

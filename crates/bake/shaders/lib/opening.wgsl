@@ -279,6 +279,66 @@ fn lux_opening_sample_part(o: LuxOpening, part: i32, u: vec2<f32>, receiver: vec
     return res;
 }
 
+// opening::rectangle_control: flat part `part` of a box's geometric integral
+// G = ∫ cos θx · cos θp / r² dA toward a receiver with unit normal n (both photometric), by
+// Lambert's formula over its four corners (`g`), and the unit direction from its centre toward
+// the receiver; `valid` false for a part that is no rectangle or that the receiver does not
+// see wholly.
+struct LuxControl {
+    valid: bool,
+    g: f32,
+    toward: vec3<f32>,
+}
+
+fn lux_rectangle_corner(o: LuxOpening, f: LuxFlatPart, plane: f32, xy: vec2<f32>,
+                        receiver: vec3<f32>) -> vec3<f32> {
+    let i = select(0, 1, f.axis == 0);
+    let j = select(2, 1, f.axis == 2);
+    var c = vec3<f32>(0.0);
+    c[f.axis] = plane;
+    c[i] = xy.x;
+    c[j] = xy.y;
+    return lux_to_photometric(o.axis, c) - receiver;
+}
+
+fn lux_rectangle_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<f32>) -> LuxControl {
+    var res: LuxControl;
+    res.valid = false;
+    let f = lux_flat_part(o, part);
+    if (o.kind != 0 || !f.flat) {
+        return res;
+    }
+    let r = lux_to_solid(o.axis, receiver);
+    let plane = f.side * o.half_axes[f.axis];
+    if (!(f.side * (r[f.axis] - plane) > 0.0)) {
+        return res;
+    }
+    var v = array<vec3<f32>, 4>(
+        lux_rectangle_corner(o, f, plane, vec2<f32>(-f.ext.x, -f.ext.y), receiver),
+        lux_rectangle_corner(o, f, plane, vec2<f32>(f.ext.x, -f.ext.y), receiver),
+        lux_rectangle_corner(o, f, plane, vec2<f32>(f.ext.x, f.ext.y), receiver),
+        lux_rectangle_corner(o, f, plane, vec2<f32>(-f.ext.x, f.ext.y), receiver),
+    );
+    var sum = 0.0;
+    var ok = true;
+    for (var e = 0; e < 4; e++) {
+        let a = v[e];
+        let b = v[(e + 1) % 4];
+        ok = ok && lux_dot(n, a) > 0.0;
+        let c = vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+        let len = sqrt(lux_dot(c, c));
+        ok = ok && len > 0.0;
+        sum += lux_atan2(len, lux_dot(a, b)) * (lux_dot(n, c) / len);
+    }
+    let g = 0.5 * abs(sum);
+    let centre = lux_rectangle_corner(o, f, plane, vec2<f32>(0.0), receiver);
+    let d = sqrt(lux_dot(centre, centre));
+    res.valid = ok && g > 0.0 && lux_finite(g) && d > 0.0 && lux_finite(d);
+    res.g = g;
+    res.toward = vec3<f32>(-centre.x / d, -centre.y / d, -centre.z / d);
+    return res;
+}
+
 // opening::projected_area: the emitting parts' projected area seen from photometric
 // direction w.
 fn lux_opening_projected_area(o: LuxOpening, w: vec3<f32>) -> f32 {

@@ -196,13 +196,25 @@ struct OpeningView<'a> {
 }
 
 /// A lattice point's share before its shadow ray, and that ray's end: the point `x`, the unit
-/// direction `back` from it toward the texel, the distance `r` and its square.
+/// direction `back` from it toward the texel and the distance's square `r2` (the distance is
+/// its square root, [`PointView::r`]).
 struct PointView {
     value: f32,
+    /// The numerator of the point's geometric share `cos θ_x · W · cos θ_p / r²` (the control
+    /// variate's, [`control`], which divides it by `r2`).
+    geom: f32,
     x: [f32; 3],
     back: [f32; 3],
-    r: f32,
     r2: f32,
+}
+
+impl PointView {
+    /// The distance to the point: `√r2`, as [`OpeningView::point`] computed it (kept as its
+    /// square alone, so that a view is no larger for its `geom`).
+    #[inline]
+    fn r(&self) -> f32 {
+        self.r2.sqrt()
+    }
 }
 
 impl OpeningView<'_> {
@@ -218,7 +230,7 @@ impl OpeningView<'_> {
         let q = s.point;
         let x = [0, 1, 2]
             .map(|c| self.lamp.position[c] + q[0] * m[0][c] + q[1] * m[1][c] + q[2] * m[2][c]);
-        let (w, r, r2) = toward(p, x)?;
+        let (w, _, r2) = toward(p, x)?;
         let cos_p = dot(n, w);
         if !(cos_p > 0.0) {
             return None;
@@ -241,30 +253,48 @@ impl OpeningView<'_> {
         let r2e = r2.max(off2).max(s.weight / (std::f32::consts::PI * nf));
         Some(PointView {
             value: intensity * cos_x * s.weight / area * cos_p / r2e,
+            geom: cos_x * s.weight * cos_p,
             x,
             back,
-            r,
             r2,
         })
     }
 
-    /// [`OpeningView::point`] at every point `k` of a part's `count` for which `wanted(k)`
-    /// (`None` at the others), appended to `out`: in blocks of eight points with AVX2 where
-    /// the CPU has it ([`avx2::points8`], the same values bit for bit),
-    /// otherwise point by point.
-    fn points(
+    /// [`OpeningView::point`] at the points `ks` of a part's `count`, into `slots[k]`: eight at
+    /// a time in AVX2 lanes where the CPU has it ([`avx2::points8`], the same values bit for
+    /// bit; a last block of fewer repeats its first point, which costs less than taking them
+    /// one by one), otherwise point by point.
+    fn fill(
         &self,
         sampler: &opening::PartSampler<'_>,
         count: u32,
-        wanted: impl Fn(u32) -> bool,
-        out: &mut Vec<Option<PointView>>,
+        ks: impl Iterator<Item = u32>,
+        slots: &mut [Option<PointView>],
     ) {
-        // The points done in lanes (whole blocks from the first), then the rest one by one.
-        #[cfg(target_arch = "x86_64")]
-        let k = avx2::blocks(self, sampler, count, &wanted, out);
-        #[cfg(not(target_arch = "x86_64"))]
-        let k = 0;
-        out.extend((k..count).map(|k| wanted(k).then(|| self.point(sampler, k, count)).flatten()));
+        let mut block = [0u32; 8];
+        let mut n = 0;
+        let flush = |block: &mut [u32; 8], n: usize, slots: &mut [Option<PointView>]| {
+            let first = block[0];
+            block[n..].fill(first);
+            #[cfg(target_arch = "x86_64")]
+            if avx2::block(self, sampler, count, *block, slots) {
+                return;
+            }
+            for &k in &block[..n] {
+                slots[k as usize] = self.point(sampler, k, count);
+            }
+        };
+        for k in ks {
+            block[n] = k;
+            n += 1;
+            if n == block.len() {
+                flush(&mut block, n, slots);
+                n = 0;
+            }
+        }
+        if n > 0 {
+            flush(&mut block, n, slots);
+        }
     }
 }
 
@@ -291,7 +321,7 @@ fn sees_all(
             let Some(pt) = &points[base + k] else {
                 continue;
             };
-            if !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+            if !start.sees(scene, trav, pt.x, pt.back, pt.r(), pt.r2) {
                 return false;
             }
             seen = true;
@@ -299,6 +329,48 @@ fn sees_all(
         base += count as usize;
     }
     seen
+}
+
+/// Part `part`'s share where the texel sees the whole opening, estimated with a control
+/// variate ([`crate::opening`], "Control variate"): `L_c·G + mean over the probes of
+/// (value − L_c·geom)`, `G` the part's geometric integral in closed form
+/// ([`opening::rectangle_control`]) and `L_c` the part's luminance toward the receiver from its
+/// centre; `points` the part's views (its probes every `stride`-th). `None` (every point is
+/// summed as before) for a part without the closed form, a luminance there that is not
+/// positive, a probe that gives the texel nothing, fewer than
+/// [`opening::CONTROL_MIN_PROBES`] probes, or probes whose residuals scatter so that their
+/// mean's standard error (their variance over `P − 1`, over `P`) exceeds
+/// [`opening::CONTROL_MAX_ERROR`] of the estimate.
+fn control(
+    view: &OpeningView<'_>,
+    part: usize,
+    receiver: [f32; 3],
+    normal: [f32; 3],
+    points: &[Option<PointView>],
+    stride: u32,
+) -> Option<f32> {
+    let (g, toward) = opening::rectangle_control(view.o, part, receiver, normal)?;
+    let area = opening::projected_area(view.o, toward);
+    let luminance = view.table.sample(toward) / area;
+    if !(area > 0.0 && luminance > 0.0 && luminance.is_finite()) {
+        return None;
+    }
+    let (mut residual, mut square, mut n) = (0.0f32, 0.0f32, 0u32);
+    for pt in points.iter().step_by(stride as usize) {
+        let pt = pt.as_ref()?;
+        let d = pt.value - luminance * (pt.geom / pt.r2);
+        residual += d;
+        square += d * d;
+        n += 1;
+    }
+    let nf = n as f32;
+    let estimate = luminance * g + residual / nf;
+    // The probes' own estimate of their mean's error: the residual's variance over them.
+    let mean = residual / nf;
+    let variance = (square / nf - mean * mean).max(0.0) / (nf - 1.0);
+    let tau = opening::CONTROL_MAX_ERROR;
+    (n >= opening::CONTROL_MIN_PROBES && variance <= tau * tau * estimate * estimate)
+        .then_some(estimate)
 }
 
 thread_local! {
@@ -347,40 +419,85 @@ pub(crate) fn from_opening(
         shift,
     };
     POINTS.with_borrow_mut(|points| {
-        // The points this chunk sums and the probes, each evaluated once.
+        // Each part's `count` slots, part after part, each point evaluated once: the probes
+        // and the chunk's points at once where no control variate can spare the latter (a
+        // part that is no rectangle: the blocks of eight in the order of the points), else the
+        // probes first, their last block filled up with the chunk's first other points
+        // (`early` of them).
         points.clear();
+        let probe = |k: u32| probe_stride > 1 && k.is_multiple_of(probe_stride);
+        let rectangles = o.kind == 0 && probe_stride > 1;
+        let mut early = [0usize; 6];
         let mut base = 0u32;
         for (part, &count) in counts.iter().enumerate() {
             let lo = range[0].saturating_sub(base).min(count);
             let hi = range[1].saturating_sub(base).min(count);
+            let first = base as usize;
             base = base.saturating_add(count);
+            points.resize_with(first + count as usize, || None);
+            if count == 0 {
+                continue;
+            }
             let sampler = opening::PartSampler::new(o, part, Some(receiver));
-            let probe = |k: u32| probe_stride > 1 && k.is_multiple_of(probe_stride);
-            let wanted = |k: u32| probe(k) || (lo..hi).contains(&k);
-            view.points(&sampler, count, wanted, points);
+            let slots = &mut points[first..];
+            if !rectangles {
+                let wanted = (0..count).filter(|&k| probe(k) || (lo..hi).contains(&k));
+                view.fill(&sampler, count, wanted, slots);
+                continue;
+            }
+            let probes = count.div_ceil(probe_stride) as usize;
+            early[part] = probes.next_multiple_of(8) - probes;
+            let rest = (lo..hi).filter(|&k| !probe(k)).take(early[part]);
+            view.fill(&sampler, count, (0..count).step_by(probe_stride as usize).chain(rest), slots);
         }
         let trace = !sees_all(start, scene, trav, points, &counts, probe_stride);
-        let mut sum = 0.0f32;
+        // Where the probes all see the opening, each rectangle's share is its control
+        // variate's estimate from its probes alone ([`control`]; `cv_parts`), added by the
+        // chunk of its first point, before the other parts' sums.
+        let normal = [dot(m[0], start.n), dot(m[1], start.n), dot(m[2], start.n)];
+        let (mut cv_parts, mut sum) = (0u32, 0.0f32);
+        let mut base = 0u32;
+        for (part, &count) in counts.iter().enumerate() {
+            let first = base as usize;
+            let lo = range[0].saturating_sub(base).min(count);
+            let hi = range[1].saturating_sub(base).min(count);
+            base = base.saturating_add(count);
+            if trace || count == 0 {
+                continue;
+            }
+            let probes = &points[first..first + count as usize];
+            if let Some(cv) = control(&view, part, receiver, normal, probes, probe_stride) {
+                cv_parts |= 1 << part;
+                if lo == 0 && hi > 0 {
+                    sum += cv;
+                }
+            }
+        }
         // Index of the part's first point among all the opening's.
         let mut base = 0u32;
-        for &count in &counts {
-            let mut part_sum = 0.0f32;
+        for (part, &count) in counts.iter().enumerate() {
             let lo = range[0].saturating_sub(base).min(count);
             let hi = range[1].saturating_sub(base).min(count);
             let first = base as usize;
             base = base.saturating_add(count);
-            if lo >= hi {
+            if lo >= hi || cv_parts & (1 << part) != 0 {
                 continue;
             }
-            for pt in points[first + lo as usize..first + hi as usize].iter().flatten() {
-                if trace && !start.sees(scene, trav, pt.x, pt.back, pt.r, pt.r2) {
+            let slots = &mut points[first..first + count as usize];
+            // A rectangle's other points of the chunk than those in their slots.
+            if rectangles {
+                let sampler = opening::PartSampler::new(o, part, Some(receiver));
+                let rest = (lo..hi).filter(|&k| !probe(k)).skip(early[part]);
+                view.fill(&sampler, count, rest, slots);
+            }
+            let mut part_sum = 0.0f32;
+            for pt in slots[lo as usize..hi as usize].iter().flatten() {
+                if trace && !start.sees(scene, trav, pt.x, pt.back, pt.r(), pt.r2) {
                     continue;
                 }
                 part_sum += pt.value;
             }
-            if count > 0 {
-                sum += part_sum / count as f32;
-            }
+            sum += part_sum / count as f32;
         }
         sum
     })
@@ -399,33 +516,26 @@ mod avx2 {
     use crate::cpu::lanes::{LANES as LANES_USIZE, floats};
     use crate::opening::avx2::{clamp8, finite8, projected_area8};
 
-    /// Points per block.
-    pub(super) const LANES: u32 = LANES_USIZE as u32;
-
-    /// [`OpeningView::points`]'s blocks of eight from point 0 where the CPU has AVX2: how many
-    /// points they covered.
-    pub(super) fn blocks(
+    /// [`OpeningView::fill`]'s block of the eight points `ks` where the CPU has AVX2, into
+    /// `slots`: whether it was done ([`points8`]).
+    pub(super) fn block(
         view: &OpeningView<'_>,
         sampler: &opening::PartSampler<'_>,
         count: u32,
-        wanted: &impl Fn(u32) -> bool,
-        out: &mut Vec<Option<PointView>>,
-    ) -> u32 {
-        let mut k = 0u32;
+        ks: [u32; LANES_USIZE],
+        slots: &mut [Option<PointView>],
+    ) -> bool {
         if !std::arch::is_x86_feature_detected!("avx2") {
-            return k;
+            return false;
         }
-        while k + LANES <= count {
-            // SAFETY: the CPU has AVX2 (just checked).
-            let Some(block) = (unsafe { points8(view, sampler, k, count) }) else {
-                break;
-            };
-            for (j, pt) in (k..).zip(block) {
-                out.push(pt.filter(|_| wanted(j)));
-            }
-            k += LANES;
+        // SAFETY: the CPU has AVX2 (just checked).
+        let Some(points) = (unsafe { points8(view, sampler, ks, count) }) else {
+            return false;
+        };
+        for (k, pt) in ks.into_iter().zip(points) {
+            slots[k as usize] = pt;
         }
-        k
+        true
     }
 
     /// `a·b` summed left to right in every lane.
@@ -437,24 +547,22 @@ mod avx2 {
         )
     }
 
-    /// [`OpeningView::point`] at the lattice points `k0 .. k0 + 8` of a part's `count`;
-    /// `None` (nothing computed) where the part cannot go in lanes ([`opening::PartSampler`]'s
+    /// [`OpeningView::point`] at the eight lattice points `ks` of a part's `count`; `None`
+    /// (nothing computed) where the part cannot go in lanes ([`opening::PartSampler`]'s
     /// `sample8`), which the caller takes point by point.
     #[target_feature(enable = "avx2")]
     pub(super) fn points8(
         view: &OpeningView<'_>,
         sampler: &opening::PartSampler<'_>,
-        k0: u32,
+        ks: [u32; LANES_USIZE],
         count: u32,
     ) -> Option<[Option<PointView>; LANES_USIZE]> {
         let set = _mm256_set1_ps;
         let zero = _mm256_setzero_ps();
         // The lattice (`opening::lattice`): u₀ = fract((k + ½)/n + unit(shift₀)),
         // u₁ = unit(k·PHI + shift₁).
-        let k = _mm256_add_epi32(
-            _mm256_set1_epi32(k0 as i32),
-            _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-        );
+        // SAFETY: eight u32s, read unaligned.
+        let k = unsafe { _mm256_loadu_si256(ks.as_ptr().cast()) };
         let nf = count as f32;
         let a = _mm256_add_ps(
             _mm256_div_ps(_mm256_add_ps(_mm256_cvtepi32_ps(k), set(0.5)), set(nf)),
@@ -514,16 +622,17 @@ mod avx2 {
             ),
             r2e,
         );
+        let geom = _mm256_mul_ps(_mm256_mul_ps(cos_x, s.weight), cos_p);
         let ok = _mm256_movemask_ps(ok);
-        let [value, r, r2] = [value, r, r2].map(|v| floats(v));
+        let [value, geom, r2] = [value, geom, r2].map(|v| floats(v));
         let x = x.map(|v| floats(v));
         let back = back.map(|v| floats(v));
         Some(std::array::from_fn(|l| {
             (ok & (1 << l) != 0).then(|| PointView {
                 value: value[l],
+                geom: geom[l],
                 x: [x[0][l], x[1][l], x[2][l]],
                 back: [back[0][l], back[1][l], back[2][l]],
-                r: r[l],
                 r2: r2[l],
             })
         }))
@@ -856,13 +965,16 @@ mod tests {
                         let sampler = opening::PartSampler::new(o, part, Some(receiver));
                         for count in [8, 48, 96, 200] {
                             for k0 in (0..count).step_by(8) {
+                                // Consecutive points, and every fourth as the probes.
+                                let step = if k0 % 16 == 0 { 1 } else { 4 };
+                                let ks = std::array::from_fn(|l| k0 + step * l as u32);
                                 // SAFETY: the CPU has AVX2 (checked above).
-                                let block = unsafe { avx2::points8(&view, &sampler, k0, count) };
+                                let block = unsafe { avx2::points8(&view, &sampler, ks, count) };
                                 let block = block.expect("every part toward a receiver in lanes");
-                                for (k, lane) in (k0..).zip(block) {
+                                for (k, lane) in ks.into_iter().zip(block) {
                                     let scalar = view.point(&sampler, k, count);
                                     let bits = |p: &PointView| {
-                                        let mut b = vec![p.value, p.r, p.r2];
+                                        let mut b = vec![p.value, p.geom, p.r(), p.r2];
                                         b.extend(p.x);
                                         b.extend(p.back);
                                         b.iter().map(|v| v.to_bits()).collect::<Vec<u32>>()
@@ -878,15 +990,20 @@ mod tests {
                                 }
                             }
                             // The blocks as the pass takes them: whole blocks, then the
-                            // remainder point by point, each point only where it is wanted.
+                            // remainder point by point: the probes (every fifth here), then a
+                            // chunk's range.
                             let wanted = |k: u32| k.is_multiple_of(5) || (count / 3..count / 2).contains(&k);
-                            let mut out = Vec::new();
-                            view.points(&sampler, count, wanted, &mut out);
+                            let mut out: Vec<Option<PointView>> = (0..count).map(|_| None).collect();
+                            view.fill(&sampler, count, (0..count).step_by(5), &mut out);
+                            let rest = (count / 3..count / 2).filter(|k| !k.is_multiple_of(5));
+                            view.fill(&sampler, count, rest, &mut out);
                             let expected: Vec<Option<PointView>> = (0..count)
                                 .map(|k| wanted(k).then(|| view.point(&sampler, k, count)).flatten())
                                 .collect();
                             let bits = |p: &Option<PointView>| {
-                                p.as_ref().map(|p| [p.value, p.r, p.x[0], p.back[2]].map(f32::to_bits))
+                                p.as_ref().map(|p| {
+                                    [p.value, p.geom, p.r(), p.x[0], p.back[2]].map(f32::to_bits)
+                                })
                             };
                             assert_eq!(
                                 out.iter().map(bits).collect::<Vec<_>>(),

@@ -9,13 +9,15 @@
 
 // cpu::OpeningView::point: lattice point k of count on part `part` of an opening (its lamp
 // at lampPos, rows m0..m2 of its rotation, its table and size) as the texel at p sees it, before
-// the point's shadow ray: its share `value` and the ray's end x, back, r, r2; false when it
-// gives p nothing whatever the ray finds.
+// the point's shadow ray: its share `value`, its geometric share `geom` (the control
+// variate's) and the ray's end x, back, r, r2; false when it gives p nothing whatever the ray
+// finds.
 bool luxOpeningPoint(LuxOpening o, vec3 lampPos, vec3 m0, vec3 m1, vec3 m2, int table,
                      ivec2 size, int part, uint k, uint count, uvec2 shift, vec3 receiver,
-                     vec3 p, vec3 n, float off2, out float value, out vec3 x, out vec3 back,
-                     out float r, out float r2) {
+                     vec3 p, vec3 n, float off2, out float value, out float geom, out vec3 x,
+                     out vec3 back, out float r, out float r2) {
     value = 0.0;
+    geom = 0.0;
     x = vec3(0.0);
     back = vec3(0.0);
     r = 0.0;
@@ -57,6 +59,7 @@ bool luxOpeningPoint(LuxOpening o, vec3 lampPos, vec3 m0, vec3 m1, vec3 m2, int 
     }
     float r2e = max(max(r2, off2), weight / (LUX_PI * float(count)));
     value = intensity * cosX * weight / area * cosP / r2e;
+    geom = cosX * weight * cosP / r2;
     return true;
 }
 
@@ -90,21 +93,45 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
         return 0.0;
     }
     float value;
+    float geom;
     vec3 x;
     vec3 back;
     float r;
     float r2;
-    // cpu::sees_all.
+    // cpu::sees_all, and where every probe sees the opening, cpu::control: each rectangle's
+    // share from its probes alone (cvParts: those parts; cvSum: the shares of those whose first
+    // point is this chunk's).
     int occluder = -1;
     bool trace = true;
+    uint cvParts = 0u;
+    float cvSum = 0.0;
     if (u_probe_stride > 1u) {
+        // The receiver's normal in the photometric frame.
+        vec3 normal = vec3(luxDot(m0, n), luxDot(m1, n), luxDot(m2, n));
         bool seen = false;
         bool blocked = false;
+        uint base = 0u;
         for (int part = 0; part < 6 && !blocked; ++part) {
             uint count = counts[part];
+            uint lo = min(first - min(first, base), count);
+            uint hi = min(end - min(end, base), count);
+            base += count;
+            if (count == 0u) {
+                continue;
+            }
+            float g;
+            vec3 toward;
+            bool cv = luxRectangleControl(o, part, receiver, normal, g, toward);
+            float area = cv ? luxOpeningProjectedArea(o, toward) : 0.0;
+            float luminance = cv ? luxIesSample(table, size, toward) / area : 0.0;
+            cv = cv && area > 0.0 && luminance > 0.0 && luxFinite(luminance);
+            float residual = 0.0;
+            float square = 0.0;
+            uint probes = 0u;
             for (uint k = 0u; k < count; k += u_probe_stride) {
                 if (!luxOpeningPoint(o, lampPos, m0, m1, m2, table, size, part, k, count, shift,
-                                     receiver, p, n, off2, value, x, back, r, r2)) {
+                                     receiver, p, n, off2, value, geom, x, back, r, r2)) {
+                    cv = false;
                     continue;
                 }
                 if (!luxSees(p, n, o0, off2, x, back, r, r2, occluder)) {
@@ -112,11 +139,32 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
                     break;
                 }
                 seen = true;
+                float d = value - luminance * geom;
+                residual += d;
+                square += d * d;
+                probes += 1u;
+            }
+            // The probes' own estimate of their mean's error (cpu::control).
+            float nf = float(probes);
+            float estimate = luminance * g + residual / nf;
+            float mean = residual / nf;
+            float variance = max(square / nf - mean * mean, 0.0) / (nf - 1.0);
+            cv = cv && probes >= LUX_CONTROL_MIN_PROBES &&
+                 variance <= LUX_CONTROL_MAX_ERROR * LUX_CONTROL_MAX_ERROR * estimate * estimate;
+            if (cv && !blocked) {
+                cvParts |= 1u << uint(part);
+                if (lo == 0u && hi > 0u) {
+                    cvSum += estimate;
+                }
             }
         }
         trace = blocked || !seen;
     }
-    float sum = 0.0;
+    if (trace) {
+        cvParts = 0u;
+        cvSum = 0.0;
+    }
+    float sum = cvSum;
     // Index of the part's first point among all the opening's.
     uint base = 0u;
     for (int part = 0; part < 6; ++part) {
@@ -126,9 +174,12 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
         uint lo = min(first - min(first, base), count);
         uint hi = min(end - min(end, base), count);
         base += count;
+        if ((cvParts & (1u << uint(part))) != 0u) {
+            continue;
+        }
         for (uint k = lo; k < hi; ++k) {
             if (!luxOpeningPoint(o, lampPos, m0, m1, m2, table, size, part, k, count, shift,
-                                 receiver, p, n, off2, value, x, back, r, r2)) {
+                                 receiver, p, n, off2, value, geom, x, back, r, r2)) {
                 continue;
             }
             if (trace && !luxSees(p, n, o0, off2, x, back, r, r2, occluder)) {

@@ -6,11 +6,13 @@
 // lux_pass.points_only = 1 every lamp is a point (the preview of the direct light).
 
 // cpu::OpeningView::point: lattice point k of count on part `part` of lamp li's opening as
-// the texel at p sees it, before the point's shadow ray: its share `value` and the ray's end
-// x, back, r, r2; valid false when it gives p nothing whatever the ray finds.
+// the texel at p sees it, before the point's shadow ray: its share `value`, its geometric
+// share `geom` (the control variate's) and the ray's end x, back, r, r2; valid false when it
+// gives p nothing whatever the ray finds.
 struct LuxOpeningPoint {
     valid: bool,
     value: f32,
+    geom: f32,
     x: vec3<f32>,
     back: vec3<f32>,
     r: f32,
@@ -62,6 +64,7 @@ fn lux_opening_point(li: u32, o: LuxOpening, part: i32, k: u32, count: u32, shif
     let r2e = max(max(r2, off2), s.weight / (LUX_PI * f32(count)));
     res.valid = true;
     res.value = intensity * cos_x * s.weight / area * cos_p / r2e;
+    res.geom = cos_x * s.weight * cos_p / r2;
     res.x = x;
     res.back = back;
     res.r = r;
@@ -96,18 +99,43 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
     if (first >= total) {
         return 0.0;
     }
-    // cpu::sees_all.
+    // cpu::sees_all, and where every probe sees the opening, cpu::control: each rectangle's
+    // share from its probes alone (cv_parts: those parts; cv_sum: the shares of those whose
+    // first point is this chunk's).
     var occluder = -1;
     var trace = true;
+    var cv_parts = 0u;
+    var cv_sum = 0.0;
     let stride = lux_pass.probe_stride;
     if (stride > 1u) {
+        // The receiver's normal in the photometric frame.
+        let normal = vec3<f32>(lux_dot(m0, n), lux_dot(m1, n), lux_dot(m2, n));
         var seen = false;
         var blocked = false;
+        var base = 0u;
         for (var part = 0; part < 6 && !blocked; part++) {
             let count = counts[part];
+            let lo = min(first - min(first, base), count);
+            let hi = min(end - min(end, base), count);
+            base += count;
+            if (count == 0u) {
+                continue;
+            }
+            let control = lux_rectangle_control(o, part, receiver, normal);
+            var cv = control.valid;
+            var luminance = 0.0;
+            if (cv) {
+                let area = lux_opening_projected_area(o, control.toward);
+                luminance = lux_ies_sample(lamp.table.x, vec2<i32>(lamp.table.yz), control.toward) / area;
+                cv = area > 0.0 && luminance > 0.0 && lux_finite(luminance);
+            }
+            var residual = 0.0;
+            var square = 0.0;
+            var probes = 0u;
             for (var k = 0u; k < count; k += stride) {
                 let pt = lux_opening_point(li, o, part, k, count, shift, receiver, p, n, off2);
                 if (!pt.valid) {
+                    cv = false;
                     continue;
                 }
                 if (!lux_sees(p, n, o0, off2, pt.x, pt.back, pt.r, pt.r2, &occluder)) {
@@ -115,11 +143,32 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
                     break;
                 }
                 seen = true;
+                let d = pt.value - luminance * pt.geom;
+                residual += d;
+                square += d * d;
+                probes += 1u;
+            }
+            // The probes' own estimate of their mean's error (cpu::control).
+            let nf = f32(probes);
+            let estimate = luminance * control.g + residual / nf;
+            let mean = residual / nf;
+            let variance = max(square / nf - mean * mean, 0.0) / (nf - 1.0);
+            cv = cv && probes >= LUX_CONTROL_MIN_PROBES
+                && variance <= LUX_CONTROL_MAX_ERROR * LUX_CONTROL_MAX_ERROR * estimate * estimate;
+            if (cv && !blocked) {
+                cv_parts |= 1u << u32(part);
+                if (lo == 0u && hi > 0u) {
+                    cv_sum += estimate;
+                }
             }
         }
         trace = blocked || !seen;
     }
-    var sum = 0.0;
+    if (trace) {
+        cv_parts = 0u;
+        cv_sum = 0.0;
+    }
+    var sum = cv_sum;
     // Index of the part's first point among all the opening's.
     var base = 0u;
     for (var part = 0; part < 6; part++) {
@@ -129,6 +178,9 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
         let lo = min(first - min(first, base), count);
         let hi = min(end - min(end, base), count);
         base += count;
+        if ((cv_parts & (1u << u32(part))) != 0u) {
+            continue;
+        }
         for (var k = lo; k < hi; k++) {
             let pt = lux_opening_point(li, o, part, k, count, shift, receiver, p, n, off2);
             if (!pt.valid) {
