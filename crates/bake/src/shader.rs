@@ -165,7 +165,7 @@ pub fn glsl_prefix(program: Program, bvh: BvhMode) -> String {
 
 /// The generated constants after the BVH layout's, in order: the traversal ids and the choice
 /// `bvh`, the blur constants, the sampler ids, the RNG passes, the lattice step, the opening's
-/// control variate's bound and fewest probes, the narrow
+/// control variate's bounds and fewest probes, the narrow
 /// texels' position w and the cells per side of the density proxy's grid; each a name, its
 /// type and its value as both languages write it.
 fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
@@ -205,6 +205,11 @@ fn constants(bvh: BvhMode) -> Vec<(String, Scalar, String)> {
     c.push(uint(
         "LUX_CONTROL_MIN_PROBES".into(),
         crate::opening::CONTROL_MIN_PROBES,
+    ));
+    c.push((
+        "LUX_CONTROL_MAX_CANCELLATION".to_string(),
+        Scalar::F32,
+        format!("{:?}", crate::opening::CONTROL_MAX_CANCELLATION),
     ));
 
     c.push((

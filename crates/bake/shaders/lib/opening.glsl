@@ -315,7 +315,8 @@ float luxOpeningProjectedArea(LuxOpening o, vec3 w) {
 // opening::rectangle_control: flat part `part` of a box's geometric integral
 // G = ∫ cos θx · cos θp / r² dA toward a receiver with unit normal n (both photometric), by
 // Lambert's formula over its four corners, and the unit direction from its centre toward the
-// receiver; false for a part that is no rectangle or that the receiver does not see wholly.
+// receiver; false for a part that is no rectangle, that the receiver does not see wholly, or
+// whose formula's terms cancel too much.
 bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
                          out vec3 toward) {
     g = 0.0;
@@ -341,6 +342,7 @@ bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out floa
         return false;
     }
     float sum = 0.0;
+    float magnitude = 0.0;
     bool ok = true;
     for (int e = 0; e < 4; ++e) {
         vec3 a = e == 0 ? v0 : (e == 1 ? v1 : (e == 2 ? v2 : v3));
@@ -348,8 +350,12 @@ bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out floa
         vec3 c = vec3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
         float len = sqrt(luxDot(c, c));
         ok = ok && len > 0.0;
-        sum += luxAtan2(len, luxDot(a, b)) * (luxDot(n, c) / len);
+        float term = luxAtan2(len, luxDot(a, b)) * (luxDot(n, c) / len);
+        sum += term;
+        magnitude += abs(term);
     }
+    // Terms that cancel past single precision (opening::CONTROL_MAX_CANCELLATION).
+    ok = ok && magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum);
     g = 0.5 * abs(sum);
     vec3 centre = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(0.0))) - receiver;
     float d = sqrt(luxDot(centre, centre));

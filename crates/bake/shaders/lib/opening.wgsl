@@ -320,6 +320,7 @@ fn lux_rectangle_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<
         lux_rectangle_corner(o, f, plane, vec2<f32>(-f.ext.x, f.ext.y), receiver),
     );
     var sum = 0.0;
+    var magnitude = 0.0;
     var ok = true;
     for (var e = 0; e < 4; e++) {
         let a = v[e];
@@ -328,8 +329,12 @@ fn lux_rectangle_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<
         let c = vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
         let len = sqrt(lux_dot(c, c));
         ok = ok && len > 0.0;
-        sum += lux_atan2(len, lux_dot(a, b)) * (lux_dot(n, c) / len);
+        let term = lux_atan2(len, lux_dot(a, b)) * (lux_dot(n, c) / len);
+        sum += term;
+        magnitude += abs(term);
     }
+    // Terms that cancel past single precision (opening::CONTROL_MAX_CANCELLATION).
+    ok = ok && magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum);
     let g = 0.5 * abs(sum);
     let centre = lux_rectangle_corner(o, f, plane, vec2<f32>(0.0), receiver);
     let d = sqrt(lux_dot(centre, centre));

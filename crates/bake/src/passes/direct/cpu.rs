@@ -457,12 +457,13 @@ pub(crate) fn from_opening(
         let normal = [dot(m[0], start.n), dot(m[1], start.n), dot(m[2], start.n)];
         let (mut cv_parts, mut sum) = (0u32, 0.0f32);
         let mut base = 0u32;
-        for (part, &count) in counts.iter().enumerate() {
+        let cv_counts = if rectangles && !trace { &counts[..] } else { &[] };
+        for (part, &count) in cv_counts.iter().enumerate() {
             let first = base as usize;
             let lo = range[0].saturating_sub(base).min(count);
             let hi = range[1].saturating_sub(base).min(count);
             base = base.saturating_add(count);
-            if trace || count == 0 {
+            if count == 0 {
                 continue;
             }
             let probes = &points[first..first + count as usize];
