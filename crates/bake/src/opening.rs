@@ -49,11 +49,11 @@
 //! Calculation points (`crate::probe::direct_at`) cast every ray.
 //!
 //! # Control variate
-//! Where a texel's probes all see the opening, a box's rectangle is not summed over its points:
-//! its share is estimated from its probes alone with the control variate
-//! `g(x) = L_c·cos θ_x·cos θ_p / r²`, `L_c` the part's luminance toward the receiver from the
-//! part's centre, whose integral `L_c·G` has a closed form ([`rectangle_control`]: Lambert's
-//! formula for a polygon):
+//! Where a texel's probes all see the opening, a box's rectangle or a cylinder's circular end
+//! is not summed over its points: its share is estimated from its probes alone with the control
+//! variate `g(x) = L_c·cos θ_x·cos θ_p / r²`, `L_c` the part's luminance toward the receiver
+//! from the part's centre, whose integral `L_c·G` has a closed form ([`part_control`]:
+//! Lambert's formula for a polygon, [`rectangle_control`], or on a circle, [`disk_control`]):
 //!
 //! ```text
 //! E_j ≈ L_c·G + 1/P · Σ_probes (value_k − L_c·geom_k)
@@ -69,13 +69,13 @@
 //! not. So the probes judge themselves: the part takes their estimate only where the standard
 //! error of their residuals' mean, from their scatter, is at most [`CONTROL_MAX_ERROR`] of it
 //! (with at least [`CONTROL_MIN_PROBES`] probes); the other points of such a part are neither
-//! evaluated nor summed. Elsewhere — a cylinder's or an ellipsoid's parts, a rectangle partly
-//! behind the receiver's plane or whose formula's terms cancel ([`CONTROL_MAX_CANCELLATION`]),
-//! a probe that gives the texel nothing, a luminance toward it that is not positive, probes
-//! that scatter — every point is summed as above. (A disk's closed form, Lambert's formula on
-//! its contour by the trapezoidal rule, was built and measured: the near-field room of disks
-//! read as before against Radiance, its CPU direct pass took 1.21× as long and glow's 0.98×,
-//! so it is not kept.)
+//! evaluated nor summed. Elsewhere — a cylinder's mantle, an elliptical end, an ellipsoid, a
+//! part partly behind the receiver's plane or whose formula's terms cancel
+//! ([`CONTROL_MAX_CANCELLATION`]), a probe that gives the texel nothing, a luminance toward it
+//! that is not positive, probes that scatter — every point is summed as above. (The disk's
+//! form was first computed by the trapezoidal rule on its rim, 32 nodes: its CPU direct pass
+//! took 1.21× as long, so it was not kept; [`disk_control`]'s integral of the rim in closed
+//! form costs a square root.)
 //!
 //! # Where it is used
 //! [`OpeningParams::near`]: texels nearer the lamp's photometric centre than that evaluate the
@@ -626,11 +626,7 @@ pub fn rectangle_control(
     if o.kind != 0 {
         return None;
     }
-    let (axis, side, ext, _) = flat_part(o, part)?;
-    if !(height_over(o, part, to_solid(o.axis, receiver)) > 0.0) {
-        return None;
-    }
-    let plane = side * o.half[axis];
+    let (axis, plane, _, ext) = facing(o, part, receiver)?;
     let (i, j) = in_plane(axis);
     let at = |x: f32, y: f32| {
         let mut c = [0.0f32; 3];
@@ -660,17 +656,118 @@ pub fn rectangle_control(
         sum += term;
         magnitude += term.abs();
     }
+    closed_form([sum, magnitude], 0.5 * sum.abs(), at(0.0, 0.0))
+}
+
+/// A flat part that a receiver (photometric frame) lies in front of: the axis of its normal
+/// in (u, v, w), its plane's coordinate there, its side (±1) and its half-extents; `None` for
+/// a curved part or a receiver on or behind the plane.
+fn facing(
+    o: &OpeningParams,
+    part: usize,
+    receiver: [f32; 3],
+) -> Option<(usize, f32, f32, [f32; 2])> {
+    let (axis, side, ext, _) = flat_part(o, part)?;
+    (height_over(o, part, to_solid(o.axis, receiver)) > 0.0).then_some((
+        axis,
+        side * o.half[axis],
+        side,
+        ext,
+    ))
+}
+
+/// A closed form `g` whose terms sum to `sum` with magnitudes adding to `magnitude`, and the
+/// unit direction toward the receiver from the part's centre (`centre`: the centre less the
+/// receiver); `None` where the terms cancel past [`CONTROL_MAX_CANCELLATION`] or a value is
+/// not finite and positive.
+fn closed_form([sum, magnitude]: [f32; 2], g: f32, centre: [f32; 3]) -> Option<(f32, [f32; 3])> {
     if !(magnitude <= CONTROL_MAX_CANCELLATION * sum.abs()) {
         return None;
     }
-    let g = 0.5 * sum.abs();
-    let centre = at(0.0, 0.0);
     let d = dot(centre, centre).sqrt();
     let toward = [-centre[0] / d, -centre[1] / d, -centre[2] / d];
     (g > 0.0 && g.is_finite() && d > 0.0 && d.is_finite()).then_some((g, toward))
 }
 
-/// How much the terms of [`rectangle_control`]'s closed form may cancel:
+/// A circular flat part's geometric integral toward a receiver ([`rectangle_control`]'s
+/// `G = ∫ cos θ_x · cos θ_p / r² dA` and direction from the part's centre): a cylinder's end
+/// whose semi-axes are equal (a disk of radius `R`), in closed form. Lambert's formula on the
+/// disk's rim, `G = ½·|∮ n·(r × dr) / |r|²|`, with `r = d + R·(u cos t + v sin t)` (`d` the
+/// centre less the receiver, `u`, `v`, `f = u × v` the disk's axes), is a rational function of
+/// `cos t` and `sin t` over a full turn, which integrates to
+///
+/// ```text
+/// G = π R² / s · |n·f − 2·((n·f)·|d|² − (n·d)(d·f)) / (|d|² + R² + s)|,
+/// s = √((|d|² − R²)² + 4 R² (d·f)²)
+/// ```
+///
+/// (`∫ dt / (a + b cos t + c sin t) = 2π / s` and `∫ cos t / (…) dt = −2π b / (s (a + s))`
+/// over a turn, `s² = a² − b² − c²`): on the axis `π R² / (h² + R²)`, far away
+/// `π R² cos θ_x cos θ_p / |d|²`. `None` for a part that is no circle, or that the receiver
+/// does not see wholly: the receiver on or behind the disk's plane, or a point of its rim on or
+/// under the receiver's plane (`n·d ≤ R·√(1 − (n·f)²)`), or terms that cancel past
+/// [`CONTROL_MAX_CANCELLATION`] (far away at a grazing angle).
+pub fn disk_control(
+    o: &OpeningParams,
+    part: usize,
+    receiver: [f32; 3],
+    normal: [f32; 3],
+) -> Option<(f32, [f32; 3])> {
+    if o.kind != 1 {
+        return None;
+    }
+    let (axis, plane, side, [radius, other]) = facing(o, part, receiver)?;
+    if radius != other {
+        return None;
+    }
+    let mut c = [0.0f32; 3];
+    c[axis] = plane;
+    let mut f = [0.0f32; 3];
+    f[axis] = side;
+    let d = crate::exact::sub(to_photometric(o.axis, c), receiver);
+    let f = to_photometric(o.axis, f);
+    let (nf, nd, df, dd) = (dot(normal, f), dot(normal, d), dot(d, f), dot(d, d));
+    if !(nd - radius * (1.0 - nf * nf).max(0.0).sqrt() > 0.0) {
+        return None;
+    }
+    let r2 = radius * radius;
+    let q = dd - r2;
+    let s = (q * q + 4.0 * r2 * (df * df)).sqrt();
+    let denominator = dd + r2 + s;
+    let inner = nf * dd - nd * df;
+    let sum = nf - 2.0 * inner / denominator;
+    let magnitude = nf.abs() + 2.0 * (nf.abs() * dd + (nd * df).abs()) / denominator;
+    closed_form(
+        [sum, magnitude],
+        std::f32::consts::PI * r2 / s * sum.abs(),
+        d,
+    )
+}
+
+/// The closed form of part `part`'s geometric integral toward a receiver, where it has one:
+/// [`rectangle_control`] for a box's face, [`disk_control`] for a cylinder's circular end.
+pub fn part_control(
+    o: &OpeningParams,
+    part: usize,
+    receiver: [f32; 3],
+    normal: [f32; 3],
+) -> Option<(f32, [f32; 3])> {
+    match o.kind {
+        0 => rectangle_control(o, part, receiver, normal),
+        _ => disk_control(o, part, receiver, normal),
+    }
+}
+
+/// Whether part `part` of `o` has a closed form ([`part_control`]) toward some receiver: a
+/// box's faces, a cylinder's ends whose semi-axes are equal.
+pub fn has_control(o: &OpeningParams, part: usize) -> bool {
+    match flat_part(o, part) {
+        Some((_, _, [a, b], ellipse)) => !ellipse || a == b,
+        None => false,
+    }
+}
+
+/// How much the terms of [`rectangle_control`]'s and [`disk_control`]'s closed forms may cancel:
 /// the sum of their magnitudes at most this many times the magnitude of their sum. Lambert's
 /// formula sums terms of about the part's size over its distance into the part's solid angle,
 /// times the cosines: for a small part seen from afar, or at a grazing angle, most of them
@@ -1021,16 +1118,17 @@ mod tests {
         sum
     }
 
-    /// The closed form of the control variate ([`rectangle_control`]) against the geometric
+    /// The closed forms of the control variate ([`part_control`]) against the geometric
     /// integral `∫ max(0, cos θ_x)·max(0, cos θ_p) / r² dA` summed over 2¹⁶ lattice points of
-    /// the part in f64: every face of a box and a linear pendant's one rectangle along each
-    /// photometric axis, receivers from 0.2 to 3 m in every direction with every normal. Where
-    /// the closed form is given it is within 2·10⁻⁴; it is refused where the part is partly
-    /// behind the receiver's plane (the integral's cosine clips it) or the receiver behind the
-    /// part, where its terms cancel ([`CONTROL_MAX_CANCELLATION`]: a small part far away or at
-    /// a grazing angle), and for a cylinder's ends.
+    /// the part in f64: every face of a box and a linear pendant's one rectangle, a cylinder's
+    /// and a flat disk's circular ends, along each photometric axis, receivers from 0.2 to 3 m
+    /// in every direction with every normal. Where a closed form is given it is within
+    /// 2·10⁻⁴; it is refused where the part is partly behind the receiver's plane (the
+    /// integral's cosine clips it) or the receiver behind the part, where its terms cancel
+    /// ([`CONTROL_MAX_CANCELLATION`]: a small part far away or at a grazing angle), and for an
+    /// elliptical end.
     #[test]
-    fn rectangle_controls_are_the_parts_geometric_integral() {
+    fn part_controls_are_the_parts_geometric_integral() {
         let mut state = 0x9e37_79b9u32;
         let mut uniform = || {
             state = rng::pcg(state);
@@ -1040,12 +1138,16 @@ mod tests {
             let l = dot(v, v).sqrt();
             [v[0] / l, v[1] / l, v[2] / l]
         };
-        let (mut given, mut refused, mut cancelled) = (0usize, 0usize, 0usize);
+        let bound = f64::from(CONTROL_MAX_CANCELLATION);
+        // Given, refused, refused for the terms' cancelling: rectangles, disks.
+        let mut tally = [[0usize; 3]; 2];
         for axis in 0..3 {
             for o in [
                 params(0, axis, 7, [0.3, 0.05, 0.04]),
                 params(0, axis, 1, [0.03, 0.31, 0.0]),
                 params(1, axis, 3, [0.1, 0.06, 0.05]),
+                params(1, axis, 7, [0.08, 0.08, 0.05]),
+                params(1, axis, 1, [0.11, 0.11, 0.0]),
             ] {
                 let parts = if o.kind == 0 { 6 } else { 2 };
                 for _ in 0..80 {
@@ -1054,6 +1156,9 @@ mod tests {
                     let receiver = dir.map(|c| c * reach);
                     let normal = unit([uniform() - 0.5, uniform() - 0.5, uniform() - 0.5]);
                     for part in 0..parts {
+                        if part_areas(&o)[part] == 0.0 {
+                            continue;
+                        }
                         let n = 1u32 << 16;
                         let mut brute = 0.0f64;
                         let mut clipped = false;
@@ -1072,10 +1177,13 @@ mod tests {
                             brute += cos_x.max(0.0) * cos_p.max(0.0) / r2 * f64::from(x.weight);
                         }
                         brute /= f64::from(n);
-                        let behind = !(height_over(&o, part, to_solid(o.axis, receiver)) > 0.0);
-                        match rectangle_control(&o, part, receiver, normal) {
+                        let solid = to_solid(o.axis, receiver);
+                        let behind = !(height_over(&o, part, solid) > 0.0);
+                        let tally = &mut tally[o.kind as usize];
+                        match part_control(&o, part, receiver, normal) {
                             Some((g, toward)) => {
-                                given += 1;
+                                tally[0] += 1;
+                                assert!(has_control(&o, part));
                                 assert!(!clipped && !behind, "{o:?} part {part} from {receiver:?}");
                                 let g = f64::from(g);
                                 assert!(
@@ -1086,16 +1194,29 @@ mod tests {
                                 assert!((dot(toward, toward) - 1.0).abs() < 1e-5);
                             }
                             None => {
-                                refused += 1;
-                                // The part's solid angle times the cosines over its size over
-                                // the distance: the terms cancel more than allowed.
+                                tally[1] += 1;
+                                // Rectangle: the part's solid angle times the cosines over its
+                                // size over the distance. Disk: `G·s / (π R²)` is the sum of
+                                // terms whose magnitudes add to at most 5. Either way the terms
+                                // cancel more than allowed.
                                 let size = f64::from(o.half[0].max(o.half[1]).max(o.half[2]));
-                                let cancels = brute * f64::from(reach) / size
-                                    < 2.0 / f64::from(CONTROL_MAX_CANCELLATION);
-                                cancelled +=
-                                    usize::from(o.kind == 0 && cancels && !clipped && !behind);
+                                let cancels = if o.kind == 0 {
+                                    brute * f64::from(reach) / size < 2.0 / bound
+                                } else {
+                                    let radius = f64::from(o.half[0]);
+                                    let h = f64::from(o.half[2]);
+                                    let w = if part == 0 { -h } else { h };
+                                    let [u, v, z] = solid.map(f64::from);
+                                    let dd = u * u + v * v + (z - w) * (z - w);
+                                    let q = dd - radius * radius;
+                                    let s =
+                                        (q * q + 4.0 * radius * radius * (z - w) * (z - w)).sqrt();
+                                    brute * s / (std::f64::consts::PI * radius * radius)
+                                        < 10.0 / bound
+                                };
+                                tally[2] += usize::from(cancels && !clipped && !behind);
                                 assert!(
-                                    o.kind != 0 || clipped || behind || cancels,
+                                    !has_control(&o, part) || clipped || behind || cancels,
                                     "{o:?} part {part} from {receiver:?}, normal {normal:?}: \
                                      refused, the integral {brute}"
                                 );
@@ -1105,10 +1226,13 @@ mod tests {
                 }
             }
         }
-        assert!(
-            given > 200 && refused > 200 && cancelled > 0,
-            "{given} given, {refused} refused ({cancelled} for their terms' cancelling)"
-        );
+        for (kind, [given, refused, cancelled]) in tally.into_iter().enumerate() {
+            assert!(
+                given > 100 && refused > 200 && cancelled > 0,
+                "kind {kind}: {given} given, {refused} refused ({cancelled} for their terms' \
+                 cancelling)"
+            );
+        }
     }
 
     #[test]

@@ -312,6 +312,34 @@ float luxOpeningProjectedArea(LuxOpening o, vec3 w) {
     return PI * sqrt(x * x + y * y + z * z);
 }
 
+// opening::facing: a flat part that the receiver lies in front of (the axis of its normal,
+// its plane's coordinate, its side, its half-extents); false for a curved part or a receiver on
+// or behind its plane.
+bool luxFacing(LuxOpening o, int part, vec3 receiver, out int axis, out float plane,
+               out float side, out vec2 ext) {
+    bool ellipse;
+    plane = 0.0;
+    if (!luxFlatPart(o, part, axis, side, ext, ellipse)) {
+        return false;
+    }
+    vec3 r = luxToSolid(o.axis, receiver);
+    plane = side * luxPick(o.halfAxes, axis);
+    return side * (luxPick(r, axis) - plane) > 0.0;
+}
+
+// opening::closed_form: a closed form gIn whose terms sum to `sum` with magnitudes adding to
+// `magnitude`, and the unit direction toward the receiver from the part's centre (`centre`:
+// the centre less the receiver); false where the terms cancel past
+// opening::CONTROL_MAX_CANCELLATION or a value is not finite and positive.
+bool luxClosedForm(float sum, float magnitude, float gIn, vec3 centre, out float g,
+                   out vec3 toward) {
+    g = gIn;
+    float d = sqrt(luxDot(centre, centre));
+    toward = vec3(-centre.x / d, -centre.y / d, -centre.z / d);
+    return magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum) && g > 0.0 && luxFinite(g) &&
+           d > 0.0 && luxFinite(d);
+}
+
 // opening::rectangle_control: flat part `part` of a box's geometric integral
 // G = ∫ cos θx · cos θp / r² dA toward a receiver with unit normal n (both photometric), by
 // Lambert's formula over its four corners, and the unit direction from its centre toward the
@@ -322,15 +350,10 @@ bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out floa
     g = 0.0;
     toward = vec3(0.0);
     int axis;
+    float plane;
     float side;
     vec2 ext;
-    bool ellipse;
-    if (o.kind != 0 || !luxFlatPart(o, part, axis, side, ext, ellipse)) {
-        return false;
-    }
-    vec3 r = luxToSolid(o.axis, receiver);
-    float plane = side * luxPick(o.halfAxes, axis);
-    if (!(side * (luxPick(r, axis) - plane) > 0.0)) {
+    if (o.kind != 0 || !luxFacing(o, part, receiver, axis, plane, side, ext)) {
         return false;
     }
     vec3 v0 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(-ext.x, -ext.y))) - receiver;
@@ -354,13 +377,52 @@ bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out floa
         sum += term;
         magnitude += abs(term);
     }
-    // Terms that cancel past single precision (opening::CONTROL_MAX_CANCELLATION).
-    ok = ok && magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum);
-    g = 0.5 * abs(sum);
     vec3 centre = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(0.0))) - receiver;
-    float d = sqrt(luxDot(centre, centre));
-    toward = vec3(-centre.x / d, -centre.y / d, -centre.z / d);
-    return ok && g > 0.0 && luxFinite(g) && d > 0.0 && luxFinite(d);
+    return luxClosedForm(sum, magnitude, 0.5 * abs(sum), centre, g, toward) && ok;
+}
+
+// opening::disk_control: a cylinder's circular end's geometric integral toward a receiver
+// with unit normal n, in closed form (Lambert's formula on its rim), and the unit direction from
+// its centre toward the receiver; false for a part that is no circle, that the receiver does
+// not see wholly, or whose formula's terms cancel too much.
+bool luxDiskControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
+                    out vec3 toward) {
+    g = 0.0;
+    toward = vec3(0.0);
+    int axis;
+    float plane;
+    float side;
+    vec2 ext;
+    if (o.kind != 1 || !luxFacing(o, part, receiver, axis, plane, side, ext) || ext.x != ext.y) {
+        return false;
+    }
+    float radius = ext.x;
+    vec3 d = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(0.0))) - receiver;
+    vec3 f = luxToPhotometric(o.axis, luxPlace(axis, side, vec2(0.0)));
+    float nf = luxDot(n, f);
+    float nd = luxDot(n, d);
+    float df = luxDot(d, f);
+    float dd = luxDot(d, d);
+    if (!(nd - radius * sqrt(max(1.0 - nf * nf, 0.0)) > 0.0)) {
+        return false;
+    }
+    float r2 = radius * radius;
+    float q = dd - r2;
+    float s = sqrt(q * q + 4.0 * r2 * (df * df));
+    float denominator = dd + r2 + s;
+    float inner = nf * dd - nd * df;
+    float sum = nf - 2.0 * inner / denominator;
+    float magnitude = abs(nf) + 2.0 * (abs(nf) * dd + abs(nd * df)) / denominator;
+    return luxClosedForm(sum, magnitude, LUX_PI * r2 / s * abs(sum), d, g, toward);
+}
+
+// opening::part_control: a box's face's or a cylinder's circular end's closed form.
+bool luxPartControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
+                    out vec3 toward) {
+    if (o.kind == 0) {
+        return luxRectangleControl(o, part, receiver, n, g, toward);
+    }
+    return luxDiskControl(o, part, receiver, n, g, toward);
 }
 
 // opening::shift and opening::lattice.

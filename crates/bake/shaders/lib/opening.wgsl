@@ -301,18 +301,37 @@ fn lux_rectangle_corner(o: LuxOpening, f: LuxFlatPart, plane: f32, xy: vec2<f32>
     return lux_to_photometric(o.axis, c) - receiver;
 }
 
+// opening::facing: a flat part that the receiver lies in front of; `flat` false for a curved
+// part or a receiver on or behind its plane (`f.side * o.half_axes[f.axis]`).
+fn lux_facing(o: LuxOpening, part: i32, receiver: vec3<f32>) -> LuxFlatPart {
+    var f = lux_flat_part(o, part);
+    let r = lux_to_solid(o.axis, receiver);
+    f.flat = f.flat && f.side * (r[f.axis] - f.side * o.half_axes[f.axis]) > 0.0;
+    return f;
+}
+
+// opening::closed_form: a closed form g whose terms sum to `sum` with magnitudes adding to
+// `magnitude`, and the unit direction toward the receiver from the part's centre (`centre`:
+// the centre less the receiver); `valid` false where the terms cancel past
+// opening::CONTROL_MAX_CANCELLATION or a value is not finite and positive.
+fn lux_closed_form(sum: f32, magnitude: f32, g: f32, centre: vec3<f32>) -> LuxControl {
+    var res: LuxControl;
+    let d = sqrt(lux_dot(centre, centre));
+    res.valid = magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum) && g > 0.0 && lux_finite(g) &&
+        d > 0.0 && lux_finite(d);
+    res.g = g;
+    res.toward = vec3<f32>(-centre.x / d, -centre.y / d, -centre.z / d);
+    return res;
+}
+
 fn lux_rectangle_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<f32>) -> LuxControl {
     var res: LuxControl;
     res.valid = false;
-    let f = lux_flat_part(o, part);
+    let f = lux_facing(o, part, receiver);
     if (o.kind != 0 || !f.flat) {
         return res;
     }
-    let r = lux_to_solid(o.axis, receiver);
     let plane = f.side * o.half_axes[f.axis];
-    if (!(f.side * (r[f.axis] - plane) > 0.0)) {
-        return res;
-    }
     var v = array<vec3<f32>, 4>(
         lux_rectangle_corner(o, f, plane, vec2<f32>(-f.ext.x, -f.ext.y), receiver),
         lux_rectangle_corner(o, f, plane, vec2<f32>(f.ext.x, -f.ext.y), receiver),
@@ -333,15 +352,45 @@ fn lux_rectangle_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<
         sum += term;
         magnitude += abs(term);
     }
-    // Terms that cancel past single precision (opening::CONTROL_MAX_CANCELLATION).
-    ok = ok && magnitude <= LUX_CONTROL_MAX_CANCELLATION * abs(sum);
-    let g = 0.5 * abs(sum);
     let centre = lux_rectangle_corner(o, f, plane, vec2<f32>(0.0), receiver);
-    let d = sqrt(lux_dot(centre, centre));
-    res.valid = ok && g > 0.0 && lux_finite(g) && d > 0.0 && lux_finite(d);
-    res.g = g;
-    res.toward = vec3<f32>(-centre.x / d, -centre.y / d, -centre.z / d);
+    res = lux_closed_form(sum, magnitude, 0.5 * abs(sum), centre);
+    res.valid = res.valid && ok;
     return res;
+}
+
+// opening::disk_control: a cylinder's circular end's geometric integral toward a receiver
+// with unit normal n, in closed form (Lambert's formula on its rim), and the unit direction from
+// its centre toward the receiver; `valid` false for a part that is no circle, that the receiver
+// does not see wholly, or whose formula's terms cancel too much.
+fn lux_disk_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<f32>) -> LuxControl {
+    var res: LuxControl;
+    res.valid = false;
+    let fp = lux_facing(o, part, receiver);
+    if (o.kind != 1 || !fp.flat || fp.ext.x != fp.ext.y) {
+        return res;
+    }
+    let radius = fp.ext.x;
+    var c = vec3<f32>(0.0);
+    c[fp.axis] = fp.side * o.half_axes[fp.axis];
+    var f = vec3<f32>(0.0);
+    f[fp.axis] = fp.side;
+    let d = lux_to_photometric(o.axis, c) - receiver;
+    f = lux_to_photometric(o.axis, f);
+    let nf = lux_dot(n, f);
+    let nd = lux_dot(n, d);
+    let df = lux_dot(d, f);
+    let dd = lux_dot(d, d);
+    if (!(nd - radius * sqrt(max(1.0 - nf * nf, 0.0)) > 0.0)) {
+        return res;
+    }
+    let r2 = radius * radius;
+    let q = dd - r2;
+    let s = sqrt(q * q + 4.0 * r2 * (df * df));
+    let denominator = dd + r2 + s;
+    let inner = nf * dd - nd * df;
+    let sum = nf - 2.0 * inner / denominator;
+    let magnitude = abs(nf) + 2.0 * (abs(nf) * dd + abs(nd * df)) / denominator;
+    return lux_closed_form(sum, magnitude, LUX_PI * r2 / s * abs(sum), d);
 }
 
 // opening::projected_area: the emitting parts' projected area seen from photometric
@@ -375,6 +424,14 @@ fn lux_opening_projected_area(o: LuxOpening, w: vec3<f32>) -> f32 {
     let y = a * c * s.y;
     let z = a * b * s.z;
     return LUX_PI * sqrt(x * x + y * y + z * z);
+}
+
+// opening::part_control: a box's face's or a cylinder's circular end's closed form.
+fn lux_part_control(o: LuxOpening, part: i32, receiver: vec3<f32>, n: vec3<f32>) -> LuxControl {
+    if (o.kind == 0) {
+        return lux_rectangle_control(o, part, receiver, n);
+    }
+    return lux_disk_control(o, part, receiver, n);
 }
 
 // opening::shift and opening::lattice.

@@ -334,7 +334,7 @@ fn sees_all(
 /// Part `part`'s share where the texel sees the whole opening, estimated with a control
 /// variate ([`crate::opening`], "Control variate"): `L_c·G + mean over the probes of
 /// (value − L_c·geom)`, `G` the part's geometric integral in closed form
-/// ([`opening::rectangle_control`]) and `L_c` the part's luminance toward the receiver from its
+/// ([`opening::part_control`]) and `L_c` the part's luminance toward the receiver from its
 /// centre; `points` the part's views (its probes every `stride`-th). `None` (every point is
 /// summed as before) for a part without the closed form, a luminance there that is not
 /// positive, a probe that gives the texel nothing, fewer than
@@ -349,7 +349,7 @@ fn control(
     points: &[Option<PointView>],
     stride: u32,
 ) -> Option<f32> {
-    let (g, toward) = opening::rectangle_control(view.o, part, receiver, normal)?;
+    let (g, toward) = opening::part_control(view.o, part, receiver, normal)?;
     let area = opening::projected_area(view.o, toward);
     let luminance = view.table.sample(toward) / area;
     if !(area > 0.0 && luminance > 0.0 && luminance.is_finite()) {
@@ -421,12 +421,13 @@ pub(crate) fn from_opening(
     POINTS.with_borrow_mut(|points| {
         // Each part's `count` slots, part after part, each point evaluated once: the probes
         // and the chunk's points at once where no control variate can spare the latter (a
-        // part that is no rectangle: the blocks of eight in the order of the points), else the
-        // probes first, their last block filled up with the chunk's first other points
-        // (`early` of them).
+        // part without a closed form, [`opening::has_control`]: the blocks of eight in the
+        // order of the points), else the probes first, their last block filled up with the
+        // chunk's first other points (`early` of them).
         points.clear();
         let probe = |k: u32| probe_stride > 1 && k.is_multiple_of(probe_stride);
-        let rectangles = o.kind == 0 && probe_stride > 1;
+        let controlled: [bool; 6] =
+            std::array::from_fn(|part| probe_stride > 1 && opening::has_control(o, part));
         let mut early = [0usize; 6];
         let mut base = 0u32;
         for (part, &count) in counts.iter().enumerate() {
@@ -440,7 +441,7 @@ pub(crate) fn from_opening(
             }
             let sampler = opening::PartSampler::new(o, part, Some(receiver));
             let slots = &mut points[first..];
-            if !rectangles {
+            if !controlled[part] {
                 let wanted = (0..count).filter(|&k| probe(k) || (lo..hi).contains(&k));
                 view.fill(&sampler, count, wanted, slots);
                 continue;
@@ -451,19 +452,19 @@ pub(crate) fn from_opening(
             view.fill(&sampler, count, (0..count).step_by(probe_stride as usize).chain(rest), slots);
         }
         let trace = !sees_all(start, scene, trav, points, &counts, probe_stride);
-        // Where the probes all see the opening, each rectangle's share is its control
-        // variate's estimate from its probes alone ([`control`]; `cv_parts`), added by the
-        // chunk of its first point, before the other parts' sums.
+        // Where the probes all see the opening, each share of a part with a closed form is its
+        // control variate's estimate from its probes alone ([`control`]; `cv_parts`), added by
+        // the chunk of its first point, before the other parts' sums.
         let normal = [dot(m[0], start.n), dot(m[1], start.n), dot(m[2], start.n)];
         let (mut cv_parts, mut sum) = (0u32, 0.0f32);
         let mut base = 0u32;
-        let cv_counts = if rectangles && !trace { &counts[..] } else { &[] };
+        let cv_counts = if trace { &[][..] } else { &counts[..] };
         for (part, &count) in cv_counts.iter().enumerate() {
             let first = base as usize;
             let lo = range[0].saturating_sub(base).min(count);
             let hi = range[1].saturating_sub(base).min(count);
             base = base.saturating_add(count);
-            if count == 0 {
+            if count == 0 || !controlled[part] {
                 continue;
             }
             let probes = &points[first..first + count as usize];
@@ -485,8 +486,8 @@ pub(crate) fn from_opening(
                 continue;
             }
             let slots = &mut points[first..first + count as usize];
-            // A rectangle's other points of the chunk than those in their slots.
-            if rectangles {
+            // A controlled part's other points of the chunk than those in their slots.
+            if controlled[part] {
                 let sampler = opening::PartSampler::new(o, part, Some(receiver));
                 let rest = (lo..hi).filter(|&k| !probe(k)).skip(early[part]);
                 view.fill(&sampler, count, rest, slots);

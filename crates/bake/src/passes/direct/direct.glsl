@@ -98,9 +98,9 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
     vec3 back;
     float r;
     float r2;
-    // cpu::sees_all, and where every probe sees the opening, cpu::control: each rectangle's
-    // share from its probes alone (cvParts: those parts; cvSum: the shares of those whose first
-    // point is this chunk's).
+    // cpu::sees_all, and where every probe sees the opening, cpu::control: each share of a
+    // part with a closed form (a rectangle, a disk) from its probes alone (cvParts: those parts;
+    // cvSum: the shares of those whose first point is this chunk's).
     int occluder = -1;
     bool trace = true;
     uint cvParts = 0u;
@@ -121,7 +121,7 @@ float luxFromOpening(int li, LuxOpening o, vec3 p, vec3 n, vec3 o0, float off2, 
             }
             float g;
             vec3 toward;
-            bool cv = luxRectangleControl(o, part, receiver, normal, g, toward);
+            bool cv = luxPartControl(o, part, receiver, normal, g, toward);
             float area = cv ? luxOpeningProjectedArea(o, toward) : 0.0;
             float luminance = cv ? luxIesSample(table, size, toward) / area : 0.0;
             cv = cv && area > 0.0 && luminance > 0.0 && luxFinite(luminance);

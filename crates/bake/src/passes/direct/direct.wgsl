@@ -99,9 +99,9 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
     if (first >= total) {
         return 0.0;
     }
-    // cpu::sees_all, and where every probe sees the opening, cpu::control: each rectangle's
-    // share from its probes alone (cv_parts: those parts; cv_sum: the shares of those whose
-    // first point is this chunk's).
+    // cpu::sees_all, and where every probe sees the opening, cpu::control: each share of a
+    // part with a closed form (a rectangle, a disk) from its probes alone (cv_parts: those
+    // parts; cv_sum: the shares of those whose first point is this chunk's).
     var occluder = -1;
     var trace = true;
     var cv_parts = 0u;
@@ -121,7 +121,7 @@ fn lux_from_opening(li: u32, o: LuxOpening, p: vec3<f32>, n: vec3<f32>, o0: vec3
             if (count == 0u) {
                 continue;
             }
-            let control = lux_rectangle_control(o, part, receiver, normal);
+            let control = lux_part_control(o, part, receiver, normal);
             var cv = control.valid;
             var luminance = 0.0;
             if (cv) {
