@@ -1235,6 +1235,49 @@ mod tests {
         }
     }
 
+    /// The closed forms are scale-free (`G` is a solid angle weighted by cosines): a room at
+    /// ×10⁻³ or ×10³ gives every part the same `G` and direction within single precision's
+    /// rounding, a rectangle and a disk alike, and nothing that is not finite.
+    #[test]
+    fn part_controls_do_not_depend_on_the_scale() {
+        let normal = [0.3f32, 0.9, -0.1];
+        let l = dot(normal, normal).sqrt();
+        let normal = normal.map(|c| c / l);
+        let mut compared = 0;
+        for o in [
+            params(0, 1, 7, [0.3, 0.05, 0.04]),
+            params(1, 1, 1, [0.11, 0.11, 0.0]),
+        ] {
+            for receiver in [[0.4f32, -0.5, 0.2], [-1.3, 0.7, -0.9], [0.05, -2.5, 0.0]] {
+                for part in 0..6 {
+                    let at = |k: f32| {
+                        let scaled = OpeningParams {
+                            half: o.half.map(|h| h * k),
+                            ..o
+                        };
+                        part_control(&scaled, part, receiver.map(|c| c * k), normal)
+                    };
+                    let one = at(1.0);
+                    for k in [1e-3f32, 1e3] {
+                        match (one, at(k)) {
+                            (Some((g, t)), Some((gk, tk))) => {
+                                assert!(
+                                    (gk - g).abs() <= 2e-5 * g,
+                                    "{o:?} {part} ×{k}: {gk} vs {g}"
+                                );
+                                assert!((0..3).all(|c| (tk[c] - t[c]).abs() < 1e-5));
+                                compared += 1;
+                            }
+                            (None, None) => {}
+                            (a, b) => panic!("{o:?} part {part} ×{k}: {a:?} against {b:?}"),
+                        }
+                    }
+                }
+            }
+        }
+        assert!(compared >= 8, "{compared} closed forms compared");
+    }
+
     #[test]
     fn sampling_toward_a_receiver_integrates_each_flat_part() {
         // A box's bottom and its +u side, a disk: the weights average to the part's area from
