@@ -343,19 +343,12 @@ bool luxClosedForm(float sum, float magnitude, float gIn, vec3 centre, out float
 // opening::rectangle_control: flat part `part` of a box's geometric integral
 // G = ∫ cos θx · cos θp / r² dA toward a receiver with unit normal n (both photometric), by
 // Lambert's formula over its four corners, and the unit direction from its centre toward the
-// receiver; false for a part that is no rectangle, that the receiver does not see wholly, or
-// whose formula's terms cancel too much.
-bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
-                         out vec3 toward) {
+// receiver; false for a part that the receiver does not see wholly, or whose formula's terms
+// cancel too much. The face (axis, plane, ext) is luxFacing's.
+bool luxRectangleControl(LuxOpening o, int axis, float plane, vec2 ext, vec3 receiver, vec3 n,
+                         out float g, out vec3 toward) {
     g = 0.0;
     toward = vec3(0.0);
-    int axis;
-    float plane;
-    float side;
-    vec2 ext;
-    if (o.kind != 0 || !luxFacing(o, part, receiver, axis, plane, side, ext)) {
-        return false;
-    }
     vec3 v0 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(-ext.x, -ext.y))) - receiver;
     vec3 v1 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(ext.x, -ext.y))) - receiver;
     vec3 v2 = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(ext.x, ext.y))) - receiver;
@@ -383,20 +376,12 @@ bool luxRectangleControl(LuxOpening o, int part, vec3 receiver, vec3 n, out floa
 
 // opening::disk_control: a cylinder's circular end's geometric integral toward a receiver
 // with unit normal n, in closed form (Lambert's formula on its rim), and the unit direction from
-// its centre toward the receiver; false for a part that is no circle, that the receiver does
-// not see wholly, or whose formula's terms cancel too much.
-bool luxDiskControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
-                    out vec3 toward) {
+// its centre toward the receiver; false for a part that the receiver does not see wholly, or
+// whose formula's terms cancel too much. The end (axis, plane, side, its radius) is luxFacing's.
+bool luxDiskControl(LuxOpening o, int axis, float plane, float side, float radius,
+                    vec3 receiver, vec3 n, out float g, out vec3 toward) {
     g = 0.0;
     toward = vec3(0.0);
-    int axis;
-    float plane;
-    float side;
-    vec2 ext;
-    if (o.kind != 1 || !luxFacing(o, part, receiver, axis, plane, side, ext) || ext.x != ext.y) {
-        return false;
-    }
-    float radius = ext.x;
     vec3 d = luxToPhotometric(o.axis, luxPlace(axis, plane, vec2(0.0))) - receiver;
     vec3 f = luxToPhotometric(o.axis, luxPlace(axis, side, vec2(0.0)));
     float nf = luxDot(n, f);
@@ -416,13 +401,24 @@ bool luxDiskControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
     return luxClosedForm(sum, magnitude, LUX_PI * r2 / s * abs(sum), d, g, toward);
 }
 
-// opening::part_control: a box's face's or a cylinder's circular end's closed form.
+// opening::part_control: a box's face's or a cylinder's circular end's closed form; false for
+// any other part and where the receiver is not in front of it.
 bool luxPartControl(LuxOpening o, int part, vec3 receiver, vec3 n, out float g,
                     out vec3 toward) {
-    if (o.kind == 0) {
-        return luxRectangleControl(o, part, receiver, n, g, toward);
+    g = 0.0;
+    toward = vec3(0.0);
+    int axis;
+    float plane;
+    float side;
+    vec2 ext;
+    if (!luxFacing(o, part, receiver, axis, plane, side, ext)) {
+        return false;
     }
-    return luxDiskControl(o, part, receiver, n, g, toward);
+    if (o.kind == 0) {
+        return luxRectangleControl(o, axis, plane, ext, receiver, n, g, toward);
+    }
+    return o.kind == 1 && ext.x == ext.y &&
+           luxDiskControl(o, axis, plane, side, ext.x, receiver, n, g, toward);
 }
 
 // opening::shift and opening::lattice.
