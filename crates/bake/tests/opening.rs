@@ -182,9 +182,10 @@ fn max_luminance(p: &Photometry) -> f64 {
 #[test]
 fn openings_touching_a_ceiling_or_a_wall_stay_finite_and_bounded() {
     let test = "opening_extremes";
-    let (Some(box_pendant), Some(sconce)) = (
+    let (Some(box_pendant), Some(sconce), Some(disk)) = (
         photometry(test, "photometry/real-world/rw_1.IES"),
         photometry(test, "photometry/real-world/rw_8.IES"),
+        photometry(test, "photometry/real-world/rw_2.IES"),
     ) else {
         return;
     };
@@ -209,6 +210,9 @@ fn openings_touching_a_ceiling_or_a_wall_stay_finite_and_bounded() {
             sconce.clone(),
             [2.0 - sconce_depth - 1e-3, 1.6, 0.5],
         ),
+        // A flat disk that lights up and down (its closed form where the texels see it whole)
+        // 0.5 mm under the ceiling.
+        Lamp::new("disk", disk.clone(), [-1.2, 2.6 - 5e-4, -0.8]),
     ];
     for l in &mut lamps {
         l.model = LampModel::Area;
@@ -227,7 +231,8 @@ fn openings_touching_a_ceiling_or_a_wall_stay_finite_and_bounded() {
     };
     let out = run(&scene);
     assert_finite(&out);
-    let bound = std::f64::consts::PI * (max_luminance(&box_pendant) + max_luminance(&sconce));
+    let bound = std::f64::consts::PI
+        * (max_luminance(&box_pendant) + max_luminance(&sconce) + max_luminance(&disk));
     let mut peak = 0.0f64;
     for m in &out.maps {
         for t in m.illuminance().texels.chunks_exact(4) {
@@ -263,18 +268,25 @@ fn openings_touching_a_ceiling_or_a_wall_stay_finite_and_bounded() {
 
 #[test]
 fn an_opening_far_from_the_origin_bakes_as_at_the_origin() {
-    let Some(linear) = photometry("opening_far_from_origin", "photometry/real-world/rw_5.IES")
-    else {
+    let test = "opening_far_from_origin";
+    let (Some(linear), Some(disk)) = (
+        photometry(test, "photometry/real-world/rw_5.IES"),
+        photometry(test, "photometry/real-world/rw_6.IES"),
+    ) else {
         return;
     };
     let at = |offset: [f64; 3]| {
-        let mut l = Lamp::new(
-            "pendant",
-            linear.clone(),
-            [offset[0], 1.3 + offset[1], offset[2]],
-        );
-        l.model = LampModel::Area;
-        let mut scene = dining(vec![l], 12.0, 48);
+        // A linear pendant over the table and a disk beside it.
+        let lamps = [(&linear, [0.0, 1.3, 0.0]), (&disk, [1.4, 1.1, 0.6])].map(|(p, at)| {
+            let mut l = Lamp::new(
+                "pendant",
+                p.clone(),
+                [offset[0] + at[0], at[1] + offset[1], offset[2] + at[2]],
+            );
+            l.model = LampModel::Area;
+            l
+        });
+        let mut scene = dining(lamps.to_vec(), 12.0, 48);
         for o in &mut scene.objects {
             o.transform.translation = offset;
         }
