@@ -991,9 +991,9 @@ mod tests {
                                     lit += usize::from(scalar.is_some());
                                 }
                             }
-                            // The blocks as the pass takes them: whole blocks, then the
-                            // remainder point by point: the probes (every fifth here), then a
-                            // chunk's range.
+                            // The blocks as the pass fills them: the probes (every fifth
+                            // here) eight at a time, the last block padded, then a chunk's
+                            // other points.
                             let wanted = |k: u32| k.is_multiple_of(5) || (count / 3..count / 2).contains(&k);
                             let mut out: Vec<Option<PointView>> = (0..count).map(|_| None).collect();
                             view.fill(&sampler, count, (0..count).step_by(5), &mut out);
